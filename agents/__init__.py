@@ -1,0 +1,1 @@
+"""Simulated users (scripted and learned), the benchmark and the ``vrloco`` command line."""

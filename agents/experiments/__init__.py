@@ -1,0 +1,1 @@
+"""Experiments and figures reproducing the source papers."""

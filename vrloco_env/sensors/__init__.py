@@ -1,0 +1,1 @@
+"""Sensor models: the head IMU (:mod:`.imu`) and the Kinect v2 (:mod:`.kinect`)."""
