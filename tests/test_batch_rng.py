@@ -1,0 +1,33 @@
+"""Per-user random streams: a batch reproduces single runs, and the numbers are what they claim."""
+
+import numpy as np
+import pytest
+
+from vrloco_env.batch_rng import BatchRng
+
+
+def test_batch_equals_single_runs():
+    seeds = [3, 7, 11]
+    batch = BatchRng.from_seeds(seeds, block=64)
+    singles = [BatchRng.from_seeds([s], block=64) for s in seeds]
+    for shape in [(5, 3), (100,), (1,), (70, 2)]:
+        n_b, u_b = batch.normal(shape), batch.uniform(shape)
+        for i, single in enumerate(singles):
+            np.testing.assert_array_equal(n_b[i], single.normal(shape)[0])
+            np.testing.assert_array_equal(u_b[i], single.uniform(shape)[0])
+
+
+def test_distributions():
+    r = BatchRng.from_seeds([0, 1])
+    n = r.normal((20000,))
+    u = r.uniform((20000,))
+    assert abs(n.mean()) < 0.03 and abs(n.std() - 1) < 0.03
+    assert u.min() >= 0 and u.max() < 1 and abs(u.mean() - 0.5) < 0.01
+    assert not np.array_equal(n[0], n[1])
+
+
+def test_rejects_non_generators():
+    with pytest.raises(TypeError, match=r"generators\[0\]"):
+        BatchRng([np.random.RandomState(0)])
+    with pytest.raises(ValueError, match="at least one"):
+        BatchRng([])
