@@ -1,0 +1,751 @@
+"""The simulated VR user's body: intent in, true head pose, true steps and true skeleton out.
+
+A user stands in a tracked space wearing a head IMU, with a Kinect v2 in front of them. Per control
+step they express an :class:`Intent` — stepping cadence, turn rate, hand angular rates and optional
+head gestures — and :class:`UserMotion` turns it into
+
+* the true head pose at the IMU rate: orientation (sensor -> world quaternion), body-frame angular
+  rate, IMU position and world linear acceleration (gravity excluded), and the true heel strikes;
+* the true Kinect v2 skeleton (25 joints, world frame) and the true right-hand orientation at the
+  Kinect rate.
+
+All users of a batch advance in lock-step over the same time grid; every array carries a leading
+batch dimension B. Frames follow :mod:`estimators.rotations` (ENU world, ZYX yaw-pitch-roll).
+
+Stepping in place (the walking-in-place metaphor of seed 000):
+
+* A *step* is one unit of the continuous step phase ``phi``; it starts and ends with the head at
+  standing height and zero vertical speed (``phi`` integer) and has its heel strike, the peak of
+  vertical acceleration, at mid-step (``phi = n + 0.5``). A step, once started, is finished at the
+  cadence it started with; a new cadence (or stopping) takes effect at the next step boundary, so
+  the head path is smooth (C1) whatever the intent does.
+* Vertical acceleration over a step is a von Mises pulse (concentration 3) centred on the heel
+  strike, mean removed. Its peak grows with cadence from 0.12 g at 1.2 Hz to 0.45 g at 2.2 Hz, so
+  the specific-force norm peaks at about 1.1-1.5 g — the range of head-worn accelerometers during
+  walking in place (seed 000 Fig. 2 shows |f| peaks of roughly 11-15 m/s^2; Tregillus & Folmer,
+  VR-STEP, CHI 2016, seed 000 ref. [15], report similar head-bob peaks). The resulting vertical head
+  travel is 2-3 cm per step (stepping in place moves the head less than overground walking's
+  4-5 cm; Kavanagh et al., Gait & Posture 2006, for the head during walking).
+* The body sways laterally at half the step rate (one sway per stride), 2 cm by default, with a
+  matching head roll of about 1.5 deg.
+* Cadence: 1.2-2.2 steps/s (the comfortable walking-in-place range; VR-STEP users stepped at
+  about 1.5-2 Hz).
+
+The head turns with the body (yaw rate with a 0.1 s first-order lag, so angular acceleration stays
+finite) and may add gesture oscillations about each axis (serpentine, nod, shake) and a lean, as in
+seed 000's five head motions. The IMU sits on the forehead, 9 cm in front of and 12 cm above the
+head's pivot at the neck, so head rotations also accelerate it (centripetal and tangential terms).
+
+The right hand is held in front of the body; its orientation relative to the torso heading is an
+intrinsic ZYX [yaw, pitch, roll] integrated from the intent's hand rates and held within joint
+limits. Hand frame: x along the forearm toward the fingertips, y to the thumb side of a palm-down
+right hand (left), z out of the back of the hand (up when palm-down).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, fields
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from estimators import rotations as rot
+from vrloco_env.batch_rng import BatchRng
+from vrloco_env.skeleton import NUM_JOINTS, Joint
+
+__all__ = [
+    "SCRIPTS",
+    "Intent",
+    "KinectChunk",
+    "MotionChunk",
+    "MotionParams",
+    "MotionRecord",
+    "UserMotion",
+    "run_script",
+    "script_intents",
+]
+
+_PULSE_KAPPA = 3.0  # von Mises concentration of the heel-strike acceleration pulse
+_PULSE_HARMONICS = 24
+_DIFF_H = 1e-4  # s, central-difference step for the head's linear acceleration
+
+
+def _pulse_coefficients() -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Fourier weights of the unit-peak, zero-mean heel-strike pulse and of its double integral."""
+    from scipy.special import iv
+
+    k = np.arange(1, _PULSE_HARMONICS + 1, dtype=np.float64)
+    w = iv(k, _PULSE_KAPPA)
+    w = w / (2.0 * w.sum())  # peak of sum 2 w_k cos(...) at the heel strike is 1
+    acc = 2.0 * w  # d2Z/dphi2 = sum acc_k cos(2 pi k (phi - 1/2))
+    pos = -acc / (2.0 * np.pi * k) ** 2  # Z = sum pos_k cos(...)
+    return acc, pos
+
+
+_PULSE_ACC, _PULSE_POS = _pulse_coefficients()
+_PULSE_K = np.arange(1, _PULSE_HARMONICS + 1, dtype=np.float64)
+_PULSE_Z0 = float(np.sum(_PULSE_POS * np.cos(-np.pi * _PULSE_K)))  # Z at a step boundary
+
+
+def _bob_shape(frac: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Vertical shape Z(phi) - Z(0) and its phi-derivative, for phi's fractional part."""
+    arg = 2.0 * np.pi * _PULSE_K * (frac[..., None] - 0.5)
+    z = np.sum(_PULSE_POS * np.cos(arg), axis=-1) - _PULSE_Z0
+    dz = np.sum(-_PULSE_POS * 2.0 * np.pi * _PULSE_K * np.sin(arg), axis=-1)
+    return z, dz
+
+
+@dataclass(frozen=True)
+class MotionParams:
+    """Rates, limits and body measurements of the simulated user.
+
+    Every field is validated on construction; units in the names or docs.
+    """
+
+    imu_rate_hz: float = 100.0
+    """Head IMU sample rate (Hz), 10-1000. Seed 000's IG-500N ran at 100 Hz."""
+    kinect_rate_hz: float = 30.0
+    """Kinect v2 skeleton frame rate (Hz); the sensor delivers 30 frames/s (seed 003)."""
+    control_rate_hz: float = 10.0
+    """Rate at which the intent changes (Hz): one env step."""
+    cadence_range_hz: tuple[float, float] = (1.2, 2.2)
+    """Allowed stepping cadence while walking (steps/s); 0 stands still."""
+    max_turn_rate: float = np.deg2rad(120.0)
+    """Largest body yaw rate (rad/s): a brisk in-place turn."""
+    turn_lag_s: float = 0.1
+    """Time constant (s) of the yaw rate following its command (head inertia)."""
+    max_hand_rate: float = np.deg2rad(180.0)
+    """Largest hand angular rate about each axis (rad/s)."""
+    hand_limits_deg: tuple[float, float, float] = (90.0, 80.0, 90.0)
+    """Hand yaw, pitch, roll limits (deg, symmetric) relative to the torso heading."""
+    peak_accel_g: tuple[float, float] = (0.12, 0.45)
+    """Peak vertical head acceleration (g) at the lowest and highest cadence (interpolated)."""
+    sway_m: float = 0.02
+    """Lateral body sway amplitude (m), one sway per stride."""
+    sway_roll_deg: float = 1.5
+    """Head roll (deg) accompanying the lateral sway."""
+    gesture_lag_s: float = 0.4
+    """Time constant (s) of the critically damped response of gesture amplitudes and lean."""
+    neck_height_m: float = 1.55
+    """Height (m) of the head's pivot (upper neck) when standing."""
+    imu_offset_m: tuple[float, float, float] = (0.09, 0.0, 0.12)
+    """Forehead IMU position (m) in the head frame relative to the neck pivot."""
+    style_spread: float = 0.1
+    """Relative spread (1-sigma) of each user's step-impact and sway style, drawn at reset."""
+
+    def __post_init__(self) -> None:
+        def check(name: str, ok: bool, allowed: str) -> None:
+            if not ok:
+                raise ValueError(f"MotionParams.{name}={getattr(self, name)!r}: must be {allowed}")
+
+        check("imu_rate_hz", 10.0 <= self.imu_rate_hz <= 1000.0, "in [10, 1000] Hz")
+        check("kinect_rate_hz", 1.0 <= self.kinect_rate_hz <= 120.0, "in [1, 120] Hz")
+        check("control_rate_hz", 0.5 <= self.control_rate_hz <= self.imu_rate_hz,
+              "in [0.5, imu_rate_hz] Hz")  # fmt: skip
+        ratio = self.imu_rate_hz / self.control_rate_hz
+        check("control_rate_hz", abs(ratio - round(ratio)) < 1e-9,
+              "a divisor of imu_rate_hz (whole IMU samples per control step)")  # fmt: skip
+        lo, hi = self.cadence_range_hz
+        check("cadence_range_hz", 0.3 <= lo < hi <= 4.0, "(lo, hi) with 0.3 <= lo < hi <= 4 Hz")
+        check("max_turn_rate", 0.0 < self.max_turn_rate <= 2 * np.pi, "in (0, 2 pi] rad/s")
+        check("turn_lag_s", 0.0 < self.turn_lag_s <= 2.0, "in (0, 2] s")
+        check("max_hand_rate", 0.0 < self.max_hand_rate <= 4 * np.pi, "in (0, 4 pi] rad/s")
+        check("hand_limits_deg", all(0 < a <= 180 for a in self.hand_limits_deg),
+              "three angles in (0, 180] deg")  # fmt: skip
+        check("peak_accel_g", 0 <= self.peak_accel_g[0] <= self.peak_accel_g[1] <= 2.0,
+              "(lo, hi) with 0 <= lo <= hi <= 2 g")  # fmt: skip
+        check("sway_m", 0.0 <= self.sway_m <= 0.1, "in [0, 0.1] m")
+        check("sway_roll_deg", 0.0 <= self.sway_roll_deg <= 10.0, "in [0, 10] deg")
+        check("gesture_lag_s", 0.0 < self.gesture_lag_s <= 5.0, "in (0, 5] s")
+        check("neck_height_m", 0.8 <= self.neck_height_m <= 2.2, "in [0.8, 2.2] m")
+        check("style_spread", 0.0 <= self.style_spread <= 0.5, "in [0, 0.5]")
+
+    @property
+    def samples_per_step(self) -> int:
+        """IMU samples per control step."""
+        return round(self.imu_rate_hz / self.control_rate_hz)
+
+
+@dataclass
+class Intent:
+    """What B users want to do during one control step (arrays broadcast to the batch).
+
+    Attributes:
+        cadence: stepping cadence (steps/s), 0 to stand still, otherwise within
+            ``MotionParams.cadence_range_hz``. Shape (B,).
+        turn_rate: body yaw rate (rad/s, counter-clockwise positive), |.| <= max_turn_rate. (B,)
+        hand_rates: hand [yaw, pitch, roll] rates (rad/s) relative to the torso. (B, 3)
+        gesture_amplitude: head [yaw, pitch, roll] oscillation amplitudes (rad) about the body
+            heading: serpentine, nod and shake of seed 000. (B, 3)
+        gesture_frequency: frequencies (Hz) of those oscillations. (B, 3)
+        lean: head pitch offset (rad; negative leans back / looks up). (B,)
+    """
+
+    cadence: ArrayLike = 0.0
+    turn_rate: ArrayLike = 0.0
+    hand_rates: ArrayLike = (0.0, 0.0, 0.0)
+    gesture_amplitude: ArrayLike = (0.0, 0.0, 0.0)
+    gesture_frequency: ArrayLike = (0.5, 0.5, 0.5)
+    lean: ArrayLike = 0.0
+
+
+@dataclass
+class MotionChunk:
+    """True motion over one control step, at the IMU rate (N samples, times ``t``).
+
+    Attributes:
+        t: sample times (s), (N,), the end of each IMU sample interval.
+        quat: head/IMU orientation, sensor -> world, (B, N, 4).
+        omega: body-frame angular rate (rad/s), (B, N, 3).
+        pos: IMU position in the world (m), (B, N, 3).
+        acc: IMU linear acceleration in the world (m/s^2, gravity excluded), (B, N, 3).
+        ypr: head [yaw, pitch, roll] (rad; yaw unwrapped), (B, N, 3).
+        step: a heel strike happened in this sample's interval, (B, N) bool.
+        step_time: time (s) of that heel strike, NaN where none, (B, N).
+        walking: the user is mid-step at this sample, (B, N) bool.
+        kinect: skeleton frames that fall in this control step.
+    """
+
+    t: NDArray[np.float64]
+    quat: NDArray[np.float64]
+    omega: NDArray[np.float64]
+    pos: NDArray[np.float64]
+    acc: NDArray[np.float64]
+    ypr: NDArray[np.float64]
+    step: NDArray[np.bool_]
+    step_time: NDArray[np.float64]
+    walking: NDArray[np.bool_]
+    kinect: KinectChunk
+
+
+@dataclass
+class KinectChunk:
+    """True skeleton at the Kinect rate (M frames in this control step; M may be 0).
+
+    Attributes:
+        t: frame times (s), (M,).
+        joints: 25 Kinect v2 joints in the world frame (m), (B, M, 25, 3).
+        hand_quat: right-hand orientation, hand frame -> world, (B, M, 4).
+        hand_ypr: right-hand [yaw, pitch, roll] relative to the torso heading (rad), (B, M, 3).
+    """
+
+    t: NDArray[np.float64]
+    joints: NDArray[np.float64]
+    hand_quat: NDArray[np.float64]
+    hand_ypr: NDArray[np.float64]
+
+
+@dataclass
+class MotionRecord:
+    """Chunks of a whole run concatenated along time (same fields as :class:`MotionChunk`)."""
+
+    t: NDArray[np.float64]
+    quat: NDArray[np.float64]
+    omega: NDArray[np.float64]
+    pos: NDArray[np.float64]
+    acc: NDArray[np.float64]
+    ypr: NDArray[np.float64]
+    step: NDArray[np.bool_]
+    step_time: NDArray[np.float64]
+    walking: NDArray[np.bool_]
+    kinect: KinectChunk
+
+    @classmethod
+    def concatenate(cls, chunks: list[MotionChunk]) -> MotionRecord:
+        if not chunks:
+            raise ValueError("chunks must hold at least one MotionChunk")
+        kw = {}
+        for f in fields(MotionChunk):
+            if f.name == "kinect":
+                continue
+            axis = 0 if f.name == "t" else 1
+            kw[f.name] = np.concatenate([getattr(c, f.name) for c in chunks], axis=axis)
+        kin = [c.kinect for c in chunks]
+        kw["kinect"] = KinectChunk(
+            t=np.concatenate([k.t for k in kin]),
+            joints=np.concatenate([k.joints for k in kin], axis=1),
+            hand_quat=np.concatenate([k.hand_quat for k in kin], axis=1),
+            hand_ypr=np.concatenate([k.hand_ypr for k in kin], axis=1),
+        )
+        return cls(**kw)
+
+    @property
+    def step_times(self) -> list[NDArray[np.float64]]:
+        """True heel-strike times (s) of each user."""
+        return [st[~np.isnan(st)] for st in self.step_time]
+
+
+@dataclass
+class _State:
+    """Per-user state carried between control steps (arrays of shape (B,) or (B, 3))."""
+
+    phase: NDArray[np.float64]  # continuous step phase; integer when standing at a boundary
+    step_cadence: NDArray[np.float64]  # cadence of the step in progress (steps/s)
+    yaw: NDArray[np.float64]  # body yaw (rad, unwrapped)
+    yaw_rate: NDArray[np.float64]
+    gesture_amp: NDArray[np.float64]  # (B, 3)
+    gesture_amp_rate: NDArray[np.float64]  # (B, 3)
+    gesture_phase: NDArray[np.float64]  # (B, 3) rad
+    lean: NDArray[np.float64]
+    lean_rate: NDArray[np.float64]
+    hand_ypr: NDArray[np.float64]  # (B, 3)
+    base: NDArray[np.float64]  # (B, 2) standing place in the tracked space (m)
+    impact_scale: NDArray[np.float64]  # per-user style factors
+    sway_scale: NDArray[np.float64]
+    steps_done: int = 0  # control steps since reset; time is steps_done / control_rate_hz
+
+    def time(self, rate: float) -> float:
+        return self.steps_done / rate
+
+
+@dataclass
+class UserMotion:
+    """Batched motion model of B simulated users.
+
+    Args:
+        params: rates, limits and body measurements.
+        rng: one random stream per user (user styles are drawn at :meth:`reset`).
+
+    Call :meth:`reset` once, then :meth:`advance` with one :class:`Intent` per control step.
+    """
+
+    params: MotionParams
+    rng: BatchRng
+    _state: _State | None = field(default=None, init=False, repr=False)
+
+    @property
+    def batch_size(self) -> int:
+        return self.rng.batch_size
+
+    @property
+    def time(self) -> float:
+        """Simulated time (s) at the end of the last control step."""
+        return 0.0 if self._state is None else self._state.time(self.params.control_rate_hz)
+
+    def reset(
+        self,
+        yaw: ArrayLike = 0.0,
+        base: ArrayLike = (0.0, 0.0),
+        hand_ypr: ArrayLike = (0.0, 0.0, 0.0),
+    ) -> None:
+        """Stand every user still at ``base`` (m, (B, 2)) facing ``yaw`` (rad), hand at rest."""
+        b = self.batch_size
+        style = 1.0 + self.params.style_spread * np.clip(self.rng.normal((2,)), -2.5, 2.5)
+        self._state = _State(
+            phase=np.zeros(b),
+            step_cadence=np.zeros(b),
+            yaw=_batch(yaw, (b,), "yaw"),
+            yaw_rate=np.zeros(b),
+            gesture_amp=np.zeros((b, 3)),
+            gesture_amp_rate=np.zeros((b, 3)),
+            gesture_phase=np.zeros((b, 3)),
+            lean=np.zeros(b),
+            lean_rate=np.zeros(b),
+            hand_ypr=_batch(hand_ypr, (b, 3), "hand_ypr"),
+            base=_batch(base, (b, 2), "base"),
+            impact_scale=style[:, 0],
+            sway_scale=style[:, 1],
+        )
+
+    # ------------------------------------------------------------------ intent validation
+    def _check_intent(self, intent: Intent) -> dict[str, NDArray[np.float64]]:
+        p, b = self.params, self.batch_size
+        out = {
+            "cadence": _batch(intent.cadence, (b,), "cadence"),
+            "turn_rate": _batch(intent.turn_rate, (b,), "turn_rate"),
+            "hand_rates": _batch(intent.hand_rates, (b, 3), "hand_rates"),
+            "gesture_amplitude": _batch(intent.gesture_amplitude, (b, 3), "gesture_amplitude"),
+            "gesture_frequency": _batch(intent.gesture_frequency, (b, 3), "gesture_frequency"),
+            "lean": _batch(intent.lean, (b,), "lean"),
+        }
+        lo, hi = p.cadence_range_hz
+        c = out["cadence"]
+        bad = (c != 0.0) & ((c < lo - 1e-9) | (c > hi + 1e-9))
+        if np.any(bad):
+            raise ValueError(
+                f"Intent.cadence={float(c[bad][0])!r}: must be 0 (stand) or in [{lo}, {hi}] steps/s"
+            )
+        _check_range(out["turn_rate"], -p.max_turn_rate, p.max_turn_rate, "Intent.turn_rate",
+                     "rad/s")  # fmt: skip
+        _check_range(out["hand_rates"], -p.max_hand_rate, p.max_hand_rate, "Intent.hand_rates",
+                     "rad/s")  # fmt: skip
+        _check_range(out["gesture_amplitude"], 0.0, np.deg2rad(80.0), "Intent.gesture_amplitude",
+                     "rad")  # fmt: skip
+        _check_range(out["gesture_frequency"], 0.0, 3.0, "Intent.gesture_frequency", "Hz")
+        _check_range(out["lean"], -np.deg2rad(45.0), np.deg2rad(45.0), "Intent.lean", "rad")
+        return out
+
+    # ------------------------------------------------------------------ the time functions
+    def _evaluate(self, s: _State, cmd: dict, tau: NDArray[np.float64]) -> dict:
+        """Head and body quantities at times ``tau`` (s after the step start), shape (B, T)."""
+        p = self.params
+        tau = np.broadcast_to(tau, (self.batch_size, tau.shape[-1]))
+
+        # Step phase: finish the step in progress at its own cadence, then the commanded one.
+        c_old = s.step_cadence[:, None]
+        c_new = cmd["cadence"][:, None]
+        ph0 = s.phase[:, None]
+        to_boundary = np.ceil(ph0 - 1e-12) - ph0
+        t_b = np.where(c_old > 0.0, to_boundary / np.where(c_old > 0.0, c_old, 1.0), 0.0)
+        before = tau < t_b
+        phase = np.where(before, ph0 + c_old * tau, ph0 + to_boundary + c_new * (tau - t_b))
+        cad = np.where(before, c_old, c_new)
+        frac = phase - np.floor(phase)
+
+        # Vertical bob: peak acceleration a_peak(cadence) at the heel strike.
+        lo, hi = p.cadence_range_hz
+        alpha = np.clip((cad - lo) / (hi - lo), 0.0, 1.0)
+        a_peak = (p.peak_accel_g[0] + alpha * (p.peak_accel_g[1] - p.peak_accel_g[0])) * rot.GRAVITY
+        a_peak = a_peak * s.impact_scale[:, None]
+        walking = cad > 0.0
+        amp = np.where(walking, a_peak / np.where(walking, cad, 1.0) ** 2, 0.0)
+        zshape, _ = _bob_shape(frac)
+        bob = amp * zshape
+
+        # Lateral sway, one cycle per stride (two steps); zero with zero slope at step boundaries.
+        sin_p = np.sin(np.pi * phase)
+        sway = p.sway_m * s.sway_scale[:, None] * sin_p**3
+        sway_roll = np.deg2rad(p.sway_roll_deg) * s.sway_scale[:, None] * sin_p**3
+        d_sway_roll = (np.deg2rad(p.sway_roll_deg) * s.sway_scale[:, None]
+                       * 3.0 * sin_p**2 * np.cos(np.pi * phase) * np.pi * cad)  # fmt: skip
+
+        # Body yaw: rate follows its command with a first-order lag.
+        r0, rc = s.yaw_rate[:, None], cmd["turn_rate"][:, None]
+        decay = np.exp(-tau / p.turn_lag_s)
+        yaw = s.yaw[:, None] + rc * tau + (r0 - rc) * p.turn_lag_s * (1.0 - decay)
+        d_yaw = rc + (r0 - rc) * decay
+
+        # Gestures (B, T, 3) and lean follow their commands critically damped (smooth rates).
+        g_amp, d_g_amp = _critically_damped(
+            s.gesture_amp[:, None, :], s.gesture_amp_rate[:, None, :],
+            cmd["gesture_amplitude"][:, None, :], p.gesture_lag_s, tau[..., None],
+        )  # fmt: skip
+        omega_g = 2.0 * np.pi * cmd["gesture_frequency"][:, None, :]
+        g_phase = s.gesture_phase[:, None, :] + omega_g * tau[..., None]
+        gesture = g_amp * np.sin(g_phase)
+        d_gesture = d_g_amp * np.sin(g_phase) + g_amp * omega_g * np.cos(g_phase)
+        lean, d_lean = _critically_damped(
+            s.lean[:, None], s.lean_rate[:, None], cmd["lean"][:, None], p.gesture_lag_s, tau
+        )
+
+        head_ypr = np.stack(
+            [yaw + gesture[..., 0], lean + gesture[..., 1], sway_roll + gesture[..., 2]], axis=-1
+        )
+        d_head_ypr = np.stack(
+            [
+                d_yaw + d_gesture[..., 0],
+                d_lean + d_gesture[..., 1],
+                d_sway_roll + d_gesture[..., 2],
+            ],
+            axis=-1,
+        )
+        quat = rot.quat_from_ypr(head_ypr)
+
+        # Neck pivot: standing place + lateral sway (torso-left axis) + vertical bob.
+        cy, sy = np.cos(yaw), np.sin(yaw)
+        neck = np.stack(
+            [
+                s.base[:, 0:1] - sy * sway,
+                s.base[:, 1:2] + cy * sway,
+                p.neck_height_m + bob,
+            ],
+            axis=-1,
+        )
+        imu_pos = neck + rot.quat_rotate(quat, np.asarray(p.imu_offset_m))
+        return {
+            "phase": phase, "cadence": cad, "walking": walking, "yaw": yaw,
+            "head_ypr": head_ypr, "d_head_ypr": d_head_ypr, "quat": quat,
+            "neck": neck, "imu_pos": imu_pos, "gesture_amp": g_amp, "gesture_amp_rate": d_g_amp,
+            "g_phase": g_phase, "lean": lean, "lean_rate": d_lean, "yaw_rate": d_yaw,
+            "t_boundary": t_b[:, 0],
+        }  # fmt: skip
+
+    # ------------------------------------------------------------------ one control step
+    def advance(self, intent: Intent) -> MotionChunk:
+        """Advance all users by one control step under ``intent``; return the true motion."""
+        if self._state is None:
+            raise RuntimeError("UserMotion.reset() must be called before advance()")
+        s, p = self._state, self.params
+        cmd = self._check_intent(intent)
+        n = p.samples_per_step
+        dt_ctrl = 1.0 / p.control_rate_hz
+        t0 = s.time(p.control_rate_hz)
+        tau = np.arange(1, n + 1) / p.imu_rate_hz
+        h = _DIFF_H
+        # Linear acceleration by central differences of the analytic position (h = 0.1 ms).
+        ev = self._evaluate(s, cmd, np.concatenate([tau - h, tau, tau + h]))
+        p_m, p_0, p_p = np.split(ev["imu_pos"], 3, axis=1)
+        acc = (p_p - 2.0 * p_0 + p_m) / h**2
+        # Last sample: the next intent is not known yet, so take the left limit at the boundary
+        # (backward second difference).
+        ev_end = self._evaluate(s, cmd, tau[-1] - np.array([2 * h, h, 0.0]))
+        e2, e1, e0 = np.split(ev_end["imu_pos"], 3, axis=1)
+        acc[:, -1:] = (e0 - 2.0 * e1 + e2) / h**2
+        mid = {k: (v[:, n : 2 * n] if isinstance(v, np.ndarray) and v.ndim >= 2 else v)
+               for k, v in ev.items()}  # fmt: skip
+
+        omega = _euler_rates_to_body(mid["head_ypr"], mid["d_head_ypr"])
+
+        # Heel strikes: the phase crosses n + 0.5 inside a sample interval.
+        ph_prev = np.concatenate([s.phase[:, None], mid["phase"][:, :-1]], axis=1)
+        ph_now = mid["phase"]
+        k_prev = np.floor(ph_prev - 0.5)
+        k_now = np.floor(ph_now - 0.5)
+        step = k_now > k_prev
+        step_time = self._heel_strike_times(s, cmd, ev["t_boundary"], k_now, step, t0)
+
+        # Kinect frames falling in (t, t + dt_ctrl].
+        t_k = _frame_times(s.steps_done, p.control_rate_hz, p.kinect_rate_hz)
+        kin = self._skeleton(s, cmd, t_k - t0, t_k)
+
+        # Carry the state to the end of the step.
+        end = {k: (v[:, -1] if isinstance(v, np.ndarray) and v.ndim >= 2 else v)
+               for k, v in mid.items()}  # fmt: skip
+        s.phase = end["phase"]
+        s.step_cadence = np.where(np.abs(end["phase"] - np.round(end["phase"])) < 1e-9,
+                                  0.0, end["cadence"])  # fmt: skip
+        s.phase = np.where(s.step_cadence == 0.0, np.round(s.phase), s.phase)
+        s.yaw = end["yaw"]
+        s.yaw_rate = end["yaw_rate"]
+        s.gesture_amp = mid["gesture_amp"][:, -1, :]
+        s.gesture_amp_rate = mid["gesture_amp_rate"][:, -1, :]
+        s.lean_rate = end["lean_rate"]
+        s.gesture_phase = np.mod(mid["g_phase"][:, -1, :], 2.0 * np.pi)
+        s.lean = end["lean"]
+        s.hand_ypr = self._hand_ypr(s, cmd, np.array([dt_ctrl]))[:, -1]
+        t_abs = (s.steps_done * n + np.arange(1, n + 1)) / p.imu_rate_hz
+        s.steps_done += 1
+        return MotionChunk(
+            t=t_abs,
+            quat=mid["quat"],
+            omega=omega,
+            pos=p_0,
+            acc=acc,
+            ypr=mid["head_ypr"],
+            step=step,
+            step_time=step_time,
+            walking=mid["walking"],
+            kinect=kin,
+        )
+
+    def _heel_strike_times(self, s, cmd, t_b_all, k_now, step, t0) -> NDArray[np.float64]:
+        """Exact heel-strike times for the samples flagged in ``step`` (NaN elsewhere)."""
+        t_b = t_b_all[:, None]
+        target = k_now + 0.5  # the phase value crossed
+        c_old = s.step_cadence[:, None]
+        c_new = cmd["cadence"][:, None]
+        ph0 = s.phase[:, None]
+        to_boundary = np.ceil(ph0 - 1e-12) - ph0
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t_old = (target - ph0) / c_old
+            t_new = t_b + (target - ph0 - to_boundary) / c_new
+        tau = np.where((c_old > 0) & (target <= ph0 + to_boundary), t_old, t_new)
+        return np.where(step, t0 + tau, np.nan)
+
+    def _hand_ypr(self, s: _State, cmd: dict, tau: NDArray[np.float64]) -> NDArray[np.float64]:
+        lim = np.deg2rad(np.asarray(self.params.hand_limits_deg))
+        ypr = s.hand_ypr[:, None, :] + cmd["hand_rates"][:, None, :] * tau[None, :, None]
+        return np.clip(ypr, -lim, lim)
+
+    def _skeleton(self, s: _State, cmd: dict, tau: NDArray[np.float64], t_abs) -> KinectChunk:
+        """True Kinect v2 skeleton (world frame) at times ``tau`` after the step start."""
+        b, m = self.batch_size, tau.shape[0]
+        if m == 0:
+            return KinectChunk(t_abs, np.zeros((b, 0, NUM_JOINTS, 3)), np.zeros((b, 0, 4)),
+                               np.zeros((b, 0, 3)))  # fmt: skip
+        ev = self._evaluate(s, cmd, tau)
+        torso_q = rot.quat_from_ypr(
+            np.stack([ev["yaw"], np.zeros_like(ev["yaw"]), np.zeros_like(ev["yaw"])], -1)
+        )
+        neck = ev["neck"]
+        joints = np.empty((b, m, NUM_JOINTS, 3))
+
+        def body(offset) -> NDArray[np.float64]:  # torso-frame offset from the neck pivot
+            return neck + rot.quat_rotate(torso_q, np.asarray(offset, dtype=np.float64))
+
+        for j, off in _TORSO_OFFSETS.items():
+            joints[:, :, j] = body(off)
+        joints[:, :, Joint.HEAD] = neck + rot.quat_rotate(ev["quat"], np.array([0.02, 0.0, 0.1]))
+
+        # Legs: the leg of step n (parity of floor(phase)) lifts its knee during that step.
+        lift = np.sin(np.pi * (ev["phase"] - np.floor(ev["phase"]))) * ev["walking"]
+        right_lifts = (np.floor(ev["phase"]).astype(np.int64) % 2) == 0
+        for side, (hip, knee, ankle, foot, y) in {
+            "left": (Joint.HIP_LEFT, Joint.KNEE_LEFT, Joint.ANKLE_LEFT, Joint.FOOT_LEFT, 0.09),
+            "right": (Joint.HIP_RIGHT, Joint.KNEE_RIGHT, Joint.ANKLE_RIGHT, Joint.FOOT_RIGHT,
+                      -0.09),
+        }.items():  # fmt: skip
+            up = lift * (right_lifts if side == "right" else ~right_lifts)
+            knee_up = 0.12 * up
+            hip_p = body([0.0, y, -0.60])
+            joints[:, :, hip] = hip_p
+            joints[:, :, knee] = hip_p + rot.quat_rotate(
+                torso_q, np.stack([0.10 * up, np.zeros_like(up), -0.45 + knee_up], -1)
+            )
+            ankle_p = joints[:, :, knee] + rot.quat_rotate(
+                torso_q, np.stack([-0.05 * up, np.zeros_like(up), -0.42 + 0 * up], -1)
+            )
+            ankle_p[..., 2] = np.maximum(ankle_p[..., 2], 0.08)
+            joints[:, :, ankle] = ankle_p
+            joints[:, :, foot] = ankle_p + rot.quat_rotate(torso_q, np.array([0.12, 0.0, -0.06]))
+
+        # Right arm held forward; the hand's orientation follows the hand angles.
+        hand_ypr = self._hand_ypr(s, cmd, tau)
+        hand_q = rot.quat_multiply(torso_q, rot.quat_from_ypr(hand_ypr))
+        forearm = rot.quat_rotate(torso_q, np.array([0.26, 0.0, 0.04]))
+        wrist = joints[:, :, Joint.ELBOW_RIGHT] + forearm
+        joints[:, :, Joint.WRIST_RIGHT] = wrist
+        joints[:, :, Joint.HAND_RIGHT] = wrist + rot.quat_rotate(hand_q, np.array([0.08, 0.0, 0.0]))
+        joints[:, :, Joint.HAND_TIP_RIGHT] = wrist + rot.quat_rotate(hand_q, np.array([0.17, 0, 0]))
+        joints[:, :, Joint.THUMB_RIGHT] = wrist + rot.quat_rotate(hand_q, np.array([0.06, 0.05, 0]))
+        # Left arm hanging.
+        wl = joints[:, :, Joint.ELBOW_LEFT] + rot.quat_rotate(torso_q, np.array([0.02, 0.0, -0.25]))
+        joints[:, :, Joint.WRIST_LEFT] = wl
+        joints[:, :, Joint.HAND_LEFT] = wl + rot.quat_rotate(torso_q, np.array([0.0, 0.0, -0.08]))
+        joints[:, :, Joint.HAND_TIP_LEFT] = wl + rot.quat_rotate(torso_q, np.array([0, 0, -0.17]))
+        joints[:, :, Joint.THUMB_LEFT] = wl + rot.quat_rotate(torso_q, np.array([0.04, 0, -0.06]))
+        return KinectChunk(t=t_abs, joints=joints, hand_quat=hand_q, hand_ypr=hand_ypr)
+
+
+#: Joints fixed in the torso frame, as offsets (m) from the neck pivot (x forward, y left, z up);
+#: adult proportions after Winter, Biomechanics and Motor Control of Human Movement (2009).
+_TORSO_OFFSETS = {
+    Joint.NECK: (0.0, 0.0, 0.0),
+    Joint.SPINE_SHOULDER: (0.0, 0.0, -0.08),
+    Joint.SPINE_MID: (0.0, 0.0, -0.32),
+    Joint.SPINE_BASE: (0.0, 0.0, -0.55),
+    Joint.SHOULDER_LEFT: (0.0, 0.19, -0.12),
+    Joint.SHOULDER_RIGHT: (0.0, -0.19, -0.12),
+    Joint.ELBOW_LEFT: (0.0, 0.21, -0.40),
+    Joint.ELBOW_RIGHT: (0.08, -0.21, -0.36),
+}
+
+
+def _critically_damped(x0, v0, target, lag: float, tau) -> tuple[NDArray, NDArray]:
+    """Value and rate of a critically damped second-order response (time constant ``lag``)."""
+    e0 = x0 - target
+    c = v0 + e0 / lag
+    decay = np.exp(-tau / lag)
+    x = target + (e0 + c * tau) * decay
+    v = (c - (e0 + c * tau) / lag) * decay
+    return x, v
+
+
+def _euler_rates_to_body(ypr: NDArray, d_ypr: NDArray) -> NDArray[np.float64]:
+    """Body-frame angular velocity of a ZYX attitude from its Euler-angle rates."""
+    _, pitch, roll = np.moveaxis(ypr, -1, 0)
+    dy, dp, dr = np.moveaxis(d_ypr, -1, 0)
+    sp, cp = np.sin(pitch), np.cos(pitch)
+    sr, cr = np.sin(roll), np.cos(roll)
+    return np.stack([dr - dy * sp, dp * cr + dy * cp * sr, -dp * sr + dy * cp * cr], axis=-1)
+
+
+def _frame_times(step: int, control_rate: float, rate: float) -> NDArray[np.float64]:
+    """Times k / rate of the frames in control step ``step``'s interval (t0, t1]."""
+    k0 = np.floor(step * rate / control_rate + 1e-9) + 1
+    k1 = np.floor((step + 1) * rate / control_rate + 1e-9)
+    return np.arange(k0, k1 + 1) / rate
+
+
+def _batch(value: ArrayLike, shape: tuple[int, ...], name: str) -> NDArray[np.float64]:
+    a = np.asarray(value, dtype=np.float64)
+    try:
+        a = np.broadcast_to(a, shape).copy()
+    except ValueError:
+        raise ValueError(f"{name} must broadcast to shape {shape}, got {a.shape}") from None
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} contains NaN or infinite values")
+    return a
+
+
+def _check_range(a: NDArray, lo: float, hi: float, name: str, unit: str) -> None:
+    bad = (a < lo - 1e-12) | (a > hi + 1e-12)
+    if np.any(bad):
+        raise ValueError(f"{name}={float(a[bad][0])!r}: must be in [{lo:.4g}, {hi:.4g}] {unit}")
+
+
+# ---------------------------------------------------------------------- scripted sequences
+SCRIPTS = ("stand", "serpentine", "pitch", "shake", "spin", "backward", "straight", "avoid",
+           "stand_step_turn")  # fmt: skip
+
+
+def script_intents(name: str, params: MotionParams | None = None, cadence: float = 1.7,
+                   duration_s: float | None = None) -> list[Intent]:  # fmt: skip
+    """Intent sequence of one of seed 000's experiments (one :class:`Intent` per control step).
+
+    Args:
+        name: one of :data:`SCRIPTS`:
+            ``stand`` still; ``serpentine`` head yaw left-right (±40 deg, 0.4 Hz) standing;
+            ``pitch`` nod forward then back (±30 deg, 0.3 Hz); ``shake`` roll left-right
+            (±25 deg, 0.5 Hz); ``spin`` a full turn in place (stepping, 45 deg/s for 8 s);
+            ``backward`` lean back 15 deg while stepping in place; ``straight`` stepping in
+            place facing one direction (Fig. 4); ``avoid`` stepping, turn away 45 deg from an
+            obstacle, step on, turn back to the original heading, step on (Fig. 5);
+            ``stand_step_turn`` stand, step in place, turn while stepping, stand (the demo).
+        params: the motion parameters (for the control rate).
+        cadence: stepping cadence (steps/s) where the script steps.
+        duration_s: total length (s); each script has a sensible default.
+    """
+    p = params or MotionParams()
+    dt = 1.0 / p.control_rate_hz
+    z3 = (0.0, 0.0, 0.0)
+
+    def seg(seconds: float, **kw) -> list[Intent]:
+        return [Intent(**kw) for _ in range(round(seconds / dt))]
+
+    deg = np.deg2rad
+    if name == "stand":
+        seq = seg(duration_s or 10.0)
+    elif name in ("serpentine", "pitch", "shake"):
+        axis = {"serpentine": 0, "pitch": 1, "shake": 2}[name]
+        amp = list(z3)
+        amp[axis] = deg({"serpentine": 40.0, "pitch": 30.0, "shake": 25.0}[name])
+        freq = [{"serpentine": 0.4, "pitch": 0.3, "shake": 0.5}[name]] * 3
+        total = duration_s or 20.0
+        # The frequency is held throughout, so the head rate stays continuous as the gesture
+        # fades in and out.
+        seq = (
+            seg(2.0, gesture_frequency=tuple(freq))
+            + seg(total - 4.0, gesture_amplitude=tuple(amp), gesture_frequency=tuple(freq))
+            + seg(2.0, gesture_frequency=tuple(freq))
+        )
+    elif name == "spin":
+        seq = seg(2.0) + seg(8.0, cadence=cadence, turn_rate=deg(45.0)) + seg(2.0)
+    elif name == "backward":
+        total = duration_s or 16.0
+        seq = seg(2.0) + seg(total - 4.0, cadence=cadence, lean=-deg(15.0)) + seg(2.0)
+    elif name == "straight":
+        total = duration_s or 20.0
+        seq = seg(2.0) + seg(total - 4.0, cadence=cadence) + seg(2.0)
+    elif name == "avoid":
+        turn = deg(45.0)
+        seq = (
+            seg(2.0)
+            + seg(5.0, cadence=cadence)
+            + seg(1.5, cadence=cadence, turn_rate=turn / 1.5)
+            + seg(4.0, cadence=cadence)
+            + seg(1.5, cadence=cadence, turn_rate=-turn / 1.5)
+            + seg(6.0, cadence=cadence)
+            + seg(2.0)
+        )
+    elif name == "stand_step_turn":
+        seq = (
+            seg(3.0)
+            + seg(5.0, cadence=cadence)
+            + seg(4.0, cadence=cadence, turn_rate=deg(45.0))
+            + seg(3.0, cadence=cadence)
+            + seg(3.0)
+        )
+    else:
+        raise ValueError(f"unknown motion script {name!r}; choose one of {', '.join(SCRIPTS)}")
+    return seq
+
+
+def run_script(name: str, rng: BatchRng, params: MotionParams | None = None, yaw: float = 0.0,
+               **kwargs) -> MotionRecord:  # fmt: skip
+    """Run a scripted sequence (see :func:`script_intents`) for every user of ``rng``."""
+    p = params or MotionParams()
+    motion = UserMotion(p, rng)
+    motion.reset(yaw=yaw)
+    chunks = [motion.advance(i) for i in script_intents(name, p, **kwargs)]
+    return MotionRecord.concatenate(chunks)
