@@ -104,8 +104,8 @@ def quat_multiply(p: ArrayLike, q: ArrayLike) -> NDArray[np.float64]:
     """Hamilton product ``p ⊗ q`` (apply ``q`` first, then ``p``)."""
     p = _as_float(p)
     q = _as_float(q)
-    pw, px, py, pz = np.moveaxis(p, -1, 0)
-    qw, qx, qy, qz = np.moveaxis(q, -1, 0)
+    pw, px, py, pz = p[..., 0], p[..., 1], p[..., 2], p[..., 3]
+    qw, qx, qy, qz = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
     return np.stack(
         [
             pw * qw - px * qx - py * qy - pz * qz,
@@ -121,10 +121,20 @@ def quat_rotate(q: ArrayLike, v: ArrayLike) -> NDArray[np.float64]:
     """Rotate body-frame vectors into the world frame: ``R(q) @ v``."""
     q = _as_float(q)
     v = _as_float(v)
-    w = q[..., :1]
-    u = q[..., 1:]
-    t = 2.0 * np.cross(u, v)
-    return v + w * t + np.cross(u, t)
+    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    vx, vy, vz = v[..., 0], v[..., 1], v[..., 2]
+    # t = 2 u x v;  v' = v + w t + u x t  (component form: np.cross is slow on small arrays)
+    tx = 2.0 * (y * vz - z * vy)
+    ty = 2.0 * (z * vx - x * vz)
+    tz = 2.0 * (x * vy - y * vx)
+    return np.stack(
+        [
+            vx + w * tx + (y * tz - z * ty),
+            vy + w * ty + (z * tx - x * tz),
+            vz + w * tz + (x * ty - y * tx),
+        ],
+        axis=-1,
+    )
 
 
 def quat_rotate_inverse(q: ArrayLike, v: ArrayLike) -> NDArray[np.float64]:
@@ -135,7 +145,7 @@ def quat_rotate_inverse(q: ArrayLike, v: ArrayLike) -> NDArray[np.float64]:
 def quat_to_matrix(q: ArrayLike) -> NDArray[np.float64]:
     """Rotation matrices ``(..., 3, 3)`` of unit quaternions (body to world)."""
     q = _as_float(q)
-    w, x, y, z = np.moveaxis(q, -1, 0)
+    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
     xx, yy, zz = x * x, y * y, z * z
     xy, xz, yz = x * y, x * z, y * z
     wx, wy, wz = w * x, w * y, w * z
@@ -220,7 +230,7 @@ def quat_from_ypr(ypr: ArrayLike) -> NDArray[np.float64]:
     """Quaternions from ZYX Euler angles ``[..., (yaw, pitch, roll)]`` in radians."""
     ypr = _as_float(ypr)
     _check_last(ypr, 3, "ypr")
-    hy, hp, hr = np.moveaxis(0.5 * ypr, -1, 0)
+    hy, hp, hr = 0.5 * ypr[..., 0], 0.5 * ypr[..., 1], 0.5 * ypr[..., 2]
     cy, sy = np.cos(hy), np.sin(hy)
     cp, sp = np.cos(hp), np.sin(hp)
     cr, sr = np.cos(hr), np.sin(hr)
@@ -242,7 +252,7 @@ def quat_to_ypr(q: ArrayLike) -> NDArray[np.float64]:
     split between yaw and roll is arbitrary: roll is set to 0, as scipy does.
     """
     q = _as_float(q)
-    w, x, y, z = np.moveaxis(q, -1, 0)
+    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
     sinp = np.clip(2.0 * (w * y - x * z), -1.0, 1.0)
     pitch = np.arcsin(sinp)
     yaw = np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))

@@ -554,56 +554,42 @@ class UserMotion:
             return KinectChunk(t_abs, np.zeros((b, 0, NUM_JOINTS, 3)), np.zeros((b, 0, 4)),
                                np.zeros((b, 0, 3)))  # fmt: skip
         ev = self._evaluate(s, cmd, tau)
-        torso_q = rot.quat_from_ypr(
-            np.stack([ev["yaw"], np.zeros_like(ev["yaw"]), np.zeros_like(ev["yaw"])], -1)
-        )
-        neck = ev["neck"]
+        yaw = ev["yaw"]
+        zero = np.zeros_like(yaw)
+        torso_q = rot.quat_from_ypr(np.stack([yaw, zero, zero], -1))
+        cy, sy = np.cos(yaw)[..., None], np.sin(yaw)[..., None]  # (B, M, 1)
+
+        def torso(offsets: NDArray[np.float64]) -> NDArray[np.float64]:
+            """Torso-frame offsets (..., J, 3) from the neck pivot -> world points (B, M, J, 3)."""
+            ox, oy, oz = offsets[..., 0], offsets[..., 1], offsets[..., 2]
+            return ev["neck"][:, :, None, :] + np.stack(
+                [cy * ox - sy * oy, sy * ox + cy * oy, np.broadcast_to(oz, (b, m, ox.shape[-1]))],
+                axis=-1,
+            )
+
         joints = np.empty((b, m, NUM_JOINTS, 3))
-
-        def body(offset) -> NDArray[np.float64]:  # torso-frame offset from the neck pivot
-            return neck + rot.quat_rotate(torso_q, np.asarray(offset, dtype=np.float64))
-
-        for j, off in _TORSO_OFFSETS.items():
-            joints[:, :, j] = body(off)
-        joints[:, :, Joint.HEAD] = neck + rot.quat_rotate(ev["quat"], np.array([0.02, 0.0, 0.1]))
+        joints[:, :, _TORSO_JOINTS] = torso(_TORSO_OFFSET_ARRAY)
+        joints[:, :, Joint.HEAD] = ev["neck"] + rot.quat_rotate(ev["quat"], _HEAD_OFFSET)
 
         # Legs: the leg of step n (parity of floor(phase)) lifts its knee during that step.
-        lift = np.sin(np.pi * (ev["phase"] - np.floor(ev["phase"]))) * ev["walking"]
+        frac = ev["phase"] - np.floor(ev["phase"])
+        lift = np.sin(np.pi * frac) * ev["walking"]
         right_lifts = (np.floor(ev["phase"]).astype(np.int64) % 2) == 0
-        for side, (hip, knee, ankle, foot, y) in {
-            "left": (Joint.HIP_LEFT, Joint.KNEE_LEFT, Joint.ANKLE_LEFT, Joint.FOOT_LEFT, 0.09),
-            "right": (Joint.HIP_RIGHT, Joint.KNEE_RIGHT, Joint.ANKLE_RIGHT, Joint.FOOT_RIGHT,
-                      -0.09),
-        }.items():  # fmt: skip
-            up = lift * (right_lifts if side == "right" else ~right_lifts)
-            knee_up = 0.12 * up
-            hip_p = body([0.0, y, -0.60])
-            joints[:, :, hip] = hip_p
-            joints[:, :, knee] = hip_p + rot.quat_rotate(
-                torso_q, np.stack([0.10 * up, np.zeros_like(up), -0.45 + knee_up], -1)
-            )
-            ankle_p = joints[:, :, knee] + rot.quat_rotate(
-                torso_q, np.stack([-0.05 * up, np.zeros_like(up), -0.42 + 0 * up], -1)
-            )
-            ankle_p[..., 2] = np.maximum(ankle_p[..., 2], 0.08)
-            joints[:, :, ankle] = ankle_p
-            joints[:, :, foot] = ankle_p + rot.quat_rotate(torso_q, np.array([0.12, 0.0, -0.06]))
+        up = np.stack([lift * ~right_lifts, lift * right_lifts], axis=-1)[..., None, None]
+        legs = _LEG_REST + up * _LEG_LIFT  # (B, M, 2 legs, 4 joints, 3) torso-frame offsets
+        legs = torso(legs.reshape(b, m, 8, 3)).reshape(b, m, 2, 4, 3)
+        legs[..., 2:, 2] = np.maximum(legs[..., 2:, 2], _FLOOR_CLEARANCE)  # feet stay above floor
+        joints[:, :, _LEG_JOINTS] = legs.reshape(b, m, 8, 3)
 
         # Right arm held forward; the hand's orientation follows the hand angles.
         hand_ypr = self._hand_ypr(s, cmd, tau)
         hand_q = rot.quat_multiply(torso_q, rot.quat_from_ypr(hand_ypr))
-        forearm = rot.quat_rotate(torso_q, np.array([0.26, 0.0, 0.04]))
-        wrist = joints[:, :, Joint.ELBOW_RIGHT] + forearm
+        wrist = joints[:, :, Joint.ELBOW_RIGHT] + torso(_FOREARM[None])[:, :, 0] - ev["neck"]
         joints[:, :, Joint.WRIST_RIGHT] = wrist
-        joints[:, :, Joint.HAND_RIGHT] = wrist + rot.quat_rotate(hand_q, np.array([0.08, 0.0, 0.0]))
-        joints[:, :, Joint.HAND_TIP_RIGHT] = wrist + rot.quat_rotate(hand_q, np.array([0.17, 0, 0]))
-        joints[:, :, Joint.THUMB_RIGHT] = wrist + rot.quat_rotate(hand_q, np.array([0.06, 0.05, 0]))
-        # Left arm hanging.
-        wl = joints[:, :, Joint.ELBOW_LEFT] + rot.quat_rotate(torso_q, np.array([0.02, 0.0, -0.25]))
-        joints[:, :, Joint.WRIST_LEFT] = wl
-        joints[:, :, Joint.HAND_LEFT] = wl + rot.quat_rotate(torso_q, np.array([0.0, 0.0, -0.08]))
-        joints[:, :, Joint.HAND_TIP_LEFT] = wl + rot.quat_rotate(torso_q, np.array([0, 0, -0.17]))
-        joints[:, :, Joint.THUMB_LEFT] = wl + rot.quat_rotate(torso_q, np.array([0.04, 0, -0.06]))
+        hand_m = rot.quat_to_matrix(hand_q)  # (B, M, 3, 3)
+        joints[:, :, _HAND_JOINTS] = wrist[:, :, None, :] + np.einsum(
+            "bmij,kj->bmki", hand_m, _HAND_OFFSETS
+        )
         return KinectChunk(t=t_abs, joints=joints, hand_quat=hand_q, hand_ypr=hand_ypr)
 
 
@@ -618,7 +604,29 @@ _TORSO_OFFSETS = {
     Joint.SHOULDER_RIGHT: (0.0, -0.19, -0.12),
     Joint.ELBOW_LEFT: (0.0, 0.21, -0.40),
     Joint.ELBOW_RIGHT: (0.08, -0.21, -0.36),
+    # The left arm hangs.
+    Joint.WRIST_LEFT: (0.02, 0.21, -0.65),
+    Joint.HAND_LEFT: (0.02, 0.21, -0.73),
+    Joint.HAND_TIP_LEFT: (0.02, 0.21, -0.82),
+    Joint.THUMB_LEFT: (0.06, 0.21, -0.71),
 }
+_TORSO_JOINTS = np.array(list(_TORSO_OFFSETS), dtype=np.intp)
+_TORSO_OFFSET_ARRAY = np.array(list(_TORSO_OFFSETS.values()))
+_HEAD_OFFSET = np.array([0.02, 0.0, 0.10])  # head centre from the neck pivot, head frame
+#: Legs (left, right) x (hip, knee, ankle, foot) at rest, and the change at full knee lift.
+_LEG_JOINTS = np.array(
+    [Joint.HIP_LEFT, Joint.KNEE_LEFT, Joint.ANKLE_LEFT, Joint.FOOT_LEFT,
+     Joint.HIP_RIGHT, Joint.KNEE_RIGHT, Joint.ANKLE_RIGHT, Joint.FOOT_RIGHT], dtype=np.intp,
+)  # fmt: skip
+_LEG_REST = np.array(
+    [[[0.0, y, -0.60], [0.0, y, -1.05], [0.0, y, -1.47], [0.12, y, -1.53]] for y in (0.09, -0.09)]
+)
+_LEG_LIFT = np.array([[0.0, 0.0, 0.0], [0.10, 0.0, 0.12], [0.05, 0.0, 0.12], [0.05, 0.0, 0.12]])
+_FLOOR_CLEARANCE = 0.02  # m, lowest height of ankle and foot joints
+_FOREARM = np.array([0.26, 0.0, 0.04])  # elbow -> wrist, torso frame
+#: Hand, hand tip and thumb from the wrist in the hand frame (x to the fingertips, y thumb side).
+_HAND_JOINTS = np.array([Joint.HAND_RIGHT, Joint.HAND_TIP_RIGHT, Joint.THUMB_RIGHT], dtype=np.intp)
+_HAND_OFFSETS = np.array([[0.08, 0.0, 0.0], [0.17, 0.0, 0.0], [0.06, 0.05, 0.0]])
 
 
 def _critically_damped(x0, v0, target, lag: float, tau) -> tuple[NDArray, NDArray]:
