@@ -1,0 +1,1055 @@
+"""Hand orientation from Kinect v2 frames: the pipeline of seed 003 (Yao, Chen, Pan, Huang 2023).
+
+The stages, each usable alone and batched over B streams (users):
+
+1. :func:`select_target` — target user selection (seed 003, 1.1): among the tracked bodies pick the
+   one nearest the sensor, keep it by id from frame to frame, re-select when its id is gone or no
+   longer tracked.
+2. :class:`~estimators.joint_smoothing.HoltSmoother` — the Kinect SDK's Holt double-exponential
+   joint filter plus a weighted average over the last 5 frames (1.2).
+3. :func:`quat_to_euler_paper` — the wrist quaternion to Euler angles with eq (1), and eq (2) where
+   ``|wy - zx| > 0.499`` (1.3).
+4. :class:`EulerKalman` then :class:`StreamingMedian` (offline: :func:`median_filter`) — a Kalman
+   filter per angle, then a median over consecutive Kalman outputs (1.4).
+
+:class:`HandPipeline` chains them for the environment (one Kinect frame per call);
+:func:`estimate_hand_orientation` runs it over recorded or simulated sequences;
+:func:`hand_variance_experiment` is the core of the paper's static-variance experiment (Tables 1-4).
+
+Axis names. Seed 003's eq (1) writes::
+
+    theta_yaw   = atan2(2 (w x + y z), 1 - 2 (x^2 + y^2))
+    theta_pitch = asin(2 (w y - z x))
+    theta_roll  = atan2(2 (w z + x y), 1 - 2 (y^2 + z^2))
+
+These are the intrinsic Z-Y-X (Tait-Bryan) angles of q, exactly those of
+:func:`estimators.rotations.quat_to_ypr`, under other names: the paper's *yaw* is the rotation
+about x (our **roll**), its *pitch* is ours, its *roll* is the rotation about z (our **yaw**). So
+the paper's vector ``[yaw, pitch, roll]`` is our ``[roll, pitch, yaw]``: the same three numbers in
+reverse order. :func:`quat_to_euler_paper` returns the paper's order (as eq (1) is printed); every
+other function here uses the project's ``[yaw, pitch, roll]`` (``ypr``), and the paper's Table
+rows *Roll, Pitch, Yaw* are therefore our ``ypr`` columns 0, 1, 2 in that order.
+
+Eq (2), the gimbal-lock branch, is printed as ``theta_yaw = -2 sign(wy - zx) atan2(x, w)``,
+``theta_pitch = sign(wy - zx) pi/2``, ``theta_roll = 0``. Read with eq (1)'s names that puts the
+combined angle about x and zeroes the angle about z, which is wrong: at pitch +-90 deg,
+``-2 sign(s) atan2(x, w)`` is the standard gimbal-lock value of the angle about **z** with the
+angle about x set to zero (as scipy and :func:`~estimators.rotations.quat_to_ypr` do). The paper
+evidently took eq (2) from a source using the usual names. We implement the correct reading —
+about-z angle ``-2 sign(s) atan2(x, w)`` (wrapped to (-pi, pi]), pitch ``sign(s) pi/2``, about-x
+angle 0 — which reconstructs the rotation within 5.13 deg (the pitch is snapped from >= 86.38 deg
+to 90 deg, and the yaw/roll split is exact only at 90 deg); the literal reading errs by up to
+180 deg. Where the branch switches, the rotation described by the angles moves by at most that
+5.13 deg, but yaw and roll taken alone can jump further (near +-90 deg pitch only their
+combination is defined), as with any Euler conversion; ``singular`` flags those frames.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field, fields
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from estimators.joint_smoothing import (
+    INFERRED,
+    TRACKED,
+    HoltParams,
+    HoltSmoother,
+    OneEuroFilter,
+    OneEuroParams,
+)
+from estimators.rotations import quat_from_ypr, wrap_angle
+
+__all__ = [
+    "PAPER_AXIS_NAMES",
+    "EulerKalman",
+    "HandFrame",
+    "HandParams",
+    "HandPipeline",
+    "HandVarianceResult",
+    "HoltParams",
+    "HoltSmoother",
+    "KalmanParams",
+    "OneEuroFilter",
+    "OneEuroParams",
+    "OrientationFilter",
+    "OrientationFrame",
+    "StreamingMedian",
+    "estimate_hand_orientation",
+    "estimate_lag",
+    "hand_variance_experiment",
+    "median_filter",
+    "paper_to_ypr",
+    "quat_to_euler_paper",
+    "select_target",
+    "unwrap_angles",
+    "ypr_to_paper",
+]
+
+#: Seed 003's names of our ``[yaw, pitch, roll]`` columns (its Tables' row order Roll, Pitch, Yaw).
+PAPER_AXIS_NAMES = ("roll", "pitch", "yaw")
+
+#: Seed 003's gimbal-lock threshold on ``|wy - zx|`` (section 1.3; 0.5 is pitch +-90 deg).
+PAPER_SINGULARITY_THRESHOLD = 0.499
+
+#: Kinect v2 frame rate, Hz (Kinect for Windows SDK 2.0; seed 003, section 2.2).
+KINECT_RATE_HZ = 30.0
+
+# Kinect v2 JointType indices (Kinect for Windows SDK 2.0), as defaults; the environment's
+# vrloco_env.skeleton.Joint holds the same numbers.
+_SPINE_BASE, _SPINE_MID, _WRIST_RIGHT, _SPINE_SHOULDER = 0, 1, 10, 20
+
+_MIN_QUAT_NORM = 1e-6  # below this a quaternion is treated as a dropout (no orientation)
+
+
+# ----------------------------------------------------------------------------------------------
+# Quaternion -> Euler (eq 1, eq 2)
+
+
+def ypr_to_paper(ypr: ArrayLike) -> NDArray[np.float64]:
+    """Our ``[yaw, pitch, roll]`` (..., 3) to seed 003's eq (1) order ``[yaw_p, pitch_p, roll_p]``.
+
+    The paper's yaw is our roll and its roll our yaw, so this reverses the last axis.
+    """
+    return np.asarray(ypr, dtype=np.float64)[..., ::-1].copy()
+
+
+def paper_to_ypr(euler: ArrayLike) -> NDArray[np.float64]:
+    """Seed 003's eq (1) order (..., 3) to our ``[yaw, pitch, roll]`` (reverses the last axis)."""
+    return np.asarray(euler, dtype=np.float64)[..., ::-1].copy()
+
+
+def _paper_ypr(
+    q: NDArray[np.float64], threshold: float
+) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """Eq (1)/(2) on unit quaternions (..., 4), in *our* order; also the eq (2) mask."""
+    w, x, y, z = np.moveaxis(q, -1, 0)
+    s = w * y - z * x
+    singular = np.abs(s) > threshold
+    about_x = np.arctan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
+    pitch = np.arcsin(np.clip(2.0 * s, -1.0, 1.0))
+    about_z = np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+    sgn = np.sign(s)
+    about_z = np.where(singular, wrap_angle(-2.0 * sgn * np.arctan2(x, w)), about_z)
+    pitch = np.where(singular, sgn * (0.5 * np.pi), pitch)
+    about_x = np.where(singular, 0.0, about_x)
+    return np.stack([about_z, pitch, about_x], axis=-1), singular
+
+
+def _check_threshold(threshold: float) -> None:
+    if not (np.isfinite(threshold) and 0.0 < threshold <= 0.5):
+        raise ValueError(f"singularity threshold must be in (0, 0.5], got {threshold}")
+
+
+def quat_to_euler_paper(
+    q: ArrayLike, threshold: float = PAPER_SINGULARITY_THRESHOLD
+) -> NDArray[np.float64]:
+    """Seed 003's quaternion -> Euler conversion, eq (1), with eq (2) where ``|wy - zx| > 0.499``.
+
+    Args:
+        q: (..., 4) quaternions ``[w, x, y, z]`` (normalised here; sign does not matter).
+        threshold: ``|wy - zx|`` above which eq (2) is used, in (0, 0.5]; the paper's 0.499
+            switches at pitch asin(0.998) = 86.38 deg.
+
+    Returns:
+        (..., 3) angles in radians in the paper's order ``[yaw_p, pitch_p, roll_p]`` = our
+        ``[roll, pitch, yaw]`` (see the module docstring); pitch in [-pi/2, pi/2], the others in
+        (-pi, pi]. In the eq (2) branch the about-z angle (paper's roll slot) carries
+        ``-2 sign(wy - zx) atan2(x, w)`` and the about-x angle is 0 (the paper prints them in the
+        other slots; see the module docstring for why that is an error).
+
+    Raises:
+        ValueError: wrong shape, NaN/inf entries or a zero-norm quaternion. (The streaming pipeline
+            treats those as dropouts instead; see :class:`OrientationFilter`.)
+    """
+    qa = np.asarray(q, dtype=np.float64)
+    if qa.ndim == 0 or qa.shape[-1] != 4:
+        raise ValueError(f"q must have shape (..., 4), got {qa.shape}")
+    if not np.all(np.isfinite(qa)):
+        raise ValueError("q contains NaN or infinite entries")
+    norm = np.linalg.norm(qa, axis=-1, keepdims=True)
+    if np.any(norm < _MIN_QUAT_NORM):
+        raise ValueError(f"q contains a zero-norm quaternion (|q| < {_MIN_QUAT_NORM})")
+    _check_threshold(threshold)
+    ypr, _ = _paper_ypr(qa / norm, threshold)
+    return ypr_to_paper(ypr)
+
+
+# ----------------------------------------------------------------------------------------------
+# Target selection (1.1)
+
+
+def _body_distance(
+    joints: NDArray[np.float64], joint_state: NDArray, center_joints: Sequence[int]
+) -> NDArray[np.float64]:
+    """Distance (m) from the sensor of each body's centre; inf where no centre joint is valid."""
+    idx = list(center_joints)
+    c = joints[..., idx, :]  # (B, K, C, 3)
+    ok = (joint_state[..., idx] >= INFERRED) & np.all(np.isfinite(c), axis=-1)
+    n = ok.sum(axis=-1)
+    centre = np.sum(np.where(ok[..., None], c, 0.0), axis=-2) / np.maximum(n, 1)[..., None]
+    return np.where(n > 0, np.linalg.norm(centre, axis=-1), np.inf)
+
+
+def select_target(
+    body_id: ArrayLike,
+    body_tracked: ArrayLike,
+    joints: ArrayLike,
+    joint_state: ArrayLike,
+    current_id: ArrayLike,
+    center_joints: Sequence[int] = (_SPINE_BASE, _SPINE_MID, _SPINE_SHOULDER),
+) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.bool_]]:
+    """Seed 003's target-user selection for one frame of B streams with K body slots each.
+
+    The current target (``current_id``, 0 = none) is kept if a slot holds that id and is tracked
+    (it is kept even when another body comes nearer). Otherwise — id gone, body no longer tracked,
+    or no target yet — the nearest tracked body is selected: nearest by the Euclidean distance from
+    the sensor of its centre, the mean of its valid ``center_joints`` (default SpineBase, SpineMid,
+    SpineShoulder: the torso, which moves least). Seed 003 says "nearest by depth data"; the
+    Euclidean distance differs from depth only for bodies far off-axis, and we prefer "nearest to
+    the sensor" in 3-D. Slots with id 0, untracked slots and bodies without a valid centre joint are
+    never selected. Ties go to the lowest slot.
+
+    Args:
+        body_id: (B, K) int body ids, 0 for an empty slot.
+        body_tracked: (B, K) bool, body tracked in this frame.
+        joints: (B, K, J, 3) camera-space joint positions, metres (NaN where not tracked).
+        joint_state: (B, K, J) tracking states 0/1/2.
+        current_id: (B,) id of the current target, 0 for none.
+        center_joints: joint indices whose mean is a body's centre (Kinect v2 JointType order).
+
+    Returns:
+        ``(slot, target_id, changed)``: (B,) int64 selected slot, -1 if no tracked body; (B,) int64
+        new target id, 0 if none; (B,) bool, True where a *new* target was selected this frame (the
+        id differs from ``current_id`` and is not 0).
+
+    Raises:
+        ValueError: inconsistent shapes, negative ids or one id in two slots of a stream.
+    """
+    ids = np.asarray(body_id)
+    tracked = np.asarray(body_tracked, dtype=bool)
+    j = np.asarray(joints, dtype=np.float64)
+    st = np.asarray(joint_state)
+    cur = np.asarray(current_id)
+    if ids.ndim != 2:
+        raise ValueError(f"body_id must have shape (B, K), got {ids.shape}")
+    b, k = ids.shape
+    if not np.issubdtype(ids.dtype, np.integer):
+        raise ValueError(f"body_id must hold integers, got dtype {ids.dtype}")
+    if tracked.shape != (b, k):
+        raise ValueError(f"body_tracked must have shape {(b, k)}, got {tracked.shape}")
+    if j.ndim != 4 or j.shape[:2] != (b, k) or j.shape[3] != 3:
+        raise ValueError(f"joints must have shape ({b}, {k}, J, 3), got {j.shape}")
+    if st.shape != j.shape[:3]:
+        raise ValueError(f"joint_state must have shape {j.shape[:3]}, got {st.shape}")
+    if cur.shape != (b,):
+        raise ValueError(f"current_id must have shape ({b},), got {cur.shape}")
+    if np.any(ids < 0):
+        raise ValueError("body_id must be >= 0 (0 marks an empty slot)")
+    srt = np.sort(ids, axis=1)
+    if np.any((srt[:, 1:] == srt[:, :-1]) & (srt[:, 1:] != 0)):
+        raise ValueError("body_id holds the same non-zero id in two slots of one stream")
+    bad = [i for i in center_joints if not 0 <= i < j.shape[2]]
+    if bad or not center_joints:
+        raise ValueError(
+            f"center_joints must be non-empty indices in [0, {j.shape[2]}), got "
+            f"{tuple(center_joints)}"
+        )
+
+    present = tracked & (ids != 0)
+    keep = present & (ids == cur[:, None]) & (cur[:, None] != 0)
+    has_keep = keep.any(axis=1)
+    dist = np.where(present, _body_distance(j, st, center_joints), np.inf)
+    nearest = np.argmin(dist, axis=1)
+    has_near = np.isfinite(dist[np.arange(b), nearest])
+    slot = np.where(has_keep, np.argmax(keep, axis=1), np.where(has_near, nearest, -1))
+    slot = slot.astype(np.int64)
+    new_id = np.where(slot >= 0, ids[np.arange(b), np.maximum(slot, 0)], 0).astype(np.int64)
+    changed = (new_id != cur) & (new_id != 0)
+    return slot, new_id, changed
+
+
+# ----------------------------------------------------------------------------------------------
+# Euler filtering (1.4)
+
+
+def _per_axis(name: str, value: float | Sequence[float]) -> NDArray[np.float64]:
+    v = np.broadcast_to(np.asarray(value, dtype=np.float64), (3,)).copy()
+    if not (np.all(np.isfinite(v)) and np.all(v > 0)):
+        raise ValueError(f"{name} must be > 0 (a number or one per axis), got {value}")
+    return v
+
+
+@dataclass(frozen=True)
+class KalmanParams:
+    """Kalman filter on each Euler angle: constant-rate model with adaptive process noise.
+
+    Seed 003 gives the generic equations (3)-(8) but neither its model nor its noise values. We
+    choose per axis the state ``[angle, rate]`` with ``A = [[1, dt], [0, 1]]``, ``H = [1, 0]``,
+    driven by white angular acceleration of spectral density ``q`` (``Q = q [[dt^3/3, dt^2/2],
+    [dt^2/2, dt]]``). A constant-rate model follows a steady rotation without lag, which a
+    random-walk (A = 1) model cannot.
+
+    A fixed ``q`` forces a choice between smoothing a still hand (small ``q``) and following a
+    turning one (large ``q``); variance alone rewards the first (SPEC section 3). So ``q`` adapts:
+    with ``nis`` the normalised innovation squared ``y^2 / S`` low-passed with time constant
+    ``adapt_time``, ``q = accel_psd * clip(nis, 1, .)^2``, capped at ``max_accel_psd``. At rest
+    ``nis`` is about 1 (strong smoothing); when the hand accelerates the innovations grow and the
+    filter opens within a few frames (the noise-level adjustment of Bar-Shalom, Li, Kirubarajan,
+    "Estimation with Applications to Tracking and Navigation", 2001, ch. 11: adjustable
+    process noise level).
+    ``max_accel_psd == accel_psd`` gives the plain Kalman filter. The innovation is wrapped to
+    (-pi, pi] and the angle state kept unwrapped, so crossing +-180 deg gives no 360 deg jump.
+
+    Defaults were tuned on synthetic static trials (white + AR(1) noise, 1.5-2.5 deg) and on
+    moving ones (90 deg/s ramp, 0.5 Hz +-60 deg sine); tests/test_hand.py asserts the figures.
+
+    Attributes:
+        rate_hz: frame rate, Hz (Kinect v2: 30).
+        measurement_std: std of the raw Euler angles, rad (one value or one per ``[yaw, pitch,
+            roll]``). Default 2 deg: seed 003's raw static variances (Tables 1-3) span 0.5 to
+            14 deg^2 (0.7 to 3.7 deg), typically about 4 deg^2.
+        accel_psd: spectral density of the angular acceleration at rest, rad^2/s^3 (one or per
+            axis). Default 0.01.
+        max_accel_psd: cap of the adapted density, rad^2/s^3 (one or per axis, >= accel_psd).
+            Default 10.
+        adapt_time: time constant of the innovation average that drives the adaptation, s.
+            Default 0.1 s (3 frames).
+        init_rate_std: std of the rate at initialisation, rad/s. Default 90 deg/s, a brisk wrist
+            rotation.
+        max_coast_frames: frames a stream without a valid measurement keeps predicting before it
+            is declared stale (its output then holds and the next valid measurement
+            re-initialises it). Default 5 (167 ms at 30 Hz).
+    """
+
+    rate_hz: float = KINECT_RATE_HZ
+    measurement_std: float | tuple[float, float, float] = float(np.deg2rad(2.0))
+    accel_psd: float | tuple[float, float, float] = 0.01
+    max_accel_psd: float | tuple[float, float, float] = 10.0
+    adapt_time: float = 0.1
+    init_rate_std: float | tuple[float, float, float] = float(np.deg2rad(90.0))
+    max_coast_frames: int = 5
+
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.rate_hz) and self.rate_hz > 0):
+            raise ValueError(f"rate_hz must be > 0, got {self.rate_hz}")
+        _per_axis("measurement_std", self.measurement_std)
+        lo = _per_axis("accel_psd", self.accel_psd)
+        hi = _per_axis("max_accel_psd", self.max_accel_psd)
+        if np.any(hi < lo):
+            raise ValueError(
+                f"max_accel_psd must be >= accel_psd, got {self.max_accel_psd} < {self.accel_psd}"
+            )
+        if not (np.isfinite(self.adapt_time) and self.adapt_time > 0):
+            raise ValueError(f"adapt_time must be > 0 s, got {self.adapt_time}")
+        _per_axis("init_rate_std", self.init_rate_std)
+        if int(self.max_coast_frames) != self.max_coast_frames or self.max_coast_frames < 0:
+            raise ValueError(
+                f"max_coast_frames must be an integer >= 0, got {self.max_coast_frames}"
+            )
+
+
+class EulerKalman:
+    """Batched Kalman filter on Euler angles (B, 3), one independent 2-state filter per angle.
+
+    See :class:`KalmanParams` for the model. Streams without a valid measurement coast on the
+    model for ``max_coast_frames`` frames, then hold their last output and are re-initialised
+    (angle = measurement, rate 0) by the next valid measurement.
+
+    Args:
+        batch_size: number of streams B.
+        params: :class:`KalmanParams` (defaults if None).
+    """
+
+    def __init__(self, batch_size: int, params: KalmanParams | None = None) -> None:
+        if batch_size < 1:
+            raise ValueError(f"batch_size must be >= 1, got {batch_size}")
+        self.params = params if params is not None else KalmanParams()
+        self.batch_size = int(batch_size)
+        p = self.params
+        self._dt = 1.0 / p.rate_hz
+        self._r = _per_axis("measurement_std", p.measurement_std) ** 2
+        self._q = _per_axis("accel_psd", p.accel_psd)
+        self._q_max = _per_axis("max_accel_psd", p.max_accel_psd)
+        self._p11_init = _per_axis("init_rate_std", p.init_rate_std) ** 2
+        shape = (self.batch_size, 3)
+        self.angle = np.full(shape, np.nan)  # unwrapped angle state, rad
+        self.rate = np.zeros(shape)  # rad/s
+        self._p00 = np.zeros(shape)
+        self._p01 = np.zeros(shape)
+        self._p11 = np.zeros(shape)
+        #: (B,) bool: the stream holds an estimate that is being updated or coasted.
+        self.active = np.zeros(self.batch_size, dtype=bool)
+        self._missed = np.zeros(self.batch_size, dtype=np.int64)
+        #: (B,) bool: this frame re-initialised the stream from its measurement.
+        self.initialised_now = np.zeros(self.batch_size, dtype=bool)
+        self._nis = np.ones(shape)  # low-passed normalised innovation squared
+        self._lam = 1.0 - np.exp(-self._dt / p.adapt_time)
+
+    def reset(self, mask: ArrayLike | None = None) -> None:
+        """Deactivate the streams where ``mask`` (B,) is True (all if None); output becomes NaN."""
+        m = np.ones(self.batch_size, bool) if mask is None else np.asarray(mask, dtype=bool)
+        if m.shape != (self.batch_size,):
+            raise ValueError(f"mask must have shape ({self.batch_size},), got {m.shape}")
+        self.active[m] = False
+        self.angle[m] = np.nan
+        self.rate[m] = 0.0
+
+    def update(self, z: ArrayLike, valid: ArrayLike | None = None) -> NDArray[np.float64]:
+        """One frame: predict, then correct with ``z`` where valid.
+
+        Args:
+            z: (B, 3) measured ``[yaw, pitch, roll]``, rad (any branch of 2 pi).
+            valid: (B,) bool; None means every row with finite ``z`` is valid.
+
+        Returns:
+            (B, 3) filtered angles wrapped to (-pi, pi], rad (NaN before the first measurement).
+            The unwrapped state is in :attr:`angle`.
+        """
+        z = np.asarray(z, dtype=np.float64)
+        if z.shape != (self.batch_size, 3):
+            raise ValueError(f"z must have shape ({self.batch_size}, 3), got {z.shape}")
+        ok = np.all(np.isfinite(z), axis=1)
+        if valid is not None:
+            v = np.asarray(valid, dtype=bool)
+            if v.shape != (self.batch_size,):
+                raise ValueError(f"valid must have shape ({self.batch_size},), got {v.shape}")
+            ok &= v
+        dt = self._dt
+        act = self.active
+        # Predict (every active stream).
+        a_p = self.angle + dt * self.rate
+        q = np.minimum(self._q * np.maximum(self._nis, 1.0) ** 2, self._q_max)
+        p00 = self._p00 + 2.0 * dt * self._p01 + dt * dt * self._p11 + q * (dt**3 / 3.0)
+        p01 = self._p01 + dt * self._p11 + q * (dt**2 / 2.0)
+        p11 = self._p11 + q * dt
+        # Correct (active streams with a measurement).
+        zz = np.where(ok[:, None], z, 0.0)
+        innov = wrap_angle(zz - np.nan_to_num(a_p))
+        s = p00 + self._r
+        k0, k1 = p00 / s, p01 / s
+        upd = (act & ok)[:, None]
+        nis = innov * innov / s
+        self._nis = np.where(upd, self._nis + self._lam * (nis - self._nis), self._nis)
+        a_u = np.where(upd, a_p + k0 * innov, a_p)
+        w_u = np.where(upd, self.rate + k1 * innov, self.rate)
+        p00_u = np.where(upd, (1.0 - k0) * p00, p00)
+        p01_u = np.where(upd, (1.0 - k0) * p01, p01)
+        p11_u = np.where(upd, p11 - k1 * p01, p11)
+        # Coasting bookkeeping: too many misses -> stale (hold output, re-init on next data).
+        self._missed = np.where(ok, 0, self._missed + 1)
+        stale = act & (self._missed > self.params.max_coast_frames)
+        init = ok & ~act
+        a_act = act[:, None] & ~stale[:, None]
+        i3 = init[:, None]
+        self.angle = np.where(i3, zz, np.where(a_act, a_u, self.angle))
+        self.rate = np.where(i3 | stale[:, None], 0.0, np.where(a_act, w_u, self.rate))
+        self._p00 = np.where(i3, self._r, np.where(a_act, p00_u, self._p00))
+        self._p01 = np.where(i3, 0.0, np.where(a_act, p01_u, self._p01))
+        self._p11 = np.where(i3, self._p11_init, np.where(a_act, p11_u, self._p11))
+        self._nis = np.where(i3, 1.0, self._nis)
+        self.active = (act & ~stale) | init
+        self.initialised_now = init
+        return wrap_angle(self.angle)
+
+
+def _median_valid(x: NDArray[np.float64], axis: int = 0) -> NDArray[np.float64]:
+    """Median along ``axis`` ignoring NaN (NaN where all are NaN); fast for short windows."""
+    s = np.sort(x, axis=axis)  # NaN sorts last
+    n = np.sum(np.isfinite(x), axis=axis, keepdims=True)
+    lo = np.take_along_axis(s, np.maximum((n - 1) // 2, 0), axis=axis)
+    hi = np.take_along_axis(s, n // 2, axis=axis)
+    med = np.where(n > 0, 0.5 * (lo + hi), np.nan)
+    return np.squeeze(med, axis=axis)
+
+
+class StreamingMedian:
+    """Causal median over the last ``window`` samples of B streams of D values each.
+
+    The median is taken over the samples received since the stream's last reset (fewer than
+    ``window`` at the start). With an even count it is the mean of the two middle values.
+
+    Args:
+        batch_size: number of streams B.
+        dim: values per sample D.
+        window: number of consecutive samples, >= 1.
+    """
+
+    def __init__(self, batch_size: int, dim: int = 3, window: int = 5) -> None:
+        if int(window) != window or window < 1:
+            raise ValueError(f"window must be an integer >= 1, got {window}")
+        self.window = int(window)
+        self.batch_size = int(batch_size)
+        self._buf = np.full((self.window, self.batch_size, dim), np.nan)  # newest first
+        self._last = np.full((self.batch_size, dim), np.nan)
+
+    def reset(self, mask: ArrayLike | None = None) -> None:
+        """Empty the streams where ``mask`` (B,) is True (all if None)."""
+        m = np.ones(self.batch_size, bool) if mask is None else np.asarray(mask, dtype=bool)
+        self._buf[:, m] = np.nan
+        self._last[m] = np.nan
+
+    def update(self, x: ArrayLike, append: ArrayLike | None = None) -> NDArray[np.float64]:
+        """Append ``x`` (B, D) for the streams where ``append`` (B,) is True (all if None).
+
+        Returns:
+            (B, D) medians; streams not appended return their previous median unchanged.
+        """
+        x = np.asarray(x, dtype=np.float64)
+        if x.shape != self._last.shape:
+            raise ValueError(f"x must have shape {self._last.shape}, got {x.shape}")
+        app = np.ones(self.batch_size, bool) if append is None else np.asarray(append, bool)
+        if app.shape != (self.batch_size,):
+            raise ValueError(f"append must have shape ({self.batch_size},), got {app.shape}")
+        # Newest first: shift the appended streams' windows by one, dropping their oldest sample.
+        shifted = np.concatenate([x[None], self._buf[:-1]], axis=0)
+        self._buf = np.where(app[None, :, None], shifted, self._buf)
+        med = _median_valid(self._buf, axis=0)
+        self._last = np.where(app[:, None], med, self._last)
+        return self._last.copy()
+
+
+def unwrap_angles(a: ArrayLike, axis: int = -2) -> NDArray[np.float64]:
+    """Unwrap angles (rad) along the time ``axis``, tolerating NaN gaps (kept as NaN).
+
+    Steps larger than pi between consecutive finite samples are taken the short way round, as
+    ``numpy.unwrap`` does; a NaN gap is bridged from the last finite sample.
+    """
+    x = np.moveaxis(np.asarray(a, dtype=np.float64), axis, 0)
+    if x.shape[0] == 0:
+        return np.moveaxis(x.copy(), 0, axis)
+    finite = np.isfinite(x)
+    t = np.arange(x.shape[0]).reshape((-1,) + (1,) * (x.ndim - 1))
+    idx = np.maximum.accumulate(np.where(finite, t, -1), axis=0)  # last finite sample
+    idx = np.where(idx < 0, np.argmax(finite, axis=0), idx)  # leading NaN: first finite one
+    filled = np.take_along_axis(x, idx, axis=0)
+    out = np.where(finite, np.unwrap(filled, axis=0), np.nan)
+    return np.moveaxis(out, 0, axis)
+
+
+def median_filter(
+    x: ArrayLike, window: int = 5, axis: int = -2, angular: bool = False
+) -> NDArray[np.float64]:
+    """Causal median filter over consecutive samples: ``y[t] = median(x[t-window+1 .. t])``.
+
+    The offline twin of :class:`StreamingMedian`: at the start the window holds fewer samples;
+    NaN samples are ignored (NaN only where the whole window is NaN).
+
+    Args:
+        x: array with time along ``axis`` (default -2: ``(..., M, D)`` such as ``(B, M, 3)``).
+        window: samples per median, >= 1.
+        axis: the time axis.
+        angular: the values are angles in radians: unwrap along time, filter, wrap to (-pi, pi].
+
+    Returns:
+        Array of the shape of ``x``.
+    """
+    if int(window) != window or window < 1:
+        raise ValueError(f"window must be an integer >= 1, got {window}")
+    xa = np.asarray(x, dtype=np.float64)
+    if xa.ndim == 0:
+        raise ValueError("x must have a time axis")
+    if angular:
+        xa = unwrap_angles(xa, axis=axis)
+    t_first = np.moveaxis(xa, axis, 0)
+    pad = np.full((window - 1, *t_first.shape[1:]), np.nan)
+    padded = np.concatenate([pad, t_first], axis=0)
+    win = np.lib.stride_tricks.sliding_window_view(padded, window, axis=0)  # (M, ..., W)
+    med = _median_valid(win, axis=-1)
+    out = np.moveaxis(med, 0, axis)
+    return wrap_angle(out) if angular else out
+
+
+# ----------------------------------------------------------------------------------------------
+# Orientation chain: eq (1)/(2) -> Kalman -> median
+
+
+@dataclass(frozen=True)
+class HandParams:
+    """Parameters of the hand pipeline.
+
+    Attributes:
+        holt: joint smoothing, :class:`HoltParams` (Kinect SDK defaults).
+        kalman: Euler Kalman filter, :class:`KalmanParams`.
+        median_window: frames in the median over consecutive Kalman outputs, >= 1. Default 3:
+            seed 003 does not state it. On a steady rotation a causal median of n frames lags
+            (n - 1) / 2 frames: 33 ms for 3, 67 ms for 5 at 30 Hz. Behind our Kalman filter the
+            median removes little more variance (a point or two, see tests/test_hand.py) but adds
+            that lag, so we keep the smallest window that is still a median; 1 disables it.
+        singularity_threshold: eq (2) is used where ``|wy - zx|`` exceeds this (paper: 0.499).
+        wrist_joint: joint whose orientation ``hand_quat`` is (default 10, WristRight).
+        center_joints: joints whose mean locates a body for the nearest-body rule (default 0
+            SpineBase, 1 SpineMid, 20 SpineShoulder).
+        min_wrist_state: the wrist quaternion is used only if the wrist joint's tracking state is
+            at least this (1: inferred accepted, the default, since the Kinect still reports an
+            orientation; 2: tracked only). Below it the frame is an orientation dropout.
+    """
+
+    holt: HoltParams = field(default_factory=HoltParams)
+    kalman: KalmanParams = field(default_factory=KalmanParams)
+    median_window: int = 3
+    singularity_threshold: float = PAPER_SINGULARITY_THRESHOLD
+    wrist_joint: int = _WRIST_RIGHT
+    center_joints: tuple[int, ...] = (_SPINE_BASE, _SPINE_MID, _SPINE_SHOULDER)
+    min_wrist_state: int = INFERRED
+
+    def __post_init__(self) -> None:
+        if int(self.median_window) != self.median_window or self.median_window < 1:
+            raise ValueError(f"median_window must be an integer >= 1, got {self.median_window}")
+        _check_threshold(self.singularity_threshold)
+        if self.min_wrist_state not in (INFERRED, TRACKED):
+            raise ValueError(
+                f"min_wrist_state must be 1 (inferred) or 2 (tracked), got {self.min_wrist_state}"
+            )
+        if self.wrist_joint < 0 or not self.center_joints or min(self.center_joints) < 0:
+            raise ValueError("wrist_joint and center_joints must be joint indices >= 0")
+
+
+@dataclass
+class OrientationFrame:
+    """Output of :class:`OrientationFilter` for one frame; angles ``[yaw, pitch, roll]`` in rad.
+
+    Attributes:
+        ypr_raw: (B, 3) eq (1)/(2) of this frame's quaternion; the last valid value is held on a
+            dropout (NaN before the first).
+        ypr_kalman: (B, 3) Kalman output, wrapped to (-pi, pi].
+        ypr: (B, 3) Kalman + median output (the pipeline's estimate), wrapped.
+        quat_valid: (B,) bool, this frame's quaternion was used (False: dropout, value held).
+        singular: (B,) bool, eq (2) was used (|wy - zx| > threshold).
+        valid: (B,) bool, the outputs hold an estimate (False before the first valid frame).
+    """
+
+    ypr_raw: NDArray[np.float64]
+    ypr_kalman: NDArray[np.float64]
+    ypr: NDArray[np.float64]
+    quat_valid: NDArray[np.bool_]
+    singular: NDArray[np.bool_]
+    valid: NDArray[np.bool_]
+
+
+class OrientationFilter:
+    """Eq (1)/(2), then :class:`EulerKalman`, then :class:`StreamingMedian`, for B streams.
+
+    Dropouts — a NaN or zero-norm quaternion, or ``valid`` False — are never propagated as NaN:
+    the raw angles hold their last value, the Kalman filter coasts (then holds, see
+    :class:`KalmanParams`), the median is not fed, and ``quat_valid`` is False. Infinite entries
+    are a ValueError. The median runs on the Kalman filter's unwrapped angles, so its window never
+    straddles a +-180 deg wrap.
+
+    Args:
+        batch_size: number of streams B.
+        params: :class:`HandParams` (only ``kalman``, ``median_window`` and
+            ``singularity_threshold`` are used here).
+    """
+
+    def __init__(self, batch_size: int, params: HandParams | None = None) -> None:
+        self.params = params if params is not None else HandParams()
+        self.batch_size = int(batch_size)
+        self.kalman = EulerKalman(batch_size, self.params.kalman)
+        self.median = StreamingMedian(batch_size, 3, self.params.median_window)
+        self._raw = np.full((self.batch_size, 3), np.nan)
+        self._kf_out = np.full((self.batch_size, 3), np.nan)
+
+    def reset(self, mask: ArrayLike | None = None) -> None:
+        """Forget the streams where ``mask`` (B,) is True (all if None)."""
+        m = np.ones(self.batch_size, bool) if mask is None else np.asarray(mask, dtype=bool)
+        self.kalman.reset(m)
+        self.median.reset(m)
+        self._raw[m] = np.nan
+        self._kf_out[m] = np.nan
+
+    def update(
+        self, q: ArrayLike, valid: ArrayLike | None = None, reset: ArrayLike | None = None
+    ) -> OrientationFrame:
+        """Filter one frame of wrist quaternions.
+
+        Args:
+            q: (B, 4) quaternions ``[w, x, y, z]`` (any norm > 1e-6; NaN or zero = dropout).
+            valid: (B,) bool, False marks a dropout (e.g. no target user); None = all valid.
+            reset: (B,) bool, streams to forget before this frame (e.g. a new target user).
+
+        Returns:
+            :class:`OrientationFrame`.
+        """
+        q = np.asarray(q, dtype=np.float64)
+        b = self.batch_size
+        if q.shape != (b, 4):
+            raise ValueError(f"hand_quat must have shape ({b}, 4), got {q.shape}")
+        if np.any(np.isinf(q)):
+            raise ValueError("hand_quat contains infinite entries; use NaN for a dropout")
+        if reset is not None:
+            self.reset(reset)
+        norm = np.linalg.norm(q, axis=1)
+        ok = np.isfinite(norm) & (norm > _MIN_QUAT_NORM)
+        if valid is not None:
+            v = np.asarray(valid, dtype=bool)
+            if v.shape != (b,):
+                raise ValueError(f"valid must have shape ({b},), got {v.shape}")
+            ok &= v
+        qn = np.where(ok[:, None], q / np.where(ok, norm, 1.0)[:, None], [1.0, 0.0, 0.0, 0.0])
+        ypr, singular = _paper_ypr(qn, self.params.singularity_threshold)
+        self._raw = np.where(ok[:, None], ypr, self._raw)
+        kf = self.kalman
+        wrapped = kf.update(ypr, ok)
+        self.median.reset(kf.initialised_now)
+        med = self.median.update(kf.angle, kf.active)
+        self._kf_out = np.where(kf.active[:, None], wrapped, self._kf_out)
+        valid_out = np.all(np.isfinite(self._kf_out), axis=1)
+        return OrientationFrame(
+            ypr_raw=self._raw.copy(),
+            ypr_kalman=self._kf_out.copy(),
+            ypr=wrap_angle(med),
+            quat_valid=ok,
+            singular=singular & ok,
+            valid=valid_out,
+        )
+
+
+# ----------------------------------------------------------------------------------------------
+# The whole pipeline
+
+
+@dataclass
+class HandFrame:
+    """Output of :class:`HandPipeline` for one Kinect frame of B streams.
+
+    Angles are ``[yaw, pitch, roll]`` in rad (the project's ZYX names; seed 003 calls these
+    columns Roll, Pitch, Yaw), of the wrist orientation in camera space.
+
+    Attributes:
+        slot: (B,) int64 body slot of the target, -1 when no tracked body.
+        body_id: (B,) int64 target id, 0 when none.
+        reselected: (B,) bool, a new target was selected this frame (filters were reset).
+        has_target: (B,) bool, a tracked target exists in this frame.
+        joints: (B, J, 3) smoothed target joints, metres (NaN without target or for untracked
+            joints).
+        joint_state: (B, J) int8 raw tracking states of the target's joints (0 without target).
+        all_inferred: (B,) bool, the target has no *tracked* joint, only inferred ones.
+        ypr_raw, ypr_kalman, ypr, quat_valid, singular, valid: see :class:`OrientationFrame`.
+    """
+
+    slot: NDArray[np.int64]
+    body_id: NDArray[np.int64]
+    reselected: NDArray[np.bool_]
+    has_target: NDArray[np.bool_]
+    joints: NDArray[np.float64]
+    joint_state: NDArray[np.int8]
+    all_inferred: NDArray[np.bool_]
+    ypr_raw: NDArray[np.float64]
+    ypr_kalman: NDArray[np.float64]
+    ypr: NDArray[np.float64]
+    quat_valid: NDArray[np.bool_]
+    singular: NDArray[np.bool_]
+    valid: NDArray[np.bool_]
+
+
+class HandPipeline:
+    """Seed 003's hand-orientation pipeline, streaming, batched over B users.
+
+    Per frame: select the target (:func:`select_target`), reset the filters of streams whose
+    target changed, smooth its joints (:class:`HoltSmoother`), convert its wrist quaternion
+    (eq 1/2) and filter the angles (Kalman, then median).
+
+    Documented behaviour on bad frames:
+
+    * no tracked body: ``has_target`` False, ``slot`` -1, ``body_id`` 0, joints NaN; the angles
+      coast then hold their last value with ``quat_valid`` False. The next target found is a new
+      selection and resets the filters (even if it has the old id: the gap may be long).
+    * the angles are NaN, with ``valid`` False, only between a (re)selection and the new target's
+      first usable wrist quaternion: they never carry one user's estimate over to another.
+    * NaN joints / untracked joints: NaN in ``joints`` for those joints only; their filter
+      restarts when they come back.
+    * a frame with only inferred joints: the body is still the target if tracked; joints are
+      smoothed with the doubled inferred radii; ``all_inferred`` is True; the wrist quaternion is
+      used if ``min_wrist_state`` is 1 (default), else the frame is an orientation dropout.
+    * zero-norm or NaN wrist quaternion: orientation dropout (as above), ``quat_valid`` False.
+    * infinite values, wrong shapes, states outside {0, 1, 2}, duplicate ids: ValueError.
+
+    Args:
+        batch_size: number of users B.
+        params: :class:`HandParams` (defaults if None).
+        num_joints: joints per body J (25 for Kinect v2).
+        num_bodies: body slots per frame K (6 for Kinect v2).
+    """
+
+    def __init__(
+        self,
+        batch_size: int,
+        params: HandParams | None = None,
+        num_joints: int = 25,
+        num_bodies: int = 6,
+    ) -> None:
+        if batch_size < 1:
+            raise ValueError(f"batch_size must be >= 1, got {batch_size}")
+        self.params = params if params is not None else HandParams()
+        p = self.params
+        if max(p.wrist_joint, *p.center_joints) >= num_joints:
+            raise ValueError(f"wrist_joint and center_joints must be < num_joints={num_joints}")
+        self.batch_size = int(batch_size)
+        self.num_joints = int(num_joints)
+        self.num_bodies = int(num_bodies)
+        self.target_id = np.zeros(self.batch_size, dtype=np.int64)
+        self.holt = HoltSmoother(batch_size, num_joints, p.holt)
+        self.orientation = OrientationFilter(batch_size, p)
+
+    def reset(self, mask: ArrayLike | None = None) -> None:
+        """Forget target and filters of the streams where ``mask`` (B,) is True (all if None)."""
+        m = np.ones(self.batch_size, bool) if mask is None else np.asarray(mask, dtype=bool)
+        self.target_id[m] = 0
+        self.holt.reset(m)
+        self.orientation.reset(m)
+
+    def update(
+        self,
+        body_id: ArrayLike,
+        body_tracked: ArrayLike,
+        joints: ArrayLike,
+        joint_state: ArrayLike,
+        hand_quat: ArrayLike,
+    ) -> HandFrame:
+        """Process one Kinect frame.
+
+        Args:
+            body_id: (B, K) int body ids, 0 = empty slot.
+            body_tracked: (B, K) bool.
+            joints: (B, K, J, 3) camera-space joints, metres, NaN where not tracked.
+            joint_state: (B, K, J) int tracking states (0 not tracked, 1 inferred, 2 tracked).
+            hand_quat: (B, K, 4) wrist orientations ``[w, x, y, z]`` in camera space.
+
+        Returns:
+            :class:`HandFrame`.
+
+        Raises:
+            ValueError: see the class docstring.
+        """
+        b, k, nj = self.batch_size, self.num_bodies, self.num_joints
+        ids = np.asarray(body_id)
+        tracked = np.asarray(body_tracked)
+        jts = np.asarray(joints, dtype=np.float64)
+        st = np.asarray(joint_state)
+        hq = np.asarray(hand_quat, dtype=np.float64)
+        for name, arr, shape in (
+            ("body_id", ids, (b, k)),
+            ("body_tracked", tracked, (b, k)),
+            ("joints", jts, (b, k, nj, 3)),
+            ("joint_state", st, (b, k, nj)),
+            ("hand_quat", hq, (b, k, 4)),
+        ):
+            if arr.shape != shape:
+                raise ValueError(f"{name} must have shape {shape}, got {arr.shape}")
+        if np.any(np.isinf(jts)):
+            raise ValueError("joints contains infinite coordinates; use NaN for untracked joints")
+        if np.any(np.isinf(hq)):
+            raise ValueError("hand_quat contains infinite entries; use NaN for a dropout")
+        if np.any((st < 0) | (st > TRACKED)):
+            raise ValueError("joint_state values must be 0 (not tracked), 1 (inferred) or 2")
+        p = self.params
+        slot, new_id, changed = select_target(
+            ids, tracked, jts, st, self.target_id, p.center_joints
+        )
+        self.target_id = new_id
+        has = slot >= 0
+        rows = np.arange(b)
+        s0 = np.maximum(slot, 0)
+        tj = np.where(has[:, None, None], jts[rows, s0], np.nan)
+        ts = np.where(has[:, None], st[rows, s0], 0).astype(np.int8)
+        tq = np.where(has[:, None], hq[rows, s0], np.nan)
+
+        smoothed = self.holt.update(tj, ts, reset=changed)
+        wrist_ok = has & (ts[:, p.wrist_joint] >= p.min_wrist_state)
+        ori = self.orientation.update(tq, valid=wrist_ok, reset=changed)
+        all_inferred = has & ~np.any(ts == TRACKED, axis=1) & np.any(ts == INFERRED, axis=1)
+        return HandFrame(
+            slot=slot,
+            body_id=new_id,
+            reselected=changed,
+            has_target=has,
+            joints=smoothed,
+            joint_state=ts,
+            all_inferred=all_inferred,
+            ypr_raw=ori.ypr_raw,
+            ypr_kalman=ori.ypr_kalman,
+            ypr=ori.ypr,
+            quat_valid=ori.quat_valid,
+            singular=ori.singular,
+            valid=ori.valid,
+        )
+
+
+def estimate_hand_orientation(
+    body_id: ArrayLike,
+    body_tracked: ArrayLike,
+    joints: ArrayLike,
+    joint_state: ArrayLike,
+    hand_quat: ArrayLike,
+    params: HandParams | None = None,
+) -> HandFrame:
+    """Run :class:`HandPipeline` over whole sequences (offline API; same numbers as streaming).
+
+    Args:
+        body_id: (B, M, K) or, for one stream, (M, K) body ids over M frames.
+        body_tracked: (B, M, K) or (M, K) bool.
+        joints: (B, M, K, J, 3) or (M, K, J, 3) metres.
+        joint_state: (B, M, K, J) or (M, K, J).
+        hand_quat: (B, M, K, 4) or (M, K, 4).
+        params: :class:`HandParams`.
+
+    Returns:
+        :class:`HandFrame` whose arrays carry the time axis after the batch axis, e.g. ``ypr`` is
+        (B, M, 3) — or (M, 3) for single-stream input.
+    """
+    ids = np.asarray(body_id)
+    single = ids.ndim == 2
+    arrays = [np.asarray(a) for a in (body_id, body_tracked, joints, joint_state, hand_quat)]
+    if single:
+        arrays = [a[None] for a in arrays]
+    ids = arrays[0]
+    if ids.ndim != 3:
+        raise ValueError(f"body_id must have shape (B, M, K) or (M, K), got {np.shape(body_id)}")
+    b, m, k = ids.shape
+    for name, a in zip(
+        ("body_tracked", "joints", "joint_state", "hand_quat"), arrays[1:], strict=True
+    ):
+        if a.shape[:3] != (b, m, k):
+            raise ValueError(f"{name} must start with shape {(b, m, k)}, got {a.shape}")
+    if arrays[2].ndim != 5:
+        raise ValueError(
+            f"joints must have shape (B, M, K, J, 3) or (M, K, J, 3), got {np.shape(joints)}"
+        )
+    nj = arrays[2].shape[3]
+    pipe = HandPipeline(b, params, num_joints=nj, num_bodies=k)
+    frames = [pipe.update(*(a[:, t] for a in arrays)) for t in range(m)]
+    out = {}
+    for f in fields(HandFrame):
+        stacked = np.stack([getattr(fr, f.name) for fr in frames], axis=1)
+        out[f.name] = stacked[0] if single else stacked
+    return HandFrame(**out)
+
+
+# ----------------------------------------------------------------------------------------------
+# Experiment helpers
+
+
+def estimate_lag(
+    estimate: ArrayLike,
+    reference: ArrayLike,
+    rate_hz: float,
+    max_lag_s: float = 0.5,
+    axis: int = 0,
+) -> NDArray[np.float64]:
+    """Delay (s) of ``estimate`` behind ``reference``: the shift minimising their RMS difference.
+
+    Shifts from 0 to ``max_lag_s`` are tried in steps of 1/10 frame (linear interpolation of the
+    reference); NaN samples are ignored. Works per channel: the result has the shape of one time
+    sample (e.g. (3,) for (M, 3) inputs with ``axis=0``).
+    """
+    est = np.moveaxis(np.asarray(estimate, dtype=np.float64), axis, 0)
+    ref = np.moveaxis(np.asarray(reference, dtype=np.float64), axis, 0)
+    if est.shape != ref.shape:
+        raise ValueError(f"estimate and reference shapes differ: {est.shape} vs {ref.shape}")
+    if not (rate_hz > 0 and max_lag_s >= 0):
+        raise ValueError("rate_hz must be > 0 and max_lag_s >= 0")
+    m = est.shape[0]
+    flat_e = est.reshape(m, -1)
+    flat_r = ref.reshape(m, -1)
+    t = np.arange(m, dtype=np.float64)
+    shifts = np.arange(0.0, max_lag_s * rate_hz + 1e-9, 0.1)  # frames
+    cost = np.empty((shifts.size, flat_e.shape[1]))
+    for i, sh in enumerate(shifts):  # a loop over candidate delays, not over the batch
+        pos = t - sh
+        i0 = np.floor(pos).astype(np.int64)
+        frac = (pos - i0)[:, None]
+        inside = (i0 >= 0)[:, None]
+        lo = flat_r[np.clip(i0, 0, m - 1)]
+        hi = flat_r[np.clip(i0 + 1, 0, m - 1)]
+        shifted = np.where(inside, lo * (1.0 - frac) + hi * frac, np.nan)
+        d = flat_e - shifted
+        cost[i] = np.sqrt(np.nanmean(d * d, axis=0))
+    best = shifts[np.nanargmin(cost, axis=0)] / rate_hz
+    return best.reshape(est.shape[1:])
+
+
+@dataclass
+class HandVarianceResult:
+    """Seed 003 experiment 2 (Tables 1-4): variances of static hand angles, deg^2.
+
+    Columns are our ``[yaw, pitch, roll]`` = the paper's *Roll, Pitch, Yaw* (see
+    :data:`PAPER_AXIS_NAMES`).
+
+    Attributes:
+        var_raw: (A, 3) raw (eq 1/2) variance per static pose, mean over repeats, deg^2.
+        var_kalman: (A, 3) after the Kalman filter, deg^2.
+        var_filtered: (A, 3) after Kalman + median, deg^2.
+        reduction_kalman: (3,) variance reduction of the Kalman filter, %, pooled over poses
+            (``100 (1 - sum var_kalman / sum var_raw)``).
+        reduction_filtered: (3,) variance reduction of Kalman + median, %, pooled.
+    """
+
+    var_raw: NDArray[np.float64]
+    var_kalman: NDArray[np.float64]
+    var_filtered: NDArray[np.float64]
+    reduction_kalman: NDArray[np.float64]
+    reduction_filtered: NDArray[np.float64]
+
+    def table(self) -> str:
+        """Seed 003's Table 4 layout: reduction per paper axis name, Kalman and Kalman + median."""
+        lines = ["axis (paper)  Kalman %  Kalman+median %"]
+        for i, name in enumerate(PAPER_AXIS_NAMES):
+            lines.append(
+                f"{name:<13} {self.reduction_kalman[i]:8.1f}  {self.reduction_filtered[i]:15.1f}"
+            )
+        return "\n".join(lines)
+
+
+def hand_variance_experiment(
+    hand_orientation: ArrayLike, params: HandParams | None = None, warmup_frames: int = 30
+) -> HandVarianceResult:
+    """Core of seed 003's static-variance experiment (its experiment 2, Tables 1-4).
+
+    The paper holds the hand still at 11 yaw angles (its yaw: our roll, the rotation about the
+    bone) and repeats 10 times, comparing the variance of the raw, Kalman and Kalman + median
+    angles. Here each trial is a sequence of wrist orientations of a static hand; all A x R trials
+    run as one batch through :class:`OrientationFilter`, exactly as in the pipeline.
+
+    How the paper pools its 11 angles into Table 4 is not stated; the pooled ratio
+    ``1 - sum(var_filtered) / sum(var_raw)`` reproduces its Roll figure from Table 1 (65 %), so
+    we use it. Variances use unwrapped angles, so a pose at +-180 deg is not inflated.
+
+    Args:
+        hand_orientation: (A, R, M, 4) wrist quaternions ``[w, x, y, z]``, or (A, R, M, 3) raw
+            ``[yaw, pitch, roll]`` in rad (converted to quaternions first): A static poses x R
+            repeats x M frames at ``params.kalman.rate_hz``.
+        params: :class:`HandParams`.
+        warmup_frames: first frames of each trial left out of the variances (filter start-up).
+
+    Returns:
+        :class:`HandVarianceResult`.
+    """
+    q = np.asarray(hand_orientation, dtype=np.float64)
+    if q.ndim != 4 or q.shape[-1] not in (3, 4):
+        raise ValueError(
+            f"hand_orientation must have shape (A, R, M, 4) or (A, R, M, 3), got {q.shape}"
+        )
+    if q.shape[-1] == 3:
+        q = quat_from_ypr(q)
+    a, r, m, _ = q.shape
+    if not 0 <= warmup_frames < m - 1:
+        raise ValueError(f"warmup_frames must be in [0, {m - 1}), got {warmup_frames}")
+    flt = OrientationFilter(a * r, params)
+    flat = q.reshape(a * r, m, 4)
+    out = np.empty((3, a * r, m, 3))
+    for t in range(m):
+        fr = flt.update(flat[:, t])
+        out[0, :, t], out[1, :, t], out[2, :, t] = fr.ypr_raw, fr.ypr_kalman, fr.ypr
+    ang = np.rad2deg(unwrap_angles(out[:, :, warmup_frames:], axis=2))
+    var = np.nanvar(ang, axis=2, ddof=1).reshape(3, a, r, 3).mean(axis=2)  # (3, A, 3)
+    total = var.sum(axis=1)  # (3, 3)
+    return HandVarianceResult(
+        var_raw=var[0],
+        var_kalman=var[1],
+        var_filtered=var[2],
+        reduction_kalman=100.0 * (1.0 - total[1] / total[0]),
+        reduction_filtered=100.0 * (1.0 - total[2] / total[0]),
+    )
