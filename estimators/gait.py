@@ -1,0 +1,588 @@
+"""Still / walk recognition and step events from the specific-force norm (seed 000, section 2).
+
+Seed 000 (Zhang, Chen, Gao 2021) detects walking in place with a head-worn IMU from the norm of
+the specific force, eq (15), ``|f| = sqrt(fx^2 + fy^2 + fz^2)``: the norm is smoothed by a mean
+filter, the maximum over a sliding window of N samples is compared with gravity, and eq (16)
+reads
+
+    |max(|f|_k .. |f|_{k+N-1}) - g| <  gamma                      => still
+    |max(|f|_k .. |f|_{k+N-1}) - g| >= gamma  and  dt_peak <= gamma_t  => walk
+
+where ``dt_peak`` is the interval between neighbouring peaks; each accepted peak is a step event
+(the heel strike) at which eq (17) moves the virtual body.
+
+Decisions where the paper is ambiguous or silent (each a field of :class:`GaitParams`):
+
+* **Peaks.** A sample of the smoothed norm is a peak when it is the maximum of the centred window
+  of ``N = 2 h + 1`` samples around it (strictly above the h samples before, at least the h after,
+  so a flat top gives one peak) and exceeds the baseline by ``gamma``. This is eq (16)'s "max over
+  a window of N" evaluated at the one sample where the max sits. We use the signed excess
+  ``max - g >= gamma``: ``|max - g|`` would also fire when the whole window lies below
+  ``g - gamma`` (free fall), which is no heel strike.
+* **gamma_t, the two readings.** Eq (16) says a walk needs ``dt_peak <= gamma_t``; the text beside
+  it says the interval must be *longer* than a threshold to reject pseudo-peaks. Both are useful
+  and we keep both: ``min_step_interval`` (the text) rejects a peak closer than 1/3.5 s to the
+  previous one (nobody steps faster than about 3.5 steps/s; it removes the double bump of a heel
+  strike), and ``gamma_t`` (the equation) is the longest interval between neighbouring steps of
+  one walking bout. A peak with no neighbour within ``gamma_t`` (an isolated bump: a knock on the
+  headset, a sneeze) is not a step. The first peak of a bout is therefore held *pending* and
+  reported, together with the second, when the second arrives; a pending peak that finds no
+  neighbour within ``gamma_t`` is dropped. A bout of one single step is never counted.
+* **Baseline.** Eq (16) compares with g. A consumer accelerometer's zero-g offset (BMI160: up to
+  +-40 mg per axis) shifts the static norm by as much as a third of gamma, so by default the
+  baseline is the running mean of ``|f|`` (time constant ``baseline_tau``, a cumulative mean until
+  that much data has been seen, clamped to ``gravity +- baseline_limit``). Linear acceleration
+  averages to zero over a walk, so the mean of the norm is gravity plus the bias along gravity.
+  ``baseline_tau = 0`` restores the paper's fixed g.
+* **State.** Still/walk per sample follows the accepted steps: walk from the sample where a step is
+  confirmed until ``gamma_t`` has passed after the last step's peak (measured on the peak time
+  axis, i.e. ``latency`` after the fact); still otherwise, and while the first peak of a bout is
+  pending.
+
+Chosen values (at any sample rate; samples = round(seconds * fs), 100 Hz figures in brackets):
+mean filter 0.08 s [M = 8], peak window half-width 0.10 s [N = 21 samples, 0.21 s], gamma 0.07 g
+(0.686 m/s^2), gamma_t 1.2 s, min_step_interval 1/3.5 s. Why:
+
+* gamma: what separates steps from head gestures is the excess of the smoothed norm over its
+  baseline. The simulated head (``vrloco_env.motion``; peaks of 1.1-1.5 g when stepping in place
+  at 1.2-2.2 steps/s, after Tregillus & Folmer, VR-STEP, CHI 2016) gives at least 0.86 m/s^2
+  (0.088 g) for its lightest stepper at 1.2 steps/s; seed 000's head gestures as scripted there
+  (serpentine +-40 deg at 0.4 Hz, nod +-30 deg at 0.3 Hz, shake +-25 deg at 0.5 Hz; forehead IMU
+  9 cm ahead of and 12 cm above the neck pivot) reach at most 0.51 m/s^2 (0.052 g) with a consumer
+  IMU's noise. 0.07 g sits half-way. The gesture envelope below gamma (rigid head, that lever
+  arm): yaw at any amplitude up to 40 deg and 1 Hz; pitch nods up to about 30 deg at 0.4 Hz,
+  25 deg at 0.5 Hz, 10 deg at 0.7 Hz; roll shakes up to 40 deg at 0.5 Hz, 25 deg at 0.7 Hz,
+  15 deg at 1 Hz. Faster or larger nods (the norm excess grows as amplitude x frequency^2: +-30 deg
+  at 1 Hz gives 2.7 m/s^2, 0.27 g) *will* read as steps: no threshold on ``|f|`` alone separates
+  them from a light heel strike (a gyro-aided test would be needed).
+* mean filter 0.08 s: heel-strike pulses at the head last ~0.1-0.2 s, so an 80 ms box loses a few
+  percent of their height while averaging out sensor noise and the 5-20 Hz ringing of a phone or
+  headset strap; on the Oxford neck-pouch walk it removes most double-peak detections.
+* window 0.21 s: shorter than the fastest step interval (0.286 s) so two steps never share a
+  window, long enough to take the larger of a heel strike's double bump; it sets the latency.
+* gamma_t 1.2 s: 20 % above the slowest in-place step interval we expect (1 step/s).
+
+Latency: a peak is confirmed ``h`` samples after the smoothed norm's peak, and the mean filter
+delays the norm by ``(M - 1) / 2`` samples, so the step event comes ``latency = (h + (M - 1)/2) /
+fs`` after the heel strike (0.135 s at 100 Hz); the event carries the estimated heel-strike time
+(peak sample minus the filter delay). The second step of a bout also releases the first one.
+
+Presets: :meth:`GaitParams.neck_pouch` raises gamma to 0.15 g for a phone hanging in a neck pouch
+(the Oxford step-counter recording): the pouch swings on its lanyard and keeps bouncing after the
+walker stops (+0.12-0.17 g bumps at ~2 Hz), and over-ground walking hits it with 1.4-1.6 g
+heel strikes, so the larger threshold loses nothing there, whereas it would miss the lightest
+in-place steps of a head-worn sensor. Measured on that walk (248 true steps, +-0.2 s matching,
+``benchmarks/bench_gait.py``): the default finds 258 steps (+4.0 %, F1 0.968; the extra ones
+are the phone being put in the pouch and the post-walk swing), ``neck_pouch`` finds 247
+(-0.4 %, F1 0.986). On the simulator's scripted motions (32 users, both IMU presets) the default
+finds every step (F1 1.000) and no phantom step.
+
+Offline use (:func:`detect_steps`): timestamps may be irregular (a phone at ~405 Hz); the norm is
+averaged over the bins of a uniform grid at ``fs`` (the exact mean of the linearly interpolated
+norm over each bin, an anti-alias box filter), then runs through the streaming detector.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.optimize import linear_sum_assignment
+
+from estimators.rotations import GRAVITY
+
+__all__ = [
+    "GaitChunk",
+    "GaitParams",
+    "GaitResult",
+    "StepDetector",
+    "detect_steps",
+    "step_f1",
+]
+
+
+@dataclass(frozen=True)
+class GaitParams:
+    """Parameters of the still/walk and step detector (see the module docstring for the choices).
+
+    Every field is validated on construction.
+    """
+
+    gamma: float = 0.07 * GRAVITY
+    """Still/walk threshold (m/s^2): a peak must exceed the baseline by this much (eq 16's gamma).
+    Default 0.07 g = 0.686 m/s^2."""
+    gamma_t: float = 1.2
+    """Longest interval (s) between neighbouring steps of one walking bout (eq 16's gamma_t)."""
+    min_step_interval: float = 1.0 / 3.5
+    """Shortest interval (s) between two steps; closer peaks are pseudo-peaks (seed 000 text).
+    1/3.5 s: humans do not step faster than about 3.5 steps/s."""
+    mean_window: float = 0.08
+    """Length (s) of the mean filter on the norm (M = round(mean_window * fs) >= 1 samples)."""
+    peak_half_window: float = 0.10
+    """Half-width (s) of the peak window (h = round(peak_half_window * fs) >= 1; N = 2 h + 1)."""
+    baseline_tau: float = 4.0
+    """Time constant (s) of the running-mean baseline of |f|; 0 uses ``gravity`` (the paper)."""
+    baseline_limit: float = 0.1 * GRAVITY
+    """Largest distance (m/s^2) of the baseline from ``gravity``: 0.1 g covers any accelerometer
+    offset (BMI160 datasheet: +-40 mg typical zero-g offset)."""
+    gravity: float = GRAVITY
+    """Gravity (m/s^2), standard gravity by default (:data:`estimators.rotations.GRAVITY`)."""
+
+    def __post_init__(self) -> None:
+        def check(name: str, ok: bool, allowed: str) -> None:
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and math.isfinite(value) and ok):
+                raise ValueError(f"GaitParams.{name}={value!r}: must be {allowed}")
+
+        g = self.gravity
+        check("gravity", 9.0 <= g <= 10.5, "in [9, 10.5] m/s^2")
+        check("gamma", 0.0 < self.gamma <= 3.0 * g, "in (0, 3 g] m/s^2")
+        check("min_step_interval", 0.0 <= self.min_step_interval <= 2.0, "in [0, 2] s")
+        check("gamma_t", self.min_step_interval < self.gamma_t <= 10.0,
+              "in (min_step_interval, 10] s")  # fmt: skip
+        check("mean_window", 0.0 < self.mean_window <= 1.0, "in (0, 1] s")
+        check("peak_half_window", 0.0 < self.peak_half_window <= 1.0, "in (0, 1] s")
+        check("baseline_tau", 0.0 <= self.baseline_tau <= 600.0, "in [0, 600] s (0: fixed g)")
+        check("baseline_limit", 0.0 <= self.baseline_limit <= 0.5 * g, "in [0, 0.5 g] m/s^2")
+
+    @classmethod
+    def head(cls, **overrides: float) -> GaitParams:
+        """The default: a head-worn IMU stepping in place (what the simulator produces)."""
+        return cls(**overrides)
+
+    @classmethod
+    def neck_pouch(cls, **overrides: float) -> GaitParams:
+        """A phone in a neck pouch walking over ground (the Oxford step-counter recording).
+
+        gamma 0.15 g: see the module docstring (pouch swing after stopping reaches 0.17 g).
+        """
+        return cls(**{"gamma": 0.15 * GRAVITY, **overrides})
+
+    def samples(self, fs: float) -> tuple[int, int]:
+        """Mean-filter length M and peak half-window h in samples at rate ``fs`` (Hz)."""
+        m = max(1, round(self.mean_window * fs))
+        h = max(1, round(self.peak_half_window * fs))
+        return m, h
+
+    def latency(self, fs: float) -> float:
+        """Delay (s) from a heel strike to the sample that confirms it, at rate ``fs`` (Hz)."""
+        m, h = self.samples(fs)
+        return (h + 0.5 * (m - 1)) / fs
+
+
+@dataclass
+class GaitChunk:
+    """Output of :meth:`StepDetector.update` for one chunk of n samples of B streams.
+
+    Attributes:
+        state: 0 still, 1 walk, per sample, (B, n) int8.
+        steps: number of steps confirmed at each sample (0, 1, or 2 when the second step of a bout
+            also releases the first), (B, n) int8.
+        peak_time: estimated heel-strike times (s since the detector started) of the steps
+            confirmed at each sample, NaN-padded: ``[..., 0]`` the newest step, ``[..., 1]`` the
+            released first step of a bout, (B, n, 2).
+        sample_time: time (s since the detector started) of each sample of the chunk, (n,).
+    """
+
+    state: NDArray[np.int8]
+    steps: NDArray[np.int8]
+    peak_time: NDArray[np.float64]
+    sample_time: NDArray[np.float64]
+
+    def events(self) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.float64]]:
+        """Every step of the chunk as ``(user, sample, peak_time)`` arrays, sorted by user then
+        heel-strike time; ``sample`` indexes the chunk sample that confirmed the step."""
+        b, i, j = np.nonzero(np.isfinite(self.peak_time))
+        pt = self.peak_time[b, i, j]
+        order = np.lexsort((pt, b))
+        return b[order], i[order], pt[order]
+
+
+@numba.njit(cache=True)
+def _gait_kernel(
+    norm, fs, m, h, gamma, tmin, gamma_t, gravity, base_n, base_lim, latency, k0,
+    raw_buf, sm_buf, last_valid, baseline, n_seen, last_peak_t, pending_t, last_step_t,
+    out_state, out_steps, out_peak_t,
+):  # fmt: skip
+    """Run the detector over a chunk ``norm`` (B, n) of specific-force norms (m/s^2).
+
+    Plain loops (streams outside, samples inside); the per-stream state arrays (the ring buffers
+    ``raw_buf`` (B, m) and ``sm_buf`` (B, 2h+1), and the (B,) scalars) are updated in place, and
+    the outputs (B, n) / (B, n, 2) are filled. ``k0`` is the global index of the chunk's first
+    sample (sample k is at time k / fs). ``base_n`` is the baseline time constant in samples
+    (0: fixed gravity). Times are in seconds, -inf / NaN meaning "none".
+    """
+    nb, n = norm.shape
+    w = 2 * h + 1
+    delay = 0.5 * (m - 1)
+    for b in range(nb):
+        for i in range(n):
+            k = k0 + i
+            x = norm[b, i]
+            if not math.isfinite(x):
+                x = last_valid[b] if math.isfinite(last_valid[b]) else gravity
+            last_valid[b] = x
+            if n_seen[b] == 0:  # fresh stream: start both filters and the baseline at x
+                for j in range(m):
+                    raw_buf[b, j] = x
+                for j in range(w):
+                    sm_buf[b, j] = x
+                baseline[b] = gravity if base_n <= 0.0 else x
+            n_seen[b] += 1
+            if base_n > 0.0:
+                alpha = max(1.0 / n_seen[b], 1.0 / base_n)
+                g0 = baseline[b] + alpha * (x - baseline[b])
+                baseline[b] = min(max(g0, gravity - base_lim), gravity + base_lim)
+            # Mean filter (causal, M samples) into the peak window's ring buffer.
+            raw_buf[b, k % m] = x
+            s = 0.0
+            for j in range(m):
+                s += raw_buf[b, j]
+            sm_buf[b, k % w] = s / m
+            # Is the sample h back the maximum of its centred window of 2h + 1 samples?
+            if n_seen[b] > h:
+                c = k - h
+                v = sm_buf[b, c % w]
+                is_peak = v - baseline[b] >= gamma
+                j = 1
+                while is_peak and j <= h:
+                    if sm_buf[b, (c - j) % w] >= v or sm_buf[b, (c + j) % w] > v:
+                        is_peak = False
+                    j += 1
+                if is_peak:
+                    p = (c - delay) / fs
+                    dt = p - last_peak_t[b]
+                    if dt >= tmin:
+                        if dt <= gamma_t:
+                            out_steps[b, i] = 1
+                            out_peak_t[b, i, 0] = p
+                            if math.isfinite(pending_t[b]):
+                                out_steps[b, i] = 2
+                                out_peak_t[b, i, 1] = pending_t[b]
+                                pending_t[b] = math.nan
+                            last_step_t[b] = p
+                        else:
+                            pending_t[b] = p
+                        last_peak_t[b] = p
+            out_state[b, i] = 1 if k / fs - latency - last_step_t[b] <= gamma_t else 0
+
+
+def _as_array(value: ArrayLike, name: str) -> NDArray[np.float64]:
+    try:
+        return np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a numeric array") from None
+
+
+class StepDetector:
+    """Streaming, batched still/walk and step detector (seed 000 eqs (15)-(16)).
+
+    Args:
+        batch_size: B, the number of independent streams (users), >= 1.
+        fs: sample rate (Hz) of the accelerometer stream, in [10, 2000].
+        params: detector parameters; :class:`GaitParams` defaults (head-worn IMU) if None.
+
+    Feed it with :meth:`update` (accelerometer samples) or :meth:`update_norm` (their norms) in
+    chunks of any length; chunking does not change the result. Sample k of the stream (counting
+    from 0 at construction) is at time ``k / fs`` s, the clock of every reported time.
+
+    Example:
+        >>> det = StepDetector(256, 100.0)
+        >>> out = det.update(acc)        # acc (256, 10, 3) m/s^2
+        >>> out.steps.sum(axis=1)        # steps confirmed in this chunk, per user
+    """
+
+    def __init__(self, batch_size: int, fs: float, params: GaitParams | None = None) -> None:
+        if not isinstance(batch_size, int | np.integer) or batch_size < 1:
+            raise ValueError(f"batch_size must be an integer >= 1, got {batch_size!r}")
+        try:
+            fs = float(fs)
+        except (TypeError, ValueError):
+            raise ValueError(f"fs must be a number in [10, 2000] Hz, got {fs!r}") from None
+        if not (10.0 <= fs <= 2000.0):
+            raise ValueError(f"fs must be in [10, 2000] Hz, got {fs!r}")
+        self.params = GaitParams() if params is None else params
+        if not isinstance(self.params, GaitParams):
+            raise ValueError(f"params must be a GaitParams, got {type(self.params).__name__}")
+        self.batch_size = int(batch_size)
+        self.fs = fs
+        self.m, self.h = self.params.samples(fs)
+        self.latency = self.params.latency(fs)
+        """Delay (s) from a heel strike to the sample that confirms its step."""
+        self.samples_seen = 0
+        b = self.batch_size
+        self._raw = np.zeros((b, self.m))
+        self._sm = np.zeros((b, 2 * self.h + 1))
+        self._last_valid = np.full(b, np.nan)
+        self._baseline = np.full(b, self.params.gravity)
+        self._n_seen = np.zeros(b, dtype=np.int64)
+        self._last_peak = np.full(b, -np.inf)
+        self._pending = np.full(b, np.nan)
+        self._last_step = np.full(b, -np.inf)
+
+    @property
+    def window_samples(self) -> int:
+        """Paper's N: the number of samples of the peak window (2 h + 1)."""
+        return 2 * self.h + 1
+
+    @property
+    def baseline(self) -> NDArray[np.float64]:
+        """Current baseline of |f| per stream (m/s^2), (B,)."""
+        return self._baseline.copy()
+
+    def reset(self, mask: ArrayLike | None = None) -> None:
+        """Forget the past of all streams, or of those where ``mask`` (B,) bool is True.
+
+        The clock keeps running: reported times stay on the detector's clock.
+        """
+        if mask is None:
+            sel = np.ones(self.batch_size, dtype=bool)
+        else:
+            sel = np.asarray(mask)
+            if sel.shape != (self.batch_size,) or sel.dtype != np.bool_:
+                raise ValueError(
+                    f"mask must be a bool array of shape ({self.batch_size},), got "
+                    f"{sel.dtype} {sel.shape}"
+                )
+        self._last_valid[sel] = np.nan
+        self._baseline[sel] = self.params.gravity
+        self._n_seen[sel] = 0
+        self._last_peak[sel] = -np.inf
+        self._pending[sel] = np.nan
+        self._last_step[sel] = -np.inf
+
+    def update(self, acc: ArrayLike) -> GaitChunk:
+        """Process accelerometer samples (specific force, m/s^2, any sensor frame).
+
+        Args:
+            acc: (B, n, 3) a chunk of n samples, or (B, 3) one sample. NaN samples are replaced
+                by the last valid norm (gravity before any).
+
+        Returns:
+            A :class:`GaitChunk` over the n samples.
+        """
+        a = _as_array(acc, "acc")
+        b = self.batch_size
+        if a.ndim == 2 and a.shape == (b, 3):
+            a = a[:, None, :]
+        if a.ndim != 3 or a.shape[0] != b or a.shape[2] != 3:
+            raise ValueError(f"acc must have shape ({b}, n, 3) or ({b}, 3), got {a.shape}")
+        return self.update_norm(np.sqrt(np.einsum("bni,bni->bn", a, a)))
+
+    def update_norm(self, norm: ArrayLike) -> GaitChunk:
+        """Process specific-force norms |f| (m/s^2), (B, n) or (B,) for one sample."""
+        x = _as_array(norm, "norm")
+        b = self.batch_size
+        if x.ndim == 1 and x.shape == (b,):
+            x = x[:, None]
+        if x.ndim != 2 or x.shape[0] != b:
+            raise ValueError(f"norm must have shape ({b}, n) or ({b},), got {x.shape}")
+        if np.any(x < 0.0):
+            raise ValueError("norm must be >= 0 m/s^2 (it is a vector norm)")
+        x = np.ascontiguousarray(x)
+        n = x.shape[1]
+        state = np.zeros((b, n), dtype=np.int8)
+        steps = np.zeros((b, n), dtype=np.int8)
+        peak_t = np.full((b, n, 2), np.nan)
+        p = self.params
+        base_n = p.baseline_tau * self.fs
+        _gait_kernel(
+            x, self.fs, self.m, self.h, p.gamma, p.min_step_interval, p.gamma_t, p.gravity,
+            base_n, p.baseline_limit, self.latency, self.samples_seen,
+            self._raw, self._sm, self._last_valid, self._baseline, self._n_seen,
+            self._last_peak, self._pending, self._last_step, state, steps, peak_t,
+        )  # fmt: skip
+        t = (self.samples_seen + np.arange(n)) / self.fs
+        self.samples_seen += n
+        return GaitChunk(state=state, steps=steps, peak_time=peak_t, sample_time=t)
+
+
+@dataclass
+class GaitResult:
+    """Steps and still/walk state of one recording (see :func:`detect_steps`).
+
+    Attributes:
+        step_times: estimated heel-strike times (s, the clock of the input ``t``), sorted, (S,).
+        step_index: index of the input sample nearest each step, (S,).
+        confirm_times: when a streaming detector would have reported each step (s), (S,).
+        state: 0 still, 1 walk, per input sample, (n,) int8. Non-causal: walk from half a step
+            interval before a bout's first step to half an interval after its last step (a bout:
+            steps with neighbours at most ``gamma_t`` apart).
+        fs: rate (Hz) of the uniform grid the detector ran at.
+        params: the parameters used.
+    """
+
+    step_times: NDArray[np.float64]
+    step_index: NDArray[np.intp]
+    confirm_times: NDArray[np.float64]
+    state: NDArray[np.int8]
+    fs: float
+    params: GaitParams
+
+
+def _bin_average(t: NDArray[np.float64], x: NDArray[np.float64], grid: NDArray[np.float64],
+                 fs: float) -> NDArray[np.float64]:  # fmt: skip
+    """Mean of the linearly interpolated x(t) over the bins [grid - 0.5/fs, grid + 0.5/fs]."""
+    if t.size == 1:
+        return np.full(grid.shape, x[0])
+    cum = np.concatenate([[0.0], np.cumsum(0.5 * (x[1:] + x[:-1]) * np.diff(t))])
+    edges = np.clip(np.concatenate([grid - 0.5 / fs, [grid[-1] + 0.5 / fs]]), t[0], t[-1])
+    width = np.diff(edges)
+    mean = np.diff(np.interp(edges, t, cum)) / np.where(width > 0, width, 1.0)
+    # A bin entirely outside [t0, t_end] (zero width after clipping) takes the nearest value.
+    return np.where(width > 0, mean, np.interp(grid, t, x))
+
+
+def detect_steps(
+    t: ArrayLike,
+    acc: ArrayLike,
+    *,
+    fs: float = 100.0,
+    params: GaitParams | None = None,
+    **overrides: float,
+) -> GaitResult:
+    """Detect the steps of one recording, offline.
+
+    Args:
+        t: sample timestamps (s), (n,), strictly increasing (irregular spacing allowed).
+        acc: specific force (m/s^2), (n, 3); rows with a NaN are ignored (the norm is
+            interpolated across them).
+        fs: rate (Hz) of the uniform grid the norm is averaged onto before detection, in
+            [10, 2000]; 100 Hz, the simulator's IMU rate, by default.
+        params: detector parameters (defaults: :class:`GaitParams`, head-worn).
+        **overrides: fields of :class:`GaitParams` replacing those of ``params``.
+
+    Returns:
+        A :class:`GaitResult`. Peaks in the last ``latency`` seconds are still evaluated: the
+        stream is padded with the baseline after its end.
+
+    Raises:
+        ValueError: bad shapes, non-finite or non-increasing timestamps, fewer than 2 valid
+            samples, or an invalid parameter.
+    """
+    params = GaitParams() if params is None else params
+    if not isinstance(params, GaitParams):
+        raise ValueError(f"params must be a GaitParams, got {type(params).__name__}")
+    if overrides:
+        names = {f.name for f in dataclasses.fields(GaitParams)}
+        unknown = sorted(set(overrides) - names)
+        if unknown:
+            raise ValueError(f"unknown GaitParams field(s) {unknown}; choose from {sorted(names)}")
+        params = dataclasses.replace(params, **overrides)
+    tt = _as_array(t, "t")
+    a = _as_array(acc, "acc")
+    if tt.ndim != 1 or tt.size < 2:
+        raise ValueError(f"t must have shape (n,) with n >= 2, got {tt.shape}")
+    if a.shape != (tt.size, 3):
+        raise ValueError(f"acc must have shape ({tt.size}, 3) to match t, got {a.shape}")
+    if not np.all(np.isfinite(tt)):
+        raise ValueError("t contains NaN or infinite timestamps")
+    d = np.diff(tt)
+    if np.any(d <= 0.0):
+        k = int(np.argmax(d <= 0.0))
+        raise ValueError(
+            f"t must be strictly increasing: t[{k + 1}]={tt[k + 1]!r} <= t[{k}]={tt[k]!r}"
+        )
+    norm = np.linalg.norm(a, axis=1)
+    ok = np.isfinite(norm)
+    if ok.sum() < 2:
+        raise ValueError("acc must hold at least 2 finite samples")
+    det = StepDetector(1, fs, params)
+    grid = tt[0] + np.arange(int(np.floor((tt[-1] - tt[0]) * det.fs)) + 1) / det.fs
+    x = _bin_average(tt[ok], norm[ok], grid, det.fs)
+    out = det.update_norm(x[None, :])
+    pad = det.h + det.m
+    tail = det.update_norm(np.full((1, pad), det.baseline[0]))
+    _, i0, p0 = out.events()
+    _, i1, p1 = tail.events()
+    peak = np.concatenate([p0, p1])
+    conf = np.concatenate([out.sample_time[i0], tail.sample_time[i1]])
+    order = np.argsort(peak)
+    step_times = tt[0] + peak[order]
+    confirm = tt[0] + conf[order]
+    idx = np.clip(np.searchsorted(tt, step_times), 1, tt.size - 1)
+    idx = np.where(np.abs(tt[idx - 1] - step_times) <= np.abs(tt[idx] - step_times), idx - 1, idx)
+    return GaitResult(
+        step_times=step_times,
+        step_index=idx.astype(np.intp),
+        confirm_times=confirm,
+        state=_bout_state(tt, step_times, params.gamma_t),
+        fs=det.fs,
+        params=params,
+    )
+
+
+def _bout_state(t: NDArray[np.float64], steps: NDArray[np.float64], gamma_t: float
+                ) -> NDArray[np.int8]:  # fmt: skip
+    """Non-causal walk mask over times ``t`` from sorted step times (see GaitResult.state)."""
+    state = np.zeros(t.size, dtype=np.int8)
+    if steps.size < 2:
+        return state
+    gaps = np.diff(steps)
+    breaks = np.flatnonzero(gaps > gamma_t)
+    starts = np.concatenate([[0], breaks + 1])
+    ends = np.concatenate([breaks, [steps.size - 1]])
+    for s, e in zip(starts, ends, strict=True):  # one iteration per walking bout
+        if e == s:
+            continue
+        half = 0.5 * float(np.median(gaps[s:e]))
+        lo, hi = np.searchsorted(t, [steps[s] - half, steps[e] + half])
+        state[lo:hi] = 1
+    return state
+
+
+def step_f1(
+    detected_times: ArrayLike, true_times: ArrayLike, tol: float = 0.2
+) -> tuple[float, float, float]:
+    """Precision, recall and F1 of detected steps against true steps.
+
+    Matching is one-to-one: each true step is matched to at most one detection and vice versa,
+    and only pairs at most ``tol`` seconds apart may match. Among such matchings we take one with
+    the most pairs (and, among those, the least total time error): the Hungarian algorithm
+    (``scipy.optimize.linear_sum_assignment``) on the cost |t_det - t_true|, with pairs beyond
+    ``tol`` priced above any sum of allowed ones. Clusters of times separated by more than
+    ``tol`` cannot share a pair, so each cluster is matched on its own (linear cost overall).
+
+    Args:
+        detected_times: detected step times (s), (D,).
+        true_times: true step times (s), (T,).
+        tol: largest allowed time error (s), > 0.
+
+    Returns:
+        ``(precision, recall, f1)``. Conventions for empty inputs: no detections gives precision
+        1 (no false alarm); no true steps gives recall 1 (nothing missed); F1 is 1 only when both
+        are empty and otherwise 2 P R / (P + R), 0 when P + R = 0.
+    """
+    det = _as_array(detected_times, "detected_times").ravel()
+    tru = _as_array(true_times, "true_times").ravel()
+    if not (np.all(np.isfinite(det)) and np.all(np.isfinite(tru))):
+        raise ValueError("detected_times and true_times must be finite (s)")
+    if not (math.isfinite(tol) and tol > 0.0):
+        raise ValueError(f"tol must be > 0 s, got {tol!r}")
+    if det.size == 0 and tru.size == 0:
+        return 1.0, 1.0, 1.0
+    matched = 0
+    if det.size and tru.size:
+        # No allowed pair spans a gap > tol in the merged, sorted times: match each cluster alone.
+        times = np.concatenate([det, tru])
+        is_det = np.concatenate([np.ones(det.size, bool), np.zeros(tru.size, bool)])
+        order = np.argsort(times, kind="stable")
+        times, is_det = times[order], is_det[order]
+        cuts = np.flatnonzero(np.diff(times) > tol) + 1
+        for seg_t, seg_d in zip(np.split(times, cuts), np.split(is_det, cuts), strict=True):
+            dd, tr = seg_t[seg_d], seg_t[~seg_d]
+            if dd.size == 0 or tr.size == 0:
+                continue
+            cost = np.abs(dd[:, None] - tr[None, :])
+            allowed = cost <= tol
+            big = 1.0 + tol * (min(dd.size, tr.size) + 1)
+            r, c = linear_sum_assignment(np.where(allowed, cost, big))
+            matched += int(np.count_nonzero(allowed[r, c]))
+    precision = matched / det.size if det.size else 1.0
+    recall = matched / tru.size if tru.size else 1.0
+    f1 = 2 * precision * recall / (precision + recall) if precision + recall > 0 else 0.0
+    return float(precision), float(recall), float(f1)
