@@ -22,6 +22,15 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_hand_variance(args: argparse.Namespace) -> int:
+    from agents.experiments.hand_variance import run_hand_variance
+
+    run_hand_variance(
+        json_path=Path(args.json) if args.json else None, repeats=args.repeats, seed=args.seed
+    )
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="vrloco",
@@ -40,6 +49,17 @@ def build_parser() -> argparse.ArgumentParser:
         "--sensors", default="ig500n", help="IMU preset: ig500n or consumer_mems (default: ig500n)"
     )
     demo.set_defaults(func=_cmd_demo)
+
+    exp = sub.add_parser("experiment", help="reproduce a source paper's experiment")
+    exp_sub = exp.add_subparsers(dest="experiment", metavar="EXPERIMENT", required=True)
+    hv = exp_sub.add_parser(
+        "hand-variance",
+        help="seed 003 Tables 1-4 on the synthetic Kinect, with lag and RMSE while moving",
+    )
+    hv.add_argument("--json", help="write the results to this JSON file")
+    hv.add_argument("--repeats", type=int, default=10, help="repeats per angle (default: 10)")
+    hv.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
+    hv.set_defaults(func=_cmd_hand_variance)
     return parser
 
 

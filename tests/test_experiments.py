@@ -1,0 +1,22 @@
+"""The paper experiments reproduce and beat the source papers' numbers (issue targets)."""
+
+import json
+
+from agents.cli import main
+
+
+def test_hand_variance_beats_seed_003_table_4(tmp_path, capsys):
+    path = tmp_path / "hv.json"
+    assert main(["experiment", "hand-variance", "--json", str(path)]) == 0
+    result = json.loads(path.read_text())
+    target = {"roll": 65.0, "pitch": 54.0, "yaw": 69.0}  # seed 003 Table 4, Kalman + median
+    for axis, pct in target.items():
+        assert result["kalman_median"][axis] >= pct, (axis, result["kalman_median"])
+        assert result["kalman_median"][axis] >= result["kalman"][axis] - 0.5
+    raw = result["variance_deg2"]["raw"]
+    for axis in target:  # the synthetic Kinect is calibrated to the paper's raw variances
+        assert all(0.5 <= v <= 14.0 for v in raw[axis]), (axis, raw[axis])
+    moving = result["moving"]
+    assert moving["kalman_median"]["lag_ms"] < 100.0
+    assert max(moving["kalman_median"]["rmse_deg"].values()) < 10.0
+    assert "Kalman + median" in capsys.readouterr().out
