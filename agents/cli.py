@@ -31,6 +31,13 @@ def _cmd_hand_variance(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_locomotion(args: argparse.Namespace) -> int:
+    from agents.experiments.locomotion_table import run_locomotion_table
+
+    run_locomotion_table(json_path=Path(args.json) if args.json else None)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="vrloco",
@@ -60,6 +67,11 @@ def build_parser() -> argparse.ArgumentParser:
     hv.add_argument("--repeats", type=int, default=10, help="repeats per angle (default: 10)")
     hv.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
     hv.set_defaults(func=_cmd_hand_variance)
+    loco = exp_sub.add_parser(
+        "locomotion", help="eq (17) vs the smooth-locomotion filter: distance and jerk (seed 001)"
+    )
+    loco.add_argument("--json", help="write the results to this JSON file")
+    loco.set_defaults(func=_cmd_locomotion)
     return parser
 
 

@@ -20,3 +20,13 @@ def test_hand_variance_beats_seed_003_table_4(tmp_path, capsys):
     assert moving["kalman_median"]["lag_ms"] < 100.0
     assert max(moving["kalman_median"]["rmse_deg"].values()) < 10.0
     assert "Kalman + median" in capsys.readouterr().out
+
+
+def test_locomotion_table_keeps_distance_and_removes_jerk(tmp_path):
+    path = tmp_path / "loco.json"
+    assert main(["experiment", "locomotion", "--json", str(path)]) == 0
+    result = json.loads(path.read_text())
+    for rate in ("100hz", "10hz"):
+        r = result[rate]
+        assert all(abs(e) < 2.0 for e in r["distance_error_pct"])  # issue 4: within 2 %
+        assert all(ratio > 10 for ratio in r["jerk_ratio"])
