@@ -1,0 +1,352 @@
+"""Attitude EKF (seed 000, section 1) against ground truth: synthetic head motion and BROAD."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from estimators import _attitude_numba as K
+from estimators.attitude import (
+    AttitudeEKF,
+    AttitudeParams,
+    AttitudeState,
+    ekf_step_reference,
+    estimate_attitude,
+    orientation_errors,
+)
+from estimators.io_broad import broad_trials, load_broad
+from estimators.rotations import (
+    GRAVITY,
+    angle_diff,
+    quat_conjugate,
+    quat_from_rotvec,
+    quat_from_ypr,
+    quat_multiply,
+    quat_rotate_inverse,
+    quat_to_rotvec,
+    quat_to_ypr,
+    rotation_angle,
+)
+
+FS = 100.0
+BIAS = np.array([0.02, -0.015, 0.01])  # rad/s, about 1.1 deg/s: a consumer MEMS turn-on bias
+DIP = np.radians(60.0)  # rad, mid-latitude inclination
+FIELD = 50.0  # uT
+
+
+def field_world(declination: float = 0.0, norm: float = FIELD) -> np.ndarray:
+    """Earth field in ENU: magnetic north at yaw pi/2 - declination, pointing DIP below."""
+    return norm * np.array(
+        [np.sin(declination) * np.cos(DIP), np.cos(declination) * np.cos(DIP), -np.sin(DIP)]
+    )
+
+
+def synth(
+    rng: np.random.Generator,
+    kind: str = "head",
+    seconds: float = 60.0,
+    bias: np.ndarray = BIAS,
+    noise: bool = True,
+    declination: float = 0.0,
+) -> tuple[np.ndarray, ...]:
+    """True attitude and IMU samples (gyr rad/s, acc m/s^2, mag uT) at FS.
+
+    ``head``: sinusoidal yaw/pitch/roll head motion; ``spin``: constant 0.5 rad/s yaw rate (the
+    heading wraps through +-180 deg five times) with a small wobble. The gyro sample n is the
+    constant rate that takes the true attitude from sample n-1 to n, so a perfect filter matches
+    the truth at every sample. Noise: gyro 0.002 rad/s, acc 0.02 m/s^2, mag 0.3 uT per sample
+    (consumer MEMS at 100 Hz, BMI160/BMM150 datasheet orders of magnitude).
+    """
+    t = np.arange(int(seconds * FS)) / FS
+    if kind == "head":
+        ypr = np.stack(
+            [
+                1.0 + 0.6 * np.sin(2 * np.pi * 0.2 * t),
+                0.3 * np.sin(2 * np.pi * 0.3 * t),
+                0.2 * np.sin(2 * np.pi * 0.25 * t + 1.0),
+            ],
+            axis=-1,
+        )
+    else:
+        ypr = np.stack(
+            [0.5 * t, 0.1 * np.sin(2 * np.pi * 0.1 * t), 0.1 * np.cos(2 * np.pi * 0.13 * t)],
+            axis=-1,
+        )
+    q = quat_from_ypr(ypr)
+    w = np.zeros_like(ypr)
+    w[1:] = quat_to_rotvec(quat_multiply(quat_conjugate(q[:-1]), q[1:])) * FS
+    sd = (0.002, 0.02, 0.3) if noise else (0.0, 0.0, 0.0)
+    gyr = w + bias + rng.normal(0.0, sd[0], w.shape)
+    acc = quat_rotate_inverse(q, [0.0, 0.0, GRAVITY]) + rng.normal(0.0, sd[1], w.shape)
+    mag = quat_rotate_inverse(q, field_world(declination)) + rng.normal(0.0, sd[2], w.shape)
+    return t, q, gyr, acc, mag
+
+
+def ypr_rmse_deg(q_est: np.ndarray, q_true: np.ndarray) -> np.ndarray:
+    d = angle_diff(quat_to_ypr(q_est), quat_to_ypr(q_true))
+    return np.degrees(np.sqrt(np.mean(d**2, axis=0)))
+
+
+def total_err_deg(q_est: np.ndarray, q_true: np.ndarray) -> np.ndarray:
+    return np.degrees(rotation_angle(quat_multiply(q_est, quat_conjugate(q_true))))
+
+
+# ------------------------------------------------------------------------------------------------
+# Accuracy against ground truth, and the bias: correct model vs the paper's printed F = 0.
+# ------------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("kind", ["head", "spin"])
+def test_rmse_against_truth_and_bias_convergence(rng, kind):
+    t, q, gyr, acc, mag = synth(rng, kind)
+    ekf = AttitudeEKF(1, FS)
+    q_est = ekf.update_batch(gyr[None], acc[None], mag[None])[0]
+    late = t >= 30.0  # after convergence (tilt/heading time constants about 11 s and 17 s)
+    # Bound 0.5 deg: the noise above moves the estimate by < 0.2 deg (measured 0.13 deg yaw,
+    # 0.02 deg pitch/roll); with the printed F = 0 the uncorrected 1.1 deg/s bias leaves 1-13 deg.
+    assert np.all(ypr_rmse_deg(q_est[late], q[late]) < 0.5)
+    # The bias is estimated: < 0.05 deg/s after 60 s (measured < 0.01 deg/s).
+    assert np.degrees(np.max(np.abs(ekf.bias[0] - BIAS))) < 0.05
+    np.testing.assert_allclose(ekf.ypr, quat_to_ypr(ekf.quat))
+
+
+def test_bias_not_estimated_with_the_paper_literal_model(rng):
+    t, q, gyr, acc, mag = synth(rng, "head")
+    correct = AttitudeEKF(1, FS)
+    literal = AttitudeEKF(1, FS, model="paper_literal")
+    q_c = correct.update_batch(gyr[None], acc[None], mag[None])[0]
+    q_l = literal.update_batch(gyr[None], acc[None], mag[None])[0]
+    err_c = np.linalg.norm(correct.bias[0] - BIAS)
+    err_l = np.linalg.norm(literal.bias[0] - BIAS)
+    assert err_c < 0.05 * np.linalg.norm(BIAS)  # converged
+    assert err_l > 0.95 * np.linalg.norm(BIAS)  # never moved from its initial 0
+    late = t >= 30.0
+    assert np.sqrt(np.mean(total_err_deg(q_l, q)[late] ** 2)) > 5.0 * np.sqrt(
+        np.mean(total_err_deg(q_c, q)[late] ** 2)
+    )
+
+
+# ------------------------------------------------------------------------------------------------
+# Implementations agree: numba kernel == numpy reference; batch == singles; offline == streaming.
+# ------------------------------------------------------------------------------------------------
+
+
+def test_numba_kernel_matches_numpy_reference(rng):
+    n = 700
+    params = AttitudeParams(mag_learn_time=0.2, mag_ok_time=0.1, mag_new_time=1.0)
+    streams = [synth(rng, kind, seconds=n / FS) for kind in ("head", "spin", "head")]
+    gyr = np.stack([s[2] for s in streams])
+    acc = np.stack([s[3] for s in streams])
+    mag = np.stack([s[4] for s in streams])
+    acc[0, :3] = np.nan  # starts without accelerometer: gyro integration, then initialisation
+    gyr[0, 100:110] = np.nan  # gyro dropout
+    acc[1, 200:230] = np.nan  # accelerometer dropout
+    mag[1, 250:300] = np.nan  # magnetometer dropout
+    mag[2] = np.nan  # stream 2 is 6D and starts at rest for 3 s: zero-rate updates
+    gyr[2, :300] = BIAS + rng.normal(0.0, 0.002, (300, 3))
+    acc[2, :300] = acc[2, 300] + rng.normal(0.0, 0.02, (300, 3))
+    mag[0, 300:] *= 1.5  # a lasting field change: rejected, then adopted after 1 s
+    ekf = AttitudeEKF(3, FS, params)
+    q_kernel = ekf.update_batch(gyr, acc, mag)
+    state = AttitudeState.fresh(3, params)
+    q_ref = np.stack(
+        [
+            ekf_step_reference(state, gyr[:, k], acc[:, k], mag[:, k], 1 / FS, params)
+            for k in range(n)
+        ],
+        axis=1,
+    )
+    np.testing.assert_allclose(q_kernel, q_ref, atol=1e-9, rtol=0)
+    np.testing.assert_allclose(ekf.state.b, state.b, atol=1e-9, rtol=0)
+    np.testing.assert_allclose(ekf.state.P, state.P, atol=1e-9, rtol=0)
+    np.testing.assert_allclose(ekf.state.aux, state.aux, atol=1e-9, rtol=0)
+    # The branches were exercised: stream 0 adopted the new field, stream 2 never saw one.
+    assert ekf.state.aux[0, K.AUX_MAG_NORM] == pytest.approx(1.5 * FIELD, rel=0.05)
+    assert ekf.state.aux[2, K.AUX_HEAD_INIT] == 0.0
+
+
+def test_batch_equals_single_streams_and_offline_equals_streaming(rng):
+    streams = [synth(rng, kind, seconds=5.0) for kind in ("head", "spin", "head", "spin")]
+    gyr, acc, mag = (np.stack([s[i] for s in streams]) for i in (2, 3, 4))
+    batched = estimate_attitude(gyr, acc, mag, FS)
+    for i in range(len(streams)):
+        np.testing.assert_array_equal(batched[i], estimate_attitude(gyr[i], acc[i], mag[i], FS))
+    ekf = AttitudeEKF(len(streams), FS)
+    streamed = np.stack([ekf.update(gyr[:, k], acc[:, k], mag[:, k]) for k in range(300)], 1)
+    np.testing.assert_array_equal(streamed, batched[:, :300])
+
+
+# ------------------------------------------------------------------------------------------------
+# Initialisation, magnetic disturbance, dropouts.
+# ------------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("ypr", [(1.0, 0.2, -0.3), (-2.9, -0.6, 2.5), (0.3, 1.2, 0.1)])
+def test_initialisation_from_first_samples_is_right_at_once(rng, ypr):
+    declination = 0.1
+    q_true = quat_from_ypr(np.array(ypr))
+    f = quat_rotate_inverse(q_true, [0.0, 0.0, GRAVITY])
+    m = quat_rotate_inverse(q_true, field_world(declination))
+    ekf = AttitudeEKF(1, FS, declination=declination)
+    q0 = ekf.update(np.zeros((1, 3)), f[None], m[None])
+    assert total_err_deg(q0, q_true[None])[0] < 1e-6
+    # With sensor noise: one mag sample gives the heading to atan(0.3 uT * sqrt(2) / 25 uT),
+    # about 1 deg (1 sigma), plus tan(dip) times the 0.1 deg tilt noise: 3 deg is 3 sigma.
+    ekf = AttitudeEKF(1, FS, declination=declination)
+    q0 = ekf.update(
+        np.zeros((1, 3)), (f + rng.normal(0, 0.02, 3))[None], (m + rng.normal(0, 0.3, 3))[None]
+    )
+    assert total_err_deg(q0, q_true[None])[0] < 3.0
+
+
+def test_magnetic_disturbance_is_rejected(rng):
+    t, q, gyr, acc, mag = synth(rng, "head", seconds=30.0)
+    # 2 s near a metal object: an extra eastward field, norm +50 % and the compass turned by
+    # atan(1.12 / cos(60 deg)), about 66 deg.
+    dist = (t >= 20.0) & (t < 22.0)
+    extra = np.sqrt(1.5**2 - 1.0) * FIELD * np.array([1.0, 0.0, 0.0])
+    mag_d = mag.copy()
+    mag_d[dist] += quat_rotate_inverse(q[dist], extra)
+    assert np.linalg.norm(field_world() + extra) == pytest.approx(1.5 * FIELD)
+    window = t >= 19.0
+    heading = {}
+    for name, kw in {"gated": {}, "ungated": {"mag_norm_tol": 10.0, "mag_dip_tol": 10.0}}.items():
+        q_est = estimate_attitude(gyr, acc, mag_d, FS, **kw)
+        heading[name] = np.abs(
+            np.degrees(angle_diff(quat_to_ypr(q_est)[:, 0], quat_to_ypr(q)[:, 0]))
+        )
+    assert heading["gated"][window].max() < 0.5  # the disturbance never reaches the heading
+    assert heading["ungated"][window].max() > 3.0  # without the gate it does
+
+
+def test_nan_samples_are_skipped_and_the_filter_carries_on(rng):
+    t, q, gyr, acc, mag = synth(rng, "head", seconds=60.0)
+    gyr, acc, mag = gyr.copy(), acc.copy(), mag.copy()
+    acc[:5] = np.nan  # no accelerometer yet: initialisation waits
+    gyr[1000:1005] = np.nan  # 50 ms without propagation: up to 2 deg of head turn is missed
+    acc[1200:1300] = np.nan
+    mag[1300:1600] = np.nan
+    mag[1700, 1] = np.inf
+    q_est = estimate_attitude(gyr, acc, mag, FS)
+    assert np.all(np.isfinite(q_est))
+    err = total_err_deg(q_est, q)
+    assert err[5] < 3.0  # initialised from the first finite accelerometer sample
+    assert err[5:].max() < 3.0  # the dropouts cost little ...
+    assert err[t >= 45.0].max() < 0.5  # ... and the measurements remove it
+
+
+def test_bias_at_rest_is_estimated_on_all_axes_without_magnetometer(rng):
+    # A level sensor at rest: tilt alone cannot see the vertical bias; the zero-rate update can.
+    n = int(10 * FS)
+    gyr = BIAS + rng.normal(0.0, 0.002, (n, 3))
+    acc = np.array([0.0, 0.0, GRAVITY]) + rng.normal(0.0, 0.02, (n, 3))
+    ekf = AttitudeEKF(1, FS)
+    ekf.update_batch(gyr[None], acc[None])
+    assert np.degrees(np.max(np.abs(ekf.bias[0] - BIAS))) < 0.05
+    no_rest = AttitudeEKF(1, FS, rest_time=1e9)
+    no_rest.update_batch(gyr[None], acc[None])
+    assert np.degrees(abs(no_rest.bias[0, 2] - BIAS[2])) > 0.5  # unobservable without it
+
+
+def test_6d_without_magnetometer_tracks_tilt(rng):
+    t, q, gyr, acc, _ = synth(rng, "head", seconds=60.0)
+    q_est = estimate_attitude(gyr, acc, None, FS)
+    late = t >= 30.0
+    res = orientation_errors(q_est[late], q[late], align_heading=True)
+    assert res["inclination_rmse_deg"] < 0.3
+
+
+# ------------------------------------------------------------------------------------------------
+# The metric.
+# ------------------------------------------------------------------------------------------------
+
+
+def test_orientation_errors_separate_heading_and_inclination(rng):
+    q_true = quat_from_ypr(rng.uniform(-1, 1, (50, 3)))
+    yaw_off = quat_from_rotvec([0.0, 0.0, np.radians(7.0)])  # earth-frame heading error
+    tilt_off = quat_from_rotvec([np.radians(3.0), 0.0, 0.0])  # earth-frame tilt error
+    res = orientation_errors(quat_multiply(yaw_off, q_true), q_true)
+    assert res["heading_rmse_deg"] == pytest.approx(7.0)
+    assert res["inclination_rmse_deg"] == pytest.approx(0.0, abs=1e-6)
+    res = orientation_errors(quat_multiply(tilt_off, q_true), q_true)
+    assert res["inclination_rmse_deg"] == pytest.approx(3.0)
+    assert res["heading_rmse_deg"] == pytest.approx(0.0, abs=1e-6)
+    both = quat_multiply(yaw_off, quat_multiply(tilt_off, q_true))
+    q_nan = q_true.copy()
+    q_nan[::5] = np.nan  # lost markers are ignored
+    mask = np.arange(50) < 40
+    res = orientation_errors(both, q_nan, mask, align_heading=True)
+    assert res["heading_offset_deg"] == pytest.approx(7.0, abs=0.05)
+    assert res["inclination_rmse_deg"] == pytest.approx(3.0, abs=0.05)
+    assert res["n_samples"] == 32
+    batched = orientation_errors(np.stack([both, q_true]), np.stack([q_true, q_true]))
+    assert batched["total_rmse_deg"][1] == pytest.approx(0.0, abs=1e-6)
+
+
+# ------------------------------------------------------------------------------------------------
+# Real data: BROAD, one parameter set (the defaults) for all nine trials.
+# ------------------------------------------------------------------------------------------------
+
+
+def test_broad_mean_total_rmse(shared_data):
+    files = broad_trials(shared_data / "broad")
+    assert len(files) == 9
+    totals = []
+    for path in files:
+        trial = load_broad(path)
+        q_est = estimate_attitude(trial.gyr, trial.acc, trial.mag, trial.fs)
+        totals.append(orientation_errors(q_est, trial.quat, trial.movement)["total_rmse_deg"])
+    # Issue target 4.0 deg; measured 2.59 deg (VQF 2.61 deg with the same metric).
+    assert np.mean(totals) <= 4.0
+    assert max(totals) < 10.0
+
+
+# ------------------------------------------------------------------------------------------------
+# Bad input.
+# ------------------------------------------------------------------------------------------------
+
+
+def test_bad_input_raises_clearly(rng):
+    _, _, gyr, acc, mag = synth(rng, "head", seconds=2.0)
+    ekf = AttitudeEKF(2, FS)
+    with pytest.raises(ValueError, match="gyr"):
+        ekf.update(np.zeros((2, 2)), acc[:2], mag[:2])
+    with pytest.raises(ValueError, match="acc"):
+        ekf.update(gyr[:2], acc[:3], mag[:2])
+    with pytest.raises(ValueError, match="mag"):
+        ekf.update(gyr[:2], acc[:2], mag[:1])
+    with pytest.raises(ValueError, match="acc"):
+        estimate_attitude(gyr, acc[:-1], mag, FS)
+    with pytest.raises(ValueError, match="fs"):
+        AttitudeEKF(1, 0.0)
+    with pytest.raises(ValueError, match="n_streams"):
+        AttitudeEKF(0, FS)
+    with pytest.raises(ValueError, match="acc_noise"):
+        AttitudeParams(acc_noise=-1.0)
+    with pytest.raises(ValueError, match="model"):
+        AttitudeParams(model="euler")
+    with pytest.raises(ValueError, match="unknown attitude parameter"):
+        estimate_attitude(gyr, acc, mag, FS, acc_nosie=0.1)
+    with pytest.raises(ValueError, match="mag_ref_norm and mag_ref_dip"):
+        AttitudeParams(mag_ref_norm=50.0)
+    # Unit mix-ups: a gyro in deg/s during motion, an accelerometer in g.
+    with pytest.raises(ValueError, match="rad/s"):
+        estimate_attitude(np.degrees(gyr) * 20, acc, mag, FS)
+    with pytest.raises(ValueError, match="m/s\\^2"):
+        estimate_attitude(gyr, acc / GRAVITY, mag, FS)
+    with pytest.raises(ValueError, match="m/s\\^2"):
+        one = AttitudeEKF(1, FS)
+        for k in range(20):
+            one.update(gyr[k : k + 1], acc[k : k + 1] / GRAVITY, mag[k : k + 1])
+    # A rad/s gyro with a single glitch is fine.
+    glitch = gyr.copy()
+    glitch[50] = 100.0
+    assert np.all(np.isfinite(estimate_attitude(glitch, acc, mag, FS)))
+
+
+def test_given_magnetic_reference_skips_learning(rng):
+    _, _, gyr, acc, mag = synth(rng, "head", seconds=3.0)
+    ekf = AttitudeEKF(1, FS, mag_ref_norm=FIELD, mag_ref_dip=DIP)
+    ekf.update_batch(gyr[None], acc[None], mag[None])
+    assert ekf.state.aux[0, K.AUX_MAG_NORM] == FIELD
+    assert ekf.state.aux[0, K.AUX_MAG_LEARN_N] == 0.0
