@@ -38,6 +38,18 @@ def _cmd_locomotion(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_head_motions(args: argparse.Namespace) -> int:
+    from agents.experiments.head_motions import run_head_motions
+
+    run_head_motions(
+        out_dir=Path(args.out),
+        json_path=Path(args.json) if args.json else None,
+        users=args.users,
+        seed=args.seed,
+    )
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="vrloco",
@@ -59,6 +71,15 @@ def build_parser() -> argparse.ArgumentParser:
 
     exp = sub.add_parser("experiment", help="reproduce a source paper's experiment")
     exp_sub = exp.add_subparsers(dest="experiment", metavar="EXPERIMENT", required=True)
+    hm = exp_sub.add_parser(
+        "head-motions",
+        help="seed 000: attitude on five head motions, step detection, Fig. 2-5 analogues",
+    )
+    hm.add_argument("--out", default="out", help="folder for the figures (default: out)")
+    hm.add_argument("--json", help="write the results to this JSON file")
+    hm.add_argument("--users", type=int, default=8, help="simulated users per case (default: 8)")
+    hm.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
+    hm.set_defaults(func=_cmd_head_motions)
     hv = exp_sub.add_parser(
         "hand-variance",
         help="seed 003 Tables 1-4 on the synthetic Kinect, with lag and RMSE while moving",

@@ -30,3 +30,19 @@ def test_locomotion_table_keeps_distance_and_removes_jerk(tmp_path):
         r = result[rate]
         assert all(abs(e) < 2.0 for e in r["distance_error_pct"])  # issue 4: within 2 %
         assert all(ratio > 10 for ratio in r["jerk_ratio"])
+
+
+def test_head_motions_meet_seed_000_targets(tmp_path):
+    path = tmp_path / "hm.json"
+    assert main(["experiment", "head-motions", "--users", "3", "--out", str(tmp_path),
+                 "--json", str(path)]) == 0  # fmt: skip
+    result = json.loads(path.read_text())
+    for preset, rows in result["steps"].items():  # issue 3: F1 >= 0.99 at 1.2-2.2 Hz
+        for cadence, r in rows.items():
+            assert r["straight"]["f1"] >= 0.99 and r["head_scan"]["f1"] >= 0.99, (preset, cadence)
+    for rows in result["phantom"].values():  # no phantom steps during head-only motions
+        assert all(n == 0 for n in rows.values()), rows
+    for name, row in result["attitude"]["ig500n"].items():
+        assert max(row["rmse_deg"].values()) < 2.0, (name, row)
+    for name in ("fig2_gait.png", "fig3_attitude.png", "fig4_fig5_paths.png"):
+        assert (tmp_path / name).stat().st_size > 10_000
