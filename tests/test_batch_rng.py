@@ -54,3 +54,25 @@ def test_reseeding_one_user_equals_a_fresh_single_stream():
     batch2.uniform((11,))
     batch2.reseed(1, np.random.default_rng(99))
     np.testing.assert_array_equal(batch2.normal((20, 3))[[0, 2]], n_ref)  # others untouched
+
+
+def test_one_user_drawing_alone_keeps_every_stream_equal_to_its_single_run():
+    seeds = [4, 5, 6]
+    batch = BatchRng.from_seeds(seeds, block=32)
+    singles = [BatchRng.from_seeds([s], block=32) for s in seeds]
+    plan = [((10,), None), ((7,), [1]), ((25, 2), None), ((40,), [0, 2]), ((3,), None),
+            ((100,), [2]), ((9,), None)]  # fmt: skip
+    for shape, rows in plan:
+        got = batch.normal(shape, rows=rows)
+        users = range(3) if rows is None else rows
+        assert got.shape == (len(users), *shape)
+        for k, i in enumerate(users):
+            np.testing.assert_array_equal(got[k], singles[i].normal(shape)[0])
+
+
+def test_rows_are_validated():
+    r = BatchRng.from_seeds([0, 1])
+    with pytest.raises(ValueError, match=r"rows must lie in \[0, 1\]"):
+        r.normal((2,), rows=[2])
+    with pytest.raises(ValueError, match="boolean rows mask"):
+        r.normal((2,), rows=np.array([True]))

@@ -2,14 +2,17 @@
 
 Every simulated user owns one ``numpy.random.Generator`` (a single env's ``np_random``; sub-env i of
 a vector env owns its own). Models that simulate B users at once must draw user i's numbers from
-user i's generator only, so that a batch of B users reproduces B single runs bit for bit.
+user i's generator only, so that a batch of B users reproduces B single runs bit for bit — also
+when one user starts a new episode while the others carry on (a vector env's autoreset).
 
 Calling B generators for every small draw would be a Python loop over the batch on the hot path.
-:class:`BatchRng` instead keeps, per user, a block of pre-drawn standard normals and serves draws
-as slices of a ``(B, block)`` array: the loop over users runs once per block refill (every few
-thousand numbers). Uniform numbers are the normal CDF of the same stream, so each user has exactly
-one sequence of numbers, which depends on nothing but its own generator and the sequence of draw
-sizes — the same for a batch and a single run, and unaffected by where block refills fall.
+:class:`BatchRng` instead keeps, per user, a block of pre-drawn standard normals and its own read
+position, and serves a draw for all users as one gather from a ``(B, block)`` array; the loop over
+users runs only when a user's block runs out (every few thousand numbers). Uniform numbers are the
+normal CDF of the same stream. So each user has exactly one sequence of numbers: its generator's
+stream, consumed in the order of that user's own draws — the same in a batch and in a single run,
+whatever the other users do and wherever block refills fall (a generator's stream does not depend
+on how it is split into calls).
 """
 
 from __future__ import annotations
@@ -17,42 +20,12 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 from scipy.special import ndtr
 
 __all__ = ["BatchRng"]
 
-
-class _Stream:
-    """A ``(B, block)`` buffer of standard normals refilled from B generators."""
-
-    def __init__(self, gens: Sequence[np.random.Generator], block: int) -> None:
-        self._gens = gens
-        self._block = block
-        self._buf = np.empty((len(gens), 0))
-        self._pos = 0
-
-    @staticmethod
-    def _draw(g: np.random.Generator, n: int) -> NDArray[np.float64]:
-        return g.standard_normal(n)
-
-    def reseed(self, index: int, g: np.random.Generator) -> None:
-        """Replace row ``index``'s unread numbers with fresh ones from ``g``."""
-        self._gens[index] = g
-        unread = self._buf.shape[1] - self._pos
-        if unread:
-            self._buf[index, self._pos :] = self._draw(g, unread)
-
-    def take(self, n: int) -> NDArray[np.float64]:
-        if self._pos + n > self._buf.shape[1]:
-            need = max(self._block, n)
-            rest = self._buf[:, self._pos :]
-            fresh = np.stack([self._draw(g, need) for g in self._gens])  # once per block
-            self._buf = np.concatenate([rest, fresh], axis=1)
-            self._pos = 0
-        out = self._buf[:, self._pos : self._pos + n]
-        self._pos += n
-        return out
+_BELOW_ONE = 1.0 - 2.0**-53  # the largest double below 1
 
 
 class BatchRng:
@@ -66,6 +39,8 @@ class BatchRng:
         >>> rngs = BatchRng([np.random.default_rng(s) for s in (0, 1)])
         >>> rngs.normal((10, 3)).shape
         (2, 10, 3)
+        >>> rngs.normal((4,), rows=[1]).shape   # only user 1 draws (e.g. its reset)
+        (1, 4)
     """
 
     def __init__(self, generators: Sequence[np.random.Generator], block: int = 4096) -> None:
@@ -80,35 +55,77 @@ class BatchRng:
         if block < 1:
             raise ValueError(f"block must be >= 1, got {block}")
         self.generators = gens
-        self._stream = _Stream(list(gens), block)
+        self._block = int(block)
+        self._buf = np.empty((len(gens), self._block))
+        self._pos = np.full(len(gens), self._block, dtype=np.int64)  # all empty: fill on demand
+        self._cols = np.arange(self._block)
 
     @classmethod
     def from_seeds(cls, seeds: Sequence[int], block: int = 4096) -> BatchRng:
         """One ``default_rng(seed)`` per user."""
         return cls([np.random.default_rng(s) for s in seeds], block)
 
+    @property
+    def batch_size(self) -> int:
+        return len(self.generators)
+
     def reseed(self, index: int, generator: np.random.Generator) -> None:
         """Give user ``index`` a new generator (a new episode), leaving the other users alone.
 
-        From now on user ``index`` draws the same numbers as a fresh ``BatchRng([generator])``
-        would: a generator's stream does not depend on how it is split into draws.
+        From now on user ``index`` draws exactly what a fresh ``BatchRng([generator])`` would.
         """
         if not isinstance(generator, np.random.Generator):
             raise TypeError(f"generator must be a numpy.random.Generator, got {type(generator)}")
         if not 0 <= index < self.batch_size:
             raise ValueError(f"index must be in [0, {self.batch_size - 1}], got {index}")
         self.generators[index] = generator
-        self._stream.reseed(index, generator)
+        self._pos[index] = self._buf.shape[1]  # discard the old generator's unread numbers
 
-    @property
-    def batch_size(self) -> int:
-        return len(self.generators)
+    def _rows(self, rows: ArrayLike | None) -> NDArray[np.intp]:
+        if rows is None:
+            return np.arange(self.batch_size)
+        r = np.asarray(rows)
+        if r.dtype == bool:
+            if r.shape != (self.batch_size,):
+                raise ValueError(f"a boolean rows mask must have shape ({self.batch_size},)")
+            return np.flatnonzero(r)
+        r = r.astype(np.intp).ravel()
+        if r.size and (r.min() < 0 or r.max() >= self.batch_size):
+            raise ValueError(f"rows must lie in [0, {self.batch_size - 1}], got {r}")
+        return r
 
-    def normal(self, shape: tuple[int, ...] = ()) -> NDArray[np.float64]:
-        """Standard normal numbers of shape ``(B, *shape)``."""
+    def _take(self, n: int, rows: NDArray[np.intp]) -> NDArray[np.float64]:
+        if n > self._buf.shape[1]:  # a draw larger than a block: widen every user's buffer
+            width = max(n, 2 * self._buf.shape[1])
+            grown = np.empty((self.batch_size, width))
+            for i in range(self.batch_size):  # rare; unread numbers keep their order at the end
+                unread = self._buf[i, self._pos[i] :]
+                grown[i, width - unread.size :] = unread
+                self._pos[i] = width - unread.size
+            self._buf = grown
+            self._cols = np.arange(width)
+        width = self._buf.shape[1]
+        short = rows[self._pos[rows] + n > width]
+        for i in short:  # once per block per user: move unread numbers forward, refill the rest
+            unread = width - self._pos[i]
+            self._buf[i, :unread] = self._buf[i, self._pos[i] :]
+            self._buf[i, unread:] = self.generators[i].standard_normal(width - unread)
+            self._pos[i] = 0
+        start = self._pos[rows]
+        if rows.size and np.all(start == start[0]) and rows.size == self.batch_size:
+            out = self._buf[:, start[0] : start[0] + n].copy()  # lock-step: a plain slice
+        else:
+            out = self._buf[rows[:, None], start[:, None] + self._cols[:n]]
+        self._pos[rows] += n
+        return out
+
+    def normal(self, shape: tuple[int, ...] = (), rows: ArrayLike | None = None) -> NDArray:
+        """Standard normal numbers of shape ``(B, *shape)``, or ``(len(rows), *shape)`` drawn by
+        the users ``rows`` only (indices or a (B,) boolean mask)."""
+        r = self._rows(rows)
         n = int(np.prod(shape, dtype=np.int64))
-        return self._stream.take(n).reshape(self.batch_size, *shape)
+        return self._take(n, r).reshape(r.size, *shape)
 
-    def uniform(self, shape: tuple[int, ...] = ()) -> NDArray[np.float64]:
-        """Uniform numbers in (0, 1) of shape ``(B, *shape)`` (the normal CDF of normal draws)."""
-        return ndtr(self.normal(shape))
+    def uniform(self, shape: tuple[int, ...] = (), rows: ArrayLike | None = None) -> NDArray:
+        """Uniform numbers in (0, 1), the normal CDF of :meth:`normal` draws (same ``rows``)."""
+        return np.minimum(ndtr(self.normal(shape, rows)), _BELOW_ONE)
