@@ -185,3 +185,29 @@ def test_bad_params_and_order_are_rejected_clearly():
         MotionParams(imu_rate_hz=100.0, control_rate_hz=30.0)
     with pytest.raises(RuntimeError, match="reset"):
         UserMotion(MotionParams(), BatchRng.from_seeds([0])).advance(Intent())
+
+
+def test_resetting_one_user_matches_a_fresh_single_run():
+    it = Intent(cadence=[1.5, 1.8, 2.0], turn_rate=0.3, hand_rates=(0.2, 0.0, -0.1))
+    batch_rng = BatchRng.from_seeds([1, 2, 3])
+    batch = UserMotion(MotionParams(), batch_rng)
+    batch.reset()
+    for _ in range(13):
+        batch.advance(it)
+    batch_rng.reseed(1, np.random.default_rng(99))
+    batch.reset(yaw=0.5, base=(1.0, 2.0), users=[1])
+    after = [batch.advance(it) for _ in range(20)]
+
+    fresh = UserMotion(MotionParams(), BatchRng([np.random.default_rng(99)]))
+    fresh.reset(yaw=0.5, base=(1.0, 2.0))
+    single = [fresh.advance(Intent(cadence=1.8, turn_rate=0.3, hand_rates=(0.2, 0.0, -0.1)))
+              for _ in range(20)]  # fmt: skip
+    for a, s in zip(after, single, strict=True):
+        for name in ("quat", "omega", "pos", "acc", "step", "walking"):
+            np.testing.assert_array_equal(getattr(a, name)[1], getattr(s, name)[0])
+        np.testing.assert_array_equal(a.kinect.joints[1], s.kinect.joints[0])
+    uninterrupted = UserMotion(MotionParams(), BatchRng.from_seeds([1]))
+    uninterrupted.reset()
+    chunks = [uninterrupted.advance(Intent(cadence=1.5, turn_rate=0.3, hand_rates=(0.2, 0, -0.1)))
+              for _ in range(33)]  # fmt: skip
+    np.testing.assert_array_equal(after[-1].acc[0], chunks[-1].acc[0])

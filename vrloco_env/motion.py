@@ -327,25 +327,47 @@ class UserMotion:
         yaw: ArrayLike = 0.0,
         base: ArrayLike = (0.0, 0.0),
         hand_ypr: ArrayLike = (0.0, 0.0, 0.0),
+        users: ArrayLike | None = None,
     ) -> None:
-        """Stand every user still at ``base`` (m, (B, 2)) facing ``yaw`` (rad), hand at rest."""
+        """Stand users still at ``base`` (m) facing ``yaw`` (rad), hand at ``hand_ypr`` (rad).
+
+        Args:
+            yaw, base, hand_ypr: per reset user, broadcast to (U,), (U, 2), (U, 3).
+            users: the users to reset (indices or a (B,) bool mask); None resets all. The others
+                carry on untouched, and each reset user's style is drawn from its own stream
+                only, so a vector env's autoreset matches a fresh single env. The first call
+                must reset all users. Resetting all users restarts the clock at 0; resetting
+                some keeps the batch's clock (times in chunks are batch times).
+        """
         b = self.batch_size
-        style = 1.0 + self.params.style_spread * np.clip(self.rng.normal((2,)), -2.5, 2.5)
-        self._state = _State(
-            phase=np.zeros(b),
-            step_cadence=np.zeros(b),
-            yaw=_batch(yaw, (b,), "yaw"),
-            yaw_rate=np.zeros(b),
-            gesture_amp=np.zeros((b, 3)),
-            gesture_amp_rate=np.zeros((b, 3)),
-            gesture_phase=np.zeros((b, 3)),
-            lean=np.zeros(b),
-            lean_rate=np.zeros(b),
-            hand_ypr=_batch(hand_ypr, (b, 3), "hand_ypr"),
-            base=_batch(base, (b, 2), "base"),
+        rows = np.arange(b) if users is None else _user_rows(users, b)
+        if self._state is None and rows.size != b:
+            raise RuntimeError("the first UserMotion.reset() must reset every user")
+        u = rows.size
+        style = 1.0 + self.params.style_spread * np.clip(
+            self.rng.normal((2,), rows=rows), -2.5, 2.5
+        )
+        fresh = _State(
+            phase=np.zeros(u),
+            step_cadence=np.zeros(u),
+            yaw=_batch(yaw, (u,), "yaw"),
+            yaw_rate=np.zeros(u),
+            gesture_amp=np.zeros((u, 3)),
+            gesture_amp_rate=np.zeros((u, 3)),
+            gesture_phase=np.zeros((u, 3)),
+            lean=np.zeros(u),
+            lean_rate=np.zeros(u),
+            hand_ypr=_batch(hand_ypr, (u, 3), "hand_ypr"),
+            base=_batch(base, (u, 2), "base"),
             impact_scale=style[:, 0],
             sway_scale=style[:, 1],
         )
+        if self._state is None or rows.size == b:
+            self._state = fresh  # the clock restarts at 0
+            return
+        for f in fields(_State):
+            if f.name != "steps_done":
+                getattr(self._state, f.name)[rows] = getattr(fresh, f.name)
 
     # ------------------------------------------------------------------ intent validation
     def _check_intent(self, intent: Intent) -> dict[str, NDArray[np.float64]]:
@@ -495,8 +517,8 @@ class UserMotion:
         step_time = self._heel_strike_times(s, cmd, ev["t_boundary"], k_now, step, t0)
 
         # Kinect frames falling in (t, t + dt_ctrl].
-        t_k = _frame_times(s.steps_done, p.control_rate_hz, p.kinect_rate_hz)
-        kin = self._skeleton(s, cmd, t_k - t0, t_k)
+        tau_k, t_k = _frame_times(s.steps_done, p.control_rate_hz, p.kinect_rate_hz)
+        kin = self._skeleton(s, cmd, tau_k, t_k)
 
         # Carry the state to the end of the step.
         end = {k: (v[:, -1] if isinstance(v, np.ndarray) and v.ndim >= 2 else v)
@@ -648,11 +670,29 @@ def _euler_rates_to_body(ypr: NDArray, d_ypr: NDArray) -> NDArray[np.float64]:
     return np.stack([dr - dy * sp, dp * cr + dy * cp * sr, -dp * sr + dy * cp * cr], axis=-1)
 
 
-def _frame_times(step: int, control_rate: float, rate: float) -> NDArray[np.float64]:
-    """Times k / rate of the frames in control step ``step``'s interval (t0, t1]."""
+def _frame_times(step: int, control_rate: float, rate: float) -> tuple[NDArray, NDArray]:
+    """Frames k / rate in control step ``step``'s interval (t0, t1]: times after t0, and absolute.
+
+    The times after t0 come from integers alone, so they do not depend on the absolute time (a
+    user reset mid-run sees exactly the frame offsets of a fresh run).
+    """
     k0 = np.floor(step * rate / control_rate + 1e-9) + 1
     k1 = np.floor((step + 1) * rate / control_rate + 1e-9)
-    return np.arange(k0, k1 + 1) / rate
+    k = np.arange(k0, k1 + 1)
+    return (k * control_rate - step * rate) / (rate * control_rate), k / rate
+
+
+def _user_rows(users: ArrayLike, batch_size: int) -> NDArray[np.intp]:
+    """User indices from indices or a (B,) boolean mask, validated."""
+    u = np.asarray(users)
+    if u.dtype == bool:
+        if u.shape != (batch_size,):
+            raise ValueError(f"users mask must have shape ({batch_size},), got {u.shape}")
+        return np.flatnonzero(u)
+    u = u.astype(np.intp).ravel()
+    if u.size and (u.min() < 0 or u.max() >= batch_size):
+        raise ValueError(f"users must lie in [0, {batch_size - 1}], got {u}")
+    return u
 
 
 def _batch(value: ArrayLike, shape: tuple[int, ...], name: str) -> NDArray[np.float64]:
