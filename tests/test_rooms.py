@@ -1,0 +1,293 @@
+"""Room layouts: feasibility, determinism, and the 2-D geometry against hand-computed truth."""
+
+import itertools
+from dataclasses import replace
+from functools import cache
+
+import numpy as np
+import pytest
+
+from vrloco_env import rooms
+from vrloco_env.rooms import Box, Cylinder, Layout, RoomBatch, RoomConfig
+
+CFG = RoomConfig()
+
+
+def _dense(path: np.ndarray, step: float = 0.005) -> np.ndarray:
+    """Points every ``step`` metres along a polyline."""
+    pts = [path[:1]]
+    for a, b in itertools.pairwise(path):
+        n = max(1, int(np.ceil(np.linalg.norm(b - a) / step)))
+        pts.append(a + (b - a) * (np.arange(1, n + 1) / n)[:, None])
+    return np.concatenate(pts)
+
+
+@cache
+def _layouts(task: str, n: int = 200) -> tuple[Layout, ...]:
+    """Layouts for seeds 0..n-1, drawn once per test session."""
+    return tuple(rooms.make_layout(task, CFG, np.random.default_rng(s)) for s in range(n))
+
+
+def _empty_room() -> Layout:
+    """An approach room with its obstacles removed: walls only, interior [-4, 4]^2."""
+    return replace(rooms.approach_layout(CFG, np.random.default_rng(0)), obstacles=())
+
+
+@pytest.mark.parametrize("task", rooms.TASKS)
+def test_200_seeds_feasible_with_collision_free_shortest_paths(task):
+    r = CFG.avatar_radius
+    for lay in _layouts(task):
+        assert lay.task == task
+        start, goal = np.array(lay.start[:2]), np.array(lay.goal)
+        # Start outside every solid by the keep-out (>= the avatar radius).
+        assert rooms.signed_distance(lay, start[None])[0] >= CFG.keepout_radius - 1e-9
+        sd_goal = rooms.signed_distance(lay, goal[None])[0]
+        if task == "interact":  # the stand point faces the pedestal at the stand-off
+            d_t = rooms.signed_distance(replace(lay, walls=(), obstacles=()), goal[None])[0]
+            assert d_t == pytest.approx(r + CFG.interact_standoff, abs=1e-9)
+            assert sd_goal >= r
+        else:
+            assert sd_goal >= CFG.keepout_radius - 1e-9
+        # The planned path starts at the start, ends in the goal region, and keeps the whole
+        # avatar disc clear of every solid all along.
+        assert np.allclose(lay.path[0], start)
+        assert lay.in_goal(lay.path[-1:])[0]
+        assert not lay.in_goal(lay.path[:-1]).any()
+        assert rooms.signed_distance(lay, _dense(lay.path)).min() >= r
+        # Its length is the reported shortest length, and no shorter than the straight line.
+        seg = np.diff(lay.path, axis=0)
+        assert lay.shortest_path_length == pytest.approx(np.hypot(*seg.T).sum(), abs=1e-9)
+        straight = (
+            lay.goal_line[0][0] - start[0]
+            if task == "avoid"
+            else np.linalg.norm(goal - start) - lay.goal_radius
+        )
+        assert lay.shortest_path_length >= straight - 1e-9
+        if task != "avoid":
+            assert np.linalg.norm(goal - start) >= CFG.min_start_goal_distance
+
+
+def test_shortest_path_is_near_optimal_in_an_empty_room():
+    lay = replace(_empty_room(), start=(-3.0, -1.0, 0.0), goal=(2.0, 1.0))
+    path = rooms._plan(
+        lay._packed,
+        lay.bounds,
+        np.array([-3.0, -1.0]),
+        lay.in_goal,
+        lay.nearest_goal_point,
+        lay.avatar_radius,
+        CFG.grid_resolution,
+    )
+    true = np.hypot(5.0, 2.0) - lay.goal_radius  # a straight line to the disc
+    assert rooms._path_length(path) == pytest.approx(true, abs=0.01)
+
+
+def test_shortest_path_around_a_wall_matches_the_taut_string():
+    # A thin wall x in [-0.05, 0.05], y in [-4, 2] splits the room; the avatar (radius r) must
+    # pass over its top. The shortest path is a taut string: a tangent leg from the start to the
+    # clearance circle (radius r) round the corner (-0.05, 2), an arc, 0.1 m along the top, the
+    # mirror arc and leg towards the goal, less the goal radius.
+    lay = replace(
+        _empty_room(),
+        obstacles=(Box((0.0, -1.0), (0.05, 3.0), 0.0, 2.0),),
+        start=(-2.0, -2.0, 0.0),
+        goal=(2.0, -2.0),
+    )
+    path = rooms._plan(
+        lay._packed,
+        lay.bounds,
+        np.array([-2.0, -2.0]),
+        lay.in_goal,
+        lay.nearest_goal_point,
+        lay.avatar_radius,
+        CFG.grid_resolution,
+    )
+    assert rooms.signed_distance(lay, _dense(path)).min() >= lay.avatar_radius
+    r = lay.avatar_radius
+    d = np.hypot(1.95, 4.0)  # start to the corner
+    turn = np.arctan2(4.0, 1.95) + np.arcsin(r / d)  # leg heading, turned back to +x on the arc
+    true = 2.0 * np.sqrt(d**2 - r**2) + 2.0 * r * turn + 0.1 - lay.goal_radius
+    length = rooms._path_length(path)
+    assert length >= true - 1e-9  # nothing collision-free beats the taut string
+    assert length == pytest.approx(true, rel=0.015)
+
+
+def test_same_seed_same_layout_different_seeds_differ():
+    for task in rooms.TASKS:
+        a = rooms.make_layout(task, CFG, np.random.default_rng(7))
+        b = rooms.make_layout(task, CFG, np.random.default_rng(7))
+        c = rooms.make_layout(task, CFG, np.random.default_rng(8))
+        assert a == b
+        assert a != c
+        assert a.start != c.start or a.obstacles != c.obstacles
+
+
+def test_avoid_obstacle_blocks_the_straight_walk():
+    for lay in _layouts("avoid"):
+        assert lay.start[2] == 0.0  # facing along the corridor
+        x_line = lay.goal_line[0][0]
+        line = np.column_stack([np.linspace(lay.start[0], x_line, 2000), np.zeros(2000)])
+        sd = rooms.signed_distance(lay, line)
+        assert sd.min() < lay.avatar_radius  # a straight walk would collide
+        (obstacle,) = lay.obstacles
+        ahead = obstacle.center[0] - lay.start[0]
+        assert CFG.avoid_distance_range[0] <= ahead <= CFG.avoid_distance_range[1]
+        assert x_line - lay.start[0] == pytest.approx(CFG.corridor_length - 2 * CFG.corridor_margin)
+
+
+def test_signed_distance_matches_hand_computed_values():
+    lay = replace(
+        _empty_room(),
+        obstacles=(Box((1.0, 1.0), (0.5, 0.25), np.pi / 2, 1.0), Cylinder((-2.0, 0.0), 0.5, 1.0)),
+    )
+    pts = np.array(
+        [
+            [0.0, 0.0],  # nearest: the cylinder surface at x = -1.5 ... or the box
+            [3.5, 0.0],  # 0.5 m from the east wall's inner face at x = 4
+            [1.0, 1.0],  # box centre: inside by the smaller half extent (0.25 along world x)
+            [1.0, 2.0],  # above the turned box (half extent 0.5 along world y): 0.5 m away
+            [-2.0, 0.0],  # cylinder axis: -radius
+            [-2.0, 1.0],  # 0.5 m from the cylinder
+            [1.25 + 0.3, 1.5 + 0.4],  # diagonal from the box corner (1.25, 1.5): 0.5 m
+        ]
+    )
+    want = [min(1.5, np.hypot(0.75, 0.5)), 0.5, -0.25, 0.5, -0.5, 0.5, 0.5]
+    np.testing.assert_allclose(rooms.signed_distance(lay, pts), want, atol=1e-12)
+    # A slice above the 1 m obstacles sees only the 2.5 m walls.
+    np.testing.assert_allclose(rooms.signed_distance(lay, pts[:1], z=1.2), [4.0], atol=1e-12)
+
+
+def test_ray_cast_2d_matches_hand_computed_values_and_sphere_tracing():
+    lay = replace(
+        _empty_room(),
+        obstacles=(Box((2.0, 0.0), (0.5, 0.5), np.pi / 4, 1.0), Cylinder((0.0, 2.0), 0.5, 1.0)),
+    )
+    o = np.zeros((5, 2))
+    ang = np.array([0.0, np.pi / 2, np.pi, -np.pi / 2, np.pi / 4])
+    d = rooms.ray_cast_2d(lay, o, ang, 10.0)
+    # +x: the diamond's near vertex at x = 2 - 0.5 * sqrt(2); +y: the cylinder at 1.5; -x, -y:
+    # the walls at 4; 45 deg: the wall corner region, the x = 4 face at 4 * sqrt(2).
+    want = [2.0 - 0.5 * np.sqrt(2.0), 1.5, 4.0, 4.0, 4.0 * np.sqrt(2.0)]
+    np.testing.assert_allclose(d, want, atol=1e-12)
+    assert rooms.ray_cast_2d(lay, o[:1], ang[:1], 1.0)[0] == 1.0  # nothing within range
+    # Random layouts: compare with sphere tracing on the signed distance (independent code).
+    rng = np.random.default_rng(3)
+    for seed in range(10):
+        lay = rooms.make_layout(rooms.TASKS[seed % 3], CFG, np.random.default_rng(seed))
+        xmin, xmax, ymin, ymax = lay.bounds
+        p = np.column_stack([rng.uniform(xmin, xmax, 400), rng.uniform(ymin, ymax, 400)])
+        p = p[rooms.signed_distance(lay, p) > 0.01]
+        a = rng.uniform(-np.pi, np.pi, p.shape[0])
+        u = np.column_stack([np.cos(a), np.sin(a)])
+        t = np.zeros(p.shape[0])
+        for _ in range(400):
+            t += np.maximum(rooms.signed_distance(lay, p + t[:, None] * u), 0.0)
+        d = rooms.ray_cast_2d(lay, p, a, 30.0)
+        # Sphere tracing converges slowly on grazing rays; the rest must agree closely.
+        done = rooms.signed_distance(lay, p + t[:, None] * u) < 1e-9
+        assert done.mean() > 0.95
+        np.testing.assert_allclose(d[done], t[done], atol=1e-6)
+
+
+def test_room_batch_equals_single_room_calls_and_updates_one_room():
+    lays = [rooms.make_layout(rooms.TASKS[s % 3], CFG, np.random.default_rng(s)) for s in range(6)]
+    batch = RoomBatch(lays)
+    rng = np.random.default_rng(1)
+    o = rng.uniform(-3.0, 3.0, (6, 20, 2))
+    a = rng.uniform(-np.pi, np.pi, (6, 20))
+    single = np.stack([rooms.ray_cast_2d(x, o[i], a[i], 12.0) for i, x in enumerate(lays)])
+    np.testing.assert_array_equal(batch.ray_cast(o, a, 12.0), single)
+    sd = np.stack([rooms.signed_distance(x, o[i]) for i, x in enumerate(lays)])
+    np.testing.assert_array_equal(batch.signed_distance(o), sd)
+    # The compiled kernels mirror the readable numpy implementation.
+    u = np.stack([np.cos(a), np.sin(a)], -1)
+    np.testing.assert_allclose(rooms._ray_cast_batch(batch._solids, o, u, 12.0), single, atol=1e-12)
+    np.testing.assert_allclose(rooms._sdf_batch(batch._solids, o), sd, atol=1e-12)
+    new = rooms.avoid_layout(CFG, np.random.default_rng(99))
+    batch.set(2, new)
+    lays[2] = new
+    np.testing.assert_array_equal(batch.ray_cast(o, a, 12.0), RoomBatch(lays).ray_cast(o, a, 12.0))
+
+
+def test_landmarks_lie_on_the_inner_wall_faces():
+    for task in rooms.TASKS:
+        lay = rooms.make_layout(task, CFG, np.random.default_rng(0))
+        walls_only = replace(lay, obstacles=(), target=None)
+        lm = lay.landmarks
+        assert lm.shape[1] == 3 and lm.shape[0] == lay.landmark_ids.shape[0] > 0
+        np.testing.assert_array_equal(lay.landmark_ids, np.arange(lm.shape[0]))
+        np.testing.assert_allclose(rooms.signed_distance(walls_only, lm[:, :2]), 0.0, atol=1e-12)
+        assert set(np.unique(lm[:, 2])) == set(CFG.landmark_heights)
+        gaps = np.diff(
+            np.sort(lm[(lm[:, 2] == 1.0) & (np.abs(lm[:, 1] - lay.bounds[2]) < 1e-9), 0])
+        )
+        assert np.all(np.abs(gaps - CFG.landmark_spacing) < 0.35)
+
+
+def test_interact_target_faces_the_goal():
+    for lay in _layouts("interact")[:50]:
+        t = lay.target
+        facing = np.array([np.cos(t.yaw), np.sin(t.yaw)])
+        reach = CFG.target_half_size + CFG.avatar_radius + CFG.interact_standoff
+        np.testing.assert_allclose(
+            np.array(lay.goal) - np.array(t.center), reach * facing, atol=1e-9
+        )
+        assert t in lay.solids
+
+
+def test_origin_and_tiling():
+    lay = rooms.approach_layout(CFG, np.random.default_rng(0))
+    moved = lay.with_origin([30.0, 60.0])
+    assert moved.origin == (30.0, 60.0) and moved.obstacles == lay.obstacles
+    np.testing.assert_allclose(moved.to_world([[1.0, 2.0]]), [[31.0, 62.0]])
+    o = rooms.tile_origins(10, 30.0)
+    assert o.shape == (10, 2) and np.all(o[0] == 0.0)
+    dist = np.linalg.norm(o[:, None] - o[None], axis=-1) + np.eye(10) * 1e9
+    assert dist.min() == pytest.approx(30.0)
+    corridor = rooms.avoid_layout(CFG, np.random.default_rng(0))
+    assert 2 * corridor.half_extent < 30.0  # the default spacing keeps rooms apart
+
+
+@pytest.mark.parametrize(
+    ("field", "value"),
+    [
+        ("room_width", 0.0),
+        ("room_depth", float("nan")),
+        ("avatar_radius", -0.1),
+        ("grid_resolution", 0.0),
+        ("n_obstacles_min", 8),
+        ("n_obstacles_max", 2.5),
+        ("obstacle_size_range", (0.6, 0.2)),
+        ("cylinder_probability", 1.5),
+        ("keepout_radius", 0.3),
+        ("min_start_goal_distance", 20.0),
+        ("avoid_lateral_jitter", 0.3),
+        ("avoid_distance_range", (5.0, 12.5)),
+        ("corridor_width", 1.5),
+        ("landmark_heights", (1.0, 3.0)),
+        ("max_attempts", 0),
+        ("avatar_height", 0.4),
+    ],
+)
+def test_bad_config_raises_naming_the_field(field, value):
+    with pytest.raises(ValueError, match=field):
+        RoomConfig(**{field: value})
+
+
+def test_bad_inputs_raise_clear_errors():
+    lay = rooms.approach_layout(CFG, np.random.default_rng(0))
+    with pytest.raises(ValueError, match="points"):
+        rooms.signed_distance(lay, np.zeros(3))
+    with pytest.raises(ValueError, match="angles"):
+        rooms.ray_cast_2d(lay, np.zeros((2, 2)), np.zeros(3), 5.0)
+    with pytest.raises(ValueError, match="max_range"):
+        rooms.ray_cast_2d(lay, np.zeros((2, 2)), np.zeros(2), -1.0)
+    with pytest.raises(ValueError, match="task"):
+        rooms.make_layout("dance", CFG, np.random.default_rng(0))
+    with pytest.raises(TypeError, match="rng"):
+        rooms.approach_layout(CFG, 0)
+    with pytest.raises(RuntimeError, match="max_attempts"):
+        rooms.approach_layout(
+            RoomConfig(n_obstacles_min=40, n_obstacles_max=40, max_attempts=2),
+            np.random.default_rng(0),
+        )
