@@ -1,7 +1,19 @@
-"""vrloco_env: the simulated hands-free VR user, its sensors and (later) the Gymnasium environment.
+"""vrloco_env: the simulated hands-free VR user, its sensors, and the Gymnasium environment.
 
 Data flows one way: :mod:`vrloco_env.motion` (intent -> true head, skeleton, steps) ->
-:mod:`vrloco_env.sensors` (head IMU, Kinect v2) -> :mod:`estimators` -> locomotion -> world.
+:mod:`vrloco_env.sensors` (head IMU, Kinect v2) -> :mod:`estimators` -> locomotion -> the world
+(:mod:`vrloco_env.rooms`, :mod:`vrloco_env.sim`) -> observation (:mod:`vrloco_env.core`).
+
+Importing the package registers ``VRLoco-Approach-v0``, ``VRLoco-Avoid-v0`` and
+``VRLoco-Interact-v0``::
+
+    import gymnasium as gym
+    env = gym.make("vrloco_env:VRLoco-Approach-v0")
 """
 
+from vrloco_env.registration import ENV_IDS, register_envs
+
 __version__ = "0.1.0"
+__all__ = ["ENV_IDS", "__version__", "register_envs"]
+
+register_envs()

@@ -1,0 +1,59 @@
+"""The action space: what a simulated user can do in one control step, as numbers in [-1, 1].
+
+``action = [walk, turn, hand_yaw_rate, hand_pitch_rate, hand_roll_rate]``, a float32 Box(-1, 1):
+
+* ``walk``: stepping cadence. ``walk <= 0`` stands still; ``walk in (0, 1]`` steps in place at
+  ``lo + walk * (hi - lo)`` steps/s with ``(lo, hi) = MotionParams.cadence_range_hz``.
+* ``turn``: body yaw rate, ``turn * max_turn_rate`` (counter-clockwise positive).
+* hand rates: ``rate * max_hand_rate`` about the hand's yaw, pitch and roll axes.
+
+Out-of-range actions follow the Gymnasium convention for Box spaces: finite values outside
+[-1, 1] are clipped to the box (as stable-baselines3 clips policy outputs); NaN or infinite
+values, or a wrong shape, raise a ValueError naming the offending entry.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from vrloco_env.motion import Intent, MotionParams
+
+__all__ = ["ACTION_NAMES", "ACTION_SIZE", "action_to_intent", "check_actions"]
+
+ACTION_NAMES = ("walk", "turn", "hand_yaw_rate", "hand_pitch_rate", "hand_roll_rate")
+ACTION_SIZE = len(ACTION_NAMES)
+
+
+def check_actions(actions: ArrayLike, batch_size: int) -> NDArray[np.float64]:
+    """Validate a (B, 5) batch of actions and clip finite values to [-1, 1].
+
+    Raises:
+        ValueError: wrong shape, or a NaN/infinite entry (named by user and action).
+    """
+    a = np.asarray(actions, dtype=np.float64)
+    if a.shape != (batch_size, ACTION_SIZE):
+        raise ValueError(
+            f"action must have shape ({batch_size}, {ACTION_SIZE}) "
+            f"[{', '.join(ACTION_NAMES)}], got {a.shape}"
+        )
+    bad = ~np.isfinite(a)
+    if np.any(bad):
+        user, k = np.argwhere(bad)[0]
+        where = f"action[{k}] ({ACTION_NAMES[k]})"
+        if batch_size > 1:
+            where = f"action of sub-env {user}: {where}"
+        raise ValueError(f"{where} is {a[user, k]}; actions must be finite, in [-1, 1]")
+    return np.clip(a, -1.0, 1.0)
+
+
+def action_to_intent(actions: NDArray[np.float64], params: MotionParams) -> Intent:
+    """Map checked actions (B, 5) in [-1, 1] to the motion model's :class:`Intent`."""
+    lo, hi = params.cadence_range_hz
+    walk = actions[:, 0]
+    cadence = np.where(walk > 0.0, lo + walk * (hi - lo), 0.0)
+    return Intent(
+        cadence=cadence,
+        turn_rate=actions[:, 1] * params.max_turn_rate,
+        hand_rates=actions[:, 2:5] * params.max_hand_rate,
+    )

@@ -1,0 +1,157 @@
+"""Configuration of the environment: one frozen dataclass per concern, validated on construction.
+
+Pass any of them to ``gym.make`` as keyword arguments
+(``sensors=SensorConfig(imu="consumer_mems")``, ``estimators=EstimatorConfig(locomotion="smooth")``,
+``room=RoomConfig(...)``, ``reward=...``, ``config=EnvConfig(...)``) or use the shortcuts
+``sensor_preset="consumer_mems"`` and ``locomotion="smooth"``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from estimators.attitude import AttitudeParams
+from estimators.gait import GaitParams
+from estimators.hand import HandParams
+from vrloco_env.motion import MotionParams
+from vrloco_env.sensors.imu import EarthField, ImuSpec, MagneticDisturbance, get_imu_spec
+from vrloco_env.sensors.kinect import KinectSpec
+
+__all__ = ["EnvConfig", "EstimatorConfig", "RewardConfig", "SensorConfig"]
+
+LOCOMOTION_KINDS = ("eq17", "smooth")
+
+
+def _check(ok: bool, message: str) -> None:
+    if not ok:
+        raise ValueError(message)
+
+
+def _in_range(
+    obj: object, name: str, lo: float, hi: float, unit: str = "", lo_open: bool = False
+) -> None:
+    """Raise a ValueError naming ``Class.name`` unless lo <= value <= hi (lo < value if open)."""
+    v = getattr(obj, name)
+    ok = (lo < v if lo_open else lo <= v) and v <= hi
+    if not ok:
+        bracket = "(" if lo_open else "["
+        where = f"{type(obj).__name__}.{name}={v!r}"
+        raise ValueError(f"{where}: must be in {bracket}{lo:g}, {hi:g}] {unit}".rstrip())
+
+
+@dataclass(frozen=True)
+class SensorConfig:
+    """The head IMU and the Kinect v2.
+
+    Attributes:
+        imu: IMU preset name (``"ig500n"``, seed 000's SBG IG-500N; ``"consumer_mems"``) or an
+            :class:`~vrloco_env.sensors.imu.ImuSpec`.
+        imu_rate_hz: IMU sample rate (Hz), a multiple of the control rate, up to 1000.
+        earth_field: the local geomagnetic field (intensity, inclination, declination).
+        magnetic_disturbances: dipoles (metal, magnets) in the *physical* room, in the tracked
+            space's frame where the user stands at the origin.
+        kinect: Kinect v2 specification; the default stands 2.5 m in front of the user.
+    """
+
+    imu: str | ImuSpec = "ig500n"
+    imu_rate_hz: float = 100.0
+    earth_field: EarthField = field(default_factory=EarthField)
+    magnetic_disturbances: tuple[MagneticDisturbance, ...] = ()
+    kinect: KinectSpec = field(default_factory=KinectSpec)
+
+    def __post_init__(self) -> None:
+        get_imu_spec(self.imu)  # raises with the valid names
+        _in_range(self, "imu_rate_hz", 10.0, 1000.0, "Hz")
+
+    @property
+    def imu_spec(self) -> ImuSpec:
+        return get_imu_spec(self.imu)
+
+    @property
+    def preset_name(self) -> str:
+        return self.imu if isinstance(self.imu, str) else self.imu.name
+
+
+@dataclass(frozen=True)
+class EstimatorConfig:
+    """The estimators that turn sensor samples into the virtual body's motion.
+
+    Attributes:
+        attitude: parameters of seed 000's error-state EKF (``model="paper_literal"`` for the
+            paper's printed F = 0).
+        gait: step detector parameters (seed 000 eqs 15-16).
+        locomotion: ``"eq17"`` (seed 000: jump one step length at each detected step) or
+            ``"smooth"`` (seed 001: a planar filter moving the body continuously).
+        step_length: SL of eq (17) (m).
+        hand: seed 003's hand pipeline parameters.
+    """
+
+    attitude: AttitudeParams = field(default_factory=AttitudeParams)
+    gait: GaitParams = field(default_factory=GaitParams)
+    locomotion: str = "eq17"
+    step_length: float = 0.7
+    hand: HandParams = field(default_factory=HandParams)
+
+    def __post_init__(self) -> None:
+        _check(
+            self.locomotion in LOCOMOTION_KINDS,
+            f"EstimatorConfig.locomotion={self.locomotion!r}: must be one of "
+            f"{', '.join(LOCOMOTION_KINDS)}",
+        )
+        _in_range(self, "step_length", 0.2, 1.5, "m")
+
+
+@dataclass(frozen=True)
+class RewardConfig:
+    """Reward terms (per control step). A Safety-Gymnasium style ``cost`` is reported apart.
+
+    Attributes:
+        progress: reward per metre of progress toward the goal (shortest-path distance).
+        success: bonus on success.
+        collision: penalty per blocked step (a step into an obstacle or wall).
+        effort: penalty weight of the mean squared action.
+        time: penalty per control step (encourages finishing).
+    """
+
+    progress: float = 1.0
+    success: float = 10.0
+    collision: float = 1.0
+    effort: float = 0.01
+    time: float = 0.01
+
+    def __post_init__(self) -> None:
+        for name in ("progress", "success", "collision", "effort", "time"):
+            _in_range(self, name, 0.0, 1e3)
+
+
+@dataclass(frozen=True)
+class EnvConfig:
+    """Rates, horizon, what the user sees, and termination.
+
+    Attributes:
+        motion: the simulated body (rates, cadence range, turn and hand limits).
+        max_episode_steps: control steps before truncation (600 = 60 s at 10 Hz).
+        terminate_on_collision: end the episode at the first blocked step.
+        ray_count: rays cast from the virtual head, spread over ``ray_fov_deg``.
+        ray_fov_deg: angular spread of the rays, centred on the virtual heading (deg).
+        ray_range_m: rays report at most this range (m).
+        hand_tolerance_deg: Interact: hand orientation tolerance (deg).
+        dwell_s: Interact: time the hand must be held within tolerance (s).
+    """
+
+    motion: MotionParams = field(default_factory=MotionParams)
+    max_episode_steps: int = 600
+    terminate_on_collision: bool = False
+    ray_count: int = 15
+    ray_fov_deg: float = 180.0
+    ray_range_m: float = 5.0
+    hand_tolerance_deg: float = 15.0
+    dwell_s: float = 1.0
+
+    def __post_init__(self) -> None:
+        _in_range(self, "max_episode_steps", 1, 100_000)
+        _in_range(self, "ray_count", 1, 360)
+        _in_range(self, "ray_fov_deg", 0.0, 360.0, "deg", lo_open=True)
+        _in_range(self, "ray_range_m", 0.5, 50.0, "m")
+        _in_range(self, "hand_tolerance_deg", 1.0, 90.0, "deg")
+        _in_range(self, "dwell_s", 0.0, 30.0, "s", lo_open=True)

@@ -1,0 +1,222 @@
+"""The single-user Gymnasium environment (``gym.make("vrloco_env:VRLoco-Approach-v0")``).
+
+Spaces:
+
+* action: ``Box(-1, 1, (5,), float32)`` = [walk, turn, hand yaw rate, hand pitch rate, hand roll
+  rate] (see :mod:`vrloco_env.actions`: ``walk <= 0`` stands still; finite values outside [-1, 1]
+  are clipped to the box, NaN/inf raise a ValueError).
+* observation: ``Box(-1, 1, (n,), float32)``, named by :func:`vrloco_env.core.observation_names`:
+  the estimated head attitude (virtual heading as sin/cos, pitch, roll), the gait state (walking,
+  steps this step, cadence), the estimated hand orientation, the goal bearing and distance and the
+  ray ranges seen from the *virtual* pose, and the Interact hand error and dwell.
+
+``info`` holds the ground truth and the errors (see :meth:`vrloco_env.core.LocoCore.infos`):
+true and estimated head attitude, true and detected steps, true and estimated hand orientation,
+``collision``, ``collisions``, ``cost`` (1 for a blocked step, Safety-Gymnasium style),
+``distance_to_goal``, ``is_success``, the virtual and true positions.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from typing import Any, ClassVar
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+from numpy.typing import NDArray
+
+from vrloco_env.actions import ACTION_SIZE
+from vrloco_env.config import EnvConfig, EstimatorConfig, RewardConfig, SensorConfig
+from vrloco_env.core import LocoCore
+from vrloco_env.rooms import RoomConfig
+
+__all__ = ["VRLocoEnv", "make_configs"]
+
+RENDER_SIZE = 480
+
+
+def make_configs(
+    config: EnvConfig | None = None,
+    sensors: SensorConfig | None = None,
+    estimators: EstimatorConfig | None = None,
+    room: RoomConfig | None = None,
+    reward: RewardConfig | None = None,
+    sensor_preset: str | None = None,
+    locomotion: str | None = None,
+    max_episode_steps: int | None = None,
+) -> tuple[EnvConfig, SensorConfig, EstimatorConfig, RoomConfig, RewardConfig]:
+    """Fill in defaults and apply the keyword shortcuts, with clear errors for wrong types."""
+    for name, value, cls in (
+        ("config", config, EnvConfig),
+        ("sensors", sensors, SensorConfig),
+        ("estimators", estimators, EstimatorConfig),
+        ("room", room, RoomConfig),
+        ("reward", reward, RewardConfig),
+    ):
+        if value is not None and not isinstance(value, cls):
+            raise TypeError(f"{name} must be a {cls.__name__}, got {type(value).__name__}")
+    config = config or EnvConfig()
+    sensors = sensors or SensorConfig()
+    estimators = estimators or EstimatorConfig()
+    if sensor_preset is not None:
+        sensors = replace(sensors, imu=sensor_preset)
+    if locomotion is not None:
+        estimators = replace(estimators, locomotion=locomotion)
+    if max_episode_steps is not None:
+        config = replace(config, max_episode_steps=max_episode_steps)
+    return config, sensors, estimators, room or RoomConfig(), reward or RewardConfig()
+
+
+class VRLocoEnv(gym.Env):
+    """One simulated VR user walking in place through a virtual room.
+
+    Args:
+        task: ``"approach"``, ``"avoid"`` or ``"interact"``.
+        render_mode: None, ``"rgb_array"`` (top-down map beside a first-person view) or
+            ``"human"`` (a PyBullet GUI window; needs a display).
+        config, sensors, estimators, room, reward: configuration dataclasses
+            (:mod:`vrloco_env.config`, :class:`vrloco_env.rooms.RoomConfig`).
+        sensor_preset, locomotion, max_episode_steps: shortcuts for common fields.
+    """
+
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array", "human"], "render_fps": 10}
+
+    def __init__(
+        self,
+        task: str = "approach",
+        render_mode: str | None = None,
+        config: EnvConfig | None = None,
+        sensors: SensorConfig | None = None,
+        estimators: EstimatorConfig | None = None,
+        room: RoomConfig | None = None,
+        reward: RewardConfig | None = None,
+        sensor_preset: str | None = None,
+        locomotion: str | None = None,
+        max_episode_steps: int | None = None,
+    ) -> None:
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(
+                f"render_mode={render_mode!r}: must be None or one of "
+                f"{', '.join(self.metadata['render_modes'])}"
+            )
+        cfgs = make_configs(
+            config, sensors, estimators, room, reward, sensor_preset, locomotion, max_episode_steps
+        )
+        self.config, self.sensors, self.estimators, self.room, self.reward = cfgs
+        self.task_name = task
+        self.render_mode = render_mode
+        self.core = LocoCore(task, 1, *cfgs)
+        self.metadata = {**self.metadata, "render_fps": round(1.0 / self.core.dt)}
+        self.action_space = spaces.Box(-1.0, 1.0, (ACTION_SIZE,), np.float32)
+        self.observation_space = spaces.Box(-1.0, 1.0, (self.core.obs_size,), np.float32)
+        self._sim = None
+        self._sim_layout = None
+        self._path: list[NDArray] = []
+        self._true_path: list[NDArray] = []
+        self._closed = False
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[NDArray[np.float32], dict]:
+        super().reset(seed=seed)
+        self.core.generators[0] = self.np_random
+        obs = self.core.reset()
+        self._path = [self.core.ep.position[0].copy()]
+        self._true_path = [self.core.ep.true_position[0].copy()]
+        if self.render_mode == "human":
+            self._sync_sim()
+        info = {
+            "distance_to_goal": float(self.core.ep.distance[0]),
+            "shortest_path": float(self.core.ep.shortest[0]),
+            "is_success": False,
+            "collisions": 0,
+        }
+        return obs[0], info
+
+    def step(self, action: Any) -> tuple[NDArray[np.float32], float, bool, bool, dict]:
+        a = np.asarray(action, dtype=np.float64)
+        if a.shape != (ACTION_SIZE,):
+            raise ValueError(f"action must have shape ({ACTION_SIZE},), got {a.shape}")
+        obs, reward, terminated, truncated, infos = self.core.step(a[None])
+        self._path.append(self.core.ep.position[0].copy())
+        self._true_path.append(self.core.ep.true_position[0].copy())
+        info = {
+            k: (v[0].item() if isinstance(v[0], np.generic) else v[0]) for k, v in infos.items()
+        }
+        if self.render_mode == "human":
+            self._sync_sim()
+        return obs[0], float(reward[0]), bool(terminated[0]), bool(truncated[0]), info
+
+    # ------------------------------------------------------------------------------ rendering
+    @property
+    def layout(self):
+        """The current room (local frame)."""
+        return self.core.layouts[0]
+
+    def render(self) -> NDArray[np.uint8] | None:
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode; pass render_mode=... to make")
+            return None
+        if self.core.rooms is None:
+            raise RuntimeError("reset() must be called before render()")
+        if self.render_mode == "human":
+            self._sync_sim()
+            return None
+        from vrloco_env.render import draw_map
+
+        last = self.core.last
+        hand = None if last is None else last.hand_est[0]
+        top = draw_map(
+            self.layout,
+            self.core.ep.position[0],
+            float(self.core.ep.virtual_yaw[0]),
+            np.array(self._path),
+            np.array(self._true_path),
+            self.core.last_rays[0],
+            self.core.ray_offsets,
+            hand,
+            RENDER_SIZE,
+        )
+        return np.concatenate([top, self._first_person()], axis=1)
+
+    def _sync_sim(self) -> None:
+        """Build the current room in PyBullet (once per layout) and place the avatar."""
+        from vrloco_env.rooms import build
+        from vrloco_env.sim import Simulation
+
+        if self._sim is None:
+            self._sim = Simulation(render_mode=self.render_mode)
+        layout = self.layout
+        if self._sim_layout is not layout:
+            self._sim.clear()
+            self._ids = build(self._sim, layout)
+            self._sim_layout = layout
+        p = self.core.ep.position[0]
+        yaw = float(self.core.ep.virtual_yaw[0])
+        self._sim.set_poses([self._ids["avatar"]], [[p[0], p[1], layout.avatar_height / 2]], [yaw])
+        if self.render_mode == "human":
+            self._sim.place_gui_camera(
+                (p[0], p[1], 1.0),
+                distance=4.0,
+                yaw_deg=float(np.rad2deg(yaw)) - 90.0,
+                pitch_deg=-35.0,
+            )
+
+    def _first_person(self) -> NDArray[np.uint8]:
+        self._sync_sim()
+        assert self._sim is not None
+        p = self.core.ep.position[0]
+        yaw = float(self.core.ep.virtual_yaw[0])
+        pitch = 0.0 if self.core.last is None else float(self.core.last.ypr_est[0, 1])
+        eye = np.array([p[0], p[1], 1.6]) + 0.3 * np.array([np.cos(yaw), np.sin(yaw), 0.0])
+        look = np.array([np.cos(yaw) * np.cos(pitch), np.sin(yaw) * np.cos(pitch), -np.sin(pitch)])
+        return self._sim.camera_image(
+            eye, eye + look, width=RENDER_SIZE, height=RENDER_SIZE, fov_deg=90.0
+        )
+
+    def close(self) -> None:
+        if self._sim is not None:
+            self._sim.close()
+            self._sim = None
+        self._closed = True

@@ -1,0 +1,276 @@
+"""B simulated VR users, from intent to the estimates a headset would have: the user side of a step.
+
+One control step, as data (SPEC section 1)::
+
+    intent -> UserMotion        true head pose at the IMU rate, true heel strikes, true skeleton
+           -> HeadImu, KinectV2 IMU samples, Kinect frames (bodies, ids, tracking states)
+           -> AttitudeEKF       estimated head attitude (seed 000)
+           -> StepDetector      still/walk and step events (seed 000)
+           -> HandPipeline      hand orientation (seed 003)
+           -> locomotion        eq (17) or the smooth filter (seed 001): the virtual displacement
+
+Every stage is batched over the B users; this module only composes them (no estimator logic lives
+here). The virtual heading is the estimated yaw plus a per-user offset fixed when the episode
+starts ("recentring", as a headset aligns the virtual world to where the user faces), so estimation
+errors — drift, magnetic disturbances — turn into heading errors in the virtual world.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from estimators import rotations as rot
+from estimators.attitude import AttitudeEKF
+from estimators.gait import StepDetector
+from estimators.hand import HandFrame, HandPipeline
+from estimators.locomotion import make_locomotion
+from vrloco_env.batch_rng import BatchRng
+from vrloco_env.config import EstimatorConfig, SensorConfig
+from vrloco_env.motion import Intent, MotionChunk, MotionParams, UserMotion
+from vrloco_env.sensors.imu import HeadImu, ImuSamples
+from vrloco_env.sensors.kinect import (
+    KinectFrames,
+    KinectV2,
+    camera_to_world,
+    quat_camera_to_world,
+    sdk_wrist_to_hand,
+)
+from vrloco_env.skeleton import Joint
+
+__all__ = ["SimulatedUsers", "UserStep"]
+
+_CADENCE_TAU_S = 1.5  # s, time constant of the cadence estimate's decay after the last step
+
+
+@dataclass
+class UserStep:
+    """What one control step produced for B users (truth and estimates).
+
+    Attributes:
+        motion: the true motion (head pose at the IMU rate, heel strikes, skeleton).
+        imu: the IMU samples of the step.
+        kinect: the Kinect frames of the step.
+        ypr_est: estimated head [yaw, pitch, roll] at the step's end (rad; yaw physical).
+        ypr_true: true head [yaw, pitch, roll] at the step's end (rad).
+        virtual_yaw: estimated yaw + the episode's heading offset (rad, in the virtual room).
+        true_virtual_yaw: true yaw + the true offset: the heading perfect sensing would give.
+        steps: steps detected (confirmed) in this control step, (B,).
+        true_steps: true heel strikes in this control step, (B,).
+        walking: the detector's still/walk state at the step's end, (B,) bool.
+        cadence: estimated cadence (steps/s), (B,).
+        displacement: the locomotion model's displacement in the virtual room this step (m), (B, 2).
+        hand: the hand pipeline's output for the step's last Kinect frame.
+        hand_est: estimated hand [yaw, pitch, roll] relative to the torso (rad), NaN when no
+            estimate; (B, 3).
+        hand_true: true hand [yaw, pitch, roll] relative to the torso (rad), (B, 3).
+    """
+
+    motion: MotionChunk
+    imu: ImuSamples
+    kinect: KinectFrames
+    ypr_est: NDArray[np.float64]
+    ypr_true: NDArray[np.float64]
+    virtual_yaw: NDArray[np.float64]
+    true_virtual_yaw: NDArray[np.float64]
+    steps: NDArray[np.float64]
+    true_steps: NDArray[np.float64]
+    walking: NDArray[np.bool_]
+    cadence: NDArray[np.float64]
+    displacement: NDArray[np.float64]
+    hand: HandFrame
+    hand_est: NDArray[np.float64]
+    hand_true: NDArray[np.float64]
+
+
+class SimulatedUsers:
+    """B simulated users with their sensors and estimators, advanced one control step at a time.
+
+    Args:
+        batch_size: B.
+        rng: one random stream per user (:class:`~vrloco_env.batch_rng.BatchRng`).
+        motion: the body model's parameters.
+        sensors: IMU and Kinect configuration.
+        estimators: estimator configuration.
+    """
+
+    def __init__(
+        self,
+        batch_size: int,
+        rng: BatchRng,
+        motion: MotionParams,
+        sensors: SensorConfig,
+        estimators: EstimatorConfig,
+    ) -> None:
+        if rng.batch_size != batch_size:
+            raise ValueError(f"rng has {rng.batch_size} streams, expected {batch_size}")
+        self.batch_size = batch_size
+        self.rng = rng
+        self.motion_params = motion
+        self.sensors = sensors
+        self.estimator_config = estimators
+        fs = sensors.imu_rate_hz
+        if abs(fs / motion.control_rate_hz - round(fs / motion.control_rate_hz)) > 1e-9:
+            raise ValueError(
+                f"SensorConfig.imu_rate_hz={fs} must be a multiple of the control rate "
+                f"{motion.control_rate_hz} Hz"
+            )
+        self.motion_params = MotionParams(
+            **{**motion.__dict__, "imu_rate_hz": fs, "kinect_rate_hz": sensors.kinect.frame_rate_hz}
+        )
+        self.motion = UserMotion(self.motion_params, rng)
+        self.imu = HeadImu(
+            sensors.imu_spec,
+            rng,
+            rate_hz=fs,
+            field=sensors.earth_field,
+            disturbances=sensors.magnetic_disturbances,
+        )
+        self.kinect = KinectV2(sensors.kinect, rng)
+        self.attitude = AttitudeEKF(batch_size, fs, estimators.attitude)
+        self.gait = StepDetector(batch_size, fs, estimators.gait)
+        self.hand_pipeline = HandPipeline(batch_size, estimators.hand)
+        self.locomotion = make_locomotion(estimators.locomotion, batch_size, estimators.step_length)
+        self.dt = 1.0 / self.motion_params.control_rate_hz
+        b = batch_size
+        self.yaw_offset = np.zeros(b)
+        self.true_yaw_offset = np.zeros(b)
+        self.cadence = np.zeros(b)
+        self._since_step = np.full(b, np.inf)
+        self._last_loco = np.zeros((b, 2))
+        self._start_yaw = np.zeros(b)
+        self._recentre = np.ones(b, bool)
+
+    # ------------------------------------------------------------------------------ reset
+    def reset(
+        self,
+        users: ArrayLike | None,
+        start_yaw: ArrayLike,
+        start_xy: ArrayLike,
+        physical_yaw: ArrayLike = 0.0,
+    ) -> None:
+        """Start new episodes for ``users`` (indices or a (B,) mask; None: all).
+
+        The reset users stand still facing ``physical_yaw`` (rad) in the tracked space; their
+        estimators start afresh. At their first IMU sample the virtual heading offset is set so
+        that the estimated yaw maps onto ``start_yaw`` (rad) — the headset's recentring — and the
+        locomotion model starts at ``start_xy`` (m) in the virtual room. Callers reseed the users'
+        streams (``rng.reseed``) before this for a new random episode. The other users are not
+        touched, so a vector env's sub-env behaves as a single env would.
+        """
+        b = self.batch_size
+        mask = np.ones(b, bool) if users is None else _mask(users, b)
+        rows = np.flatnonzero(mask)
+        every = rows.size == b
+        u = rows.size
+        start_yaw = np.broadcast_to(np.asarray(start_yaw, np.float64), (u,))
+        physical_yaw = np.broadcast_to(np.asarray(physical_yaw, np.float64), (u,))
+        self.motion.reset(yaw=physical_yaw, users=None if every else rows)
+        self.imu.reset() if every else self.imu.reset(users=rows)
+        self.kinect.reset() if every else self.kinect.reset(users=rows)
+        self.attitude.reset() if every else self.attitude.reset(mask)
+        self.gait.reset(mask)
+        self.hand_pipeline.reset(mask)
+        xy = np.broadcast_to(np.asarray(start_xy, np.float64), (u, 2))
+        self._last_loco[rows] = xy
+        self._start_yaw[rows] = start_yaw
+        self.locomotion.reset(mask, position=self._last_loco.copy(), heading=self._start_yaw.copy())
+        self._recentre[rows] = True
+        self.true_yaw_offset[rows] = rot.wrap_angle(start_yaw - physical_yaw)
+        self.cadence[rows] = 0.0
+        self._since_step[rows] = np.inf
+
+    # ------------------------------------------------------------------------------ step
+    def step(self, intent: Intent) -> UserStep:
+        """Advance every user by one control step under ``intent``."""
+        chunk = self.motion.advance(intent)
+        imu = self.imu.sample(chunk.quat, chunk.omega, chunk.acc, chunk.pos)
+        kin = chunk.kinect
+        frames = self.kinect.capture(kin.t, kin.joints, kin.hand_quat)
+        q = self.attitude.update_batch(imu.gyr, imu.acc, imu.mag)
+        gait = self.gait.update(imu.acc)
+        ypr_est = rot.quat_to_ypr(q[:, -1])
+        if np.any(self._recentre):  # first samples of an episode: align virtual and estimated yaw
+            first = rot.quat_to_ypr(q[:, 0])[:, 0]
+            self.yaw_offset = np.where(
+                self._recentre, rot.wrap_angle(self._start_yaw - first), self.yaw_offset
+            )
+            self._recentre[:] = False
+        virtual_yaw = rot.wrap_angle(ypr_est[:, 0] + self.yaw_offset)
+        steps = gait.steps.sum(axis=1).astype(np.float64)
+        self._update_cadence(steps)
+        pos = self.locomotion.update(steps, virtual_yaw, self.dt)
+        displacement = pos - self._last_loco
+        self._last_loco = pos.copy()
+        hand = None
+        for j in range(frames.body_id.shape[1]):  # the few Kinect frames of the step
+            hand = self.hand_pipeline.update(
+                frames.body_id[:, j],
+                frames.body_tracked[:, j],
+                frames.joints[:, j],
+                frames.joint_state[:, j],
+                frames.hand_quat[:, j],
+            )
+        if hand is None:
+            raise RuntimeError("a control step must contain at least one Kinect frame")
+        ypr_true = chunk.ypr[:, -1]
+        return UserStep(
+            motion=chunk,
+            imu=imu,
+            kinect=frames,
+            ypr_est=ypr_est,
+            ypr_true=ypr_true,
+            virtual_yaw=virtual_yaw,
+            true_virtual_yaw=rot.wrap_angle(ypr_true[:, 0] + self.true_yaw_offset),
+            steps=steps,
+            true_steps=chunk.step.sum(axis=1).astype(np.float64),
+            walking=gait.state[:, -1] > 0,
+            cadence=self.cadence.copy(),
+            displacement=displacement,
+            hand=hand,
+            hand_est=self._hand_relative_to_torso(hand),
+            hand_true=kin.hand_ypr[:, -1],
+        )
+
+    def _update_cadence(self, steps: NDArray[np.float64]) -> None:
+        """Cadence estimate: steps/s from the interval between detected steps, decaying after."""
+        self._since_step += self.dt
+        stepped = steps > 0
+        inst = np.where(stepped, steps / np.maximum(self._since_step, self.dt), 0.0)
+        fresh = stepped & np.isfinite(self._since_step)
+        self.cadence = np.where(fresh, inst, self.cadence * np.exp(-self.dt / _CADENCE_TAU_S))
+        self.cadence = np.minimum(self.cadence, 4.0)
+        self._since_step = np.where(stepped, 0.0, self._since_step)
+
+    def _hand_relative_to_torso(self, hand: HandFrame) -> NDArray[np.float64]:
+        """The hand's [yaw, pitch, roll] relative to the torso, all from the Kinect's estimates.
+
+        The filtered wrist orientation (camera space, SDK wrist frame) goes to the world and to
+        the hand frame; the torso's heading comes from the smoothed shoulder joints.
+        """
+        spec = self.sensors.kinect
+        q_cam = rot.quat_from_ypr(hand.ypr)
+        q_hand = sdk_wrist_to_hand(quat_camera_to_world(spec, q_cam))
+        sh = camera_to_world(spec, hand.joints[:, [Joint.SHOULDER_LEFT, Joint.SHOULDER_RIGHT]])
+        left = sh[:, 0, :2] - sh[:, 1, :2]
+        torso_yaw = np.arctan2(left[:, 1], left[:, 0]) - np.pi / 2.0
+        q_torso = rot.quat_from_ypr(
+            np.stack([torso_yaw, np.zeros_like(torso_yaw), np.zeros_like(torso_yaw)], -1)
+        )
+        with np.errstate(invalid="ignore"):
+            rel = rot.quat_to_ypr(rot.quat_multiply(rot.quat_conjugate(q_torso), q_hand))
+        ok = hand.valid & np.all(np.isfinite(rel), axis=-1)
+        return np.where(ok[:, None], rel, np.nan)
+
+
+def _mask(users: ArrayLike, b: int) -> NDArray[np.bool_]:
+    u = np.asarray(users)
+    if u.dtype == bool:
+        if u.shape != (b,):
+            raise ValueError(f"users mask must have shape ({b},), got {u.shape}")
+        return u
+    m = np.zeros(b, bool)
+    m[u.astype(np.intp)] = True
+    return m

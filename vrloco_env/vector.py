@@ -1,0 +1,113 @@
+"""The native vector env: N users stepped together, one batched call per stage.
+
+``gym.make_vec("vrloco_env:VRLoco-Approach-v0", num_envs=N)`` builds it (the ids register it as
+their ``vector_entry_point``). The motion model, the sensor models, the estimators and the world
+queries all run once per step for the N users (:class:`~vrloco_env.core.LocoCore`); nothing loops
+over the sub-envs in Python on the step path.
+
+Autoreset: ``SAME_STEP`` — a sub-env whose episode ends in a step is reset within that step; the
+returned observation is the new episode's first one, and the last observation of the finished
+episode is in ``infos["final_obs"]`` (with ``infos["final_info"]``), as stable-baselines3's own
+vector envs do. Seeding: ``reset(seed=s)`` seeds sub-env i with ``s + i``, so sub-env i behaves
+exactly like a single env reset with ``seed=s + i`` and reset again after each of its episodes.
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+import numpy as np
+from gymnasium import spaces
+from gymnasium.utils import seeding
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+from numpy.typing import NDArray
+
+from vrloco_env.actions import ACTION_SIZE
+from vrloco_env.config import EnvConfig, EstimatorConfig, RewardConfig, SensorConfig
+from vrloco_env.core import LocoCore
+from vrloco_env.env import make_configs
+from vrloco_env.rooms import RoomConfig
+
+__all__ = ["VRLocoVectorEnv"]
+
+
+class VRLocoVectorEnv(VectorEnv):
+    """N simulated users, batched. Arguments as :class:`~vrloco_env.env.VRLocoEnv` plus
+    ``num_envs``; rendering is not supported (render a single env instead)."""
+
+    metadata: ClassVar[dict[str, Any]] = {
+        "autoreset_mode": AutoresetMode.SAME_STEP,
+        "render_modes": [],
+    }
+
+    def __init__(
+        self,
+        num_envs: int = 1,
+        task: str = "approach",
+        render_mode: str | None = None,
+        config: EnvConfig | None = None,
+        sensors: SensorConfig | None = None,
+        estimators: EstimatorConfig | None = None,
+        room: RoomConfig | None = None,
+        reward: RewardConfig | None = None,
+        sensor_preset: str | None = None,
+        locomotion: str | None = None,
+        max_episode_steps: int | None = None,
+    ) -> None:
+        if render_mode is not None:
+            raise ValueError("VRLocoVectorEnv does not render; use gym.make(...) for pictures")
+        cfgs = make_configs(
+            config, sensors, estimators, room, reward, sensor_preset, locomotion, max_episode_steps
+        )
+        self.num_envs = int(num_envs)
+        self.core = LocoCore(task, self.num_envs, *cfgs)
+        self.task_name = task
+        self.single_action_space = spaces.Box(-1.0, 1.0, (ACTION_SIZE,), np.float32)
+        self.single_observation_space = spaces.Box(-1.0, 1.0, (self.core.obs_size,), np.float32)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self._started = False
+
+    def reset(
+        self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[NDArray[np.float32], dict]:
+        n = self.num_envs
+        if seed is None:
+            seeds: list[int | None] = [None] * n
+        elif isinstance(seed, int | np.integer):
+            seeds = [int(seed) + i for i in range(n)]
+        else:
+            seeds = list(seed)
+            if len(seeds) != n:
+                raise ValueError(f"seed must be an int or a list of {n} seeds, got {len(seeds)}")
+        if seed is not None:
+            self._np_random, self._np_random_seed = seeding.np_random(seeds[0])
+        for i, s in enumerate(seeds):
+            if s is not None or not self._started:
+                self.core.generators[i] = seeding.np_random(s)[0]
+        obs = self.core.reset()
+        self._started = True
+        ep = self.core.ep
+        return obs, {"distance_to_goal": ep.distance.copy(), "shortest_path": ep.shortest.copy()}
+
+    def step(
+        self, actions: Any
+    ) -> tuple[
+        NDArray[np.float32], NDArray[np.float64], NDArray[np.bool_], NDArray[np.bool_], dict
+    ]:
+        if not self._started:
+            raise RuntimeError("reset() must be called before step()")
+        obs, reward, terminated, truncated, infos = self.core.step(actions)
+        done = terminated | truncated
+        if np.any(done):
+            rows = np.flatnonzero(done)
+            infos["final_obs"] = np.where(done[:, None], obs, 0.0).astype(np.float32)
+            infos["final_info"] = {k: v for k, v in infos.items() if k != "final_obs"}
+            infos["_final_obs"] = done.copy()
+            infos["_final_info"] = done.copy()
+            obs = self.core.reset(rows)
+        return obs, reward, terminated, truncated, infos
+
+    def close_extras(self, **kwargs: Any) -> None:
+        pass
