@@ -1,0 +1,107 @@
+"""Environment speed beside panda-gym's PandaReach-v3, and a soak test.
+
+Run from the repository root::
+
+    python benchmarks/bench_env.py                 # speed table (about a minute)
+    python benchmarks/bench_env.py --soak 100000   # 10^5 random steps: NaN and memory check
+
+Prints steps/s of the single env with random actions and the full pipeline (motion, IMU, Kinect,
+attitude EKF, step detector, hand pipeline, locomotion, world), of PandaReach-v3 measured in the
+same run, and the aggregate user-steps/s of the native vector env at N = 16, 64, 256, each as a
+ratio to PandaReach-v3. Issue 5's targets: single >= 2x, vector N = 256 >= 20x.
+"""
+
+from __future__ import annotations
+
+import argparse
+import resource
+import sys
+import time
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+import vrloco_env  # noqa: F401  (registers the ids)
+
+
+def steps_per_second(env: gym.Env, seconds: float) -> float:
+    env.reset(seed=0)
+    env.action_space.seed(0)
+    n, t0 = 0, time.perf_counter()
+    while time.perf_counter() - t0 < seconds:
+        _, _, te, tr, _ = env.step(env.action_space.sample())
+        n += 1
+        if te or tr:
+            env.reset()
+    return n / (time.perf_counter() - t0)
+
+
+def vector_steps_per_second(num_envs: int, seconds: float) -> float:
+    envs = gym.make_vec("VRLoco-Approach-v0", num_envs=num_envs)
+    envs.reset(seed=0)
+    envs.action_space.seed(0)
+    envs.step(envs.action_space.sample())  # compile / warm caches
+    n, t0 = 0, time.perf_counter()
+    while time.perf_counter() - t0 < seconds:
+        envs.step(envs.action_space.sample())
+        n += 1
+    rate = n * num_envs / (time.perf_counter() - t0)
+    envs.close()
+    return rate
+
+
+def speed(seconds: float) -> None:
+    try:
+        import panda_gym  # noqa: F401
+
+        panda = steps_per_second(gym.make("PandaReach-v3"), seconds)
+    except ImportError:
+        panda = float("nan")
+        print("panda-gym is not installed (pip install -e '.[bench]'): no reference")
+    single = steps_per_second(gym.make("VRLoco-Approach-v0"), seconds)
+    print(f"{'':28}{'steps/s':>10}{'x PandaReach':>14}")
+    print(f"{'PandaReach-v3 (reference)':28}{panda:10.0f}{1.0:14.2f}")
+    print(f"{'VRLoco-Approach-v0 single':28}{single:10.0f}{single / panda:14.2f}   target 2x")
+    for n in (16, 64, 256):
+        rate = vector_steps_per_second(n, seconds)
+        note = "   target 20x" if n == 256 else ""
+        print(f"{f'vector N={n}':28}{rate:10.0f}{rate / panda:14.2f}{note}")
+
+
+def soak(steps: int) -> None:
+    """Random steps with autoreset: observations stay finite, memory stays flat."""
+    envs = gym.make_vec("VRLoco-Approach-v0", num_envs=16)
+    envs.reset(seed=0)
+    envs.action_space.seed(0)
+    rss = []
+    done = 0
+    while done < steps:
+        obs, reward, *_ = envs.step(envs.action_space.sample())
+        if not (np.all(np.isfinite(obs)) and np.all(np.isfinite(reward))):
+            raise SystemExit(f"non-finite observation or reward after {done} user-steps")
+        done += envs.num_envs
+        if (done // envs.num_envs) % 500 == 0:
+            rss.append(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024)
+    growth = rss[-1] - rss[len(rss) // 4] if len(rss) > 4 else 0.0
+    print(
+        f"{done} user-steps: all observations finite; peak RSS {rss[-1]:.0f} MiB, "
+        f"growth over the last three quarters {growth:.1f} MiB"
+    )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seconds", type=float, default=8.0, help="time per measurement")
+    parser.add_argument("--soak", type=int, default=0, help="user-steps of the soak test")
+    args = parser.parse_args()
+    if args.soak:
+        soak(args.soak)
+    else:
+        speed(args.seconds)
+
+
+if __name__ == "__main__":
+    main()
