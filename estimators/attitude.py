@@ -559,6 +559,23 @@ def _as_samples(a: ArrayLike, name: str, shape: tuple[int, ...] | None) -> NDArr
     return arr
 
 
+def _stream_rows(mask: ArrayLike, b: int) -> NDArray[np.intp]:
+    """Stream indices from a (B,) boolean mask or indices; a ValueError if invalid."""
+    m = np.asarray(mask)
+    if m.dtype == bool:
+        if m.shape != (b,):
+            raise ValueError(f"mask as booleans must have shape ({b},), got {m.shape}")
+        return np.flatnonzero(m)
+    if m.size == 0:
+        return np.zeros(0, dtype=np.intp)
+    if not np.issubdtype(m.dtype, np.integer):
+        raise ValueError(f"mask must be a ({b},) boolean mask or indices in [0, {b - 1}], got {m}")
+    m = m.astype(np.intp).ravel()
+    if m.min() < 0 or m.max() >= b:
+        raise ValueError(f"mask indices must lie in [0, {b - 1}], got {m}")
+    return m
+
+
 def _check_fs(fs: float) -> float:
     try:
         fs = float(fs)
@@ -624,10 +641,33 @@ class AttitudeEKF:
         self._no_mag = np.full((self.n_streams, 1, 3), np.nan)
         self.reset()
 
-    def reset(self) -> None:
-        """Forget everything: the next accelerometer/magnetometer samples re-initialise."""
-        self.state = AttitudeState.fresh(self.n_streams, self.params)
-        self._units = np.zeros((self.n_streams, _k.N_UNIT), dtype=np.int64)
+    def reset(self, mask: ArrayLike | None = None) -> None:
+        """Forget some or all streams: their next accelerometer/magnetometer samples re-initialise.
+
+        A reset stream gets the rows of :meth:`AttitudeState.fresh` (identity attitude, zero bias,
+        initial covariance, magnetic reference unlearned or as given) and zeroed unit-guard
+        counters; from then on it equals a new single-stream filter fed the same samples. The
+        other streams are untouched (a vector env resetting one sub-env).
+
+        Args:
+            mask: the streams to reset, as a (B,) boolean mask or indices; None resets all.
+
+        Raises:
+            ValueError: an index outside [0, B), or a mask of the wrong shape.
+        """
+        b = self.n_streams
+        if mask is None:
+            self.state = AttitudeState.fresh(b, self.params)
+            self._units = np.zeros((b, _k.N_UNIT), dtype=np.int64)
+            return
+        rows = _stream_rows(mask, b)
+        fresh = AttitudeState.fresh(rows.size, self.params)
+        s = self.state  # assigned in place: the kernel works on these arrays
+        s.q[rows] = fresh.q
+        s.b[rows] = fresh.b
+        s.P[rows] = fresh.P
+        s.aux[rows] = fresh.aux
+        self._units[rows] = 0
 
     def update(self, gyr: ArrayLike, acc: ArrayLike, mag: ArrayLike | None = None) -> NDArray:
         """Process one sample per stream.

@@ -176,6 +176,48 @@ def test_batch_equals_single_streams_and_offline_equals_streaming(rng):
     np.testing.assert_array_equal(streamed, batched[:, :300])
 
 
+def test_resetting_one_stream_equals_a_fresh_filter_and_leaves_the_others_alone(rng):
+    streams = [synth(rng, kind, seconds=5.0) for kind in ("head", "spin", "head")]
+    q_true = np.stack([s[1] for s in streams])
+    gyr, acc, mag = (np.stack([s[i] for s in streams]) for i in (2, 3, 4))
+    n1 = 200
+    ekf = AttitudeEKF(3, FS)
+    ekf.update_batch(gyr[:, :n1], acc[:, :n1], mag[:, :n1])
+    learned = ekf.state.copy()
+    ekf.reset([1])
+    assert not ekf.initialized[1] and ekf.initialized[0] and ekf.initialized[2]
+    for name in ("q", "b", "P", "aux"):  # the other streams' state is untouched
+        np.testing.assert_array_equal(
+            getattr(ekf.state, name)[[0, 2]], getattr(learned, name)[[0, 2]]
+        )
+    after = ekf.update_batch(gyr[:, n1:], acc[:, n1:], mag[:, n1:])
+
+    fresh = AttitudeEKF(1, FS)
+    np.testing.assert_array_equal(
+        after[1], fresh.update_batch(gyr[1:2, n1:], acc[1:2, n1:], mag[1:2, n1:])[0]
+    )
+    for name in ("q", "b", "P", "aux"):
+        np.testing.assert_array_equal(getattr(ekf.state, name)[1], getattr(fresh.state, name)[0])
+    for i in (0, 2):
+        np.testing.assert_array_equal(after[i], estimate_attitude(gyr[i], acc[i], mag[i], FS)[n1:])
+    # Stream 1 re-initialised from its next acc/mag sample: right at once, and not the old estimate.
+    assert total_err_deg(after[1, :1], q_true[1, n1 : n1 + 1])[0] < 3.0
+    uninterrupted = estimate_attitude(gyr[1], acc[1], mag[1], FS)[n1:]
+    assert not np.array_equal(after[1], uninterrupted)
+
+    # A boolean mask does the same, sample by sample too; bad masks raise.
+    ekf2 = AttitudeEKF(3, FS)
+    ekf2.update_batch(gyr[:, :n1], acc[:, :n1], mag[:, :n1])
+    ekf2.reset(np.array([False, True, False]))
+    for k in range(5):
+        np.testing.assert_array_equal(
+            ekf2.update(gyr[:, n1 + k], acc[:, n1 + k], mag[:, n1 + k]), after[:, k]
+        )
+    for bad, match in (([3], r"\[0, 2\]"), (np.ones(2, bool), r"shape \(3,\)"), ([0.5], "indices")):
+        with pytest.raises(ValueError, match=match):
+            ekf2.reset(bad)
+
+
 # ------------------------------------------------------------------------------------------------
 # Initialisation, magnetic disturbance, dropouts.
 # ------------------------------------------------------------------------------------------------

@@ -300,7 +300,8 @@ def test_streaming_in_chunks_equals_one_call(preset):
         np.testing.assert_array_equal(x, z)
     for x, y in zip(imu1.bias, imu2.bias, strict=True):
         np.testing.assert_array_equal(x, y)
-    assert imu1.samples_taken == imu2.samples_taken == 50
+    np.testing.assert_array_equal(imu1.samples_taken, [50, 50])
+    np.testing.assert_array_equal(imu2.samples_taken, [50, 50])
 
 
 def test_reset_redraws_biases_from_each_users_stream():
@@ -309,11 +310,96 @@ def test_reset_redraws_biases_from_each_users_stream():
     assert not np.array_equal(first.gyr[0], first.gyr[1])
     imu.reset()
     assert not np.array_equal(imu.bias.gyr, first.gyr)
-    assert imu.samples_taken == 0
+    np.testing.assert_array_equal(imu.samples_taken, [0, 0])
     # Turn-on gyro bias of the consumer part is degrees per second, of the IG-500N a tenth of one.
     big = HeadImu("consumer_mems", BatchRng.from_seeds(range(200))).bias.gyr
     small = HeadImu("ig500n", BatchRng.from_seeds(range(200))).bias.gyr
     assert np.degrees(big.std()) > 1.0 and np.degrees(small.std()) < 0.15
+
+
+def _walk_inputs(b: int, n: int):
+    """Different head motions per user: (quat, omega, acc_world, pos), each (B, n, ...)."""
+    t = (np.arange(n) * 0.01)[None, :, None] * (1.0 + 0.3 * np.arange(b))[:, None, None]
+    q = quat_from_ypr(np.concatenate([np.sin(t), 0.3 * np.cos(t), -0.2 * t], -1))
+    w = np.concatenate([0.5 * np.cos(t), 0.2 + 0 * t, np.sin(3 * t)], -1)
+    a = np.concatenate([np.cos(t), np.sin(t), 0 * t], -1)
+    pos = np.concatenate([0.3 * t, 0 * t, 1.6 + 0 * t], -1)
+    return q, w, a, pos
+
+
+def _sample_in_chunks(imu: HeadImu, inputs, chunks):
+    """Sample ``inputs`` in chunks; returns (outputs, last biases), each three (B, N, 3) arrays."""
+    outs, biases, start = [], [], 0
+    for c in chunks:
+        outs.append(imu.sample(*(x[:, start : start + c] for x in inputs)))
+        biases.append(imu.last_bias)
+        start += c
+    cat = [np.concatenate([o[k] for o in outs], axis=1) for k in range(3)]
+    return cat, [np.concatenate([o[k] for o in biases], axis=1) for k in range(3)]
+
+
+def test_resetting_one_user_equals_a_fresh_single_run_and_leaves_the_others_alone():
+    base = get_imu_spec("consumer_mems")  # with a gyro random walk, so its state is exercised too
+    spec = dataclasses.replace(base, gyro=dataclasses.replace(base.gyro, bias_walk=0.01))
+    dist = [MagneticDisturbance.with_field_at((1.0, 0.5, 1.5), 20.0, 0.8)]
+    seeds, n1, n2 = (3, 4, 5), 70, 90
+    inputs = _walk_inputs(3, n1 + n2)
+    first = [x[:, :n1] for x in inputs]
+    second = [x[:, n1:] for x in inputs]
+
+    rng = BatchRng.from_seeds(seeds)
+    imu = HeadImu(spec, rng, rate_hz=200.0, disturbances=dist)
+    _sample_in_chunks(imu, first, (25, 45))
+    before = imu.bias
+    rng.reseed(1, np.random.default_rng(99))
+    imu.reset(users=[1])
+    after = imu.bias
+    np.testing.assert_array_equal(imu.samples_taken, [n1, 0, n1])
+    out, bias = _sample_in_chunks(imu, second, (40, 50))
+
+    # User 1: a fresh single-user IMU on the new generator, fed the same samples.
+    fresh = HeadImu(spec, BatchRng([np.random.default_rng(99)]), rate_hz=200.0, disturbances=dist)
+    for x, y in zip(after, fresh.bias, strict=True):
+        np.testing.assert_array_equal(x[1], y[0])
+    np.testing.assert_array_equal(imu.soft_iron[1], fresh.soft_iron[0])
+    f_out, f_bias = _sample_in_chunks(fresh, [x[1:2] for x in second], (40, 50))
+    for x, y in zip(out + bias, f_out + f_bias, strict=True):
+        np.testing.assert_array_equal(x[1], y[0])
+    # The reset changed user 1: its new biases are not the ones it had.
+    assert not np.array_equal(after.gyr[1], before.gyr[1])
+
+    # Users 0 and 2: their uninterrupted single runs.
+    for i in (0, 2):
+        np.testing.assert_array_equal(after.gyr[i], before.gyr[i])
+        single = HeadImu(spec, BatchRng.from_seeds([seeds[i]]), rate_hz=200.0, disturbances=dist)
+        s_out, s_bias = _sample_in_chunks(single, [x[i : i + 1] for x in inputs], (25, 45, 40, 50))
+        for x, y in zip(out + bias, s_out + s_bias, strict=True):
+            np.testing.assert_array_equal(x[i], y[0, n1:])
+        for x, y in zip(imu.bias, single.bias, strict=True):
+            np.testing.assert_array_equal(x[i], y[0])
+    np.testing.assert_array_equal(imu.samples_taken, [n1 + n2, n2, n1 + n2])
+
+
+def test_reset_users_as_a_mask_equals_indices_and_bad_users_raise():
+    def run(users):
+        rng = BatchRng.from_seeds([1, 2, 3])
+        imu = HeadImu("consumer_mems", rng)
+        imu.sample(*_static(3, 10))
+        imu.reset(users=users)
+        return imu.sample(*_static(3, 10))
+
+    by_index = run([0, 2])
+    by_mask = run(np.array([True, False, True]))
+    for x, y in zip(by_index, by_mask, strict=True):
+        np.testing.assert_array_equal(x, y)
+    unchanged = run([])
+    assert np.array_equal(unchanged.gyr[1], by_index.gyr[1])
+    assert not np.array_equal(unchanged.gyr[0], by_index.gyr[0])
+    imu = HeadImu("ig500n", BatchRng.from_seeds([0, 1]))
+    for bad, match in (([2], r"\[0, 1\]"), ([-1], r"\[0, 1\]"), ([1, 1], "repeat"),
+                       (np.array([True]), r"shape \(2,\)"), ([0.5], "integer")):  # fmt: skip
+        with pytest.raises(ValueError, match=match):
+            imu.reset(users=bad)
 
 
 def test_presets_hold_the_paper_figures():

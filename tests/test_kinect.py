@@ -392,6 +392,111 @@ def test_capture_in_chunks_equals_one_capture():
     assert_frames_equal(KinectFrames.concatenate(parts), whole)
 
 
+def _user(frames: KinectFrames, i: int, start: int = 0) -> KinectFrames:
+    """User i's frames from frame ``start`` on, as a batch of one."""
+    sel = (slice(i, i + 1), slice(start, None))
+    return KinectFrames(
+        t=frames.t[sel],
+        body_id=frames.body_id[sel],
+        body_tracked=frames.body_tracked[sel],
+        joints=frames.joints[sel],
+        joint_state=frames.joint_state[sel],
+        hand_quat=frames.hand_quat[sel],
+        truth=type(frames.truth)(
+            slot=frames.truth.slot[sel],
+            joints=frames.truth.joints[sel],
+            hand_quat=frames.truth.hand_quat[sel],
+        ),
+    )
+
+
+def test_resetting_one_user_equals_a_fresh_single_session_and_leaves_the_others_alone():
+    spec = KinectSpec(
+        n_bystanders=3, latency_frames=2, burst_prob=0.05, random_inferred_prob=0.01,
+        bystander_dwell_s=0.5,
+    )  # fmt: skip
+    seeds, m1, m2 = (31, 32, 33), 40, 50
+    t, jw, qw = varied_users(3, m1 + m2)
+    rng = BatchRng.from_seeds(seeds)
+    k = KinectV2(spec, rng)
+    k.reset()
+    k.capture(t[:m1], jw[:, :m1], qw[:, :m1])
+    rng.reseed(1, np.random.default_rng(99))
+    k.reset(users=[1])
+    after = k.capture(t[m1:], jw[:, m1:], qw[:, m1:])
+
+    fresh = KinectV2(spec, BatchRng([np.random.default_rng(99)]))
+    fresh.reset()
+    one = fresh.capture(t[m1:], jw[1:2, m1:], qw[1:2, m1:])
+    assert_frames_equal(_user(after, 1), one)
+    assert not after.body_tracked[1, :2].any(), "the reset user's delay line starts empty"
+    for i in (0, 2):
+        single = make(spec, [seeds[i]]).capture(t, jw[i : i + 1], qw[i : i + 1])
+        assert_frames_equal(_user(after, i), _user(single, 0, m1))
+    # The reset really restarted user 1: an uninterrupted run of it delivers something else.
+    uninterrupted = make(spec, [seeds[1]]).capture(t, jw[1:2], qw[1:2])
+    assert not np.array_equal(_user(uninterrupted, 0, m1).body_id, one.body_id), (
+        "user 1 must have new body ids after its reset"
+    )
+
+
+def test_bystander_sway_clock_is_per_user():
+    """Sway phase follows each user's own frame count since its reset, not a batch-wide one."""
+    noiseless = dict(
+        QUIET,
+        n_bystanders=2,
+        bystander_dwell_s=1e9,  # bystanders never walk: only the sway moves them
+        joint_noise_a_mm=0.0,
+        joint_noise_b_mm_per_m2=0.0,
+        hand_rot_white_std_deg=(0.0, 0.0, 0.0),
+        hand_rot_ar_std_deg=(0.0, 0.0, 0.0),
+    )
+    spec = KinectSpec(**noiseless)
+    t, jw, qw = varied_users(2, 60)
+    k = make(spec, [5, 6])
+    k.capture(t[:30], jw[:, :30], qw[:, :30])
+    k.rng.reseed(0, np.random.default_rng(5))  # the same session again for user 0
+    k.reset(users=np.array([True, False]))
+    again = k.capture(t[30:], jw[:, 30:], qw[:, 30:])
+    first = make(spec, [5]).capture(t[:30], jw[:1, 30:], qw[:1, 30:])
+    np.testing.assert_array_equal(again.joints[0], first.joints[0])
+    # Without the restart the same bystanders stand elsewhere in their sway: the clock matters.
+    cont = make(spec, [5]).capture(t, jw[:1, :], qw[:1, :])
+    by = np.arange(MAX_BODIES) != again.truth.slot[0, 0]
+    seen = np.isfinite(cont.joints[0, 30:][:, by]) & np.isfinite(again.joints[0][:, by])
+    assert seen.sum() > 100
+    diff = np.abs(cont.joints[0, 30:][:, by][seen] - again.joints[0][:, by][seen])
+    assert diff.max() > 1e-3  # metres of sway (5-20 mm amplitude)
+
+
+def test_ids_stay_unique_within_a_frame_even_if_draws_collide(monkeypatch):
+    """Force every drawn id to 7: the model must still give each body of a user its own id."""
+    monkeypatch.setattr(KinectV2, "_new_ids", lambda self, u: np.full(u.shape, 7, np.int64))
+    spec = KinectSpec(n_bystanders=5, bystander_dwell_s=2.0)
+    joints, q = user_at(2.5, b=2)
+    k = make(spec, [20, 21])
+    frames = k.capture(*static(joints, q, 300))
+    k.reset(users=[1])
+    frames = KinectFrames.concatenate([frames, k.capture(*static(joints, q, 300))])
+    ids, trk = frames.body_id, frames.body_tracked
+    srt = np.sort(np.where(trk, ids, -np.arange(1, MAX_BODIES + 1)), axis=-1)
+    assert np.all(np.diff(srt, axis=-1) != 0)
+    assert trk.sum(axis=-1).max() >= 3 and (ids == 7).any()
+
+
+def test_reset_users_are_validated_and_every_user_needs_a_first_reset():
+    joints, q = user_at(2.5, b=2)
+    k = KinectV2(KinectSpec(), BatchRng.from_seeds([0, 1]))
+    k.reset(users=[0])
+    with pytest.raises(RuntimeError, match=r"users \[1\]"):
+        k.capture(*static(joints, q, 3))
+    k.reset(users=[1])
+    k.capture(*static(joints, q, 3))
+    for bad, match in (([2], r"\[0, 1\]"), ([0, 0], "repeat"), (np.ones(3, bool), "shape")):
+        with pytest.raises(ValueError, match=match):
+            k.reset(users=bad)
+
+
 def test_latency_delays_the_frames_not_the_truth():
     lag = 3
     t, jw, qw = varied_users(2, 40)

@@ -543,6 +543,27 @@ def _as_batch(
     return a
 
 
+def _user_rows(users: ArrayLike | None, b: int) -> NDArray[np.intp]:
+    """User indices from None (all), indices or a (B,) boolean mask; a ValueError if invalid."""
+    if users is None:
+        return np.arange(b)
+    u = np.asarray(users)
+    if u.dtype == bool:
+        if u.shape != (b,):
+            raise ValueError(f"users as a boolean mask must have shape ({b},), got {u.shape}")
+        return np.flatnonzero(u)
+    if u.size == 0:
+        return np.zeros(0, dtype=np.intp)
+    if not np.issubdtype(u.dtype, np.integer):
+        raise ValueError(f"users must be integer indices in [0, {b - 1}] or a (B,) mask, got {u}")
+    u = u.astype(np.intp).ravel()
+    if u.min() < 0 or u.max() >= b:
+        raise ValueError(f"users must lie in [0, {b - 1}], got {u}")
+    if np.unique(u).size != u.size:
+        raise ValueError(f"users must not repeat an index, got {u}")
+    return u
+
+
 class HeadImu:
     """A head-worn 9-axis IMU for B users, streaming: biases carry over between calls.
 
@@ -556,12 +577,16 @@ class HeadImu:
         disturbances: magnetic dipoles in the world (metal obstacles).
 
     Attributes:
-        samples_taken: samples synthesised since the last :meth:`reset`.
+        samples_taken: (B,) int64, samples synthesised per user since that user's last
+            :meth:`reset`.
         last_bias: per-sample total additive biases of the last :meth:`sample` call
-            (:class:`ImuSamples`, each (B, N, 3); the magnetometer's includes hard iron), or None.
+            (:class:`ImuSamples`, each (B, N, 3); the magnetometer's includes hard iron), or None
+            after a reset of all users. A reset of some users leaves it as it was (it describes
+            that call's samples; :attr:`bias` gives the current biases).
 
-    The constructor calls :meth:`reset`. :meth:`reset` redraws all B users at once: resetting a
-    single user of a batch would advance the other users' streams too.
+    The constructor calls :meth:`reset` for all users. ``reset(users=...)`` redraws only the given
+    users, from their own streams, so one user of a batch can start a new episode while the others
+    carry on.
     """
 
     def __init__(
@@ -625,33 +650,54 @@ class HeadImu:
         """The undisturbed reference field in ENU (uT), (3,): what an estimator may assume."""
         return self._field_world.copy()
 
-    def reset(self) -> None:
-        """Draw each user's turn-on biases, hard/soft iron and initial Gauss-Markov states.
+    def reset(self, users: ArrayLike | None = None) -> None:
+        """Draw turn-on biases, hard/soft iron and initial bias states for some or all users.
 
-        All B users are redrawn (one draw of 27 normals per user from its own stream).
+        Each reset user draws one block of 27 normals from its own stream (turn-on biases 9,
+        Gauss-Markov initial states 9, hard iron 3, soft iron 6); its random walks restart at 0
+        and its :attr:`samples_taken` at 0. The other users' state and streams are untouched, so
+        after ``rng.reseed(i, g)`` and ``reset(users=[i])`` user i continues exactly as a fresh
+        single-user ``HeadImu`` on ``BatchRng([g])`` would (a vector env's autoreset).
+
+        Args:
+            users: the users to reset, as indices or a (B,) boolean mask; None resets all.
+
+        Raises:
+            ValueError: an index outside [0, B), a repeated index or a mask of the wrong shape.
         """
         b = self.batch_size
+        rows = _user_rows(users, b)
+        if users is None or not hasattr(self, "_turn_on"):  # first call: allocate every user
+            self._turn_on = np.zeros((b, 3, 3))
+            self._gm = np.zeros((b, 3, 3))
+            self._rw = np.zeros((b, 3, 3))
+            self._hard_iron = np.zeros((b, 3))
+            self._soft_iron = np.broadcast_to(np.eye(3), (b, 3, 3)).copy()
+            self.samples_taken = np.zeros(b, dtype=np.int64)
+            self.last_bias: ImuSamples | None = None
+        r = rows.size
         spec = self.spec
-        z = self.rng.normal((_DRAWS_PER_RESET,))
+        z = self.rng.normal((_DRAWS_PER_RESET,), rows=rows)  # (r, 27)
         sensors = (spec.accel, spec.gyro, spec.mag)
-        turn_on = z[:, 0:9].reshape(b, 3, 3)
-        gm0 = z[:, 9:18].reshape(b, 3, 3)
-        self._turn_on = np.stack([turn_on[:, i] * s.turn_on_bias for i, s in enumerate(sensors)], 1)
-        self._gm = np.stack([gm0[:, i] * s.bias_stability for i, s in enumerate(sensors)], 1)
-        self._rw = np.zeros((b, 3, 3))
-        self._hard_iron = z[:, 18:21] * spec.hard_iron
+        turn_on = z[:, 0:9].reshape(r, 3, 3)
+        gm0 = z[:, 9:18].reshape(r, 3, 3)
+        self._turn_on[rows] = np.stack(
+            [turn_on[:, i] * s.turn_on_bias for i, s in enumerate(sensors)], 1
+        )
+        self._gm[rows] = np.stack([gm0[:, i] * s.bias_stability for i, s in enumerate(sensors)], 1)
+        self._rw[rows] = 0.0
+        self._hard_iron[rows] = z[:, 18:21] * spec.hard_iron
         diag = z[:, 21:24] * spec.soft_iron_scale
         off = z[:, 24:27] * spec.soft_iron_cross
-        s = np.zeros((b, 3, 3))
+        s = np.zeros((r, 3, 3))
         s[:, 0, 0] = 1.0 + diag[:, 0]
         s[:, 1, 1] = 1.0 + diag[:, 1]
         s[:, 2, 2] = 1.0 + diag[:, 2]
         s[:, 0, 1] = s[:, 1, 0] = off[:, 0]
         s[:, 0, 2] = s[:, 2, 0] = off[:, 1]
         s[:, 1, 2] = s[:, 2, 1] = off[:, 2]
-        self._soft_iron = s
-        self.samples_taken = 0
-        self.last_bias: ImuSamples | None = None
+        self._soft_iron[rows] = s
+        self.samples_taken[rows] = 0
 
     @property
     def bias(self) -> ImuSamples:
@@ -773,6 +819,6 @@ class HeadImu:
             if sens.resolution > 0.0:
                 y = np.round(y / sens.resolution) * sens.resolution
             out.append(np.clip(y, -sens.range, sens.range))
-        self.samples_taken += n
+        self.samples_taken += n  # every user advances by the same N samples
         self.last_bias = ImuSamples(*(np.ascontiguousarray(x) for x in bias_all))
         return ImuSamples(*out)

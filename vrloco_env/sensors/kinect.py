@@ -78,7 +78,9 @@ Every number comes from the :class:`~vrloco_env.batch_rng.BatchRng` passed in:
 :meth:`KinectV2.reset` draws the session (slots, ids, joint offsets, bystanders) and
 :meth:`KinectV2.capture` draws a fixed block of numbers per frame, so a batch of B users
 reproduces B single runs bit for bit and a capture split into chunks equals one capture.
-:meth:`KinectV2.reset` redraws all B users, as the IMU model's does.
+:meth:`KinectV2.reset` redraws all users, or only those given (``users=``), from their own
+streams and leaving the others' state alone, so a vector env can start a new episode for one user
+while the others carry on (every per-user state, the frame counter included, is a (B, ...) array).
 """
 
 from __future__ import annotations
@@ -690,6 +692,47 @@ _ID_SCALE = float(2**53)
 _BELOW_ONE = np.nextafter(1.0, 0.0)  # ndtr(z) rounds to 1.0 for z > 8.3; keep uniforms < 1
 
 
+def _user_rows(users: ArrayLike | None, b: int) -> NDArray[np.intp]:
+    """User indices from None (all), indices or a (B,) boolean mask; a ValueError if invalid."""
+    if users is None:
+        return np.arange(b)
+    u = np.asarray(users)
+    if u.dtype == bool:
+        if u.shape != (b,):
+            raise ValueError(f"users as a boolean mask must have shape ({b},), got {u.shape}")
+        return np.flatnonzero(u)
+    if u.size == 0:
+        return np.zeros(0, dtype=np.intp)
+    if not np.issubdtype(u.dtype, np.integer):
+        raise ValueError(f"users must be integer indices in [0, {b - 1}] or a (B,) mask, got {u}")
+    u = u.astype(np.intp).ravel()
+    if u.min() < 0 or u.max() >= b:
+        raise ValueError(f"users must lie in [0, {b - 1}], got {u}")
+    if np.unique(u).size != u.size:
+        raise ValueError(f"users must not repeat an index, got {u}")
+    return u
+
+
+def _unique_ids(ids: NDArray[np.int64], fresh: NDArray[np.bool_]) -> NDArray[np.int64]:
+    """Make the ``fresh`` ids of each row (user) differ from every other id of that row.
+
+    Ids are 53 random bits, so two bodies of a user share one with probability ~N^2 / 2^54
+    (never in practice); should it happen, the later fresh id is moved to the next free value
+    (deterministic, per user, no draw), so ids are unique within a user's frame by construction.
+    """
+    if not fresh.any():  # the common case: no body (re)acquired in this frame
+        return ids
+    n = ids.shape[-1]
+    earlier = np.tri(n, k=-1, dtype=bool)  # earlier[j, k]: body k comes before body j
+    while True:
+        same = ids[..., :, None] == ids[..., None, :]  # (B, N, N)
+        # A fresh id clashes with a non-fresh one, or with an earlier fresh one.
+        clash = fresh & np.any(same & (~fresh[..., None, :] | earlier), axis=-1)
+        if not clash.any():
+            return ids
+        ids = np.where(clash, ids % (2**53) + 1, ids)
+
+
 class KinectV2:
     """Stateful, batched Kinect v2 body tracker for B simulated users (one sensor per user).
 
@@ -699,6 +742,7 @@ class KinectV2:
 
     Call :meth:`reset` at the start of every session, then :meth:`capture` with the target user's
     true skeleton at the Kinect rate, in one call or in chunks (identical results).
+    ``reset(users=...)`` starts a new session for some users only; the others carry on.
     """
 
     def __init__(self, spec: KinectSpec, rng: BatchRng) -> None:
@@ -715,55 +759,101 @@ class KinectV2:
         self._dt = 1.0 / spec.frame_rate_hz
         self._rho_joint = math.exp(-self._dt / spec.joint_noise_tau_s)
         self._rho_hand = math.exp(-self._dt / spec.hand_rot_tau_s)
-        self._ready = False
+        self._ready = np.zeros(self.batch_size, dtype=bool)  # per user: reset at least once
 
     # ----------------------------------------------------------------------------------- session
 
-    def reset(self) -> None:
-        """Start a session: draw slots, ids, joint offsets, noise states and the bystanders."""
-        s, r, B, N = self.spec, self.rng, self.batch_size, self.n_bodies
-        nb = N - 1
-        # One draw per reset (uniforms are the normal CDF of the user's single stream).
+    def reset(self, users: ArrayLike | None = None) -> None:
+        """Start a session for some or all users: slots, ids, offsets, noise states, bystanders.
+
+        Each reset user draws one block of normals from its own stream; the state of the other
+        users (their slots, ids, noise and burst states, bystanders, delay line and frame counter)
+        and their streams are untouched. So after ``rng.reseed(i, g)`` and ``reset(users=[i])``
+        user i continues exactly as a single-user ``KinectV2`` on ``BatchRng([g])`` that was just
+        reset (a vector env's autoreset), and the others as if nothing happened.
+
+        Args:
+            users: the users to reset, as indices or a (B,) boolean mask; None resets all. Every
+                user must have been reset once before :meth:`capture`.
+
+        Raises:
+            ValueError: an index outside [0, B), a repeated index or a mask of the wrong shape.
+        """
+        s, B, N = self.spec, self.batch_size, self.n_bodies
+        rows = _user_rows(users, B)
+        if not hasattr(self, "_slots"):
+            self._allocate()
+        R, nb = rows.size, N - 1
+        # One draw per reset user (uniforms are the normal CDF of the user's single stream).
         sizes = (MAX_BODIES, N, N * NUM_JOINTS * 3, N * NUM_JOINTS * 3, N * 3, nb * 7)
-        parts = np.split(r.normal((sum(sizes),)), np.cumsum(sizes)[:-1], axis=1)
+        z = self.rng.normal((sum(sizes),), rows=rows)
+        parts = np.split(z, np.cumsum(sizes)[:-1], axis=1)
         slot_u, id_u = ndtr(parts[0]), np.minimum(ndtr(parts[1]), _BELOW_ONE)
         # Slots: a random permutation of the 6 slots per user; body 0 (the target) takes the first.
-        self._slots = np.argsort(slot_u, axis=1)[:, :N].astype(np.int64)
-        self._ids = self._new_ids(id_u)
-        self._acquired = np.full((B, N), int(s.acquire_frames), dtype=np.int64)
-        self._prev_tracked = np.ones((B, N), dtype=bool)
-        self._bias = s.joint_bias_std_m * parts[2].reshape(B, N, NUM_JOINTS, 3)
+        self._slots[rows] = np.argsort(slot_u, axis=1)[:, :N]
+        self._ids[rows] = _unique_ids(self._new_ids(id_u), np.ones((R, N), dtype=bool))
+        self._acquired[rows] = int(s.acquire_frames)
+        self._prev_tracked[rows] = True
+        self._bias[rows] = s.joint_bias_std_m * parts[2].reshape(R, N, NUM_JOINTS, 3)
         # Unit-variance AR(1) states, started stationary.
-        self._ar_joint = parts[3].reshape(B, N, NUM_JOINTS, 3)
-        self._ar_hand = parts[4].reshape(B, N, 3)
-        self._burst_left = np.zeros((B, N), dtype=np.int64)
-        self._burst_group = np.zeros((B, N), dtype=np.int64)
-        self._inferred_left = np.zeros((B, N, NUM_JOINTS), dtype=np.int64)
-        self._frame = 0
+        self._ar_joint[rows] = parts[3].reshape(R, N, NUM_JOINTS, 3)
+        self._ar_hand[rows] = parts[4].reshape(R, N, 3)
+        self._burst_left[rows] = 0
+        self._burst_group[rows] = 0
+        self._inferred_left[rows] = 0
+        self._frame[rows] = 0
         # Bystanders, in the sensor's floor frame (d along the axis, l to the sensor's left).
-        u = np.minimum(ndtr(parts[5]), _BELOW_ONE).reshape(B, nb, 7)
+        u = np.minimum(ndtr(parts[5]), _BELOW_ONE).reshape(R, nb, 7)
         d0, d1 = s.bystander_distance_m
         local = np.stack(
             [d0 + (d1 - d0) * u[..., 0], s.bystander_lateral_m * (2 * u[..., 1] - 1)], axis=-1
         )
-        self._by_pos = self._floor_to_world(local)
+        self._by_pos[rows] = self._floor_to_world(local)
         # Facing the sensor within +-30 deg (engineering choice: people near a screen face it).
-        self._by_yaw = s.camera_yaw_rad + math.pi + math.radians(30.0) * (2 * u[..., 2] - 1)
+        self._by_yaw[rows] = s.camera_yaw_rad + math.pi + math.radians(30.0) * (2 * u[..., 2] - 1)
         h0, h1 = s.bystander_height_m
-        self._by_height = h0 + (h1 - h0) * u[..., 3]
+        self._by_height[rows] = h0 + (h1 - h0) * u[..., 3]
         # Quiet-standing sway: 5-20 mm at 0.15-0.4 Hz, the amplitude and band of the body's sway
         # in quiet stance (Winter 1995, "Human balance and posture control during standing and
         # walking", Gait & Posture 3(4)); applied as a lateral shift of the whole skeleton.
-        self._by_sway_amp = 0.005 + 0.015 * u[..., 4]
-        self._by_sway_freq = 0.15 + 0.25 * u[..., 5]
-        self._by_sway_phase = 2 * math.pi * u[..., 6]
-        self._by_target = self._by_pos.copy()
+        self._by_sway_amp[rows] = 0.005 + 0.015 * u[..., 4]
+        self._by_sway_freq[rows] = 0.15 + 0.25 * u[..., 5]
+        self._by_sway_phase[rows] = 2 * math.pi * u[..., 6]
+        self._by_target[rows] = self._by_pos[rows]
+        self._by_speed[rows] = 0.0
+        self._by_moving[rows] = False
+        # Latency delay line, filled with empty frames: nothing delivered yet.
+        empty = self._empty_slots(int(s.latency_frames))
+        for k, v in self._delay.items():
+            v[rows] = empty[k][rows]
+        self._ready[rows] = True
+
+    def _allocate(self) -> None:
+        """Create every per-user session array (B leading), before the first :meth:`reset`."""
+        B, N = self.batch_size, self.n_bodies
+        nb = N - 1
+        self._slots = np.zeros((B, N), dtype=np.int64)
+        self._ids = np.zeros((B, N), dtype=np.int64)
+        self._acquired = np.zeros((B, N), dtype=np.int64)
+        self._prev_tracked = np.zeros((B, N), dtype=bool)
+        self._bias = np.zeros((B, N, NUM_JOINTS, 3))
+        self._ar_joint = np.zeros((B, N, NUM_JOINTS, 3))
+        self._ar_hand = np.zeros((B, N, 3))
+        self._burst_left = np.zeros((B, N), dtype=np.int64)
+        self._burst_group = np.zeros((B, N), dtype=np.int64)
+        self._inferred_left = np.zeros((B, N, NUM_JOINTS), dtype=np.int64)
+        #: Frames captured per user since its reset: the clock of the bystanders' sway.
+        self._frame = np.zeros(B, dtype=np.int64)
+        self._by_pos = np.zeros((B, nb, 2))
+        self._by_yaw = np.zeros((B, nb))
+        self._by_height = np.zeros((B, nb))
+        self._by_sway_amp = np.zeros((B, nb))
+        self._by_sway_freq = np.zeros((B, nb))
+        self._by_sway_phase = np.zeros((B, nb))
+        self._by_target = np.zeros((B, nb, 2))
         self._by_speed = np.zeros((B, nb))
         self._by_moving = np.zeros((B, nb), dtype=bool)
-        # Latency delay line, filled with empty frames: nothing delivered yet.
-        L = int(s.latency_frames)
-        self._delay = self._empty_slots(L)
-        self._ready = True
+        self._delay = self._empty_slots(int(self.spec.latency_frames))
 
     def _new_ids(self, u: NDArray[np.float64]) -> NDArray[np.int64]:
         # A uniform double holds 53 random bits; ids are 1 .. 2^53 (the SDK's are opaque uint64).
@@ -832,8 +922,11 @@ class KinectV2:
         Returns:
             The delivered frames (delayed by ``latency_frames``) and the undelayed truth.
         """
-        if not self._ready:
-            raise RuntimeError("call KinectV2.reset() before capture()")
+        if not self._ready.all():
+            missing = np.flatnonzero(~self._ready).tolist()
+            raise RuntimeError(
+                f"call KinectV2.reset() before capture() (users {missing} never were)"
+            )
         t, jw, qw = self._validate(t, joints_world, hand_quat_world)
         s, r, B, N = self.spec, self.rng, self.batch_size, self.n_bodies
         M = jw.shape[1]
@@ -1011,7 +1104,9 @@ class KinectV2:
             self._acquired = np.where(detectable[:, m], np.minimum(self._acquired + 1, acq), 0)
             trk = self._acquired >= acq
             fresh = trk & ~self._prev_tracked
-            self._ids = np.where(fresh, self._new_ids(u_body[:, m, 3]), self._ids)
+            self._ids = _unique_ids(
+                np.where(fresh, self._new_ids(u_body[:, m, 3]), self._ids), fresh
+            )
             self._prev_tracked = trk
             tracked[:, m] = trk
             ids[:, m] = self._ids
@@ -1075,8 +1170,8 @@ class KinectV2:
             self._by_moving = self._by_moving & (dist - step > 1e-9)
             pos[:, m] = self._by_pos
             yaw[:, m] = self._by_yaw
-        k = self._frame + np.arange(M)
-        phase = 2 * math.pi * self._by_sway_freq[:, None] * (k * dt)[None, :, None]
+        k = self._frame[:, None] + np.arange(M)  # (B, M): each user's own frame count
+        phase = 2 * math.pi * self._by_sway_freq[:, None] * (k * dt)[:, :, None]
         sway = self._by_sway_amp[:, None] * np.sin(phase + self._by_sway_phase[:, None])
         left = np.stack([-np.sin(yaw), np.cos(yaw)], axis=-1)
         xy = pos + sway[..., None] * left
