@@ -103,6 +103,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from estimators import _attitude_numba as _k
+from estimators.batching import stream_rows
 from estimators.rotations import (
     GRAVITY,
     quat_conjugate,
@@ -559,23 +560,6 @@ def _as_samples(a: ArrayLike, name: str, shape: tuple[int, ...] | None) -> NDArr
     return arr
 
 
-def _stream_rows(mask: ArrayLike, b: int) -> NDArray[np.intp]:
-    """Stream indices from a (B,) boolean mask or indices; a ValueError if invalid."""
-    m = np.asarray(mask)
-    if m.dtype == bool:
-        if m.shape != (b,):
-            raise ValueError(f"mask as booleans must have shape ({b},), got {m.shape}")
-        return np.flatnonzero(m)
-    if m.size == 0:
-        return np.zeros(0, dtype=np.intp)
-    if not np.issubdtype(m.dtype, np.integer):
-        raise ValueError(f"mask must be a ({b},) boolean mask or indices in [0, {b - 1}], got {m}")
-    m = m.astype(np.intp).ravel()
-    if m.min() < 0 or m.max() >= b:
-        raise ValueError(f"mask indices must lie in [0, {b - 1}], got {m}")
-    return m
-
-
 def _check_fs(fs: float) -> float:
     try:
         fs = float(fs)
@@ -660,7 +644,7 @@ class AttitudeEKF:
             self.state = AttitudeState.fresh(b, self.params)
             self._units = np.zeros((b, _k.N_UNIT), dtype=np.int64)
             return
-        rows = _stream_rows(mask, b)
+        rows = stream_rows(mask, b, "mask", unique=False)
         fresh = AttitudeState.fresh(rows.size, self.params)
         s = self.state  # assigned in place: the kernel works on these arrays
         s.q[rows] = fresh.q

@@ -74,5 +74,5 @@ def test_rows_are_validated():
     r = BatchRng.from_seeds([0, 1])
     with pytest.raises(ValueError, match=r"rows must lie in \[0, 1\]"):
         r.normal((2,), rows=[2])
-    with pytest.raises(ValueError, match="boolean rows mask"):
+    with pytest.raises(ValueError, match="rows as a boolean mask"):
         r.normal((2,), rows=np.array([True]))

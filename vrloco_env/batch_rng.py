@@ -23,6 +23,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.special import ndtr
 
+from estimators.batching import stream_rows
+
 __all__ = ["BatchRng"]
 
 _BELOW_ONE = 1.0 - 2.0**-53  # the largest double below 1
@@ -82,17 +84,7 @@ class BatchRng:
         self._pos[index] = self._buf.shape[1]  # discard the old generator's unread numbers
 
     def _rows(self, rows: ArrayLike | None) -> NDArray[np.intp]:
-        if rows is None:
-            return np.arange(self.batch_size)
-        r = np.asarray(rows)
-        if r.dtype == bool:
-            if r.shape != (self.batch_size,):
-                raise ValueError(f"a boolean rows mask must have shape ({self.batch_size},)")
-            return np.flatnonzero(r)
-        r = r.astype(np.intp).ravel()
-        if r.size and (r.min() < 0 or r.max() >= self.batch_size):
-            raise ValueError(f"rows must lie in [0, {self.batch_size - 1}], got {r}")
-        return r
+        return stream_rows(rows, self.batch_size, "rows", unique=False)
 
     def _take(self, n: int, rows: NDArray[np.intp]) -> NDArray[np.float64]:
         if n > self._buf.shape[1]:  # a draw larger than a block: widen every user's buffer

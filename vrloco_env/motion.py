@@ -50,6 +50,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from estimators import rotations as rot
+from estimators.batching import stream_rows
 from vrloco_env.batch_rng import BatchRng
 from vrloco_env.skeleton import NUM_JOINTS, Joint
 
@@ -340,7 +341,7 @@ class UserMotion:
                 some keeps the batch's clock (times in chunks are batch times).
         """
         b = self.batch_size
-        rows = np.arange(b) if users is None else _user_rows(users, b)
+        rows = np.arange(b) if users is None else stream_rows(users, b)
         if self._state is None and rows.size != b:
             raise RuntimeError("the first UserMotion.reset() must reset every user")
         u = rows.size
@@ -680,19 +681,6 @@ def _frame_times(step: int, control_rate: float, rate: float) -> tuple[NDArray, 
     k1 = np.floor((step + 1) * rate / control_rate + 1e-9)
     k = np.arange(k0, k1 + 1)
     return (k * control_rate - step * rate) / (rate * control_rate), k / rate
-
-
-def _user_rows(users: ArrayLike, batch_size: int) -> NDArray[np.intp]:
-    """User indices from indices or a (B,) boolean mask, validated."""
-    u = np.asarray(users)
-    if u.dtype == bool:
-        if u.shape != (batch_size,):
-            raise ValueError(f"users mask must have shape ({batch_size},), got {u.shape}")
-        return np.flatnonzero(u)
-    u = u.astype(np.intp).ravel()
-    if u.size and (u.min() < 0 or u.max() >= batch_size):
-        raise ValueError(f"users must lie in [0, {batch_size - 1}], got {u}")
-    return u
 
 
 def _batch(value: ArrayLike, shape: tuple[int, ...], name: str) -> NDArray[np.float64]:

@@ -24,6 +24,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from estimators import rotations as rot
 from estimators.attitude import AttitudeEKF
+from estimators.batching import stream_rows
 from estimators.gait import StepDetector
 from estimators.hand import HandFrame, HandPipeline
 from estimators.locomotion import make_locomotion
@@ -161,8 +162,9 @@ class SimulatedUsers:
         touched, so a vector env's sub-env behaves as a single env would.
         """
         b = self.batch_size
-        mask = np.ones(b, bool) if users is None else _mask(users, b)
-        rows = np.flatnonzero(mask)
+        rows = stream_rows(users, b)
+        mask = np.zeros(b, bool)
+        mask[rows] = True
         every = rows.size == b
         u = rows.size
         start_yaw = np.broadcast_to(np.asarray(start_yaw, np.float64), (u,))
@@ -263,14 +265,3 @@ class SimulatedUsers:
             rel = rot.quat_to_ypr(rot.quat_multiply(rot.quat_conjugate(q_torso), q_hand))
         ok = hand.valid & np.all(np.isfinite(rel), axis=-1)
         return np.where(ok[:, None], rel, np.nan)
-
-
-def _mask(users: ArrayLike, b: int) -> NDArray[np.bool_]:
-    u = np.asarray(users)
-    if u.dtype == bool:
-        if u.shape != (b,):
-            raise ValueError(f"users mask must have shape ({b},), got {u.shape}")
-        return u
-    m = np.zeros(b, bool)
-    m[u.astype(np.intp)] = True
-    return m

@@ -44,6 +44,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.signal import lfilter
 
+from estimators.batching import stream_rows
 from estimators.rotations import GRAVITY, ensure_quaternion, quat_rotate_inverse
 from vrloco_env.batch_rng import BatchRng
 
@@ -543,27 +544,6 @@ def _as_batch(
     return a
 
 
-def _user_rows(users: ArrayLike | None, b: int) -> NDArray[np.intp]:
-    """User indices from None (all), indices or a (B,) boolean mask; a ValueError if invalid."""
-    if users is None:
-        return np.arange(b)
-    u = np.asarray(users)
-    if u.dtype == bool:
-        if u.shape != (b,):
-            raise ValueError(f"users as a boolean mask must have shape ({b},), got {u.shape}")
-        return np.flatnonzero(u)
-    if u.size == 0:
-        return np.zeros(0, dtype=np.intp)
-    if not np.issubdtype(u.dtype, np.integer):
-        raise ValueError(f"users must be integer indices in [0, {b - 1}] or a (B,) mask, got {u}")
-    u = u.astype(np.intp).ravel()
-    if u.min() < 0 or u.max() >= b:
-        raise ValueError(f"users must lie in [0, {b - 1}], got {u}")
-    if np.unique(u).size != u.size:
-        raise ValueError(f"users must not repeat an index, got {u}")
-    return u
-
-
 class HeadImu:
     """A head-worn 9-axis IMU for B users, streaming: biases carry over between calls.
 
@@ -666,7 +646,7 @@ class HeadImu:
             ValueError: an index outside [0, B), a repeated index or a mask of the wrong shape.
         """
         b = self.batch_size
-        rows = _user_rows(users, b)
+        rows = stream_rows(users, b)
         if users is None or not hasattr(self, "_turn_on"):  # first call: allocate every user
             self._turn_on = np.zeros((b, 3, 3))
             self._gm = np.zeros((b, 3, 3))

@@ -93,6 +93,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.special import ndtr
 
+from estimators.batching import stream_rows
 from estimators.rotations import (
     ensure_quaternion,
     matrix_to_quat,
@@ -692,27 +693,6 @@ _ID_SCALE = float(2**53)
 _BELOW_ONE = np.nextafter(1.0, 0.0)  # ndtr(z) rounds to 1.0 for z > 8.3; keep uniforms < 1
 
 
-def _user_rows(users: ArrayLike | None, b: int) -> NDArray[np.intp]:
-    """User indices from None (all), indices or a (B,) boolean mask; a ValueError if invalid."""
-    if users is None:
-        return np.arange(b)
-    u = np.asarray(users)
-    if u.dtype == bool:
-        if u.shape != (b,):
-            raise ValueError(f"users as a boolean mask must have shape ({b},), got {u.shape}")
-        return np.flatnonzero(u)
-    if u.size == 0:
-        return np.zeros(0, dtype=np.intp)
-    if not np.issubdtype(u.dtype, np.integer):
-        raise ValueError(f"users must be integer indices in [0, {b - 1}] or a (B,) mask, got {u}")
-    u = u.astype(np.intp).ravel()
-    if u.min() < 0 or u.max() >= b:
-        raise ValueError(f"users must lie in [0, {b - 1}], got {u}")
-    if np.unique(u).size != u.size:
-        raise ValueError(f"users must not repeat an index, got {u}")
-    return u
-
-
 def _unique_ids(ids: NDArray[np.int64], fresh: NDArray[np.bool_]) -> NDArray[np.int64]:
     """Make the ``fresh`` ids of each row (user) differ from every other id of that row.
 
@@ -780,7 +760,7 @@ class KinectV2:
             ValueError: an index outside [0, B), a repeated index or a mask of the wrong shape.
         """
         s, B, N = self.spec, self.batch_size, self.n_bodies
-        rows = _user_rows(users, B)
+        rows = stream_rows(users, B)
         if not hasattr(self, "_slots"):
             self._allocate()
         R, nb = rows.size, N - 1
