@@ -51,6 +51,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from estimators import rotations as rot
 from estimators.batching import stream_rows
+from vrloco_env._motion_numba import evaluate_kernel
 from vrloco_env.batch_rng import BatchRng
 from vrloco_env.skeleton import NUM_JOINTS, Joint
 
@@ -312,6 +313,8 @@ class UserMotion:
 
     params: MotionParams
     rng: BatchRng
+    use_kernel: bool = True
+    """Evaluate with the compiled kernel (same numbers as the numpy reference to 1e-12)."""
     _state: _State | None = field(default=None, init=False, repr=False)
 
     @property
@@ -400,7 +403,43 @@ class UserMotion:
 
     # ------------------------------------------------------------------ the time functions
     def _evaluate(self, s: _State, cmd: dict, tau: NDArray[np.float64]) -> dict:
-        """Head and body quantities at times ``tau`` (s after the step start), shape (B, T)."""
+        """Head and body quantities at times ``tau`` (s after the step start), shape (B, T).
+
+        Runs the compiled twin (:mod:`vrloco_env._motion_numba`) unless ``use_kernel`` is off;
+        :meth:`_evaluate_reference` is the readable numpy version the tests compare it with.
+        """
+        if not self.use_kernel:
+            return self._evaluate_reference(s, cmd, tau)
+        p = self.params
+        b, t = self.batch_size, tau.shape[-1]
+        out = {
+            "phase": np.empty((b, t)), "cadence": np.empty((b, t)), "yaw": np.empty((b, t)),
+            "yaw_rate": np.empty((b, t)), "head_ypr": np.empty((b, t, 3)),
+            "d_head_ypr": np.empty((b, t, 3)), "quat": np.empty((b, t, 4)),
+            "neck": np.empty((b, t, 3)), "imu_pos": np.empty((b, t, 3)),
+            "gesture_amp": np.empty((b, t, 3)), "gesture_amp_rate": np.empty((b, t, 3)),
+            "g_phase": np.empty((b, t, 3)), "lean": np.empty((b, t)),
+            "lean_rate": np.empty((b, t)), "t_boundary": np.empty(b),
+        }  # fmt: skip
+        lo, hi = p.cadence_range_hz
+        evaluate_kernel(
+            s.phase, s.step_cadence, s.yaw, s.yaw_rate, s.gesture_amp, s.gesture_amp_rate,
+            s.gesture_phase, s.lean, s.lean_rate, s.base, s.impact_scale, s.sway_scale,
+            cmd["cadence"], cmd["turn_rate"], cmd["gesture_amplitude"], cmd["gesture_frequency"],
+            cmd["lean"], lo, hi, p.peak_accel_g[0], p.peak_accel_g[1], rot.GRAVITY, p.sway_m,
+            np.deg2rad(p.sway_roll_deg), p.turn_lag_s, p.gesture_lag_s, p.neck_height_m,
+            np.asarray(p.imu_offset_m, dtype=np.float64), _PULSE_POS, _PULSE_Z0,
+            np.ascontiguousarray(tau, dtype=np.float64),
+            out["phase"], out["cadence"], out["yaw"], out["yaw_rate"], out["head_ypr"],
+            out["d_head_ypr"], out["quat"], out["neck"], out["imu_pos"], out["gesture_amp"],
+            out["gesture_amp_rate"], out["g_phase"], out["lean"], out["lean_rate"],
+            out["t_boundary"],
+        )  # fmt: skip
+        out["walking"] = out["cadence"] > 0.0
+        return out
+
+    def _evaluate_reference(self, s: _State, cmd: dict, tau: NDArray[np.float64]) -> dict:
+        """The numpy reference of :meth:`_evaluate`."""
         p = self.params
         tau = np.broadcast_to(tau, (self.batch_size, tau.shape[-1]))
 
@@ -495,17 +534,23 @@ class UserMotion:
         t0 = s.time(p.control_rate_hz)
         tau = np.arange(1, n + 1) / p.imu_rate_hz
         h = _DIFF_H
-        # Linear acceleration by central differences of the analytic position (h = 0.1 ms).
-        ev = self._evaluate(s, cmd, np.concatenate([tau - h, tau, tau + h]))
-        p_m, p_0, p_p = np.split(ev["imu_pos"], 3, axis=1)
+        tau_k, t_k = _frame_times(s.steps_done, p.control_rate_hz, p.kinect_rate_hz)
+        # One evaluation at every time needed: the samples, +-h around them for the linear
+        # acceleration (central differences of the analytic position, h = 0.1 ms), three points
+        # for the last sample's left limit (the next intent is not known yet: backward second
+        # difference), and the Kinect frames.
+        ev_all = self._evaluate(
+            s,
+            cmd,
+            np.concatenate([tau - h, tau, tau + h, tau[-1] - np.array([2 * h, h, 0.0]), tau_k]),
+        )
+        parts = np.cumsum([n, n, n, 3])
+        ev = {k: (np.split(v, parts, axis=1) if v.ndim >= 2 else v) for k, v in ev_all.items()}
+        p_m, p_0, p_p, ends = ev["imu_pos"][:4]
         acc = (p_p - 2.0 * p_0 + p_m) / h**2
-        # Last sample: the next intent is not known yet, so take the left limit at the boundary
-        # (backward second difference).
-        ev_end = self._evaluate(s, cmd, tau[-1] - np.array([2 * h, h, 0.0]))
-        e2, e1, e0 = np.split(ev_end["imu_pos"], 3, axis=1)
-        acc[:, -1:] = (e0 - 2.0 * e1 + e2) / h**2
-        mid = {k: (v[:, n : 2 * n] if isinstance(v, np.ndarray) and v.ndim >= 2 else v)
-               for k, v in ev.items()}  # fmt: skip
+        acc[:, -1] = (ends[:, 2] - 2.0 * ends[:, 1] + ends[:, 0]) / h**2
+        mid = {k: (v[1] if isinstance(v, list) else v) for k, v in ev.items()}
+        frames = {k: (v[4] if isinstance(v, list) else v) for k, v in ev.items()}
 
         omega = _euler_rates_to_body(mid["head_ypr"], mid["d_head_ypr"])
 
@@ -518,8 +563,7 @@ class UserMotion:
         step_time = self._heel_strike_times(s, cmd, ev["t_boundary"], k_now, step, t0)
 
         # Kinect frames falling in (t, t + dt_ctrl].
-        tau_k, t_k = _frame_times(s.steps_done, p.control_rate_hz, p.kinect_rate_hz)
-        kin = self._skeleton(s, cmd, tau_k, t_k)
+        kin = self._skeleton(s, cmd, frames, tau_k, t_k)
 
         # Carry the state to the end of the step.
         end = {k: (v[:, -1] if isinstance(v, np.ndarray) and v.ndim >= 2 else v)
@@ -570,13 +614,14 @@ class UserMotion:
         ypr = s.hand_ypr[:, None, :] + cmd["hand_rates"][:, None, :] * tau[None, :, None]
         return np.clip(ypr, -lim, lim)
 
-    def _skeleton(self, s: _State, cmd: dict, tau: NDArray[np.float64], t_abs) -> KinectChunk:
-        """True Kinect v2 skeleton (world frame) at times ``tau`` after the step start."""
+    def _skeleton(self, s: _State, cmd: dict, ev: dict, tau: NDArray[np.float64],
+                  t_abs: NDArray[np.float64]) -> KinectChunk:  # fmt: skip
+        """True Kinect v2 skeleton (world frame) at times ``tau`` after the step start, from the
+        body evaluated at those times (``ev``)."""
         b, m = self.batch_size, tau.shape[0]
         if m == 0:
             return KinectChunk(t_abs, np.zeros((b, 0, NUM_JOINTS, 3)), np.zeros((b, 0, 4)),
                                np.zeros((b, 0, 3)))  # fmt: skip
-        ev = self._evaluate(s, cmd, tau)
         yaw = ev["yaw"]
         zero = np.zeros_like(yaw)
         torso_q = rot.quat_from_ypr(np.stack([yaw, zero, zero], -1))

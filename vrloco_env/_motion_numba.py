@@ -1,0 +1,143 @@
+"""Compiled twin of :meth:`vrloco_env.motion.UserMotion._evaluate` (same formulas, scalar loops).
+
+The numpy method is the readable reference; ``tests/test_motion.py`` checks that this kernel
+agrees with it to 1e-12. At B = 1 the numpy version pays ~1 us per array operation over ~150
+operations; the kernel does the same work in one call.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+
+
+@numba.njit(cache=True)
+def _critically_damped(x0, v0, target, lag, tau):
+    e0 = x0 - target
+    c = v0 + e0 / lag
+    decay = math.exp(-tau / lag)
+    return target + (e0 + c * tau) * decay, (c - (e0 + c * tau) / lag) * decay
+
+
+@numba.njit(cache=True)
+def evaluate_kernel(
+    phase0, step_cad, yaw0, yaw_rate0, gamp0, gamp_rate0, gphase0, lean0, lean_rate0, base,
+    impact, sway_scale, cad_cmd, turn_cmd, gamp_cmd, gfreq, lean_cmd,
+    lo, hi, pk_lo, pk_hi, gravity, sway_m, sway_roll, turn_lag, gesture_lag, neck_h, imu_off,
+    pulse_pos, z0, tau,
+    o_phase, o_cad, o_yaw, o_yaw_rate, o_ypr, o_dypr, o_quat, o_neck, o_imu, o_gamp, o_gamp_rate,
+    o_gphase, o_lean, o_lean_rate, o_tb,
+):  # fmt: skip
+    b_n = phase0.shape[0]
+    t_n = tau.shape[0]
+    k_n = pulse_pos.shape[0]
+    two_pi = 2.0 * math.pi
+    for b in range(b_n):
+        c_old = step_cad[b]
+        c_new = cad_cmd[b]
+        ph0 = phase0[b]
+        to_boundary = math.ceil(ph0 - 1e-12) - ph0
+        t_b = to_boundary / c_old if c_old > 0.0 else 0.0
+        o_tb[b] = t_b
+        for t in range(t_n):
+            tt = tau[t]
+            if tt < t_b:
+                phase = ph0 + c_old * tt
+                cad = c_old
+            else:
+                phase = ph0 + to_boundary + c_new * (tt - t_b)
+                cad = c_new
+            frac = phase - math.floor(phase)
+            # vertical bob
+            alpha = min(max((cad - lo) / (hi - lo), 0.0), 1.0)
+            a_peak = (pk_lo + alpha * (pk_hi - pk_lo)) * gravity * impact[b]
+            amp = a_peak / (cad * cad) if cad > 0.0 else 0.0
+            # sum_k pos_k cos(k th): cos(k th) by the angle-addition recurrence (harmonics 1..K)
+            th = two_pi * (frac - 0.5)
+            c1, s1 = math.cos(th), math.sin(th)
+            ck, sk = c1, s1
+            z = 0.0
+            for k in range(k_n):
+                z += pulse_pos[k] * ck
+                ck, sk = ck * c1 - sk * s1, sk * c1 + ck * s1
+            bob = amp * (z - z0)
+            # sway
+            sin_p = math.sin(math.pi * phase)
+            s3 = sin_p * sin_p * sin_p
+            sway = sway_m * sway_scale[b] * s3
+            sway_roll_v = sway_roll * sway_scale[b] * s3
+            d_sway_roll = (sway_roll * sway_scale[b] * 3.0 * sin_p * sin_p
+                           * math.cos(math.pi * phase) * math.pi * cad)  # fmt: skip
+            # yaw
+            r0 = yaw_rate0[b]
+            rc = turn_cmd[b]
+            decay = math.exp(-tt / turn_lag)
+            yaw = yaw0[b] + rc * tt + (r0 - rc) * turn_lag * (1.0 - decay)
+            d_yaw = rc + (r0 - rc) * decay
+            # gestures and lean
+            gest = (0.0, 0.0, 0.0)
+            dgest = (0.0, 0.0, 0.0)
+            for a in range(3):
+                ga, dga = _critically_damped(gamp0[b, a], gamp_rate0[b, a], gamp_cmd[b, a],
+                                             gesture_lag, tt)  # fmt: skip
+                om = two_pi * gfreq[b, a]
+                gp = gphase0[b, a] + om * tt
+                sg, cg = math.sin(gp), math.cos(gp)
+                if a == 0:
+                    gest = (ga * sg, gest[1], gest[2])
+                    dgest = (dga * sg + ga * om * cg, dgest[1], dgest[2])
+                elif a == 1:
+                    gest = (gest[0], ga * sg, gest[2])
+                    dgest = (dgest[0], dga * sg + ga * om * cg, dgest[2])
+                else:
+                    gest = (gest[0], gest[1], ga * sg)
+                    dgest = (dgest[0], dgest[1], dga * sg + ga * om * cg)
+                o_gamp[b, t, a] = ga
+                o_gamp_rate[b, t, a] = dga
+                o_gphase[b, t, a] = gp
+            lean, d_lean = _critically_damped(lean0[b], lean_rate0[b], lean_cmd[b], gesture_lag,
+                                              tt)  # fmt: skip
+            y = yaw + gest[0]
+            p = lean + gest[1]
+            r = sway_roll_v + gest[2]
+            o_ypr[b, t, 0] = y
+            o_ypr[b, t, 1] = p
+            o_ypr[b, t, 2] = r
+            o_dypr[b, t, 0] = d_yaw + dgest[0]
+            o_dypr[b, t, 1] = d_lean + dgest[1]
+            o_dypr[b, t, 2] = d_sway_roll + dgest[2]
+            # quaternion from ZYX (same formula as estimators.rotations.quat_from_ypr)
+            cy, sy = math.cos(0.5 * y), math.sin(0.5 * y)
+            cp, sp = math.cos(0.5 * p), math.sin(0.5 * p)
+            cr, sr = math.cos(0.5 * r), math.sin(0.5 * r)
+            qw = cy * cp * cr + sy * sp * sr
+            qx = cy * cp * sr - sy * sp * cr
+            qy = cy * sp * cr + sy * cp * sr
+            qz = sy * cp * cr - cy * sp * sr
+            o_quat[b, t, 0] = qw
+            o_quat[b, t, 1] = qx
+            o_quat[b, t, 2] = qy
+            o_quat[b, t, 3] = qz
+            # neck pivot
+            cyaw, syaw = math.cos(yaw), math.sin(yaw)
+            nx = base[b, 0] - syaw * sway
+            ny = base[b, 1] + cyaw * sway
+            nz = neck_h + bob
+            o_neck[b, t, 0] = nx
+            o_neck[b, t, 1] = ny
+            o_neck[b, t, 2] = nz
+            # IMU position: neck + R(q) imu_off (same arithmetic as rotations.quat_rotate)
+            vx, vy, vz = imu_off[0], imu_off[1], imu_off[2]
+            tx = 2.0 * (qy * vz - qz * vy)
+            ty = 2.0 * (qz * vx - qx * vz)
+            tz = 2.0 * (qx * vy - qy * vx)
+            o_imu[b, t, 0] = nx + (vx + qw * tx + (qy * tz - qz * ty))
+            o_imu[b, t, 1] = ny + (vy + qw * ty + (qz * tx - qx * tz))
+            o_imu[b, t, 2] = nz + (vz + qw * tz + (qx * ty - qy * tx))
+            o_phase[b, t] = phase
+            o_cad[b, t] = cad
+            o_yaw[b, t] = yaw
+            o_yaw_rate[b, t] = d_yaw
+            o_lean[b, t] = lean
+            o_lean_rate[b, t] = d_lean
