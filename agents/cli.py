@@ -7,6 +7,7 @@ imported lazily so that ``vrloco --help`` stays fast.
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -47,6 +48,36 @@ def _cmd_head_motions(args: argparse.Namespace) -> int:
         users=args.users,
         seed=args.seed,
     )
+    return 0
+
+
+def _cmd_train(args: argparse.Namespace) -> int:
+    from agents.learned import train_ppo
+
+    path = train_ppo(
+        task=args.task,
+        steps=args.steps,
+        num_envs=args.num_envs,
+        seed=args.seed,
+        out_dir=Path(args.out),
+        sensor_preset=args.sensors,
+        eval_every=args.eval_every,
+    )
+    print(f"wrote {path}; learning curve in {Path(args.out) / 'learning_curve.json'}")
+    return 0
+
+
+def _cmd_evaluate(args: argparse.Namespace) -> int:
+    from agents.learned import evaluate_model
+
+    result = evaluate_model(
+        Path(args.model),
+        task=args.task,
+        episodes=args.episodes,
+        seed=args.seed,
+        sensor_preset=args.sensors,
+    )
+    print(json.dumps(result, indent=2))
     return 0
 
 
@@ -93,6 +124,23 @@ def build_parser() -> argparse.ArgumentParser:
     )
     loco.add_argument("--json", help="write the results to this JSON file")
     loco.set_defaults(func=_cmd_locomotion)
+    train = sub.add_parser("train", help="train a PPO user (stable-baselines3) on a task")
+    train.add_argument("--task", default="approach", help="approach, avoid or interact")
+    train.add_argument("--steps", type=int, default=2_000_000, help="environment steps")
+    train.add_argument("--num-envs", type=int, default=32, help="users stepped together")
+    train.add_argument("--sensors", default="ig500n", help="IMU preset (default: ig500n)")
+    train.add_argument("--eval-every", type=int, default=100_000, help="steps between evals")
+    train.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
+    train.add_argument("--out", default="runs/ppo", help="folder for logs and models")
+    train.set_defaults(func=_cmd_train)
+
+    evaluate = sub.add_parser("evaluate", help="success and collision rates of a trained model")
+    evaluate.add_argument("model", help="path of a saved PPO model (.zip)")
+    evaluate.add_argument("--task", default="approach", help="approach, avoid or interact")
+    evaluate.add_argument("--episodes", type=int, default=100, help="seeded episodes")
+    evaluate.add_argument("--sensors", default="ig500n", help="IMU preset (default: ig500n)")
+    evaluate.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
+    evaluate.set_defaults(func=_cmd_evaluate)
     return parser
 
 

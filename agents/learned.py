@@ -1,0 +1,215 @@
+"""Learned simulated users: stable-baselines3 PPO on the native vector env.
+
+``vrloco train --task approach --steps 2000000`` trains PPO on
+:class:`~vrloco_env.vector.VRLocoVectorEnv` (all users batched in one process), with a progress
+bar, TensorBoard logs, periodic checkpoints and an evaluation callback on separately seeded
+episodes; ``vrloco evaluate MODEL`` runs a trained policy through the benchmark's metrics.
+
+:class:`SB3VecEnv` adapts the Gymnasium vector env to stable-baselines3's ``VecEnv`` interface.
+Both autoreset in the same step, so the adapter only reshapes: the finished episode's last
+observation goes to ``infos[i]["terminal_observation"]`` and a time-limit end sets
+``infos[i]["TimeLimit.truncated"]``, which PPO uses to bootstrap the value of truncated episodes.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from stable_baselines3.common.vec_env.base_vec_env import VecEnv
+
+from vrloco_env.vector import VRLocoVectorEnv
+
+__all__ = ["SB3VecEnv", "evaluate_model", "train_ppo"]
+
+#: Reported per-step keys kept in the SB3 infos (episode metrics for the callbacks).
+_INFO_KEYS = ("is_success", "collisions", "distance_to_goal")
+
+
+class SB3VecEnv(VecEnv):
+    """stable-baselines3 view of a :class:`~vrloco_env.vector.VRLocoVectorEnv`."""
+
+    def __init__(self, env: VRLocoVectorEnv, seed: int | None = None) -> None:
+        self.env = env
+        super().__init__(env.num_envs, env.single_observation_space, env.single_action_space)
+        self._seed = seed
+        self._actions: np.ndarray | None = None
+        self._returns = np.zeros(env.num_envs)
+        self._lengths = np.zeros(env.num_envs, dtype=np.int64)
+
+    def reset(self) -> np.ndarray:
+        seed = self._seed
+        self._seed = None  # seed only the first reset; later resets continue the streams
+        obs, _ = self.env.reset(seed=seed)
+        self._returns[:] = 0.0
+        self._lengths[:] = 0
+        return obs
+
+    def step_async(self, actions: np.ndarray) -> None:
+        self._actions = np.asarray(actions, dtype=np.float32)
+
+    def step_wait(self):
+        assert self._actions is not None, "step_async must come before step_wait"
+        obs, reward, terminated, truncated, info = self.env.step(self._actions)
+        done = terminated | truncated
+        self._returns += reward
+        self._lengths += 1
+        infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
+        for i in np.flatnonzero(done):  # only the finished episodes carry an info dict
+            infos[i] = {
+                "terminal_observation": info["final_obs"][i],
+                "TimeLimit.truncated": bool(truncated[i] and not terminated[i]),
+                "episode": {"r": float(self._returns[i]), "l": int(self._lengths[i])},
+                **{k: info[k][i].item() for k in _INFO_KEYS},
+            }
+            self._returns[i] = 0.0
+            self._lengths[i] = 0
+        return obs, reward.astype(np.float32), done, infos
+
+    def close(self) -> None:
+        self.env.close()
+
+    def get_attr(self, attr_name: str, indices=None) -> list[Any]:
+        return [getattr(self.env, attr_name)] * len(self._get_indices(indices))
+
+    def set_attr(self, attr_name: str, value: Any, indices=None) -> None:
+        setattr(self.env, attr_name, value)
+
+    def env_method(self, method_name: str, *args, indices=None, **kwargs) -> list[Any]:
+        return [getattr(self.env, method_name)(*args, **kwargs)]
+
+    def env_is_wrapped(self, wrapper_class, indices=None) -> list[bool]:
+        return [False] * len(self._get_indices(indices))
+
+    def seed(self, seed: int | None = None):
+        self._seed = seed
+        return [seed]
+
+    def get_images(self):
+        raise NotImplementedError("render a single env (gym.make) for pictures")
+
+
+def train_ppo(
+    task: str = "approach",
+    steps: int = 2_000_000,
+    num_envs: int = 32,
+    seed: int = 0,
+    out_dir: Path = Path("runs"),
+    sensor_preset: str = "ig500n",
+    eval_every: int = 100_000,
+    eval_episodes: int = 32,
+    progress: bool = True,
+    **ppo_kwargs: Any,
+) -> Path:
+    """Train PPO on ``task``; returns the path of the final model (``.zip``).
+
+    Writes TensorBoard logs (``out_dir/tb``), checkpoints (``out_dir/checkpoints``), the best
+    model by evaluation success (``out_dir/best_model.zip``) and ``out_dir/learning_curve.json``
+    (environment steps, wall time, evaluation success rate and mean return).
+    """
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback
+    from stable_baselines3.common.vec_env import VecMonitor
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    venv = VecMonitor(
+        SB3VecEnv(VRLocoVectorEnv(num_envs, task=task, sensor_preset=sensor_preset), seed=seed),
+        info_keywords=("is_success",),
+    )
+    eval_env = VRLocoVectorEnv(eval_episodes, task=task, sensor_preset=sensor_preset)
+    curve: list[dict[str, float]] = []
+    t_start = time.perf_counter()
+
+    class Evaluate(BaseCallback):
+        def __init__(self) -> None:
+            super().__init__()
+            self.next_eval = 0
+            self.best = -1.0
+
+        def _on_step(self) -> bool:
+            if self.num_timesteps < self.next_eval:
+                return True
+            self.next_eval = self.num_timesteps + eval_every
+            result = run_policy_episodes(self.model, eval_env, seed=10_000 + seed)
+            result.update(steps=self.num_timesteps, wall_s=time.perf_counter() - t_start)
+            curve.append(result)
+            self.logger.record("eval/success_rate", result["success_rate"])
+            self.logger.record("eval/collision_rate", result["collision_rate"])
+            self.logger.record("eval/mean_return", result["mean_return"])
+            if result["success_rate"] > self.best:
+                self.best = result["success_rate"]
+                self.model.save(out_dir / "best_model")
+            (out_dir / "learning_curve.json").write_text(json.dumps(curve, indent=2))
+            return True
+
+    defaults = {
+        "n_steps": 256,
+        "batch_size": 2048,
+        "n_epochs": 5,
+        "gamma": 0.99,
+        "gae_lambda": 0.95,
+        "learning_rate": 3e-4,
+        "ent_coef": 0.0,
+    }
+    model = PPO(
+        "MlpPolicy",
+        venv,
+        seed=seed,
+        verbose=0,
+        tensorboard_log=str(out_dir / "tb"),
+        **{**defaults, **ppo_kwargs},
+    )
+    checkpoints = CheckpointCallback(
+        max(eval_every // num_envs, 1), str(out_dir / "checkpoints"), name_prefix=f"ppo_{task}"
+    )
+    model.learn(steps, callback=[checkpoints, Evaluate()], progress_bar=progress)
+    final = out_dir / f"ppo_{task}_final"
+    model.save(final)
+    result = run_policy_episodes(model, eval_env, seed=10_000 + seed)
+    result.update(steps=model.num_timesteps, wall_s=time.perf_counter() - t_start)
+    curve.append(result)
+    (out_dir / "learning_curve.json").write_text(json.dumps(curve, indent=2))
+    venv.close()
+    return final.with_suffix(".zip")
+
+
+def run_policy_episodes(model: Any, env: VRLocoVectorEnv, seed: int) -> dict[str, float]:
+    """One episode per sub-env with the deterministic policy; success, collision rate, return."""
+    obs, _ = env.reset(seed=seed)
+    n = env.num_envs
+    done = np.zeros(n, bool)
+    success = np.zeros(n, bool)
+    collided = np.zeros(n, bool)
+    returns = np.zeros(n)
+    while not done.all():
+        action, _ = model.predict(obs, deterministic=True)
+        obs, reward, terminated, truncated, info = env.step(action)
+        live = ~done
+        returns += np.where(live, reward, 0.0)
+        collided |= live & info["collision"]
+        ended = live & (terminated | truncated)
+        success |= ended & info["is_success"]
+        done |= ended
+    return {
+        "success_rate": float(success.mean()),
+        "collision_rate": float(collided.mean()),
+        "mean_return": float(returns.mean()),
+    }
+
+
+def evaluate_model(
+    path: Path,
+    task: str = "approach",
+    episodes: int = 100,
+    seed: int = 0,
+    sensor_preset: str = "ig500n",
+) -> dict[str, float]:
+    """Success and collision rates of a saved PPO model over ``episodes`` seeded episodes."""
+    from stable_baselines3 import PPO
+
+    model = PPO.load(path)
+    env = VRLocoVectorEnv(episodes, task=task, sensor_preset=sensor_preset)
+    return run_policy_episodes(model, env, seed=seed)

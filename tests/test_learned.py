@@ -1,0 +1,51 @@
+"""The stable-baselines3 adapter and a tiny PPO run (the learning curve itself is a benchmark)."""
+
+import json
+
+import numpy as np
+from stable_baselines3.common.vec_env import VecEnv
+
+from agents.learned import SB3VecEnv, evaluate_model, train_ppo
+from vrloco_env.vector import VRLocoVectorEnv
+
+
+def test_adapter_reports_terminal_observations_and_time_limits():
+    venv = SB3VecEnv(VRLocoVectorEnv(2, task="avoid", max_episode_steps=4), seed=3)
+    assert isinstance(venv, VecEnv)
+    obs = venv.reset()
+    assert obs.shape == (2, *venv.observation_space.shape)
+    for _ in range(3):
+        venv.step_async(np.zeros((2, 5), np.float32))
+        obs, reward, done, infos = venv.step_wait()
+        assert not done.any() and infos == [{}, {}]
+    venv.step_async(np.zeros((2, 5), np.float32))
+    obs, reward, done, infos = venv.step_wait()
+    assert done.all() and reward.dtype == np.float32
+    for info in infos:
+        assert info["TimeLimit.truncated"] and info["episode"]["l"] == 4
+        assert info["terminal_observation"].shape == obs.shape[1:]
+    # The same seed gives the same first observation.
+    again = SB3VecEnv(VRLocoVectorEnv(2, task="avoid", max_episode_steps=4), seed=3)
+    np.testing.assert_array_equal(
+        again.reset(),
+        SB3VecEnv(VRLocoVectorEnv(2, task="avoid", max_episode_steps=4), seed=3).reset(),
+    )
+
+
+def test_tiny_ppo_run_writes_a_model_and_a_learning_curve(tmp_path):
+    path = train_ppo(
+        "approach",
+        steps=512,
+        num_envs=4,
+        out_dir=tmp_path,
+        eval_every=256,
+        eval_episodes=2,
+        progress=False,
+        n_steps=64,
+        batch_size=128,
+    )
+    assert path.is_file()
+    curve = json.loads((tmp_path / "learning_curve.json").read_text())
+    assert curve[-1]["steps"] >= 512 and 0.0 <= curve[-1]["success_rate"] <= 1.0
+    result = evaluate_model(path, episodes=2)
+    assert set(result) == {"success_rate", "collision_rate", "mean_return"}
