@@ -291,3 +291,11 @@ def test_bad_inputs_raise_clear_errors():
             RoomConfig(n_obstacles_min=40, n_obstacles_max=40, max_attempts=2),
             np.random.default_rng(0),
         )
+
+
+def test_layouts_that_once_broke_the_planner_are_feasible():
+    """Approach seed 322: relaxing the path pulled its end out of the goal region."""
+    layout = rooms.approach_layout(RoomConfig(), np.random.default_rng(322))
+    assert layout.in_goal(layout.path[-1:])[0]
+    straight = np.hypot(*np.subtract(layout.goal, layout.start[:2])) - layout.goal_radius
+    assert layout.shortest_path_length >= straight - 1e-9
