@@ -81,6 +81,18 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_estimate(args: argparse.Namespace) -> int:
+    from agents.estimate import estimate_recording
+
+    try:
+        result = estimate_recording(Path(args.path), Path(args.out), args.step_length)
+    except ValueError as err:  # a malformed recording: one clear line, no traceback
+        print(f"vrloco estimate: {err}", file=sys.stderr)
+        return 2
+    print(json.dumps(result, indent=2))
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="vrloco",
@@ -141,6 +153,19 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--sensors", default="ig500n", help="IMU preset (default: ig500n)")
     evaluate.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
     evaluate.set_defaults(func=_cmd_evaluate)
+    est = sub.add_parser(
+        "estimate",
+        help="attitude, steps and the eq (17) path of a recording (CSV, BROAD or Oxford)",
+        description=(
+            "CSV columns: t (s), gx gy gz (rad/s), ax ay az (m/s^2), optional mx my mz "
+            "(any fixed unit). Also reads BROAD .hdf5/.mat trials and Oxford step-counter "
+            "folders. Writes NAME_estimates.csv and NAME_estimates.png."
+        ),
+    )
+    est.add_argument("path", help="a CSV file, a BROAD trial or an Oxford folder")
+    est.add_argument("--out", default="out", help="output folder (default: out)")
+    est.add_argument("--step-length", type=float, default=0.7, help="eq (17) SL in m")
+    est.set_defaults(func=_cmd_estimate)
     return parser
 
 
