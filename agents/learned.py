@@ -172,8 +172,33 @@ def train_ppo(
     result.update(steps=model.num_timesteps, wall_s=time.perf_counter() - t_start)
     curve.append(result)
     (out_dir / "learning_curve.json").write_text(json.dumps(curve, indent=2))
+    plot_learning_curve(curve, out_dir / "learning_curve.png", title=f"PPO on {task}")
     venv.close()
     return final.with_suffix(".zip")
+
+
+def plot_learning_curve(curve: list[dict[str, float]], path: Path, title: str = "") -> None:
+    """Evaluation success and collision rates against environment steps (wall time on top)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    steps = np.array([c["steps"] for c in curve])
+    fig, ax = plt.subplots(figsize=(7, 4), constrained_layout=True)
+    ax.plot(steps, [c["success_rate"] for c in curve], "o-", label="success rate")
+    ax.plot(steps, [c["collision_rate"] for c in curve], "s--", label="collision rate")
+    ax.axhline(0.9, color="0.6", lw=0.8, ls=":")
+    ax.set_xlabel("environment steps")
+    ax.set_ylim(-0.02, 1.02)
+    ax.legend(loc="center right")
+    wall = curve[-1]["wall_s"]
+    ax.set_title(
+        f"{title}: {curve[-1]['success_rate']:.0%} success after {steps[-1]:,} steps, "
+        f"{wall / 60:.1f} min"
+    )
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
 
 
 def run_policy_episodes(model: Any, env: VRLocoVectorEnv, seed: int) -> dict[str, float]:
