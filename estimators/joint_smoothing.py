@@ -260,7 +260,10 @@ class HoltSmoother:
         out = np.where(v3, pred, np.nan)
         self.holt_output = out
 
-        # Weighted average over the last frames where the joint was valid.
+        # Weighted average over the last frames where the joint was valid. The ring's position
+        # is shared by all streams, so the sum runs over ages (newest first), not ring slots:
+        # a stream's result then depends on its own history only, bit for bit, however many
+        # frames the others (or its own earlier episodes) have seen.
         n = self._weights.size
         if n == 1:
             return out.copy()
@@ -268,9 +271,10 @@ class HoltSmoother:
         self._history[self._head] = np.where(v3, pred, 0.0)
         self._history_ok[self._head] = 1.0
         self._history_ok[:, ~valid] = 0.0  # an invalid frame clears the joint's history
-        w = self._history_ok * np.roll(self._weights, self._head)[:, None, None]  # (n, B, J)
+        age = (self._head + np.arange(n)) % n  # ring slot of each age, newest first
+        w = self._history_ok[age] * self._weights[:, None, None]  # (n, B, J)
         avg = (
-            np.einsum("nbj,nbjc->bjc", w, self._history)
+            np.einsum("nbj,nbjc->bjc", w, self._history[age])
             / np.maximum(w.sum(axis=0), 1e-300)[..., None]
         )
         return np.where(v3, avg, np.nan)

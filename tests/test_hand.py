@@ -1,12 +1,14 @@
 """Seed 003's hand pipeline against ground truth: eq (1)/(2), target selection, Holt smoothing,
 Kalman + median filtering, the One Euro competitor, batching, and the Kinect CSV reader."""
 
+from dataclasses import fields
+
 import numpy as np
 import pytest
 from scipy.signal import lfilter
 from scipy.spatial.transform import Rotation
 
-from estimators import hand
+from estimators import _hand_numba, hand
 from estimators import rotations as rot
 from estimators.io_kinect import read_kinect_csv
 from estimators.joint_smoothing import HoltParams, HoltSmoother, OneEuroFilter, OneEuroParams
@@ -501,6 +503,234 @@ def test_batch_equals_single_streams_and_offline_equals_streaming(rng):
         out = pipe.update(**{k: v[:, t] for k, v in seq.items()})
         np.testing.assert_array_equal(out.ypr, batch.ypr[:, t])
         assert not np.any(np.isnan(out.ypr[out.valid]))
+
+
+# ------------------------------------------------------------------------------------------------
+# compiled kernel (update, update_frames) == numpy reference (update_reference)
+
+FRAME_FIELDS = [f.name for f in fields(hand.HandFrame)]
+
+
+def edge_sequence(rng, b, m):
+    """random_sequence plus every documented edge case, in every stream.
+
+    Wrist orientations near gimbal lock and sweeping through +-180 deg, NaN and zero quaternions,
+    frames without any body (longer than the Kalman's coasting), untracked targets, all-inferred
+    bodies, ids that vanish and come back.
+    """
+    seq = random_sequence(rng, b, m)
+    q = seq["hand_quat"]
+    present = seq["body_id"] != 0
+    t = np.arange(m)
+    yaw = np.deg2rad(170.0 + 20.0 * np.sin(2 * np.pi * t / 24.0))  # crosses +-180 deg
+    sweep = rot.quat_from_ypr(np.stack([yaw, 0.2 + 0 * t, -0.1 + 0 * t], axis=-1))
+    q[:] = np.where(
+        present[..., None] & (t[None, :, None, None] < 2 * m // 3), sweep[None, :, None], q
+    )
+    lock = rng.random((b, m)) < 0.12  # pitch within 2 deg of +-90: eq (2) or just outside it
+    ypr = np.stack(
+        [
+            rng.uniform(-np.pi, np.pi, (b, m)),
+            np.sign(rng.normal(size=(b, m))) * np.deg2rad(rng.uniform(88.0, 90.0, (b, m))),
+            rng.uniform(-np.pi, np.pi, (b, m)),
+        ],
+        axis=-1,
+    )
+    q[lock] = rot.quat_from_ypr(ypr[lock])[:, None]
+    q[rng.random((b, m, K)) < 0.04] = np.nan
+    q *= rng.uniform(0.5, 2.0, (b, m, K, 1))  # any norm
+    gap = (t >= m // 3) & (t < m // 3 + 9)  # 9 frames without a body: coast, stale, reselect
+    seq["body_tracked"][:, gap] = False
+    untracked = rng.random((b, m, K)) < 0.05
+    seq["body_tracked"][untracked] = False
+    inferred = (rng.random((b, m, K)) < 0.05) & present
+    seq["joint_state"][inferred] = 1
+    return seq
+
+
+def frames_equal(got, want, atol=0.0):
+    """Every HandFrame field equal: exact for ints and bools, NaN where NaN, floats to ``atol``."""
+    for name in FRAME_FIELDS:
+        a, e = getattr(got, name), getattr(want, name)
+        assert a.dtype == e.dtype and a.shape == e.shape, name
+        if a.dtype.kind == "f":
+            np.testing.assert_array_equal(np.isnan(a), np.isnan(e), err_msg=name)
+            np.testing.assert_allclose(a, e, rtol=0.0, atol=atol, err_msg=name)
+        else:
+            np.testing.assert_array_equal(a, e, err_msg=name)
+
+
+@pytest.mark.parametrize(
+    "params",
+    [
+        None,
+        hand.HandParams(median_window=4, min_wrist_state=2),
+        hand.HandParams(
+            holt=HoltParams(average_weights=(1.0,)),
+            kalman=hand.KalmanParams(max_coast_frames=0, accel_psd=0.01, max_accel_psd=0.01),
+            median_window=1,
+            singularity_threshold=0.45,
+        ),
+    ],
+    ids=["default", "window4-tracked-wrist", "no-average-plain-kalman"],
+)
+def test_compiled_update_matches_numpy_reference(rng, params):
+    b, m = 5, 150
+    seq = edge_sequence(rng, b, m)
+    fast, ref = hand.HandPipeline(b, params), hand.HandPipeline(b, params)
+    seen = {n: np.zeros(b, bool) for n in ("singular", "reselected", "all_inferred")}
+    dropout = invalid = stale = wrap_pos = wrap_neg = np.zeros(b, bool)
+    for t in range(m):
+        if t == 100:  # an episode reset of some users mid-stream
+            for p in (fast, ref):
+                p.reset(np.arange(b) % 2 == 0)
+        fr = {k: v[:, t] for k, v in seq.items()}
+        was_active = ref.orientation.kalman.active.copy()
+        got, want = fast.update(**fr), ref.update_reference(**fr)
+        frames_equal(got, want, atol=1e-12)
+        for n in seen:
+            seen[n] |= getattr(want, n)
+        dropout = dropout | (want.has_target & ~want.quat_valid)
+        invalid = invalid | (~want.valid & (t > 5))
+        stale = stale | (was_active & ~ref.orientation.kalman.active & ~want.reselected)
+        wrap_pos = wrap_pos | (want.ypr_raw[:, 0] > np.deg2rad(175.0))
+        wrap_neg = wrap_neg | (want.ypr_raw[:, 0] < np.deg2rad(-175.0))
+    # the sequence did exercise every branch, in every stream
+    for n, s in seen.items():
+        assert s.all(), n
+    assert dropout.all() and invalid.all() and stale.all() and wrap_pos.all() and wrap_neg.all()
+    # the shared state is the same too
+    np.testing.assert_allclose(
+        fast.orientation.kalman.angle, ref.orientation.kalman.angle, atol=1e-12
+    )
+    np.testing.assert_allclose(fast.holt._history, ref.holt._history, atol=1e-12)
+    assert fast.holt._head == ref.holt._head
+
+
+def test_reset_stream_repeats_bit_for_bit_whatever_the_frames_before(rng):
+    """After a reset a stream gives exactly the numbers of a fresh pipeline (env determinism).
+
+    The Holt ring's position is shared by all streams and keeps moving across resets; the
+    weighted average must not depend on it (it sums newest first), in either implementation.
+    """
+    seq = edge_sequence(rng, 1, 40)
+    for method in ("update", "update_reference"):
+        fresh = hand.HandPipeline(1)
+        want = [getattr(fresh, method)(**{k: v[:, t] for k, v in seq.items()}) for t in range(40)]
+        for before in range(1, 5):  # ring positions 1..4 frames on
+            pipe = hand.HandPipeline(1)
+            for t in range(before):
+                getattr(pipe, method)(**{k: v[:, t + 7] for k, v in seq.items()})
+            pipe.reset()
+            for t in range(40):
+                frames_equal(getattr(pipe, method)(**{k: v[:, t] for k, v in seq.items()}), want[t])
+
+
+def test_kernel_wrap_is_wrap_angle_bit_for_bit(rng):
+    a = np.concatenate(
+        [
+            rng.normal(0.0, 10.0, 2000),
+            rng.uniform(-np.pi, np.pi, 2000),
+            [0.0, -0.0, np.pi, -np.pi, 2 * np.pi, -2 * np.pi, 3 * np.pi, 1e-300, -1e-300, 1e17],
+            np.nextafter(np.pi, [0.0, 4.0]),
+            np.nextafter(-np.pi, [-4.0, 0.0]),
+        ]
+    )
+    got = np.array([_hand_numba._wrap(x) for x in a])
+    want = rot.wrap_angle(a)
+    np.testing.assert_array_equal(got, want)
+    np.testing.assert_array_equal(np.signbit(got), np.signbit(want))
+    assert np.isnan(_hand_numba._wrap(np.nan))
+
+
+def test_update_frames_equals_m_updates_and_paths_mix(rng):
+    b, m = 3, 90
+    seq = edge_sequence(rng, b, m)
+    single, multi, mixed = (hand.HandPipeline(b) for _ in range(3))
+    ref = hand.HandPipeline(b)
+    frames = [single.update(**{k: v[:, t] for k, v in seq.items()}) for t in range(m)]
+    wanted = [ref.update_reference(**{k: v[:, t] for k, v in seq.items()}) for t in range(m)]
+    t = 0
+    while t < m:
+        n = int(rng.integers(1, 8))
+        chunk = {k: v[:, t : t + n] for k, v in seq.items()}
+        out = multi.update_frames(**chunk)
+        assert out.ypr.shape == (b, min(n, m - t), 3)
+        for i in range(out.ypr.shape[1]):
+            frames_equal(out.at(i), frames[t + i])  # bit for bit
+        frames_equal(out.at(-1), frames[min(t + n, m) - 1])
+        # the same frames through randomly mixed paths on one pipeline: same state, same numbers
+        path = rng.integers(3)
+        if path == 0:
+            got = [
+                mixed.update_reference(**{k: v[:, i] for k, v in chunk.items()})
+                for i in range(out.ypr.shape[1])
+            ]
+        elif path == 1:
+            got = [
+                mixed.update(**{k: v[:, i] for k, v in chunk.items()})
+                for i in range(out.ypr.shape[1])
+            ]
+        else:
+            stack = mixed.update_frames(**chunk)
+            got = [stack.at(i) for i in range(out.ypr.shape[1])]
+        for i, g in enumerate(got):
+            frames_equal(g, wanted[t + i], atol=1e-12)
+        t += n
+
+
+def test_compiled_path_input_errors_match_reference_and_leave_state_alone():
+    b = 2
+    good = empty_frames(b)
+    put_body(good, 0, 0, 5, [0, 0, 2.0])
+    # two faults in one frame: the reference's first check (infinite joints) wins in both paths
+    bad = {k: v.copy() for k, v in good.items()}
+    bad["joints"][1, 3, 4, 2] = -np.inf
+    bad["body_id"][1, 2] = -1
+    for update in (hand.HandPipeline(b).update, hand.HandPipeline(b).update_reference):
+        with pytest.raises(ValueError, match="joints contains infinite"):
+            update(**bad)
+    cases = {
+        "hand_quat contains infinite": ("hand_quat", (0, 1, 0), np.inf),
+        "joint_state values": ("joint_state", (1, 0, 3), 3),
+        "body_id must be >= 0": ("body_id", (1, 2), -4),
+        "same non-zero id": ("body_id", (0, 3), 5),
+    }
+    for msg, (name, idx, value) in cases.items():
+        bad = {k: v.copy() for k, v in good.items()}
+        bad[name][idx] = value
+        for update in (hand.HandPipeline(b).update, hand.HandPipeline(b).update_reference):
+            with pytest.raises(ValueError, match=msg):
+                update(**bad)
+        # update_frames checks every frame first: frame 2 is bad, frames 0-1 are not processed
+        pipe, fresh = hand.HandPipeline(b), hand.HandPipeline(b)
+        stack = {k: np.stack([good[k], good[k], bad[k]], axis=1) for k in good}
+        with pytest.raises(ValueError, match=f"{msg}.*frame 2"):
+            pipe.update_frames(**stack)
+        frames_equal(pipe.update(**good), fresh.update(**good))
+    with pytest.raises(ValueError, match="M >= 1"):
+        hand.HandPipeline(b).update_frames(**{k: v[:, None][:, :0] for k, v in good.items()})
+
+
+def test_other_dtypes_give_the_same_numbers(rng):
+    b, m = 2, 30
+    seq = edge_sequence(rng, b, m)
+    odd = {
+        **seq,
+        "joint_state": seq["joint_state"].astype(np.float64),
+        "body_id": seq["body_id"].astype(np.int32),
+    }
+    fast, ref = hand.HandPipeline(b), hand.HandPipeline(b)
+    for t in range(m):
+        frames_equal(
+            fast.update(**{k: v[:, t] for k, v in odd.items()}),
+            ref.update_reference(**{k: v[:, t] for k, v in seq.items()}),
+            atol=1e-12,
+        )
+    stacked = hand.HandPipeline(b).update_frames(**odd)
+    np.testing.assert_allclose(stacked.ypr, hand.estimate_hand_orientation(**seq).ypr, atol=1e-12)
+    with pytest.raises(ValueError, match="integers"):
+        hand.HandPipeline(b).update(**{**empty_frames(b), "body_id": np.zeros((b, K))})
 
 
 # ------------------------------------------------------------------------------------------------
