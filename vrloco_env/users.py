@@ -206,17 +206,15 @@ class SimulatedUsers:
         pos = self.locomotion.update(steps, virtual_yaw, self.dt)
         displacement = pos - self._last_loco
         self._last_loco = pos.copy()
-        hand = None
-        for j in range(frames.body_id.shape[1]):  # the few Kinect frames of the step
-            hand = self.hand_pipeline.update(
-                frames.body_id[:, j],
-                frames.body_tracked[:, j],
-                frames.joints[:, j],
-                frames.joint_state[:, j],
-                frames.hand_quat[:, j],
-            )
-        if hand is None:
+        if frames.body_id.shape[1] == 0:
             raise RuntimeError("a control step must contain at least one Kinect frame")
+        hand = self.hand_pipeline.update_frames(
+            frames.body_id,
+            frames.body_tracked,
+            frames.joints,
+            frames.joint_state,
+            frames.hand_quat,
+        ).at(-1)
         ypr_true = chunk.ypr[:, -1]
         return UserStep(
             motion=chunk,
