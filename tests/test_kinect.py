@@ -12,6 +12,7 @@ from estimators.rotations import (
     rotation_angle,
 )
 from vrloco_env.batch_rng import BatchRng
+from vrloco_env.sensors import _kinect_numba, kinect
 from vrloco_env.sensors.kinect import (
     MAX_BODIES,
     TORSO_JOINTS,
@@ -214,6 +215,104 @@ def test_joint_noise_grows_with_depth_as_specified():
     assert np.all(np.sqrt(tips.var(axis=1).mean(axis=(1, 2))) > 3 * std)
 
 
+def test_target_joint_noise_has_the_specified_white_fraction_and_time_constant():
+    """White (variance fraction wf) + AR(1) (tau): autocorrelation (1 - wf) exp(-k / (fps tau)) at
+    lag k >= 1 -- the model draws it as one ARMA(1, 1) process, which must be the same process."""
+    spec = KinectSpec(**QUIET)
+    joints, q = user_at(2.5, b=4)
+    frames = make(spec, range(40, 44)).capture(*static(joints, q, 3000))
+    noise = target(frames, "joints") - frames.truth.joints  # no offsets configured
+    x = noise / noise.std(axis=1, keepdims=True)
+    rho = np.exp(-1.0 / (FPS * spec.joint_noise_tau_s))
+    wf = spec.joint_noise_white_fraction
+    for lag in (1, 2, 5, 15, 30):
+        r = np.mean(x[:, lag:] * x[:, :-lag])
+        assert r == pytest.approx((1 - wf) * rho**lag, abs=0.025), lag
+    # Pure AR(1) (no white part) would give 0.936 at lag 1: the test sees the difference.
+    assert abs(np.mean(x[:, 1:] * x[:, :-1]) - rho) > 0.03
+
+
+def test_joint_noise_is_stationary_from_the_first_frame():
+    """Noise states start in their stationary distribution: the std over users at frames 0 and 1
+    is the spec's std (no warm-up transient)."""
+    spec = KinectSpec(**QUIET)
+    b = 200
+    joints, q = user_at(np.linspace(2.0, 4.0, b), b=b)
+    frames = make(spec, range(b)).capture(*static(joints, q, 2))
+    truth = frames.truth.joints
+    sigma = spec.joint_noise_std_m(truth[..., 2]) * np.asarray(spec.joint_noise_scale)
+    ratio = (target(frames, "joints") - truth) / sigma[..., None]
+    assert np.all(np.isfinite(ratio))
+    for m in (0, 1):
+        assert ratio[:, m].std() == pytest.approx(1.0, abs=0.03), m
+
+
+def test_arma_form_of_white_plus_ar1_noise():
+    """s (e_t + theta e_{t-1}) has the variance and lag-1 covariance of (1 - rho B) applied to
+    sqrt(wf) white + sqrt(1 - wf) unit AR(1), with the invertible root."""
+    for wf in (0.0, 0.05, 0.5, 1.0):
+        for rho in (0.0, 0.5, 0.9355):
+            s, theta = _kinect_numba.arma_parameters(wf, rho)
+            g0 = wf * (1 + rho**2) + (1 - wf) * (1 - rho**2)
+            assert s**2 * (1 + theta**2) == pytest.approx(g0, abs=1e-12)
+            assert s**2 * theta == pytest.approx(-rho * wf, abs=1e-12)
+            assert abs(theta) <= 1.0 and 0.0 <= s <= 1.0 + 1e-12
+
+
+def test_split_uniforms_give_independent_draws():
+    """One uniform through a chain of splits (Bernoulli, categorical, geometric, geometric) gives
+    draws whose joint distribution is the product of their marginals: fed an even grid of
+    uniforms, the chain's outcome frequencies match the product probabilities."""
+    n = 20000
+    p, groups, q = 0.3, 4, 0.6
+    outcomes = np.empty((n, 4), dtype=int)
+    for i in range(n):
+        u = (i + 0.5) / n
+        hit, u = _kinect_numba.bernoulli_split.py_func(u, p)
+        group, u = _kinect_numba.categorical_split.py_func(u, groups)
+        first, u = _kinect_numba.geometric_split.py_func(u, q)
+        second, _ = _kinect_numba.geometric_split.py_func(u, q)
+        outcomes[i] = hit, group, min(first, 3), min(second, 3)
+    geo = np.array([1 - q, (1 - q) * q, q**2])  # P(L = 1), P(L = 2), P(L >= 3)
+    expected = np.einsum("a,b,c,d->abcd", [1 - p, p], np.full(groups, 1 / groups), geo, geo)
+    counts = np.zeros_like(expected)
+    np.add.at(counts, (outcomes[:, 0], outcomes[:, 1], outcomes[:, 2] - 1, outcomes[:, 3] - 1), 1)
+    np.testing.assert_allclose(counts / n, expected, atol=5e-4)
+
+
+def test_bystander_joints_keep_their_noise_level_and_jitter_rigidly():
+    """Bystanders' noise is drawn at lower dimension: every joint keeps its own std (depth and
+    per-joint scale), but one noise vector moves them all, so the noise of the difference of two
+    joints is the difference of their stds (sway and offsets cancel in it too)."""
+    spec = KinectSpec(
+        **{**QUIET, "n_bystanders": 2},
+        bystander_dwell_s=1e9,  # they stand (and sway)
+        bystander_distance_m=(3.6, 3.9),
+        bystander_lateral_m=1.5,
+    )
+    b, m = 4, 3000
+    joints, q = user_at(2.0, b=b, lateral=-0.8)
+    frames = make(spec, range(60, 60 + b)).capture(*static(joints, q, m))
+    tip, spine = Joint.HAND_TIP_LEFT, Joint.SPINE_MID
+    scale = np.asarray(spec.joint_noise_scale)
+    measured, expected = [], []
+    for u in range(b):
+        for k in range(MAX_BODIES):
+            state = frames.joint_state[u, :, k]
+            if k == frames.truth.slot[u, 0] or not np.all(state[:, [tip, spine]] == TRACKED):
+                continue
+            meas = frames.joints[u, :, k]
+            depth = meas[:, [tip, spine], 2].mean(axis=0)
+            sig = spec.joint_noise_std_m(depth) * scale[[tip, spine]]
+            # RMS over the axes of the std of (tip - spine): |sigma_tip - sigma_spine| if rigid,
+            # sqrt(sigma_tip^2 + sigma_spine^2) (38 % more here) if independent.
+            measured.append(np.sqrt((meas[:, tip] - meas[:, spine]).var(axis=0).mean()))
+            expected.append(abs(sig[0] - sig[1]))
+    assert len(measured) >= 3, "some bystanders must stand in view, fully tracked"
+    np.testing.assert_allclose(measured, expected, rtol=0.15)
+    assert np.mean(measured) / np.mean(expected) == pytest.approx(1.0, abs=0.08)
+
+
 # ------------------------------------------------------------------------------ tracking states
 
 
@@ -301,6 +400,28 @@ def test_jitter_bursts_hit_one_limb_for_a_few_frames():
     assert 1 <= longest <= spec.burst_frames[1] + 1
 
 
+def test_random_inferred_episodes_start_independently_at_the_specified_rate():
+    """Each free joint starts an episode with probability p per frame, independently of the other
+    joints (frames with several starts in one body as often as binomial), with geometric lengths
+    P(L > k) = exp(-k / random_inferred_frames)."""
+    p, mean = 0.01, 4.0
+    spec = KinectSpec(**{**QUIET, "random_inferred_prob": p, "random_inferred_frames": mean})
+    b, m = 4, 600
+    joints, q = user_at(2.5, b=b)
+    frames = make(spec, range(30, 30 + b)).capture(*static(joints, q, m))
+    state = target(frames, "joint_state")
+    inferred = state == INFERRED  # nothing else hides a joint of a user standing in the open
+    assert np.all(state[~inferred] == TRACKED)
+    prev = np.concatenate([np.zeros_like(inferred[:, :1]), inferred[:, :-1]], axis=1)
+    starts = inferred & ~prev  # (back-to-back episodes merge: a fraction p of them)
+    assert starts.sum() / (~prev).sum() == pytest.approx(p, rel=0.15)
+    assert inferred.sum() / starts.sum() == pytest.approx(1 / (1 - np.exp(-1 / mean)), rel=0.15)
+    k_free = (~prev).sum(axis=-1)  # (B, M) joints free to start
+    p_multi = 1 - (1 - p) ** k_free - k_free * p * (1 - p) ** (k_free - 1)
+    multi = np.sum(starts.sum(axis=-1) >= 2)
+    assert 0.6 * p_multi.sum() < multi < 1.5 * p_multi.sum()
+
+
 # ---------------------------------------------------------------------------------------- bodies
 
 
@@ -381,6 +502,27 @@ def test_same_seeds_same_frames_and_batch_equals_single_runs():
         np.testing.assert_array_equal(single.truth.slot[0], batch.truth.slot[i])
     other = make(spec, [4, 14, 15]).capture(t, jw, qw)
     assert not np.array_equal(other.joints[0], batch.joints[0], equal_nan=True)
+
+
+def test_compiled_kernel_equals_its_python_reference(monkeypatch):
+    """The numba kernel and its uncompiled ``py_func`` (the readable reference) give the same
+    frames, on a run that takes every branch: bursts, random inferred episodes, occlusion, walking
+    bystanders, a target lost and acquired again with a new id, latency."""
+    spec = KinectSpec(
+        n_bystanders=3, burst_prob=0.1, random_inferred_prob=0.02, bystander_dwell_s=0.3,
+        latency_frames=1,
+    )  # fmt: skip
+    t, jw, qw = varied_users(2, 40)
+    jw = jw.copy()
+    jw[1, 12:20, :, 1] -= 4.0  # user 1 steps out of view for 8 frames
+    compiled = make(spec, [11, 12]).capture(t, jw, qw)
+    monkeypatch.setattr(kinect._k, "capture_frames", _kinect_numba.capture_frames.py_func)
+    reference = make(spec, [11, 12]).capture(t, jw, qw)
+    assert_frames_equal(compiled, reference)
+    ids = target(compiled, "body_id")[1]
+    assert ids[1] != 0 and ids[-1] != 0 and ids[1] != ids[-1], "user 1 must be re-acquired"
+    assert (compiled.joint_state == INFERRED).any()
+    assert np.isnan(compiled.joints).any() and compiled.body_tracked.sum(axis=-1).max() >= 3
 
 
 def test_capture_in_chunks_equals_one_capture():

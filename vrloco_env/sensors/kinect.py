@@ -14,7 +14,11 @@ orientation quaternion. It adds what makes the real sensor hard to use (seed 003
   *inferred* and noisier; a body with most of its joints out of view or hidden is lost, and gets a
   new id when it is acquired again;
 * bystanders: other people standing and swaying farther away, now and then walking in or out of
-  view, in random slots, so the target user must be chosen (nearest tracked body);
+  view, in random slots, so the target user must be chosen (nearest tracked body). Their noise has
+  the same per-joint std, white fraction and time constants as the target's, but one noise vector
+  per frame moves all their joints (and their wrist): a rigidly jittering skeleton, drawn at lower
+  dimension for speed (engineering decision, issue 5: bystanders matter by where they stand and
+  whom they hide, not by the shape of their jitter);
 * optional latency of a whole number of frames.
 
 Frames and conventions
@@ -72,12 +76,17 @@ forearm: in this model they move eq (1)'s "roll". Whoever needs the other readin
 ``sdk_wrist_to_hand(q)`` (forearm on x; then eq (1)'s "yaw" is the turn, singular for a hand
 pointing at the sensor but fine for a raised hand).
 
-Randomness
-----------
+Randomness and speed
+--------------------
 Every number comes from the :class:`~vrloco_env.batch_rng.BatchRng` passed in:
-:meth:`KinectV2.reset` draws the session (slots, ids, joint offsets, bystanders) and
-:meth:`KinectV2.capture` draws a fixed block of numbers per frame, so a batch of B users
-reproduces B single runs bit for bit and a capture split into chunks equals one capture.
+:meth:`KinectV2.reset` draws the session (slots, ids, joint offsets, noise states, bystanders) and
+:meth:`KinectV2.capture` draws a fixed block of normals per frame (125 with two bystanders; layout
+and the devices that keep it small -- event thresholds, split uniforms, the white + AR(1) joint
+noise as one ARMA(1, 1) process -- in :mod:`vrloco_env.sensors._kinect_numba`), so a batch of B
+users reproduces B single runs bit for bit and a capture split into chunks equals one capture.
+The frames are computed by one compiled kernel (``_kinect_numba.capture_frames``, explicit loops
+over users, frames, bodies and joints; its uncompiled ``py_func`` is the reference the tests compare
+it with): ``benchmarks/bench_sensors.py`` times a capture of 3 frames.
 :meth:`KinectV2.reset` redraws all users, or only those given (``users=``), from their own
 streams and leaving the others' state alone, so a vector env can start a new episode for one user
 while the others carry on (every per-user state, the frame counter included, is a (B, ...) array).
@@ -91,20 +100,21 @@ from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.special import ndtr
+from scipy.special import ndtr, ndtri
 
 from estimators.batching import stream_rows
 from estimators.rotations import (
     ensure_quaternion,
     matrix_to_quat,
     quat_conjugate,
-    quat_from_rotvec,
     quat_from_ypr,
     quat_multiply,
     quat_rotate,
     quat_rotate_inverse,
+    quat_to_matrix,
 )
 from vrloco_env.batch_rng import BatchRng
+from vrloco_env.sensors import _kinect_numba as _k
 from vrloco_env.skeleton import INFERRED, NOT_TRACKED, NUM_JOINTS, TRACKED, Joint
 
 __all__ = [
@@ -683,14 +693,24 @@ def standing_skeleton(
 # --------------------------------------------------------------------------------------------------
 # The sensor
 
-
-_GROUP_MEMBER = np.zeros((len(LIMB_GROUPS), NUM_JOINTS), dtype=bool)
-for _g, _members in enumerate(LIMB_GROUPS):
-    _GROUP_MEMBER[_g, list(_members)] = True
 _IS_TORSO = np.zeros(NUM_JOINTS, dtype=bool)
 _IS_TORSO[list(TORSO_JOINTS)] = True
+_TORSO_INDEX = np.array(TORSO_JOINTS, dtype=np.int64)
+# Each joint's place in each burst limb (-1: not in it): the target's burst noise normals.
+_LIMB_INDEX = np.full((len(LIMB_GROUPS), NUM_JOINTS), -1, dtype=np.int64)
+for _g, _members in enumerate(LIMB_GROUPS):
+    _LIMB_INDEX[_g, list(_members)] = np.arange(len(_members))
 _ID_SCALE = float(2**53)
 _BELOW_ONE = np.nextafter(1.0, 0.0)  # ndtr(z) rounds to 1.0 for z > 8.3; keep uniforms < 1
+# A bystander: the standing skeleton of height 1 m facing +x with its pelvis over the origin, and
+# its right hand's orientation (hand frame -> body frame). Joints scale with the height.
+_BYSTANDER_TEMPLATE, _BYSTANDER_HAND = standing_skeleton(np.zeros(3), 0.0, 1.0)
+if (
+    _k.NUM_JOINTS != NUM_JOINTS
+    or _k.WRIST_RIGHT != J.WRIST_RIGHT
+    or (_k.NOT_TRACKED, _k.INFERRED, _k.TRACKED) != (NOT_TRACKED, INFERRED, TRACKED)
+):  # pragma: no cover - the kernel's copies of the skeleton constants must match
+    raise ImportError("vrloco_env.sensors._kinect_numba disagrees with vrloco_env.skeleton")
 
 
 def _unique_ids(ids: NDArray[np.int64], fresh: NDArray[np.bool_]) -> NDArray[np.int64]:
@@ -699,6 +719,7 @@ def _unique_ids(ids: NDArray[np.int64], fresh: NDArray[np.bool_]) -> NDArray[np.
     Ids are 53 random bits, so two bodies of a user share one with probability ~N^2 / 2^54
     (never in practice); should it happen, the later fresh id is moved to the next free value
     (deterministic, per user, no draw), so ids are unique within a user's frame by construction.
+    The capture kernel applies the same rule frame by frame (``_kinect_numba._unique_ids``).
     """
     if not fresh.any():  # the common case: no body (re)acquired in this frame
         return ids
@@ -713,6 +734,11 @@ def _unique_ids(ids: NDArray[np.int64], fresh: NDArray[np.bool_]) -> NDArray[np.
         ids = np.where(clash, ids % (2**53) + 1, ids)
 
 
+def _z_threshold(p: float) -> float:
+    """The normal ``z`` below which an event of probability ``p`` happens: ndtr(z) < p."""
+    return float(ndtri(p)) if 0.0 < p < 1.0 else (-math.inf if p <= 0.0 else math.inf)
+
+
 class KinectV2:
     """Stateful, batched Kinect v2 body tracker for B simulated users (one sensor per user).
 
@@ -723,6 +749,9 @@ class KinectV2:
     Call :meth:`reset` at the start of every session, then :meth:`capture` with the target user's
     true skeleton at the Kinect rate, in one call or in chunks (identical results).
     ``reset(users=...)`` starts a new session for some users only; the others carry on.
+
+    The frame loop runs in one compiled kernel, :func:`vrloco_env.sensors._kinect_numba.
+    capture_frames` (its uncompiled ``py_func`` is the readable reference the tests compare with).
     """
 
     def __init__(self, spec: KinectSpec, rng: BatchRng) -> None:
@@ -740,6 +769,56 @@ class KinectV2:
         self._rho_joint = math.exp(-self._dt / spec.joint_noise_tau_s)
         self._rho_hand = math.exp(-self._dt / spec.hand_rot_tau_s)
         self._ready = np.zeros(self.batch_size, dtype=bool)  # per user: reset at least once
+        self._arma = _k.arma_parameters(spec.joint_noise_white_fraction, self._rho_joint)
+        self._draws = _k.draw_size(self.n_bodies)  # normals per user and frame
+        self._id_cols = _k.Z_BODIES + _k.BODY_DRAWS * np.arange(self.n_bodies) + _k.B_NEW_ID
+        self._params = self._pack_params()
+        p = spec.random_inferred_prob
+        self._inferred_z = np.array(
+            [_z_threshold(1.0 - (1.0 - p) ** k) for k in range(NUM_JOINTS + 1)]
+        )
+        self._joint_scale = np.asarray(spec.joint_noise_scale, dtype=np.float64)
+        self._hand_white_sd = np.radians(np.asarray(spec.hand_rot_white_std_deg, np.float64))
+        self._hand_ar_sd = np.radians(np.asarray(spec.hand_rot_ar_std_deg, np.float64))
+        q_cam = camera_quat(spec)
+        self._cam_quat = np.ascontiguousarray(q_cam)
+        self._cam_rot = np.ascontiguousarray(quat_to_matrix(q_cam))
+        self._cam_pos = np.asarray(spec.camera_position_m, dtype=np.float64)
+
+    def _pack_params(self) -> NDArray[np.float64]:
+        """The spec as the kernel's float64 vector (layout ``_kinect_numba.P_*``; SI units)."""
+        s = self.spec
+        p = np.zeros(_k.N_PARAMS)
+        p[_k.P_TAN_H] = math.tan(math.radians(s.fov_deg[0]) / 2)
+        p[_k.P_TAN_V] = math.tan(math.radians(s.fov_deg[1]) / 2)
+        p[_k.P_NEAR], p[_k.P_FAR] = s.depth_range_m
+        p[_k.P_NOISE_A] = s.joint_noise_a_mm * 1e-3
+        p[_k.P_NOISE_B] = s.joint_noise_b_mm_per_m2 * 1e-3
+        p[_k.P_WHITE_FRAC] = s.joint_noise_white_fraction
+        p[_k.P_RHO_JOINT] = self._rho_joint
+        p[_k.P_RHO_HAND] = self._rho_hand
+        p[_k.P_ARMA_S], p[_k.P_ARMA_THETA] = self._arma
+        p[_k.P_INFERRED_FACTOR] = s.inferred_noise_factor
+        p[_k.P_REF_STD] = float(s.joint_noise_std_m(s.noise_ref_depth_m))
+        p[_k.P_BURST_POS] = s.burst_position_std_m
+        p[_k.P_BURST_ROT] = math.radians(s.burst_rotation_std_deg)
+        p[_k.P_TORSO_MARGIN] = s.torso_margin_m
+        p[_k.P_OCCLUSION_DEPTH] = s.occlusion_depth_m
+        p[_k.P_MIN_VISIBLE] = s.min_visible_fraction
+        p[_k.P_BURST_PROB] = s.burst_prob
+        p[_k.P_BURST_Z] = _z_threshold(s.burst_prob)
+        p[_k.P_INFERRED_PROB] = s.random_inferred_prob
+        p[_k.P_INFERRED_Q] = math.exp(-1.0 / s.random_inferred_frames)
+        p[_k.P_WALK_Z] = _z_threshold(1.0 - math.exp(-self._dt / s.bystander_dwell_s))
+        p[_k.P_DT] = self._dt
+        p[_k.P_BY_D0], p[_k.P_BY_D1] = s.bystander_distance_m
+        p[_k.P_BY_LATERAL] = s.bystander_lateral_m
+        p[_k.P_BY_V0], p[_k.P_BY_V1] = s.bystander_speed_mps
+        p[_k.P_CAM_COS] = math.cos(s.camera_yaw_rad)
+        p[_k.P_CAM_SIN] = math.sin(s.camera_yaw_rad)
+        p[_k.P_ACQUIRE] = s.acquire_frames
+        p[_k.P_BURST_MIN], p[_k.P_BURST_MAX] = s.burst_frames
+        return p
 
     # ----------------------------------------------------------------------------------- session
 
@@ -765,7 +844,8 @@ class KinectV2:
             self._allocate()
         R, nb = rows.size, N - 1
         # One draw per reset user (uniforms are the normal CDF of the user's single stream).
-        sizes = (MAX_BODIES, N, N * NUM_JOINTS * 3, N * NUM_JOINTS * 3, N * 3, nb * 7)
+        nj3 = NUM_JOINTS * 3
+        sizes = (MAX_BODIES, N, N * nj3, nj3, nj3, N * 3, nb * 3, nb * 7)
         z = self.rng.normal((sum(sizes),), rows=rows)
         parts = np.split(z, np.cumsum(sizes)[:-1], axis=1)
         slot_u, id_u = ndtr(parts[0]), np.minimum(ndtr(parts[1]), _BELOW_ONE)
@@ -775,15 +855,22 @@ class KinectV2:
         self._acquired[rows] = int(s.acquire_frames)
         self._prev_tracked[rows] = True
         self._bias[rows] = s.joint_bias_std_m * parts[2].reshape(R, N, NUM_JOINTS, 3)
-        # Unit-variance AR(1) states, started stationary.
-        self._ar_joint[rows] = parts[3].reshape(R, N, NUM_JOINTS, 3)
-        self._ar_hand[rows] = parts[4].reshape(R, N, 3)
+        # Noise states, started stationary: the target's ARMA(1, 1) joint noise (y, e) with
+        # var(y) = 1 and cov(y, e) = s; unit AR(1) states of every wrist and of the bystanders'
+        # rigid joint noise.
+        s_arma = self._arma[0]
+        self._joint_innov[rows] = parts[3].reshape(R, NUM_JOINTS, 3)
+        self._joint_noise[rows] = (
+            s_arma * parts[3] + math.sqrt(max(1.0 - s_arma**2, 0.0)) * parts[4]
+        ).reshape(R, NUM_JOINTS, 3)
+        self._ar_hand[rows] = parts[5].reshape(R, N, 3)
+        self._ar_by[rows] = parts[6].reshape(R, nb, 3)
         self._burst_left[rows] = 0
         self._burst_group[rows] = 0
         self._inferred_left[rows] = 0
         self._frame[rows] = 0
         # Bystanders, in the sensor's floor frame (d along the axis, l to the sensor's left).
-        u = np.minimum(ndtr(parts[5]), _BELOW_ONE).reshape(R, nb, 7)
+        u = np.minimum(ndtr(parts[7]), _BELOW_ONE).reshape(R, nb, 7)
         d0, d1 = s.bystander_distance_m
         local = np.stack(
             [d0 + (d1 - d0) * u[..., 0], s.bystander_lateral_m * (2 * u[..., 1] - 1)], axis=-1
@@ -817,8 +904,10 @@ class KinectV2:
         self._acquired = np.zeros((B, N), dtype=np.int64)
         self._prev_tracked = np.zeros((B, N), dtype=bool)
         self._bias = np.zeros((B, N, NUM_JOINTS, 3))
-        self._ar_joint = np.zeros((B, N, NUM_JOINTS, 3))
-        self._ar_hand = np.zeros((B, N, 3))
+        self._joint_noise = np.zeros((B, NUM_JOINTS, 3))  # the target's ARMA state y_{t-1}
+        self._joint_innov = np.zeros((B, NUM_JOINTS, 3))  # and its last innovation e_{t-1}
+        self._ar_hand = np.zeros((B, N, 3))  # every body's wrist orientation
+        self._ar_by = np.zeros((B, nb, 3))  # the bystanders' rigid joint noise
         self._burst_left = np.zeros((B, N), dtype=np.int64)
         self._burst_group = np.zeros((B, N), dtype=np.int64)
         self._inferred_left = np.zeros((B, N, NUM_JOINTS), dtype=np.int64)
@@ -870,7 +959,7 @@ class KinectV2:
         M = jw.shape[1]
         if M < 1:
             raise ValueError("joints_world must hold at least one frame (M >= 1)")
-        if not np.all(np.isfinite(jw)):
+        if not np.isfinite(jw).all():
             raise ValueError(
                 "joints_world contains NaN or infinite positions; truth must be finite"
             )
@@ -883,9 +972,9 @@ class KinectV2:
             tt = np.broadcast_to(tt, (B, M))
         if tt.shape != (B, M):
             raise ValueError(f"t must have shape (M={M},) or (B={B}, M={M}) s, got {tt.shape}")
-        if not np.all(np.isfinite(tt)):
+        if not np.isfinite(tt).all():
             raise ValueError("t contains NaN or infinite times")
-        return tt.copy(), jw, q
+        return tt.copy(), np.ascontiguousarray(jw), q
 
     def capture(
         self, t: ArrayLike, joints_world: ArrayLike, hand_quat_world: ArrayLike
@@ -908,253 +997,44 @@ class KinectV2:
                 f"call KinectV2.reset() before capture() (users {missing} never were)"
             )
         t, jw, qw = self._validate(t, joints_world, hand_quat_world)
-        s, r, B, N = self.spec, self.rng, self.batch_size, self.n_bodies
-        M = jw.shape[1]
-        nb = N - 1
-        nj3 = NUM_JOINTS * 3
-        # One draw per call, a fixed block of numbers per frame, so that a capture in chunks equals
-        # one capture: normals for the noise, then normals turned uniform by their CDF.
-        n_g = N * (2 * nj3 + 6)
-        z = r.normal((M, n_g + N * (4 + 2 * NUM_JOINTS) + 4 * nb))
-        g = z[..., :n_g]
-        n_white = g[..., : N * nj3].reshape(B, M, N, NUM_JOINTS, 3)
-        n_ar = g[..., N * nj3 : 2 * N * nj3].reshape(B, M, N, NUM_JOINTS, 3)
-        h_white = g[..., 2 * N * nj3 : 2 * N * nj3 + 3 * N].reshape(B, M, N, 3)
-        h_ar = g[..., 2 * N * nj3 + 3 * N :].reshape(B, M, N, 3)
-        u = np.minimum(ndtr(z[..., n_g:]), _BELOW_ONE)
-        u_body = u[..., : 4 * N].reshape(B, M, 4, N)
-        u_inf = u[..., 4 * N : 4 * N + 2 * N * NUM_JOINTS].reshape(B, M, 2, N, NUM_JOINTS)
-        u_by = u[..., 4 * N + 2 * N * NUM_JOINTS :].reshape(B, M, 4, nb)
-
-        # --- true bodies in the world and in camera space
-        by_joints, by_hand = self._step_bystanders(u_by)
-        bodies_w = np.concatenate([jw[:, :, None], by_joints], axis=2)  # (B, M, N, 25, 3)
-        hands_w = np.concatenate([qw[:, :, None], by_hand], axis=2)  # (B, M, N, 4)
-        cam = world_to_camera(s, bodies_w)
-        hands_c = quat_world_to_camera(s, hands_w)  # hand frame -> camera
-
-        # --- visibility and occlusion
-        in_view = self._in_view(cam)
-        self_occ, other_occ = self._occlusion(cam)
-        visible = in_view & ~other_occ
-        detectable = visible.mean(axis=-1) >= s.min_visible_fraction  # (B, M, N)
-
-        # --- sequential state: tracking/ids, bursts, random inferred episodes, AR(1) noise
-        tracked, ids, burst_active, burst_group, rand_inf, e_joint, e_hand = self._step_states(
-            detectable, u_body, u_inf, n_ar, h_ar
-        )
-
-        # --- tracking states
-        occluded = self_occ | other_occ | rand_inf
-        state = np.where(in_view, np.where(occluded, INFERRED, TRACKED), NOT_TRACKED)
-        state = np.where(tracked[..., None], state, NOT_TRACKED).astype(np.int8)
-        factor = np.where(state == INFERRED, s.inferred_noise_factor, 1.0)
-
-        # --- joint positions
-        sigma = s.joint_noise_std_m(cam[..., 2]) * np.asarray(s.joint_noise_scale) * factor
-        wf = s.joint_noise_white_fraction
-        in_burst = burst_active[..., None] & _GROUP_MEMBER[burst_group]  # (B, M, N, 25)
-        sigma_w = np.sqrt(wf * sigma**2 + in_burst * s.burst_position_std_m**2)
-        sigma_ar = math.sqrt(1.0 - wf) * sigma
-        meas = cam + self._bias[:, None] + sigma_w[..., None] * n_white
-        meas = meas + sigma_ar[..., None] * e_joint
-        meas = np.where((state == NOT_TRACKED)[..., None], np.nan, meas)
-
-        # --- wrist orientation
-        z_w = cam[..., J.WRIST_RIGHT, 2]
-        ref = float(s.joint_noise_std_m(s.noise_ref_depth_m))
-        depth_factor = s.joint_noise_std_m(z_w) / ref if ref > 0 else np.ones_like(z_w)
-        f_w = depth_factor * factor[..., J.WRIST_RIGHT]  # (B, M, N)
-        sd_white = np.radians(np.asarray(s.hand_rot_white_std_deg))
-        sd_ar = np.radians(np.asarray(s.hand_rot_ar_std_deg))
-        burst_arm = burst_active & (burst_group == 0)
-        sd_burst = math.radians(s.burst_rotation_std_deg) * burst_arm[..., None]
-        white = np.sqrt((f_w[..., None] * sd_white) ** 2 + sd_burst**2) * h_white
-        rotvec = white + f_w[..., None] * sd_ar * e_hand
-        # Noise about the hand axes, then to the SDK wrist frame.
-        wrist_c = hand_to_sdk_wrist(hands_c)
-        q_meas = hand_to_sdk_wrist(quat_multiply(hands_c, quat_from_rotvec(rotvec)))
-        wrist_seen = state[..., J.WRIST_RIGHT] != NOT_TRACKED
-        q_meas = np.where(wrist_seen[..., None], q_meas, np.nan)
-
-        # --- into the slots, then through the delay line
-        out = self._empty_slots(M)
-        slot_idx = self._slots[:, None, :]  # (B, 1, N)
-
-        def put(name: str, values: NDArray) -> None:
-            idx = slot_idx.reshape(B, 1, N, *([1] * (values.ndim - 3)))
-            np.put_along_axis(out[name], np.broadcast_to(idx, values.shape), values, axis=2)
-
-        put("body_id", np.where(tracked, ids, 0))
-        put("body_tracked", tracked)
-        put("joints", meas)
-        put("joint_state", state)
-        put("hand_quat", q_meas)
-        L = int(s.latency_frames)
+        B, M, K = self.batch_size, jw.shape[1], MAX_BODIES
+        # One draw per call, a fixed block of normals per frame (layout in _kinect_numba), so
+        # that a capture in chunks equals one capture.
+        z = self.rng.normal((M, self._draws))
+        new_ids = self._new_ids(np.minimum(ndtr(z[:, :, self._id_cols]), _BELOW_ONE))
+        out = {
+            "body_id": np.empty((B, M, K), dtype=np.int64),
+            "body_tracked": np.empty((B, M, K), dtype=bool),
+            "joints": np.empty((B, M, K, NUM_JOINTS, 3)),
+            "joint_state": np.empty((B, M, K, NUM_JOINTS), dtype=np.int8),
+            "hand_quat": np.empty((B, M, K, 4)),
+        }
+        truth_joints = np.empty((B, M, NUM_JOINTS, 3))
+        truth_hand = np.empty((B, M, 4))
+        _k.capture_frames(
+            jw, qw, z, new_ids,
+            self._params, self._inferred_z,
+            self._joint_scale, self._hand_white_sd, self._hand_ar_sd,
+            _LIMB_INDEX, _IS_TORSO, _TORSO_INDEX,
+            self._cam_rot, self._cam_pos, self._cam_quat, HAND_FROM_SDK_WRIST,
+            _BYSTANDER_TEMPLATE, _BYSTANDER_HAND,
+            self._slots, self._ids, self._acquired, self._prev_tracked, self._bias,
+            self._joint_noise, self._joint_innov, self._ar_hand, self._ar_by,
+            self._burst_left, self._burst_group, self._inferred_left, self._frame,
+            self._by_pos, self._by_yaw, self._by_height,
+            self._by_sway_amp, self._by_sway_freq, self._by_sway_phase,
+            self._by_target, self._by_speed, self._by_moving,
+            out["body_id"], out["body_tracked"], out["joints"], out["joint_state"],
+            out["hand_quat"], truth_joints, truth_hand,
+        )  # fmt: skip
+        L = int(self.spec.latency_frames)
         if L:
             joined = {k: np.concatenate([self._delay[k], v], axis=1) for k, v in out.items()}
             out = {k: v[:, :M] for k, v in joined.items()}
             self._delay = {k: v[:, M:].copy() for k, v in joined.items()}
-
         truth = KinectTruth(
             slot=np.repeat(self._slots[:, :1], M, axis=1),
-            joints=cam[:, :, 0],
-            hand_quat=wrist_c[:, :, 0],
+            joints=truth_joints,
+            hand_quat=truth_hand,
         )
-        self._frame += M
         return KinectFrames(t=t, truth=truth, **out)
-
-    def _in_view(self, cam: NDArray[np.float64]) -> NDArray[np.bool_]:
-        s = self.spec
-        z = cam[..., 2]
-        tan_h = math.tan(math.radians(s.fov_deg[0]) / 2)
-        tan_v = math.tan(math.radians(s.fov_deg[1]) / 2)
-        near, far = s.depth_range_m
-        with np.errstate(divide="ignore", invalid="ignore"):
-            return (
-                (z >= near)
-                & (z <= far)
-                & (np.abs(cam[..., 0]) <= tan_h * z)
-                & (np.abs(cam[..., 1]) <= tan_v * z)
-            )
-
-    def _occlusion(self, cam: NDArray[np.float64]) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
-        """Joints hidden behind a torso: (own torso, another body's torso), each (B, M, N, 25).
-
-        Each torso is a rectangle in the image (normalised coordinates x/z, y/z) spanning its
-        shoulder and hip joints, widened by ``torso_margin_m``, at the mean depth of its torso
-        joints; a joint behind it by more than ``occlusion_depth_m`` whose image falls inside is
-        hidden. A body's own torso joints never hide behind it.
-        """
-        s = self.spec
-        z = np.maximum(cam[..., 2], 1e-3)
-        u = cam[..., 0] / z
-        v = cam[..., 1] / z
-        tor = list(TORSO_JOINTS)
-        zt = cam[..., tor, 2].mean(axis=-1)  # (B, M, N)
-        margin = s.torso_margin_m / np.maximum(zt, 1e-3)
-        u_lo = u[..., tor].min(axis=-1) - margin
-        u_hi = u[..., tor].max(axis=-1) + margin
-        v_lo = v[..., tor].min(axis=-1)
-        v_hi = v[..., tor].max(axis=-1)
-
-        # joint (B, M, N, 25, 1) against occluder (B, M, 1, 1, N)
-        def occ_axis(a: NDArray) -> NDArray:
-            return a[:, :, None, None, :]
-
-        inside = (
-            (u[..., None] >= occ_axis(u_lo))
-            & (u[..., None] <= occ_axis(u_hi))
-            & (v[..., None] >= occ_axis(v_lo))
-            & (v[..., None] <= occ_axis(v_hi))
-            & (cam[..., 2][..., None] > occ_axis(zt) + s.occlusion_depth_m)
-            & (occ_axis(zt) > 0)
-        )
-        n = cam.shape[2]
-        eye = np.eye(n, dtype=bool)[:, None, :]  # (N, 1, N): joint's body == occluder
-        own = np.any(inside & eye, axis=-1) & ~_IS_TORSO
-        other = np.any(inside & ~eye, axis=-1)
-        return own, other
-
-    def _step_states(
-        self,
-        detectable: NDArray[np.bool_],
-        u_body: NDArray[np.float64],
-        u_inf: NDArray[np.float64],
-        n_ar: NDArray[np.float64],
-        h_ar: NDArray[np.float64],
-    ) -> tuple[NDArray, ...]:
-        s = self.spec
-        B, M, N = detectable.shape
-        acq = int(s.acquire_frames)
-        b0, b1 = int(s.burst_frames[0]), int(s.burst_frames[1])
-        c_j = math.sqrt(1.0 - self._rho_joint**2)
-        c_h = math.sqrt(1.0 - self._rho_hand**2)
-        tracked = np.empty((B, M, N), dtype=bool)
-        ids = np.empty((B, M, N), dtype=np.int64)
-        b_active = np.empty((B, M, N), dtype=bool)
-        b_group = np.empty((B, M, N), dtype=np.int64)
-        rand_inf = np.empty((B, M, N, NUM_JOINTS), dtype=bool)
-        e_joint = np.empty((B, M, N, NUM_JOINTS, 3))
-        e_hand = np.empty((B, M, N, 3))
-        mean_inf = float(s.random_inferred_frames)
-        for m in range(M):
-            # Tracking: a body is tracked after `acq` consecutive detectable frames; a body that
-            # becomes tracked again gets a fresh id.
-            self._acquired = np.where(detectable[:, m], np.minimum(self._acquired + 1, acq), 0)
-            trk = self._acquired >= acq
-            fresh = trk & ~self._prev_tracked
-            self._ids = _unique_ids(
-                np.where(fresh, self._new_ids(u_body[:, m, 3]), self._ids), fresh
-            )
-            self._prev_tracked = trk
-            tracked[:, m] = trk
-            ids[:, m] = self._ids
-            # Jitter bursts: one limb, a few frames.
-            start = (self._burst_left == 0) & (u_body[:, m, 0] < s.burst_prob)
-            dur = b0 + np.floor(u_body[:, m, 2] * (b1 - b0 + 1)).astype(np.int64)
-            grp = np.floor(u_body[:, m, 1] * len(LIMB_GROUPS)).astype(np.int64)
-            self._burst_left = np.where(start, dur, self._burst_left)
-            self._burst_group = np.where(start, grp, self._burst_group)
-            b_active[:, m] = self._burst_left > 0
-            b_group[:, m] = self._burst_group
-            self._burst_left = np.maximum(self._burst_left - 1, 0)
-            # Random inferred episodes, exponential length with mean `mean_inf` frames.
-            start = (self._inferred_left == 0) & (u_inf[:, m, 0] < s.random_inferred_prob)
-            length = np.maximum(1, np.ceil(-mean_inf * np.log1p(-u_inf[:, m, 1]))).astype(np.int64)
-            self._inferred_left = np.where(start, length, self._inferred_left)
-            rand_inf[:, m] = self._inferred_left > 0
-            self._inferred_left = np.maximum(self._inferred_left - 1, 0)
-            # Unit-variance AR(1) noise states.
-            self._ar_joint = self._rho_joint * self._ar_joint + c_j * n_ar[:, m]
-            self._ar_hand = self._rho_hand * self._ar_hand + c_h * h_ar[:, m]
-            e_joint[:, m] = self._ar_joint
-            e_hand[:, m] = self._ar_hand
-        return tracked, ids, b_active, b_group, rand_inf, e_joint, e_hand
-
-    def _step_bystanders(
-        self, u_by: NDArray[np.float64]
-    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Advance the bystanders by M frames: (joints (B, M, nb, 25, 3), hand quats (B, M, nb, 4)).
-
-        A bystander stands (swaying) for an exponential time of mean ``bystander_dwell_s``, then
-        walks at a random speed to a random spot of the bystander area, facing where it walks.
-        """
-        s = self.spec
-        B, M, _, nb = u_by.shape
-        dt = self._dt
-        pos = np.empty((B, M, nb, 2))
-        yaw = np.empty((B, M, nb))
-        p_walk = 1.0 - math.exp(-dt / s.bystander_dwell_s)
-        d0, d1 = s.bystander_distance_m
-        v0, v1 = s.bystander_speed_mps
-        for m in range(M):
-            u = u_by[:, m]
-            start = ~self._by_moving & (u[:, 0] < p_walk)
-            local = np.stack(
-                [d0 + (d1 - d0) * u[:, 1], s.bystander_lateral_m * (2 * u[:, 2] - 1)], axis=-1
-            )
-            self._by_target = np.where(
-                start[..., None], self._floor_to_world(local), self._by_target
-            )
-            self._by_speed = np.where(start, v0 + (v1 - v0) * u[:, 3], self._by_speed)
-            self._by_moving = self._by_moving | start
-            delta = self._by_target - self._by_pos
-            dist = np.linalg.norm(delta, axis=-1)
-            step = np.minimum(self._by_speed * dt, dist)
-            heading = np.arctan2(delta[..., 1], delta[..., 0])
-            walking = self._by_moving & (dist > 1e-9)
-            unit = delta / np.maximum(dist, 1e-9)[..., None]
-            self._by_pos = self._by_pos + np.where(walking, step, 0.0)[..., None] * unit
-            self._by_yaw = np.where(walking, heading, self._by_yaw)
-            self._by_moving = self._by_moving & (dist - step > 1e-9)
-            pos[:, m] = self._by_pos
-            yaw[:, m] = self._by_yaw
-        k = self._frame[:, None] + np.arange(M)  # (B, M): each user's own frame count
-        phase = 2 * math.pi * self._by_sway_freq[:, None] * (k * dt)[:, :, None]
-        sway = self._by_sway_amp[:, None] * np.sin(phase + self._by_sway_phase[:, None])
-        left = np.stack([-np.sin(yaw), np.cos(yaw)], axis=-1)
-        xy = pos + sway[..., None] * left
-        floor = np.concatenate([xy, np.zeros((B, M, nb, 1))], axis=-1)
-        height = np.broadcast_to(self._by_height[:, None], (B, M, nb))
-        return standing_skeleton(floor, yaw, height)

@@ -1,0 +1,634 @@
+"""Compiled frame loop of the Kinect v2 model (see :mod:`vrloco_env.sensors.kinect`).
+
+:meth:`vrloco_env.sensors.kinect.KinectV2.capture` validates its input, draws one block of
+standard normals per frame from the users' :class:`~vrloco_env.batch_rng.BatchRng` and hands
+everything to :func:`capture_frames`, which runs the whole model -- bystanders, camera transform,
+field of view, occlusion, tracking and ids, jitter bursts, random inferred episodes, noise, wrist
+orientation, slots -- with explicit loops over users, frames, bodies and joints. One call replaces
+some 150 small numpy operations per capture (issue 5: the numpy model took 1.4 ms per call for
+one user, most of it call overhead on arrays of a few dozen numbers).
+
+The kernel is plain Python on scalars and small arrays; ``capture_frames.py_func`` runs the same
+code uncompiled, and ``tests/test_kinect.py`` checks that both give the same frames. Numba cannot
+call the broadcasting functions of :mod:`estimators.rotations`, so the few quaternion products are
+written out here on scalars: the same Hamilton ``[w, x, y, z]`` formulas (``qmul`` is
+``rotations.quat_multiply``, ``rotvec_quat`` is ``rotations.quat_from_rotvec``; the tests check the
+truth quaternions against ``rotations`` and the noise statistics against the spec).
+
+Draw layout
+-----------
+Each frame of each user consumes ``draw_size(n_bodies)`` normals, in this order (offsets ``Z_*``,
+``B_*``, ``Y_*``):
+
+* the target: 75 innovations of its per-joint noise process (joint-major, x y z), 15 normals for
+  the extra white noise of a jitter burst (up to 5 limb joints x 3; unused outside bursts), then
+  its wrist rotation noise: white (3) and AR(1) innovations (3);
+* per body (target first, then the bystanders), ``BODY_DRAWS`` = 3 numbers: the jitter burst
+  (start, limb and length from one number), the id the body gets if it is acquired in this frame,
+  and the random inferred episodes (starts and lengths from one number);
+* per bystander, ``BYSTANDER_DRAWS`` = 10 numbers: its noise vectors, white (3) and AR(1)
+  innovations (3), then walk start, distance, lateral offset and speed.
+
+That is 125 numbers per frame for the default two bystanders, against 638 in the numpy model this
+kernel replaced: at B = 256 and 3 frames, drawing 638 normals per frame alone (about 5 ms at
+~10 ns a normal) would take twice as long as a whole capture does now. Four devices keep the
+statistics of the spec while drawing fewer numbers:
+
+* Rare events test their normal against a threshold, ``z < ndtri(p)`` being ``ndtr(z) < p``; where
+  a value is needed the uniform is ``ndtr(z)`` (computed here with ``erfc``).
+* Several decisions come from one uniform by *splitting* (:func:`bernoulli_split`,
+  :func:`categorical_split`, :func:`geometric_split`): given the outcome of an inverse-CDF draw,
+  the uniform's position inside the outcome's interval is again uniform and independent of the
+  outcome, so it is rescaled and used for the next decision (exact in real arithmetic; a decision
+  of probability P costs log2(1/P) of the double's 53 bits).
+* The target's joint noise, white (variance fraction ``wf``) plus unit AR(1) (coefficient ``rho``),
+  is the Gaussian process with autocorrelation 1 at lag 0 and ``(1 - wf) rho^k`` at lag k >= 1.
+  An AR(1) process plus white noise is an ARMA(1, 1) process (Granger & Morris 1976, "Time series
+  modelling and interpretation", J. R. Statist. Soc. A 139(2)), so it is generated from one
+  innovation per coordinate and frame in its innovations form
+  ``y_t = rho y_{t-1} + s (e_t + theta e_{t-1})`` (:func:`arma_parameters`), not two: the same
+  process, half the numbers.
+* A bystander's noise is drawn at lower dimension: one white and one AR(1) innovation vector per
+  frame drive all its joints (each scaled by its own std, so every joint keeps the spec's std,
+  white fraction and time constant, but the skeleton jitters rigidly) and its wrist rotation (its
+  own AR(1) state, time constant ``hand_rot_tau_s``). Bystanders matter by where they stand, hide
+  the user and get tracked, not by the shape of their jitter; the target keeps independent noise
+  per joint and per wrist axis.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+NUM_JOINTS = 25
+# Joint indices used by the kernel (Kinect v2 JointType, vrloco_env.skeleton.Joint).
+WRIST_RIGHT = 10
+# Joint-state codes (vrloco_env.skeleton): NOT_TRACKED, INFERRED, TRACKED.
+NOT_TRACKED, INFERRED, TRACKED = 0, 1, 2
+#: Most joints in one burst limb (an arm: elbow, wrist, hand, hand tip, thumb).
+MAX_LIMB_JOINTS = 5
+
+# Packed float64 parameters (``KinectV2._params``); SI units.
+P_TAN_H = 0  # tan(horizontal fov / 2)
+P_TAN_V = 1  # tan(vertical fov / 2)
+P_NEAR = 2  # m
+P_FAR = 3  # m
+P_NOISE_A = 4  # m: joint noise std at depth z is a + b z^2
+P_NOISE_B = 5  # m / m^2
+P_WHITE_FRAC = 6  # white fraction of the joint noise variance
+P_RHO_JOINT = 7  # AR(1) coefficient per frame, joints
+P_RHO_HAND = 8  # AR(1) coefficient per frame, wrist orientation
+P_ARMA_S = 9  # innovation scale s of the target's joint noise (arma_parameters)
+P_ARMA_THETA = 10  # MA coefficient theta of the target's joint noise
+P_INFERRED_FACTOR = 11  # noise multiplier of inferred joints
+P_REF_STD = 12  # m: joint noise std at noise_ref_depth_m
+P_BURST_POS = 13  # m: extra white position std of a burst limb
+P_BURST_ROT = 14  # rad: extra white wrist rotation std in a right-arm burst
+P_TORSO_MARGIN = 15  # m
+P_OCCLUSION_DEPTH = 16  # m
+P_MIN_VISIBLE = 17  # fraction of joints
+P_BURST_PROB = 18  # probability per body and frame that a burst starts
+P_BURST_Z = 19  # ndtri(burst_prob)
+P_INFERRED_PROB = 20  # probability per joint and frame that a random inferred episode starts
+P_INFERRED_Q = 21  # exp(-1 / random_inferred_frames): geometric ratio of episode lengths
+P_WALK_Z = 22  # ndtri(p_walk): a standing bystander starts walking when its normal lies below
+P_DT = 23  # s, frame period
+P_BY_D0 = 24  # m, bystander area along the sensor axis (near)
+P_BY_D1 = 25  # m (far)
+P_BY_LATERAL = 26  # m, half-width of the bystander area
+P_BY_V0 = 27  # m/s, walking speed range
+P_BY_V1 = 28  # m/s
+P_CAM_COS = 29  # cos(camera yaw)
+P_CAM_SIN = 30  # sin(camera yaw)
+P_ACQUIRE = 31  # frames before a (re)appearing body is tracked
+P_BURST_MIN = 32  # frames
+P_BURST_MAX = 33  # frames
+N_PARAMS = 34
+
+# Draw layout of one frame (see the module docstring).
+Z_JOINT = 0
+Z_BURST = 3 * NUM_JOINTS
+Z_HAND_WHITE = Z_BURST + 3 * MAX_LIMB_JOINTS
+Z_HAND_AR = Z_HAND_WHITE + 3
+Z_BODIES = Z_HAND_AR + 3
+BODY_DRAWS = 3
+B_BURST, B_NEW_ID, B_INFERRED = 0, 1, 2
+BYSTANDER_DRAWS = 10
+Y_WHITE, Y_AR, Y_WALK_START, Y_WALK_DIST, Y_WALK_LATERAL, Y_WALK_SPEED = 0, 3, 6, 7, 8, 9
+
+_BELOW_ONE = 1.0 - 2.0**-53
+_SQRT_HALF = math.sqrt(0.5)
+
+
+def bystander_offset(n_bodies: int) -> int:
+    """Offset of the bystanders' block in a frame's draws."""
+    return Z_BODIES + BODY_DRAWS * n_bodies
+
+
+def draw_size(n_bodies: int) -> int:
+    """Normals drawn per user and frame for ``n_bodies`` bodies (target + bystanders)."""
+    return bystander_offset(n_bodies) + BYSTANDER_DRAWS * (n_bodies - 1)
+
+
+def arma_parameters(white_fraction: float, rho: float) -> tuple[float, float]:
+    """Innovation scale ``s`` and MA coefficient ``theta`` of white + AR(1) noise as ARMA(1, 1).
+
+    The unit-variance process ``x_t = sqrt(wf) w_t + sqrt(1 - wf) a_t`` (w white, a AR(1) with
+    coefficient rho) satisfies ``x_t - rho x_{t-1} = m_t``, an MA(1) with variance
+    ``g0 = wf (1 + rho^2) + (1 - wf)(1 - rho^2)`` and lag-1 covariance ``g1 = -rho wf``, so
+    ``m_t = s (e_t + theta e_{t-1})`` with ``s^2 (1 + theta^2) = g0``, ``s^2 theta = g1`` and the
+    invertible root ``|theta| <= 1``.
+
+    Args:
+        white_fraction: wf in [0, 1].
+        rho: AR(1) coefficient per step in [0, 1).
+
+    Returns:
+        ``(s, theta)``; the stationary state has ``var(y) = 1`` and ``cov(y_t, e_t) = s``.
+    """
+    g0 = white_fraction * (1.0 + rho * rho) + (1.0 - white_fraction) * (1.0 - rho * rho)
+    g1 = -rho * white_fraction
+    r = g1 / g0
+    if r == 0.0:
+        return math.sqrt(g0), 0.0
+    theta = (1.0 - math.sqrt(max(1.0 - 4.0 * r * r, 0.0))) / (2.0 * r)
+    return math.sqrt(g1 / theta), theta
+
+
+@numba.njit(cache=True)
+def uniform(z: float) -> float:
+    """Uniform in [0, 1) from a standard normal: its CDF, ndtr(z), kept below 1."""
+    return min(0.5 * math.erfc(-z * _SQRT_HALF), _BELOW_ONE)
+
+
+@numba.njit(cache=True)
+def bernoulli_split(u: float, p: float) -> tuple[bool, float]:
+    """A Bernoulli(p) trial ``u < p`` on a uniform, and the uniform rescaled for the next draw.
+
+    Given the outcome, ``u`` is uniform on [0, p) or [p, 1); rescaled to [0, 1) it is independent
+    of the outcome, so a chain of calls on one uniform gives independent trials.
+    """
+    if u < p:
+        return True, min(u / p, _BELOW_ONE)
+    return False, min((u - p) / (1.0 - p), _BELOW_ONE)
+
+
+@numba.njit(cache=True)
+def categorical_split(u: float, n: int) -> tuple[int, float]:
+    """A uniform choice among ``n`` values, floor(u n), and the uniform rescaled (fraction)."""
+    x = u * n
+    k = min(int(x), n - 1)
+    return k, min(max(x - k, 0.0), _BELOW_ONE)
+
+
+@numba.njit(cache=True)
+def geometric_split(u: float, q: float) -> tuple[int, float]:
+    """A length L >= 1 with P(L > k) = q^k, and the uniform rescaled for the next draw.
+
+    L = max(1, ceil(log(1 - u) / log(q))): an exponential length of mean -1 / log(q) frames
+    rounded up, as the numpy model drew it. Given L, ``u`` is uniform on
+    [1 - q^(L-1), 1 - q^L); rescaled to [0, 1) it is independent of L.
+    """
+    length = max(1, math.ceil(math.log1p(-u) / math.log(q)))
+    top = q ** (length - 1)  # P(L >= length)
+    return length, min(max((u - (1.0 - top)) / (top * (1.0 - q)), 0.0), _BELOW_ONE)
+
+
+@numba.njit(cache=True)
+def qmul(
+    aw: float, ax: float, ay: float, az: float, bw: float, bx: float, by: float, bz: float
+) -> tuple[float, float, float, float]:
+    """Hamilton product a ⊗ b of two quaternions given by components (rotations.quat_multiply)."""
+    return (
+        aw * bw - ax * bx - ay * by - az * bz,
+        aw * bx + ax * bw + ay * bz - az * by,
+        aw * by - ax * bz + ay * bw + az * bx,
+        aw * bz + ax * by - ay * bx + az * bw,
+    )
+
+
+@numba.njit(cache=True)
+def rotvec_quat(rx: float, ry: float, rz: float) -> tuple[float, float, float, float]:
+    """Exponential map of a rotation vector, rad (rotations.quat_from_rotvec)."""
+    angle = math.sqrt(rx * rx + ry * ry + rz * rz)
+    if angle < 1e-8:
+        s = 0.5 - angle * angle / 48.0
+    else:
+        s = math.sin(0.5 * angle) / angle
+    return math.cos(0.5 * angle), s * rx, s * ry, s * rz
+
+
+@numba.njit(cache=True)
+def capture_frames(
+    joints_world,
+    hand_world,
+    z,
+    new_ids,
+    prm,
+    inferred_z,
+    joint_scale,
+    hand_white_sd,
+    hand_ar_sd,
+    limb_index,
+    is_torso,
+    torso_joints,
+    cam_rot,
+    cam_pos,
+    cam_quat,
+    sdk_from_hand,
+    by_template,
+    by_hand_quat,
+    slots,
+    ids,
+    acquired,
+    prev_tracked,
+    bias,
+    joint_noise,
+    joint_innov,
+    ar_hand,
+    ar_by,
+    burst_left,
+    burst_group,
+    inferred_left,
+    frame,
+    by_pos,
+    by_yaw,
+    by_height,
+    by_sway_amp,
+    by_sway_freq,
+    by_sway_phase,
+    by_target,
+    by_speed,
+    by_moving,
+    out_id,
+    out_tracked,
+    out_joints,
+    out_state,
+    out_hand,
+    truth_joints,
+    truth_hand,
+) -> None:
+    """Run M frames for B users, updating the session state in place and filling the outputs.
+
+    Args (shapes; B users, M frames, N bodies, nb = N - 1 bystanders, K = 6 slots, J = 25):
+        joints_world: (B, M, J, 3) m, the target's true joints in the world.
+        hand_world: (B, M, 4) the target's unit hand quaternion, hand frame -> world.
+        z: (B, M, draw_size(N)) standard normals (layout in the module docstring).
+        new_ids: (B, M, N) int64, the id each body gets if it is acquired in that frame.
+        prm: (N_PARAMS,) packed parameters (``P_*``).
+        inferred_z: (J + 1,) ndtri(1 - (1 - p)^k): below it, at least one of k joints starts a
+            random inferred episode.
+        joint_scale: (J,) per-joint noise multiplier.
+        hand_white_sd, hand_ar_sd: (3,) rad, wrist rotation noise about the hand axes.
+        limb_index: (G, J) int64, each joint's place in burst limb g (-1: not in the limb).
+        is_torso: (J,) bool; torso_joints: the torso joints' indices.
+        cam_rot: (3, 3) camera -> world rotation; cam_pos: (3,) m; cam_quat: (4,) camera -> world.
+        sdk_from_hand: (4,) HAND_FROM_SDK_WRIST (SDK wrist frame -> hand frame).
+        by_template: (J, 3) standing skeleton of height 1 m in its body frame (pelvis over the
+            origin, facing +x); by_hand_quat: (4,) its right hand, hand frame -> body frame.
+        slots .. by_moving: the session state of ``KinectV2`` (B leading), updated in place;
+            joint_noise (B, J, 3) and joint_innov (B, J, 3) are the target's ARMA state
+            (y_{t-1}, e_{t-1}), ar_hand (B, N, 3) and ar_by (B, nb, 3) unit AR(1) states.
+        out_id .. out_hand: (B, M, K, ...) the slots' frames, filled here.
+        truth_joints: (B, M, J, 3) m, truth_hand: (B, M, 4): the target's camera-space truth.
+    """
+    B, M = joints_world.shape[0], joints_world.shape[1]
+    N = slots.shape[1]
+    nb = N - 1
+    K = out_id.shape[2]
+    J = NUM_JOINTS
+    z_by = Z_BODIES + BODY_DRAWS * N  # bystander_offset(N)
+    dt = prm[P_DT]
+    acq = int(prm[P_ACQUIRE])
+    n_len = int(prm[P_BURST_MAX]) - int(prm[P_BURST_MIN]) + 1
+    n_groups = limb_index.shape[0]
+    wf = prm[P_WHITE_FRAC]
+    rho_j, rho_h = prm[P_RHO_JOINT], prm[P_RHO_HAND]
+    c_j, c_h = math.sqrt(1.0 - rho_j * rho_j), math.sqrt(1.0 - rho_h * rho_h)
+    arma_s, arma_theta = prm[P_ARMA_S], prm[P_ARMA_THETA]
+    sq_ar = math.sqrt(1.0 - wf)
+    cw, cx, cy, cz = cam_quat[0], -cam_quat[1], -cam_quat[2], -cam_quat[3]  # world -> camera
+    sw, sx, sy, sz = sdk_from_hand[0], sdk_from_hand[1], sdk_from_hand[2], sdk_from_hand[3]
+    near, far, tan_h, tan_v = prm[P_NEAR], prm[P_FAR], prm[P_TAN_H], prm[P_TAN_V]
+    noise_a, noise_b, ref_std = prm[P_NOISE_A], prm[P_NOISE_B], prm[P_REF_STD]
+    inferred_factor = prm[P_INFERRED_FACTOR]
+    burst_pos, burst_rot = prm[P_BURST_POS], prm[P_BURST_ROT]
+    margin_m, occlusion_depth = prm[P_TORSO_MARGIN], prm[P_OCCLUSION_DEPTH]
+    p_inferred, q_inferred = prm[P_INFERRED_PROB], prm[P_INFERRED_Q]
+
+    # Scratch, reused for every user and frame. Each body's joints in camera space are an affine
+    # map of a source skeleton: the target's world joints, or the bystander template.
+    src = np.empty((N, J, 3))
+    for n in range(1, N):
+        src[n] = by_template
+    aff = np.empty((N, 3, 4))  # camera point = aff[:, :3] @ source point + aff[:, 3]
+    cam = np.empty((N, J, 3))
+    img_u = np.empty((N, J))  # image coordinates x / z, y / z
+    img_v = np.empty((N, J))
+    hand_cam = np.empty((N, 4))
+    in_view = np.empty((N, J), dtype=np.bool_)
+    occluded = np.empty((N, J), dtype=np.bool_)  # by a torso or a random inferred episode
+    zt = np.empty(N)
+    u_lo = np.empty(N)
+    u_hi = np.empty(N)
+    v_lo = np.empty(N)
+    v_hi = np.empty(N)
+    n_visible = np.empty(N, dtype=np.int64)
+    tracked = np.empty(N, dtype=np.bool_)
+    fresh = np.empty(N, dtype=np.bool_)
+    b_active = np.empty(N, dtype=np.bool_)
+    body_of_slot = np.empty(K, dtype=np.int64)
+    # The target: camera = R^T world - R^T c.
+    for a in range(3):
+        for i in range(3):
+            aff[0, a, i] = cam_rot[i, a]
+        aff[0, a, 3] = -(cam_rot[0, a] * cam_pos[0] + cam_rot[1, a] * cam_pos[1])
+        aff[0, a, 3] -= cam_rot[2, a] * cam_pos[2]
+
+    for b in range(B):
+        body_of_slot[:] = -1
+        for n in range(N):
+            body_of_slot[slots[b, n]] = n
+        for m in range(M):
+            zf = z[b, m]
+
+            # --- true bodies: the target, then the bystanders
+            src[0] = joints_world[b, m]
+            hand_cam[0, 0], hand_cam[0, 1], hand_cam[0, 2], hand_cam[0, 3] = qmul(
+                cw, cx, cy, cz,
+                hand_world[b, m, 0], hand_world[b, m, 1], hand_world[b, m, 2], hand_world[b, m, 3],
+            )  # fmt: skip
+            for i in range(nb):
+                zi = zf[z_by + BYSTANDER_DRAWS * i :]
+                # Stand for an exponential time, then walk at a random speed to a random spot of
+                # the bystander area (sensor floor frame: d along the axis, l to its left).
+                if not by_moving[b, i] and zi[Y_WALK_START] < prm[P_WALK_Z]:
+                    d = prm[P_BY_D0] + (prm[P_BY_D1] - prm[P_BY_D0]) * uniform(zi[Y_WALK_DIST])
+                    lat = prm[P_BY_LATERAL] * (2.0 * uniform(zi[Y_WALK_LATERAL]) - 1.0)
+                    by_target[b, i, 0] = cam_pos[0] + d * prm[P_CAM_COS] - lat * prm[P_CAM_SIN]
+                    by_target[b, i, 1] = cam_pos[1] + d * prm[P_CAM_SIN] + lat * prm[P_CAM_COS]
+                    v0, v1 = prm[P_BY_V0], prm[P_BY_V1]
+                    by_speed[b, i] = v0 + (v1 - v0) * uniform(zi[Y_WALK_SPEED])
+                    by_moving[b, i] = True
+                dx = by_target[b, i, 0] - by_pos[b, i, 0]
+                dy = by_target[b, i, 1] - by_pos[b, i, 1]
+                dist = math.sqrt(dx * dx + dy * dy)
+                step = min(by_speed[b, i] * dt, dist)
+                if by_moving[b, i] and dist > 1e-9:
+                    by_pos[b, i, 0] += step * dx / dist
+                    by_pos[b, i, 1] += step * dy / dist
+                    by_yaw[b, i] = math.atan2(dy, dx)
+                by_moving[b, i] = by_moving[b, i] and dist - step > 1e-9
+                # Pose: yaw about z (body -> world), quiet-standing sway as a lateral shift on the
+                # bystander's own frame clock, height h: world = h Rz(yaw) template + (px, py, 0).
+                ch, sh = math.cos(0.5 * by_yaw[b, i]), math.sin(0.5 * by_yaw[b, i])
+                c, s = ch * ch - sh * sh, 2.0 * ch * sh
+                t_k = (frame[b] + m) * dt
+                sway = by_sway_amp[b, i] * math.sin(
+                    2.0 * math.pi * by_sway_freq[b, i] * t_k + by_sway_phase[b, i]
+                )
+                ex = by_pos[b, i, 0] - sway * s - cam_pos[0]
+                ey = by_pos[b, i, 1] + sway * c - cam_pos[1]
+                h = by_height[b, i]
+                for a in range(3):  # camera = h R^T Rz template + R^T ((px, py, 0) - c)
+                    aff[i + 1, a, 0] = h * (cam_rot[0, a] * c + cam_rot[1, a] * s)
+                    aff[i + 1, a, 1] = h * (cam_rot[1, a] * c - cam_rot[0, a] * s)
+                    aff[i + 1, a, 2] = h * cam_rot[2, a]
+                    aff[i + 1, a, 3] = cam_rot[0, a] * ex + cam_rot[1, a] * ey
+                    aff[i + 1, a, 3] -= cam_rot[2, a] * cam_pos[2]
+                bw, bx, by_, bz = qmul(
+                    ch, 0.0, 0.0, sh,
+                    by_hand_quat[0], by_hand_quat[1], by_hand_quat[2], by_hand_quat[3],
+                )  # fmt: skip
+                (
+                    hand_cam[i + 1, 0], hand_cam[i + 1, 1], hand_cam[i + 1, 2], hand_cam[i + 1, 3]
+                ) = qmul(cw, cx, cy, cz, bw, bx, by_, bz)  # fmt: skip
+
+            # --- camera space, the field of view, image coordinates
+            for n in range(N):
+                for j in range(J):
+                    p0, p1, p2 = src[n, j, 0], src[n, j, 1], src[n, j, 2]
+                    x = aff[n, 0, 0] * p0 + aff[n, 0, 1] * p1 + aff[n, 0, 2] * p2 + aff[n, 0, 3]
+                    y = aff[n, 1, 0] * p0 + aff[n, 1, 1] * p1 + aff[n, 1, 2] * p2 + aff[n, 1, 3]
+                    d = aff[n, 2, 0] * p0 + aff[n, 2, 1] * p1 + aff[n, 2, 2] * p2 + aff[n, 2, 3]
+                    cam[n, j, 0], cam[n, j, 1], cam[n, j, 2] = x, y, d
+                    in_view[n, j] = (
+                        d >= near and d <= far and abs(x) <= tan_h * d and abs(y) <= tan_v * d
+                    )
+                    inv = 1.0 / max(d, 1e-3)
+                    img_u[n, j], img_v[n, j] = x * inv, y * inv
+
+            # --- occlusion: each torso is an image rectangle over its shoulder and hip joints,
+            # widened by the margin, at the mean depth of its torso joints; a joint deeper than
+            # that by occlusion_depth_m whose image falls inside is hidden (own torso: inferred,
+            # never for the torso's own joints; another body's: inferred and not "visible")
+            for n in range(N):
+                acc = 0.0
+                ulo, uhi, vlo, vhi = np.inf, -np.inf, np.inf, -np.inf
+                for j in torso_joints:
+                    acc += cam[n, j, 2]
+                    ulo, uhi = min(ulo, img_u[n, j]), max(uhi, img_u[n, j])
+                    vlo, vhi = min(vlo, img_v[n, j]), max(vhi, img_v[n, j])
+                zt[n] = acc / torso_joints.size
+                margin = margin_m / max(zt[n], 1e-3)
+                u_lo[n], u_hi[n], v_lo[n], v_hi[n] = ulo - margin, uhi + margin, vlo, vhi
+            for n in range(N):
+                n_visible[n] = 0
+                for j in range(J):
+                    occluded[n, j] = False
+                    if not in_view[n, j]:  # not tracked whatever hides it
+                        continue
+                    d, u, v = cam[n, j, 2], img_u[n, j], img_v[n, j]
+                    own, other = False, False
+                    for o in range(N):
+                        if (
+                            zt[o] > 0
+                            and d > zt[o] + occlusion_depth
+                            and u_lo[o] <= u <= u_hi[o]
+                            and v_lo[o] <= v <= v_hi[o]
+                        ):
+                            if o == n:
+                                own = True
+                            else:
+                                other = True
+                    occluded[n, j] = other or (own and not is_torso[j])
+                    if not other:
+                        n_visible[n] += 1
+
+            # --- tracking: tracked after `acq` consecutive detectable frames; a body tracked
+            # again gets a fresh id, unique among the user's bodies
+            for n in range(N):
+                if n_visible[n] / J >= prm[P_MIN_VISIBLE]:
+                    acquired[b, n] = min(acquired[b, n] + 1, acq)
+                else:
+                    acquired[b, n] = 0
+                tracked[n] = acquired[b, n] >= acq
+                fresh[n] = tracked[n] and not prev_tracked[b, n]
+                if fresh[n]:
+                    ids[b, n] = new_ids[b, m, n]
+                prev_tracked[b, n] = tracked[n]
+            _unique_ids(ids[b], fresh)
+
+            # --- jitter bursts (one limb, a few frames) and random inferred episodes
+            for n in range(N):
+                zb = zf[Z_BODIES + BODY_DRAWS * n :]
+                if burst_left[b, n] == 0 and zb[B_BURST] < prm[P_BURST_Z]:
+                    # Given the start, ndtr(z) / p is uniform: it picks the limb, then the length.
+                    u = min(uniform(zb[B_BURST]) / prm[P_BURST_PROB], _BELOW_ONE)
+                    burst_group[b, n], u = categorical_split(u, n_groups)
+                    length, u = categorical_split(u, n_len)
+                    burst_left[b, n] = int(prm[P_BURST_MIN]) + length
+                b_active[n] = burst_left[b, n] > 0
+                burst_left[b, n] = max(burst_left[b, n] - 1, 0)
+                # Every joint not in an episode starts one with probability p, of geometric length.
+                # Trials and lengths are one chain of splits of one uniform; most frames have no
+                # start at all (u >= 1 - (1 - p)^k for k free joints), which one comparison tells.
+                free = 0
+                for j in range(J):
+                    if inferred_left[b, n, j] == 0:
+                        free += 1
+                if zb[B_INFERRED] < inferred_z[free]:
+                    u = uniform(zb[B_INFERRED])
+                    for j in range(J):
+                        if inferred_left[b, n, j] == 0:
+                            hit, u = bernoulli_split(u, p_inferred)
+                            if hit:
+                                inferred_left[b, n, j], u = geometric_split(u, q_inferred)
+                for j in range(J):
+                    if inferred_left[b, n, j] > 0:
+                        occluded[n, j] = True
+                        inferred_left[b, n, j] -= 1
+
+            # --- noise states: the target's ARMA(1, 1) joint noise (unit variance); unit AR(1)
+            # states of every wrist and of the bystanders' joint noise (a bystander's wrist and
+            # joints share their innovations)
+            for j in range(J):
+                for a in range(3):
+                    e = zf[Z_JOINT + 3 * j + a]
+                    joint_noise[b, j, a] = rho_j * joint_noise[b, j, a] + arma_s * (
+                        e + arma_theta * joint_innov[b, j, a]
+                    )
+                    joint_innov[b, j, a] = e
+            for a in range(3):
+                ar_hand[b, 0, a] = rho_h * ar_hand[b, 0, a] + c_h * zf[Z_HAND_AR + a]
+            for i in range(nb):
+                zi = zf[z_by + BYSTANDER_DRAWS * i :]
+                for a in range(3):
+                    ar_hand[b, i + 1, a] = rho_h * ar_hand[b, i + 1, a] + c_h * zi[Y_AR + a]
+                    ar_by[b, i, a] = rho_j * ar_by[b, i, a] + c_j * zi[Y_AR + a]
+
+            # --- tracking states, noisy joints and wrist orientation, into the slots
+            for k in range(K):
+                if body_of_slot[k] < 0:
+                    out_id[b, m, k] = 0
+                    out_tracked[b, m, k] = False
+                    out_state[b, m, k] = NOT_TRACKED
+                    out_joints[b, m, k] = np.nan
+                    out_hand[b, m, k] = np.nan
+            for n in range(N):
+                k = slots[b, n]
+                out_id[b, m, k] = ids[b, n] if tracked[n] else 0
+                out_tracked[b, m, k] = tracked[n]
+                g = burst_group[b, n] if b_active[n] else -1
+                # White normals of the wrist (target) or of the whole body (bystander).
+                zw = zf[Z_HAND_WHITE:] if n == 0 else zf[z_by + BYSTANDER_DRAWS * (n - 1) :]
+                w0, w1, w2 = zw[0], zw[1], zw[2]
+                a0, a1, a2 = 0.0, 0.0, 0.0
+                if n > 0:
+                    a0, a1, a2 = ar_by[b, n - 1, 0], ar_by[b, n - 1, 1], ar_by[b, n - 1, 2]
+                wrist_factor = 1.0
+                for j in range(J):
+                    if not (tracked[n] and in_view[n, j]):
+                        out_state[b, m, k, j] = NOT_TRACKED
+                        for a in range(3):
+                            out_joints[b, m, k, j, a] = np.nan
+                        continue
+                    factor = 1.0
+                    if occluded[n, j]:
+                        out_state[b, m, k, j] = INFERRED
+                        factor = inferred_factor
+                    else:
+                        out_state[b, m, k, j] = TRACKED
+                    if j == WRIST_RIGHT:
+                        wrist_factor = factor
+                    d = cam[n, j, 2]
+                    sigma = (noise_a + noise_b * d * d) * joint_scale[j] * factor
+                    limb = limb_index[g, j] if g >= 0 else -1
+                    if n == 0:  # the target: independent noise per joint, burst noise per joint
+                        for a in range(3):
+                            pos = cam[0, j, a] + bias[b, 0, j, a] + sigma * joint_noise[b, j, a]
+                            if limb >= 0:
+                                pos += burst_pos * zf[Z_BURST + 3 * limb + a]
+                            out_joints[b, m, k, j, a] = pos
+                    else:  # a bystander: its rigid noise vectors, scaled per joint
+                        burst = burst_pos if limb >= 0 else 0.0
+                        white = math.sqrt(wf * sigma * sigma + burst * burst)
+                        ar = sq_ar * sigma
+                        out_joints[b, m, k, j, 0] = (
+                            cam[n, j, 0] + bias[b, n, j, 0] + white * w0 + ar * a0
+                        )
+                        out_joints[b, m, k, j, 1] = (
+                            cam[n, j, 1] + bias[b, n, j, 1] + white * w1 + ar * a1
+                        )
+                        out_joints[b, m, k, j, 2] = (
+                            cam[n, j, 2] + bias[b, n, j, 2] + white * w2 + ar * a2
+                        )
+                # Wrist orientation: white + AR(1) rotation noise about the hand axes, scaled
+                # with the joint noise at the wrist's depth, then into the SDK wrist frame.
+                qw_, qx_, qy_, qz_ = hand_cam[n, 0], hand_cam[n, 1], hand_cam[n, 2], hand_cam[n, 3]
+                if n == 0:
+                    (
+                        truth_hand[b, m, 0], truth_hand[b, m, 1],
+                        truth_hand[b, m, 2], truth_hand[b, m, 3],
+                    ) = qmul(qw_, qx_, qy_, qz_, sw, sx, sy, sz)  # fmt: skip
+                if out_state[b, m, k, WRIST_RIGHT] == NOT_TRACKED:
+                    out_hand[b, m, k] = np.nan
+                    continue
+                d = cam[n, WRIST_RIGHT, 2]
+                f_w = wrist_factor
+                if ref_std > 0:
+                    f_w *= (noise_a + noise_b * d * d) / ref_std
+                burst = burst_rot if g == 0 else 0.0
+                r0 = math.sqrt((f_w * hand_white_sd[0]) ** 2 + burst * burst) * w0
+                r1 = math.sqrt((f_w * hand_white_sd[1]) ** 2 + burst * burst) * w1
+                r2 = math.sqrt((f_w * hand_white_sd[2]) ** 2 + burst * burst) * w2
+                r0 += f_w * hand_ar_sd[0] * ar_hand[b, n, 0]
+                r1 += f_w * hand_ar_sd[1] * ar_hand[b, n, 1]
+                r2 += f_w * hand_ar_sd[2] * ar_hand[b, n, 2]
+                ew, ex_, ey_, ez_ = rotvec_quat(r0, r1, r2)
+                nw, nx, ny, nz = qmul(qw_, qx_, qy_, qz_, ew, ex_, ey_, ez_)
+                (
+                    out_hand[b, m, k, 0], out_hand[b, m, k, 1],
+                    out_hand[b, m, k, 2], out_hand[b, m, k, 3],
+                ) = qmul(nw, nx, ny, nz, sw, sx, sy, sz)  # fmt: skip
+            truth_joints[b, m] = cam[0]
+        frame[b] += M
+
+
+@numba.njit(cache=True)
+def _unique_ids(ids: np.ndarray, fresh: np.ndarray) -> None:
+    """Move a fresh id that equals another body's (not fresh, or fresh and earlier) to the next
+    value, until the user's ids differ (as ``kinect._unique_ids`` does for a batch)."""
+    n = ids.size
+    if not fresh.any():  # the common case: no body (re)acquired in this frame
+        return
+    clash = np.zeros(n, dtype=np.bool_)
+    while True:
+        any_clash = False
+        for j in range(n):
+            clash[j] = False
+            if not fresh[j]:
+                continue
+            for k in range(n):
+                if k != j and ids[k] == ids[j] and (not fresh[k] or k < j):
+                    clash[j] = True
+                    any_clash = True
+                    break
+        if not any_clash:
+            return
+        for j in range(n):
+            if clash[j]:
+                ids[j] = ids[j] % (2**53) + 1
