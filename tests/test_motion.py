@@ -236,3 +236,4 @@ def test_compiled_evaluation_matches_the_numpy_reference():
     np.testing.assert_allclose(fast.acc, ref.acc, atol=1e-6)  # central differences amplify 1e-16
     np.testing.assert_array_equal(fast.step, ref.step)
     np.testing.assert_allclose(fast.kinect.joints, ref.kinect.joints, atol=1e-12)
+    np.testing.assert_allclose(fast.kinect.hand_quat, ref.kinect.hand_quat, atol=1e-12)

@@ -141,3 +141,95 @@ def evaluate_kernel(
             o_yaw_rate[b, t] = d_yaw
             o_lean[b, t] = lean
             o_lean_rate[b, t] = d_lean
+
+
+@numba.njit(cache=True)
+def _quat_ypr(y, p, r):
+    cy, sy = math.cos(0.5 * y), math.sin(0.5 * y)
+    cp, sp = math.cos(0.5 * p), math.sin(0.5 * p)
+    cr, sr = math.cos(0.5 * r), math.sin(0.5 * r)
+    return (
+        cy * cp * cr + sy * sp * sr,
+        cy * cp * sr - sy * sp * cr,
+        cy * sp * cr + sy * cp * sr,
+        sy * cp * cr - cy * sp * sr,
+    )
+
+
+@numba.njit(cache=True)
+def _rotate(qw, qx, qy, qz, vx, vy, vz):
+    tx = 2.0 * (qy * vz - qz * vy)
+    ty = 2.0 * (qz * vx - qx * vz)
+    tz = 2.0 * (qx * vy - qy * vx)
+    return (
+        vx + qw * tx + (qy * tz - qz * ty),
+        vy + qw * ty + (qz * tx - qx * tz),
+        vz + qw * tz + (qx * ty - qy * tx),
+    )
+
+
+@numba.njit(cache=True)
+def skeleton_kernel(
+    neck, quat, yaw, phase, walking, hand_ypr, torso_joints, torso_offsets, head_joint,
+    head_offset, leg_joints, leg_rest, leg_lift, floor_z, forearm, elbow_right, wrist_right,
+    hand_joints, hand_offsets, o_joints, o_hand_q,
+):  # fmt: skip
+    """Compiled twin of :meth:`vrloco_env.motion.UserMotion._skeleton_reference`."""
+    b_n, m_n = yaw.shape
+    for b in range(b_n):
+        for m in range(m_n):
+            cy, sy = math.cos(yaw[b, m]), math.sin(yaw[b, m])
+            nx, ny, nz = neck[b, m, 0], neck[b, m, 1], neck[b, m, 2]
+            for j in range(torso_joints.shape[0]):
+                ox, oy, oz = torso_offsets[j, 0], torso_offsets[j, 1], torso_offsets[j, 2]
+                k = torso_joints[j]
+                o_joints[b, m, k, 0] = nx + (cy * ox - sy * oy)
+                o_joints[b, m, k, 1] = ny + (sy * ox + cy * oy)
+                o_joints[b, m, k, 2] = nz + oz
+            q = quat[b, m]
+            hx, hy, hz = _rotate(q[0], q[1], q[2], q[3], head_offset[0], head_offset[1],
+                                 head_offset[2])  # fmt: skip
+            o_joints[b, m, head_joint, 0] = nx + hx
+            o_joints[b, m, head_joint, 1] = ny + hy
+            o_joints[b, m, head_joint, 2] = nz + hz
+            # legs: the leg of step n (parity of floor(phase)) lifts its knee during that step
+            ph = phase[b, m]
+            lift = math.sin(math.pi * (ph - math.floor(ph))) * (1.0 if walking[b, m] else 0.0)
+            right_lifts = math.floor(ph) % 2 == 0
+            for leg in range(2):
+                up = lift if (leg == 1) == right_lifts else 0.0
+                for jj in range(4):
+                    ox = leg_rest[leg, jj, 0] + up * leg_lift[jj, 0]
+                    oy = leg_rest[leg, jj, 1] + up * leg_lift[jj, 1]
+                    oz = leg_rest[leg, jj, 2] + up * leg_lift[jj, 2]
+                    z = nz + oz
+                    if jj >= 2:
+                        z = max(z, floor_z)
+                    k = leg_joints[leg * 4 + jj]
+                    o_joints[b, m, k, 0] = nx + (cy * ox - sy * oy)
+                    o_joints[b, m, k, 1] = ny + (sy * ox + cy * oy)
+                    o_joints[b, m, k, 2] = z
+            # the right hand: torso yaw then the hand's own angles
+            tw, tz = math.cos(0.5 * yaw[b, m]), math.sin(0.5 * yaw[b, m])
+            aw, ax, ay, az = _quat_ypr(hand_ypr[b, m, 0], hand_ypr[b, m, 1], hand_ypr[b, m, 2])
+            qw = tw * aw - tz * az
+            qx = tw * ax - tz * ay
+            qy = tw * ay + tz * ax
+            qz = tw * az + tz * aw
+            o_hand_q[b, m, 0] = qw
+            o_hand_q[b, m, 1] = qx
+            o_hand_q[b, m, 2] = qy
+            o_hand_q[b, m, 3] = qz
+            wx = o_joints[b, m, elbow_right, 0] + (cy * forearm[0] - sy * forearm[1])
+            wy = o_joints[b, m, elbow_right, 1] + (sy * forearm[0] + cy * forearm[1])
+            wz = o_joints[b, m, elbow_right, 2] + forearm[2]
+            o_joints[b, m, wrist_right, 0] = wx
+            o_joints[b, m, wrist_right, 1] = wy
+            o_joints[b, m, wrist_right, 2] = wz
+            for j in range(hand_joints.shape[0]):
+                px, py, pz = _rotate(qw, qx, qy, qz, hand_offsets[j, 0], hand_offsets[j, 1],
+                                     hand_offsets[j, 2])  # fmt: skip
+                k = hand_joints[j]
+                o_joints[b, m, k, 0] = wx + px
+                o_joints[b, m, k, 1] = wy + py
+                o_joints[b, m, k, 2] = wz + pz

@@ -51,7 +51,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from estimators import rotations as rot
 from estimators.batching import stream_rows
-from vrloco_env._motion_numba import evaluate_kernel
+from vrloco_env._motion_numba import evaluate_kernel, skeleton_kernel
 from vrloco_env.batch_rng import BatchRng
 from vrloco_env.skeleton import NUM_JOINTS, Joint
 
@@ -544,13 +544,14 @@ class UserMotion:
             cmd,
             np.concatenate([tau - h, tau, tau + h, tau[-1] - np.array([2 * h, h, 0.0]), tau_k]),
         )
-        parts = np.cumsum([n, n, n, 3])
-        ev = {k: (np.split(v, parts, axis=1) if v.ndim >= 2 else v) for k, v in ev_all.items()}
-        p_m, p_0, p_p, ends = ev["imu_pos"][:4]
+        imu_pos = ev_all["imu_pos"]
+        p_m, p_0, p_p = imu_pos[:, :n], imu_pos[:, n : 2 * n], imu_pos[:, 2 * n : 3 * n]
+        ends = imu_pos[:, 3 * n : 3 * n + 3]
         acc = (p_p - 2.0 * p_0 + p_m) / h**2
         acc[:, -1] = (ends[:, 2] - 2.0 * ends[:, 1] + ends[:, 0]) / h**2
-        mid = {k: (v[1] if isinstance(v, list) else v) for k, v in ev.items()}
-        frames = {k: (v[4] if isinstance(v, list) else v) for k, v in ev.items()}
+        ev = {"t_boundary": ev_all["t_boundary"]}
+        mid = {k: v[:, n : 2 * n] for k, v in ev_all.items() if v.ndim >= 2}
+        frames = {k: ev_all[k][:, 3 * n + 3 :] for k in ("yaw", "neck", "quat", "phase", "walking")}
 
         omega = _euler_rates_to_body(mid["head_ypr"], mid["d_head_ypr"])
 
@@ -622,6 +623,23 @@ class UserMotion:
         if m == 0:
             return KinectChunk(t_abs, np.zeros((b, 0, NUM_JOINTS, 3)), np.zeros((b, 0, 4)),
                                np.zeros((b, 0, 3)))  # fmt: skip
+        hand_ypr = self._hand_ypr(s, cmd, tau)
+        if self.use_kernel:
+            joints = np.empty((b, m, NUM_JOINTS, 3))
+            hand_q = np.empty((b, m, 4))
+            skeleton_kernel(
+                ev["neck"], ev["quat"], ev["yaw"], ev["phase"], ev["walking"], hand_ypr,
+                _TORSO_JOINTS, _TORSO_OFFSET_ARRAY, int(Joint.HEAD), _HEAD_OFFSET, _LEG_JOINTS,
+                _LEG_REST, _LEG_LIFT, _FLOOR_CLEARANCE, _FOREARM, int(Joint.ELBOW_RIGHT),
+                int(Joint.WRIST_RIGHT), _HAND_JOINTS, _HAND_OFFSETS, joints, hand_q,
+            )  # fmt: skip
+            return KinectChunk(t=t_abs, joints=joints, hand_quat=hand_q, hand_ypr=hand_ypr)
+        return self._skeleton_reference(ev, hand_ypr, t_abs)
+
+    def _skeleton_reference(self, ev: dict, hand_ypr: NDArray[np.float64],
+                            t_abs: NDArray[np.float64]) -> KinectChunk:  # fmt: skip
+        """The numpy reference of the skeleton (what :func:`skeleton_kernel` computes)."""
+        b, m = ev["yaw"].shape
         yaw = ev["yaw"]
         zero = np.zeros_like(yaw)
         torso_q = rot.quat_from_ypr(np.stack([yaw, zero, zero], -1))
@@ -650,7 +668,6 @@ class UserMotion:
         joints[:, :, _LEG_JOINTS] = legs.reshape(b, m, 8, 3)
 
         # Right arm held forward; the hand's orientation follows the hand angles.
-        hand_ypr = self._hand_ypr(s, cmd, tau)
         hand_q = rot.quat_multiply(torso_q, rot.quat_from_ypr(hand_ypr))
         wrist = joints[:, :, Joint.ELBOW_RIGHT] + torso(_FOREARM[None])[:, :, 0] - ev["neck"]
         joints[:, :, Joint.WRIST_RIGHT] = wrist
