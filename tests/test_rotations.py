@@ -123,3 +123,22 @@ def test_skew_is_cross_product(rng):
 def test_ensure_quaternion_rejects_bad_input(bad):
     with pytest.raises(ValueError, match="q"):
         rot.ensure_quaternion(bad)
+
+
+def test_compiled_scalar_helpers_match_the_numpy_module(rng):
+    from estimators import _rotations_numba as nb
+
+    q = random_quats(rng, 50)
+    p = random_quats(rng, 50)
+    v = rng.normal(size=(50, 3))
+    ypr = rot.quat_to_ypr(q)
+    for i in range(50):
+        np.testing.assert_allclose(nb.quat_from_ypr(*ypr[i]), rot.quat_from_ypr(ypr[i]), atol=TOL)
+        np.testing.assert_allclose(nb.quat_mul(*p[i], *q[i]), rot.quat_multiply(p[i], q[i]),
+                                   atol=TOL)  # fmt: skip
+        np.testing.assert_allclose(nb.quat_rotate(*q[i], *v[i]), rot.quat_rotate(q[i], v[i]),
+                                   atol=TOL)  # fmt: skip
+        np.testing.assert_allclose(nb.quat_to_ypr(*q[i]), ypr[i], atol=1e-12)
+        assert nb.rotation_angle(*q[i]) == pytest.approx(rot.rotation_angle(q[i]), abs=TOL)
+    lock = rot.quat_from_ypr([0.7, np.pi / 2, 0.0])
+    np.testing.assert_allclose(nb.quat_to_ypr(*lock), rot.quat_to_ypr(lock), atol=1e-7)

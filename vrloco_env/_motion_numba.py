@@ -11,6 +11,8 @@ import math
 
 import numba
 
+from estimators._rotations_numba import quat_from_ypr, quat_rotate
+
 
 @numba.njit(cache=True)
 def _critically_damped(x0, v0, target, lag, tau):
@@ -144,31 +146,6 @@ def evaluate_kernel(
 
 
 @numba.njit(cache=True)
-def _quat_ypr(y, p, r):
-    cy, sy = math.cos(0.5 * y), math.sin(0.5 * y)
-    cp, sp = math.cos(0.5 * p), math.sin(0.5 * p)
-    cr, sr = math.cos(0.5 * r), math.sin(0.5 * r)
-    return (
-        cy * cp * cr + sy * sp * sr,
-        cy * cp * sr - sy * sp * cr,
-        cy * sp * cr + sy * cp * sr,
-        sy * cp * cr - cy * sp * sr,
-    )
-
-
-@numba.njit(cache=True)
-def _rotate(qw, qx, qy, qz, vx, vy, vz):
-    tx = 2.0 * (qy * vz - qz * vy)
-    ty = 2.0 * (qz * vx - qx * vz)
-    tz = 2.0 * (qx * vy - qy * vx)
-    return (
-        vx + qw * tx + (qy * tz - qz * ty),
-        vy + qw * ty + (qz * tx - qx * tz),
-        vz + qw * tz + (qx * ty - qy * tx),
-    )
-
-
-@numba.njit(cache=True)
 def skeleton_kernel(
     neck, quat, yaw, phase, walking, hand_ypr, torso_joints, torso_offsets, head_joint,
     head_offset, leg_joints, leg_rest, leg_lift, floor_z, forearm, elbow_right, wrist_right,
@@ -187,7 +164,7 @@ def skeleton_kernel(
                 o_joints[b, m, k, 1] = ny + (sy * ox + cy * oy)
                 o_joints[b, m, k, 2] = nz + oz
             q = quat[b, m]
-            hx, hy, hz = _rotate(q[0], q[1], q[2], q[3], head_offset[0], head_offset[1],
+            hx, hy, hz = quat_rotate(q[0], q[1], q[2], q[3], head_offset[0], head_offset[1],
                                  head_offset[2])  # fmt: skip
             o_joints[b, m, head_joint, 0] = nx + hx
             o_joints[b, m, head_joint, 1] = ny + hy
@@ -211,7 +188,7 @@ def skeleton_kernel(
                     o_joints[b, m, k, 2] = z
             # the right hand: torso yaw then the hand's own angles
             tw, tz = math.cos(0.5 * yaw[b, m]), math.sin(0.5 * yaw[b, m])
-            aw, ax, ay, az = _quat_ypr(hand_ypr[b, m, 0], hand_ypr[b, m, 1], hand_ypr[b, m, 2])
+            aw, ax, ay, az = quat_from_ypr(hand_ypr[b, m, 0], hand_ypr[b, m, 1], hand_ypr[b, m, 2])
             qw = tw * aw - tz * az
             qx = tw * ax - tz * ay
             qy = tw * ay + tz * ax
@@ -227,7 +204,7 @@ def skeleton_kernel(
             o_joints[b, m, wrist_right, 1] = wy
             o_joints[b, m, wrist_right, 2] = wz
             for j in range(hand_joints.shape[0]):
-                px, py, pz = _rotate(qw, qx, qy, qz, hand_offsets[j, 0], hand_offsets[j, 1],
+                px, py, pz = quat_rotate(qw, qx, qy, qz, hand_offsets[j, 0], hand_offsets[j, 1],
                                      hand_offsets[j, 2])  # fmt: skip
                 k = hand_joints[j]
                 o_joints[b, m, k, 0] = wx + px

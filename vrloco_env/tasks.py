@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from estimators import rotations as rot
+from vrloco_env._hand_frame_numba import hand_error as _hand_error_kernel
 from vrloco_env.rooms import Layout, RoomConfig, make_layout
 
 __all__ = ["TASKS", "Task", "get_task"]
@@ -81,7 +82,15 @@ def goal_distance(xy: NDArray, goal: NDArray, radius: NDArray, line_x: NDArray) 
 
 def hand_error(estimate: NDArray, target: NDArray) -> NDArray:
     """Rotation angle (rad) between estimated and target hand orientations ([yaw, pitch, roll]
-    (B, 3) each); NaN where there is no estimate."""
+    (B, 3) each); NaN where there is no estimate. Compiled; see :func:`hand_error_reference`."""
+    out = np.empty(estimate.shape[0])
+    _hand_error_kernel(np.ascontiguousarray(estimate, dtype=np.float64),
+                       np.ascontiguousarray(target, dtype=np.float64), out)  # fmt: skip
+    return out
+
+
+def hand_error_reference(estimate: NDArray, target: NDArray) -> NDArray:
+    """The numpy version of :func:`hand_error`."""
     q = rot.quat_multiply(
         rot.quat_conjugate(rot.quat_from_ypr(target)), rot.quat_from_ypr(np.nan_to_num(estimate))
     )

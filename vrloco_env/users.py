@@ -28,13 +28,16 @@ from estimators.batching import stream_rows
 from estimators.gait import StepDetector
 from estimators.hand import HandFrame, HandPipeline
 from estimators.locomotion import make_locomotion
+from vrloco_env._hand_frame_numba import hand_relative_to_torso
 from vrloco_env.batch_rng import BatchRng
 from vrloco_env.config import EstimatorConfig, SensorConfig
 from vrloco_env.motion import Intent, MotionChunk, MotionParams, UserMotion
 from vrloco_env.sensors.imu import HeadImu, ImuSamples
 from vrloco_env.sensors.kinect import (
+    HAND_FROM_SDK_WRIST,
     KinectFrames,
     KinectV2,
+    camera_quat,
     camera_to_world,
     quat_camera_to_world,
     sdk_wrist_to_hand,
@@ -141,6 +144,8 @@ class SimulatedUsers:
         self.cadence = np.zeros(b)
         self._since_step = np.full(b, np.inf)
         self._last_loco = np.zeros((b, 2))
+        self._camera_q = camera_quat(sensors.kinect)
+        self._sdk_to_hand = rot.quat_conjugate(HAND_FROM_SDK_WRIST)
         self._start_yaw = np.zeros(b)
         self._recentre = np.ones(b, bool)
 
@@ -245,6 +250,19 @@ class SimulatedUsers:
         self._since_step = np.where(stepped, 0.0, self._since_step)
 
     def _hand_relative_to_torso(self, hand: HandFrame) -> NDArray[np.float64]:
+        """The hand's [yaw, pitch, roll] relative to the torso, all from the Kinect's estimates
+        (compiled; :meth:`_hand_relative_reference` is the numpy version)."""
+        out = np.empty((self.batch_size, 3))
+        joints = hand.joints
+        hand_relative_to_torso(
+            np.ascontiguousarray(hand.ypr), np.ascontiguousarray(hand.valid),
+            np.ascontiguousarray(joints[:, Joint.SHOULDER_LEFT]),
+            np.ascontiguousarray(joints[:, Joint.SHOULDER_RIGHT]), self._camera_q,
+            self._sdk_to_hand, out,
+        )  # fmt: skip
+        return out
+
+    def _hand_relative_reference(self, hand: HandFrame) -> NDArray[np.float64]:
         """The hand's [yaw, pitch, roll] relative to the torso, all from the Kinect's estimates.
 
         The filtered wrist orientation (camera space, SDK wrist frame) goes to the world and to

@@ -1,0 +1,70 @@
+"""Scalar rotation helpers for compiled kernels: the formulas of :mod:`estimators.rotations`.
+
+Each function repeats the arithmetic of its numpy twin (same conventions: Hamilton ``[w, x, y,
+z]``, sensor -> world, intrinsic ZYX ``[yaw, pitch, roll]``); ``tests/test_rotations.py`` checks
+them against it.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+
+
+@numba.njit(cache=True)
+def quat_from_ypr(y, p, r):
+    """Quaternion of ZYX angles (rad), as a tuple (w, x, y, z)."""
+    cy, sy = math.cos(0.5 * y), math.sin(0.5 * y)
+    cp, sp = math.cos(0.5 * p), math.sin(0.5 * p)
+    cr, sr = math.cos(0.5 * r), math.sin(0.5 * r)
+    return (
+        cy * cp * cr + sy * sp * sr,
+        cy * cp * sr - sy * sp * cr,
+        cy * sp * cr + sy * cp * sr,
+        sy * cp * cr - cy * sp * sr,
+    )
+
+
+@numba.njit(cache=True)
+def quat_mul(pw, px, py, pz, qw, qx, qy, qz):
+    """Hamilton product p (x) q, as a tuple."""
+    return (
+        pw * qw - px * qx - py * qy - pz * qz,
+        pw * qx + px * qw + py * qz - pz * qy,
+        pw * qy - px * qz + py * qw + pz * qx,
+        pw * qz + px * qy - py * qx + pz * qw,
+    )
+
+
+@numba.njit(cache=True)
+def quat_rotate(qw, qx, qy, qz, vx, vy, vz):
+    """R(q) v, as a tuple."""
+    tx = 2.0 * (qy * vz - qz * vy)
+    ty = 2.0 * (qz * vx - qx * vz)
+    tz = 2.0 * (qx * vy - qy * vx)
+    return (
+        vx + qw * tx + (qy * tz - qz * ty),
+        vy + qw * ty + (qz * tx - qx * tz),
+        vz + qw * tz + (qx * ty - qy * tx),
+    )
+
+
+@numba.njit(cache=True)
+def quat_to_ypr(w, x, y, z):
+    """ZYX angles (rad) of a unit quaternion, as a tuple (gimbal lock as the numpy twin)."""
+    sinp = min(max(2.0 * (w * y - x * z), -1.0), 1.0)
+    pitch = math.asin(sinp)
+    if abs(sinp) > 1.0 - 1e-12:
+        yaw = -2.0 * math.copysign(1.0, sinp) * math.atan2(x, w)
+        yaw = math.pi - ((math.pi - yaw) % (2.0 * math.pi))
+        return yaw, pitch, 0.0
+    yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+    roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
+    return yaw, pitch, roll
+
+
+@numba.njit(cache=True)
+def rotation_angle(w, x, y, z):
+    """Rotation angle (rad, [0, pi]) of a unit quaternion."""
+    return 2.0 * math.atan2(math.sqrt(x * x + y * y + z * z), abs(w))

@@ -1,0 +1,66 @@
+"""Compiled hand-frame arithmetic of the env: the hand relative to the torso, and hand errors.
+
+Twins of :meth:`vrloco_env.users.SimulatedUsers._hand_relative_reference` and
+:func:`vrloco_env.tasks.hand_error_reference` (tests compare them to 1e-12).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from estimators._rotations_numba import (
+    quat_from_ypr,
+    quat_mul,
+    quat_rotate,
+    quat_to_ypr,
+    rotation_angle,
+)
+
+
+@numba.njit(cache=True)
+def hand_relative_to_torso(ypr, valid, shoulder_left, shoulder_right, cam_q, sdk_to_hand, out):
+    """[yaw, pitch, roll] of the hand relative to the torso heading, NaN where not valid.
+
+    ``ypr`` (B, 3): filtered SDK-wrist orientation in camera space; shoulders (B, 3) in camera
+    space; ``cam_q`` camera -> world; ``sdk_to_hand`` the quaternion taking the SDK wrist frame
+    to the hand frame (right-multiplied).
+    """
+    for b in range(ypr.shape[0]):
+        ok = valid[b]
+        for k in range(3):
+            ok = ok and math.isfinite(ypr[b, k])
+            ok = ok and math.isfinite(shoulder_left[b, k]) and math.isfinite(shoulder_right[b, k])
+        if not ok:
+            out[b, 0] = out[b, 1] = out[b, 2] = np.nan
+            continue
+        qc = quat_from_ypr(ypr[b, 0], ypr[b, 1], ypr[b, 2])
+        qw = quat_mul(cam_q[0], cam_q[1], cam_q[2], cam_q[3], qc[0], qc[1], qc[2], qc[3])
+        qh = quat_mul(qw[0], qw[1], qw[2], qw[3], sdk_to_hand[0], sdk_to_hand[1], sdk_to_hand[2],
+                      sdk_to_hand[3])  # fmt: skip
+        d = quat_rotate(cam_q[0], cam_q[1], cam_q[2], cam_q[3],
+                        shoulder_left[b, 0] - shoulder_right[b, 0],
+                        shoulder_left[b, 1] - shoulder_right[b, 1],
+                        shoulder_left[b, 2] - shoulder_right[b, 2])  # fmt: skip
+        half = 0.5 * (math.atan2(d[1], d[0]) - 0.5 * math.pi)  # torso yaw / 2
+        rel = quat_mul(math.cos(half), 0.0, 0.0, -math.sin(half), qh[0], qh[1], qh[2], qh[3])
+        y, p, r = quat_to_ypr(rel[0], rel[1], rel[2], rel[3])
+        out[b, 0] = y
+        out[b, 1] = p
+        out[b, 2] = r
+
+
+@numba.njit(cache=True)
+def hand_error(estimate, target, out):
+    """Rotation angle (rad) between estimated and target [yaw, pitch, roll]; NaN without one."""
+    for b in range(estimate.shape[0]):
+        e = estimate[b]
+        if not (math.isfinite(e[0]) and math.isfinite(e[1]) and math.isfinite(e[2])):
+            out[b] = np.nan
+            continue
+        qt = quat_from_ypr(target[b, 0], target[b, 1], target[b, 2])
+        qe = quat_from_ypr(e[0], e[1], e[2])
+        q = quat_mul(qt[0], -qt[1], -qt[2], -qt[3], qe[0], qe[1], qe[2], qe[3])
+        out[b] = rotation_angle(q[0], q[1], q[2], q[3])
