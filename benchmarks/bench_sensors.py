@@ -1,8 +1,9 @@
-"""Speed of the Kinect v2 model: ``KinectV2.capture`` per call, beside a reference revision.
+"""Speed of the sensor models: ``KinectV2.capture`` and ``HeadImu.sample`` per control step.
 
-    python benchmarks/bench_sensors.py                 # B = 1, 16, 256; compare with git HEAD
+    python benchmarks/bench_sensors.py                 # B = 1, 16, 256; Kinect vs git HEAD, IMU
     python benchmarks/bench_sensors.py --ref none      # this tree only
     python benchmarks/bench_sensors.py --ref HEAD~3 --batch 1 256 --repeat 9
+    python benchmarks/bench_sensors.py --sensor imu    # only the IMU section
 
 One call is what the environment does per control step (``vrloco_env.users``): M = 3 Kinect
 frames of B users, default :class:`~vrloco_env.sensors.kinect.KinectSpec` (two bystanders), users
@@ -15,6 +16,12 @@ time is compared.
 
 Targets (issue 5, with the whole env step at 0.5 ms for B = 1 and ~11 ms for B = 256):
 ``capture`` <= 0.15 ms at B = 1 and <= 3 ms at B = 256.
+
+IMU section: one ``HeadImu.sample`` call of N = 10 samples (100 Hz IMU, 10 Hz control) for B users
+of the ``consumer_mems`` preset with one magnetic dipole, each user turning and walking its own
+way; the same figure for the numpy model kept in this tree (``HeadImu.sample_reference``, same
+draws, same outputs), and for the call's random draw alone (``BatchRng.normal((10, 27))``), the
+floor no kernel can go under. Targets: ``sample`` <= 0.04 ms at B = 1 and <= 0.5 ms at B = 256.
 """
 
 from __future__ import annotations
@@ -33,11 +40,14 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from estimators.rotations import quat_from_ypr  # noqa: E402
 from vrloco_env.batch_rng import BatchRng  # noqa: E402
-from vrloco_env.sensors import kinect  # noqa: E402
+from vrloco_env.sensors import imu, kinect  # noqa: E402
 
 FRAMES = 3  # Kinect frames per control step
 TARGETS_MS = {1: 0.15, 256: 3.0}
+IMU_SAMPLES = 10  # IMU samples per control step (100 Hz IMU, 10 Hz control)
+IMU_TARGETS_MS = {1: 0.04, 256: 0.5}
 
 
 def users(b: int, m: int, seed: int = 42) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -87,15 +97,66 @@ def time_capture(module: ModuleType, b: int, calls: int, repeat: int) -> float:
     return best
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--batch", type=int, nargs="+", default=[1, 16, 256], help="users B")
-    parser.add_argument("--ref", default="HEAD", help="git revision to compare with, or 'none'")
-    parser.add_argument("--repeat", type=int, default=5, help="rounds per figure (best kept)")
-    parser.add_argument(
-        "--seconds", type=float, default=0.5, help="approximate length of one round (s)"
+def head_motion(b: int, n: int) -> tuple[np.ndarray, ...]:
+    """N samples of B users at 100 Hz: quaternions (B, N, 4), rates (rad/s), world
+    accelerations (m/s^2) and positions (m), each (B, N, 3); user i turns 1 + 0.3 i times as
+    fast as user 0."""
+    t = (np.arange(n) * 0.01)[None, :, None] * (1.0 + 0.3 * np.arange(b))[:, None, None]
+    quat = quat_from_ypr(np.concatenate([np.sin(t), 0.3 * np.cos(t), -0.2 * t], -1))
+    omega = np.concatenate([0.5 * np.cos(t), 0.2 + 0 * t, np.sin(3 * t)], -1)
+    acc = np.concatenate([np.cos(t), np.sin(t), 0 * t], -1)
+    pos = np.concatenate([0.3 * t, 0 * t, 1.6 + 0 * t], -1)
+    return quat, omega, acc, pos
+
+
+def time_imu(b: int, calls: int, repeat: int, what: str) -> float:
+    """Best mean seconds per call of ``what`` ("sample", "sample_reference" or "draw") for B
+    users, N = IMU_SAMPLES samples per call."""
+    dipole = imu.MagneticDisturbance.with_field_at((1.0, 0.5, 1.5), field_ut=20.0, distance_m=0.8)
+    sensor = imu.HeadImu("consumer_mems", BatchRng.from_seeds(range(b)), disturbances=[dipole])
+    motion = head_motion(b, IMU_SAMPLES * (calls + 1))
+    sl = [slice(IMU_SAMPLES * i, IMU_SAMPLES * (i + 1)) for i in range(calls + 1)]
+    chunks = [tuple(x[:, s] for x in motion) for s in sl]
+    if what == "draw":
+        draws = (IMU_SAMPLES, imu._DRAWS_PER_SAMPLE)
+
+        def call(*_: np.ndarray) -> object:
+            return sensor.rng.normal(draws)
+    else:
+        call = getattr(sensor, what)
+    call(*chunks[0])  # warm-up / compile
+    best = np.inf
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        for chunk in chunks[1:]:
+            call(*chunk)
+        best = min(best, (time.perf_counter() - t0) / calls)
+    return best
+
+
+def imu_section(batches: list[int], repeat: int, seconds: float) -> None:
+    """Print the IMU table: compiled sample, numpy reference, the random draw alone."""
+    print(f"HeadImu.sample, N = {IMU_SAMPLES} samples per call, consumer_mems, one dipole")
+    print(
+        f"{'B':>5} {'sample ms':>10} {'per user-sample us':>19} {'reference ms':>13} "
+        f"{'speed-up':>9} {'draw ms':>8} {'target ms':>10}"
     )
-    args = parser.parse_args()
+    for b in batches:
+        rough = time_imu(b, 3, 1, "sample")
+        calls = max(5, int(seconds / max(rough, 1e-6)))
+        now = time_imu(b, calls, repeat, "sample")
+        ref = time_imu(b, max(5, calls // 10), repeat, "sample_reference")
+        draw = time_imu(b, calls, repeat, "draw")
+        target = IMU_TARGETS_MS.get(b)
+        print(
+            f"{b:>5} {now * 1e3:>10.4f} {now / (b * IMU_SAMPLES) * 1e6:>19.3f} "
+            f"{ref * 1e3:>13.4f} {ref / now:>8.1f}x {draw * 1e3:>8.4f}"
+            + (f" {target:>10.2f}" if target else f" {'':>10}")
+        )
+
+
+def kinect_section(args: argparse.Namespace) -> None:
+    """Print the Kinect table: this tree against the revision ``args.ref``."""
     ref = None if args.ref.lower() == "none" else load_revision(args.ref)
     print(f"KinectV2.capture, M = {FRAMES} frames per call, default spec (2 bystanders)")
     header = f"{'B':>5} {'this tree ms':>13} {'per user-frame us':>18}"
@@ -113,6 +174,26 @@ def main() -> None:
             row += f" {before * 1e3:>12.4f} {before / now:>8.1f}x"
         target = TARGETS_MS.get(b)
         print(row + (f" {target:>10.2f}" if target else f" {'':>10}"))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--batch", type=int, nargs="+", default=[1, 16, 256], help="users B")
+    parser.add_argument("--ref", default="HEAD", help="git revision to compare with, or 'none'")
+    parser.add_argument("--repeat", type=int, default=5, help="rounds per figure (best kept)")
+    parser.add_argument(
+        "--seconds", type=float, default=0.5, help="approximate length of one round (s)"
+    )
+    parser.add_argument(
+        "--sensor", choices=("all", "kinect", "imu"), default="all", help="which model to time"
+    )
+    args = parser.parse_args()
+    if args.sensor in ("all", "kinect"):
+        kinect_section(args)
+    if args.sensor == "all":
+        print()
+    if args.sensor in ("all", "imu"):
+        imu_section(args.batch, args.repeat, args.seconds)
 
 
 if __name__ == "__main__":

@@ -16,9 +16,16 @@ Every bias ``b`` is the sum of a turn-on bias (constant, drawn at :meth:`HeadImu
 first-order Gauss-Markov process ``x_k = a x_{k-1} + sigma sqrt(1 - a^2) u_k`` with
 ``a = exp(-dt / tau)`` (stationary standard deviation ``sigma`` = the datasheet's bias stability,
 initial state drawn from the stationary distribution) and an optional random walk
-``r_k = r_{k-1} + K sqrt(dt) u_k``. The recursions run along the time axis with
-``scipy.signal.lfilter`` starting from the carried state, so a stream sampled in chunks equals the
-same stream sampled at once, bit for bit.
+``r_k = r_{k-1} + K sqrt(dt) u_k``. The recursions run along the time axis from the carried
+state, so a stream sampled in chunks equals the same stream sampled at once, bit for bit.
+
+Two implementations compute the same samples from the same draws: :meth:`HeadImu.sample_reference`,
+the readable numpy model (the recursions through ``scipy.signal.lfilter``), and
+:meth:`HeadImu.sample`, which runs the whole model in one compiled loop
+(:mod:`vrloco_env.sensors._imu_numba`, issue 5's speed targets) repeating the reference's
+floating-point operations in order; ``tests/test_imu.py`` checks that they agree bit for bit (to
+~1e-13 uT on the magnetometer with dipole disturbances, whose ``dist**3`` and ``dist**5`` the
+kernel takes as products, numpy through ``pow``).
 
 White noise follows the discrete-time convention of angle/velocity random walk (IEEE Std 952,
 Kalibr's IMU noise model): a noise density ``N`` (unit/sqrt(Hz)) sampled at ``f_s`` gives a
@@ -47,6 +54,7 @@ from scipy.signal import lfilter
 from estimators.batching import stream_rows
 from estimators.rotations import GRAVITY, ensure_quaternion, quat_rotate_inverse
 from vrloco_env.batch_rng import BatchRng
+from vrloco_env.sensors import _imu_numba as _kernel
 
 __all__ = [
     "MAX_RATE_HZ",
@@ -62,7 +70,7 @@ __all__ = [
 ]
 
 #: mu0 / (4 pi) in T m / A (SI, exact before the 2019 redefinition; 1e-7 to 10 significant digits).
-MU0_OVER_4PI = 1e-7
+MU0_OVER_4PI = _kernel.MU0_OVER_4PI
 #: One milli-g in m/s^2 (standard gravity, :data:`estimators.rotations.GRAVITY`).
 _MG = 1e-3 * GRAVITY
 #: One degree in rad.
@@ -72,7 +80,7 @@ _MGAUSS = 0.1
 #: Largest sample rate the model accepts, Hz (issue 2: "up to 1 kHz").
 MAX_RATE_HZ = 1000.0
 #: Normal draws per sample: white noise, Gauss-Markov drive, random-walk drive, 3 sensors x 3 axes.
-_DRAWS_PER_SAMPLE = 27
+_DRAWS_PER_SAMPLE = _kernel.DRAWS_PER_SAMPLE  # 27
 #: Normal draws at reset: turn-on biases 9, Gauss-Markov initial states 9, hard iron 3, soft iron 6.
 _DRAWS_PER_RESET = 27
 
@@ -544,6 +552,43 @@ def _as_batch(
     return a
 
 
+def _batch_shaped(x: ArrayLike, name: str, b: int, last: int, n: int) -> NDArray[np.float64]:
+    """``x`` as a C-contiguous float64 array of shape (b, n, last), or a ValueError naming it.
+
+    Only the shape is checked here; the values are checked in one compiled pass
+    (:func:`vrloco_env.sensors._imu_numba.first_invalid`).
+    """
+    a = np.asarray(x, dtype=np.float64)
+    if a.ndim != 3 or a.shape[0] != b or a.shape[1] != n or a.shape[2] != last:
+        raise ValueError(
+            f"{name} must have shape ({b}, {n}, {last}) (B users, N samples), got {a.shape}"
+        )
+    return _kernel_layout(a)
+
+
+def _kernel_layout(a: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``a`` itself when C-contiguous and writeable, else a copy that is: the one array type the
+    kernels are compiled for (numba types strided and read-only arrays apart, each a compilation).
+    """
+    if a.flags.c_contiguous and a.flags.writeable:
+        return a
+    return np.array(a, dtype=np.float64, order="C")
+
+
+#: Stand-in for ``pos`` when none is given (the kernel reads positions only with disturbances).
+#: Left writeable: numba types a read-only array apart, which would compile the kernel twice.
+_NO_POS = np.zeros((0, 0, 3))
+
+#: Messages of the kernel's input check, by its return code (the reference's wording).
+_INVALID = {
+    _kernel.BAD_QUAT: "quat contains NaN or infinite entries",
+    _kernel.ZERO_QUAT: "quat contains a zero-norm quaternion; a rotation needs |q| > 0",
+    _kernel.BAD_OMEGA: "omega contains NaN or infinite entries",
+    _kernel.BAD_ACC: "acc_world contains NaN or infinite entries",
+    _kernel.BAD_POS: "pos contains NaN or infinite entries",
+}
+
+
 class HeadImu:
     """A head-worn 9-axis IMU for B users, streaming: biases carry over between calls.
 
@@ -613,6 +658,27 @@ class HeadImu:
         )
         self._rw_drive_std = np.array([s.bias_walk * math.sqrt(self.dt) for s in sensors])
         self._noise_std = np.array([s.noise_std(rate) for s in sensors])
+        # The same numbers packed for the compiled kernel (rows _imu_numba.P_*, columns D_*).
+        kp = np.zeros((_kernel.N_PARAMS, 3))
+        kp[_kernel.P_POLE] = self._a
+        kp[_kernel.P_GM_STD] = self._gm_drive_std
+        kp[_kernel.P_RW_STD] = self._rw_drive_std
+        kp[_kernel.P_NOISE_STD] = self._noise_std
+        kp[_kernel.P_RESOLUTION] = [s.resolution for s in sensors]
+        kp[_kernel.P_RANGE] = [s.range for s in sensors]
+        kp[_kernel.P_FIELD] = self._field_world
+        self._kernel_params = kp
+        kd = np.zeros((len(disturbances), _kernel.N_DIPOLE))
+        for i, d in enumerate(disturbances):
+            moment = np.asarray(d.moment)
+            kd[i, _kernel.D_POSITION : _kernel.D_POSITION + 3] = d.position
+            kd[i, _kernel.D_MOMENT : _kernel.D_MOMENT + 3] = moment
+            # The direction MagneticDisturbance.field_at uses at the dipole itself, same expression.
+            kd[i, _kernel.D_DIRECTION : _kernel.D_DIRECTION + 3] = moment / max(
+                np.linalg.norm(moment), 1e-300
+            )
+            kd[i, _kernel.D_MIN_DISTANCE] = d.min_distance
+        self._kernel_dipoles = kd
         self.reset()
 
     @property
@@ -724,7 +790,80 @@ class HeadImu:
         acc_world: ArrayLike,
         pos: ArrayLike | None = None,
     ) -> ImuSamples:
-        """Synthesize N successive samples for each of the B users.
+        """Synthesize N successive samples for each of the B users (compiled).
+
+        The same model, draws and results as :meth:`sample_reference`, in one call of
+        :func:`vrloco_env.sensors._imu_numba.sample_kernel`: about 0.02 ms per control step
+        (N = 10) for one user instead of ~0.17 ms (``python benchmarks/bench_sensors.py``).
+
+        Args:
+            quat: true sensor -> world orientations, (B, N, 4) Hamilton [w, x, y, z] (normalised
+                here; must be finite and non-zero).
+            omega: true body-frame angular rates (rad/s), (B, N, 3).
+            acc_world: true linear acceleration of the sensor in the world (m/s^2), gravity NOT
+                included, (B, N, 3).
+            pos: sensor positions in the world (m), (B, N, 3); required only with disturbances.
+
+        Returns:
+            :class:`ImuSamples` with acc (m/s^2), gyr (rad/s), mag (uT), each (B, N, 3) float64.
+            The per-sample total biases are kept in :attr:`last_bias`.
+
+        Raises:
+            ValueError: a wrong shape, a non-finite entry, a zero quaternion, or ``pos`` missing
+                with disturbances. Nothing is drawn and no state changes when it raises.
+        """
+        b = self.batch_size
+        q = np.asarray(quat, dtype=np.float64)
+        if q.ndim != 3 or q.shape[0] != b or q.shape[2] != 4:
+            raise ValueError(
+                f"quat must have shape ({b}, N, 4) (B users, N samples), got {q.shape}"
+            )
+        q = _kernel_layout(q)
+        n = q.shape[1]
+        w = _batch_shaped(omega, "omega", b, 3, n)
+        a = _batch_shaped(acc_world, "acc_world", b, 3, n)
+        if pos is not None:
+            p = _batch_shaped(pos, "pos", b, 3, n)
+        elif self.disturbances:
+            raise ValueError("pos (B, N, 3) in m is required when magnetic disturbances are set")
+        else:
+            p = _NO_POS
+        code = _kernel.first_invalid(q, w, a, p)
+        if code != _kernel.OK:
+            raise ValueError(_INVALID[code])
+
+        z = self.rng.normal((n, _DRAWS_PER_SAMPLE))  # (B, N, 27): the reference's one draw
+        out = np.empty((6, b, n, 3))
+        _kernel.sample_kernel(
+            q,
+            w,
+            a,
+            p,
+            z,
+            self._kernel_params,
+            self._kernel_dipoles,
+            self._turn_on,
+            self._gm,
+            self._rw,
+            self._hard_iron,
+            self._soft_iron,
+            out,
+        )
+        self.samples_taken += n  # every user advances by the same N samples
+        self.last_bias = ImuSamples(out[3], out[4], out[5])
+        return ImuSamples(out[0], out[1], out[2])
+
+    def sample_reference(
+        self,
+        quat: ArrayLike,
+        omega: ArrayLike,
+        acc_world: ArrayLike,
+        pos: ArrayLike | None = None,
+    ) -> ImuSamples:
+        """Synthesize N successive samples for each of the B users (readable numpy model).
+
+        The reference :meth:`sample` is tested against: same draws, same results, same state
+        afterwards, so calls of the two can be mixed on one IMU.
 
         Args:
             quat: true sensor -> world orientations, (B, N, 4) Hamilton [w, x, y, z] (normalised
