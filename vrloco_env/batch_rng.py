@@ -17,6 +17,7 @@ on how it is split into calls).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -114,8 +115,14 @@ class BatchRng:
     def normal(self, shape: tuple[int, ...] = (), rows: ArrayLike | None = None) -> NDArray:
         """Standard normal numbers of shape ``(B, *shape)``, or ``(len(rows), *shape)`` drawn by
         the users ``rows`` only (indices or a (B,) boolean mask)."""
+        n = math.prod(shape)
+        if rows is None:  # the hot path: every user draws, usually from a common position
+            p = self._pos
+            start = int(p[0])
+            if start + n <= self._buf.shape[1] and (p.size == 1 or (p == start).all()):
+                p += n
+                return self._buf[:, start : start + n].reshape(self.batch_size, *shape).copy()
         r = self._rows(rows)
-        n = int(np.prod(shape, dtype=np.int64))
         return self._take(n, r).reshape(r.size, *shape)
 
     def uniform(self, shape: tuple[int, ...] = (), rows: ArrayLike | None = None) -> NDArray:
