@@ -29,7 +29,7 @@ def evaluate_kernel(
     lo, hi, pk_lo, pk_hi, gravity, sway_m, sway_roll, turn_lag, gesture_lag, neck_h, imu_off,
     pulse_pos, z0, tau,
     o_phase, o_cad, o_yaw, o_yaw_rate, o_ypr, o_dypr, o_quat, o_neck, o_imu, o_gamp, o_gamp_rate,
-    o_gphase, o_lean, o_lean_rate, o_tb,
+    o_gphase, o_lean, o_lean_rate, o_tb, o_omega,
 ):  # fmt: skip
     b_n = phase0.shape[0]
     t_n = tau.shape[0]
@@ -106,9 +106,18 @@ def evaluate_kernel(
             o_ypr[b, t, 0] = y
             o_ypr[b, t, 1] = p
             o_ypr[b, t, 2] = r
-            o_dypr[b, t, 0] = d_yaw + dgest[0]
-            o_dypr[b, t, 1] = d_lean + dgest[1]
-            o_dypr[b, t, 2] = d_sway_roll + dgest[2]
+            dy = d_yaw + dgest[0]
+            dp = d_lean + dgest[1]
+            dr = d_sway_roll + dgest[2]
+            o_dypr[b, t, 0] = dy
+            o_dypr[b, t, 1] = dp
+            o_dypr[b, t, 2] = dr
+            # body rate from the ZYX Euler rates (motion._euler_rates_to_body)
+            sp_, cp_ = math.sin(p), math.cos(p)
+            sr_, cr_ = math.sin(r), math.cos(r)
+            o_omega[b, t, 0] = dr - dy * sp_
+            o_omega[b, t, 1] = dp * cr_ + dy * cp_ * sr_
+            o_omega[b, t, 2] = -dp * sr_ + dy * cp_ * cr_
             # quaternion from ZYX (same formula as estimators.rotations.quat_from_ypr)
             cy, sy = math.cos(0.5 * y), math.sin(0.5 * y)
             cp, sp = math.cos(0.5 * p), math.sin(0.5 * p)

@@ -50,10 +50,14 @@ def check_actions(actions: ArrayLike, batch_size: int) -> NDArray[np.float64]:
 def action_to_intent(actions: NDArray[np.float64], params: MotionParams) -> Intent:
     """Map checked actions (B, 5) in [-1, 1] to the motion model's :class:`Intent`."""
     lo, hi = params.cadence_range_hz
+    b = actions.shape[0]
     walk = actions[:, 0]
     cadence = np.where(walk > 0.0, lo + walk * (hi - lo), 0.0)
     return Intent(
         cadence=cadence,
         turn_rate=actions[:, 1] * params.max_turn_rate,
         hand_rates=actions[:, 2:5] * params.max_hand_rate,
+        gesture_amplitude=np.zeros((b, 3)),
+        gesture_frequency=np.full((b, 3), 0.5),
+        lean=np.zeros(b),
     )

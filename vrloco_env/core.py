@@ -222,7 +222,7 @@ class LocoCore:
         if self.rooms is None:
             raise RuntimeError("reset() must be called before step()")
         a = check_actions(actions, self.batch_size)
-        us = self.users.step(action_to_intent(a, self.users.motion_params))
+        us = self.users.step(action_to_intent(a, self.users.motion_params), validated=True)
         self.last = us
         self.batch_time += self.dt
         ep, cfg, rw = self.ep, self.config, self.reward

@@ -420,6 +420,7 @@ class UserMotion:
             "gesture_amp": np.empty((b, t, 3)), "gesture_amp_rate": np.empty((b, t, 3)),
             "g_phase": np.empty((b, t, 3)), "lean": np.empty((b, t)),
             "lean_rate": np.empty((b, t)), "t_boundary": np.empty(b),
+            "omega": np.empty((b, t, 3)),
         }  # fmt: skip
         lo, hi = p.cadence_range_hz
         evaluate_kernel(
@@ -433,7 +434,7 @@ class UserMotion:
             out["phase"], out["cadence"], out["yaw"], out["yaw_rate"], out["head_ypr"],
             out["d_head_ypr"], out["quat"], out["neck"], out["imu_pos"], out["gesture_amp"],
             out["gesture_amp_rate"], out["g_phase"], out["lean"], out["lean_rate"],
-            out["t_boundary"],
+            out["t_boundary"], out["omega"],
         )  # fmt: skip
         out["walking"] = out["cadence"] > 0.0
         return out
@@ -523,12 +524,17 @@ class UserMotion:
         }  # fmt: skip
 
     # ------------------------------------------------------------------ one control step
-    def advance(self, intent: Intent) -> MotionChunk:
-        """Advance all users by one control step under ``intent``; return the true motion."""
+    def advance(self, intent: Intent, validate: bool = True) -> MotionChunk:
+        """Advance all users by one control step under ``intent``; return the true motion.
+
+        ``validate=False`` skips the intent's range checks: for callers whose intents are valid
+        by construction (the env maps checked actions into the allowed ranges); arrays must
+        then already have the batch shapes.
+        """
         if self._state is None:
             raise RuntimeError("UserMotion.reset() must be called before advance()")
         s, p = self._state, self.params
-        cmd = self._check_intent(intent)
+        cmd = self._check_intent(intent) if validate else _intent_arrays(intent)
         n = p.samples_per_step
         dt_ctrl = 1.0 / p.control_rate_hz
         t0 = s.time(p.control_rate_hz)
@@ -553,7 +559,11 @@ class UserMotion:
         mid = {k: v[:, n : 2 * n] for k, v in ev_all.items() if v.ndim >= 2}
         frames = {k: ev_all[k][:, 3 * n + 3 :] for k in ("yaw", "neck", "quat", "phase", "walking")}
 
-        omega = _euler_rates_to_body(mid["head_ypr"], mid["d_head_ypr"])
+        omega = (
+            mid["omega"]
+            if "omega" in mid
+            else _euler_rates_to_body(mid["head_ypr"], mid["d_head_ypr"])
+        )
 
         # Heel strikes: the phase crosses n + 0.5 inside a sample interval.
         ph_prev = np.concatenate([s.phase[:, None], mid["phase"][:, :-1]], axis=1)
@@ -712,6 +722,11 @@ _FOREARM = np.array([0.26, 0.0, 0.04])  # elbow -> wrist, torso frame
 #: Hand, hand tip and thumb from the wrist in the hand frame (x to the fingertips, y thumb side).
 _HAND_JOINTS = np.array([Joint.HAND_RIGHT, Joint.HAND_TIP_RIGHT, Joint.THUMB_RIGHT], dtype=np.intp)
 _HAND_OFFSETS = np.array([[0.08, 0.0, 0.0], [0.17, 0.0, 0.0], [0.06, 0.05, 0.0]])
+
+
+def _intent_arrays(intent: Intent) -> dict[str, NDArray[np.float64]]:
+    """The intent's fields as float arrays, unchecked (see ``UserMotion.advance``)."""
+    return {f.name: np.asarray(getattr(intent, f.name), dtype=np.float64) for f in fields(Intent)}
 
 
 def _critically_damped(x0, v0, target, lag: float, tau) -> tuple[NDArray, NDArray]:

@@ -190,9 +190,13 @@ class SimulatedUsers:
         self._since_step[rows] = np.inf
 
     # ------------------------------------------------------------------------------ step
-    def step(self, intent: Intent) -> UserStep:
-        """Advance every user by one control step under ``intent``."""
-        chunk = self.motion.advance(intent)
+    def step(self, intent: Intent, validated: bool = False) -> UserStep:
+        """Advance every user by one control step under ``intent``.
+
+        ``validated=True`` promises that the intent's arrays have the batch shapes and lie in
+        the motion model's ranges (the env's actions are checked and mapped into them).
+        """
+        chunk = self.motion.advance(intent, validate=not validated)
         imu = self.imu.sample(chunk.quat, chunk.omega, chunk.acc, chunk.pos)
         kin = chunk.kinect
         frames = self.kinect.capture(kin.t, kin.joints, kin.hand_quat)
