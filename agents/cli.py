@@ -51,6 +51,29 @@ def _cmd_head_motions(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_benchmark(args: argparse.Namespace) -> int:
+    from agents.benchmark import run_benchmark
+
+    def names(text: str) -> list[str]:
+        return [s.strip() for s in text.split(",") if s.strip()]
+
+    try:
+        run_benchmark(
+            tasks=names(args.tasks),
+            policies=names(args.policies),
+            sensors=names(args.sensors),
+            episodes=args.episodes,
+            seed=args.seed,
+            workers=args.workers,
+            out_dir=Path(args.out) if args.out else None,
+            json_path=Path(args.json) if args.json else None,
+        )
+    except ValueError as err:  # a bad option value: one clear line, no traceback
+        print(f"vrloco benchmark: {err}", file=sys.stderr)
+        return 2
+    return 0
+
+
 def _cmd_train(args: argparse.Namespace) -> int:
     from agents.learned import train_ppo
 
@@ -136,6 +159,27 @@ def build_parser() -> argparse.ArgumentParser:
     )
     loco.add_argument("--json", help="write the results to this JSON file")
     loco.set_defaults(func=_cmd_locomotion)
+    bench = sub.add_parser(
+        "benchmark",
+        help="scripted users x tasks x IMU presets: success, collisions, SPL, steps, errors",
+    )
+    bench.add_argument("--tasks", default="approach,avoid", help="comma-separated tasks")
+    bench.add_argument(
+        "--policies",
+        default="goal_seeker,goal_seeker+human,avoid_manoeuvre",
+        help="comma-separated users: goal_seeker, avoid_manoeuvre, reactive_avoider; "
+        "append +human for human variability",
+    )
+    bench.add_argument(
+        "--sensors", default="ig500n,consumer_mems", help="comma-separated IMU presets"
+    )
+    bench.add_argument("--episodes", type=int, default=40, help="episodes per cell")
+    bench.add_argument("--seed", type=int, default=0, help="episode i uses seed + i")
+    bench.add_argument("--workers", type=int, default=2, help="worker processes")
+    bench.add_argument("--json", help="also write the rows to this JSON file")
+    bench.add_argument("--out", default="out/benchmark", help="folder for CSV, JSON, figures")
+    bench.set_defaults(func=_cmd_benchmark)
+
     train = sub.add_parser("train", help="train a PPO user (stable-baselines3) on a task")
     train.add_argument("--task", default="approach", help="approach, avoid or interact")
     train.add_argument("--steps", type=int, default=2_000_000, help="environment steps")

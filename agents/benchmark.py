@@ -1,0 +1,454 @@
+"""``vrloco benchmark``: scripted users x tasks x sensor presets over seeded episodes.
+
+Every cell of the grid (task, policy, sensor preset) runs ``episodes`` single-env episodes; episode
+``i`` of every cell is seeded ``seed + i`` (the env's ``reset(seed=...)``; a human-variability
+wrapper draws from ``default_rng([seed + i, 1])``), so the same episode index meets the same room
+in every cell and the results do not depend on how the episodes are spread over worker
+processes. Episodes run in a ``concurrent.futures.ProcessPoolExecutor`` (``workers`` processes;
+1 runs them in this process) under a progress bar, and :func:`agents.metrics.summarize` turns
+each cell into a row: a table on the terminal, a CSV and a JSON file, and for the first episode
+of each cell three figures (the analogues of seed 000's Figs. 2-5): the true and virtual paths
+over the room, the head attitude (truth vs estimate) and the gait (true heel strikes vs detected
+steps).
+
+Policies: ``goal_seeker``, ``avoid_manoeuvre``, ``reactive_avoider`` (:mod:`agents.scripted`);
+append ``+human`` for the :class:`agents.variability.HumanVariability` wrapper
+(``goal_seeker+human``).
+
+The default grid — approach and avoid x goal_seeker, goal_seeker+human and avoid_manoeuvre x
+both IMU presets x 40 episodes, 480 episodes — takes about 95 s with 2 workers on the 2-core
+development machine (81 s measured); ``reactive_avoider`` is left out of it because its
+failures run to the 60 s time limit and would double that.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import os
+from collections.abc import Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agents.metrics import EpisodeRecorder, EpisodeStats, summarize
+from agents.scripted import POLICIES, ObservationLayout, make_policy, params_from_env
+from agents.variability import HumanVariability
+
+__all__ = [
+    "DEFAULT_EPISODES",
+    "DEFAULT_POLICIES",
+    "DEFAULT_SENSORS",
+    "DEFAULT_TASKS",
+    "ROW_KEYS",
+    "Cell",
+    "run_benchmark",
+    "run_episode",
+    "step_window",
+]
+
+DEFAULT_TASKS = ("approach", "avoid")
+DEFAULT_POLICIES = ("goal_seeker", "goal_seeker+human", "avoid_manoeuvre")
+DEFAULT_SENSORS = ("ig500n", "consumer_mems")
+DEFAULT_EPISODES = 40
+HUMAN_SUFFIX = "+human"
+
+#: Keys of every row of the CSV/JSON output, in order.
+ROW_KEYS = (
+    "task",
+    "policy",
+    "sensors",
+    "episodes",
+    "success_rate",
+    "collision_rate",
+    "collision_free_success_rate",
+    "spl",
+    "time_to_goal_s",
+    "path_length_ratio",
+    "step_precision",
+    "step_recall",
+    "step_f1",
+    "attitude_rmse_deg",
+    "heading_error_rmse_deg",
+    "hand_error_deg",
+    "hand_coverage",
+    "mean_collisions",
+)
+
+_TASK_IDS = {
+    "approach": "VRLoco-Approach-v0",
+    "avoid": "VRLoco-Avoid-v0",
+    "interact": "VRLoco-Interact-v0",
+}
+
+
+@dataclass(frozen=True)
+class Cell:
+    """One cell of the benchmark grid."""
+
+    task: str
+    policy: str
+    sensors: str
+
+    @property
+    def label(self) -> str:
+        return f"{self.task}_{self.policy.replace('+', '-')}_{self.sensors}"
+
+
+def check_policy_name(name: str) -> str:
+    """``name`` if it names a scripted user, optionally with ``+human``; else a ValueError."""
+    base = name[: -len(HUMAN_SUFFIX)] if name.endswith(HUMAN_SUFFIX) else name
+    if base not in POLICIES:
+        raise ValueError(
+            f"policy={name!r}: must be one of {', '.join(POLICIES)}, optionally with "
+            f"'{HUMAN_SUFFIX}' (e.g. goal_seeker{HUMAN_SUFFIX})"
+        )
+    return name
+
+
+def step_window(env: Any) -> tuple[int, int]:
+    """The step-matching window ``(late, early)`` in control steps for an env's gait detector:
+    a detection may come up to gamma_t plus the detector's latency after its heel strike (the
+    first step of a bout is held until the second), and one control step early (a heel strike at
+    a control-step boundary). See :mod:`agents.metrics`."""
+    u = env.unwrapped
+    gait = u.estimators.gait
+    fs = u.sensors.imu_rate_hz
+    late = math.ceil((gait.gamma_t + gait.latency(fs)) / u.core.dt - 1e-9)
+    return late, 1
+
+
+# --------------------------------------------------------------------------- one episode
+
+_ENVS: dict[tuple[str, str], Any] = {}  # per process: one env per (task, sensors)
+
+
+def _env(task: str, sensors: str) -> Any:
+    import gymnasium as gym
+
+    import vrloco_env  # noqa: F401  (registers the ids)
+
+    key = (task, sensors)
+    if key not in _ENVS:
+        _ENVS[key] = gym.make(_TASK_IDS[task], sensor_preset=sensors)
+    return _ENVS[key]
+
+
+def run_episode(cell: Cell, seed: int, trace: bool = False) -> EpisodeStats:
+    """Run one episode of ``cell`` with ``reset(seed=seed)``.
+
+    Args:
+        cell: task, policy (optionally ``+human``) and sensor preset.
+        seed: the episode's seed.
+        trace: keep per-step traces and the room for figures.
+
+    Returns:
+        The episode's :class:`~agents.metrics.EpisodeStats` (``trace`` also holds ``layout``).
+    """
+    env = _env(cell.task, cell.sensors)
+    human = cell.policy.endswith(HUMAN_SUFFIX)
+    base = cell.policy[: -len(HUMAN_SUFFIX)] if human else cell.policy
+    policy: Any = make_policy(base, ObservationLayout.from_env(env), params_from_env(env))
+    if human:
+        policy = HumanVariability(policy)
+    obs, info = env.reset(seed=seed)
+    policy.reset(np.random.default_rng([seed, 1]))
+    rec = EpisodeRecorder(seed, info, trace=trace)
+    start = env.unwrapped.core.ep.position[0].copy()
+    while True:
+        obs, _, terminated, truncated, info = env.step(policy.act(obs))
+        rec.add(info)
+        if terminated or truncated:
+            break
+    stats = rec.finish(start_position=start)
+    if stats.trace is not None:
+        stats.trace["layout"] = env.unwrapped.layout
+        stats.trace["dt"] = env.unwrapped.core.dt
+    return stats
+
+
+def _job(args: tuple[Cell, int, int, bool]) -> tuple[Cell, int, EpisodeStats]:
+    cell, index, seed, trace = args
+    return cell, index, run_episode(cell, seed, trace)
+
+
+# --------------------------------------------------------------------------- the grid
+
+
+def run_benchmark(
+    tasks: Sequence[str] = DEFAULT_TASKS,
+    policies: Sequence[str] = DEFAULT_POLICIES,
+    sensors: Sequence[str] = DEFAULT_SENSORS,
+    episodes: int = DEFAULT_EPISODES,
+    seed: int = 0,
+    workers: int = 2,
+    out_dir: Path | str | None = None,
+    json_path: Path | str | None = None,
+    progress: bool = True,
+    print_table: bool = True,
+) -> list[dict[str, Any]]:
+    """Run the grid and write the outputs.
+
+    Args:
+        tasks: ``approach``, ``avoid``, ``interact``.
+        policies: scripted users, optionally with ``+human``.
+        sensors: IMU presets (``ig500n``, ``consumer_mems``).
+        episodes: episodes per cell (>= 1).
+        seed: episode ``i`` is seeded ``seed + i``.
+        workers: worker processes (>= 1; 1 runs in this process).
+        out_dir: folder for ``benchmark.csv``, ``benchmark.json`` and the figures (None: none).
+        json_path: also write the JSON here.
+        progress: show a progress bar.
+        print_table: print the table.
+
+    Returns:
+        One dict per cell with :data:`ROW_KEYS`.
+
+    Raises:
+        ValueError: an unknown task, policy or preset, or a bad count.
+    """
+    from vrloco_env.sensors.imu import get_imu_spec
+
+    tasks, policies, sensors = list(tasks), list(policies), list(sensors)
+    for name, values in (("tasks", tasks), ("policies", policies), ("sensors", sensors)):
+        if not values:
+            raise ValueError(f"{name} must name at least one entry")
+    for t in tasks:
+        if t not in _TASK_IDS:
+            raise ValueError(f"task={t!r}: must be one of {', '.join(_TASK_IDS)}")
+    for p in policies:
+        check_policy_name(p)
+    for s in sensors:
+        get_imu_spec(s)  # raises with the valid names
+    if isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 1:
+        raise ValueError(f"episodes must be an integer >= 1, got {episodes!r}")
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
+
+    cells = [Cell(t, p, s) for t in tasks for p in policies for s in sensors]
+    want_figures = out_dir is not None
+    jobs = [(c, i, seed + i, want_figures and i == 0) for c in cells for i in range(episodes)]
+    results: dict[tuple[Cell, int], EpisodeStats] = {}
+    for cell, index, stats in _run_jobs(jobs, workers, progress):
+        results[(cell, index)] = stats
+
+    rows = []
+    for c in cells:
+        eps = [results[(c, i)] for i in range(episodes)]
+        late, early = step_window(_env(c.task, c.sensors))
+        row = {
+            "task": c.task,
+            "policy": c.policy,
+            "sensors": c.sensors,
+            **summarize(eps, late, early),
+        }
+        rows.append({k: _round(row[k]) for k in ROW_KEYS})
+    if print_table:
+        _print_table(rows, seed)
+    meta = {"seed": seed, "episodes": episodes, "workers": workers, "tasks": tasks,
+            "policies": policies, "sensors": sensors}  # fmt: skip
+    written = []
+    if out_dir is not None:
+        out = Path(out_dir)
+        out.mkdir(parents=True, exist_ok=True)
+        written.append(_write_csv(out / "benchmark.csv", rows))
+        written.append(_write_json(out / "benchmark.json", rows, meta))
+        for c in cells:
+            written += draw_cell(out, c, results[(c, 0)])
+    if json_path is not None:
+        written.append(_write_json(Path(json_path), rows, meta))
+    for p in written:
+        print(f"wrote {p}")
+    return rows
+
+
+def _run_jobs(jobs: list, workers: int, progress: bool):
+    """Yield ``(cell, index, stats)`` for every job, in any order, with a progress bar."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeElapsedColumn
+
+    columns = ("[progress.description]{task.description}", BarColumn(), MofNCompleteColumn(),
+               TimeElapsedColumn())  # fmt: skip
+    with Progress(*columns, disable=not progress, transient=False) as bar:
+        task = bar.add_task("episodes", total=len(jobs))
+        if workers == 1 or len(jobs) == 1:
+            for job in jobs:
+                yield _job(job)
+                bar.advance(task)
+            return
+        with ProcessPoolExecutor(max_workers=min(workers, len(jobs))) as pool:
+            futures = [pool.submit(_job, job) for job in jobs]
+            for f in as_completed(futures):
+                yield f.result()
+                bar.advance(task)
+
+
+def _round(v: Any) -> Any:
+    """Metrics to 10 significant digits. The env's hand estimate (``info["est_hand_ypr"]``)
+    differs by ~1e-13 deg between two runs of one seed with the same actions, which must not
+    make the table depend on the number of workers; the other metrics are bit-exact."""
+    if isinstance(v, float) and math.isfinite(v):
+        return float(f"{v:.10g}")
+    return v
+
+
+def _fmt(v: Any, digits: int = 3) -> str:
+    if isinstance(v, float):
+        return "–" if math.isnan(v) else f"{v:.{digits}f}"
+    return str(v)
+
+
+def _print_table(rows: list[dict[str, Any]], seed: int) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(title=f"vrloco benchmark (seeds {seed}..{seed + rows[0]['episodes'] - 1})")
+    cols = (("task", "task"), ("policy", "policy"), ("sensors", "sensors"), ("episodes", "n"),
+            ("success_rate", "success"), ("collision_rate", "collision"),
+            ("collision_free_success_rate", "coll.-free succ."), ("spl", "SPL"),
+            ("time_to_goal_s", "time to goal (s)"), ("path_length_ratio", "path ratio"),
+            ("step_f1", "step F1"), ("attitude_rmse_deg", "attitude RMSE (°)"),
+            ("hand_error_deg", "hand err (°)"))  # fmt: skip
+    for _, head in cols:
+        table.add_column(head, justify="left" if head in ("task", "policy", "sensors") else "right")
+    for r in rows:
+        table.add_row(*(_fmt(r[k], 1 if k in ("time_to_goal_s",) else 3) for k, _ in cols))
+    console = Console()
+    if not console.is_terminal:  # a pipe or a file: do not squeeze the table into 80 columns
+        console = Console(width=200)
+    console.print(table)
+
+
+def _clean(v: Any) -> Any:
+    """JSON-safe value: NaN becomes null."""
+    if isinstance(v, float) and not math.isfinite(v):
+        return None
+    if isinstance(v, np.generic):
+        return _clean(v.item())
+    return v
+
+
+def _write_json(path: Path, rows: list[dict[str, Any]], meta: dict[str, Any]) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    data = {"rows": [{k: _clean(v) for k, v in r.items()} for r in rows], "config": meta}
+    path.write_text(json.dumps(data, indent=2) + os.linesep)
+    return path
+
+
+def _write_csv(path: Path, rows: list[dict[str, Any]]) -> Path:
+    with path.open("w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(ROW_KEYS))
+        w.writeheader()
+        for r in rows:
+            w.writerow({k: ("" if _clean(r[k]) is None else r[k]) for k in ROW_KEYS})
+    return path
+
+
+# --------------------------------------------------------------------------- figures
+
+
+def _draw_room(ax: Any, layout: Any) -> None:
+    """Walls, obstacles, the Interact pedestal and the goal region of a layout (local frame)."""
+    from matplotlib.patches import Circle, Polygon
+
+    from vrloco_env.rooms import Box
+
+    solids = [*layout.walls, *layout.obstacles]
+    if layout.target is not None:
+        solids.append(layout.target)
+    for s in solids:
+        if isinstance(s, Box):
+            c, sn = math.cos(s.yaw), math.sin(s.yaw)
+            hx, hy = s.half_extents
+            corners = np.array([[hx, hy], [-hx, hy], [-hx, -hy], [hx, -hy]])
+            pts = corners @ np.array([[c, sn], [-sn, c]]) + np.asarray(s.center)
+            ax.add_patch(Polygon(pts, closed=True, color="0.55", lw=0))
+        else:
+            ax.add_patch(Circle(s.center, s.radius, color="0.55", lw=0))
+    if layout.goal_line is not None:
+        (x0, y0), (x1, y1) = layout.goal_line
+        ax.plot([x0, x1], [y0, y1], "--", color="tab:green", lw=1.5, label="end line")
+    else:
+        ax.add_patch(Circle(layout.goal, layout.goal_radius, fill=False, color="tab:green",
+                            lw=1.5, label="goal"))  # fmt: skip
+    xmin, xmax, ymin, ymax = layout.bounds
+    t = 2.0 * min(min(w.half_extents) for w in layout.walls) if layout.walls else 0.2
+    ax.set_xlim(xmin - 1.5 * t, xmax + 1.5 * t)
+    ax.set_ylim(ymin - 1.5 * t, ymax + 1.5 * t)
+    ax.set_aspect("equal", adjustable="box")
+
+
+def draw_cell(out_dir: Path, cell: Cell, stats: EpisodeStats) -> list[Path]:
+    """The three figures of one episode (needs ``stats.trace``): paths over the room
+    (seed 000 Figs. 4/5), head attitude truth vs estimate (Fig. 3), gait (Fig. 2).
+
+    Returns:
+        The written files.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    tr = stats.trace
+    if tr is None:
+        raise ValueError("stats has no trace: run the episode with trace=True")
+    out_dir.mkdir(parents=True, exist_ok=True)
+    title = f"{cell.task}, {cell.policy}, {cell.sensors}, seed {stats.seed}"
+    outcome = "success" if stats.success else "failure"
+    written = []
+
+    fig, ax = plt.subplots(figsize=(7.5, 6.5), constrained_layout=True)
+    _draw_room(ax, tr["layout"])
+    ax.plot(*tr["true_position"].T, color="0.2", lw=2.5, alpha=0.5,
+            label="true steps and heading")  # fmt: skip
+    ax.plot(*tr["position"].T, "o-", color="tab:red", ms=2.5, lw=1.0,
+            label="virtual body (estimated)")  # fmt: skip
+    ax.plot(*tr["position"][0], "s", color="k", ms=6, label="start")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_title(f"Paths: {title} ({outcome}, {stats.collisions} collisions)", fontsize=9)
+    ax.legend(fontsize=7, loc="best")
+    written.append(out_dir / f"trajectory_{cell.label}.png")
+    fig.savefig(written[-1], dpi=100)
+    plt.close(fig)
+
+    t = tr["elapsed_time"]
+    true = np.rad2deg(np.unwrap(np.deg2rad(tr["true_ypr"]), axis=0))
+    est = np.rad2deg(np.unwrap(np.deg2rad(tr["est_ypr"]), axis=0))
+    fig, axes = plt.subplots(3, 1, figsize=(9, 6.5), sharex=True, constrained_layout=True)
+    for k, (ax, name) in enumerate(zip(axes, ("yaw", "pitch", "roll"), strict=True)):
+        ax.plot(t, true[:, k], color="0.6", lw=2.2, label="truth")
+        ax.plot(t, est[:, k], color="k", lw=0.8, label="estimate (attitude EKF)")
+        ax.set_ylabel(f"{name} (deg)")
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=8)
+    axes[-1].set_xlabel("time (s)")
+    axes[0].set_title(f"Head attitude: {title}", fontsize=9)
+    written.append(out_dir / f"attitude_{cell.label}.png")
+    fig.savefig(written[-1], dpi=100)
+    plt.close(fig)
+
+    fig, ax = plt.subplots(figsize=(9, 3.6), constrained_layout=True)
+    times = tr["true_step_times"]
+    det_t = np.repeat(t, stats.detected_counts)
+    ax.step(np.concatenate([[0.0], np.sort(times)]), np.arange(times.size + 1), where="post",
+            color="tab:red", label=f"true heel strikes ({times.size})")  # fmt: skip
+    ax.step(np.concatenate([[0.0], det_t]), np.arange(det_t.size + 1), where="post",
+            color="tab:blue", label=f"detected steps ({det_t.size})")  # fmt: skip
+    ax.plot(times, np.zeros_like(times) - 0.5, "|", color="tab:red", ms=8)
+    ax.plot(det_t, np.zeros_like(det_t) - 1.2, "|", color="tab:blue", ms=8)
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("steps so far")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc="upper left")
+    ax.set_title(f"Gait: {title}", fontsize=9)
+    written.append(out_dir / f"gait_{cell.label}.png")
+    fig.savefig(written[-1], dpi=100)
+    plt.close(fig)
+    return written

@@ -1,0 +1,120 @@
+"""Benchmark metrics against hand-made ground truth, and the benchmark on a tiny grid."""
+
+import csv
+import json
+
+import numpy as np
+import pytest
+
+from agents.benchmark import ROW_KEYS, check_policy_name, run_benchmark
+from agents.cli import main
+from agents.metrics import EpisodeStats, match_step_counts, spl, summarize
+
+
+def episode(success, collisions, walked, shortest, elapsed=10.0, true=(), det=(), att=(), hand=()):
+    n = max(len(true), len(att), len(hand), 1)
+    return EpisodeStats(
+        seed=0,
+        success=success,
+        collisions=collisions,
+        steps=n,
+        elapsed_s=elapsed,
+        walked_m=walked,
+        shortest_m=shortest,
+        true_counts=np.asarray(true or [0] * n, np.int64),
+        detected_counts=np.asarray(det or [0] * n, np.int64),
+        attitude_error_deg=np.asarray(att or [0.0] * n),
+        hand_error_deg=np.asarray(hand or [np.nan] * n),
+        heading_error_deg=np.zeros(n),
+    )
+
+
+# --------------------------------------------------------------------------- metrics
+
+
+def test_spl_follows_anderson_et_al():
+    # success, a detour twice the shortest path, a failure
+    assert spl([1, 1, 0], [2.0, 4.0, 3.0], [2.0, 8.0, 1.0]) == pytest.approx((1 + 0.5 + 0) / 3)
+    # a walk shorter than the "shortest" path (an upper bound) counts as 1, not more
+    assert spl([1], [5.0], [4.0]) == 1.0
+    with pytest.raises(ValueError, match="shortest must be finite and > 0"):
+        spl([1], [0.0], [1.0])
+    with pytest.raises(ValueError, match="one length"):
+        spl([1, 0], [1.0], [1.0])
+
+
+def test_step_matching_on_counts():
+    # true steps at control steps 1 and 4; one detection at 2 (late by one), none for 4
+    assert match_step_counts([0, 1, 0, 0, 1, 0], [0, 0, 1, 0, 0, 0]) == (1, 0, 1)
+    # a detection 3 steps late matches with late=3, not with late=2
+    t, d = [1, 0, 0, 0], [0, 0, 0, 1]
+    assert match_step_counts(t, d, late=2) == (0, 1, 1)
+    assert match_step_counts(t, d, late=3) == (1, 0, 0)
+    # a bout's first step reported with the second: two detections at once
+    assert match_step_counts([1, 0, 0, 0, 0, 1], [0, 0, 0, 0, 0, 2], late=5) == (2, 0, 0)
+    # one-to-one: two detections cannot share a true step
+    assert match_step_counts([0, 1, 0], [0, 2, 0]) == (1, 1, 0)
+    with pytest.raises(ValueError, match="non-negative integers"):
+        match_step_counts([0, -1], [0, 0])
+
+
+def test_summarize_rates_and_errors():
+    eps = [
+        episode(True, 0, 6.0, 5.0, elapsed=8.0, true=[1, 0, 1], det=[0, 1, 1], att=[1, 1, 1]),
+        episode(True, 2, 10.0, 5.0, elapsed=12.0, att=[2.0], hand=[4.0]),
+        episode(False, 1, 3.0, 5.0, att=[3.0], hand=[np.nan]),
+        episode(False, 0, 1.0, 4.0, att=[0.0], hand=[6.0]),
+    ]
+    row = summarize(eps)
+    assert row["episodes"] == 4
+    assert row["success_rate"] == 0.5
+    assert row["collision_rate"] == 0.5
+    assert row["collision_free_success_rate"] == 0.25
+    assert row["spl"] == pytest.approx((5 / 6 + 5 / 10) / 4)
+    assert row["time_to_goal_s"] == pytest.approx(10.0)  # successful episodes only
+    assert row["path_length_ratio"] == pytest.approx((6 / 5 + 10 / 5) / 2)
+    assert row["step_f1"] == 1.0  # both true steps found within the window
+    assert row["attitude_rmse_deg"] == pytest.approx(np.sqrt((1 + 1 + 1 + 4 + 9 + 0) / 6))
+    assert row["hand_error_deg"] == pytest.approx(5.0)  # NaN steps have no estimate
+    assert row["hand_coverage"] == pytest.approx(2 / 6)
+    assert row["mean_collisions"] == pytest.approx(0.75)
+
+
+# --------------------------------------------------------------------------- the benchmark
+
+
+def test_a_tiny_benchmark_writes_its_outputs_and_ignores_the_worker_count(tmp_path):
+    kw = {"tasks": ["approach"], "policies": ["goal_seeker"], "sensors": ["ig500n"],
+          "episodes": 2, "seed": 5, "progress": False, "print_table": False}  # fmt: skip
+    one = run_benchmark(**kw, workers=1, out_dir=tmp_path / "one", json_path=tmp_path / "r.json")
+    two = run_benchmark(**kw, workers=2)
+    assert one == two
+    (row,) = one
+    assert tuple(row) == ROW_KEYS
+    assert row["task"] == "approach" and row["episodes"] == 2
+    assert row["success_rate"] == 1.0 and row["collision_rate"] == 0.0  # the seeker on 5, 6
+    assert 0.5 < row["spl"] <= 1.0
+    data = json.loads((tmp_path / "r.json").read_text())
+    assert data["rows"][0]["collision_free_success_rate"] == 1.0
+    assert set(data["rows"][0]) == set(ROW_KEYS)
+    assert data == json.loads((tmp_path / "one" / "benchmark.json").read_text())
+    with (tmp_path / "one" / "benchmark.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == 1 and float(rows[0]["spl"]) == pytest.approx(row["spl"])
+    for kind in ("trajectory", "attitude", "gait"):
+        png = tmp_path / "one" / f"{kind}_approach_goal_seeker_ig500n.png"
+        assert png.stat().st_size > 10_000
+
+
+def test_bad_benchmark_options_are_rejected_clearly(capsys):
+    with pytest.raises(ValueError, match="task='fly'"):
+        run_benchmark(tasks=["fly"], progress=False)
+    with pytest.raises(ValueError, match="episodes must be an integer >= 1"):
+        run_benchmark(episodes=0, progress=False)
+    with pytest.raises(ValueError, match="workers must be an integer >= 1"):
+        run_benchmark(workers=0, progress=False)
+    assert check_policy_name("goal_seeker+human") == "goal_seeker+human"
+    with pytest.raises(ValueError, match="policy='robot'"):
+        check_policy_name("robot")
+    assert main(["benchmark", "--sensors", "iphone"]) == 2
+    assert "iphone" in capsys.readouterr().err
