@@ -436,7 +436,9 @@ def draw_cell(out_dir: Path, cell: Cell, stats: EpisodeStats) -> list[Path]:
 
     fig, ax = plt.subplots(figsize=(9, 3.6), constrained_layout=True)
     times = tr["true_step_times"]
-    det_t = np.repeat(t, stats.detected_counts)
+    det_t = stats.detected_step_times if stats.detected_step_times is not None else np.repeat(
+        t, stats.detected_counts
+    )
     ax.step(np.concatenate([[0.0], np.sort(times)]), np.arange(times.size + 1), where="post",
             color="tab:red", label=f"true heel strikes ({times.size})")  # fmt: skip
     ax.step(np.concatenate([[0.0], det_t]), np.arange(det_t.size + 1), where="post",

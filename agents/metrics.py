@@ -21,22 +21,14 @@ row of the benchmark table. The definitions:
 * **hand error** — mean of ``info["hand_error_deg"]`` over the control steps with a hand
   estimate, and the fraction of steps that had one.
 
-Step F1 from counts. The env reports true heel strikes with exact times but detected steps only
-as a count per control step (0.1 s), so both are placed on the control-step grid (a true step
-at the control step containing its heel strike, ``info["true_steps"]``; a detection at the
-step that reported it, ``info["detected_steps"]``) and matched one to one: a detection at
-step ``k`` may match a true step at ``j`` with ``k - late <= j <= k + early``. The detector is
-causal: it reports a heel strike 0.135 s after it (``estimators.gait``), and it holds the
-*first* step of a walking bout until the second arrives, up to ``gamma_t`` = 1.2 s later. A
-symmetric +-2 step window (0.2 s, seed 000's matching tolerance; the defaults here) therefore
-charges every bout start with one miss and one false step — on 20 goal-seeker episodes F1
-0.868 against 1.000 with the detector's own window. The benchmark uses ``late =
-ceil((gamma_t + latency) / dt)`` = 14 control steps and ``early = 1``
-(:func:`agents.benchmark.step_window`), which credits the held step and still counts every
-phantom step with no true step in the 1.4 s before it. Greedy matching in time order (each
-detection to the earliest unmatched true step in its window) is a maximum matching for
-windows of one length on a line. Exact detected step times in ``info`` would allow the usual
-+-0.2 s matching (:func:`estimators.gait.step_f1`).
+Step F1. The env reports the true heel-strike times and the detector's estimated heel-strike
+times of each step (``info["true_step_times"]``, ``info["detected_step_times"]``, episode time,
+NaN-padded); they are matched one to one within +-0.2 s, seed 000's tolerance
+(:func:`match_step_times`, :func:`estimators.gait.step_f1`). The detector is causal and
+reports a step 0.135 s after it, and the first step of a walking bout only with the second;
+matching the estimated heel-strike times, not the reporting times, judges where a step was
+detected, not when. :func:`match_step_counts` (counts per control step in a window) remains for
+recordings without times.
 """
 
 from __future__ import annotations
@@ -48,17 +40,22 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from estimators.gait import step_f1
+
 __all__ = [
     "DEFAULT_LATE_STEPS",
     "EpisodeRecorder",
     "EpisodeStats",
     "match_step_counts",
+    "match_step_times",
     "spl",
     "summarize",
 ]
 
 #: Default lateness (control steps) allowed between a heel strike and its detection: 0.2 s.
 DEFAULT_LATE_STEPS = 2
+#: Step matching tolerance (s), seed 000's +-0.2 s (issue 3).
+STEP_TOLERANCE_S = 0.2
 
 
 def _array(name: str, x: ArrayLike, dtype: Any = np.float64) -> NDArray:
@@ -86,8 +83,9 @@ def spl(success: ArrayLike, shortest: ArrayLike, walked: ArrayLike) -> float:
     lo = _array("shortest", shortest)
     p = _array("walked", walked)
     if not (s.shape == lo.shape == p.shape):
-        raise ValueError(f"success, shortest, walked must have one length, got "
-                         f"{s.shape}, {lo.shape}, {p.shape}")  # fmt: skip
+        raise ValueError(
+            f"success, shortest, walked must have one length, got {s.shape}, {lo.shape}, {p.shape}"
+        )
     if s.size == 0:
         return math.nan
     if not np.all(np.isfinite(lo) & (lo > 0.0)):
@@ -95,6 +93,18 @@ def spl(success: ArrayLike, shortest: ArrayLike, walked: ArrayLike) -> float:
     if not np.all(np.isfinite(p) & (p >= 0.0)):
         raise ValueError("walked must be finite and >= 0 m")
     return _mean(s * lo / np.maximum(lo, p))
+
+
+def match_step_times(
+    true_times: ArrayLike, detected_times: ArrayLike, tol: float = STEP_TOLERANCE_S
+) -> tuple[int, int, int]:
+    """(tp, fp, fn) of detected vs true heel-strike times matched one to one within ``tol`` s
+    (:func:`estimators.gait.step_f1`'s matching)."""
+    true = np.asarray(true_times, dtype=np.float64)
+    det = np.asarray(detected_times, dtype=np.float64)
+    _, recall, _ = step_f1(det, true, tol=tol)
+    tp = round(recall * true.size) if true.size else 0
+    return tp, int(det.size - tp), int(true.size - tp)
 
 
 def match_step_counts(
@@ -124,8 +134,10 @@ def match_step_counts(
     t = np.asarray(true_counts)
     d = np.asarray(detected_counts)
     if t.ndim != 1 or d.shape != t.shape:
-        raise ValueError(f"true_counts and detected_counts must be (T,) arrays of one length, "
-                         f"got {t.shape} and {d.shape}")  # fmt: skip
+        raise ValueError(
+            f"true_counts and detected_counts must be (T,) arrays of one length, "
+            f"got {t.shape} and {d.shape}"
+        )
     for name, a in (("true_counts", t), ("detected_counts", d)):
         if a.size and (np.any(a < 0) or np.any(a != np.round(a)) or not np.all(np.isfinite(a))):
             raise ValueError(f"{name} must hold non-negative integers")
@@ -181,6 +193,9 @@ class EpisodeStats:
         attitude_error_deg: attitude error per control step (deg).
         hand_error_deg: hand orientation error per control step (deg, NaN without estimate).
         heading_error_deg: virtual minus true heading per control step (deg).
+        true_step_times: true heel-strike times of the episode (s), or None.
+        detected_step_times: the detector's heel-strike estimates (s), or None (then the step
+            F1 falls back to :func:`match_step_counts`).
         trace: optional per-step arrays for figures (see :class:`EpisodeRecorder`).
     """
 
@@ -196,12 +211,16 @@ class EpisodeStats:
     attitude_error_deg: NDArray[np.float64]
     hand_error_deg: NDArray[np.float64]
     heading_error_deg: NDArray[np.float64]
+    true_step_times: NDArray[np.float64] | None = None
+    detected_step_times: NDArray[np.float64] | None = None
     trace: dict[str, Any] | None = field(default=None)
 
 
 _STEP_KEYS = (
     "true_steps",
     "detected_steps",
+    "true_step_times",
+    "detected_step_times",
     "attitude_error_deg",
     "hand_error_deg",
     "heading_error_deg",
@@ -253,8 +272,7 @@ class EpisodeRecorder:
         if self.keep_trace:
             trace = {k: v for k, v in self._trace.items() if k != "true_step_times"}
             trace = {k: np.asarray(v) for k, v in trace.items()}
-            times = self._trace["true_step_times"]
-            trace["true_step_times"] = np.concatenate(times) if times else np.zeros(0)
+            trace["true_step_times"] = _finite_times(self._trace["true_step_times"])
             if start_position is not None:
                 s = np.asarray(start_position, dtype=np.float64)[None]
                 trace["position"] = np.concatenate([s, trace["position"]])
@@ -270,11 +288,21 @@ class EpisodeRecorder:
             shortest_m=self.shortest,
             true_counts=np.asarray(r["true_steps"], dtype=np.int64),
             detected_counts=np.asarray(r["detected_steps"], dtype=np.int64),
+            true_step_times=_finite_times(r["true_step_times"]),
+            detected_step_times=_finite_times(r["detected_step_times"]),
             attitude_error_deg=np.asarray(r["attitude_error_deg"], dtype=np.float64),
             hand_error_deg=np.asarray(r["hand_error_deg"], dtype=np.float64),
             heading_error_deg=np.asarray(r["heading_error_deg"], dtype=np.float64),
             trace=trace,
         )
+
+
+def _finite_times(per_step: list) -> NDArray[np.float64]:
+    """Concatenate per-step NaN-padded time arrays into the sorted finite times."""
+    if not per_step:
+        return np.zeros(0)
+    t = np.concatenate([np.ravel(np.asarray(x, dtype=np.float64)) for x in per_step])
+    return np.sort(t[np.isfinite(t)])
 
 
 def summarize(
@@ -301,7 +329,10 @@ def summarize(
     walked = np.array([e.walked_m for e in episodes])
     tp = fp = fn = 0
     for e in episodes:
-        a, b, c = match_step_counts(e.true_counts, e.detected_counts, late, early)
+        if e.true_step_times is not None and e.detected_step_times is not None:
+            a, b, c = match_step_times(e.true_step_times, e.detected_step_times)
+        else:
+            a, b, c = match_step_counts(e.true_counts, e.detected_counts, late, early)
         tp, fp, fn = tp + a, fp + b, fn + c
     precision, recall, f1 = _prf(tp, fp, fn)
     att = np.concatenate([e.attitude_error_deg for e in episodes])

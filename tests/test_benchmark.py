@@ -118,3 +118,12 @@ def test_bad_benchmark_options_are_rejected_clearly(capsys):
         check_policy_name("robot")
     assert main(["benchmark", "--sensors", "iphone"]) == 2
     assert "iphone" in capsys.readouterr().err
+
+
+def test_step_times_are_matched_within_0_2_s():
+    from agents.metrics import match_step_times
+
+    true = [1.0, 1.6, 2.2, 2.8]
+    detected = [1.05, 1.78, 2.41, 2.79, 3.5]  # 2.41 is 0.21 s late: a miss and a false step
+    assert match_step_times(true, detected) == (3, 2, 1)
+    assert match_step_times([], []) == (0, 0, 0)

@@ -88,6 +88,7 @@ class _Episode:
     hand_target: NDArray[np.float64]  # (B, 3) rad
     dwell: NDArray[np.float64]  # s the hand has been held on target in the goal region
     start_time: NDArray[np.float64]  # batch time at reset (s)
+    detector_start: NDArray[np.float64]  # step detector's clock at reset, less one sample (s)
     virtual_yaw: NDArray[np.float64]
     done: NDArray[np.bool_] = field(default=None)  # type: ignore[assignment]
 
@@ -95,21 +96,22 @@ class _Episode:
     def empty(cls, b: int) -> _Episode:
         z = np.zeros(b)
         return cls(
-            np.zeros((b, 2)),
-            np.zeros((b, 2)),
-            np.zeros(b, np.int64),
-            np.zeros(b, np.int64),
-            z.copy(),
-            z.copy(),
-            np.zeros((b, 2)),
-            z.copy(),
-            np.full(b, np.nan),
-            z.copy(),
-            np.zeros((b, 3)),
-            z.copy(),
-            z.copy(),
-            z.copy(),
-            np.zeros(b, bool),
+            position=np.zeros((b, 2)),
+            true_position=np.zeros((b, 2)),
+            collisions=np.zeros(b, np.int64),
+            elapsed=np.zeros(b, np.int64),
+            walked=z.copy(),
+            distance=z.copy(),
+            goal=np.zeros((b, 2)),
+            goal_radius=z.copy(),
+            line_x=np.full(b, np.nan),
+            shortest=z.copy(),
+            hand_target=np.zeros((b, 3)),
+            dwell=z.copy(),
+            start_time=z.copy(),
+            detector_start=z.copy(),
+            virtual_yaw=z.copy(),
+            done=np.zeros(b, bool),
         )
 
 
@@ -201,6 +203,8 @@ class LocoCore:
         ep.dwell[rows] = 0.0
         ep.done[rows] = False
         ep.start_time[rows] = self.batch_time
+        gait = self.users.gait
+        ep.detector_start[rows] = (gait.samples_seen - 1) / gait.fs
         ep.distance[rows] = goal_distance(
             ep.position[rows], ep.goal[rows], ep.goal_radius[rows], ep.line_x[rows]
         )
@@ -364,11 +368,11 @@ class LocoCore:
             rot.quat_conjugate(us.motion.quat[:, -1]), rot.quat_from_ypr(us.ypr_est)
         )
         hand_err = hand_error(us.hand_est, us.hand_true)
-        t0 = us.motion.t[0] - 1.0 / self.users.motion_params.imu_rate_hz
-        true_times = np.empty(self.batch_size, dtype=object)
-        for i in range(self.batch_size):  # variable-length lists: the one per-user loop here
-            st = us.motion.step_time[i]
-            true_times[i] = st[np.isfinite(st)] - ep.start_time[i]
+        # Heel-strike times in episode time, NaN-padded (the single env keeps the finite ones):
+        # the motion clock and the detector's clock count from their own origins; each user's
+        # offsets were stored at its reset.
+        true_times = us.motion.step_time - ep.start_time[:, None]
+        detected_times = us.step_peak_time - ep.detector_start[:, None]
         return {
             "true_ypr": np.rad2deg(us.ypr_true),
             "est_ypr": np.rad2deg(us.ypr_est),
@@ -377,6 +381,7 @@ class LocoCore:
             "true_steps": us.true_steps.astype(np.int64),
             "detected_steps": us.steps.astype(np.int64),
             "true_step_times": true_times,
+            "detected_step_times": detected_times,
             "true_hand_ypr": np.rad2deg(us.hand_true),
             "est_hand_ypr": np.rad2deg(us.hand_est),
             "hand_error_deg": np.rad2deg(hand_err),
@@ -392,7 +397,6 @@ class LocoCore:
             "walked": ep.walked.copy(),
             "shortest_path": ep.shortest.copy(),
             "elapsed_time": ep.elapsed * self.dt,
-            "step_start_time": t0 - ep.start_time,
         }
 
     @property

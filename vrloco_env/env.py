@@ -144,6 +144,8 @@ class VRLocoEnv(gym.Env):
         info = {
             k: (v[0].item() if isinstance(v[0], np.generic) else v[0]) for k, v in infos.items()
         }
+        for k in ("true_step_times", "detected_step_times"):  # the steps of this control step
+            info[k] = info[k][np.isfinite(info[k])]
         if self.render_mode == "human":
             self._sync_sim()
         return obs[0], float(reward[0]), bool(terminated[0]), bool(truncated[0]), info

@@ -62,6 +62,8 @@ class UserStep:
         virtual_yaw: estimated yaw + the episode's heading offset (rad, in the virtual room).
         true_virtual_yaw: true yaw + the true offset: the heading perfect sensing would give.
         steps: steps detected (confirmed) in this control step, (B,).
+        step_peak_time: estimated heel-strike times (s, the detector's clock) of those steps,
+            NaN-padded, (B, 2N).
         true_steps: true heel strikes in this control step, (B,).
         walking: the detector's still/walk state at the step's end, (B,) bool.
         cadence: estimated cadence (steps/s), (B,).
@@ -80,6 +82,7 @@ class UserStep:
     virtual_yaw: NDArray[np.float64]
     true_virtual_yaw: NDArray[np.float64]
     steps: NDArray[np.float64]
+    step_peak_time: NDArray[np.float64]
     true_steps: NDArray[np.float64]
     walking: NDArray[np.bool_]
     cadence: NDArray[np.float64]
@@ -234,6 +237,7 @@ class SimulatedUsers:
             virtual_yaw=virtual_yaw,
             true_virtual_yaw=rot.wrap_angle(ypr_true[:, 0] + self.true_yaw_offset),
             steps=steps,
+            step_peak_time=gait.peak_time.reshape(self.batch_size, -1),
             true_steps=chunk.step.sum(axis=1).astype(np.float64),
             walking=gait.state[:, -1] > 0,
             cadence=self.cadence.copy(),
