@@ -190,7 +190,7 @@ def build_parser() -> argparse.ArgumentParser:
     train.add_argument("--out", default="runs/ppo", help="folder for logs and models")
     train.set_defaults(func=_cmd_train)
 
-    evaluate = sub.add_parser("evaluate", help="success and collision rates of a trained model")
+    evaluate = sub.add_parser("evaluate", help="the benchmark's metrics for a trained PPO model")
     evaluate.add_argument("model", help="path of a saved PPO model (.zip)")
     evaluate.add_argument("--task", default="approach", help="approach, avoid or interact")
     evaluate.add_argument("--episodes", type=int, default=100, help="seeded episodes")

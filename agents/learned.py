@@ -231,10 +231,38 @@ def evaluate_model(
     episodes: int = 100,
     seed: int = 0,
     sensor_preset: str = "ig500n",
-) -> dict[str, float]:
-    """Success and collision rates of a saved PPO model over ``episodes`` seeded episodes."""
+) -> dict[str, Any]:
+    """The benchmark's metrics (:func:`agents.metrics.summarize`) for a saved PPO model.
+
+    Episode i is a single env reset with ``seed + i`` and run with the deterministic policy, as
+    ``vrloco benchmark`` runs a scripted user, so the rows compare directly.
+    """
+    import gymnasium as gym
     from stable_baselines3 import PPO
 
+    from agents.metrics import EpisodeRecorder, summarize
+    from vrloco_env import ENV_IDS
+
+    ids = {name: env_id for env_id, name in ENV_IDS.items()}
+    if task not in ids:
+        raise ValueError(f"task={task!r}: must be one of {', '.join(ids)}")
     model = PPO.load(path)
-    env = VRLocoVectorEnv(episodes, task=task, sensor_preset=sensor_preset)
-    return run_policy_episodes(model, env, seed=seed)
+    env = gym.make(ids[task], sensor_preset=sensor_preset)
+    stats = []
+    for i in range(episodes):
+        obs, info = env.reset(seed=seed + i)
+        rec = EpisodeRecorder(seed + i, info)
+        while True:
+            action, _ = model.predict(obs, deterministic=True)
+            obs, _, terminated, truncated, info = env.step(action)
+            rec.add(info)
+            if terminated or truncated:
+                break
+        stats.append(rec.finish())
+    env.close()
+    return {
+        "task": task,
+        "policy": f"ppo:{Path(path).name}",
+        "sensors": sensor_preset,
+        **summarize(stats),
+    }
