@@ -24,10 +24,8 @@ from gymnasium.vector.utils import batch_space
 from numpy.typing import NDArray
 
 from vrloco_env.actions import ACTION_SIZE
-from vrloco_env.config import EnvConfig, EstimatorConfig, RewardConfig, SensorConfig
 from vrloco_env.core import LocoCore
 from vrloco_env.env import make_configs
-from vrloco_env.rooms import RoomConfig
 
 __all__ = ["VRLocoVectorEnv"]
 
@@ -46,20 +44,14 @@ class VRLocoVectorEnv(VectorEnv):
         num_envs: int = 1,
         task: str = "approach",
         render_mode: str | None = None,
-        config: EnvConfig | None = None,
-        sensors: SensorConfig | None = None,
-        estimators: EstimatorConfig | None = None,
-        room: RoomConfig | None = None,
-        reward: RewardConfig | None = None,
-        sensor_preset: str | None = None,
-        locomotion: str | None = None,
-        max_episode_steps: int | None = None,
+        **config: Any,
     ) -> None:
+        """``config``: the configuration keywords of :func:`~vrloco_env.env.make_configs`
+        (``config``, ``sensors``, ``estimators``, ``room``, ``reward``, ``sensor_preset``,
+        ``locomotion``, ``max_episode_steps``), as for the single env."""
         if render_mode is not None:
             raise ValueError("VRLocoVectorEnv does not render; use gym.make(...) for pictures")
-        cfgs = make_configs(
-            config, sensors, estimators, room, reward, sensor_preset, locomotion, max_episode_steps
-        )
+        cfgs = make_configs(**config)
         self.num_envs = int(num_envs)
         self.core = LocoCore(task, self.num_envs, *cfgs)
         self.task_name = task
