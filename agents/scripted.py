@@ -62,7 +62,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from vrloco_env.actions import ACTION_SIZE
 from vrloco_env.config import EnvConfig
-from vrloco_env.core import _MAX_GOAL_DISTANCE, observation_names
+from vrloco_env.core import MAX_GOAL_DISTANCE, observation_names
 
 __all__ = [
     "POLICIES",
@@ -81,7 +81,7 @@ __all__ = [
 ]
 
 #: The observation scales the distance to the goal by this (m), :mod:`vrloco_env.core`.
-GOAL_DISTANCE_SCALE_M = float(_MAX_GOAL_DISTANCE)
+GOAL_DISTANCE_SCALE_M = float(MAX_GOAL_DISTANCE)
 
 
 @runtime_checkable

@@ -38,10 +38,11 @@ from vrloco_env.rooms import Layout, RoomBatch, RoomConfig
 from vrloco_env.tasks import Task, get_task, goal_distance, hand_error
 from vrloco_env.users import SimulatedUsers, UserStep
 
-__all__ = ["OBS_NAMES", "LocoCore", "observation_names"]
+__all__ = ["MAX_GOAL_DISTANCE", "OBS_NAMES", "LocoCore", "observation_names"]
 
 _SWEEP_SAMPLES = 8  # points along a step's displacement checked against the room
-_MAX_GOAL_DISTANCE = 20.0  # m, distance normalisation of the observation
+#: Goal distance (m) that the observation scales to 1 (farther goals read 1).
+MAX_GOAL_DISTANCE = 20.0
 
 
 def observation_names(ray_count: int) -> list[str]:
@@ -342,7 +343,7 @@ class LocoCore:
                     [
                         np.sin(bearing),
                         np.cos(bearing),
-                        np.minimum(ep.distance / _MAX_GOAL_DISTANCE, 1.0),
+                        np.minimum(ep.distance / MAX_GOAL_DISTANCE, 1.0),
                     ],
                     -1,
                 ),
