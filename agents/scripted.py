@@ -63,6 +63,7 @@ from numpy.typing import ArrayLike, NDArray
 from vrloco_env.actions import ACTION_SIZE
 from vrloco_env.config import EnvConfig
 from vrloco_env.core import MAX_GOAL_DISTANCE, observation_names
+from vrloco_env.validation import check_in_range
 
 __all__ = [
     "POLICIES",
@@ -348,12 +349,7 @@ class PolicyParams:
 
     def __post_init__(self) -> None:
         def check(name: str, lo: float, hi: float, unit: str = "") -> None:
-            v = getattr(self, name)
-            ok = isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
-            if not (ok and lo <= v <= hi):
-                raise ValueError(
-                    f"PolicyParams.{name}={v!r}: must be in [{lo:g}, {hi:g}] {unit}".rstrip()
-                )
+            check_in_range(self, name, lo, hi, unit)
 
         check("step_length_m", 0.05, 2.0, "m")
         check("avatar_radius_m", 0.0, 2.0, "m")

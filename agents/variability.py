@@ -36,7 +36,6 @@ generator gives the same actions.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -46,6 +45,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from agents.scripted import Policy
 from vrloco_env.batch_rng import BatchRng
+from vrloco_env.validation import check_in_range
 
 __all__ = ["HumanVariability", "VariabilityParams"]
 
@@ -83,12 +83,7 @@ class VariabilityParams:
 
     def __post_init__(self) -> None:
         def check(name: str, lo: float, hi: float, unit: str = "") -> None:
-            v = getattr(self, name)
-            ok = isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
-            if not (ok and lo <= v <= hi):
-                raise ValueError(
-                    f"VariabilityParams.{name}={v!r}: must be in [{lo:g}, {hi:g}] {unit}".rstrip()
-                )
+            check_in_range(self, name, lo, hi, unit)
 
         check("max_delay_s", 0.0, 10.0, "s")
         check("reaction_delay_s", 0.0, self.max_delay_s, "s (<= max_delay_s)")

@@ -16,6 +16,7 @@ from estimators.hand import HandParams
 from vrloco_env.motion import MotionParams
 from vrloco_env.sensors.imu import EarthField, ImuSpec, MagneticDisturbance, get_imu_spec
 from vrloco_env.sensors.kinect import KinectSpec
+from vrloco_env.validation import check_in_range
 
 __all__ = ["EnvConfig", "EstimatorConfig", "RewardConfig", "SensorConfig"]
 
@@ -25,18 +26,6 @@ LOCOMOTION_KINDS = ("eq17", "smooth")
 def _check(ok: bool, message: str) -> None:
     if not ok:
         raise ValueError(message)
-
-
-def _in_range(
-    obj: object, name: str, lo: float, hi: float, unit: str = "", lo_open: bool = False
-) -> None:
-    """Raise a ValueError naming ``Class.name`` unless lo <= value <= hi (lo < value if open)."""
-    v = getattr(obj, name)
-    ok = (lo < v if lo_open else lo <= v) and v <= hi
-    if not ok:
-        bracket = "(" if lo_open else "["
-        where = f"{type(obj).__name__}.{name}={v!r}"
-        raise ValueError(f"{where}: must be in {bracket}{lo:g}, {hi:g}] {unit}".rstrip())
 
 
 @dataclass(frozen=True)
@@ -61,7 +50,7 @@ class SensorConfig:
 
     def __post_init__(self) -> None:
         get_imu_spec(self.imu)  # raises with the valid names
-        _in_range(self, "imu_rate_hz", 10.0, 1000.0, "Hz")
+        check_in_range(self, "imu_rate_hz", 10.0, 1000.0, "Hz")
 
     @property
     def imu_spec(self) -> ImuSpec:
@@ -98,7 +87,7 @@ class EstimatorConfig:
             f"EstimatorConfig.locomotion={self.locomotion!r}: must be one of "
             f"{', '.join(LOCOMOTION_KINDS)}",
         )
-        _in_range(self, "step_length", 0.2, 1.5, "m")
+        check_in_range(self, "step_length", 0.2, 1.5, "m")
 
 
 @dataclass(frozen=True)
@@ -121,7 +110,7 @@ class RewardConfig:
 
     def __post_init__(self) -> None:
         for name in ("progress", "success", "collision", "effort", "time"):
-            _in_range(self, name, 0.0, 1e3)
+            check_in_range(self, name, 0.0, 1e3)
 
 
 @dataclass(frozen=True)
@@ -149,9 +138,9 @@ class EnvConfig:
     dwell_s: float = 1.0
 
     def __post_init__(self) -> None:
-        _in_range(self, "max_episode_steps", 1, 100_000)
-        _in_range(self, "ray_count", 1, 360)
-        _in_range(self, "ray_fov_deg", 0.0, 360.0, "deg", lo_open=True)
-        _in_range(self, "ray_range_m", 0.5, 50.0, "m")
-        _in_range(self, "hand_tolerance_deg", 1.0, 90.0, "deg")
-        _in_range(self, "dwell_s", 0.0, 30.0, "s", lo_open=True)
+        check_in_range(self, "max_episode_steps", 1, 100_000)
+        check_in_range(self, "ray_count", 1, 360)
+        check_in_range(self, "ray_fov_deg", 0.0, 360.0, "deg", lo_open=True)
+        check_in_range(self, "ray_range_m", 0.5, 50.0, "m")
+        check_in_range(self, "hand_tolerance_deg", 1.0, 90.0, "deg")
+        check_in_range(self, "dwell_s", 0.0, 30.0, "s", lo_open=True)
