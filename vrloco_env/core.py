@@ -31,14 +31,14 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from estimators import rotations as rot
-from vrloco_env.actions import ACTION_SIZE, action_to_intent, check_actions
+from vrloco_env.actions import action_to_intent, check_actions
 from vrloco_env.batch_rng import BatchRng
 from vrloco_env.config import EnvConfig, EstimatorConfig, RewardConfig, SensorConfig
 from vrloco_env.rooms import Layout, RoomBatch, RoomConfig
 from vrloco_env.tasks import Task, get_task, goal_distance, hand_error
 from vrloco_env.users import SimulatedUsers, UserStep
 
-__all__ = ["MAX_GOAL_DISTANCE", "OBS_NAMES", "LocoCore", "observation_names"]
+__all__ = ["MAX_GOAL_DISTANCE", "LocoCore", "observation_names"]
 
 _SWEEP_SAMPLES = 8  # points along a step's displacement checked against the room
 #: Goal distance (m) that the observation scales to 1 (farther goals read 1).
@@ -69,7 +69,6 @@ def observation_names(ray_count: int) -> list[str]:
     )
 
 
-OBS_NAMES = observation_names(EnvConfig().ray_count)
 
 
 @dataclass
@@ -399,7 +398,3 @@ class LocoCore:
             "shortest_path": ep.shortest.copy(),
             "elapsed_time": ep.elapsed * self.dt,
         }
-
-    @property
-    def action_size(self) -> int:
-        return ACTION_SIZE

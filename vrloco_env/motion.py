@@ -238,19 +238,8 @@ class KinectChunk:
 
 
 @dataclass
-class MotionRecord:
-    """Chunks of a whole run concatenated along time (same fields as :class:`MotionChunk`)."""
-
-    t: NDArray[np.float64]
-    quat: NDArray[np.float64]
-    omega: NDArray[np.float64]
-    pos: NDArray[np.float64]
-    acc: NDArray[np.float64]
-    ypr: NDArray[np.float64]
-    step: NDArray[np.bool_]
-    step_time: NDArray[np.float64]
-    walking: NDArray[np.bool_]
-    kinect: KinectChunk
+class MotionRecord(MotionChunk):
+    """Chunks of a whole run concatenated along time (the fields of :class:`MotionChunk`)."""
 
     @classmethod
     def concatenate(cls, chunks: list[MotionChunk]) -> MotionRecord:
