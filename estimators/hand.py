@@ -759,7 +759,10 @@ class HandFrame:
         Returns:
             :class:`HandFrame` of views ``field[:, t]`` (B, ...).
         """
-        return HandFrame(**{f.name: getattr(self, f.name)[:, t] for f in fields(self)})
+        return HandFrame(*(getattr(self, name)[:, t] for name in _HAND_FRAME_FIELDS))
+
+
+_HAND_FRAME_FIELDS = tuple(f.name for f in fields(HandFrame))  # in the constructor's order
 
 
 class HandPipeline:
@@ -1020,10 +1023,10 @@ class HandPipeline:
         )
         rows = b * m
         flat = HandFrame(
-            **{
-                f.name: (a := getattr(out, f.name)).reshape(rows, *a.shape[2:])
-                for f in fields(HandFrame)
-            }
+            *(
+                (a := getattr(out, name)).reshape(rows, *a.shape[2:])
+                for name in _HAND_FRAME_FIELDS
+            )
         )
         self._run(
             ids64.reshape(rows, k),

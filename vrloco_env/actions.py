@@ -14,6 +14,8 @@ values, or a wrong shape, raise a ValueError naming the offending entry.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -37,27 +39,36 @@ def check_actions(actions: ArrayLike, batch_size: int) -> NDArray[np.float64]:
             f"action must have shape ({batch_size}, {ACTION_SIZE}) "
             f"[{', '.join(ACTION_NAMES)}], got {a.shape}"
         )
-    bad = ~np.isfinite(a)
-    if np.any(bad):
-        user, k = np.argwhere(bad)[0]
+    if not np.isfinite(a).all():
+        user, k = np.argwhere(~np.isfinite(a))[0]
         where = f"action[{k}] ({ACTION_NAMES[k]})"
         if batch_size > 1:
             where = f"action of sub-env {user}: {where}"
         raise ValueError(f"{where} is {a[user, k]}; actions must be finite, in [-1, 1]")
-    return np.clip(a, -1.0, 1.0)
+    return np.minimum(np.maximum(a, -1.0), 1.0)  # np.clip, without its ~5 us of overhead
 
 
 def action_to_intent(actions: NDArray[np.float64], params: MotionParams) -> Intent:
     """Map checked actions (B, 5) in [-1, 1] to the motion model's :class:`Intent`."""
     lo, hi = params.cadence_range_hz
-    b = actions.shape[0]
     walk = actions[:, 0]
     cadence = np.where(walk > 0.0, lo + walk * (hi - lo), 0.0)
+    still_amplitude, still_frequency, upright = _no_gestures(actions.shape[0])
     return Intent(
         cadence=cadence,
         turn_rate=actions[:, 1] * params.max_turn_rate,
         hand_rates=actions[:, 2:5] * params.max_hand_rate,
-        gesture_amplitude=np.zeros((b, 3)),
-        gesture_frequency=np.full((b, 3), 0.5),
-        lean=np.zeros(b),
+        gesture_amplitude=still_amplitude,
+        gesture_frequency=still_frequency,
+        lean=upright,
     )
+
+
+@functools.cache
+def _no_gestures(b: int) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """The intent fields the actions leave at rest (no head gestures, no lean), built once per
+    batch size and read-only (the motion model only reads its intents)."""
+    arrays = (np.zeros((b, 3)), np.full((b, 3), 0.5), np.zeros(b))
+    for x in arrays:
+        x.flags.writeable = False
+    return arrays

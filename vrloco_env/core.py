@@ -26,11 +26,13 @@ sub-env of the vector env behaves exactly like a single env with the same seed.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from types import SimpleNamespace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from estimators import rotations as rot
+from vrloco_env._core_numba import attitude_error_kernel, observation_kernel
 from vrloco_env.actions import action_to_intent, check_actions
 from vrloco_env.batch_rng import BatchRng
 from vrloco_env.config import EnvConfig, EstimatorConfig, RewardConfig, SensorConfig
@@ -41,6 +43,7 @@ from vrloco_env.users import SimulatedUsers, UserStep
 __all__ = ["MAX_GOAL_DISTANCE", "LocoCore", "observation_names"]
 
 _SWEEP_SAMPLES = 8  # points along a step's displacement checked against the room
+_SWEEP_FRACTIONS = (np.arange(1, _SWEEP_SAMPLES + 1) / _SWEEP_SAMPLES)[None, :, None]
 #: Goal distance (m) that the observation scales to 1 (farther goals read 1).
 MAX_GOAL_DISTANCE = 20.0
 
@@ -156,6 +159,12 @@ class LocoCore:
             self.ray_offsets = np.linspace(-half, half, config.ray_count)
         self.obs_size = len(observation_names(config.ray_count))
         self.last: UserStep | None = None
+        self._zeros = np.zeros(b)
+        # What observe() reads before a user's first step: nothing estimated yet.
+        self._standing = SimpleNamespace(
+            ypr_est=np.zeros((b, 3)), walking=np.zeros(b, bool), steps=self._zeros,
+            cadence=self._zeros, hand_est=np.full((b, 3), np.nan),
+        )  # fmt: skip
         self.last_rays = np.full((b, config.ray_count), config.ray_range_m)
         self.batch_time = 0.0
 
@@ -233,8 +242,7 @@ class LocoCore:
 
         # Move the virtual body unless the swept avatar would touch the room.
         move = us.displacement
-        s = (np.arange(1, _SWEEP_SAMPLES + 1) / _SWEEP_SAMPLES)[None, :, None]
-        path = ep.position[:, None, :] + s * move[:, None, :]
+        path = ep.position[:, None, :] + _SWEEP_FRACTIONS * move[:, None, :]
         clearance = self.rooms.signed_distance(path).min(axis=1)
         moving = np.hypot(move[:, 0], move[:, 1]) > 1e-12
         blocked = moving & (clearance <= self.room.avatar_radius)
@@ -244,7 +252,9 @@ class LocoCore:
         ep.virtual_yaw = us.virtual_yaw
         sl = self.estimators.step_length
         ty = us.true_virtual_yaw
-        ep.true_position += (sl * us.true_steps)[:, None] * np.stack([np.cos(ty), np.sin(ty)], -1)
+        true_step = sl * us.true_steps
+        ep.true_position[:, 0] += true_step * np.cos(ty)
+        ep.true_position[:, 1] += true_step * np.sin(ty)
         ep.elapsed += 1
 
         # Task progress.
@@ -266,29 +276,47 @@ class LocoCore:
             rw.progress * (prev - ep.distance)
             + rw.success * success
             - rw.collision * blocked
-            - rw.effort * np.mean(a * a, axis=1)
+            - rw.effort * (a * a).sum(axis=1) / a.shape[1]
             - rw.time
         )
-        self.last_rays = self._rays(np.arange(self.batch_size))
+        self.last_rays = self._rays()
         infos = self.infos(us, blocked, success, finished)
         return self.observe(), reward, terminated, truncated, infos
 
     # ------------------------------------------------------------------------------ views
-    def _rays(self, rows: NDArray[np.intp]) -> NDArray[np.float64]:
-        """Ranges (m) along the rays from the virtual head of users ``rows``."""
+    def _rays(self, rows: NDArray[np.intp] | None = None) -> NDArray[np.float64]:
+        """Ranges (m) along the rays from the virtual head of users ``rows`` (None: all)."""
         assert self.rooms is not None
-        b = self.batch_size
-        origins = np.broadcast_to(self.ep.position[:, None, :], (b, self.ray_offsets.size, 2))
-        angles = self.ep.virtual_yaw[:, None] + self.ray_offsets[None, :]
-        r = self.rooms.ray_cast(origins, angles, self.config.ray_range_m)
-        return np.minimum(r[rows], self.config.ray_range_m)
+        rng = self.config.ray_range_m
+        r = self.rooms.ray_fan(self.ep.position, self.ep.virtual_yaw, self.ray_offsets, rng)
+        return np.minimum(r if rows is None else r[rows], rng)
 
     def observe(self, reset_rows: NDArray[np.intp] | None = None) -> NDArray[np.float32]:
         """The observations of all users (see :func:`observation_names`).
 
         Users in ``reset_rows`` have just been reset: they stand still, their estimated attitude
-        is the start heading and no hand estimate exists yet.
+        is the start heading and no hand estimate exists yet. Compiled
+        (:func:`~vrloco_env._core_numba.observation_kernel`); :meth:`observe_reference` is the
+        numpy version the tests compare it with.
         """
+        b, ep, cfg, last = self.batch_size, self.ep, self.config, self.last
+        fresh = np.zeros(b, bool) if last is not None else np.ones(b, bool)
+        if reset_rows is not None:
+            fresh[reset_rows] = True
+        if last is None:
+            last = self._standing
+        out = np.empty((b, self.obs_size), np.float32)
+        observation_kernel(
+            ep.virtual_yaw, last.ypr_est, last.walking, last.steps, last.cadence, last.hand_est,
+            ep.hand_target, self.task.hand_target, self._goal_points(), ep.position, ep.distance,
+            self.last_rays, cfg.ray_range_m,
+            ep.dwell / cfg.dwell_s if self.task.hand_target else self._zeros,
+            fresh, MAX_GOAL_DISTANCE, out,
+        )  # fmt: skip
+        return out
+
+    def observe_reference(self, reset_rows: NDArray[np.intp] | None = None) -> NDArray[np.float32]:
+        """The numpy version of :meth:`observe`."""
         b, ep, cfg = self.batch_size, self.ep, self.config
         last = self.last
         pitch = np.zeros(b)
@@ -364,9 +392,8 @@ class LocoCore:
     def infos(self, us: UserStep, blocked, success, finished) -> dict[str, NDArray]:
         """Per-user arrays: ground truth, estimation errors and task state."""
         ep = self.ep
-        q_err = rot.quat_multiply(
-            rot.quat_conjugate(us.motion.quat[:, -1]), rot.quat_from_ypr(us.ypr_est)
-        )
+        att_err = np.empty(self.batch_size)
+        attitude_error_kernel(us.motion.quat[:, -1], us.ypr_est, att_err)
         hand_err = hand_error(us.hand_est, us.hand_true)
         # Heel-strike times in episode time, NaN-padded (the single env keeps the finite ones):
         # the motion clock and the detector's clock count from their own origins; each user's
@@ -376,7 +403,7 @@ class LocoCore:
         return {
             "true_ypr": np.rad2deg(us.ypr_true),
             "est_ypr": np.rad2deg(us.ypr_est),
-            "attitude_error_deg": np.rad2deg(rot.rotation_angle(q_err)),
+            "attitude_error_deg": np.rad2deg(att_err),
             "heading_error_deg": np.rad2deg(rot.angle_diff(us.virtual_yaw, us.true_virtual_yaw)),
             "true_steps": us.true_steps.astype(np.int64),
             "detected_steps": us.steps.astype(np.int64),

@@ -141,9 +141,7 @@ class VRLocoEnv(gym.Env):
         obs, reward, terminated, truncated, infos = self.core.step(a[None])
         self._path.append(self.core.ep.position[0].copy())
         self._true_path.append(self.core.ep.true_position[0].copy())
-        info = {
-            k: (v[0].item() if isinstance(v[0], np.generic) else v[0]) for k, v in infos.items()
-        }
+        info = {k: (v[0] if v.ndim > 1 else v[0].item()) for k, v in infos.items()}
         for k in ("true_step_times", "detected_step_times"):  # the steps of this control step
             info[k] = info[k][np.isfinite(info[k])]
         if self.render_mode == "human":

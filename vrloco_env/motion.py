@@ -191,6 +191,9 @@ class Intent:
     lean: ArrayLike = 0.0
 
 
+_INTENT_FIELDS = tuple(f.name for f in fields(Intent))
+
+
 @dataclass
 class MotionChunk:
     """True motion over one control step, at the IMU rate (N samples, times ``t``).
@@ -305,6 +308,13 @@ class UserMotion:
     use_kernel: bool = True
     """Evaluate with the compiled kernel (same numbers as the numpy reference to 1e-12)."""
     _state: _State | None = field(default=None, init=False, repr=False)
+    _grids: dict = field(default_factory=dict, init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        p = self.params
+        self._hand_limits = np.deg2rad(np.asarray(p.hand_limits_deg, dtype=np.float64))
+        self._control_dt = np.array([1.0 / p.control_rate_hz])
+        self._sample_index = np.arange(1, p.samples_per_step + 1)
 
     @property
     def batch_size(self) -> int:
@@ -525,75 +535,88 @@ class UserMotion:
         s, p = self._state, self.params
         cmd = self._check_intent(intent) if validate else _intent_arrays(intent)
         n = p.samples_per_step
-        dt_ctrl = 1.0 / p.control_rate_hz
         t0 = s.time(p.control_rate_hz)
-        tau = np.arange(1, n + 1) / p.imu_rate_hz
+        tau_k, t_k, times = self._time_grid(s.steps_done)
+        # One evaluation at every time needed (see _time_grid): the samples, +-h around them for
+        # the linear acceleration, the last sample's left limit, and the Kinect frames.
+        ev_all = self._evaluate(s, cmd, times)
         h = _DIFF_H
-        tau_k, t_k = _frame_times(s.steps_done, p.control_rate_hz, p.kinect_rate_hz)
-        # One evaluation at every time needed: the samples, +-h around them for the linear
-        # acceleration (central differences of the analytic position, h = 0.1 ms), three points
-        # for the last sample's left limit (the next intent is not known yet: backward second
-        # difference), and the Kinect frames.
-        ev_all = self._evaluate(
-            s,
-            cmd,
-            np.concatenate([tau - h, tau, tau + h, tau[-1] - np.array([2 * h, h, 0.0]), tau_k]),
-        )
         imu_pos = ev_all["imu_pos"]
         p_m, p_0, p_p = imu_pos[:, :n], imu_pos[:, n : 2 * n], imu_pos[:, 2 * n : 3 * n]
         ends = imu_pos[:, 3 * n : 3 * n + 3]
         acc = (p_p - 2.0 * p_0 + p_m) / h**2
         acc[:, -1] = (ends[:, 2] - 2.0 * ends[:, 1] + ends[:, 0]) / h**2
-        ev = {"t_boundary": ev_all["t_boundary"]}
-        mid = {k: v[:, n : 2 * n] for k, v in ev_all.items() if v.ndim >= 2}
+        samples = slice(n, 2 * n)
         frames = {k: ev_all[k][:, 3 * n + 3 :] for k in ("yaw", "neck", "quat", "phase", "walking")}
-
+        quat = ev_all["quat"][:, samples]
+        head_ypr = ev_all["head_ypr"][:, samples]
+        phase = ev_all["phase"][:, samples]
         omega = (
-            mid["omega"]
-            if "omega" in mid
-            else _euler_rates_to_body(mid["head_ypr"], mid["d_head_ypr"])
+            ev_all["omega"][:, samples]
+            if "omega" in ev_all
+            else _euler_rates_to_body(head_ypr, ev_all["d_head_ypr"][:, samples])
         )
 
         # Heel strikes: the phase crosses n + 0.5 inside a sample interval.
-        ph_prev = np.concatenate([s.phase[:, None], mid["phase"][:, :-1]], axis=1)
-        ph_now = mid["phase"]
-        k_prev = np.floor(ph_prev - 0.5)
-        k_now = np.floor(ph_now - 0.5)
-        step = k_now > k_prev
-        step_time = self._heel_strike_times(s, cmd, ev["t_boundary"], k_now, step, t0)
+        ph_prev = np.concatenate([s.phase[:, None], phase[:, :-1]], axis=1)
+        k_now = np.floor(phase - 0.5)
+        step = k_now > np.floor(ph_prev - 0.5)
+        if step.any():
+            step_time = self._heel_strike_times(s, cmd, ev_all["t_boundary"], k_now, step, t0)
+        else:
+            step_time = np.full(step.shape, np.nan)
 
         # Kinect frames falling in (t, t + dt_ctrl].
         kin = self._skeleton(s, cmd, frames, tau_k, t_k)
 
-        # Carry the state to the end of the step.
-        end = {k: (v[:, -1] if isinstance(v, np.ndarray) and v.ndim >= 2 else v)
-               for k, v in mid.items()}  # fmt: skip
-        s.phase = end["phase"]
-        s.step_cadence = np.where(np.abs(end["phase"] - np.round(end["phase"])) < 1e-9,
-                                  0.0, end["cadence"])  # fmt: skip
-        s.phase = np.where(s.step_cadence == 0.0, np.round(s.phase), s.phase)
-        s.yaw = end["yaw"]
-        s.yaw_rate = end["yaw_rate"]
-        s.gesture_amp = mid["gesture_amp"][:, -1, :]
-        s.gesture_amp_rate = mid["gesture_amp_rate"][:, -1, :]
-        s.lean_rate = end["lean_rate"]
-        s.gesture_phase = np.mod(mid["g_phase"][:, -1, :], 2.0 * np.pi)
-        s.lean = end["lean"]
-        s.hand_ypr = self._hand_ypr(s, cmd, np.array([dt_ctrl]))[:, -1]
-        t_abs = (s.steps_done * n + np.arange(1, n + 1)) / p.imu_rate_hz
+        # Carry the state to the end of the step (the last sample).
+        end = 2 * n - 1
+        end_phase = ev_all["phase"][:, end]
+        s.step_cadence = np.where(
+            np.abs(end_phase - np.round(end_phase)) < 1e-9, 0.0, ev_all["cadence"][:, end]
+        )
+        s.phase = np.where(s.step_cadence == 0.0, np.round(end_phase), end_phase)
+        s.yaw = ev_all["yaw"][:, end]
+        s.yaw_rate = ev_all["yaw_rate"][:, end]
+        s.gesture_amp = ev_all["gesture_amp"][:, end, :]
+        s.gesture_amp_rate = ev_all["gesture_amp_rate"][:, end, :]
+        s.lean_rate = ev_all["lean_rate"][:, end]
+        s.gesture_phase = np.mod(ev_all["g_phase"][:, end, :], 2.0 * np.pi)
+        s.lean = ev_all["lean"][:, end]
+        s.hand_ypr = self._hand_ypr(s, cmd, self._control_dt)[:, -1]
+        t_abs = (s.steps_done * n + self._sample_index) / p.imu_rate_hz
         s.steps_done += 1
         return MotionChunk(
             t=t_abs,
-            quat=mid["quat"],
+            quat=quat,
             omega=omega,
             pos=p_0,
             acc=acc,
-            ypr=mid["head_ypr"],
+            ypr=head_ypr,
             step=step,
             step_time=step_time,
-            walking=mid["walking"],
+            walking=ev_all["walking"][:, samples],
             kinect=kin,
         )
+
+    def _time_grid(self, steps_done: int) -> tuple[NDArray, NDArray, NDArray]:
+        """Kinect frame offsets and absolute times of control step ``steps_done``, and every time
+        (s after the step start) :meth:`advance` evaluates the body at: the N sample times, the
+        same -h and +h (central differences of the analytic position, h = 0.1 ms), three points
+        for the last sample's left limit (the next intent is not known yet: backward second
+        difference), and the Kinect frames. The offsets repeat from step to step, so they are
+        built once per distinct pattern."""
+        p = self.params
+        tau_k, t_k = _frame_times(steps_done, p.control_rate_hz, p.kinect_rate_hz)
+        key = tau_k.tobytes()
+        times = self._grids.get(key)
+        if times is None:
+            n, h = p.samples_per_step, _DIFF_H
+            tau = np.arange(1, n + 1) / p.imu_rate_hz
+            times = np.concatenate([tau - h, tau, tau + h, tau[-1] - np.array([2 * h, h, 0.0]),
+                                    tau_k])  # fmt: skip
+            self._grids[key] = times
+        return tau_k, t_k, times
 
     def _heel_strike_times(self, s, cmd, t_b_all, k_now, step, t0) -> NDArray[np.float64]:
         """Exact heel-strike times for the samples flagged in ``step`` (NaN elsewhere)."""
@@ -610,9 +633,9 @@ class UserMotion:
         return np.where(step, t0 + tau, np.nan)
 
     def _hand_ypr(self, s: _State, cmd: dict, tau: NDArray[np.float64]) -> NDArray[np.float64]:
-        lim = np.deg2rad(np.asarray(self.params.hand_limits_deg))
+        lim = self._hand_limits
         ypr = s.hand_ypr[:, None, :] + cmd["hand_rates"][:, None, :] * tau[None, :, None]
-        return np.clip(ypr, -lim, lim)
+        return np.minimum(np.maximum(ypr, -lim), lim)
 
     def _skeleton(self, s: _State, cmd: dict, ev: dict, tau: NDArray[np.float64],
                   t_abs: NDArray[np.float64]) -> KinectChunk:  # fmt: skip
@@ -715,7 +738,7 @@ _HAND_OFFSETS = np.array([[0.08, 0.0, 0.0], [0.17, 0.0, 0.0], [0.06, 0.05, 0.0]]
 
 def _intent_arrays(intent: Intent) -> dict[str, NDArray[np.float64]]:
     """The intent's fields as float arrays, unchecked (see ``UserMotion.advance``)."""
-    return {f.name: np.asarray(getattr(intent, f.name), dtype=np.float64) for f in fields(Intent)}
+    return {name: np.asarray(getattr(intent, name), dtype=np.float64) for name in _INTENT_FIELDS}
 
 
 def _critically_damped(x0, v0, target, lag: float, tau) -> tuple[NDArray, NDArray]:

@@ -734,7 +734,7 @@ class RoomBatch:
         p = np.asarray(points, dtype=np.float64)
         if p.ndim != 3 or p.shape[0] != len(self) or p.shape[2] != 2:
             raise ValueError(f"points must have shape ({len(self)}, P, 2), got {p.shape}")
-        if not np.all(np.isfinite(p)):
+        if not np.isfinite(p).all():
             raise ValueError("points must be finite")
         return _sdf_fast(self._solids.above(z), p)
 
@@ -754,6 +754,23 @@ class RoomBatch:
         r = _check_range("max_range", max_range, 0.0, 1e6, lo_open=True)
         u = np.stack([np.cos(a), np.sin(a)], axis=-1)
         return _ray_cast_fast(self._solids.above(z), o, u, r)
+
+    def ray_fan(
+        self, positions: NDArray[np.float64], headings: NDArray[np.float64],
+        offsets: NDArray[np.float64], max_range: float,
+    ) -> NDArray[np.float64]:  # fmt: skip
+        """Ray distances ``(N, R)`` (m) from each room's point ``positions`` (N, 2) along
+        ``headings`` (N,) + ``offsets`` (R,) (rad): :meth:`ray_cast` for the env's per-step fan
+        of rays from the virtual head, with its checks reduced to finiteness (the env's arrays
+        have the shapes by construction)."""
+        if not (np.isfinite(positions).all() and np.isfinite(headings).all()):
+            raise ValueError("ray_fan positions and headings must be finite")
+        angles = headings[:, None] + offsets[None, :]
+        u = np.empty((*angles.shape, 2))
+        np.cos(angles, out=u[..., 0])
+        np.sin(angles, out=u[..., 1])
+        o = np.broadcast_to(positions[:, None, :], u.shape)
+        return _ray_cast_fast(self._solids, o, u, float(max_range))
 
 
 def tile_origins(n: int, spacing: float = 30.0) -> NDArray[np.float64]:

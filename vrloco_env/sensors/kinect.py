@@ -977,7 +977,11 @@ class KinectV2:
         return tt.copy(), np.ascontiguousarray(jw), q
 
     def capture(
-        self, t: ArrayLike, joints_world: ArrayLike, hand_quat_world: ArrayLike
+        self,
+        t: ArrayLike,
+        joints_world: ArrayLike,
+        hand_quat_world: ArrayLike,
+        validated: bool = False,
     ) -> KinectFrames:
         """Sense M frames of the target user (and the bystanders).
 
@@ -988,6 +992,10 @@ class KinectV2:
             hand_quat_world: the target's true right-hand orientation, hand frame -> world,
                 (B, M, 4), finite and non-zero.
 
+            validated: the caller promises float64 C-contiguous arrays of those shapes, finite,
+                with unit quaternions (the env's motion model makes them so): the checks are
+                skipped.
+
         Returns:
             The delivered frames (delayed by ``latency_frames``) and the undelayed truth.
         """
@@ -996,7 +1004,11 @@ class KinectV2:
             raise RuntimeError(
                 f"call KinectV2.reset() before capture() (users {missing} never were)"
             )
-        t, jw, qw = self._validate(t, joints_world, hand_quat_world)
+        if validated:
+            jw, qw = joints_world, hand_quat_world
+            t = np.broadcast_to(t, (self.batch_size, jw.shape[1])).copy()
+        else:
+            t, jw, qw = self._validate(t, joints_world, hand_quat_world)
         B, M, K = self.batch_size, jw.shape[1], MAX_BODIES
         # One draw per call, a fixed block of normals per frame (layout in _kinect_numba), so
         # that a capture in chunks equals one capture.
