@@ -371,7 +371,7 @@ class StepDetector:
             a = a[:, None, :]
         if a.ndim != 3 or a.shape[0] != b or a.shape[2] != 3:
             raise ValueError(f"acc must have shape ({b}, n, 3) or ({b}, 3), got {a.shape}")
-        return self.update_norm(np.sqrt(np.einsum("bni,bni->bn", a, a)))
+        return self._run(np.sqrt(np.einsum("bni,bni->bn", a, a)))  # a norm: >= 0 or NaN
 
     def update_norm(self, norm: ArrayLike) -> GaitChunk:
         """Process specific-force norms |f| (m/s^2), (B, n) or (B,) for one sample."""
@@ -383,7 +383,11 @@ class StepDetector:
             raise ValueError(f"norm must have shape ({b}, n) or ({b},), got {x.shape}")
         if np.any(x < 0.0):
             raise ValueError("norm must be >= 0 m/s^2 (it is a vector norm)")
-        x = np.ascontiguousarray(x)
+        return self._run(np.ascontiguousarray(x))
+
+    def _run(self, x: NDArray[np.float64]) -> GaitChunk:
+        """The detector over checked norms ``x`` (B, n), C-contiguous."""
+        b = self.batch_size
         n = x.shape[1]
         state = np.zeros((b, n), dtype=np.int8)
         steps = np.zeros((b, n), dtype=np.int8)

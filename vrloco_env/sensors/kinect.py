@@ -1006,7 +1006,7 @@ class KinectV2:
             )
         if validated:
             jw, qw = joints_world, hand_quat_world
-            t = np.broadcast_to(t, (self.batch_size, jw.shape[1])).copy()
+            t = t[None, :].repeat(self.batch_size, 0) if t.ndim == 1 else t.copy()
         else:
             t, jw, qw = self._validate(t, joints_world, hand_quat_world)
         B, M, K = self.batch_size, jw.shape[1], MAX_BODIES
@@ -1045,7 +1045,7 @@ class KinectV2:
             out = {k: v[:, :M] for k, v in joined.items()}
             self._delay = {k: v[:, M:].copy() for k, v in joined.items()}
         truth = KinectTruth(
-            slot=np.repeat(self._slots[:, :1], M, axis=1),
+            slot=self._slots[:, :1].repeat(M, 1),
             joints=truth_joints,
             hand_quat=truth_hand,
         )
