@@ -237,3 +237,31 @@ def test_compiled_evaluation_matches_the_numpy_reference():
     np.testing.assert_array_equal(fast.step, ref.step)
     np.testing.assert_allclose(fast.kinect.joints, ref.kinect.joints, atol=1e-12)
     np.testing.assert_allclose(fast.kinect.hand_quat, ref.kinect.hand_quat, atol=1e-12)
+
+
+def test_overground_walking_follows_the_heading_and_its_acceleration_integrates_to_it():
+    """Overground (pose_source="visual_inertial"): the body covers stride * cadence per second
+    along its yaw, and the linear acceleration the IMU senses integrates back to the path."""
+    p = MotionParams(imu_rate_hz=1000.0, overground=True, stride_m=0.7)
+    m = UserMotion(p, BatchRng.from_seeds([0, 1]))
+    m.reset(yaw=[0.0, np.pi / 2], base=[(1.0, 2.0), (0.0, 0.0)])
+    chunks = [m.advance(Intent(cadence=1.8, turn_rate=[0.0, 0.5])) for _ in range(60)]
+    rec = MotionRecord.concatenate(chunks)
+    dt = 1.0 / p.imu_rate_hz
+    v = np.gradient(rec.pos, dt, axis=1)
+    speed = np.linalg.norm(v[:, -200:-1, :2], axis=-1).mean(axis=1)
+    np.testing.assert_allclose(speed, 0.7 * 1.8, rtol=0.02)
+    # User 0 walks straight east (yaw 0): x grows ~1.26 m/s, y stays within the sway.
+    assert rec.pos[0, -1, 0] - rec.pos[0, 0, 0] > 5.0
+    assert abs(rec.pos[0, -1, 1] - rec.pos[0, 0, 1]) < 0.1
+    # User 1 starts north and turns left: it ends up west of where it started.
+    assert rec.pos[1, -1, 0] < -1.0
+    # Trapezoid integration of the sensed acceleration reproduces the velocity of the path.
+    vi = v[:, :1] + np.concatenate(
+        [np.zeros((2, 1, 3)), np.cumsum(0.5 * (rec.acc[:, 1:] + rec.acc[:, :-1]) * dt, axis=1)],
+        axis=1,
+    )
+    assert np.abs(vi[:, 1:-1] - v[:, 1:-1]).max() < 0.01
+    # In place (the default) the body stays within the sway of its standing place.
+    rec0 = walk(1.8, seconds=6.0)
+    assert np.abs(rec0.pos[0, :, :2] - rec0.pos[0, 0, :2]).max() < 0.15

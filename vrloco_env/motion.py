@@ -44,6 +44,7 @@ right hand (left), z out of the back of the hand (up when palm-down).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, fields
 
 import numpy as np
@@ -70,6 +71,7 @@ __all__ = [
 _PULSE_KAPPA = 3.0  # von Mises concentration of the heel-strike acceleration pulse
 _PULSE_HARMONICS = 24
 _DIFF_H = 1e-4  # s, central-difference step for the head's linear acceleration
+_GL_NODES, _GL_WEIGHTS = np.polynomial.legendre.leggauss(12)  # overground walking quadrature
 
 
 def _pulse_coefficients() -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -134,6 +136,15 @@ class MotionParams:
     """Forehead IMU position (m) in the head frame relative to the neck pivot."""
     style_spread: float = 0.1
     """Relative spread (1-sigma) of each user's step-impact and sway style, drawn at reset."""
+    overground: bool = False
+    """False (default): the user steps in place, as in seed 000 — the virtual body moves by the
+    estimated steps. True: the user really walks through the tracked space (seed 004's helmet
+    users; the env's ``pose_source="visual_inertial"``): the body advances along its heading at
+    ``stride_m`` per step, with the speed following the cadence with lag ``speed_lag_s``."""
+    stride_m: float = 0.65
+    """Distance (m) covered per step when walking overground, in [0.2, 1.2]."""
+    speed_lag_s: float = 0.4
+    """Time constant (s) of the overground walking speed following cadence * stride_m."""
 
     def __post_init__(self) -> None:
         def check(name: str, ok: bool, allowed: str) -> None:
@@ -161,6 +172,9 @@ class MotionParams:
         check("gesture_lag_s", 0.0 < self.gesture_lag_s <= 5.0, "in (0, 5] s")
         check("neck_height_m", 0.8 <= self.neck_height_m <= 2.2, "in [0.8, 2.2] m")
         check("style_spread", 0.0 <= self.style_spread <= 0.5, "in [0, 0.5]")
+        check("overground", isinstance(self.overground, bool | np.bool_), "True or False")
+        check("stride_m", 0.2 <= self.stride_m <= 1.2, "in [0.2, 1.2] m")
+        check("speed_lag_s", 0.01 <= self.speed_lag_s <= 5.0, "in [0.01, 5] s")
 
     @property
     def samples_per_step(self) -> int:
@@ -286,6 +300,7 @@ class _State:
     base: NDArray[np.float64]  # (B, 2) standing place in the tracked space (m)
     impact_scale: NDArray[np.float64]  # per-user style factors
     sway_scale: NDArray[np.float64]
+    speed: NDArray[np.float64]  # overground walking speed (m/s); 0 in place
     steps_done: int = 0  # control steps since reset; time is steps_done / control_rate_hz
 
     def time(self, rate: float) -> float:
@@ -364,6 +379,7 @@ class UserMotion:
             base=_batch(base, (u, 2), "base"),
             impact_scale=style[:, 0],
             sway_scale=style[:, 1],
+            speed=np.zeros(u),
         )
         if self._state is None or rows.size == b:
             self._state = fresh  # the clock restarts at 0
@@ -540,6 +556,8 @@ class UserMotion:
         # One evaluation at every time needed (see _time_grid): the samples, +-h around them for
         # the linear acceleration, the last sample's left limit, and the Kinect frames.
         ev_all = self._evaluate(s, cmd, times)
+        if p.overground:
+            walked, speed_end = self._overground(s, cmd, ev_all, times)
         h = _DIFF_H
         imu_pos = ev_all["imu_pos"]
         p_m, p_0, p_p = imu_pos[:, :n], imu_pos[:, n : 2 * n], imu_pos[:, 2 * n : 3 * n]
@@ -584,6 +602,9 @@ class UserMotion:
         s.gesture_phase = np.mod(ev_all["g_phase"][:, end, :], 2.0 * np.pi)
         s.lean = ev_all["lean"][:, end]
         s.hand_ypr = self._hand_ypr(s, cmd, self._control_dt)[:, -1]
+        if p.overground:
+            s.base = s.base + walked
+            s.speed = speed_end
         t_abs = (s.steps_done * n + self._sample_index) / p.imu_rate_hz
         s.steps_done += 1
         return MotionChunk(
@@ -598,6 +619,40 @@ class UserMotion:
             walking=ev_all["walking"][:, samples],
             kinect=kin,
         )
+
+    def _overground(
+        self, s: _State, cmd: dict, ev: dict, times: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Walk the body through the tracked space: shift ``ev``'s neck and IMU positions (in
+        place) by the distance walked since the step start at each of ``times``.
+
+        The speed follows ``stride_m * cadence`` with a first-order lag; the direction is the
+        body yaw (closed form, as in :meth:`_evaluate_reference`). The walked offset
+        ``int_0^tau v(t) [cos yaw(t), sin yaw(t)] dt`` is integrated by 12-point Gauss-Legendre
+        quadrature on [0, tau] — exact to rounding for a 0.1 s step — so the central differences
+        of the positions give the true linear acceleration the IMU senses.
+
+        Returns:
+            The offset at the step's end (B, 2) m and the speed there (B,) m/s.
+        """
+        p = self.params
+        dt = 1.0 / p.control_rate_hz
+        t_all = np.append(times, dt)  # the evaluation times and the step's end
+        nodes = 0.5 * (_GL_NODES + 1.0)  # on [0, 1]
+        tq = t_all[:, None] * nodes[None, :]  # (T, Q) quadrature times
+        v0 = s.speed[:, None, None]
+        vc = (p.stride_m * cmd["cadence"])[:, None, None]
+        speed = vc + (v0 - vc) * np.exp(-tq / p.speed_lag_s)  # (B, T, Q)
+        r0, rc = s.yaw_rate[:, None, None], cmd["turn_rate"][:, None, None]
+        yaw = s.yaw[:, None, None] + rc * tq + (r0 - rc) * p.turn_lag_s * (
+            1.0 - np.exp(-tq / p.turn_lag_s)
+        )
+        w = 0.5 * t_all[None, :, None] * _GL_WEIGHTS * speed  # (B, T, Q)
+        off = np.stack([(w * np.cos(yaw)).sum(-1), (w * np.sin(yaw)).sum(-1)], -1)  # (B, T, 2)
+        ev["neck"][..., :2] += off[:, :-1]
+        ev["imu_pos"][..., :2] += off[:, :-1]
+        speed_end = (vc + (v0 - vc) * math.exp(-dt / p.speed_lag_s))[:, 0, 0]
+        return off[:, -1], speed_end
 
     def _time_grid(self, steps_done: int) -> tuple[NDArray, NDArray, NDArray]:
         """Kinect frame offsets and absolute times of control step ``steps_done``, and every time
