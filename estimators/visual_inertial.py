@@ -1,0 +1,751 @@
+"""Loosely coupled visual-inertial helmet pose: an error-state Kalman filter (seed 004), batched.
+
+Source: seed 004 section 3 ("組合測(cè)量算法"): a Kalman filter with the inertial solution as the
+prediction and the visual pose as the measurement, and an adaptive variant that re-estimates the
+noise statistics from the innovations (Sage-Husa) for time-varying visual noise. The paper gives
+no state vector, Jacobians or noise values; the filter below is the standard loosely coupled
+error-state filter (Solà, "Quaternion kinematics for the error-state Kalman filter", 2017, with
+the *global* attitude error of its section 7) and every choice is stated here.
+
+State
+-----
+Nominal, per user: position ``p`` (m, world ENU), velocity ``v`` (m/s), attitude ``q`` (body ->
+world), accelerometer bias ``b_a`` (m/s^2), gyro bias ``b_g`` (rad/s). Error state (15):
+``dx = [dp, dv, dtheta, db_a, db_g]`` with ``p = p_hat + dp``, ``q = exp(dtheta) ⊗ q_hat``
+(``dtheta`` a small rotation in the *world* frame, so that it is what the camera's attitude
+residual measures directly) and ``b = b_hat + db``.
+
+Prediction (every IMU sample, interval ``dt``)
+----------------------------------------------
+* Nominal: :mod:`estimators.strapdown`'s mechanisation (RK4 attitude with the gyro linear between
+  samples, end-point trapezoid for v and p) with the bias estimates removed from both ends.
+* Error dynamics, with ``R = R(q_hat)`` and ``a_f = R (f - b_a)`` the world specific force at the
+  end of the interval: ``dp' = dv``, ``dv' = -[a_f x] dtheta - R db_a - R n_a``,
+  ``dtheta' = -R db_g - R n_g``, ``db_a' = n_ba``, ``db_g' = n_bg``. First-order transition
+  ``F = I + A dt`` and ``Q = diag(0, s_a^2, s_g^2, s_ba^2, s_bg^2) dt`` (the isotropic noise is
+  unchanged by ``R``): ``s_a``, ``s_g`` are the white-noise densities, ``s_ba``, ``s_bg`` the
+  bias random walks. Both are evaluated at the end of the interval (first order in dt).
+* ``P <- F P F^T + Q`` every sample: at 1 kHz ``|A| dt`` is < 1e-2 even in fast head turns, so a
+  lower covariance rate would save little and the hot loop is compiled anyway.
+
+Measurement (a visual pose, :mod:`estimators.visual_pose`)
+----------------------------------------------------------
+``z = [p_meas - p_hat, log(q_meas ⊗ q_hat^-1)]`` (6), ``H = [[I 0 0 0 0], [0 0 I 0 0]]``,
+``S = H P H^T + R``. Gate: frames whose normalised innovation squared ``nu^T S^-1 nu`` exceeds the
+chi-square quantile (6 dof, ``gate_probability``) are rejected and counted. A filter that rejects
+everything never recovers (its P stays small while the truth walks away, or the visual noise has
+grown): after ``gate_max_consecutive`` rejections in a row the next frame is taken anyway (counted
+in ``forced``), which also lets the adaptive R see a noise increase. Gain ``K = P H^T S^-1``,
+Joseph form ``P <- (I - K H) P (I - K H)^T + K R K^T``, injection (``q <- exp(dtheta) ⊗ q``), and
+the error reset ``P <- G P G^T`` with ``G = I + [dtheta/2 x]`` on the attitude block (Solà eq 287,
+global error).
+
+Measurements apply at the current filter time: the caller feeds the IMU samples up to the camera
+frame's instant, then the frame (the camera clock quantised to the IMU's 1 ms; a real system would
+also model the exposure delay).
+
+Adaptive noise (``adaptive="sage_husa"``)
+----------------------------------------
+Sage-Husa fading-memory estimate of R from the innovations, before the gain of the same frame:
+``d_k = (1 - b) / (1 - b^(k+1))``, ``R_k = (1 - d_k) R_{k-1} + d_k (nu nu^T - H P^- H^T)``. The raw
+estimate can be non-positive (``nu nu^T`` is rank one and ``H P H^T`` is subtracted), so:
+
+* diagonal mode (default, ``sage_husa_diagonal=True``): only the diagonal is estimated and each
+  entry is clamped to ``[r_floor^2, r_ceiling^2]`` (position and attitude bounds separately): a
+  6x6 full estimate from rank-one terms is noisy, and the camera's position and attitude errors
+  are correlated mostly through the geometry, which the filter need not model.
+* full mode: the symmetrised estimate's eigenvalues are clamped to ``[min floor^2, max ceiling^2]``.
+
+Departure from the literal formula: ``k`` starts at ``r_prior_frames`` instead of 0. With ``k = 0``,
+``d_0 = 1`` and the first frame's single outer product replaces the configured R0 (then
+``d_1 = 1/(1 + b)``...), so the first frames' R is mostly noise; starting at ``k0`` weighs R0 as
+``k0`` frames' worth of evidence. Rejected frames do not enter the estimate (outliers would
+inflate it); forced frames do.
+
+Adaptive Q (``adapt_q=True``): one scale factor on Q per user from the normalised innovation,
+``alpha <- clip(alpha (1 + d_q (nis / 6 - 1)), q_scale_bounds)`` with its own slower forgetting
+factor ``q_forgetting``: ``E[nis] = 6`` when the filter is consistent, so alpha grows while the
+prediction is over-confident and shrinks when it is under-confident. It is identifiable only
+while ``H P^- H^T`` is a visible part of ``S`` (otherwise nis hardly depends on alpha and alpha
+drifts slowly between its bounds); with both adaptations on, R (faster) absorbs measurement noise
+changes and Q (slower) persistent prediction errors.
+
+The per-sample prediction and the update run in :mod:`estimators._visual_inertial_numba`;
+:func:`eskf_predict_reference` and :func:`eskf_update_reference` are the readable numpy versions
+the tests compare them with (1e-10). 120 s at 1 kHz with 120 Hz frames (B = 1, streaming calls)
+takes about 0.5 s.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field, replace
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.stats import chi2
+
+from estimators import _visual_inertial_numba as _k
+from estimators.batching import stream_rows
+from estimators.rotations import (
+    GRAVITY,
+    ensure_quaternion,
+    quat_conjugate,
+    quat_from_rotvec,
+    quat_multiply,
+    quat_normalize,
+    quat_to_matrix,
+    quat_to_rotvec,
+    skew,
+)
+from estimators.strapdown import (
+    _as_array,
+    _check_batch_size,
+    _check_rate,
+    _rows_arg,
+    mechanisation_step,
+)
+
+__all__ = [
+    "STATUS_ACCEPTED",
+    "STATUS_FORCED",
+    "STATUS_REJECTED",
+    "STATUS_SKIPPED",
+    "VioConfig",
+    "VioState",
+    "VisualInertialFilter",
+    "eskf_predict_reference",
+    "eskf_update_reference",
+]
+
+STATUS_SKIPPED = _k.STATUS_SKIPPED
+STATUS_ACCEPTED = _k.STATUS_ACCEPTED
+STATUS_REJECTED = _k.STATUS_REJECTED
+STATUS_FORCED = _k.STATUS_FORCED
+
+_ADAPTIVE = ("fixed", "sage_husa")
+_MG = 1e-3 * GRAVITY
+_DEG = math.pi / 180.0
+_IDX = np.array(_k._IDX)
+
+
+@dataclass(frozen=True)
+class VioConfig:
+    """Parameters of :class:`VisualInertialFilter`, with units, defaults and reasons.
+
+    IMU defaults follow the consumer MEMS of ``vrloco_env``'s IMU presets (Bosch BMI160: accel
+    0.18 mg/sqrt(Hz), gyro 0.007 deg/s/sqrt(Hz); bias stability 5 mg and 0.25 deg/s with a 100 s
+    correlation time, turned into the random walk ``sigma sqrt(2 / tau)`` that has the same
+    short-term growth).
+
+    Attributes:
+        accel_noise_density: accelerometer white noise, m/s^2/sqrt(Hz). Default 0.18 mg/sqrt(Hz).
+        gyro_noise_density: gyro white noise, rad/s/sqrt(Hz). Default 0.007 deg/s/sqrt(Hz).
+        accel_bias_walk: accelerometer bias random walk, m/s^2/sqrt(s). Default
+            ``5 mg * sqrt(2 / 100 s)`` = 6.9e-3.
+        gyro_bias_walk: gyro bias random walk, rad/s/sqrt(s). Default
+            ``0.25 deg/s * sqrt(2 / 100 s)`` = 6.2e-4.
+        init_position_sigma: initial position std, m. Default 0.05 (a visual fix).
+        init_velocity_sigma: initial velocity std, m/s. Default 0.1 (standing user).
+        init_attitude_sigma: initial attitude std, rad. Default 2 deg.
+        init_accel_bias_sigma: initial accelerometer bias std, m/s^2. Default 20 mg (BMI160
+            turn-on offset, 1 sigma).
+        init_gyro_bias_sigma: initial gyro bias std, rad/s. Default 1.5 deg/s (BMI160).
+        position_sigma: visual position noise, m (R0 diagonal sqrt). Default 0.025: the seed's
+            "+-0.05 m" ideal visual accuracy read as a 2-sigma bound.
+        attitude_sigma: visual attitude noise per axis, rad. Default 0.5 deg (seed: "+-1 deg").
+        adaptive: ``"fixed"`` (R stays R0) or ``"sage_husa"`` (module docstring).
+        forgetting: Sage-Husa forgetting factor b, in [0.9, 0.9999] (typ. 0.95-0.999). Default
+            0.98: a memory of about ``1 / (1 - b)`` = 50 frames (0.4 s at 120 Hz), short enough to
+            follow a lighting change, long enough to average 50 rank-one terms.
+        sage_husa_diagonal: estimate only the diagonal of R (default True, recommended).
+        r_prior_frames: frames of evidence the initial R0 (and Q scale 1) count for, >= 0.
+            Default 50 (= ``1 / (1 - b)``).
+        adapt_q: adapt a Q scale factor from the normalised innovations. Default False.
+        q_forgetting: forgetting factor of the Q scale, in [0.9, 0.99999]. Default 0.998
+            (about 4 s at 120 Hz): slower than R so that the two do not chase each other.
+        q_scale_bounds: (low, high) bounds of the Q scale, 0 < low <= 1 <= high. Default
+            (0.1, 100).
+        gate_probability: chi-square quantile of the 6-dof innovation gate in (0.5, 1), or None
+            for no gate. Default 0.999 (threshold 22.46): a consistent filter rejects 0.1 % of
+            good frames.
+        gate_max_consecutive: rejections in a row after which a frame is taken anyway, >= 1.
+            Default 12 (0.1 s at 120 Hz): long against isolated wrong matches, short against
+            an IMU-only drift.
+        r_floor: (position m, attitude rad) lower bound of the adapted R's standard deviations.
+            Default (1 mm, 0.05 deg): no camera in the seed is better.
+        r_ceiling: (position m, attitude rad) upper bound. Default (0.5 m, 10 deg): beyond that
+            a frame carries no information the IMU lacks over 0.1 s.
+        gravity: gravity magnitude, m/s^2, in [9.0, 10.5]. Default standard gravity.
+    """
+
+    accel_noise_density: float = 0.18 * _MG
+    gyro_noise_density: float = 0.007 * _DEG
+    accel_bias_walk: float = 5.0 * _MG * math.sqrt(2.0 / 100.0)
+    gyro_bias_walk: float = 0.25 * _DEG * math.sqrt(2.0 / 100.0)
+    init_position_sigma: float = 0.05
+    init_velocity_sigma: float = 0.1
+    init_attitude_sigma: float = 2.0 * _DEG
+    init_accel_bias_sigma: float = 20.0 * _MG
+    init_gyro_bias_sigma: float = 1.5 * _DEG
+    position_sigma: float = 0.025
+    attitude_sigma: float = 0.5 * _DEG
+    adaptive: str = "fixed"
+    forgetting: float = 0.98
+    sage_husa_diagonal: bool = True
+    r_prior_frames: int = 50
+    adapt_q: bool = False
+    q_forgetting: float = 0.998
+    q_scale_bounds: tuple[float, float] = (0.1, 100.0)
+    gate_probability: float | None = 0.999
+    gate_max_consecutive: int = 12
+    r_floor: tuple[float, float] = (1e-3, 0.05 * _DEG)
+    r_ceiling: tuple[float, float] = (0.5, 10.0 * _DEG)
+    gravity: float = GRAVITY
+    _packed: NDArray[np.float64] = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        positive = (
+            "accel_noise_density", "gyro_noise_density", "accel_bias_walk", "gyro_bias_walk",
+            "init_position_sigma", "init_velocity_sigma", "init_attitude_sigma",
+            "init_accel_bias_sigma", "init_gyro_bias_sigma", "position_sigma", "attitude_sigma",
+        )  # fmt: skip
+        for name in positive:
+            _check_float(self, name, 0.0, math.inf, open_low=True)
+        if self.adaptive not in _ADAPTIVE:
+            raise ValueError(f"adaptive must be one of {_ADAPTIVE}, got {self.adaptive!r}")
+        _check_float(self, "forgetting", 0.9, 0.9999)
+        _check_float(self, "q_forgetting", 0.9, 0.99999)
+        _check_float(self, "gravity", 9.0, 10.5)
+        for name in ("sage_husa_diagonal", "adapt_q"):
+            if not isinstance(getattr(self, name), (bool, np.bool_)):
+                raise ValueError(f"{name} must be a bool, got {getattr(self, name)!r}")
+        _check_int(self, "r_prior_frames", 0)
+        _check_int(self, "gate_max_consecutive", 1)
+        lo, hi = _pair(self, "q_scale_bounds")
+        if not (0.0 < lo <= 1.0 <= hi < math.inf):
+            raise ValueError(f"q_scale_bounds must satisfy 0 < low <= 1 <= high, got {(lo, hi)}")
+        f_pos, f_att = _pair(self, "r_floor")
+        c_pos, c_att = _pair(self, "r_ceiling")
+        if not (0.0 < f_pos <= self.position_sigma <= c_pos < math.inf):
+            raise ValueError(
+                "r_floor[0] <= position_sigma <= r_ceiling[0] (m, all > 0) is required, got "
+                f"{f_pos}, {self.position_sigma}, {c_pos}"
+            )
+        if not (0.0 < f_att <= self.attitude_sigma <= c_att < math.inf):
+            raise ValueError(
+                "r_floor[1] <= attitude_sigma <= r_ceiling[1] (rad, all > 0) is required, got "
+                f"{f_att}, {self.attitude_sigma}, {c_att}"
+            )
+        gp = self.gate_probability
+        if gp is not None and not (isinstance(gp, (int, float)) and 0.5 < gp < 1.0):
+            raise ValueError(f"gate_probability must be in (0.5, 1) or None, got {gp!r}")
+        prm = np.zeros(_k.N_PRM)
+        prm[_k.PRM_GRAVITY] = self.gravity
+        prm[_k.PRM_ACC_NOISE] = self.accel_noise_density
+        prm[_k.PRM_GYR_NOISE] = self.gyro_noise_density
+        prm[_k.PRM_ACC_WALK] = self.accel_bias_walk
+        prm[_k.PRM_GYR_WALK] = self.gyro_bias_walk
+        prm[_k.PRM_SAGE_HUSA] = 1.0 if self.adaptive == "sage_husa" else 0.0
+        prm[_k.PRM_FORGET] = self.forgetting
+        prm[_k.PRM_DIAGONAL] = 1.0 if self.sage_husa_diagonal else 0.0
+        prm[_k.PRM_PRIOR_FRAMES] = self.r_prior_frames
+        prm[_k.PRM_ADAPT_Q] = 1.0 if self.adapt_q else 0.0
+        prm[_k.PRM_Q_FORGET] = self.q_forgetting
+        prm[_k.PRM_Q_MIN] = lo
+        prm[_k.PRM_Q_MAX] = hi
+        prm[_k.PRM_GATE] = math.inf if gp is None else float(chi2.ppf(gp, 6))
+        prm[_k.PRM_GATE_MAX] = self.gate_max_consecutive
+        prm[_k.PRM_R_FLOOR_POS] = f_pos**2
+        prm[_k.PRM_R_FLOOR_ATT] = f_att**2
+        prm[_k.PRM_R_CEIL_POS] = c_pos**2
+        prm[_k.PRM_R_CEIL_ATT] = c_att**2
+        prm.flags.writeable = False
+        object.__setattr__(self, "_packed", prm)
+
+    def packed(self) -> NDArray[np.float64]:
+        """The parameters as the kernel's read-only float64 vector (``_visual_inertial_numba``)."""
+        return self._packed
+
+    @property
+    def gate_threshold(self) -> float:
+        """The chi-square threshold on the 6-dof NIS (inf without a gate)."""
+        return float(self._packed[_k.PRM_GATE])
+
+    @property
+    def r0(self) -> NDArray[np.float64]:
+        """(6, 6) initial R: ``diag(position_sigma^2 I, attitude_sigma^2 I)`` (m^2, rad^2)."""
+        return np.diag([self.position_sigma**2] * 3 + [self.attitude_sigma**2] * 3)
+
+    @property
+    def p0(self) -> NDArray[np.float64]:
+        """(15, 15) initial error-state covariance from the ``init_*_sigma`` fields."""
+        s = [self.init_position_sigma, self.init_velocity_sigma, self.init_attitude_sigma]
+        s += [self.init_accel_bias_sigma, self.init_gyro_bias_sigma]
+        return np.diag(np.repeat(np.square(s), 3))
+
+    def replace(self, **changes: Any) -> VioConfig:
+        """A copy with some fields changed (validated like the original)."""
+        return replace(self, **changes)
+
+    def as_dict(self) -> dict[str, Any]:
+        """The public fields as a plain dict."""
+        d = asdict(self)
+        d.pop("_packed", None)
+        return d
+
+
+def _check_float(cfg: object, name: str, lo: float, hi: float, open_low: bool = False) -> None:
+    v = getattr(cfg, name)
+    ok = isinstance(v, (int, float, np.floating)) and not isinstance(v, bool) and math.isfinite(v)
+    ok = ok and (v > lo if open_low else v >= lo) and v <= hi
+    if not ok:
+        rng = f"({lo}, {hi}]" if open_low else f"[{lo}, {hi}]"
+        raise ValueError(f"{name} must be a finite number in {rng}, got {v!r}")
+
+
+def _check_int(cfg: object, name: str, lo: int) -> None:
+    v = getattr(cfg, name)
+    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
+        raise ValueError(f"{name} must be an int >= {lo}, got {v!r}")
+
+
+def _pair(cfg: object, name: str) -> tuple[float, float]:
+    v = getattr(cfg, name)
+    try:
+        a, b = (float(x) for x in v)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a pair of numbers, got {v!r}") from None
+    return a, b
+
+
+@dataclass
+class VioState:
+    """The filter's arrays (the kernels' layout, :mod:`estimators._visual_inertial_numba`).
+
+    Attributes:
+        x: (B, 22) nominal state: p, v, q, b_a, b_g and the previous raw IMU sample.
+        P: (B, 15, 15) error-state covariance (m, m/s, rad, m/s^2, rad/s).
+        R: (B, 6, 6) measurement covariance (m^2, rad^2).
+        aux: (B, 8) counters and adaptive factors (``AUX_*``).
+    """
+
+    x: NDArray[np.float64]
+    P: NDArray[np.float64]
+    R: NDArray[np.float64]
+    aux: NDArray[np.float64]
+
+    def copy(self) -> VioState:
+        """A deep copy."""
+        return VioState(self.x.copy(), self.P.copy(), self.R.copy(), self.aux.copy())
+
+
+# ------------------------------------------------------------------------------------------------
+# Reference (numpy) implementation: vectorised over users, a Python loop over samples.
+# ------------------------------------------------------------------------------------------------
+
+
+def eskf_predict_reference(
+    state: VioState, gyr: NDArray, acc: NDArray, dt: float, config: VioConfig
+) -> tuple[NDArray, NDArray]:
+    """Readable numpy version of the prediction (mutates ``state``); returns per-sample p, q."""
+    x, P, aux = state.x, state.P, state.aux
+    b, n = gyr.shape[:2]
+    eye3 = np.eye(3)
+    out_p = np.empty((b, n, 3))
+    out_q = np.empty((b, n, 4))
+    for k in range(n):
+        has = aux[:, _k.AUX_HAS_PREV, None] != 0.0
+        g0 = np.where(has, x[:, _k.X_GYR : _k.X_GYR + 3], gyr[:, k])
+        f0 = np.where(has, x[:, _k.X_ACC : _k.X_ACC + 3], acc[:, k])
+        ba = x[:, _k.X_BA : _k.X_BA + 3]
+        bg = x[:, _k.X_BG : _k.X_BG + 3]
+        q1, v1, p1 = mechanisation_step(
+            x[:, _k.X_Q : _k.X_Q + 4], x[:, _k.X_V : _k.X_V + 3], x[:, _k.X_P : _k.X_P + 3],
+            g0, f0, gyr[:, k], acc[:, k], dt, config.gravity, bg, ba,
+        )  # fmt: skip
+        x[:, _k.X_Q : _k.X_Q + 4] = q1
+        x[:, _k.X_V : _k.X_V + 3] = v1
+        x[:, _k.X_P : _k.X_P + 3] = p1
+        x[:, _k.X_GYR : _k.X_GYR + 3] = gyr[:, k]
+        x[:, _k.X_ACC : _k.X_ACC + 3] = acc[:, k]
+        aux[:, _k.AUX_HAS_PREV] = 1.0
+        r1 = quat_to_matrix(q1)
+        af = np.einsum("bij,bj->bi", r1, acc[:, k] - ba)
+        a = np.zeros((b, 15, 15))
+        a[:, 0:3, 3:6] = eye3
+        a[:, 3:6, 6:9] = -skew(af)
+        a[:, 3:6, 9:12] = -r1
+        a[:, 6:9, 12:15] = -r1
+        f = np.eye(15) + dt * a
+        s = aux[:, _k.AUX_Q_SCALE] * dt
+        qd = np.repeat(
+            [0.0, config.accel_noise_density**2, config.gyro_noise_density**2,
+             config.accel_bias_walk**2, config.gyro_bias_walk**2], 3,
+        )  # fmt: skip
+        P[:] = f @ P @ np.swapaxes(f, -1, -2) + s[:, None, None] * np.diag(qd)
+        P[:] = 0.5 * (P + np.swapaxes(P, -1, -2))
+        out_p[:, k] = p1
+        out_q[:, k] = q1
+    return out_p, out_q
+
+
+def eskf_update_reference(
+    state: VioState, pos: NDArray, quat: NDArray, valid: NDArray, config: VioConfig
+) -> NDArray[np.int8]:
+    """Readable numpy version of the update (mutates ``state``); returns the status codes."""
+    x, P, R, aux = state.x, state.P, state.R, state.aux
+    prm = config.packed()
+    b = x.shape[0]
+    status = np.full(b, STATUS_SKIPPED, dtype=np.int8)
+    rows = np.flatnonzero(valid)
+    if rows.size == 0:
+        return status
+    q_hat = x[rows, _k.X_Q : _k.X_Q + 4]
+    nu = np.concatenate(
+        [
+            pos[rows] - x[rows, _k.X_P : _k.X_P + 3],
+            quat_to_rotvec(quat_multiply(quat_normalize(quat[rows]), quat_conjugate(q_hat))),
+        ],
+        axis=-1,
+    )
+    hph = P[rows][:, _IDX][:, :, _IDX]
+    s = hph + R[rows]
+    nis = np.einsum("bi,bi->b", nu, np.linalg.solve(s, nu[..., None])[..., 0])
+    aux[rows, _k.AUX_NIS] = nis
+    out = nis > prm[_k.PRM_GATE]
+    forced = out & (aux[rows, _k.AUX_CONSEC] >= prm[_k.PRM_GATE_MAX])
+    rej = out & ~forced
+    aux[rows[rej], _k.AUX_CONSEC] += 1.0
+    aux[rows[rej], _k.AUX_REJECTED] += 1.0
+    status[rows[rej]] = STATUS_REJECTED
+    aux[rows[forced], _k.AUX_FORCED] += 1.0
+    take = ~rej
+    r = rows[take]
+    if r.size == 0:
+        return status
+    nu, hph, s, nis = nu[take], hph[take], s[take], nis[take]
+    status[r] = np.where(forced[take], STATUS_FORCED, STATUS_ACCEPTED)
+    aux[r, _k.AUX_CONSEC] = 0.0
+    k = aux[r, _k.AUX_K]
+    if config.adapt_q:
+        dq = (1.0 - config.q_forgetting) / (1.0 - config.q_forgetting ** (k + 1.0))
+        qs = aux[r, _k.AUX_Q_SCALE] * (1.0 + dq * (nis / 6.0 - 1.0))
+        aux[r, _k.AUX_Q_SCALE] = np.clip(qs, prm[_k.PRM_Q_MIN], prm[_k.PRM_Q_MAX])
+    rr = R[r]
+    if config.adaptive == "sage_husa":
+        d = ((1.0 - config.forgetting) / (1.0 - config.forgetting ** (k + 1.0)))[:, None, None]
+        raw = (1.0 - d) * rr + d * (nu[:, :, None] * nu[:, None, :] - hph)
+        lo = np.repeat([prm[_k.PRM_R_FLOOR_POS], prm[_k.PRM_R_FLOOR_ATT]], 3)
+        hi = np.repeat([prm[_k.PRM_R_CEIL_POS], prm[_k.PRM_R_CEIL_ATT]], 3)
+        if config.sage_husa_diagonal:
+            rr = np.clip(np.diagonal(raw, axis1=1, axis2=2), lo, hi)[:, :, None] * np.eye(6)
+        else:
+            raw = 0.5 * (raw + np.swapaxes(raw, -1, -2))
+            w, vec = np.linalg.eigh(raw)
+            w = np.clip(w, lo.min(), hi.max())
+            rr = np.einsum("bik,bk,bjk->bij", vec, w, vec)
+        R[r] = rr
+        s = hph + rr
+    aux[r, _k.AUX_K] = k + 1.0
+    pr = P[r]
+    pht = pr[:, :, _IDX]  # P H^T
+    gain = np.swapaxes(np.linalg.solve(s, np.swapaxes(pht, -1, -2)), -1, -2)
+    dx = np.einsum("bij,bj->bi", gain, nu)
+    ikh = np.broadcast_to(np.eye(15), pr.shape).copy()
+    ikh[:, :, _IDX] -= gain
+    pr = ikh @ pr @ np.swapaxes(ikh, -1, -2) + gain @ rr @ np.swapaxes(gain, -1, -2)
+    pr = 0.5 * (pr + np.swapaxes(pr, -1, -2))
+    x[r, _k.X_P : _k.X_P + 3] += dx[:, 0:3]
+    x[r, _k.X_V : _k.X_V + 3] += dx[:, 3:6]
+    x[r, _k.X_BA : _k.X_BA + 3] += dx[:, 9:12]
+    x[r, _k.X_BG : _k.X_BG + 3] += dx[:, 12:15]
+    x[r, _k.X_Q : _k.X_Q + 4] = quat_normalize(
+        quat_multiply(quat_from_rotvec(dx[:, 6:9]), x[r, _k.X_Q : _k.X_Q + 4])
+    )
+    g = np.broadcast_to(np.eye(15), pr.shape).copy()
+    g[:, 6:9, 6:9] += skew(0.5 * dx[:, 6:9])
+    P[r] = g @ pr @ np.swapaxes(g, -1, -2)
+    aux[r, _k.AUX_UPDATES] += 1.0
+    return status
+
+
+# ------------------------------------------------------------------------------------------------
+# Public API.
+# ------------------------------------------------------------------------------------------------
+
+
+class VisualInertialFilter:
+    """Loosely coupled visual-inertial ESKF for B independent users (see the module docstring).
+
+    Args:
+        batch_size: number of users B, >= 1.
+        imu_rate_hz: IMU sampling rate, Hz (uniform).
+        config: filter parameters (default :class:`VioConfig`).
+
+    Until :meth:`reset`, every user starts at the origin, at rest, level, with zero biases.
+
+    Example:
+        >>> f = VisualInertialFilter(1, 1000.0)
+        >>> f.reset([0, 0, 1.7], [0, 0, 0], [1, 0, 0, 0])
+        >>> p, q = f.predict(np.zeros((1, 8, 3)), np.tile([0, 0, GRAVITY], (1, 8, 1)))
+        >>> status = f.update([[0.0, 0.0, 1.7]], [[1.0, 0.0, 0.0, 0.0]], [True])
+        >>> p.shape, int(status[0]), int(f.updates[0])
+        ((1, 8, 3), 1, 1)
+    """
+
+    def __init__(
+        self, batch_size: int, imu_rate_hz: float, config: VioConfig | None = None
+    ) -> None:
+        self.batch_size = _check_batch_size(batch_size)
+        self.imu_rate_hz = _check_rate(imu_rate_hz, "imu_rate_hz")
+        self.dt = 1.0 / self.imu_rate_hz
+        if config is None:
+            config = VioConfig()
+        if not isinstance(config, VioConfig):
+            raise ValueError(f"config must be a VioConfig, got {type(config).__name__}")
+        self.config = config
+        self._prm = config.packed()
+        b = self.batch_size
+        self.state = VioState(
+            x=np.zeros((b, _k.N_X)),
+            P=np.zeros((b, 15, 15)),
+            R=np.zeros((b, 6, 6)),
+            aux=np.zeros((b, _k.N_AUX)),
+        )
+        self.reset(np.zeros(3), np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0]))
+
+    def reset(
+        self,
+        p: ArrayLike,
+        v: ArrayLike,
+        q: ArrayLike,
+        mask: ArrayLike | None = None,
+        accel_bias: ArrayLike | None = None,
+        gyro_bias: ArrayLike | None = None,
+        gyr: ArrayLike | None = None,
+        acc: ArrayLike | None = None,
+    ) -> None:
+        """Restart some or all users at a given pose (covariances, R and counters to defaults).
+
+        Args:
+            p: (B, 3) or (3,) world position, m.
+            v: (B, 3) or (3,) world velocity, m/s.
+            q: (B, 4) or (4,) attitude body -> world (normalised here).
+            mask: users to reset, (B,) bool or indices; None: all. Only their rows are used.
+            accel_bias, gyro_bias: (B, 3) or (3,) initial bias estimates (m/s^2, rad/s), e.g.
+                from :func:`estimators.strapdown.static_gyro_bias`; None: zero.
+            gyr, acc: (B, 3) or (3,) the IMU sample at the reset instant (start of the first
+                interval); None: the first sample after the reset is held over the first interval.
+
+        Raises:
+            ValueError: shapes, non-finite values, a zero quaternion or a bad mask.
+        """
+        b = self.batch_size
+        rows = stream_rows(mask, b, "mask", unique=False)
+        qa = np.asarray(q, dtype=np.float64)
+        qa = ensure_quaternion(np.broadcast_to(qa, (b, 4)) if qa.shape == (4,) else qa, "q")
+        qa = _as_array(qa, "q", (b, 4))
+        pa = _rows_arg(p, "p", b, 3, np.zeros(3))
+        va = _rows_arg(v, "v", b, 3, np.zeros(3))
+        ba = _rows_arg(accel_bias, "accel_bias", b, 3, np.zeros(3))
+        bg = _rows_arg(gyro_bias, "gyro_bias", b, 3, np.zeros(3))
+        if (gyr is None) != (acc is None):
+            raise ValueError("gyr and acc at the reset instant must be given together (or neither)")
+        x = self.state.x
+        x[rows, _k.X_P : _k.X_P + 3] = pa[rows]
+        x[rows, _k.X_V : _k.X_V + 3] = va[rows]
+        x[rows, _k.X_Q : _k.X_Q + 4] = qa[rows]
+        x[rows, _k.X_BA : _k.X_BA + 3] = ba[rows]
+        x[rows, _k.X_BG : _k.X_BG + 3] = bg[rows]
+        aux = self.state.aux
+        aux[rows] = 0.0
+        aux[rows, _k.AUX_K] = self.config.r_prior_frames
+        aux[rows, _k.AUX_Q_SCALE] = 1.0
+        if gyr is None:
+            x[rows, _k.X_GYR :] = 0.0
+        else:
+            x[rows, _k.X_GYR : _k.X_GYR + 3] = _rows_arg(gyr, "gyr", b, 3, np.zeros(3))[rows]
+            x[rows, _k.X_ACC : _k.X_ACC + 3] = _rows_arg(acc, "acc", b, 3, np.zeros(3))[rows]
+            aux[rows, _k.AUX_HAS_PREV] = 1.0
+        self.state.P[rows] = self.config.p0
+        self.state.R[rows] = self.config.r0
+
+    def predict(self, gyr: ArrayLike, acc: ArrayLike) -> tuple[NDArray, NDArray]:
+        """Propagate every user through N IMU samples.
+
+        Args:
+            gyr: (B, N, 3) body angular rate, rad/s.
+            acc: (B, N, 3) specific force, m/s^2 (level at rest: ``[0, 0, +g]``).
+
+        Returns:
+            ``(p (B, N, 3), q (B, N, 4))``: the estimated head position (m) and attitude (body ->
+            world) after each sample.
+
+        Raises:
+            ValueError: wrong shapes or non-finite samples.
+        """
+        b = self.batch_size
+        g = _as_array(gyr, "gyr", (b, -1, 3))
+        a = _as_array(acc, "acc", g.shape)
+        n = g.shape[1]
+        out_p = np.empty((b, n, 3))
+        out_q = np.empty((b, n, 4))
+        s = self.state
+        _k.eskf_predict(
+            s.x, s.P, s.aux, np.ascontiguousarray(g), np.ascontiguousarray(a), self.dt, self._prm,
+            out_p, out_q,
+        )  # fmt: skip
+        return out_p, out_q
+
+    def update(self, pos: ArrayLike, quat: ArrayLike, valid: ArrayLike) -> NDArray[np.int8]:
+        """Correct with one visual pose per user, at the current filter time.
+
+        Args:
+            pos: (B, 3) measured head position, m (rows with ``valid`` False may be NaN).
+            quat: (B, 4) measured head attitude body -> world (any sign, normalised here).
+            valid: (B,) bool: which users have a pose this frame (e.g. ``VisualPoseBatch.ok``).
+
+        Returns:
+            (B,) int8 status: ``STATUS_SKIPPED`` (not valid), ``STATUS_ACCEPTED``,
+            ``STATUS_REJECTED`` (gated out), ``STATUS_FORCED`` (gated out but taken after
+            ``gate_max_consecutive`` rejections).
+
+        Raises:
+            ValueError: wrong shapes, a non-bool ``valid``, or non-finite / zero-norm values in a
+                valid row.
+        """
+        b = self.batch_size
+        ok = np.asarray(valid)
+        if ok.dtype != np.bool_ or ok.shape != (b,):
+            raise ValueError(f"valid must be a ({b},) bool array, got {ok.dtype} {ok.shape}")
+        pm = _as_array(pos, "pos", (b, 3), finite=False)
+        qm = _as_array(quat, "quat", (b, 4), finite=False)
+        if not (np.all(np.isfinite(pm[ok])) and np.all(np.isfinite(qm[ok]))):
+            raise ValueError("pos and quat must be finite in the rows where valid is True")
+        if np.any(np.einsum("bi,bi->b", qm[ok], qm[ok]) < 1e-24):
+            raise ValueError("quat contains a zero-norm quaternion in a valid row")
+        status = np.empty(b, dtype=np.int8)
+        s = self.state
+        _k.eskf_update(
+            s.x, s.P, s.R, s.aux, np.ascontiguousarray(pm), np.ascontiguousarray(qm),
+            np.ascontiguousarray(ok), self._prm, status,
+        )  # fmt: skip
+        return status
+
+    def process(
+        self,
+        gyr: ArrayLike,
+        acc: ArrayLike,
+        frame_sample: ArrayLike,
+        pos: ArrayLike,
+        quat: ArrayLike,
+        valid: ArrayLike,
+    ) -> tuple[NDArray, NDArray, NDArray]:
+        """Offline convenience: N IMU samples and M camera frames in one call.
+
+        Frame ``j`` applies right after IMU sample ``frame_sample[j]`` (non-decreasing indices in
+        [0, N)); equivalent to the interleaved :meth:`predict` / :meth:`update` calls.
+
+        Args:
+            gyr, acc: (B, N, 3) IMU samples (rad/s, m/s^2).
+            frame_sample: (M,) int index of the IMU sample each frame follows.
+            pos: (B, M, 3) measured positions, m. quat: (B, M, 4). valid: (B, M) bool.
+
+        Returns:
+            ``(p (B, N, 3), q (B, N, 4), status (B, M))``; p and q are the estimates after each
+            IMU sample and after any update that follows it.
+        """
+        b = self.batch_size
+        g = _as_array(gyr, "gyr", (b, -1, 3))
+        a = _as_array(acc, "acc", g.shape)
+        n = g.shape[1]
+        idx = np.asarray(frame_sample)
+        if idx.ndim != 1 or not np.issubdtype(idx.dtype, np.integer):
+            raise ValueError(f"frame_sample must be a (M,) int array, got {idx.dtype} {idx.shape}")
+        m = idx.size
+        if m and (idx.min() < 0 or idx.max() >= n or np.any(np.diff(idx) < 0)):
+            raise ValueError(f"frame_sample must be non-decreasing indices in [0, {n})")
+        pm = _as_array(pos, "pos", (b, m, 3), finite=False)
+        qm = _as_array(quat, "quat", (b, m, 4), finite=False)
+        ok = np.asarray(valid)
+        if ok.dtype != np.bool_ or ok.shape != (b, m):
+            raise ValueError(f"valid must be a ({b}, {m}) bool array, got {ok.dtype} {ok.shape}")
+        out_p = np.empty((b, n, 3))
+        out_q = np.empty((b, n, 4))
+        status = np.empty((b, m), dtype=np.int8)
+        start = 0
+        for j in range(m):
+            stop = int(idx[j]) + 1
+            if stop > start:
+                out_p[:, start:stop], out_q[:, start:stop] = self.predict(
+                    g[:, start:stop], a[:, start:stop]
+                )
+                start = stop
+            status[:, j] = self.update(pm[:, j], qm[:, j], ok[:, j])
+            out_p[:, stop - 1] = self.state.x[:, _k.X_P : _k.X_P + 3]
+            out_q[:, stop - 1] = self.state.x[:, _k.X_Q : _k.X_Q + 4]
+        if start < n:
+            out_p[:, start:], out_q[:, start:] = self.predict(g[:, start:], a[:, start:])
+        return out_p, out_q, status
+
+    @property
+    def position(self) -> NDArray[np.float64]:
+        """(B, 3) current position estimate, m."""
+        return self.state.x[:, _k.X_P : _k.X_P + 3].copy()
+
+    @property
+    def velocity(self) -> NDArray[np.float64]:
+        """(B, 3) current velocity estimate, m/s."""
+        return self.state.x[:, _k.X_V : _k.X_V + 3].copy()
+
+    @property
+    def quat(self) -> NDArray[np.float64]:
+        """(B, 4) current attitude estimate, body -> world."""
+        return self.state.x[:, _k.X_Q : _k.X_Q + 4].copy()
+
+    @property
+    def accel_bias(self) -> NDArray[np.float64]:
+        """(B, 3) accelerometer bias estimate, m/s^2."""
+        return self.state.x[:, _k.X_BA : _k.X_BA + 3].copy()
+
+    @property
+    def gyro_bias(self) -> NDArray[np.float64]:
+        """(B, 3) gyro bias estimate, rad/s."""
+        return self.state.x[:, _k.X_BG : _k.X_BG + 3].copy()
+
+    @property
+    def P(self) -> NDArray[np.float64]:
+        """(B, 15, 15) error-state covariance."""
+        return self.state.P.copy()
+
+    @property
+    def R(self) -> NDArray[np.float64]:
+        """(B, 6, 6) current measurement covariance (m^2, rad^2)."""
+        return self.state.R.copy()
+
+    @property
+    def updates(self) -> NDArray[np.int64]:
+        """(B,) frames taken (accepted or forced) since the last reset."""
+        return self.state.aux[:, _k.AUX_UPDATES].astype(np.int64)
+
+    @property
+    def rejected(self) -> NDArray[np.int64]:
+        """(B,) frames rejected by the innovation gate since the last reset."""
+        return self.state.aux[:, _k.AUX_REJECTED].astype(np.int64)
+
+    @property
+    def forced(self) -> NDArray[np.int64]:
+        """(B,) frames taken despite the gate (after too many consecutive rejections)."""
+        return self.state.aux[:, _k.AUX_FORCED].astype(np.int64)
+
+    @property
+    def q_scale(self) -> NDArray[np.float64]:
+        """(B,) current Q scale factor (1 unless ``adapt_q``)."""
+        return self.state.aux[:, _k.AUX_Q_SCALE].copy()
+
+    @property
+    def nis(self) -> NDArray[np.float64]:
+        """(B,) normalised innovation squared of each user's last valid frame."""
+        return self.state.aux[:, _k.AUX_NIS].copy()
