@@ -330,6 +330,19 @@ def _residuals(x: NDArray, u: NDArray, k: NDArray, rvec: NDArray, tvec: NDArray)
     return np.linalg.norm(proj.reshape(-1, 2) - u, axis=1)
 
 
+def _ransac(x: NDArray, u: NDArray, k: NDArray, threshold: float, flags: int) -> tuple:
+    """``cv2.solvePnPRansac`` with the minimal solver ``flags`` (OpenCV fits its RANSAC samples
+    with EPnP, or with P3P/AP3P when asked); ``(False, None, None, None)`` where OpenCV raises on
+    degenerate input."""
+    try:
+        return cv2.solvePnPRansac(
+            x, u, k, None, iterationsCount=200, reprojectionError=threshold, confidence=0.999,
+            flags=flags,
+        )  # fmt: skip
+    except cv2.error:
+        return False, None, None, None
+
+
 def solve_pose(
     landmarks_world: ArrayLike,
     pixels: ArrayLike,
@@ -343,7 +356,11 @@ def solve_pose(
     """Head pose from K landmark correspondences: EPnP inside RANSAC, then LM on the inliers.
 
     Steps: ``cv2.solvePnPRansac`` (EPnP, ``reprojection_px`` inlier threshold, 200 iterations,
-    confidence 0.999); with ``refine``, ``cv2.solvePnPRefineLM`` on the inliers, then the inliers
+    confidence 0.999). When that consensus holds fewer than half the points, RANSAC runs again
+    with AP3P samples and the larger consensus wins: a head camera near a wall often sees one
+    wall only, and OpenCV's EPnP returns a wrong pose on coplanar points, even exact ones
+    (decision; the test shows it), while its 4-point AP3P samples are fine on a plane. With
+    ``refine``, ``cv2.solvePnPRefineLM`` on the inliers, then the inliers
     are re-selected with the refined pose (same threshold) and, if the set changed, refined once
     more. A solution that puts the inliers behind the camera is refused.
 
@@ -382,17 +399,13 @@ def solve_pose(
             n, 0, n_min, REASON_TOO_FEW_LANDMARKS,
         )  # fmt: skip
     k = intrinsics.matrix
-    try:
-        found, rvec, tvec, inl = cv2.solvePnPRansac(
-            x, u, k, None,
-            iterationsCount=200, reprojectionError=float(reprojection_px), confidence=0.999,
-            flags=cv2.SOLVEPNP_EPNP,
-        )  # fmt: skip
-    except cv2.error as exc:
-        raise NotEnoughLandmarks(
-            f"RANSAC/EPnP failed on {n} landmarks (degenerate geometry?): {str(exc).strip()}",
-            n, 0, n_min, REASON_RANSAC_FAILED,
-        ) from None  # fmt: skip
+    found, rvec, tvec, inl = _ransac(x, u, k, float(reprojection_px), cv2.SOLVEPNP_EPNP)
+    if not found or inl is None or inl.size < max(n_min, n // 2):
+        # EPnP's 5-point samples from one wall are coplanar, where OpenCV's EPnP returns a wrong
+        # pose even on exact data (tests/test_visual_pose.py): try AP3P's 4-point samples.
+        retry = _ransac(x, u, k, float(reprojection_px), cv2.SOLVEPNP_AP3P)
+        if retry[0] and retry[3] is not None and (inl is None or retry[3].size > inl.size):
+            found, rvec, tvec, inl = retry
     if not found or inl is None:
         raise NotEnoughLandmarks(
             f"RANSAC found no consensus among {n} landmarks (need {n_min} inliers)",

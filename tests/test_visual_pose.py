@@ -202,3 +202,25 @@ def test_solve_poses_flags_failures(rng):
     err = np.linalg.norm(out.position[out.ok] - np.array(truth)[out.ok], axis=1)
     assert err.max() < 1e-6
     assert out.n_inliers[5] == np.count_nonzero(frames[5][2])
+
+
+def test_one_wall_seen_obliquely_still_gives_the_pose(rng):
+    """Landmarks on a single wall (coplanar) seen at an angle: OpenCV's EPnP alone returns a
+    wrong pose here even on exact pixels; solve_pose must not."""
+    ys, zs = np.meshgrid(np.arange(-3.5, 3.6, 1.0), (1.0, 1.5, 2.0))
+    wall = np.stack([np.full(ys.size, -4.0), ys.ravel(), zs.ravel()], -1)
+    # (With OpenCV 4.x, cv2.solvePnP(..., SOLVEPNP_EPNP) on the exact pixels of the pose
+    # p = (0.5, 0.3, 1.65), yaw = pi + 0.1 puts the camera ~0.9 m off.)
+    errors = []
+    for _ in range(20):
+        p, q = np.array([rng.uniform(-1, 2), rng.uniform(-2, 2), 1.65]), quat_from_ypr(
+            [np.pi + rng.uniform(-0.5, 0.5), rng.uniform(-0.1, 0.1), 0.0]
+        )
+        x, uv = visible(wall, p, q)
+        if x.shape[0] < 8:
+            continue
+        errors.append(pose_errors(solve_pose(x, uv + rng.normal(0, 0.5, uv.shape), CAM), p, q))
+    errors = np.array(errors)
+    assert len(errors) >= 15
+    assert np.median(errors[:, 0]) < 0.05 and errors[:, 0].max() < 0.3
+    assert np.rad2deg(errors[:, 1]).max() < 3.0

@@ -13,7 +13,9 @@ from dataclasses import dataclass, field
 from estimators.attitude import AttitudeParams
 from estimators.gait import GaitParams
 from estimators.hand import HandParams
+from estimators.visual_inertial import VioConfig
 from vrloco_env.motion import MotionParams
+from vrloco_env.sensors.head_camera import CameraSpec, camera_spec
 from vrloco_env.sensors.imu import EarthField, ImuSpec, MagneticDisturbance, get_imu_spec
 from vrloco_env.sensors.kinect import KinectSpec
 from vrloco_env.validation import check_in_range
@@ -21,6 +23,8 @@ from vrloco_env.validation import check_in_range
 __all__ = ["EnvConfig", "EstimatorConfig", "RewardConfig", "SensorConfig"]
 
 LOCOMOTION_KINDS = ("eq17", "smooth")
+#: Where the virtual head pose comes from (:attr:`EnvConfig.pose_source`).
+POSE_SOURCES = ("walk_in_place", "visual_inertial")
 
 
 def _check(ok: bool, message: str) -> None:
@@ -40,6 +44,10 @@ class SensorConfig:
         magnetic_disturbances: dipoles (metal, magnets) in the *physical* room, in the tracked
             space's frame where the user stands at the origin.
         kinect: Kinect v2 specification; the default stands 2.5 m in front of the user.
+        head_camera: the helmet camera of seed 004, used with ``pose_source="visual_inertial"``
+            (:mod:`vrloco_env.sensors.head_camera`; ``camera_spec("low_light", rate_hz=30)``
+            etc.). The env's default runs it at 30 Hz, triggered by the IMU clock (seed 004's
+            120 Hz beside a 1 kHz IMU is the experiment's setting, ``vrloco experiment vio``).
     """
 
     imu: str | ImuSpec = "ig500n"
@@ -47,10 +55,20 @@ class SensorConfig:
     earth_field: EarthField = field(default_factory=EarthField)
     magnetic_disturbances: tuple[MagneticDisturbance, ...] = ()
     kinect: KinectSpec = field(default_factory=KinectSpec)
+    head_camera: CameraSpec = field(default_factory=lambda: camera_spec("ideal", rate_hz=30.0))
 
     def __post_init__(self) -> None:
         get_imu_spec(self.imu)  # raises with the valid names
         check_in_range(self, "imu_rate_hz", 10.0, 1000.0, "Hz")
+        _check(
+            isinstance(self.head_camera, CameraSpec),
+            f"SensorConfig.head_camera must be a CameraSpec, got {type(self.head_camera).__name__}",
+        )
+        _check(
+            self.head_camera.rate_hz <= self.imu_rate_hz,
+            f"SensorConfig.head_camera.rate_hz={self.head_camera.rate_hz}: must be <= imu_rate_hz "
+            f"({self.imu_rate_hz} Hz); frames are triggered by IMU samples",
+        )
 
     @property
     def imu_spec(self) -> ImuSpec:
@@ -73,6 +91,8 @@ class EstimatorConfig:
             ``"smooth"`` (seed 001: a planar filter moving the body continuously).
         step_length: SL of eq (17) (m).
         hand: seed 003's hand pipeline parameters.
+        visual_inertial: seed 004's visual-inertial filter (``pose_source="visual_inertial"``);
+            Sage-Husa adaptive R by default, since the camera's noise changes with the light.
     """
 
     attitude: AttitudeParams = field(default_factory=AttitudeParams)
@@ -80,6 +100,7 @@ class EstimatorConfig:
     locomotion: str = "eq17"
     step_length: float = 0.7
     hand: HandParams = field(default_factory=HandParams)
+    visual_inertial: VioConfig = field(default_factory=lambda: VioConfig(adaptive="sage_husa"))
 
     def __post_init__(self) -> None:
         _check(
@@ -126,6 +147,18 @@ class EnvConfig:
         ray_range_m: rays report at most this range (m).
         hand_tolerance_deg: Interact: hand orientation tolerance (deg).
         dwell_s: Interact: time the hand must be held within tolerance (s).
+        pose_source: where the virtual head pose comes from.
+            ``"walk_in_place"`` (default, seed 000): the user steps in place; the virtual body
+            moves a step length along the IMU's estimated yaw per detected step (eq 17 or the
+            smooth filter). ``"visual_inertial"`` (seed 004): the user really walks through a
+            tracked space the size of the room, with markers on its walls where the room's
+            landmarks are; the virtual head follows the visual-inertial estimate (head camera +
+            PnP + adaptive Kalman filter) one to one, and its yaw gives the heading. A step into
+            a virtual obstacle is still blocked (the avatar stays, counted as a collision) while
+            the real user walks on, so the two drift apart by the blocked motion, as in a VR
+            engine's collision response. The Kinect stands in front of the start marker, facing
+            it (``KinectSpec`` in the start marker's frame): the hand is tracked while the user
+            is in its view.
     """
 
     motion: MotionParams = field(default_factory=MotionParams)
@@ -136,6 +169,7 @@ class EnvConfig:
     ray_range_m: float = 5.0
     hand_tolerance_deg: float = 15.0
     dwell_s: float = 1.0
+    pose_source: str = "walk_in_place"
 
     def __post_init__(self) -> None:
         check_in_range(self, "max_episode_steps", 1, 100_000)
@@ -144,3 +178,7 @@ class EnvConfig:
         check_in_range(self, "ray_range_m", 0.5, 50.0, "m")
         check_in_range(self, "hand_tolerance_deg", 1.0, 90.0, "deg")
         check_in_range(self, "dwell_s", 0.0, 30.0, "s", lo_open=True)
+        _check(
+            self.pose_source in POSE_SOURCES,
+            f"EnvConfig.pose_source={self.pose_source!r}: must be one of {', '.join(POSE_SOURCES)}",
+        )

@@ -145,7 +145,9 @@ class LocoCore:
         self.room, self.reward = room, reward
         self.generators = [np.random.default_rng() for _ in range(b)]
         self.rng = BatchRng([np.random.default_rng(0) for _ in range(b)])
-        self.users = SimulatedUsers(b, self.rng, config.motion, sensors, estimators)
+        self.users = SimulatedUsers(
+            b, self.rng, config.motion, sensors, estimators, pose_source=config.pose_source
+        )
         self.dt = self.users.dt
         self.layouts: list[Layout | None] = [None] * b
         self.rooms: RoomBatch | None = None
@@ -188,6 +190,7 @@ class LocoCore:
             self.ep.hand_target[i] = self.task.draw_hand_target(g)
             self.rng.reseed(i, np.random.default_rng(int(g.integers(2**63))))
             self.layouts[i] = layout
+            self.users.set_room(int(i), layout)
             if self.rooms is not None:
                 self.rooms.set(i, layout)
             start[k] = layout.start
@@ -250,11 +253,7 @@ class LocoCore:
         ep.walked += np.where(blocked, 0.0, np.hypot(move[:, 0], move[:, 1]))
         ep.collisions += blocked
         ep.virtual_yaw = us.virtual_yaw
-        sl = self.estimators.step_length
-        ty = us.true_virtual_yaw
-        true_step = sl * us.true_steps
-        ep.true_position[:, 0] += true_step * np.cos(ty)
-        ep.true_position[:, 1] += true_step * np.sin(ty)
+        ep.true_position += us.true_displacement
         ep.elapsed += 1
 
         # Task progress.

@@ -45,6 +45,7 @@ def make_configs(
     sensor_preset: str | None = None,
     locomotion: str | None = None,
     max_episode_steps: int | None = None,
+    pose_source: str | None = None,
 ) -> tuple[EnvConfig, SensorConfig, EstimatorConfig, RoomConfig, RewardConfig]:
     """Fill in defaults and apply the keyword shortcuts, with clear errors for wrong types."""
     for name, value, cls in (
@@ -65,6 +66,8 @@ def make_configs(
         estimators = replace(estimators, locomotion=locomotion)
     if max_episode_steps is not None:
         config = replace(config, max_episode_steps=max_episode_steps)
+    if pose_source is not None:
+        config = replace(config, pose_source=pose_source)
     return config, sensors, estimators, room or RoomConfig(), reward or RewardConfig()
 
 
@@ -77,7 +80,8 @@ class VRLocoEnv(gym.Env):
             ``"human"`` (a PyBullet GUI window; needs a display).
         config, sensors, estimators, room, reward: configuration dataclasses
             (:mod:`vrloco_env.config`, :class:`vrloco_env.rooms.RoomConfig`).
-        sensor_preset, locomotion, max_episode_steps: shortcuts for common fields.
+        sensor_preset, locomotion, max_episode_steps, pose_source: shortcuts for common fields
+            (``pose_source="visual_inertial"``: :attr:`vrloco_env.config.EnvConfig.pose_source`).
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array", "human"], "render_fps": 10}
@@ -94,6 +98,7 @@ class VRLocoEnv(gym.Env):
         sensor_preset: str | None = None,
         locomotion: str | None = None,
         max_episode_steps: int | None = None,
+        pose_source: str | None = None,
     ) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(
@@ -101,8 +106,9 @@ class VRLocoEnv(gym.Env):
                 f"{', '.join(self.metadata['render_modes'])}"
             )
         cfgs = make_configs(
-            config, sensors, estimators, room, reward, sensor_preset, locomotion, max_episode_steps
-        )
+            config, sensors, estimators, room, reward, sensor_preset, locomotion,
+            max_episode_steps, pose_source,
+        )  # fmt: skip
         self.config, self.sensors, self.estimators, self.room, self.reward = cfgs
         self.task_name = task
         self.render_mode = render_mode

@@ -9,6 +9,10 @@ One control step, as data (SPEC section 1)::
            -> HandPipeline      hand orientation (seed 003)
            -> locomotion        eq (17) or the smooth filter (seed 001): the virtual displacement
 
+With ``pose_source="visual_inertial"`` (seed 004) the user really walks through the tracked space
+and a head camera + PnP + visual-inertial filter (:mod:`vrloco_env.head_tracking`) replace the
+attitude EKF and the locomotion model: the virtual head follows the estimated pose one to one.
+
 Every stage is batched over the B users; this module only composes them (no estimator logic lives
 here). The virtual heading is the estimated yaw plus a per-user offset fixed when the episode
 starts ("recentring", as a headset aligns the virtual world to where the user faces), so estimation
@@ -31,8 +35,11 @@ from estimators.locomotion import make_locomotion
 from vrloco_env._core_numba import quat_to_ypr_rows
 from vrloco_env._hand_frame_numba import hand_relative_to_torso
 from vrloco_env.batch_rng import BatchRng
-from vrloco_env.config import EstimatorConfig, SensorConfig
+from vrloco_env.config import POSE_SOURCES, EstimatorConfig, SensorConfig
+from vrloco_env.head_tracking import VisualInertialTracker
 from vrloco_env.motion import Intent, MotionChunk, MotionParams, UserMotion
+from vrloco_env.rooms import Layout
+from vrloco_env.sensors.head_camera import layout_landmarks
 from vrloco_env.sensors.imu import HeadImu, ImuSamples
 from vrloco_env.sensors.kinect import (
     HAND_FROM_SDK_WRIST,
@@ -68,7 +75,9 @@ class UserStep:
         true_steps: true heel strikes in this control step, (B,).
         walking: the detector's still/walk state at the step's end, (B,) bool.
         cadence: estimated cadence (steps/s), (B,).
-        displacement: the locomotion model's displacement in the virtual room this step (m), (B, 2).
+        displacement: the locomotion model's displacement in the virtual room this step (m), (B, 2)
+            (with the visual-inertial pose source: the estimated head's horizontal displacement).
+        true_displacement: what perfect sensing would have moved the virtual body (m), (B, 2).
         hand: the hand pipeline's output for the step's last Kinect frame.
         hand_est: estimated hand [yaw, pitch, roll] relative to the torso (rad), NaN when no
             estimate; (B, 3).
@@ -88,6 +97,7 @@ class UserStep:
     walking: NDArray[np.bool_]
     cadence: NDArray[np.float64]
     displacement: NDArray[np.float64]
+    true_displacement: NDArray[np.float64]
     hand: HandFrame
     hand_est: NDArray[np.float64]
     hand_true: NDArray[np.float64]
@@ -102,6 +112,8 @@ class SimulatedUsers:
         motion: the body model's parameters.
         sensors: IMU and Kinect configuration.
         estimators: estimator configuration.
+        pose_source: ``"walk_in_place"`` or ``"visual_inertial"``
+            (:attr:`vrloco_env.config.EnvConfig.pose_source`).
     """
 
     def __init__(
@@ -111,7 +123,12 @@ class SimulatedUsers:
         motion: MotionParams,
         sensors: SensorConfig,
         estimators: EstimatorConfig,
+        pose_source: str = "walk_in_place",
     ) -> None:
+        if pose_source not in POSE_SOURCES:
+            raise ValueError(f"pose_source={pose_source!r}: must be one of {POSE_SOURCES}")
+        self.pose_source = pose_source
+        self.overground = pose_source == "visual_inertial"
         if rng.batch_size != batch_size:
             raise ValueError(f"rng has {rng.batch_size} streams, expected {batch_size}")
         self.batch_size = batch_size
@@ -126,8 +143,9 @@ class SimulatedUsers:
                 f"{motion.control_rate_hz} Hz"
             )
         self.motion_params = MotionParams(
-            **{**motion.__dict__, "imu_rate_hz": fs, "kinect_rate_hz": sensors.kinect.frame_rate_hz}
-        )
+            **{**motion.__dict__, "imu_rate_hz": fs, "kinect_rate_hz": sensors.kinect.frame_rate_hz,
+               "overground": self.overground}
+        )  # fmt: skip
         self.motion = UserMotion(self.motion_params, rng)
         self.imu = HeadImu(
             sensors.imu_spec,
@@ -152,6 +170,33 @@ class SimulatedUsers:
         self._sdk_to_hand = rot.quat_conjugate(HAND_FROM_SDK_WRIST)
         self._start_yaw = np.zeros(b)
         self._recentre = np.ones(b, bool)
+        self.tracker = (
+            VisualInertialTracker(b, fs, sensors.head_camera, estimators.visual_inertial, rng)
+            if self.overground
+            else None
+        )
+        self._track_start = np.zeros(b, bool)  # users whose tracker starts at the next sample
+        self._track_origin = np.zeros((b, 2))  # tracked head xy minus virtual body xy at start
+        self._tracked_xy = np.zeros((b, 2))  # estimated virtual position at the step's end
+        self._last_true = np.zeros((b, 2))  # true head xy at the last step's end
+        self.last_tracked = None  # the last step's TrackedChunk (visual-inertial source only)
+        self._start_xy3 = np.zeros((b, 3))  # start marker in the room (m), z = 0
+        self._start_frame_q = np.tile([1.0, 0.0, 0.0, 0.0], (b, 1))  # room -> start frame
+        if self.overground:
+            steps_per_frame = sensors.head_camera.rate_hz / motion.control_rate_hz
+            if abs(steps_per_frame - round(steps_per_frame)) > 1e-9:
+                raise ValueError(
+                    f"SensorConfig.head_camera.rate_hz={sensors.head_camera.rate_hz} must be a "
+                    f"multiple of the control rate {motion.control_rate_hz} Hz (the same frame "
+                    "times in every step, so that an episode does not depend on when it starts)"
+                )
+
+    def set_room(self, user: int, layout: Layout) -> None:
+        """The room user ``user`` is in: with the visual-inertial pose source its walls carry the
+        head camera's markers (the room's landmarks, in the room's local frame)."""
+        if self.tracker is not None:
+            points, normals = layout_landmarks(layout.with_origin((0.0, 0.0)))
+            self.tracker.set_landmarks(user, points, normals)
 
     # ------------------------------------------------------------------------------ reset
     def reset(
@@ -178,7 +223,17 @@ class SimulatedUsers:
         u = rows.size
         start_yaw = np.broadcast_to(np.asarray(start_yaw, np.float64), (u,))
         physical_yaw = np.broadcast_to(np.asarray(physical_yaw, np.float64), (u,))
-        self.motion.reset(yaw=physical_yaw, users=None if every else rows)
+        if self.overground:  # the tracked space is the room: start at the room's start pose
+            physical_yaw = start_yaw
+            self.motion.reset(yaw=physical_yaw, base=np.broadcast_to(
+                np.asarray(start_xy, np.float64), (u, 2)), users=None if every else rows)
+            self._track_start[rows] = True
+            self._start_xy3[rows, :2] = np.broadcast_to(np.asarray(start_xy, np.float64), (u, 2))
+            self._start_frame_q[rows] = rot.quat_from_ypr(
+                np.stack([-start_yaw, np.zeros(u), np.zeros(u)], -1)
+            )
+        else:
+            self.motion.reset(yaw=physical_yaw, users=None if every else rows)
         self.imu.reset() if every else self.imu.reset(users=rows)
         self.kinect.reset() if every else self.kinect.reset(users=rows)
         self.attitude.reset() if every else self.attitude.reset(mask)
@@ -188,7 +243,10 @@ class SimulatedUsers:
         self._last_loco[rows] = xy
         self._start_yaw[rows] = start_yaw
         self.locomotion.reset(mask, position=self._last_loco.copy(), heading=self._start_yaw.copy())
-        self._recentre[rows] = True
+        # Recentring: the IMU's yaw is aligned to the start heading at the first sample; the
+        # tracker's yaw is already the room's.
+        self._recentre[rows] = not self.overground
+        self.yaw_offset[rows] = 0.0
         self.true_yaw_offset[rows] = rot.wrap_angle(start_yaw - physical_yaw)
         self.cadence[rows] = 0.0
         self._since_step[rows] = np.inf
@@ -203,8 +261,18 @@ class SimulatedUsers:
         chunk = self.motion.advance(intent, validate=not validated)
         imu = self.imu.sample(chunk.quat, chunk.omega, chunk.acc, chunk.pos)
         kin = chunk.kinect
-        frames = self.kinect.capture(kin.t, kin.joints, kin.hand_quat, validated=True)
-        q = self.attitude.update_batch(imu.gyr, imu.acc, imu.mag)
+        joints, hand_quat = kin.joints, kin.hand_quat
+        if self.overground:  # the Kinect stands in front of the start marker, facing it
+            q_start = self._start_frame_q[:, None, :]
+            joints = rot.quat_rotate(
+                q_start[:, :, None, :], joints - self._start_xy3[:, None, None, :]
+            )
+            hand_quat = rot.quat_multiply(q_start, hand_quat)
+        frames = self.kinect.capture(kin.t, joints, hand_quat, validated=True)
+        if self.tracker is None:
+            q = self.attitude.update_batch(imu.gyr, imu.acc, imu.mag)
+        else:
+            q = self._track(chunk, imu)
         gait = self.gait.update(imu.acc)
         ypr_est = np.empty((self.batch_size, 3))
         quat_to_ypr_rows(q[:, -1], ypr_est)  # rot.quat_to_ypr, compiled (one user: 1 us, not 10)
@@ -217,7 +285,18 @@ class SimulatedUsers:
         virtual_yaw = rot.wrap_angle(ypr_est[:, 0] + self.yaw_offset)
         steps = gait.steps.sum(axis=1).astype(np.float64)
         self._update_cadence(steps)
-        pos = self.locomotion.update(steps, virtual_yaw, self.dt)
+        ypr_true = chunk.ypr[:, -1]
+        true_virtual_yaw = rot.wrap_angle(ypr_true[:, 0] + self.true_yaw_offset)
+        if self.tracker is None:
+            pos = self.locomotion.update(steps, virtual_yaw, self.dt)
+            true_displacement = (self.estimator_config.step_length
+                                 * chunk.step.sum(axis=1))[:, None] * np.stack(
+                [np.cos(true_virtual_yaw), np.sin(true_virtual_yaw)], -1)  # fmt: skip
+        else:  # the virtual head follows the estimated one; the truth is the real head
+            pos = self._tracked_xy
+            true_xy = chunk.pos[:, -1, :2]
+            true_displacement = true_xy - self._last_true
+            self._last_true = true_xy.copy()
         displacement = pos - self._last_loco
         self._last_loco = pos.copy()
         if frames.body_id.shape[1] == 0:
@@ -229,7 +308,6 @@ class SimulatedUsers:
             frames.joint_state,
             frames.hand_quat,
         ).at(-1)
-        ypr_true = chunk.ypr[:, -1]
         return UserStep(
             motion=chunk,
             imu=imu,
@@ -237,17 +315,37 @@ class SimulatedUsers:
             ypr_est=ypr_est,
             ypr_true=ypr_true,
             virtual_yaw=virtual_yaw,
-            true_virtual_yaw=rot.wrap_angle(ypr_true[:, 0] + self.true_yaw_offset),
+            true_virtual_yaw=true_virtual_yaw,
             steps=steps,
             step_peak_time=gait.peak_time.reshape(self.batch_size, -1),
             true_steps=chunk.step.sum(axis=1).astype(np.float64),
             walking=gait.state[:, -1] > 0,
             cadence=self.cadence.copy(),
             displacement=displacement,
+            true_displacement=true_displacement,
             hand=hand,
             hand_est=self._hand_relative_to_torso(hand),
             hand_true=kin.hand_ypr[:, -1],
         )
+
+    def _track(self, chunk: MotionChunk, imu: ImuSamples) -> NDArray[np.float64]:
+        """Visual-inertial tracking of one step; returns the estimated attitudes (B, N, 4) and
+        keeps the estimated head's horizontal position at the step's end. Users reset since the
+        last step start their filter at their first sample's pose, standing at the start marker
+        (where the tracked space's origin is defined)."""
+        assert self.tracker is not None
+        if self._track_start.any():
+            rows = np.flatnonzero(self._track_start)
+            self.tracker.reset(rows, chunk.pos[rows, 0], chunk.quat[rows, 0])
+            start_xy = chunk.pos[rows, 0, :2]
+            self._last_true[rows] = start_xy
+            # The locomotion origin is the room's start point; the tracker's is the head's start.
+            self._track_origin[rows] = start_xy - self._last_loco[rows]
+            self._track_start[:] = False
+        tracked = self.tracker.step(chunk.t, imu.gyr, imu.acc, chunk.pos, chunk.quat, chunk.omega)
+        self.last_tracked = tracked
+        self._tracked_xy = tracked.position[:, -1, :2] - self._track_origin
+        return tracked.quat
 
     def _update_cadence(self, steps: NDArray[np.float64]) -> None:
         """Cadence estimate: steps/s from the interval between detected steps, decaying after."""

@@ -48,7 +48,7 @@ class VRLocoVectorEnv(VectorEnv):
     ) -> None:
         """``config``: the configuration keywords of :func:`~vrloco_env.env.make_configs`
         (``config``, ``sensors``, ``estimators``, ``room``, ``reward``, ``sensor_preset``,
-        ``locomotion``, ``max_episode_steps``), as for the single env."""
+        ``locomotion``, ``max_episode_steps``, ``pose_source``), as for the single env."""
         if render_mode is not None:
             raise ValueError("VRLocoVectorEnv does not render; use gym.make(...) for pictures")
         cfgs = make_configs(**config)
