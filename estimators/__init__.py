@@ -10,6 +10,9 @@ Modules:
 * :mod:`estimators.locomotion` — seed 001's smooth-locomotion filter (continuous virtual motion).
 * :mod:`estimators.joint_smoothing`, :mod:`estimators.hand` — seed 003's hand-orientation
   pipeline (target selection, Holt smoothing, eq 1/2, Kalman + median) and a One Euro filter.
+* :mod:`estimators.strapdown`, :mod:`estimators.visual_pose`, :mod:`estimators.visual_inertial`
+  — seed 004's strapdown inertial solution, OpenCV PnP pose from landmarks, and the (adaptive)
+  error-state Kalman filter fusing them.
 * :mod:`estimators.io_broad`, :mod:`estimators.io_oxford`, :mod:`estimators.io_kinect` — readers
   for the real recordings we validate against.
 """

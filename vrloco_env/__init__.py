@@ -1,7 +1,8 @@
 """vrloco_env: the simulated hands-free VR user, its sensors, and the Gymnasium environment.
 
 Data flows one way: :mod:`vrloco_env.motion` (intent -> true head, skeleton, steps) ->
-:mod:`vrloco_env.sensors` (head IMU, Kinect v2) -> :mod:`estimators` -> locomotion -> the world
+:mod:`vrloco_env.sensors` (head IMU, Kinect v2, head camera) -> :mod:`estimators` -> locomotion
+(or :mod:`vrloco_env.head_tracking` for real walking) -> the world
 (:mod:`vrloco_env.rooms`, :mod:`vrloco_env.sim`) -> observation (:mod:`vrloco_env.core`).
 
 Importing the package registers ``VRLoco-Approach-v0``, ``VRLoco-Avoid-v0`` and

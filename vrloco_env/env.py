@@ -72,7 +72,8 @@ def make_configs(
 
 
 class VRLocoEnv(gym.Env):
-    """One simulated VR user walking in place through a virtual room.
+    """One simulated VR user walking in place (or, with ``pose_source="visual_inertial"``, really
+    walking, tracked by a head camera and IMU) through a virtual room.
 
     Args:
         task: ``"approach"``, ``"avoid"`` or ``"interact"``.

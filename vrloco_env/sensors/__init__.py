@@ -1,1 +1,2 @@
-"""Sensor models: the head IMU (:mod:`.imu`) and the Kinect v2 (:mod:`.kinect`)."""
+"""Sensor models: the head IMU (:mod:`.imu`), the Kinect v2 (:mod:`.kinect`) and seed 004's
+helmet camera seeing wall landmarks (:mod:`.head_camera`)."""
