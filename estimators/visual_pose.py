@@ -357,9 +357,10 @@ def solve_pose(
 
     Steps: ``cv2.solvePnPRansac`` (EPnP, ``reprojection_px`` inlier threshold, 200 iterations,
     confidence 0.999). When that consensus holds fewer than half the points, RANSAC runs again
-    with AP3P samples and the larger consensus wins: a head camera near a wall often sees one
-    wall only, and OpenCV's EPnP returns a wrong pose on coplanar points, even exact ones
-    (decision; the test shows it), while its 4-point AP3P samples are fine on a plane. With
+    with AP3P samples and the larger consensus wins; when all the landmarks lie in one plane it
+    runs AP3P alone. A head camera near a wall often sees one wall only, and OpenCV's EPnP
+    returns a wrong pose on coplanar points, even exact ones (decision; the test shows it),
+    while its 4-point AP3P samples are fine on a plane. With
     ``refine``, ``cv2.solvePnPRefineLM`` on the inliers, then the inliers
     are re-selected with the refined pose (same threshold) and, if the set changed, refined once
     more. A solution that puts the inliers behind the camera is refused.
@@ -399,7 +400,12 @@ def solve_pose(
             n, 0, n_min, REASON_TOO_FEW_LANDMARKS,
         )  # fmt: skip
     k = intrinsics.matrix
-    found, rvec, tvec, inl = _ransac(x, u, k, float(reprojection_px), cv2.SOLVEPNP_EPNP)
+    centred = x - x.mean(axis=0)
+    sv = np.linalg.svd(centred, compute_uv=False)
+    if sv[2] <= 1e-9 * max(sv[0], 1e-12):  # one plane (one wall): EPnP samples are all wrong
+        found, rvec, tvec, inl = False, None, None, None
+    else:
+        found, rvec, tvec, inl = _ransac(x, u, k, float(reprojection_px), cv2.SOLVEPNP_EPNP)
     if not found or inl is None or inl.size < max(n_min, n // 2):
         # EPnP's 5-point samples from one wall are coplanar, where OpenCV's EPnP returns a wrong
         # pose even on exact data (tests/test_visual_pose.py): try AP3P's 4-point samples.
