@@ -32,6 +32,23 @@ def _cmd_hand_variance(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_vio(args: argparse.Namespace) -> int:
+    from agents.experiments.vio import run_vio
+
+    try:
+        run_vio(
+            json_path=Path(args.json) if args.json else None,
+            duration=args.duration,
+            seed=args.seed,
+            out_dir=Path(args.out) if args.out else None,
+            workers=args.workers,
+        )
+    except ValueError as err:  # a bad option value: one clear line, no traceback
+        print(f"vrloco experiment vio: {err}", file=sys.stderr)
+        return 2
+    return 0
+
+
 def _cmd_locomotion(args: argparse.Namespace) -> int:
     from agents.experiments.locomotion_table import run_locomotion_table
 
@@ -154,6 +171,20 @@ def build_parser() -> argparse.ArgumentParser:
     hv.add_argument("--repeats", type=int, default=10, help="repeats per angle (default: 10)")
     hv.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
     hv.set_defaults(func=_cmd_hand_variance)
+    vio = exp_sub.add_parser(
+        "vio",
+        help="seed 004: IMU-only drift, visual-only and fused helmet pose, adaptive vs fixed R",
+    )
+    vio.add_argument("--json", help="write the results to this JSON file")
+    vio.add_argument(
+        "--duration", type=float, default=120.0, help="length of every run, s (default: 120)"
+    )
+    vio.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
+    vio.add_argument("--out", help="folder for the error-vs-time figure (default: no figure)")
+    vio.add_argument(
+        "--workers", type=int, default=2, help="threads for the PnP solves (default: 2)"
+    )
+    vio.set_defaults(func=_cmd_vio)
     loco = exp_sub.add_parser(
         "locomotion", help="eq (17) vs the smooth-locomotion filter: distance and jerk (seed 001)"
     )
