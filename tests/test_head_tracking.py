@@ -37,7 +37,7 @@ def test_tracker_follows_a_walking_head_better_than_its_camera(condition, availa
                                     VioConfig(adaptive="sage_husa"), rng)  # fmt: skip
     for user in range(2):
         tracker.set_landmarks(user, points, normals)
-    pos_err, att_err, cam_err = [], [], []
+    pos_err, att_err, cam_err, poses = [], [], [], np.zeros(2)
     for k in range(150):  # 15 s: stand 1 s, then walk a circle
         walking = k >= 10
         chunk = motion.advance(Intent(cadence=1.6 if walking else 0.0,
@@ -50,6 +50,7 @@ def test_tracker_follows_a_walking_head_better_than_its_camera(condition, availa
         q_err = rot.quat_multiply(rot.quat_conjugate(chunk.quat), out.quat)
         att_err.append(np.rad2deg(rot.rotation_angle(q_err)))
         ok = out.poses.ok
+        poses += ok.sum(axis=1)
         truth = chunk.pos[:, out.frame_sample]
         cam_err.append(np.linalg.norm(out.poses.position - truth, axis=-1)[ok])
     pos_err = np.concatenate(pos_err, axis=1)
@@ -58,7 +59,8 @@ def test_tracker_follows_a_walking_head_better_than_its_camera(condition, availa
     assert cam.size > available * 2 * 15 * 40  # most frames gave a pose
     assert rms < 0.05 and rms < np.sqrt(np.mean(cam**2))
     assert np.sqrt(np.mean(np.concatenate(att_err, axis=1) ** 2)) < 1.0
-    assert tracker.filter.updates.min() > available * 15 * 40
+    # The filter took most poses (its gate refuses the gross PnP errors and some noisy ones).
+    assert np.all(tracker.filter.updates > 0.7 * poses)
 
 
 def test_tracker_rejects_a_camera_faster_than_the_imu():
