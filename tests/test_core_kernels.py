@@ -58,3 +58,33 @@ def test_ray_fan_equals_ray_cast():
     assert (fan < 8.0).any()  # some rays hit something
     with pytest.raises(ValueError, match="finite"):
         rooms.ray_fan(pos, np.full(4, np.nan), offsets, 8.0)
+
+
+def test_step_summary_kernel_equals_the_numpy_summary():
+    from vrloco_env.batch_rng import BatchRng
+    from vrloco_env.config import EstimatorConfig, SensorConfig
+    from vrloco_env.motion import MotionParams
+    from vrloco_env.users import SimulatedUsers
+
+    b = 6
+    users = SimulatedUsers(b, BatchRng.from_seeds(range(b)), MotionParams(), SensorConfig(),
+                           EstimatorConfig())  # fmt: skip
+    rng = np.random.default_rng(0)
+    users._since_step[:] = [np.inf, 0.3, 0.05, 1.0, 0.2, np.inf]
+    users.cadence[:] = rng.uniform(0, 3, b)
+    users.yaw_offset[:] = rng.uniform(-3, 3, b)
+    users.true_yaw_offset[:] = rng.uniform(-3, 3, b)
+    for _ in range(20):
+        gait_steps = (rng.random((b, 10)) < 0.08).astype(np.int8)
+        true_step = rng.random((b, 10)) < 0.08
+        yaw_est, yaw_true = rng.uniform(-4, 4, b), rng.uniform(-4, 4, b)
+        since, cadence = users._since_step.copy(), users.cadence.copy()
+        fast = users._summary(gait_steps, true_step, yaw_est, yaw_true)
+        after = users._since_step.copy(), users.cadence.copy()
+        users._since_step[:], users.cadence[:] = since, cadence
+        ref = users._summary_reference(gait_steps, true_step, yaw_est, yaw_true)
+        for a, r in zip(fast, ref, strict=True):
+            np.testing.assert_allclose(a, r, rtol=0, atol=1e-12)
+        np.testing.assert_array_equal(after[0], users._since_step)
+        np.testing.assert_allclose(after[1], users.cadence, rtol=0, atol=1e-12)
+    assert users.cadence.max() > 0.5  # steps were detected: the cadence path ran

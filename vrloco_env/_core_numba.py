@@ -102,3 +102,38 @@ def quat_to_ypr_rows(q, out):
     """ZYX [yaw, pitch, roll] (rad) of B unit quaternions (B, 4) into ``out`` (B, 3)."""
     for i in range(q.shape[0]):
         out[i, 0], out[i, 1], out[i, 2] = quat_to_ypr(q[i, 0], q[i, 1], q[i, 2], q[i, 3])
+
+
+@numba.njit(cache=True)
+def step_summary_kernel(
+    gait_steps, true_step, yaw_est, yaw_offset, yaw_true, true_yaw_offset, step_length, in_place,
+    dt, cadence_tau, since_step, cadence, o_steps, o_true_steps, o_virtual_yaw,
+    o_true_virtual_yaw, o_true_displacement,
+):  # fmt: skip
+    """Per-user summary of a control step (``SimulatedUsers._summary_reference`` in numpy):
+    detected and true step counts, virtual and true virtual yaw, the cadence estimate
+    (``since_step`` and ``cadence`` updated in place) and, walking in place, the displacement
+    perfect sensing would give (``step_length`` per true step along the true virtual yaw)."""
+    decay = math.exp(-dt / cadence_tau)
+    for b in range(gait_steps.shape[0]):
+        s = 0.0
+        for k in range(gait_steps.shape[1]):
+            s += gait_steps[b, k]
+        ts = 0.0
+        for k in range(true_step.shape[1]):
+            ts += true_step[b, k]
+        o_steps[b] = s
+        o_true_steps[b] = ts
+        o_virtual_yaw[b] = _wrap(yaw_est[b] + yaw_offset[b])
+        tvy = _wrap(yaw_true[b] + true_yaw_offset[b])
+        o_true_virtual_yaw[b] = tvy
+        since = since_step[b] + dt
+        if s > 0.0 and math.isfinite(since):
+            c = s / max(since, dt)
+        else:
+            c = cadence[b] * decay
+        cadence[b] = min(c, 4.0)
+        since_step[b] = 0.0 if s > 0.0 else since
+        if in_place:
+            o_true_displacement[b, 0] = step_length * ts * math.cos(tvy)
+            o_true_displacement[b, 1] = step_length * ts * math.sin(tvy)

@@ -431,45 +431,66 @@ def _sdf_kernel(box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, p, out):  # 
 
 
 @numba.njit(cache=True)
+def _ray_one(box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, n, ox, oy, ux, uy, max_range):
+    """Distance along one ray (origin ``(ox, oy)``, unit direction ``(ux, uy)``) in room ``n``."""
+    best = max_range
+    for j in range(box_c.shape[1]):
+        if not box_ok[n, j]:
+            continue
+        c, s = box_cs[n, j, 0], box_cs[n, j, 1]
+        dx, dy = ox - box_c[n, j, 0], oy - box_c[n, j, 1]
+        t_near, t_far = -np.inf, np.inf
+        for axis in range(2):
+            if axis == 0:
+                lo, lu = c * dx + s * dy, c * ux + s * uy
+            else:
+                lo, lu = -s * dx + c * dy, -s * ux + c * uy
+            h = box_h[n, j, axis]
+            if abs(lu) < 1e-300:
+                lu = 1e-300
+            t1, t2 = (-h - lo) / lu, (h - lo) / lu
+            t_near = max(t_near, min(t1, t2))
+            t_far = min(t_far, max(t1, t2))
+        if t_near <= t_far and t_far >= 0.0:
+            best = min(best, max(t_near, 0.0))
+    for j in range(cyl_c.shape[1]):
+        if not cyl_ok[n, j]:
+            continue
+        dx, dy = ox - cyl_c[n, j, 0], oy - cyl_c[n, j, 1]
+        b = dx * ux + dy * uy
+        disc = b * b - (dx * dx + dy * dy - cyl_r[n, j] ** 2)
+        if disc >= 0.0:
+            root = math.sqrt(disc)
+            if -b + root >= 0.0:
+                best = min(best, max(-b - root, 0.0))
+    return best
+
+
+@numba.njit(cache=True)
 def _ray_kernel(
     box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, o, u, max_range, out
 ):  # pragma: no cover
     """Compiled mirror of :func:`_ray_cast_batch` (scalar loops, same formulas), filling ``out``."""
-    n_rooms, n_rays = o.shape[0], o.shape[1]
-    for n in range(n_rooms):
-        for k in range(n_rays):
+    for n in range(o.shape[0]):
+        for k in range(o.shape[1]):
             ox, oy, ux, uy = o[n, k, 0], o[n, k, 1], u[n, k, 0], u[n, k, 1]
-            best = max_range
-            for j in range(box_c.shape[1]):
-                if not box_ok[n, j]:
-                    continue
-                c, s = box_cs[n, j, 0], box_cs[n, j, 1]
-                dx, dy = ox - box_c[n, j, 0], oy - box_c[n, j, 1]
-                t_near, t_far = -np.inf, np.inf
-                for axis in range(2):
-                    if axis == 0:
-                        lo, lu = c * dx + s * dy, c * ux + s * uy
-                    else:
-                        lo, lu = -s * dx + c * dy, -s * ux + c * uy
-                    h = box_h[n, j, axis]
-                    if abs(lu) < 1e-300:
-                        lu = 1e-300
-                    t1, t2 = (-h - lo) / lu, (h - lo) / lu
-                    t_near = max(t_near, min(t1, t2))
-                    t_far = min(t_far, max(t1, t2))
-                if t_near <= t_far and t_far >= 0.0:
-                    best = min(best, max(t_near, 0.0))
-            for j in range(cyl_c.shape[1]):
-                if not cyl_ok[n, j]:
-                    continue
-                dx, dy = ox - cyl_c[n, j, 0], oy - cyl_c[n, j, 1]
-                b = dx * ux + dy * uy
-                disc = b * b - (dx * dx + dy * dy - cyl_r[n, j] ** 2)
-                if disc >= 0.0:
-                    root = math.sqrt(disc)
-                    if -b + root >= 0.0:
-                        best = min(best, max(-b - root, 0.0))
-            out[n, k] = best
+            out[n, k] = _ray_one(box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, n,
+                                 ox, oy, ux, uy, max_range)  # fmt: skip
+
+
+@numba.njit(cache=True)
+def _ray_fan_kernel(
+    box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, positions, headings, offsets, max_range,
+    out,
+):  # pragma: no cover
+    """:func:`_ray_kernel` for a fan of rays from one point per room: ``headings[n] +
+    offsets[k]`` (rad) from ``positions[n]``."""
+    for n in range(positions.shape[0]):
+        for k in range(offsets.shape[0]):
+            a = headings[n] + offsets[k]
+            out[n, k] = _ray_one(box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, n,
+                                 positions[n, 0], positions[n, 1], math.cos(a), math.sin(a),
+                                 max_range)  # fmt: skip
 
 
 def _sdf_fast(s: _Solids, p: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -765,12 +786,11 @@ class RoomBatch:
         have the shapes by construction)."""
         if not (np.isfinite(positions).all() and np.isfinite(headings).all()):
             raise ValueError("ray_fan positions and headings must be finite")
-        angles = headings[:, None] + offsets[None, :]
-        u = np.empty((*angles.shape, 2))
-        np.cos(angles, out=u[..., 0])
-        np.sin(angles, out=u[..., 1])
-        o = np.broadcast_to(positions[:, None, :], u.shape)
-        return _ray_cast_fast(self._solids, o, u, float(max_range))
+        s = self._solids
+        out = np.empty((positions.shape[0], offsets.shape[0]))
+        _ray_fan_kernel(s.box_c, s.box_h, s.box_cs, s.box_ok, s.cyl_c, s.cyl_r, s.cyl_ok,
+                        positions, headings, offsets, float(max_range), out)  # fmt: skip
+        return out
 
 
 def tile_origins(n: int, spacing: float = 30.0) -> NDArray[np.float64]:

@@ -32,7 +32,7 @@ from estimators.batching import stream_rows
 from estimators.gait import StepDetector
 from estimators.hand import HandFrame, HandPipeline
 from estimators.locomotion import make_locomotion
-from vrloco_env._core_numba import quat_to_ypr_rows
+from vrloco_env._core_numba import quat_to_ypr_rows, step_summary_kernel
 from vrloco_env._hand_frame_numba import hand_relative_to_torso
 from vrloco_env.batch_rng import BatchRng
 from vrloco_env.config import POSE_SOURCES, EstimatorConfig, SensorConfig
@@ -282,16 +282,12 @@ class SimulatedUsers:
                 self._recentre, rot.wrap_angle(self._start_yaw - first), self.yaw_offset
             )
             self._recentre[:] = False
-        virtual_yaw = rot.wrap_angle(ypr_est[:, 0] + self.yaw_offset)
-        steps = gait.steps.sum(axis=1).astype(np.float64)
-        self._update_cadence(steps)
         ypr_true = chunk.ypr[:, -1]
-        true_virtual_yaw = rot.wrap_angle(ypr_true[:, 0] + self.true_yaw_offset)
+        steps, true_steps, virtual_yaw, true_virtual_yaw, true_displacement = self._summary(
+            gait.steps, chunk.step, ypr_est[:, 0], ypr_true[:, 0]
+        )
         if self.tracker is None:
             pos = self.locomotion.update(steps, virtual_yaw, self.dt)
-            true_displacement = (self.estimator_config.step_length
-                                 * chunk.step.sum(axis=1))[:, None] * np.stack(
-                [np.cos(true_virtual_yaw), np.sin(true_virtual_yaw)], -1)  # fmt: skip
         else:  # the virtual head follows the estimated one; the truth is the real head
             pos = self._tracked_xy
             true_xy = chunk.pos[:, -1, :2]
@@ -318,7 +314,7 @@ class SimulatedUsers:
             true_virtual_yaw=true_virtual_yaw,
             steps=steps,
             step_peak_time=gait.peak_time.reshape(self.batch_size, -1),
-            true_steps=chunk.step.sum(axis=1).astype(np.float64),
+            true_steps=true_steps,
             walking=gait.state[:, -1] > 0,
             cadence=self.cadence.copy(),
             displacement=displacement,
@@ -347,15 +343,43 @@ class SimulatedUsers:
         self._tracked_xy = tracked.position[:, -1, :2] - self._track_origin
         return tracked.quat
 
-    def _update_cadence(self, steps: NDArray[np.float64]) -> None:
-        """Cadence estimate: steps/s from the interval between detected steps, decaying after."""
+    def _summary(self, gait_steps, true_step, yaw_est, yaw_true) -> tuple[NDArray, ...]:
+        """Step counts, virtual yaws, cadence update and (in place) the true displacement, in
+        one compiled call (:func:`~vrloco_env._core_numba.step_summary_kernel`);
+        :meth:`_summary_reference` is the numpy version the tests compare it with."""
+        b = self.batch_size
+        steps, true_steps = np.empty(b), np.empty(b)
+        virtual_yaw, true_virtual_yaw = np.empty(b), np.empty(b)
+        true_displacement = np.zeros((b, 2))
+        step_summary_kernel(
+            gait_steps, true_step, yaw_est, self.yaw_offset, yaw_true, self.true_yaw_offset,
+            self.estimator_config.step_length, not self.overground, self.dt, _CADENCE_TAU_S,
+            self._since_step, self.cadence, steps, true_steps, virtual_yaw, true_virtual_yaw,
+            true_displacement,
+        )  # fmt: skip
+        return steps, true_steps, virtual_yaw, true_virtual_yaw, true_displacement
+
+    def _summary_reference(self, gait_steps, true_step, yaw_est, yaw_true) -> tuple[NDArray, ...]:
+        """The numpy version of :meth:`_summary` (same state updates)."""
+        steps = gait_steps.sum(axis=1).astype(np.float64)
+        true_steps = true_step.sum(axis=1).astype(np.float64)
+        virtual_yaw = rot.wrap_angle(yaw_est + self.yaw_offset)
+        true_virtual_yaw = rot.wrap_angle(yaw_true + self.true_yaw_offset)
+        # Cadence: steps/s from the interval between detected steps, decaying after.
         self._since_step += self.dt
         stepped = steps > 0
         inst = np.where(stepped, steps / np.maximum(self._since_step, self.dt), 0.0)
         fresh = stepped & np.isfinite(self._since_step)
-        self.cadence = np.where(fresh, inst, self.cadence * np.exp(-self.dt / _CADENCE_TAU_S))
-        self.cadence = np.minimum(self.cadence, 4.0)
-        self._since_step = np.where(stepped, 0.0, self._since_step)
+        cadence = np.where(fresh, inst, self.cadence * np.exp(-self.dt / _CADENCE_TAU_S))
+        self.cadence[:] = np.minimum(cadence, 4.0)
+        self._since_step[:] = np.where(stepped, 0.0, self._since_step)
+        true_displacement = np.zeros((self.batch_size, 2))
+        if not self.overground:
+            d = self.estimator_config.step_length * true_steps
+            true_displacement = d[:, None] * np.stack(
+                [np.cos(true_virtual_yaw), np.sin(true_virtual_yaw)], -1
+            )
+        return steps, true_steps, virtual_yaw, true_virtual_yaw, true_displacement
 
     def _hand_relative_to_torso(self, hand: HandFrame) -> NDArray[np.float64]:
         """The hand's [yaw, pitch, roll] relative to the torso, all from the Kinect's estimates
