@@ -88,3 +88,28 @@ def test_step_summary_kernel_equals_the_numpy_summary():
         np.testing.assert_array_equal(after[0], users._since_step)
         np.testing.assert_allclose(after[1], users.cadence, rtol=0, atol=1e-12)
     assert users.cadence.max() > 0.5  # steps were detected: the cadence path ran
+
+
+def test_parallel_builds_give_the_serial_builds_bits(monkeypatch):
+    """Vector envs of >= PARALLEL_MIN_BATCH users run the motion and Kinect kernels on all
+    cores; the episodes must not change (users share no scratch memory)."""
+    from estimators import _parallel
+
+    n = _parallel.PARALLEL_MIN_BATCH
+
+    def run():
+        envs = gym.make_vec("VRLoco-Interact-v0", num_envs=n)
+        obs, _ = envs.reset(seed=4)
+        envs.action_space.seed(4)
+        out = [obs]
+        for _ in range(12):
+            obs, reward, *_ = envs.step(envs.action_space.sample())
+            out += [obs, reward]
+        envs.close()
+        return out
+
+    parallel = run()
+    monkeypatch.setattr(_parallel, "PARALLEL_MIN_BATCH", 10**9)  # serial builds only
+    serial = run()
+    for a, b in zip(parallel, serial, strict=True):
+        np.testing.assert_array_equal(a, b)

@@ -11,6 +11,7 @@ import math
 
 import numba
 
+from estimators._parallel import BatchKernel
 from estimators._rotations_numba import quat_from_ypr, quat_rotate
 
 
@@ -22,8 +23,7 @@ def _critically_damped(x0, v0, target, lag, tau):
     return target + (e0 + c * tau) * decay, (c - (e0 + c * tau) / lag) * decay
 
 
-@numba.njit(cache=True)
-def evaluate_kernel(
+def _evaluate(
     phase0, step_cad, yaw0, yaw_rate0, gamp0, gamp_rate0, gphase0, lean0, lean_rate0, base,
     impact, sway_scale, cad_cmd, turn_cmd, gamp_cmd, gfreq, lean_cmd,
     lo, hi, pk_lo, pk_hi, gravity, sway_m, sway_roll, turn_lag, gesture_lag, neck_h, imu_off,
@@ -35,7 +35,7 @@ def evaluate_kernel(
     t_n = tau.shape[0]
     k_n = pulse_pos.shape[0]
     two_pi = 2.0 * math.pi
-    for b in range(b_n):
+    for b in numba.prange(b_n):  # users are independent (estimators._parallel)
         c_old = step_cad[b]
         c_new = cad_cmd[b]
         ph0 = phase0[b]
@@ -152,6 +152,10 @@ def evaluate_kernel(
             o_yaw_rate[b, t] = d_yaw
             o_lean[b, t] = lean
             o_lean_rate[b, t] = d_lean
+
+
+evaluate_kernel = BatchKernel(_evaluate)
+"""Head and body at the given times for B users: ``evaluate_kernel(B)(...)``."""
 
 
 @numba.njit(cache=True)

@@ -438,7 +438,7 @@ class UserMotion:
             "omega": np.empty((b, t, 3)),
         }  # fmt: skip
         lo, hi = p.cadence_range_hz
-        evaluate_kernel(
+        evaluate_kernel(b)(
             s.phase, s.step_cadence, s.yaw, s.yaw_rate, s.gesture_amp, s.gesture_amp_rate,
             s.gesture_phase, s.lean, s.lean_rate, s.base, s.impact_scale, s.sway_scale,
             cmd["cadence"], cmd["turn_rate"], cmd["gesture_amplitude"], cmd["gesture_frequency"],

@@ -63,6 +63,8 @@ import math
 import numba
 import numpy as np
 
+from estimators._parallel import BatchKernel
+
 NUM_JOINTS = 25
 # Joint indices used by the kernel (Kinect v2 JointType, vrloco_env.skeleton.Joint).
 WRIST_RIGHT = 10
@@ -221,8 +223,7 @@ def rotvec_quat(rx: float, ry: float, rz: float) -> tuple[float, float, float, f
     return math.cos(0.5 * angle), s * rx, s * ry, s * rz
 
 
-@numba.njit(cache=True)
-def capture_frames(
+def _capture_frames(
     joints_world,
     hand_world,
     z,
@@ -319,36 +320,37 @@ def capture_frames(
     margin_m, occlusion_depth = prm[P_TORSO_MARGIN], prm[P_OCCLUSION_DEPTH]
     p_inferred, q_inferred = prm[P_INFERRED_PROB], prm[P_INFERRED_Q]
 
-    # Scratch, reused for every user and frame. Each body's joints in camera space are an affine
-    # map of a source skeleton: the target's world joints, or the bystander template.
-    src = np.empty((N, J, 3))
-    for n in range(1, N):
-        src[n] = by_template
-    aff = np.empty((N, 3, 4))  # camera point = aff[:, :3] @ source point + aff[:, 3]
-    cam = np.empty((N, J, 3))
-    img_u = np.empty((N, J))  # image coordinates x / z, y / z
-    img_v = np.empty((N, J))
-    hand_cam = np.empty((N, 4))
-    in_view = np.empty((N, J), dtype=np.bool_)
-    occluded = np.empty((N, J), dtype=np.bool_)  # by a torso or a random inferred episode
-    zt = np.empty(N)
-    u_lo = np.empty(N)
-    u_hi = np.empty(N)
-    v_lo = np.empty(N)
-    v_hi = np.empty(N)
-    n_visible = np.empty(N, dtype=np.int64)
-    tracked = np.empty(N, dtype=np.bool_)
-    fresh = np.empty(N, dtype=np.bool_)
-    b_active = np.empty(N, dtype=np.bool_)
-    body_of_slot = np.empty(K, dtype=np.int64)
-    # The target: camera = R^T world - R^T c.
-    for a in range(3):
-        for i in range(3):
-            aff[0, a, i] = cam_rot[i, a]
-        aff[0, a, 3] = -(cam_rot[0, a] * cam_pos[0] + cam_rot[1, a] * cam_pos[1])
-        aff[0, a, 3] -= cam_rot[2, a] * cam_pos[2]
+    for b in numba.prange(B):  # users are independent (estimators._parallel)
+        # Scratch of this user (users run in parallel: nothing is shared). Each body's joints in
+        # camera space are an affine map of a source skeleton: the target's world joints, or the
+        # bystander template.
+        src = np.empty((N, J, 3))
+        for n in range(1, N):
+            src[n] = by_template
+        aff = np.empty((N, 3, 4))  # camera point = aff[:, :3] @ source point + aff[:, 3]
+        cam = np.empty((N, J, 3))
+        img_u = np.empty((N, J))  # image coordinates x / z, y / z
+        img_v = np.empty((N, J))
+        hand_cam = np.empty((N, 4))
+        in_view = np.empty((N, J), dtype=np.bool_)
+        occluded = np.empty((N, J), dtype=np.bool_)  # by a torso or a random inferred episode
+        zt = np.empty(N)
+        u_lo = np.empty(N)
+        u_hi = np.empty(N)
+        v_lo = np.empty(N)
+        v_hi = np.empty(N)
+        n_visible = np.empty(N, dtype=np.int64)
+        tracked = np.empty(N, dtype=np.bool_)
+        fresh = np.empty(N, dtype=np.bool_)
+        b_active = np.empty(N, dtype=np.bool_)
+        body_of_slot = np.empty(K, dtype=np.int64)
+        # The target: camera = R^T world - R^T c.
+        for a in range(3):
+            for i in range(3):
+                aff[0, a, i] = cam_rot[i, a]
+            aff[0, a, 3] = -(cam_rot[0, a] * cam_pos[0] + cam_rot[1, a] * cam_pos[1])
+            aff[0, a, 3] -= cam_rot[2, a] * cam_pos[2]
 
-    for b in range(B):
         body_of_slot[:] = -1
         for n in range(N):
             body_of_slot[slots[b, n]] = n
@@ -606,6 +608,10 @@ def capture_frames(
                 ) = qmul(nw, nx, ny, nz, sw, sx, sy, sz)  # fmt: skip
             truth_joints[b, m] = cam[0]
         frame[b] += M
+
+
+capture_frames = BatchKernel(_capture_frames)
+"""The Kinect's frames for B users: ``capture_frames(B)(...)`` (see ``_capture_frames``)."""
 
 
 @numba.njit(cache=True)

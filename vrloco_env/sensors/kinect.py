@@ -1023,7 +1023,7 @@ class KinectV2:
         }
         truth_joints = np.empty((B, M, NUM_JOINTS, 3))
         truth_hand = np.empty((B, M, 4))
-        _k.capture_frames(
+        _k.capture_frames(B)(
             jw, qw, z, new_ids,
             self._params, self._inferred_z,
             self._joint_scale, self._hand_white_sd, self._hand_ar_sd,
