@@ -11,6 +11,7 @@ import time
 
 import numpy as np
 import pytest
+from _trajectories import circle_motion
 
 from estimators.rotations import (
     GRAVITY,
@@ -18,7 +19,6 @@ from estimators.rotations import (
     quat_from_rotvec,
     quat_from_ypr,
     quat_multiply,
-    quat_rotate_inverse,
     rotation_angle,
 )
 from estimators.visual_inertial import (
@@ -34,7 +34,6 @@ from estimators.visual_inertial import (
 
 RATE = 1000.0  # IMU, Hz
 CAM_RATE = 120.0  # camera, Hz
-G_WORLD = np.array([0.0, 0.0, -GRAVITY])
 ACC_NOISE = 0.18e-3 * GRAVITY  # m/s^2/sqrt(Hz)
 GYR_NOISE = np.radians(0.007)  # rad/s/sqrt(Hz)
 ACC_BIAS = np.array([0.1, -0.15, 0.08])  # m/s^2 (about 10-15 mg)
@@ -44,43 +43,14 @@ ATT_SIGMA = np.radians(0.5)  # rad
 TUNED = VioConfig(position_sigma=POS_SIGMA, attitude_sigma=ATT_SIGMA)
 
 
-def walking(t: np.ndarray) -> dict[str, np.ndarray]:
-    """A 3 m circle at 1 m/s, 3 cm head bob at 1.8 Hz, +-20 deg yaw turns, pitch/roll sway."""
-    r, wc = 3.0, 1.0 / 3.0
-    fb, ab = 1.8, 0.03
-    ph = wc * t
-    wb = 2 * np.pi * fb
-    p = np.stack([r * np.cos(ph), r * np.sin(ph), 1.7 + ab * np.sin(wb * t)], -1)
-    v = np.stack([-r * wc * np.sin(ph), r * wc * np.cos(ph), ab * wb * np.cos(wb * t)], -1)
-    a = np.stack(
-        [-r * wc**2 * np.cos(ph), -r * wc**2 * np.sin(ph), -ab * wb**2 * np.sin(wb * t)], -1
-    )
-    wy, wp, wr = 2 * np.pi * 0.15, 2 * np.pi * 0.5, 2 * np.pi * 0.9
-    yaw = ph + np.pi / 2 + 0.35 * np.sin(wy * t)
-    pitch = 0.05 + 0.1 * np.sin(wp * t)
-    roll = 0.05 * np.sin(wr * t)
-    dyaw = wc + 0.35 * wy * np.cos(wy * t)
-    dpitch = 0.1 * wp * np.cos(wp * t)
-    droll = 0.05 * wr * np.cos(wr * t)
-    q = quat_from_ypr(np.stack([yaw, pitch, roll], -1))
-    w = np.stack(
-        [
-            droll - dyaw * np.sin(pitch),
-            dpitch * np.cos(roll) + dyaw * np.cos(pitch) * np.sin(roll),
-            -dpitch * np.sin(roll) + dyaw * np.cos(pitch) * np.cos(roll),
-        ],
-        -1,
-    )
-    return {"p": p, "v": v, "q": q, "w": w, "f": quat_rotate_inverse(q, a - G_WORLD)}
-
-
 class Run:
     """Truth, noisy IMU and camera frame times for one user over ``duration`` s."""
 
     def __init__(self, duration: float, seed: int, imu_noise_scale: float = 1.0) -> None:
         self.rng = np.random.default_rng(seed)
         n = round(duration * RATE)
-        self.truth = walking(np.arange(n + 1) / RATE)  # sample k of the IMU is at (k + 1) / RATE
+        # Sample k of the IMU is at (k + 1) / RATE.
+        self.truth = circle_motion(np.arange(n + 1) / RATE)
         an = ACC_NOISE * np.sqrt(RATE) * imu_noise_scale
         gn = GYR_NOISE * np.sqrt(RATE) * imu_noise_scale
         self.gyr = self.truth["w"][1:] + GYR_BIAS + self.rng.normal(0, gn, (n, 3))
