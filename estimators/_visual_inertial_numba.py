@@ -415,6 +415,13 @@ def eskf_update(x, P, R, aux, pos, quat, valid, prm, status):
                 aux[b, AUX_CONSEC] += 1.0
                 aux[b, AUX_REJECTED] += 1.0
                 status[b] = STATUS_REJECTED
+                if prm[PRM_SAGE_HUSA] != 0.0:  # robust Sage-Husa: clipped to the gate (Huber)
+                    clip = math.sqrt(prm[PRM_GATE] / nis)
+                    for i in range(6):
+                        tmp[i] = clip * nu[i]
+                    k = aux[b, AUX_K]
+                    _adapt_r(rb, tmp, hph, _fading_weight(prm[PRM_FORGET], k), prm, work)
+                    aux[b, AUX_K] = k + 1.0
                 continue
             code = STATUS_FORCED
             aux[b, AUX_FORCED] += 1.0

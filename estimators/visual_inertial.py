@@ -56,6 +56,13 @@ estimate can be non-positive (``nu nu^T`` is rank one and ``H P H^T`` is subtrac
   are correlated mostly through the geometry, which the filter need not model.
 * full mode: the symmetrised estimate's eigenvalues are clamped to ``[min floor^2, max ceiling^2]``.
 
+Refused frames still count (robust Sage-Husa, decision): a frame the gate refuses enters the R
+estimate with its innovation scaled down to the gate (``nu sqrt(gate / NIS)``, Huber's clipping),
+while the state is not updated. Without it R learns only from frames that already agree with it:
+after the light dims, a third of the frames are refused for seconds (the env's low-light episodes
+showed it) and R climbs only through the forced frames. A single wrong PnP pose moves R by at
+most one gate-sized term.
+
 Departure from the literal formula: ``k`` starts at ``r_prior_frames`` instead of 0. With ``k = 0``,
 ``d_0 = 1`` and the first frame's single outer product replaces the configured R0 (then
 ``d_1 = 1/(1 + b)``...), so the first frames' R is mostly noise; starting at ``k0`` weighs R0 as
@@ -391,6 +398,21 @@ def eskf_predict_reference(
     return out_p, out_q
 
 
+def _sage_husa(rr: NDArray, nu: NDArray, hph: NDArray, k: NDArray, config: VioConfig,
+               prm: NDArray) -> NDArray:  # fmt: skip
+    """Sage-Husa ``R <- (1 - d_k) R + d_k (nu nu^T - H P^- H^T)``, clamped (numpy reference)."""
+    d = ((1.0 - config.forgetting) / (1.0 - config.forgetting ** (k + 1.0)))[:, None, None]
+    raw = (1.0 - d) * rr + d * (nu[:, :, None] * nu[:, None, :] - hph)
+    lo = np.repeat([prm[_k.PRM_R_FLOOR_POS], prm[_k.PRM_R_FLOOR_ATT]], 3)
+    hi = np.repeat([prm[_k.PRM_R_CEIL_POS], prm[_k.PRM_R_CEIL_ATT]], 3)
+    if config.sage_husa_diagonal:
+        return np.clip(np.diagonal(raw, axis1=1, axis2=2), lo, hi)[:, :, None] * np.eye(6)
+    raw = 0.5 * (raw + np.swapaxes(raw, -1, -2))
+    w, vec = np.linalg.eigh(raw)
+    w = np.clip(w, lo.min(), hi.max())
+    return np.einsum("bik,bk,bjk->bij", vec, w, vec)
+
+
 def eskf_update_reference(
     state: VioState, pos: NDArray, quat: NDArray, valid: NDArray, config: VioConfig
 ) -> NDArray[np.int8]:
@@ -420,6 +442,11 @@ def eskf_update_reference(
     aux[rows[rej], _k.AUX_CONSEC] += 1.0
     aux[rows[rej], _k.AUX_REJECTED] += 1.0
     status[rows[rej]] = STATUS_REJECTED
+    if config.adaptive == "sage_husa" and rej.any():  # robust: clipped to the gate (Huber)
+        clipped = nu[rej] * np.sqrt(prm[_k.PRM_GATE] / nis[rej])[:, None]
+        kr = aux[rows[rej], _k.AUX_K]
+        R[rows[rej]] = _sage_husa(R[rows[rej]], clipped, hph[rej], kr, config, prm)
+        aux[rows[rej], _k.AUX_K] = kr + 1.0
     aux[rows[forced], _k.AUX_FORCED] += 1.0
     take = ~rej
     r = rows[take]
@@ -435,17 +462,7 @@ def eskf_update_reference(
         aux[r, _k.AUX_Q_SCALE] = np.clip(qs, prm[_k.PRM_Q_MIN], prm[_k.PRM_Q_MAX])
     rr = R[r]
     if config.adaptive == "sage_husa":
-        d = ((1.0 - config.forgetting) / (1.0 - config.forgetting ** (k + 1.0)))[:, None, None]
-        raw = (1.0 - d) * rr + d * (nu[:, :, None] * nu[:, None, :] - hph)
-        lo = np.repeat([prm[_k.PRM_R_FLOOR_POS], prm[_k.PRM_R_FLOOR_ATT]], 3)
-        hi = np.repeat([prm[_k.PRM_R_CEIL_POS], prm[_k.PRM_R_CEIL_ATT]], 3)
-        if config.sage_husa_diagonal:
-            rr = np.clip(np.diagonal(raw, axis1=1, axis2=2), lo, hi)[:, :, None] * np.eye(6)
-        else:
-            raw = 0.5 * (raw + np.swapaxes(raw, -1, -2))
-            w, vec = np.linalg.eigh(raw)
-            w = np.clip(w, lo.min(), hi.max())
-            rr = np.einsum("bik,bk,bjk->bij", vec, w, vec)
+        rr = _sage_husa(rr, nu, hph, k, config, prm)
         R[r] = rr
         s = hph + rr
     aux[r, _k.AUX_K] = k + 1.0
