@@ -229,6 +229,49 @@ class StrapdownTrajectory:
     p: NDArray[np.float64]
 
 
+def set_nominal_state(
+    x: NDArray[np.float64],
+    rows: NDArray[np.intp],
+    p: ArrayLike,
+    v: ArrayLike,
+    q: ArrayLike,
+    accel_bias: ArrayLike | None = None,
+    gyro_bias: ArrayLike | None = None,
+    gyr: ArrayLike | None = None,
+    acc: ArrayLike | None = None,
+) -> float:
+    """Write a checked nominal state into rows ``rows`` of the kernels' state array ``x``
+    (B, ``N_X``): position, velocity, attitude, biases and the IMU sample at this instant.
+
+    The arguments are as in :meth:`Strapdown.reset` (``accel_bias``, ``gyro_bias`` (B, 3) or (3,)
+    m/s^2 and rad/s, None: zero); the filter of :mod:`estimators.visual_inertial` shares it.
+
+    Returns:
+        1.0 when the sample at this instant was given (it starts the first interval), else 0.0.
+    """
+    b = x.shape[0]
+    qa = np.asarray(q, dtype=np.float64)
+    qa = ensure_quaternion(np.broadcast_to(qa, (b, 4)) if qa.shape == (4,) else qa, "q")
+    qa = _as_array(qa, "q", (b, 4))
+    pa = _rows_arg(p, "p", b, 3, np.zeros(3))
+    va = _rows_arg(v, "v", b, 3, np.zeros(3))
+    ba = _rows_arg(accel_bias, "accel_bias", b, 3, np.zeros(3))
+    bg = _rows_arg(gyro_bias, "gyro_bias", b, 3, np.zeros(3))
+    if (gyr is None) != (acc is None):
+        raise ValueError("gyr and acc at the reset instant must be given together (or neither)")
+    x[rows, _k.X_P : _k.X_P + 3] = pa[rows]
+    x[rows, _k.X_V : _k.X_V + 3] = va[rows]
+    x[rows, _k.X_Q : _k.X_Q + 4] = qa[rows]
+    x[rows, _k.X_BA : _k.X_BA + 3] = ba[rows]
+    x[rows, _k.X_BG : _k.X_BG + 3] = bg[rows]
+    if gyr is None:
+        x[rows, _k.X_GYR :] = 0.0
+        return 0.0
+    x[rows, _k.X_GYR : _k.X_GYR + 3] = _rows_arg(gyr, "gyr", b, 3, np.zeros(3))[rows]
+    x[rows, _k.X_ACC : _k.X_ACC + 3] = _rows_arg(acc, "acc", b, 3, np.zeros(3))[rows]
+    return 1.0
+
+
 class Strapdown:
     """Batched strapdown inertial navigation (B independent users).
 
@@ -258,9 +301,9 @@ class Strapdown:
 
     def reset(
         self,
-        q: ArrayLike,
-        v: ArrayLike,
         p: ArrayLike,
+        v: ArrayLike,
+        q: ArrayLike,
         mask: ArrayLike | None = None,
         gyr: ArrayLike | None = None,
         acc: ArrayLike | None = None,
@@ -268,11 +311,11 @@ class Strapdown:
         """Set the state of some or all users at a sample instant.
 
         Args:
-            q: (B, 4) or (4,) attitude body -> world (normalised here).
-            v: (B, 3) or (3,) world velocity, m/s.
             p: (B, 3) or (3,) world position, m.
+            v: (B, 3) or (3,) world velocity, m/s.
+            q: (B, 4) or (4,) attitude body -> world (normalised here).
             mask: users to reset, (B,) bool or indices; None: all. Only the selected rows of
-                ``q``, ``v``, ``p`` are used.
+                ``p``, ``v``, ``q`` are used.
             gyr, acc: (B, 3) or (3,) the IMU sample *at this instant* (rad/s, m/s^2), used as the
                 start of the first interval; None: the first sample after the reset is held over
                 the first interval.
@@ -280,28 +323,8 @@ class Strapdown:
         Raises:
             ValueError: wrong shapes, non-finite values, zero quaternion, bad mask.
         """
-        b = self.batch_size
-        rows = stream_rows(mask, b, "mask", unique=False)
-        qa = np.asarray(q, dtype=np.float64)
-        qa = ensure_quaternion(np.broadcast_to(qa, (b, 4)) if qa.shape == (4,) else qa, "q")
-        qa = _as_array(qa, "q", (b, 4))
-        va = _rows_arg(v, "v", b, 3, np.zeros(3))
-        pa = _rows_arg(p, "p", b, 3, np.zeros(3))
-        x = self._x
-        x[rows, _k.X_Q : _k.X_Q + 4] = qa[rows]
-        x[rows, _k.X_V : _k.X_V + 3] = va[rows]
-        x[rows, _k.X_P : _k.X_P + 3] = pa[rows]
-        x[rows, _k.X_BA : _k.X_BA + 3] = 0.0
-        x[rows, _k.X_BG : _k.X_BG + 3] = 0.0
-        if (gyr is None) != (acc is None):
-            raise ValueError("gyr and acc at the reset instant must be given together (or neither)")
-        if gyr is None:
-            x[rows, _k.X_GYR :] = 0.0
-            self._has_prev[rows] = 0.0
-        else:
-            x[rows, _k.X_GYR : _k.X_GYR + 3] = _rows_arg(gyr, "gyr", b, 3, np.zeros(3))[rows]
-            x[rows, _k.X_ACC : _k.X_ACC + 3] = _rows_arg(acc, "acc", b, 3, np.zeros(3))[rows]
-            self._has_prev[rows] = 1.0
+        rows = stream_rows(mask, self.batch_size, "mask", unique=False)
+        self._has_prev[rows] = set_nominal_state(self._x, rows, p, v, q, gyr=gyr, acc=acc)
 
     def propagate(
         self,

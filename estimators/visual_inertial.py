@@ -97,7 +97,6 @@ from estimators import _visual_inertial_numba as _k
 from estimators.batching import stream_rows
 from estimators.rotations import (
     GRAVITY,
-    ensure_quaternion,
     quat_conjugate,
     quat_from_rotvec,
     quat_multiply,
@@ -110,8 +109,8 @@ from estimators.strapdown import (
     _as_array,
     _check_batch_size,
     _check_rate,
-    _rows_arg,
     mechanisation_step,
+    set_nominal_state,
 )
 
 __all__ = [
@@ -559,33 +558,14 @@ class VisualInertialFilter:
         Raises:
             ValueError: shapes, non-finite values, a zero quaternion or a bad mask.
         """
-        b = self.batch_size
-        rows = stream_rows(mask, b, "mask", unique=False)
-        qa = np.asarray(q, dtype=np.float64)
-        qa = ensure_quaternion(np.broadcast_to(qa, (b, 4)) if qa.shape == (4,) else qa, "q")
-        qa = _as_array(qa, "q", (b, 4))
-        pa = _rows_arg(p, "p", b, 3, np.zeros(3))
-        va = _rows_arg(v, "v", b, 3, np.zeros(3))
-        ba = _rows_arg(accel_bias, "accel_bias", b, 3, np.zeros(3))
-        bg = _rows_arg(gyro_bias, "gyro_bias", b, 3, np.zeros(3))
-        if (gyr is None) != (acc is None):
-            raise ValueError("gyr and acc at the reset instant must be given together (or neither)")
+        rows = stream_rows(mask, self.batch_size, "mask", unique=False)
         x = self.state.x
-        x[rows, _k.X_P : _k.X_P + 3] = pa[rows]
-        x[rows, _k.X_V : _k.X_V + 3] = va[rows]
-        x[rows, _k.X_Q : _k.X_Q + 4] = qa[rows]
-        x[rows, _k.X_BA : _k.X_BA + 3] = ba[rows]
-        x[rows, _k.X_BG : _k.X_BG + 3] = bg[rows]
+        has_prev = set_nominal_state(x, rows, p, v, q, accel_bias, gyro_bias, gyr, acc)
         aux = self.state.aux
         aux[rows] = 0.0
         aux[rows, _k.AUX_K] = self.config.r_prior_frames
         aux[rows, _k.AUX_Q_SCALE] = 1.0
-        if gyr is None:
-            x[rows, _k.X_GYR :] = 0.0
-        else:
-            x[rows, _k.X_GYR : _k.X_GYR + 3] = _rows_arg(gyr, "gyr", b, 3, np.zeros(3))[rows]
-            x[rows, _k.X_ACC : _k.X_ACC + 3] = _rows_arg(acc, "acc", b, 3, np.zeros(3))[rows]
-            aux[rows, _k.AUX_HAS_PREV] = 1.0
+        aux[rows, _k.AUX_HAS_PREV] = has_prev
         self.state.P[rows] = self.config.p0
         self.state.R[rows] = self.config.r0
 

@@ -47,7 +47,7 @@ def test_rk4_constant_rate_matches_closed_form():
     w = 1.3 * axis / np.linalg.norm(axis)  # rad/s
     q0 = quat_from_ypr(np.array([[0.4, -0.2, 0.7]]))
     nav = Strapdown(1, rate)
-    nav.reset(q0, np.zeros(3), np.zeros(3), gyr=w, acc=[0, 0, GRAVITY])
+    nav.reset(np.zeros(3), np.zeros(3), q0, gyr=w, acc=[0, 0, GRAVITY])
     traj = nav.propagate(np.tile(w, (1, n, 1)), np.zeros((1, n, 3)))
     t = np.arange(1, n + 1) / rate
     exact = quat_multiply(q0[:, None], quat_from_rotvec(w * t[:, None])[None])
@@ -66,7 +66,7 @@ def test_rk4_numpy_reference_agrees_with_kernel(rng):
     bg = rng.normal(0, 0.01, (b, 3))
     ba = rng.normal(0, 0.1, (b, 3))
     nav = Strapdown(b, 500.0)
-    nav.reset(q0, v0, p0, gyr=gyr[:, 0], acc=acc[:, 0])
+    nav.reset(p0, v0, q0, gyr=gyr[:, 0], acc=acc[:, 0])
     traj = nav.propagate(gyr[:, 1:], acc[:, 1:], gyro_bias=bg, accel_bias=ba)
     q, v, p = q0, v0, p0
     for k in range(1, n):
@@ -94,7 +94,7 @@ def test_analytic_trajectory_position_within_1mm():
     t = np.arange(n + 1) / rate
     m = circle_motion(t)
     nav = Strapdown(1, rate)
-    nav.reset(m["q"][0], m["v"][0], m["p"][0], gyr=m["w"][0], acc=m["f"][0])
+    nav.reset(m["p"][0], m["v"][0], m["q"][0], gyr=m["w"][0], acc=m["f"][0])
     traj = nav.propagate(m["w"][None, 1:], m["f"][None, 1:])
     pos_err = np.linalg.norm(traj.p[0] - m["p"][1:], axis=-1)
     att_err = rotation_angle(quat_multiply(quat_conjugate(m["q"][1:]), traj.q[0]))
@@ -112,7 +112,7 @@ def test_tumbling_at_rest_keeps_position():
     q = quat_from_rotvec(w * t[:, None])
     f = quat_rotate_inverse(q, -G_WORLD)
     nav = Strapdown(1, rate)
-    nav.reset(q[0], np.zeros(3), np.zeros(3), gyr=w, acc=f[0])
+    nav.reset(np.zeros(3), np.zeros(3), q[0], gyr=w, acc=f[0])
     traj = nav.propagate(np.tile(w, (1, n, 1)), f[None, 1:])
     assert np.abs(traj.p).max() < 1e-6
     # The mid-interval alternative would drift by g (w dt)^2 / 8 * t^2 / 2 = 2.5e-4 m here.
@@ -123,12 +123,12 @@ def test_accelerometer_bias_gives_half_b_t_squared():
     b = np.array([0.02, -0.05, 0.01])  # m/s^2, level and still: body = world axes
     acc = np.tile(F_REST + b, (1, n, 1))
     nav = Strapdown(1, rate)
-    nav.reset([1, 0, 0, 0], np.zeros(3), np.zeros(3), gyr=np.zeros(3), acc=acc[0, 0])
+    nav.reset(np.zeros(3), np.zeros(3), [1, 0, 0, 0], gyr=np.zeros(3), acc=acc[0, 0])
     traj = nav.propagate(np.zeros((1, n, 3)), acc)
     t = np.arange(1, n + 1) / rate
     np.testing.assert_allclose(traj.p[0], 0.5 * b * t[:, None] ** 2, rtol=1e-9, atol=1e-12)
     # Correcting with the known bias removes the drift entirely.
-    nav.reset([1, 0, 0, 0], np.zeros(3), np.zeros(3), gyr=np.zeros(3), acc=acc[0, 0])
+    nav.reset(np.zeros(3), np.zeros(3), [1, 0, 0, 0], gyr=np.zeros(3), acc=acc[0, 0])
     traj = nav.propagate(np.zeros((1, n, 3)), acc, accel_bias=b)
     assert np.abs(traj.p).max() < 1e-9
 
@@ -138,7 +138,7 @@ def test_gyro_bias_gives_g_b_t_cubed_over_six():
     rate, n = 1000.0, 10_000
     bx = 1e-4  # rad/s, small enough for the small-angle law
     nav = Strapdown(1, rate)
-    nav.reset([1, 0, 0, 0], np.zeros(3), np.zeros(3))
+    nav.reset(np.zeros(3), np.zeros(3), [1, 0, 0, 0])
     gyr = np.tile([bx, 0.0, 0.0], (1, n, 1))
     traj = nav.propagate(gyr, np.tile([0.0, 0.0, GRAVITY], (1, n, 1)))
     t = np.arange(1, n + 1) / rate
@@ -155,7 +155,7 @@ def test_static_bias_calibration_and_zero_order_start(rng):
     assert np.abs(est - bias).max() < 5 * 0.005 / np.sqrt(n)
     # Without a sample at the reset instant the first one is held: a constant rate is still exact.
     nav = Strapdown(1, 100.0)
-    nav.reset([1, 0, 0, 0], np.zeros(3), np.zeros(3))
+    nav.reset(np.zeros(3), np.zeros(3), [1, 0, 0, 0])
     w = np.array([0.0, 0.0, 1.0])
     traj = nav.propagate(np.tile(w, (1, 100, 1)), np.tile([0, 0, GRAVITY], (1, 100, 1)))
     assert abs(rotation_angle(traj.q[0, -1]) - 1.0) < 1e-10
@@ -180,16 +180,16 @@ def test_reset_mask_and_batch_independence(rng):
     gyr = rng.normal(0, 1, (2, n, 3))
     acc = rng.normal(0, 1, (2, n, 3)) + F_REST
     both = Strapdown(2, 200.0)
-    both.reset(np.tile([1.0, 0, 0, 0], (2, 1)), np.zeros((2, 3)), np.zeros((2, 3)))
+    both.reset(np.zeros((2, 3)), np.zeros((2, 3)), np.tile([1.0, 0, 0, 0], (2, 1)))
     both.propagate(gyr, acc)
     before = both.p.copy()
     q1 = quat_from_ypr(np.array([1.0, 0.1, 0.0]))
-    both.reset(np.tile(q1, (2, 1)), [1.0, 2.0, 3.0], [4.0, 5.0, 6.0], mask=[True, False])
+    both.reset([4.0, 5.0, 6.0], [1.0, 2.0, 3.0], np.tile(q1, (2, 1)), mask=[True, False])
     np.testing.assert_array_equal(both.p[1], before[1])
     np.testing.assert_array_equal(both.p[0], [4.0, 5.0, 6.0])
     out = both.propagate(gyr, acc)
     single = Strapdown(1, 200.0)
-    single.reset(q1, [1.0, 2.0, 3.0], [4.0, 5.0, 6.0])
+    single.reset([4.0, 5.0, 6.0], [1.0, 2.0, 3.0], q1)
     np.testing.assert_array_equal(single.propagate(gyr[:1], acc[:1]).p[0], out.p[0])
 
 
@@ -206,7 +206,7 @@ def test_bad_input_names_the_field():
     with pytest.raises(ValueError, match="batch_size"):
         Strapdown(0, 100.0)
     with pytest.raises(ValueError, match="q"):
-        nav.reset(np.zeros((2, 4)), np.zeros(3), np.zeros(3))
+        nav.reset(np.zeros(3), np.zeros(3), np.zeros((2, 4)))
 
 
 def test_120_s_at_1khz_is_fast():

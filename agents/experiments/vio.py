@@ -356,7 +356,7 @@ def imu_only(traj: Trajectory) -> dict:
         the final ones; ``pos_at_m`` / ``att_at_deg`` at ``t_at_s`` (each quarter of the run).
     """
     nav = Strapdown(1, IMU_RATE_HZ)
-    nav.reset(traj.quat[0], _start_velocity(traj), traj.pos[0], gyr=traj.gyr[0], acc=traj.acc[0])
+    nav.reset(traj.pos[0], _start_velocity(traj), traj.quat[0], gyr=traj.gyr[0], acc=traj.acc[0])
     out = nav.propagate(traj.gyr[None, 1:], traj.acc[None, 1:], gyro_bias=traj.gyro_bias,
                         accel_bias=traj.accel_bias)  # fmt: skip
     p = np.concatenate([traj.pos[:1], out.p[0]])
