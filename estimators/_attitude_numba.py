@@ -24,6 +24,8 @@ import math
 import numba
 import numpy as np
 
+from estimators._rotations_numba import quat_from_rotvec
+
 # Packed parameters (float64 vector), filled by ``AttitudeParams.packed()``; units as there.
 PRM_MODEL_TRAWNY = 0  # 1.0: F = [[-[w x], -I], [0, 0]] (Trawny); 0.0: the paper's printed F = 0
 PRM_GYR_NOISE = 1  # rad/s/sqrt(Hz)
@@ -84,14 +86,7 @@ def _rot_row(q, r, out):
 @numba.njit(cache=True, inline="always")
 def _quat_mul_rotvec(q, rx, ry, rz):
     """In place ``q <- normalize(q ⊗ exp([rx, ry, rz]))`` (rotation vector in rad, body frame)."""
-    angle = math.sqrt(rx * rx + ry * ry + rz * rz)
-    if angle < 1e-8:
-        c = math.cos(0.5 * angle)
-        s = 0.5 - angle * angle / 48.0
-    else:
-        c = math.cos(0.5 * angle)
-        s = math.sin(0.5 * angle) / angle
-    pw, px, py, pz = c, s * rx, s * ry, s * rz
+    pw, px, py, pz = quat_from_rotvec(rx, ry, rz)
     w, x, y, z = q[0], q[1], q[2], q[3]
     nw = w * pw - x * px - y * py - z * pz
     nx = w * px + x * pw + y * pz - z * py

@@ -68,3 +68,13 @@ def quat_to_ypr(w, x, y, z):
 def rotation_angle(w, x, y, z):
     """Rotation angle (rad, [0, pi]) of a unit quaternion."""
     return 2.0 * math.atan2(math.sqrt(x * x + y * y + z * z), abs(w))
+
+
+@numba.njit(cache=True)
+def quat_from_rotvec(rx, ry, rz):
+    """Unit quaternion ``exp([rx, ry, rz])`` of a rotation vector (rad), as a tuple; a series
+    below 1e-8 rad."""
+    angle = math.sqrt(rx * rx + ry * ry + rz * rz)
+    c = math.cos(0.5 * angle)
+    s = 0.5 - angle * angle / 48.0 if angle < 1e-8 else math.sin(0.5 * angle) / angle
+    return c, s * rx, s * ry, s * rz

@@ -29,6 +29,8 @@ import math
 import numba
 import numpy as np
 
+from estimators._rotations_numba import quat_from_rotvec
+
 # Nominal state, per user.
 X_P = 0  # position, world, m (3)
 X_V = 3  # velocity, world, m/s (3)
@@ -485,14 +487,7 @@ def eskf_update(x, P, R, aux, pos, quat, valid, prm, status):
             xb[X_BA + i] += dx[9 + i]
             xb[X_BG + i] += dx[12 + i]
         rx, ry, rz = dx[6], dx[7], dx[8]
-        ang = math.sqrt(rx * rx + ry * ry + rz * rz)
-        if ang < 1e-8:
-            cw = math.cos(0.5 * ang)
-            sv = 0.5 - ang * ang / 48.0
-        else:
-            cw = math.cos(0.5 * ang)
-            sv = math.sin(0.5 * ang) / ang
-        pw, px, py, pz = cw, sv * rx, sv * ry, sv * rz
+        pw, px, py, pz = quat_from_rotvec(rx, ry, rz)
         qw, qx, qy, qz = xb[X_Q], xb[X_Q + 1], xb[X_Q + 2], xb[X_Q + 3]
         nw = pw * qw - px * qx - py * qy - pz * qz
         nx = pw * qx + px * qw + py * qz - pz * qy

@@ -140,5 +140,8 @@ def test_compiled_scalar_helpers_match_the_numpy_module(rng):
                                    atol=TOL)  # fmt: skip
         np.testing.assert_allclose(nb.quat_to_ypr(*q[i]), ypr[i], atol=1e-12)
         assert nb.rotation_angle(*q[i]) == pytest.approx(rot.rotation_angle(q[i]), abs=TOL)
+        for scale in (1.0, 1e-9):  # the series branch too
+            np.testing.assert_allclose(nb.quat_from_rotvec(*(scale * v[i])),
+                                       rot.quat_from_rotvec(scale * v[i]), atol=TOL)  # fmt: skip
     lock = rot.quat_from_ypr([0.7, np.pi / 2, 0.0])
     np.testing.assert_allclose(nb.quat_to_ypr(*lock), rot.quat_to_ypr(lock), atol=1e-7)
