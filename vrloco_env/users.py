@@ -181,7 +181,6 @@ class SimulatedUsers:
         self._last_true = np.zeros((b, 2))  # true head xy at the last step's end
         self.last_tracked = None  # the last step's TrackedChunk (visual-inertial source only)
         self._start_xy3 = np.zeros((b, 3))  # start marker in the room (m), z = 0
-        self._start_frame_q = np.tile([1.0, 0.0, 0.0, 0.0], (b, 1))  # room -> start frame
         if self.overground:
             steps_per_frame = sensors.head_camera.rate_hz / motion.control_rate_hz
             if abs(steps_per_frame - round(steps_per_frame)) > 1e-9:
@@ -229,9 +228,6 @@ class SimulatedUsers:
                 np.asarray(start_xy, np.float64), (u, 2)), users=None if every else rows)
             self._track_start[rows] = True
             self._start_xy3[rows, :2] = np.broadcast_to(np.asarray(start_xy, np.float64), (u, 2))
-            self._start_frame_q[rows] = rot.quat_from_ypr(
-                np.stack([-start_yaw, np.zeros(u), np.zeros(u)], -1)
-            )
         else:
             self.motion.reset(yaw=physical_yaw, users=None if every else rows)
         self.imu.reset() if every else self.imu.reset(users=rows)
@@ -263,7 +259,8 @@ class SimulatedUsers:
         kin = chunk.kinect
         joints, hand_quat = kin.joints, kin.hand_quat
         if self.overground:  # the Kinect stands in front of the start marker, facing it
-            q_start = self._start_frame_q[:, None, :]
+            zero = np.zeros(self.batch_size)  # room -> start-marker frame: a turn by -start yaw
+            q_start = rot.quat_from_ypr(np.stack([-self._start_yaw, zero, zero], -1))[:, None, :]
             joints = rot.quat_rotate(
                 q_start[:, :, None, :], joints - self._start_xy3[:, None, None, :]
             )
