@@ -23,7 +23,7 @@ row of the benchmark table. The definitions:
 
 Step F1. The env reports the true heel-strike times and the detector's estimated heel-strike
 times of each step (``info["true_step_times"]``, ``info["detected_step_times"]``, episode time,
-NaN-padded); they are matched one to one within +-0.2 s, seed 000's tolerance
+inf-padded); they are matched one to one within +-0.2 s, seed 000's tolerance
 (:func:`match_step_times`, :func:`estimators.gait.step_f1`). The detector is causal and
 reports a step 0.135 s after it, and the first step of a walking bout only with the second;
 matching the estimated heel-strike times, not the reporting times, judges where a step was
@@ -298,7 +298,7 @@ class EpisodeRecorder:
 
 
 def _finite_times(per_step: list) -> NDArray[np.float64]:
-    """Concatenate per-step NaN-padded time arrays into the sorted finite times."""
+    """Concatenate per-step padded time arrays into the sorted finite times."""
     if not per_step:
         return np.zeros(0)
     t = np.concatenate([np.ravel(np.asarray(x, dtype=np.float64)) for x in per_step])

@@ -394,11 +394,14 @@ class LocoCore:
         att_err = np.empty(self.batch_size)
         attitude_error_kernel(us.motion.quat[:, -1], us.ypr_est, att_err)
         hand_err = hand_error(us.hand_est, us.hand_true)
-        # Heel-strike times in episode time, NaN-padded (the single env keeps the finite ones):
-        # the motion clock and the detector's clock count from their own origins; each user's
-        # offsets were stored at its reset.
-        true_times = us.motion.step_time - ep.start_time[:, None]
-        detected_times = us.step_peak_time - ep.detector_start[:, None]
+        # Heel-strike times in episode time, padded with +inf to a fixed width (an array of one
+        # shape stacks in any vector env, and inf == inf where gymnasium's checker compares
+        # infos): the motion clock and the detector's clock count from their own origins; each
+        # user's offsets were stored at its reset.
+        true_times = np.nan_to_num(us.motion.step_time - ep.start_time[:, None], nan=np.inf)
+        detected_times = np.nan_to_num(
+            us.step_peak_time - ep.detector_start[:, None], nan=np.inf
+        )
         return {
             "true_ypr": np.rad2deg(us.ypr_true),
             "est_ypr": np.rad2deg(us.ypr_est),

@@ -24,6 +24,7 @@ from typing import Any, ClassVar
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
+from gymnasium.envs.registration import EnvSpec
 from numpy.typing import NDArray
 
 from vrloco_env.actions import ACTION_SIZE
@@ -86,6 +87,19 @@ class VRLocoEnv(gym.Env):
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array", "human"], "render_fps": 10}
+    _spec: EnvSpec | None = None
+
+    @property
+    def spec(self) -> EnvSpec | None:  # type: ignore[override]
+        """The spec ``gym.make`` set, with the env's own horizon as ``max_episode_steps`` (so
+        that ``gym.make(env.spec)`` rebuilds the same episodes)."""
+        if self._spec is None:
+            return None
+        return replace(self._spec, max_episode_steps=self.config.max_episode_steps)
+
+    @spec.setter
+    def spec(self, value: EnvSpec | None) -> None:
+        self._spec = value
 
     def __init__(
         self,
@@ -148,9 +162,9 @@ class VRLocoEnv(gym.Env):
         obs, reward, terminated, truncated, infos = self.core.step(a[None])
         self._path.append(self.core.ep.position[0].copy())
         self._true_path.append(self.core.ep.true_position[0].copy())
+        # Every value keeps one shape for the whole episode (step times stay padded), so
+        # that gymnasium's sync and async vector envs can stack the infos of their sub-envs.
         info = {k: (v[0] if v.ndim > 1 else v[0].item()) for k, v in infos.items()}
-        for k in ("true_step_times", "detected_step_times"):  # the steps of this control step
-            info[k] = info[k][np.isfinite(info[k])]
         if self.render_mode == "human":
             self._sync_sim()
         return obs[0], float(reward[0]), bool(terminated[0]), bool(truncated[0]), info

@@ -1,0 +1,129 @@
+"""Gymnasium's own tools on every id: its sync and async vector envs, and the episode horizon."""
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import vrloco_env  # noqa: F401
+from vrloco_env import ENV_IDS
+from vrloco_env.config import EnvConfig
+
+_ACTIONS = np.random.default_rng(3).uniform(-1, 1, (40, 2, 5)).astype(np.float32)
+_ACTIONS[:, :, 0] = np.abs(_ACTIONS[:, :, 0])  # walking: steps are taken and detected
+
+
+def _run(envs, steps: int):
+    """Step ``envs`` through ``steps`` actions; return the observations, the ends and the infos."""
+    obs, _ = envs.reset(seed=5)
+    out, ends, infos = [obs], [], []
+    for k in range(steps):
+        obs, _, te, tr, info = envs.step(_ACTIONS[k, : envs.num_envs])
+        out.append(obs)
+        ends.append(te | tr)
+        infos.append(info)
+    return np.array(out), np.array(ends), infos
+
+
+@pytest.mark.parametrize("env_id", sorted(ENV_IDS))
+@pytest.mark.parametrize("mode", ["sync", "async", "vector_entry_point"])
+def test_every_vectorization_mode_runs_through_autoresets_and_stacks_every_info(env_id, mode):
+    envs = gym.make_vec(env_id, num_envs=2, vectorization_mode=mode, max_episode_steps=6)
+    try:
+        obs, ends, infos = _run(envs, 20)
+    finally:
+        envs.close()
+    assert ends.sum(axis=0).min() >= 2  # each sub-env went through autoresets
+    assert np.isfinite(obs).all()
+    # Heel strikes are reported per control step as inf-padded arrays of one width. (A step
+    # on which every sub-env resets, under gymnasium's next-step autoreset, has the reset info.)
+    stepped = [i for i in infos if "true_step_times" in i]
+    assert len(stepped) >= len(infos) // 2
+    times = np.concatenate([i["true_step_times"] for i in stepped], axis=0)
+    assert times.ndim == 2 and times.shape[0] == 2 * len(stepped)
+    assert np.isfinite(times).any()  # the walking users took steps
+    for info in stepped:
+        for key in ("true_step_times", "detected_step_times", "est_hand_ypr", "position"):
+            assert info[key].shape[0] == 2, key
+
+
+@pytest.mark.parametrize("mode", ["sync", "async"])
+def test_gymnasium_vector_envs_start_with_the_native_vector_envs_episodes(mode):
+    """Until the first reset, sub-env i of every mode is the same episode (seed + i)."""
+    kw = {"num_envs": 2, "max_episode_steps": 50}
+    native = gym.make_vec("VRLoco-Approach-v0", vectorization_mode="vector_entry_point", **kw)
+    other = gym.make_vec("VRLoco-Approach-v0", vectorization_mode=mode, **kw)
+    try:
+        a, _, info_a = _run(native, 12)
+        b, _, info_b = _run(other, 12)
+    finally:
+        native.close()
+        other.close()
+    np.testing.assert_array_equal(a, b)
+    for x, y in zip(info_a, info_b, strict=True):
+        np.testing.assert_array_equal(x["true_step_times"], y["true_step_times"])
+        np.testing.assert_array_equal(x["position"], y["position"])
+
+
+def test_single_env_step_times_keep_one_shape_inf_padded():
+    env = gym.make("VRLoco-Approach-v0")
+    env.reset(seed=0)
+    shapes, finite = set(), 0
+    for k in range(30):
+        *_, info = env.step(_ACTIONS[k, 0])
+        shapes.add((info["true_step_times"].shape, info["detected_step_times"].shape))
+        finite += np.isfinite(info["true_step_times"]).sum()
+    env.close()
+    assert len(shapes) == 1
+    assert finite > 0
+
+
+def _episode_length(env) -> int:
+    env.reset(seed=0)
+    stand = np.array([-1.0, 0, 0, 0, 0], np.float32)  # stands still: only the horizon ends it
+    for n in range(1, 5000):
+        *_, te, tr, _ = env.step(stand)
+        if te or tr:
+            assert tr and not te
+            return n
+    raise AssertionError("no truncation")
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        {"max_episode_steps": 37},
+        {"config": EnvConfig(max_episode_steps=37)},
+        {"max_episode_steps": 37, "config": EnvConfig(max_episode_steps=37)},
+        {"max_episode_steps": 37, "config": EnvConfig(ray_count=7)},
+    ],
+    ids=["make-argument", "config", "both", "argument-and-other-config"],
+)
+def test_both_spellings_of_the_horizon_are_honoured(kwargs):
+    env = gym.make("VRLoco-Avoid-v0", **kwargs)
+    assert _episode_length(env) == 37
+    assert env.spec.max_episode_steps == 37
+    again = gym.make(env.spec)  # the spec rebuilds the same horizon
+    assert _episode_length(again) == 37
+    envs = gym.make_vec("VRLoco-Avoid-v0", num_envs=1, **kwargs)
+    envs.reset(seed=0)
+    length = 0
+    while True:
+        length += 1
+        *_, tr, _ = envs.step(np.array([[-1.0, 0, 0, 0, 0]], np.float32))
+        if tr[0] or length > 100:
+            break
+    assert length == 37
+    env.close()
+    again.close()
+    envs.close()
+
+
+def test_default_horizon_is_600_steps():
+    env = gym.make("VRLoco-Approach-v0")
+    assert env.spec.max_episode_steps == 600
+    assert _episode_length(env) == 600
+
+
+def test_contradicting_horizons_are_an_error():
+    with pytest.raises(ValueError, match="contradicts"):
+        gym.make("VRLoco-Approach-v0", max_episode_steps=10, config=EnvConfig(max_episode_steps=20))
