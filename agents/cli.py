@@ -110,13 +110,17 @@ def _cmd_train(args: argparse.Namespace) -> int:
 def _cmd_evaluate(args: argparse.Namespace) -> int:
     from agents.learned import evaluate_model
 
-    result = evaluate_model(
-        Path(args.model),
-        task=args.task,
-        episodes=args.episodes,
-        seed=args.seed,
-        sensor_preset=args.sensors,
-    )
+    try:
+        result = evaluate_model(
+            Path(args.model),
+            task=args.task,
+            episodes=args.episodes,
+            seed=args.seed,
+            sensor_preset=args.sensors,
+        )
+    except ValueError as err:  # a contradiction with the model: one clear line, no traceback
+        print(f"vrloco evaluate: {err}", file=sys.stderr)
+        return 2
     print(json.dumps(result, indent=2))
     return 0
 
@@ -223,9 +227,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     evaluate = sub.add_parser("evaluate", help="the benchmark's metrics for a trained PPO model")
     evaluate.add_argument("model", help="path of a saved PPO model (.zip)")
-    evaluate.add_argument("--task", default="approach", help="approach, avoid or interact")
+    evaluate.add_argument(
+        "--task", help="approach, avoid or interact (default: the task the model was trained on)"
+    )
     evaluate.add_argument("--episodes", type=int, default=100, help="seeded episodes")
-    evaluate.add_argument("--sensors", default="ig500n", help="IMU preset (default: ig500n)")
+    evaluate.add_argument("--sensors", help="IMU preset (default: the model's own)")
     evaluate.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
     evaluate.set_defaults(func=_cmd_evaluate)
     est = sub.add_parser(

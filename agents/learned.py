@@ -23,7 +23,7 @@ from stable_baselines3.common.vec_env.base_vec_env import VecEnv
 
 from vrloco_env.vector import VRLocoVectorEnv
 
-__all__ = ["SB3VecEnv", "evaluate_model", "train_ppo"]
+__all__ = ["SB3VecEnv", "env_settings", "evaluate_model", "model_env_settings", "train_ppo"]
 
 #: Reported per-step keys kept in the SB3 infos (episode metrics for the callbacks).
 _INFO_KEYS = ("is_success", "collisions", "distance_to_goal")
@@ -115,11 +115,12 @@ def train_ppo(
     from stable_baselines3.common.vec_env import VecMonitor
 
     out_dir.mkdir(parents=True, exist_ok=True)
+    env_kwargs = env_settings(task, sensor_preset=sensor_preset)
     venv = VecMonitor(
-        SB3VecEnv(VRLocoVectorEnv(num_envs, task=task, sensor_preset=sensor_preset), seed=seed),
+        SB3VecEnv(VRLocoVectorEnv(num_envs, **env_kwargs), seed=seed),
         info_keywords=("is_success",),
     )
-    eval_env = VRLocoVectorEnv(eval_episodes, task=task, sensor_preset=sensor_preset)
+    eval_env = VRLocoVectorEnv(eval_episodes, **env_kwargs)
     curve: list[dict[str, float]] = []
     t_start = time.perf_counter()
 
@@ -162,6 +163,8 @@ def train_ppo(
         tensorboard_log=str(out_dir / "tb"),
         **{**defaults, **ppo_kwargs},
     )
+    # Saved with every checkpoint, the best and the final model: what the policy was trained on.
+    model.vrloco_env = env_kwargs
     checkpoints = CheckpointCallback(
         max(eval_every // num_envs, 1), str(out_dir / "checkpoints"), name_prefix=f"ppo_{task}"
     )
@@ -225,17 +228,48 @@ def run_policy_episodes(model: Any, env: VRLocoVectorEnv, seed: int) -> dict[str
     }
 
 
+def env_settings(task: str, sensor_preset: str = "ig500n", **configs: Any) -> dict[str, Any]:
+    """The env a policy is trained on, as the keywords of :class:`~vrloco_env.env.VRLocoEnv`:
+    the task and every configuration dataclass filled in (stored with the model)."""
+    from vrloco_env import ENV_IDS
+    from vrloco_env.env import make_configs
+
+    tasks = sorted(ENV_IDS.values())
+    if task not in tasks:
+        raise ValueError(f"task={task!r}: must be one of {', '.join(tasks)}")
+    config, sensors, estimators, room, reward = make_configs(sensor_preset=sensor_preset, **configs)
+    return {
+        "task": task, "config": config, "sensors": sensors, "estimators": estimators,
+        "room": room, "reward": reward,
+    }  # fmt: skip
+
+
+def model_env_settings(model: Any, path: Path) -> dict[str, Any]:
+    """The env settings stored with a model by :func:`train_ppo` (a clear error without them)."""
+    settings = getattr(model, "vrloco_env", None)
+    if not isinstance(settings, dict) or "task" not in settings:
+        raise ValueError(
+            f"{path}: the model carries no vrloco env settings (it was not saved by vrloco "
+            "train); pass task= (--task) and the sensors explicitly"
+        )
+    return settings
+
+
 def evaluate_model(
     path: Path,
-    task: str = "approach",
+    task: str | None = None,
     episodes: int = 100,
     seed: int = 0,
-    sensor_preset: str = "ig500n",
+    sensor_preset: str | None = None,
 ) -> dict[str, Any]:
     """The benchmark's metrics (:func:`agents.metrics.summarize`) for a saved PPO model.
 
-    Episode i is a single env reset with ``seed + i`` and run with the deterministic policy, as
-    ``vrloco benchmark`` runs a scripted user, so the rows compare directly.
+    The model is evaluated on the env it was trained on (task and every configuration, stored
+    with it by :func:`train_ppo`). ``task`` and ``sensor_preset`` may repeat what the model
+    carries; one that contradicts it is an error. A model saved elsewhere, without vrloco's
+    settings, needs ``task``. Episode i is a single env reset with ``seed + i`` and run with the
+    deterministic policy, as ``vrloco benchmark`` runs a scripted user, so the rows compare
+    directly.
     """
     import gymnasium as gym
     from stable_baselines3 import PPO
@@ -243,11 +277,27 @@ def evaluate_model(
     from agents.metrics import EpisodeRecorder, summarize
     from vrloco_env import ENV_IDS
 
-    ids = {name: env_id for env_id, name in ENV_IDS.items()}
-    if task not in ids:
-        raise ValueError(f"task={task!r}: must be one of {', '.join(ids)}")
     model = PPO.load(path)
-    env = gym.make(ids[task], sensor_preset=sensor_preset)
+    try:
+        settings = dict(model_env_settings(model, path))
+    except ValueError:
+        if task is None:
+            raise
+        settings = env_settings(task, sensor_preset=sensor_preset or "ig500n")
+    if task is not None and task != settings["task"]:
+        raise ValueError(
+            f"task={task!r} contradicts the model, which was trained on {settings['task']!r} "
+            f"({path}); leave the task out to evaluate on the model's own"
+        )
+    trained_preset = settings["sensors"].preset_name
+    if sensor_preset is not None and sensor_preset != trained_preset:
+        raise ValueError(
+            f"sensors={sensor_preset!r} contradicts the model, which was trained with "
+            f"{trained_preset!r} ({path}); leave the sensors out to evaluate on the model's own"
+        )
+    task = settings.pop("task")
+    ids = {name: env_id for env_id, name in ENV_IDS.items()}
+    env = gym.make(ids[task], **settings)
     stats = []
     for i in range(episodes):
         obs, info = env.reset(seed=seed + i)
@@ -263,6 +313,6 @@ def evaluate_model(
     return {
         "task": task,
         "policy": f"ppo:{Path(path).name}",
-        "sensors": sensor_preset,
+        "sensors": trained_preset,
         **summarize(stats),
     }

@@ -3,6 +3,7 @@
 import json
 
 import numpy as np
+import pytest
 from stable_baselines3.common.vec_env import VecEnv
 
 from agents.learned import SB3VecEnv, evaluate_model, train_ppo
@@ -33,8 +34,10 @@ def test_adapter_reports_terminal_observations_and_time_limits():
 
 
 def test_tiny_ppo_run_writes_a_model_and_a_learning_curve(tmp_path):
+    from vrloco_env.config import EnvConfig
+
     path = train_ppo(
-        "approach",
+        "avoid",
         steps=512,
         num_envs=4,
         out_dir=tmp_path,
@@ -48,6 +51,19 @@ def test_tiny_ppo_run_writes_a_model_and_a_learning_curve(tmp_path):
     curve = json.loads((tmp_path / "learning_curve.json").read_text())
     assert curve[-1]["steps"] >= 512 and 0.0 <= curve[-1]["success_rate"] <= 1.0
     result = evaluate_model(path, episodes=2)
+    assert result["task"] == "avoid"  # the model's own task, not a default
+    assert result["sensors"] == "ig500n"
+    with pytest.raises(ValueError, match="contradicts the model"):
+        evaluate_model(path, task="approach", episodes=1)
+    with pytest.raises(ValueError, match="contradicts the model"):
+        evaluate_model(path, sensor_preset="consumer_mems", episodes=1)
+    # Every saved model (checkpoints too) carries the env it was trained on.
+    from stable_baselines3 import PPO
+
+    for saved in [path, *sorted((tmp_path / "checkpoints").glob("*.zip"))]:
+        settings = PPO.load(saved).vrloco_env
+        assert settings["task"] == "avoid"
+        assert settings["config"] == EnvConfig()
     for key in (
         "success_rate",
         "collision_rate",
