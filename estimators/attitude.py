@@ -122,9 +122,11 @@ __all__ = [
     "AttitudeEKF",
     "AttitudeParams",
     "AttitudeState",
+    "EkfStage",
     "ekf_step_reference",
     "estimate_attitude",
     "orientation_errors",
+    "paper_literal_ekf",
 ]
 
 #: Gyro readings above this norm (rad/s, 2000 deg/s: the largest range of MEMS gyros, e.g. the
@@ -297,6 +299,10 @@ class AttitudeParams:
         d = asdict(self)
         d.pop("_packed", None)
         return d
+
+    def build(self, batch_size: int, fs: float) -> EkfStage:
+        """The EKF with these parameters as an attitude stage (:mod:`estimators.stages`)."""
+        return EkfStage(batch_size, fs, self)
 
 
 _PARAM_NAMES = frozenset(f.name for f in fields(AttitudeParams) if f.init)
@@ -729,6 +735,35 @@ class AttitudeEKF:
     def initialized(self) -> NDArray[np.bool_]:
         """(B,) whether each stream has been initialised from an accelerometer sample."""
         return self.state.aux[:, _k.AUX_INIT] != 0.0
+
+
+class EkfStage:
+    """:class:`AttitudeEKF` as an attitude stage (:class:`estimators.stages.AttitudeStage`):
+    ``update`` takes the (B, N, 3) samples of a control step (:meth:`AttitudeEKF.update_batch`).
+
+    Args:
+        batch_size: B.
+        fs: IMU rate (Hz).
+        params: :class:`AttitudeParams` (defaults if None).
+    """
+
+    def __init__(self, batch_size: int, fs: float, params: AttitudeParams | None = None) -> None:
+        self.ekf = AttitudeEKF(batch_size, fs, params)
+        self.params = self.ekf.params
+        self.name = "ekf" if self.params.model != "paper_literal" else "ekf_paper_literal"
+
+    def reset(self, rows: ArrayLike | None = None) -> None:
+        self.ekf.reset(rows)
+
+    def update(
+        self, gyr: ArrayLike, acc: ArrayLike, mag: ArrayLike | None = None
+    ) -> NDArray[np.float64]:
+        return self.ekf.update_batch(gyr, acc, mag)
+
+
+def paper_literal_ekf(batch_size: int, fs: float) -> EkfStage:
+    """Seed 000's EKF with ``model="paper_literal"`` (:attr:`AttitudeParams.model`)."""
+    return EkfStage(batch_size, fs, AttitudeParams(model="paper_literal"))
 
 
 def estimate_attitude(

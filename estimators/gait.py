@@ -93,12 +93,14 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linear_sum_assignment
 
+from estimators.batching import stream_rows
 from estimators.rotations import GRAVITY
 
 __all__ = [
     "GaitChunk",
     "GaitParams",
     "GaitResult",
+    "Seed000Steps",
     "StepDetector",
     "detect_steps",
     "step_f1",
@@ -172,6 +174,10 @@ class GaitParams:
         """Delay (s) from a heel strike to the sample that confirms it, at rate ``fs`` (Hz)."""
         m, h = self.samples(fs)
         return (h + 0.5 * (m - 1)) / fs
+
+    def build(self, batch_size: int, fs: float) -> Seed000Steps:
+        """The :class:`Seed000Steps` stage with these parameters."""
+        return Seed000Steps(batch_size, fs, self)
 
 
 @dataclass
@@ -590,3 +596,45 @@ def step_f1(
     recall = matched / tru.size if tru.size else 1.0
     f1 = 2 * precision * recall / (precision + recall) if precision + recall > 0 else 0.0
     return float(precision), float(recall), float(f1)
+
+
+class Seed000Steps:
+    """Seed 000's detector (:class:`StepDetector`, eqs (15)-(16) on ``|f|``) as a step stage of
+    :data:`estimators.stages.STEPS`.
+
+    Args:
+        batch_size: B, the number of streams (users), >= 1.
+        fs: sample rate (Hz) of the IMU, in [10, 2000].
+        params: :class:`GaitParams` (defaults if None).
+
+    :meth:`update` takes the stage's ``(acc, gyr, quat)`` and passes ``acc`` alone to
+    :meth:`StepDetector.update`: the detector reads only the specific-force norm, so its output is
+    that of :class:`StepDetector` bit for bit.
+    """
+
+    def __init__(self, batch_size: int, fs: float, params: GaitParams | None = None) -> None:
+        self.detector = StepDetector(batch_size, fs, params)
+        self.params = self.detector.params
+        self.batch_size = self.detector.batch_size
+        self.fs = self.detector.fs
+        self.latency = self.detector.latency
+        """Delay (s) from a heel strike to the sample that confirms its step."""
+
+    @property
+    def samples_seen(self) -> int:
+        """Samples consumed since construction (sample k is at time k / fs s)."""
+        return self.detector.samples_seen
+
+    def reset(self, rows: ArrayLike | None = None) -> None:
+        """Forget the streams ``rows`` (indices, a (B,) bool mask, or None: all); the clock keeps
+        running."""
+        mask = np.zeros(self.batch_size, dtype=bool)
+        mask[stream_rows(rows, self.batch_size, "rows")] = True
+        self.detector.reset(mask)
+
+    def update(self, acc: ArrayLike, gyr: ArrayLike, quat: ArrayLike) -> GaitChunk:
+        """Consume (B, N, 3) specific force (m/s^2); ``gyr`` and ``quat`` are not read."""
+        a = _as_array(acc, "acc")
+        if a.ndim != 3:
+            raise ValueError(f"acc must have shape ({self.batch_size}, N, 3), got {a.shape}")
+        return self.detector.update(a)

@@ -55,6 +55,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from estimators import _hand_numba as _k
+from estimators._attitude_helpers_numba import check_batch_size, check_fs
+from estimators.batching import stream_rows
 from estimators.joint_smoothing import (
     INFERRED,
     TRACKED,
@@ -79,6 +81,8 @@ __all__ = [
     "OneEuroParams",
     "OrientationFilter",
     "OrientationFrame",
+    "RawHand",
+    "Seed003Hand",
     "StreamingMedian",
     "estimate_hand_orientation",
     "estimate_lag",
@@ -1357,3 +1361,94 @@ def hand_variance_experiment(
         reduction_kalman=100.0 * (1.0 - total[1] / total[0]),
         reduction_filtered=100.0 * (1.0 - total[2] / total[0]),
     )
+
+
+# ----------------------------------------------------------------------------------------------
+# Hand stages (estimators.stages.HAND): the pipeline's own outputs
+
+
+def check_hand_frames(frames: HandFrame, batch_size: int, who: str) -> int:
+    """The number of frames M of a (B, M) :class:`HandFrame` stack, or a ValueError naming
+    ``who`` when its angles are not (batch_size, M, 3) or its flags not (batch_size, M)."""
+    ypr = np.shape(getattr(frames, "ypr_raw", None))
+    if len(ypr) != 3 or ypr[0] != batch_size or ypr[2] != 3 or ypr[1] < 1:
+        raise ValueError(
+            f"{who}: frames must be a HandFrame stacked over M >= 1 frames, ypr_raw of shape "
+            f"({batch_size}, M, 3); got {ypr}"
+        )
+    m = ypr[1]
+    for name in ("ypr", "quat_valid", "reselected", "valid"):
+        shape = np.shape(getattr(frames, name))
+        want = (batch_size, m, 3) if name == "ypr" else (batch_size, m)
+        if shape != want:
+            raise ValueError(f"{who}: frames.{name} must have shape {want}, got {shape}")
+    return m
+
+
+class Seed003Hand:
+    """Seed 003's Kalman + median output as a hand stage (:class:`estimators.stages.HandStage`).
+
+    :class:`HandPipeline` already runs the filter (its state is the pipeline's); this stage
+    reports the frames' ``ypr`` and ``valid`` unchanged (copies, bit for bit). It holds no state,
+    so :meth:`reset` only checks its argument: the pipeline's own reset forgets the filter.
+
+    Args:
+        batch_size: B streams (users).
+        fs: Kinect frame rate, Hz (checked, not used: the pipeline's :class:`KalmanParams` carry
+            the rate of its filter).
+        params: unused; accepted for the factory signature ``(batch_size, fs)`` of
+            :data:`estimators.stages.HAND`.
+    """
+
+    name = "seed003"
+
+    def __init__(self, batch_size: int, fs: float = KINECT_RATE_HZ, params: None = None) -> None:
+        self.batch_size = check_batch_size(batch_size, "Seed003Hand")
+        self.fs = check_fs(fs, "Seed003Hand")
+        if params is not None:
+            raise ValueError(
+                f"Seed003Hand: takes no params (the pipeline's HandParams), got {params!r}"
+            )
+
+    def reset(self, rows: ArrayLike | None = None) -> None:
+        """Nothing to forget (the pipeline holds the filter); ``rows`` is checked."""
+        stream_rows(rows, self.batch_size, "rows", unique=False)
+
+    def update(self, frames: HandFrame) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+        """(B, M, 3) ``frames.ypr`` and (B, M) ``frames.valid``, copied."""
+        check_hand_frames(frames, self.batch_size, "Seed003Hand")
+        return np.array(frames.ypr, dtype=np.float64), np.array(frames.valid, dtype=bool)
+
+
+class RawHand:
+    """The unfiltered eq (1)/(2) angles as a hand stage: the floor any filter must beat.
+
+    Returns the frames' ``ypr_raw``: this frame's angles where its quaternion was usable, the last
+    usable ones held through a dropout (``quat_valid`` False), NaN between a (re)selection and the
+    new target's first usable quaternion. ``valid`` is True where a raw estimate of the current
+    target exists (the angles are finite): it stays True through a dropout, as the seed 003
+    stage's does. Stateless; :meth:`reset` only checks its argument.
+
+    Args:
+        batch_size: B streams (users).
+        fs: Kinect frame rate, Hz (checked, not used).
+        params: unused; accepted for the factory signature.
+    """
+
+    name = "raw"
+
+    def __init__(self, batch_size: int, fs: float = KINECT_RATE_HZ, params: None = None) -> None:
+        self.batch_size = check_batch_size(batch_size, "RawHand")
+        self.fs = check_fs(fs, "RawHand")
+        if params is not None:
+            raise ValueError(f"RawHand: takes no params, got {params!r}")
+
+    def reset(self, rows: ArrayLike | None = None) -> None:
+        """Nothing to forget; ``rows`` is checked."""
+        stream_rows(rows, self.batch_size, "rows", unique=False)
+
+    def update(self, frames: HandFrame) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+        """(B, M, 3) ``frames.ypr_raw`` (copied) and (B, M) validity (all three angles finite)."""
+        check_hand_frames(frames, self.batch_size, "RawHand")
+        ypr = np.array(frames.ypr_raw, dtype=np.float64)
+        return ypr, np.isfinite(ypr).all(axis=-1)

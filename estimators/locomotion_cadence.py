@@ -1,0 +1,375 @@
+"""Speed proportional to the estimated cadence: continuous walking-in-place locomotion.
+
+Walking-in-place interfaces that understand gait set the virtual speed from the step frequency
+rather than moving a fixed distance per step: GUD WIP (J. D. Wendt, M. C. Whitton, F. P. Brooks
+Jr., "GUD WIP: Gait-Understanding-Driven Walking-In-Place", IEEE VR 2010, 51-58) estimates the
+step frequency at every gait event and outputs a speed that follows it smoothly, with realistic
+starting and stopping. :class:`CadenceSpeed` does the same with the simplest frequency-to-speed
+law, ``speed = SL x cadence`` (GUD WIP maps the frequency through a biomechanical model of real
+walking instead; with a fixed step length SL, eq (17)'s assumption, the law here is the one that
+keeps eq (17)'s distance per step). It shares eq (17)'s interface (the
+:class:`estimators.locomotion.Locomotion` protocol).
+
+Per user:
+
+* Cadence. Each update's step events are time-stamped at the start of its interval (they happened
+  during it). The step interval ``T`` is the time spanned by the bout's last
+  ``cadence_window`` event intervals divided by the steps they carried (clamped to
+  [min_step_interval, max_step_interval]); the bout's first event — which the gait detector
+  releases together with the second step — carries no timing, so ``T = default_step_interval``
+  until the second event. The cadence is ``1 / T``.
+* Target speed ``SL / T``, set at every event. Stop timeout: when no event has come for
+  ``stop_factor x T`` s, the target becomes 0 and the bout ends (the next event starts a new one).
+* Ramp. At every change of target the speed leaves its current value and acceleration along a
+  cubic (a Hermite segment) that reaches the target with zero acceleration after ``ramp_time``
+  s, and stays there. Speed and acceleration are therefore continuous and the jerk is bounded
+  (by ``(6 |dv| + 4 |a0| ramp_time) / ramp_time^2`` for a change ``dv`` started at acceleration
+  ``a0``): no jump of position or speed, unlike eq (17).
+* Position. The distance of an update is the exact integral of the speed over its interval, so
+  the path does not depend on the update rate beyond the time-stamping of the events; it moves
+  along ``yaw + bearing`` (the yaw halfway between the previous update's and this one's; the
+  bearing held from one step event to the next). The speed is clipped at 0 (a cubic started while
+  decelerating can dip a little below 0 near its end): the path length never decreases.
+
+Stopping. The speed is exactly 0 at most ``stop_factor x T + ramp_time`` s plus one update after
+the last step event (:meth:`CadenceSpeedParams.stop_time`): 1.68 s at 1.7 steps/s with the
+defaults. With no events at all the speed stays exactly 0.
+
+Distance. With steady stepping at interval ``T`` the speed is ``SL / T`` from the second event
+until the timeout, ``stop_factor`` intervals after the last one, and ``SL / default_step_interval``
+during the first interval; the ramps add and remove the same area. A bout of N steps (N - 1
+events, the first carrying two steps) thus travels ``SL (N - 3 + stop_factor + T /
+default_step_interval)``: with the default ``stop_factor = 2``, eq (17)'s ``SL x N`` up to ``SL |T /
+default_step_interval - 1|`` (less than one step).
+
+The per-update loop is the compiled kernel :data:`cadence_kernel` (loop over users inside;
+``cadence_kernel.py_func`` is its readable uncompiled source).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from estimators.dead_reckoning import (
+    _check_batch,
+    _check_step_length,
+    _mask,
+    _positions,
+    check_update_inputs,
+)
+from estimators.rotations import wrap_angle
+
+__all__ = ["CadenceSpeed", "CadenceSpeedParams", "cadence_kernel"]
+
+
+@dataclass(frozen=True)
+class CadenceSpeedParams:
+    """Parameters of :class:`CadenceSpeed`; every field is validated on construction."""
+
+    ramp_time: float = 0.5
+    """Duration of a speed change, s, in [0.05, 3]. Default 0.5 s: about one step interval at the
+    typical in-place cadence of 1.7-2 steps/s, so the speed settles on a new cadence within the
+    step that revealed it; a start to 1.2 m/s (SL 0.7 m at 1.7 steps/s) peaks at 3.6 m/s^2."""
+    stop_factor: float = 2.0
+    """Stop timeout in step intervals, in [1, 5]: with no event for ``stop_factor x T`` s the
+    speed ramps to 0. Default 2: the bout then lasts as many intervals as it has steps (its first
+    event carries two), so the distance equals eq (17)'s SL x steps (module docstring)."""
+    cadence_window: int = 2
+    """Event intervals averaged into the step interval, integer in [1, 16]. Default 2: one stride,
+    which cancels the left/right alternation of step times and halves the effect of events
+    time-stamped at the update rate (0.1 s in the environment), while following a change of
+    cadence within a stride."""
+    default_step_interval: float = 0.8
+    """Step interval (s) before the bout's second event, in [min_step_interval,
+    max_step_interval]. Default 0.8 s, as :class:`estimators.locomotion.SmoothParams`: the slow
+    end of in-place stepping (1.25 steps/s), so a bout starts gently."""
+    min_step_interval: float = 1.0 / 3.5
+    """Shortest step interval (s), in [0.05, 2]. Default 1 / 3.5 s: humans step at most ~3.5
+    steps/s (as :class:`estimators.locomotion.SmoothParams`)."""
+    max_step_interval: float = 1.2
+    """Longest step interval (s), in [min_step_interval, 10]. Default 1.2 s, as
+    :class:`estimators.locomotion.SmoothParams` (the gait detector's gamma_t): slower stepping
+    is not walking."""
+
+    def __post_init__(self) -> None:
+        def check(name: str, ok: bool, allowed: str, integer: bool = False) -> None:
+            value = getattr(self, name)
+            kinds = (int, np.integer) if integer else (int, float, np.integer, np.floating)
+            typed = isinstance(value, kinds) and not isinstance(value, bool)
+            if not (typed and math.isfinite(value) and ok):
+                raise ValueError(f"CadenceSpeedParams.{name}={value!r}: must be {allowed}")
+
+        def num(name: str) -> float:
+            value = getattr(self, name)
+            try:
+                return float(value)
+            except (TypeError, ValueError):
+                return math.nan
+
+        check("ramp_time", 0.05 <= num("ramp_time") <= 3.0, "in [0.05, 3] s")
+        check("stop_factor", 1.0 <= num("stop_factor") <= 5.0, "in [1, 5] step intervals")
+        check("cadence_window", 1 <= num("cadence_window") <= 16, "an integer in [1, 16]",
+              integer=True)  # fmt: skip
+        lo, hi = num("min_step_interval"), num("max_step_interval")
+        check("min_step_interval", 0.05 <= lo <= 2.0, "in [0.05, 2] s")
+        check("max_step_interval", lo <= hi <= 10.0, "in [min_step_interval, 10] s")
+        check("default_step_interval", lo <= num("default_step_interval") <= hi,
+              "in [min_step_interval, max_step_interval] s")  # fmt: skip
+
+    def stop_time(self, step_interval: float) -> float:
+        """Seconds after the last step event by which the speed is exactly 0 (plus one update),
+        for an estimated step interval ``step_interval`` (s; clamped as the estimate is)."""
+        t = min(max(float(step_interval), self.min_step_interval), self.max_step_interval)
+        return self.stop_factor * t + self.ramp_time
+
+    def build(self, batch_size: int, step_length: ArrayLike) -> CadenceSpeed:
+        """The :class:`CadenceSpeed` model with these parameters."""
+        return CadenceSpeed(batch_size, step_length, self)
+
+
+# Indices of the per-user float state (columns of CadenceSpeed._f).
+_V0, _A0, _TARGET, _ELAPSED, _INTERVAL, _LAST_EVENT, _CUM, _BEARING, _YAW = range(9)
+_N_F = 9
+# Indices of the per-user integer state (columns of CadenceSpeed._i).
+_ACTIVE, _RING_LEN, _RING_HEAD, _YAW_KNOWN = range(4)
+_N_I = 4
+
+
+@numba.njit(cache=True)
+def _hermite(v0: float, a0t: float, w: float, s: float) -> tuple[float, float]:
+    """Speed and (acceleration x ramp_time) at phase ``s`` in [0, 1] of the cubic from speed
+    ``v0``, acceleration x ramp_time ``a0t``, to ``w`` with zero acceleration."""
+    s2 = s * s
+    s3 = s2 * s
+    v = v0 * (2.0 * s3 - 3.0 * s2 + 1.0) + a0t * (s3 - 2.0 * s2 + s) + w * (3.0 * s2 - 2.0 * s3)
+    d = v0 * (6.0 * s2 - 6.0 * s) + a0t * (3.0 * s2 - 4.0 * s + 1.0) + w * (6.0 * s - 6.0 * s2)
+    return v, d
+
+
+@numba.njit(cache=True)
+def _hermite_area(v0: float, a0t: float, w: float, s: float) -> float:
+    """Integral over phase [0, s] of the cubic of :func:`_hermite` (multiply by ramp_time)."""
+    s2 = s * s
+    s3 = s2 * s
+    s4 = s3 * s
+    return (
+        v0 * (0.5 * s4 - s3 + s)
+        + a0t * (0.25 * s4 - 2.0 * s3 / 3.0 + 0.5 * s2)
+        + w * (s3 - 0.5 * s4)
+    )
+
+
+def _cadence_run(
+    steps, yaw, bearing, step_length, dt, time, fs, fi, ring_t, ring_c, pos, dist, speed,
+    ramp_time, stop_factor, default_interval, min_interval, max_interval,
+):  # fmt: skip
+    """One update of ``dt`` s (the interval starts at ``time``) for B users, state in place.
+
+    ``fs`` (B, 9) and ``fi`` (B, 4) hold the per-user state (columns ``_V0`` ... and
+    ``_ACTIVE`` ...), ``ring_t`` / ``ring_c`` (B, cadence_window + 1) the times and cumulative
+    step counts of the bout's last events, ``pos`` (B, 2), ``dist`` (B,) the path, ``speed``
+    (B,) receives the speed at the end of the interval.
+    """
+    window = ring_t.shape[1]
+    for i in range(steps.shape[0]):
+        n = steps[i]
+        sl = step_length[i]
+        v0, a0t, target = fs[i, _V0], fs[i, _A0] * ramp_time, fs[i, _TARGET]
+        elapsed, interval = fs[i, _ELAPSED], fs[i, _INTERVAL]
+        active = fi[i, _ACTIVE] != 0
+        restart = False
+        # 1. Events and timeouts, at the start of the interval.
+        if active and time - fs[i, _LAST_EVENT] > stop_factor * interval:
+            active = False  # stop timeout: the bout is over
+            target = 0.0
+            restart = True
+        if n > 0.0:
+            if not active:  # the bout's first event: no timing yet
+                active = True
+                fs[i, _CUM] = 0.0
+                fi[i, _RING_LEN] = 0
+                fi[i, _RING_HEAD] = 0
+                interval = default_interval
+            else:
+                fs[i, _CUM] += n
+            head = (fi[i, _RING_HEAD] + 1) % window if fi[i, _RING_LEN] > 0 else 0
+            ring_t[i, head] = time
+            ring_c[i, head] = fs[i, _CUM]
+            fi[i, _RING_HEAD] = head
+            fi[i, _RING_LEN] = min(fi[i, _RING_LEN] + 1, window)
+            if fi[i, _RING_LEN] > 1:
+                oldest = (head - fi[i, _RING_LEN] + 1) % window
+                span = time - ring_t[i, oldest]
+                count = fs[i, _CUM] - ring_c[i, oldest]
+                interval = min(max(span / count, min_interval), max_interval)
+            fs[i, _LAST_EVENT] = time
+            fs[i, _BEARING] = bearing[i]
+            target = sl / interval
+            restart = True
+        if restart:  # a new cubic from the current speed and acceleration
+            s = min(elapsed / ramp_time, 1.0)
+            v_now, d_now = _hermite(v0, a0t, fs[i, _TARGET], s)
+            v0, a0t, elapsed = v_now, d_now, 0.0
+        # 2. Move along the cubic over [elapsed, elapsed + dt], then at the target.
+        s0 = min(elapsed / ramp_time, 1.0)
+        s1 = min((elapsed + dt) / ramp_time, 1.0)
+        ds = ramp_time * (_hermite_area(v0, a0t, target, s1) - _hermite_area(v0, a0t, target, s0))
+        ds += target * max(0.0, elapsed + dt - max(elapsed, ramp_time))
+        ds = max(ds, 0.0)
+        elapsed += dt
+        if elapsed >= ramp_time:
+            v_end = target
+        else:
+            v_end = _hermite(v0, a0t, target, elapsed / ramp_time)[0]
+        # 3. Position along the heading halfway through the interval.
+        y1 = yaw[i]
+        y0 = fs[i, _YAW] if fi[i, _YAW_KNOWN] != 0 else y1
+        turn = y1 - y0
+        half = 0.5 * math.atan2(math.sin(turn), math.cos(turn))
+        ang = y0 + half + fs[i, _BEARING]
+        pos[i, 0] += ds * math.cos(ang)
+        pos[i, 1] += ds * math.sin(ang)
+        dist[i] += ds
+        speed[i] = max(v_end, 0.0)
+        fs[i, _V0], fs[i, _A0], fs[i, _TARGET] = v0, a0t / ramp_time, target
+        fs[i, _ELAPSED], fs[i, _INTERVAL], fs[i, _YAW] = elapsed, interval, y1
+        fi[i, _ACTIVE] = 1 if active else 0
+        fi[i, _YAW_KNOWN] = 1
+
+
+#: The compiled kernel (``cadence_kernel.py_func`` is the Python reference).
+cadence_kernel = numba.njit(cache=True)(_cadence_run)
+
+
+class CadenceSpeed:
+    """Continuous virtual motion at SL x the estimated cadence, for B users (module docstring).
+
+    Args:
+        batch_size: B >= 1.
+        step_length: SL (m), scalar or (B,), in [0, 3].
+        params: :class:`CadenceSpeedParams` (defaults if None).
+        position: initial positions (m), (B, 2) or (2,); zeros by default.
+        heading: initial heading (rad), scalar or (B,); the first yaw if None.
+    """
+
+    name = "cadence_speed"
+
+    def __init__(
+        self,
+        batch_size: int,
+        step_length: ArrayLike = 0.7,
+        params: CadenceSpeedParams | None = None,
+        position: ArrayLike | None = None,
+        heading: ArrayLike | None = None,
+    ) -> None:
+        if isinstance(batch_size, bool) or not isinstance(batch_size, int | np.integer):
+            raise ValueError(f"batch_size must be an integer >= 1, got {batch_size!r}")
+        if batch_size < 1:
+            raise ValueError(f"batch_size must be an integer >= 1, got {batch_size!r}")
+        self.params = CadenceSpeedParams() if params is None else params
+        if not isinstance(self.params, CadenceSpeedParams):
+            raise ValueError(
+                f"params must be a CadenceSpeedParams, got {type(self.params).__name__}"
+            )
+        b = self.batch_size = int(batch_size)
+        self.step_length = _check_step_length(step_length, (b,))
+        w = int(self.params.cadence_window) + 1
+        self._time = 0.0
+        self._f = np.zeros((b, _N_F))
+        self._i = np.zeros((b, _N_I), dtype=np.int64)
+        self._ring_t = np.zeros((b, w))
+        self._ring_c = np.zeros((b, w))
+        self._pos = np.zeros((b, 2))
+        self._dist = np.zeros(b)
+        self._speed = np.zeros(b)
+        self.reset(position=position, heading=heading)
+
+    @property
+    def position(self) -> NDArray[np.float64]:
+        """Virtual positions (m), (B, 2)."""
+        return self._pos.copy()
+
+    @property
+    def heading(self) -> NDArray[np.float64]:
+        """Yaw of the last update (or the reset heading), rad in (-pi, pi], (B,)."""
+        return wrap_angle(self._f[:, _YAW])
+
+    @property
+    def distance(self) -> NDArray[np.float64]:
+        """Path length travelled since reset (m), (B,)."""
+        return self._dist.copy()
+
+    @property
+    def speed(self) -> NDArray[np.float64]:
+        """Speed at the end of the last update (m/s), (B,)."""
+        return self._speed.copy()
+
+    @property
+    def cadence(self) -> NDArray[np.float64]:
+        """Estimated cadence of the current bout (steps/s), 0 where not stepping, (B,)."""
+        active = self._i[:, _ACTIVE] != 0
+        return np.where(active, 1.0 / np.maximum(self._f[:, _INTERVAL], 1e-9), 0.0)
+
+    @property
+    def step_interval(self) -> NDArray[np.float64]:
+        """Estimated step interval of the current bout (s), NaN where not stepping, (B,)."""
+        return np.where(self._i[:, _ACTIVE] != 0, self._f[:, _INTERVAL], np.nan)
+
+    def reset(
+        self,
+        mask: ArrayLike | None = None,
+        position: ArrayLike | None = None,
+        heading: ArrayLike | None = None,
+    ) -> None:
+        """Stop the users selected by ``mask`` (B,) bool (all if None) at ``position`` (m), with
+        zero speed and distance and no bout; their heading is ``heading`` (rad) if given, else
+        the next yaw."""
+        b = self.batch_size
+        sel = _mask(mask, b)
+        self._pos[sel] = _positions(position, b)[sel]
+        self._f[sel] = 0.0
+        self._f[sel, _INTERVAL] = self.params.default_step_interval
+        self._i[sel] = 0
+        self._ring_t[sel] = 0.0
+        self._ring_c[sel] = 0.0
+        self._dist[sel] = 0.0
+        self._speed[sel] = 0.0
+        if heading is not None:
+            self._f[sel, _YAW] = wrap_angle(_check_batch(heading, b, "heading", 0.0, "rad"))[sel]
+            self._i[sel, _YAW_KNOWN] = 1
+
+    def update(
+        self,
+        steps: ArrayLike,
+        yaw: ArrayLike,
+        dt: float,
+        bearing: ArrayLike | None = None,
+    ) -> NDArray[np.float64]:
+        """Advance every user by ``dt`` seconds.
+
+        Args:
+            steps: steps detected during this interval per user, (B,) counts >= 0 (or bool).
+            yaw: heading estimate at the end of the interval (rad), (B,) or scalar.
+            dt: length of the interval (s), in (0, 10].
+            bearing: direction of the steps relative to the heading (rad), 0 forward, pi
+                backward; held from one step event to the next. (B,) or scalar.
+
+        Returns:
+            The new positions (m), (B, 2).
+        """
+        st, y, dtf, br = check_update_inputs(steps, yaw, dt, bearing, self.batch_size)
+        p = self.params
+        cadence_kernel(
+            np.ascontiguousarray(st), np.ascontiguousarray(y), np.ascontiguousarray(br),
+            self.step_length, dtf, self._time, self._f, self._i, self._ring_t, self._ring_c,
+            self._pos, self._dist, self._speed, float(p.ramp_time), float(p.stop_factor),
+            float(p.default_step_interval), float(p.min_step_interval),
+            float(p.max_step_interval),
+        )  # fmt: skip
+        self._time += dtf
+        return self._pos.copy()

@@ -1,0 +1,92 @@
+"""Steering: which yaw turns a walking-in-place user's walking direction.
+
+Seed 000 walks where the head points (:class:`HeadSteering`): the estimated head yaw is both the
+view and the walking direction, so a user who looks at an obstacle while walking past it walks
+into it ("gaze-directed steering"). :class:`TorsoSteering` walks where the torso points instead:
+the shoulder line of the Kinect v2 skeleton (the body's left-right axis; the torso faces 90 deg
+to its right), which leaves the head free to look around. While the Kinect has lost the torso
+(the user turned away from it, or left its view) it falls back on the head yaw.
+
+Both take the two yaws in one frame — the virtual room's, as the environment passes them (rad,
+counter-clockwise) — and return the walking yaw in that frame. ``uses_torso`` tells a caller
+whether the torso yaw is read at all (so it need not be computed for head steering).
+
+:func:`torso_yaw` is the estimate of the torso's heading from two shoulder positions.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = ["HeadSteering", "TorsoSteering", "torso_yaw"]
+
+
+def torso_yaw(
+    shoulder_left: ArrayLike, shoulder_right: ArrayLike, min_width_m: float = 0.15
+) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """Torso heading from the shoulders, in the world frame (z up).
+
+    Args:
+        shoulder_left, shoulder_right: (B, 3) positions (m), world frame; NaN where untracked.
+        min_width_m: shoulder lines shorter than this in the horizontal plane (m) give no heading
+            (a user seen edge-on, or a skeleton folded by bad tracking). Default 0.15 m, under
+            half of an adult's biacromial breadth (about 0.35-0.40 m).
+
+    Returns:
+        yaw (B,) rad — 90 deg clockwise from the right-to-left shoulder direction — and (B,)
+        validity; yaw is 0 where not valid.
+    """
+    left = np.asarray(shoulder_left, dtype=np.float64)
+    right = np.asarray(shoulder_right, dtype=np.float64)
+    if left.shape != right.shape or left.ndim != 2 or left.shape[1] != 3:
+        raise ValueError(
+            f"shoulders must both have shape (B, 3), got {left.shape} and {right.shape}"
+        )
+    d = left[:, :2] - right[:, :2]
+    width = np.hypot(d[:, 0], d[:, 1])
+    valid = np.isfinite(width) & (width >= min_width_m)
+    yaw = np.where(valid, np.arctan2(d[:, 1], d[:, 0]) - np.pi / 2.0, 0.0)
+    return np.arctan2(np.sin(yaw), np.cos(yaw)), valid
+
+
+class HeadSteering:
+    """Walk where the head points (seed 000): the steering yaw is the estimated head yaw."""
+
+    name = "head"
+    uses_torso = False
+
+    def __init__(self, batch_size: int) -> None:
+        self.batch_size = int(batch_size)
+
+    def reset(self, rows: ArrayLike | None = None) -> None:
+        """Stateless: nothing to forget."""
+
+    def update(
+        self,
+        head_yaw: NDArray[np.float64],
+        torso_yaw: NDArray[np.float64],
+        torso_valid: NDArray[np.bool_],
+    ) -> NDArray[np.float64]:
+        return head_yaw
+
+
+class TorsoSteering:
+    """Walk where the torso points: the Kinect's torso yaw, the head yaw while it has none."""
+
+    name = "torso"
+    uses_torso = True
+
+    def __init__(self, batch_size: int) -> None:
+        self.batch_size = int(batch_size)
+
+    def reset(self, rows: ArrayLike | None = None) -> None:
+        """Stateless: nothing to forget."""
+
+    def update(
+        self,
+        head_yaw: NDArray[np.float64],
+        torso_yaw: NDArray[np.float64],
+        torso_valid: NDArray[np.bool_],
+    ) -> NDArray[np.float64]:
+        return np.where(torso_valid, torso_yaw, head_yaw)

@@ -1,0 +1,340 @@
+"""Steps from the world-vertical specific force, with peaks that head rotation can explain vetoed.
+
+Seed 000's detector (:mod:`estimators.gait`) reads the norm ``|f|``: a heel strike lifts it, but
+so does any head rotation, because the IMU sits some centimetres from the head's pivot and turning
+the head accelerates it (centripetal ``w x (w x r)`` and tangential ``alpha x r``). A nod of
++-30 deg at 1 Hz lifts ``|f|`` by 2.7 m/s^2, four times the detector's gamma, and looking around
+quickly (+-70 deg of yaw at 1 Hz) lifts it too. This detector uses the attitude estimate and the
+gyro to separate the two:
+
+1. **World vertical.** Each sample of specific force is rotated to the world with the attitude
+   quaternion and its vertical component is kept: ``v = (R(q) f)_z``, gravity plus the IMU's
+   vertical linear acceleration. Heel strikes are vertical jolts and keep their full height;
+   yaw about the vertical (looking left and right) moves the IMU on a horizontal circle and adds
+   nothing to ``v``, however fast.
+2. **Peaks** of ``v`` exactly as seed 000 finds them in ``|f|``: a mean filter of M samples, a
+   running-mean baseline (which absorbs the accelerometer's offset along the vertical), a
+   sample that is the maximum of its centred window of 2 h + 1 samples and exceeds the baseline by
+   ``gamma``; then seed 000's bout rule (``min_step_interval``, ``gamma_t``, the first peak of a
+   bout held until a second confirms it) and still/walk state.
+3. **Rotation veto.** Nods and head shakes (rotation about a horizontal axis) do move the IMU
+   vertically. For an IMU at any point within ``lever_arm`` of the pivot, the vertical
+   acceleration that a head rotation alone can cause is bounded, from ``alpha x r + w x (w x r)``
+   with ``|r| <= L``, by
+
+       rot = L (|alpha_h| + |w_h| (|w_h| + |w_z|))
+
+   with ``w`` the angular rate and ``alpha`` the angular acceleration in the world frame, ``_h``
+   their horizontal parts and ``w_z`` the vertical one (pure yaw gives 0). ``w`` is the gyro
+   rotated to the world and averaged over the mean filter's M samples; ``alpha_h`` is the
+   difference of the world rates across that window over its length (the world-frame derivative
+   of ``R(q) w`` is ``R(q) dw/dt``). A candidate peak is accepted only if its excess over the
+   baseline is larger than the largest ``rot`` in its window: a peak rotation could explain is
+   not a step. The bound needs no head model beyond a length; a heel strike during a slow nod
+   still counts when it rises above what the nod can add.
+
+Chosen values. Everything of step 2 is :class:`estimators.gait.GaitParams`' defaults (same
+reasons; a heel strike lifts ``v`` as much as ``|f|``), so walking is detected as seed 000
+detects it. ``lever_arm`` 0.20 m: a stated bound on the distance from the upper neck (the head's
+pivot for nods) to a forehead or headset IMU, a little above the 15 cm of the simulated user (9 cm
+ahead of and 12 cm above the pivot). It was checked, not fitted, on development seeds 0-2 of
+``benchmarks/bench_step_stages.py --dev`` (8 users a trial, both IMU presets, EKF attitude):
+every value from 0.15 to 0.4 m keeps walking in place at 1.2-2.2 steps/s, also while scanning the
+room, at F1 1.000 and leaves no phantom step in the seven standing gestures; 0.10 m (below the
+true lever arm, so the bound no longer holds) keeps about half the phantom steps of the plain
+world-vertical detector (``lever_arm=0``), and 0.6 m starts to veto light steps (F1
+0.986-0.995). The benchmark's default run (seeds 1000-1002) and
+``tests/test_step_stages.py`` (seeds 2000 and up) report on seeds never used to choose anything.
+
+Limits: the bound assumes the IMU turns about a pivot within ``lever_arm`` of it (a rigid head on
+a still neck); a lean of the whole trunk pivots lower and is only partly covered. Attitude error
+leaks horizontal acceleration into ``v`` (a 1 deg tilt error leaks 1.7 % of it). The bound is
+conservative, so a step taken during a vigorous nod is vetoed with the nod: stepping at 1.7
+steps/s while nodding +-30 deg at 1 Hz, the benchmark's held-out F1 is 0.12-0.14 (seed 000's
+0.91, which counts the nod's peaks among the steps); a gentle nod (+-15 deg at 0.5 Hz) while
+stepping costs nothing (F1 1.000).
+
+Latency: that of seed 000 (``(h + (M - 1)/2) / fs``, 0.135 s at 100 Hz). Non-finite samples: a
+specific-force sample or attitude that is not finite takes the previous ``v`` (gravity before
+any); a gyro sample or attitude that is not finite takes the previous world rate (zero before
+any). The per-sample loop is the compiled kernel :func:`nod_robust_kernel` (loop over streams
+inside; ``nod_robust_kernel.py_func`` is its readable uncompiled source).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numba
+import numpy as np
+from numpy.typing import ArrayLike
+
+from estimators._rotations_numba import quat_rotate
+from estimators.batching import stream_rows
+from estimators.gait import GaitChunk
+from estimators.rotations import GRAVITY
+from estimators.steps_threshold import check_chunk, check_param, check_stage_args, empty_chunk
+
+__all__ = ["NodRobustParams", "NodRobustSteps", "nod_robust_kernel"]
+
+
+@dataclass(frozen=True)
+class NodRobustParams:
+    """Parameters of :class:`NodRobustSteps` (see the module docstring for the choices).
+
+    Every field is validated on construction. The first eight are those of
+    :class:`estimators.gait.GaitParams`, applied to the world-vertical specific force.
+    """
+
+    gamma: float = 0.07 * GRAVITY
+    """Excess (m/s^2) of the smoothed vertical specific force over its baseline a peak needs.
+    Default 0.07 g = 0.686 m/s^2, seed 000's gamma."""
+    gamma_t: float = 1.2
+    """Longest interval (s) between neighbouring steps of one walking bout; a peak with no
+    neighbour within it is not a step. Default 1.2 s (seed 000's gamma_t)."""
+    min_step_interval: float = 1.0 / 3.5
+    """Shortest interval (s) between two steps; closer peaks are ignored. Default 1/3.5 s: nobody
+    steps faster than about 3.5 steps/s."""
+    mean_window: float = 0.08
+    """Length (s) of the mean filter on the vertical specific force and on the world angular rate
+    (M = round(mean_window * fs) >= 1 samples). Default 0.08 s, seed 000's."""
+    peak_half_window: float = 0.10
+    """Half-width (s) of the peak window (h = round(peak_half_window * fs) >= 1; 2 h + 1 samples),
+    also the window over which the rotation bound is taken. Default 0.10 s, seed 000's."""
+    baseline_tau: float = 4.0
+    """Time constant (s) of the running-mean baseline of the vertical specific force (a
+    cumulative mean until that much data has been seen); 0 uses ``gravity``. Default 4 s."""
+    baseline_limit: float = 0.1 * GRAVITY
+    """Largest distance (m/s^2) of the baseline from ``gravity``. Default 0.1 g: covers any
+    accelerometer offset (BMI160: +-40 mg typical)."""
+    gravity: float = GRAVITY
+    """Gravity (m/s^2), standard gravity by default (:data:`estimators.rotations.GRAVITY`)."""
+    lever_arm: float = 0.20
+    """Bound (m) on the distance from the head's pivot to the IMU, the L of the rotation bound;
+    0 turns the veto off (a plain world-vertical detector). Default 0.20 m: see the module
+    docstring."""
+
+    def __post_init__(self) -> None:
+        check_param(self, "gravity", 9.0, 10.5, "in [9, 10.5] m/s^2")
+        g = self.gravity
+        check_param(self, "gamma", 0.0, 3.0 * g, "in (0, 3 g] m/s^2", True)
+        check_param(self, "min_step_interval", 0.0, 2.0, "in [0, 2] s")
+        check_param(self, "gamma_t", self.min_step_interval, 10.0,
+                    "in (min_step_interval, 10] s", True)  # fmt: skip
+        check_param(self, "mean_window", 0.0, 1.0, "in (0, 1] s", True)
+        check_param(self, "peak_half_window", 0.0, 1.0, "in (0, 1] s", True)
+        check_param(self, "baseline_tau", 0.0, 600.0, "in [0, 600] s (0: fixed g)")
+        check_param(self, "baseline_limit", 0.0, 0.5 * g, "in [0, 0.5 g] m/s^2")
+        check_param(self, "lever_arm", 0.0, 1.0, "in [0, 1] m (0: no veto)")
+
+    def samples(self, fs: float) -> tuple[int, int]:
+        """Mean-filter length M and peak half-window h in samples at rate ``fs`` (Hz)."""
+        return max(1, round(self.mean_window * fs)), max(1, round(self.peak_half_window * fs))
+
+    def latency(self, fs: float) -> float:
+        """Delay (s) from a heel strike to the sample that confirms it, at rate ``fs`` (Hz)."""
+        m, h = self.samples(fs)
+        return (h + 0.5 * (m - 1)) / fs
+
+    def build(self, batch_size: int, fs: float) -> NodRobustSteps:
+        """The :class:`NodRobustSteps` stage with these parameters."""
+        return NodRobustSteps(batch_size, fs, self)
+
+
+class _Config(NamedTuple):
+    """The kernel's constants (s, m/s^2, m); times in seconds, lengths in samples."""
+
+    fs: float
+    gamma: float
+    tmin: float  # min_step_interval
+    gamma_t: float
+    gravity: float
+    base_n: float  # baseline time constant in samples (0: fixed gravity)
+    base_lim: float
+    latency: float
+    lever: float
+
+
+# Columns of the per-stream scalar state (B, 6); times in s, -inf / NaN meaning "none".
+_LAST_V, _BASELINE, _N_SEEN, _LAST_PEAK, _PENDING, _LAST_STEP = 0, 1, 2, 3, 4, 5
+_N_STATE = 6
+
+
+@numba.njit(cache=True)
+def nod_robust_kernel(
+    acc, gyr, quat, k0, cfg, v_buf, sm_buf, rot_buf, w_buf, st, out_state, out_steps, out_peak_t
+):
+    """Run the detector over a chunk of n samples of B streams.
+
+    Inputs (B, n, 3) specific force (m/s^2), (B, n, 3) gyro (rad/s), (B, n, 4) attitude
+    ``[w, x, y, z]`` sensor -> world; ``k0`` the global index of the chunk's first sample (sample
+    k is at time k / fs s); ``cfg`` a :class:`_Config`. State, updated in place: ring buffers of
+    the vertical specific force ``v_buf`` (B, M), its mean ``sm_buf`` (B, 2h + 1), the rotation
+    bound ``rot_buf`` (B, 2h + 1) and the world angular rate ``w_buf`` (B, M + 1, 3), all indexed
+    by the sample's global index modulo their length, and the scalars ``st`` (B, 6) (columns
+    ``_LAST_V`` ... ``_LAST_STEP``). The outputs (B, n) / (B, n, 2) are filled.
+    """
+    nb, n = acc.shape[0], acc.shape[1]
+    m = v_buf.shape[1]
+    w = sm_buf.shape[1]
+    h = (w - 1) // 2
+    mw = w_buf.shape[1]  # M + 1
+    delay = 0.5 * (m - 1)
+    for b in range(nb):
+        for i in range(n):
+            k = k0 + i
+            qw, qx, qy, qz = quat[b, i, 0], quat[b, i, 1], quat[b, i, 2], quat[b, i, 3]
+            qn = math.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
+            q_ok = math.isfinite(qn) and qn > 0.0
+            if q_ok:
+                qw, qx, qy, qz = qw / qn, qx / qn, qy / qn, qz / qn
+            # 1. Vertical specific force in the world.
+            ax, ay, az = acc[b, i, 0], acc[b, i, 1], acc[b, i, 2]
+            if q_ok and math.isfinite(ax) and math.isfinite(ay) and math.isfinite(az):
+                x = quat_rotate(qw, qx, qy, qz, ax, ay, az)[2]
+            else:
+                x = st[b, _LAST_V] if math.isfinite(st[b, _LAST_V]) else cfg.gravity
+            st[b, _LAST_V] = x
+            # World angular rate (the previous one where this sample's is unusable).
+            gx, gy, gz = gyr[b, i, 0], gyr[b, i, 1], gyr[b, i, 2]
+            g_ok = q_ok and math.isfinite(gx) and math.isfinite(gy) and math.isfinite(gz)
+            fresh = st[b, _N_SEEN] == 0.0
+            wx = wy = wz = 0.0
+            if g_ok:
+                wx, wy, wz = quat_rotate(qw, qx, qy, qz, gx, gy, gz)
+            elif not fresh:
+                j = (k - 1) % mw
+                wx, wy, wz = w_buf[b, j, 0], w_buf[b, j, 1], w_buf[b, j, 2]
+            if fresh:  # start every filter at this sample
+                for j in range(m):
+                    v_buf[b, j] = x
+                for j in range(w):
+                    sm_buf[b, j] = x
+                    rot_buf[b, j] = 0.0
+                for j in range(mw):
+                    w_buf[b, j, 0], w_buf[b, j, 1], w_buf[b, j, 2] = wx, wy, wz
+                st[b, _BASELINE] = cfg.gravity if cfg.base_n <= 0.0 else x
+            st[b, _N_SEEN] += 1.0
+            n_seen = st[b, _N_SEEN]
+            if cfg.base_n > 0.0:
+                alpha = max(1.0 / n_seen, 1.0 / cfg.base_n)
+                g0 = st[b, _BASELINE] + alpha * (x - st[b, _BASELINE])
+                st[b, _BASELINE] = min(max(g0, cfg.gravity - cfg.base_lim),
+                                       cfg.gravity + cfg.base_lim)  # fmt: skip
+            # 2. Mean filter (causal, M samples) into the peak window's ring buffer.
+            v_buf[b, k % m] = x
+            s = 0.0
+            for j in range(m):
+                s += v_buf[b, j]
+            sm_buf[b, k % w] = s / m
+            # 3. Rotation bound over the same M samples: mean world rate, and the angular
+            # acceleration from the rates at both ends of the window (M intervals apart).
+            w_buf[b, k % mw, 0], w_buf[b, k % mw, 1], w_buf[b, k % mw, 2] = wx, wy, wz
+            j0 = (k - m) % mw
+            alx = (wx - w_buf[b, j0, 0]) * cfg.fs / m
+            aly = (wy - w_buf[b, j0, 1]) * cfg.fs / m
+            mx = my = mz = 0.0
+            for j in range(1, m + 1):
+                jj = (k - m + j) % mw
+                mx += w_buf[b, jj, 0]
+                my += w_buf[b, jj, 1]
+                mz += w_buf[b, jj, 2]
+            w_h = math.sqrt(mx * mx + my * my) / m
+            rot_buf[b, k % w] = cfg.lever * (
+                math.sqrt(alx * alx + aly * aly) + w_h * (w_h + abs(mz) / m)
+            )
+            # 4. Is the sample h back the maximum of its centred window, high enough, and higher
+            # than the rotation can explain?
+            if n_seen > h:
+                c = k - h
+                v = sm_buf[b, c % w]
+                excess = v - st[b, _BASELINE]
+                is_peak = excess >= cfg.gamma
+                j = 1
+                while is_peak and j <= h:
+                    if sm_buf[b, (c - j) % w] >= v or sm_buf[b, (c + j) % w] > v:
+                        is_peak = False
+                    j += 1
+                if is_peak:
+                    for j in range(w):
+                        if rot_buf[b, j] >= excess:
+                            is_peak = False
+                if is_peak:  # 5. Seed 000's bout rule.
+                    p = (c - delay) / cfg.fs
+                    dt = p - st[b, _LAST_PEAK]
+                    if dt >= cfg.tmin:
+                        if dt <= cfg.gamma_t:
+                            out_steps[b, i] = 1
+                            out_peak_t[b, i, 0] = p
+                            if math.isfinite(st[b, _PENDING]):
+                                out_steps[b, i] = 2
+                                out_peak_t[b, i, 1] = st[b, _PENDING]
+                                st[b, _PENDING] = math.nan
+                            st[b, _LAST_STEP] = p
+                        else:
+                            st[b, _PENDING] = p
+                        st[b, _LAST_PEAK] = p
+            walking = k / cfg.fs - cfg.latency - st[b, _LAST_STEP] <= cfg.gamma_t
+            out_state[b, i] = 1 if walking else 0
+
+
+class NodRobustSteps:
+    """Streaming, batched step detector on the world-vertical specific force with a rotation
+    veto (see the module docstring).
+
+    Args:
+        batch_size: B, the number of streams (users), >= 1.
+        fs: sample rate (Hz) of the IMU, in [10, 2000].
+        params: :class:`NodRobustParams` (defaults if None).
+
+    :meth:`update` consumes chunks of any length; chunking does not change the result.
+    """
+
+    def __init__(self, batch_size: int, fs: float, params: NodRobustParams | None = None) -> None:
+        self.batch_size, self.fs = check_stage_args(batch_size, fs, "NodRobustSteps")
+        self.params = NodRobustParams() if params is None else params
+        if not isinstance(self.params, NodRobustParams):
+            raise ValueError(
+                f"NodRobustSteps: params must be a NodRobustParams, got {type(params).__name__}"
+            )
+        p = self.params
+        self.m, self.h = p.samples(self.fs)
+        self.latency = p.latency(self.fs)
+        """Delay (s) from a heel strike to the sample that confirms its step."""
+        self._cfg = _Config(self.fs, p.gamma, p.min_step_interval, p.gamma_t, p.gravity,
+                            p.baseline_tau * self.fs, p.baseline_limit, self.latency,
+                            p.lever_arm)  # fmt: skip
+        self.samples_seen = 0
+        b, w = self.batch_size, 2 * self.h + 1
+        self._v = np.zeros((b, self.m))
+        self._sm = np.zeros((b, w))
+        self._rot = np.zeros((b, w))
+        self._w = np.zeros((b, self.m + 1, 3))
+        self._st = np.zeros((b, _N_STATE))
+        self.reset()
+
+    def reset(self, rows: ArrayLike | None = None) -> None:
+        """Forget the streams ``rows`` (indices, a (B,) bool mask, or None: all); the clock keeps
+        running."""
+        sel = stream_rows(rows, self.batch_size, "rows")
+        self._st[sel, _LAST_V] = np.nan
+        self._st[sel, _BASELINE] = self.params.gravity
+        self._st[sel, _N_SEEN] = 0.0
+        self._st[sel, _LAST_PEAK] = -np.inf
+        self._st[sel, _PENDING] = np.nan
+        self._st[sel, _LAST_STEP] = -np.inf
+
+    def update(self, acc: ArrayLike, gyr: ArrayLike, quat: ArrayLike) -> GaitChunk:
+        """Consume (B, N, 3) specific force (m/s^2), (B, N, 3) angular rate (rad/s) and (B, N, 4)
+        attitude ``[w, x, y, z]`` sensor -> ENU; return the
+        :class:`estimators.gait.GaitChunk` of the N samples."""
+        a, g, q = check_chunk(acc, gyr, quat, self.batch_size, "NodRobustSteps")
+        n = a.shape[1]
+        state, steps, peak_t = empty_chunk(self.batch_size, n)
+        nod_robust_kernel(a, g, q, self.samples_seen, self._cfg, self._v, self._sm, self._rot,
+                          self._w, self._st, state, steps, peak_t)  # fmt: skip
+        t = (self.samples_seen + np.arange(n)) / self.fs
+        self.samples_seen += n
+        return GaitChunk(state=state, steps=steps, peak_time=peak_t, sample_time=t)

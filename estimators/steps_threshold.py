@@ -1,0 +1,232 @@
+"""A naive step detector: every local maximum of the raw specific-force norm above g + threshold.
+
+The baseline of :data:`estimators.stages.STEPS` (``"threshold"``): the simplest pedometer rule, a
+step at each sample ``k - 1`` where the unfiltered norm ``x = |f|`` has a local maximum,
+
+    x[k-2] < x[k-1] >= x[k]   and   x[k-1] > gravity + threshold,
+
+unless it comes less than ``refractory`` seconds after the previous step. Nothing else: no
+smoothing, no peak window, no baseline (a fixed g, so an accelerometer offset along gravity shifts
+the threshold), no rule that a step needs a neighbour, and no use of the gyro or the attitude.
+
+Values (a stated rule, not tuned): ``threshold`` is seed 000's gamma (0.07 g) and ``refractory``
+its shortest step interval (1/3.5 s, about the fastest human stepping), so that this detector
+differs from :class:`estimators.gait.Seed000Steps` only by what it leaves out. A step is confirmed
+one sample after its peak (``latency = 1 / fs``) and carries the peak's time. Still/walk: walk
+while the last step is at most ``hold`` seconds old (seed 000's gamma_t, 1.2 s), still otherwise.
+
+A non-finite sample takes the previous sample's norm (gravity before any). The per-sample loop is
+the compiled kernel :func:`threshold_kernel` (loop over streams inside; ``threshold_kernel.py_func``
+is its readable uncompiled source).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numba
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from estimators.batching import stream_rows
+from estimators.gait import GaitChunk
+from estimators.rotations import GRAVITY
+
+__all__ = [
+    "ThresholdParams",
+    "ThresholdSteps",
+    "check_chunk",
+    "check_param",
+    "check_stage_args",
+    "empty_chunk",
+    "threshold_kernel",
+]
+
+
+def check_param(owner: object, name: str, lo: float, hi: float, allowed: str,
+                open_lo: bool = False) -> None:  # fmt: skip
+    """Raise ``Class.name=value: must be <allowed>`` unless the field ``name`` of ``owner`` is a
+    finite real (not a bool) in ``[lo, hi]`` (``(lo, hi]`` if ``open_lo``)."""
+    value = getattr(owner, name)
+    real = isinstance(value, int | float) and not isinstance(value, bool)
+    ok = real and math.isfinite(value) and (lo < value if open_lo else lo <= value)
+    if not (ok and value <= hi):
+        raise ValueError(f"{type(owner).__name__}.{name}={value!r}: must be {allowed}")
+
+
+@dataclass(frozen=True)
+class ThresholdParams:
+    """Parameters of :class:`ThresholdSteps` (see the module docstring for the rule).
+
+    Every field is validated on construction.
+    """
+
+    threshold: float = 0.07 * GRAVITY
+    """Excess of the raw norm over ``gravity`` (m/s^2) a peak needs. Default 0.07 g = 0.686
+    m/s^2, seed 000's gamma (:class:`estimators.gait.GaitParams`)."""
+    refractory: float = 1.0 / 3.5
+    """Shortest interval (s) between two steps; a peak sooner after the last step is ignored.
+    Default 1/3.5 s: nobody steps faster than about 3.5 steps/s (seed 000's min_step_interval)."""
+    hold: float = 1.2
+    """How long (s) the state stays 'walk' after a step. Default 1.2 s, seed 000's gamma_t (20 %
+    above the slowest in-place step interval, 1 s)."""
+    gravity: float = GRAVITY
+    """Gravity (m/s^2), standard gravity by default (:data:`estimators.rotations.GRAVITY`)."""
+
+    def __post_init__(self) -> None:
+        check_param(self, "gravity", 9.0, 10.5, "in [9, 10.5] m/s^2")
+        check_param(self, "threshold", 0.0, 3.0 * self.gravity, "in (0, 3 g] m/s^2", True)
+        check_param(self, "refractory", 0.0, 2.0, "in [0, 2] s")
+        check_param(self, "hold", 0.0, 10.0, "in (0, 10] s", True)
+
+    def build(self, batch_size: int, fs: float) -> ThresholdSteps:
+        """The :class:`ThresholdSteps` stage with these parameters."""
+        return ThresholdSteps(batch_size, fs, self)
+
+
+class _Config(NamedTuple):
+    """The kernel's constants (s and m/s^2)."""
+
+    fs: float
+    level: float  # gravity + threshold
+    refractory: float
+    hold: float
+    gravity: float
+
+
+# Columns of the per-stream state array (B, 4).
+_PREV2, _PREV1, _LAST_STEP, _N_SEEN = 0, 1, 2, 3
+
+
+@numba.njit(cache=True)
+def threshold_kernel(acc, k0, cfg, state, out_state, out_steps, out_peak_t):
+    """Run the peak picker over a chunk ``acc`` (B, n, 3) of specific force (m/s^2).
+
+    ``k0`` is the global index of the chunk's first sample (sample k is at time k / fs s);
+    ``cfg`` a :class:`_Config`; ``state`` (B, 4) holds per stream the norms of the two previous
+    samples, the last step's time (s, -inf: none) and the samples seen, updated in place. The
+    outputs (B, n) and (B, n, 2) are filled (only column 0 of ``out_peak_t`` is used).
+    """
+    nb, n = acc.shape[0], acc.shape[1]
+    for b in range(nb):
+        x2 = state[b, _PREV2]
+        x1 = state[b, _PREV1]
+        last = state[b, _LAST_STEP]
+        seen = state[b, _N_SEEN]
+        for i in range(n):
+            k = k0 + i
+            x = math.sqrt(acc[b, i, 0] ** 2 + acc[b, i, 1] ** 2 + acc[b, i, 2] ** 2)
+            if not math.isfinite(x):
+                x = x1 if seen > 0 else cfg.gravity
+            if seen == 0:  # fresh stream: no peak before its third sample
+                x2 = x
+                x1 = x
+            seen += 1
+            if x1 > x2 and x1 >= x and x1 > cfg.level:
+                p = (k - 1) / cfg.fs
+                if p - last >= cfg.refractory:
+                    out_steps[b, i] = 1
+                    out_peak_t[b, i, 0] = p
+                    last = p
+            out_state[b, i] = 1 if k / cfg.fs - last <= cfg.hold else 0
+            x2 = x1
+            x1 = x
+        state[b, _PREV2] = x2
+        state[b, _PREV1] = x1
+        state[b, _LAST_STEP] = last
+        state[b, _N_SEEN] = seen
+
+
+def check_stage_args(batch_size: object, fs: object, who: str) -> tuple[int, float]:
+    """``batch_size`` as an int >= 1 and ``fs`` as a float in [10, 2000] Hz (the range of
+    :class:`estimators.gait.StepDetector`), or a ValueError naming ``who`` and the argument."""
+    if isinstance(batch_size, bool) or not isinstance(batch_size, int | np.integer):
+        raise ValueError(f"{who}: batch_size must be an integer >= 1, got {batch_size!r}")
+    if batch_size < 1:
+        raise ValueError(f"{who}: batch_size must be an integer >= 1, got {batch_size!r}")
+    try:
+        rate = float(fs)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        raise ValueError(f"{who}: fs must be a number in [10, 2000] Hz, got {fs!r}") from None
+    if not (10.0 <= rate <= 2000.0):
+        raise ValueError(f"{who}: fs must be in [10, 2000] Hz, got {fs!r}")
+    return int(batch_size), rate
+
+
+def check_chunk(
+    acc: ArrayLike, gyr: ArrayLike, quat: ArrayLike, batch_size: int, who: str
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """The inputs of one ``update`` as C-contiguous float64 arrays (B, N, 3), (B, N, 3) and
+    (B, N, 4) with one N, or a ValueError naming the argument and the shape expected."""
+    out = []
+    n = None
+    for name, value, last in (("acc", acc, 3), ("gyr", gyr, 3), ("quat", quat, 4)):
+        try:
+            arr = np.ascontiguousarray(value, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(f"{who}.update: {name} must be a numeric array") from None
+        want = f"({batch_size}, {'N' if n is None else n}, {last})"
+        if arr.ndim != 3 or arr.shape[0] != batch_size or arr.shape[2] != last:
+            raise ValueError(f"{who}.update: {name} must have shape {want}, got {arr.shape}")
+        if n is None:
+            n = arr.shape[1]
+        elif arr.shape[1] != n:
+            raise ValueError(f"{who}.update: {name} must have shape {want}, got {arr.shape}")
+        out.append(arr)
+    return out[0], out[1], out[2]
+
+
+def empty_chunk(batch_size: int, n: int) -> tuple[NDArray[np.int8], ...]:
+    """Zeroed ``state`` and ``steps`` (B, n) int8 and a NaN ``peak_time`` (B, n, 2)."""
+    return (np.zeros((batch_size, n), np.int8), np.zeros((batch_size, n), np.int8),
+            np.full((batch_size, n, 2), np.nan))  # fmt: skip
+
+
+class ThresholdSteps:
+    """Streaming, batched naive peak picker on ``|f|`` (see the module docstring).
+
+    Args:
+        batch_size: B, the number of streams (users), >= 1.
+        fs: sample rate (Hz) of the IMU, in [10, 2000].
+        params: :class:`ThresholdParams` (defaults if None).
+
+    :meth:`update` consumes chunks of any length (chunking does not change the result); ``gyr``
+    and ``quat`` are not read.
+    """
+
+    def __init__(self, batch_size: int, fs: float, params: ThresholdParams | None = None) -> None:
+        self.batch_size, self.fs = check_stage_args(batch_size, fs, "ThresholdSteps")
+        self.params = ThresholdParams() if params is None else params
+        if not isinstance(self.params, ThresholdParams):
+            raise ValueError(
+                f"ThresholdSteps: params must be a ThresholdParams, got {type(params).__name__}"
+            )
+        p = self.params
+        self._cfg = _Config(self.fs, p.gravity + p.threshold, p.refractory, p.hold, p.gravity)
+        self.latency = 1.0 / self.fs
+        """Delay (s) from a peak to the sample that confirms its step."""
+        self.samples_seen = 0
+        self._state = np.zeros((self.batch_size, 4))
+        self.reset()
+
+    def reset(self, rows: ArrayLike | None = None) -> None:
+        """Forget the streams ``rows`` (indices, a (B,) bool mask, or None: all); the clock keeps
+        running."""
+        sel = stream_rows(rows, self.batch_size, "rows")
+        self._state[sel, _PREV2] = self.params.gravity
+        self._state[sel, _PREV1] = self.params.gravity
+        self._state[sel, _LAST_STEP] = -np.inf
+        self._state[sel, _N_SEEN] = 0.0
+
+    def update(self, acc: ArrayLike, gyr: ArrayLike, quat: ArrayLike) -> GaitChunk:
+        """Consume (B, N, 3) specific force (m/s^2), (B, N, 3) angular rate and (B, N, 4)
+        attitude; return the :class:`estimators.gait.GaitChunk` of the N samples."""
+        a, _, _ = check_chunk(acc, gyr, quat, self.batch_size, "ThresholdSteps")
+        n = a.shape[1]
+        state, steps, peak_t = empty_chunk(self.batch_size, n)
+        threshold_kernel(a, self.samples_seen, self._cfg, self._state, state, steps, peak_t)
+        t = (self.samples_seen + np.arange(n)) / self.fs
+        self.samples_seen += n
+        return GaitChunk(state=state, steps=steps, peak_time=peak_t, sample_time=t)

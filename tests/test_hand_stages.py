@@ -1,0 +1,311 @@
+"""Hand stages (estimators.stages.HAND): seed003, raw and the One Euro filter, against the truth
+of the synthetic Kinect v2 chain (motion model -> KinectV2 -> HandPipeline)."""
+
+from __future__ import annotations
+
+from dataclasses import fields
+
+import numpy as np
+import pytest
+
+from agents.experiments.hand_variance import PAPER_ANGLES_DEG, _simulate
+from estimators.hand import (
+    HandFrame,
+    HandPipeline,
+    RawHand,
+    Seed003Hand,
+    estimate_lag,
+    quat_to_euler_paper,
+    unwrap_angles,
+)
+from estimators.hand_one_euro import OneEuroHand, OneEuroHandParams
+from estimators.joint_smoothing import OneEuroFilter
+from estimators.rotations import angle_diff
+from estimators.stages import HAND, HandStage, StageError
+from vrloco_env.batch_rng import BatchRng
+from vrloco_env.motion import Intent, MotionParams, UserMotion
+from vrloco_env.sensors.kinect import KinectSpec, KinectV2
+
+FS = 30.0
+WARMUP = 30  # frames left out of the statistics (1 s), as agents/experiments/hand_variance.py
+#: Held-out seeds: OneEuroHandParams' defaults were chosen on seeds 1 and 2 (static trials) and
+#: 101, 102 (moving ones); see estimators/hand_one_euro.py.
+STATIC_SEED, MOVING_SEED = 5, 105
+REPEATS = 3
+
+
+def simulate(hand_roll, roll_rate, seconds, seed):
+    """The chain of ``agents.experiments.hand_variance._simulate`` (same draws), keeping the
+    pipeline's frames: a list of one (B, M) :class:`HandFrame` per control step, and the true
+    wrist angles (B, frames, 3) ``[yaw, pitch, roll]``."""
+    b = hand_roll.shape[0]
+    params = MotionParams()
+    rng = BatchRng([np.random.default_rng([seed, i]) for i in range(b)])
+    motion = UserMotion(params, rng)
+    motion.reset(hand_ypr=np.stack([np.zeros(b), np.zeros(b), hand_roll], axis=-1))
+    kinect = KinectV2(KinectSpec(), rng)
+    kinect.reset()
+    pipe = HandPipeline(b)
+    direction = np.ones(b)
+    hand = hand_roll.copy()
+    frames, truth = [], []
+    for _ in range(round(seconds * params.control_rate_hz)):
+        rates = np.zeros((b, 3))
+        if roll_rate is not None:  # sweep between +-75 deg, as _simulate
+            direction = np.where(hand > np.deg2rad(75), -1.0, direction)
+            direction = np.where(hand < np.deg2rad(-75), 1.0, direction)
+            rates[:, 2] = direction * roll_rate
+            hand = hand + rates[:, 2] / params.control_rate_hz
+        chunk = motion.advance(Intent(hand_rates=rates))
+        fr = kinect.capture(chunk.kinect.t, chunk.kinect.joints, chunk.kinect.hand_quat)
+        frames.append(
+            pipe.update_frames(fr.body_id, fr.body_tracked, fr.joints, fr.joint_state, fr.hand_quat)
+        )
+        truth.append(quat_to_euler_paper(fr.truth.hand_quat)[..., ::-1])
+    return frames, np.concatenate(truth, axis=1)
+
+
+def run(stage, frames):
+    """The stage over every step's frames: (B, frames, 3) angles and (B, frames) validity."""
+    out = [stage.update(f) for f in frames]
+    return np.concatenate([o[0] for o in out], axis=1), np.concatenate([o[1] for o in out], axis=1)
+
+
+def rest_variance(ypr):
+    """(3,) pooled variance (deg^2) over the static poses: mean over repeats, summed over poses."""
+    deg = np.rad2deg(unwrap_angles(ypr[:, WARMUP:], axis=1))
+    var = np.nanvar(deg, axis=1, ddof=1)
+    return var.reshape(len(PAPER_ANGLES_DEG), REPEATS, 3).mean(axis=1).sum(axis=0)
+
+
+def motion_errors(ypr, truth):
+    """(3,) RMSE vs truth (deg) and the lag (s) on the swept axis."""
+    est, tru = ypr[:, WARMUP:], truth[:, WARMUP:]
+    err = np.rad2deg(angle_diff(est, tru))
+    rmse = np.sqrt(np.nanmean(err**2, axis=(0, 1)))
+    axis = int(np.argmax(np.nanstd(tru, axis=(0, 1))))
+    lags = [
+        estimate_lag(unwrap_angles(est[i, :, axis], axis=0),
+                     unwrap_angles(tru[i, :, axis], axis=0), FS, 0.5)
+        for i in range(est.shape[0])
+    ]  # fmt: skip
+    return rmse, float(np.mean(lags)), axis
+
+
+@pytest.fixture(scope="module")
+def static_frames():
+    angles = np.deg2rad(np.repeat(np.asarray(PAPER_ANGLES_DEG, float), REPEATS))
+    return simulate(angles, None, 10.0, STATIC_SEED)[0]
+
+
+@pytest.fixture(scope="module")
+def moving_frames():
+    start = np.deg2rad(np.random.default_rng(MOVING_SEED).uniform(-60, 60, 10))
+    return simulate(start, np.full(10, np.deg2rad(90.0)), 10.0, MOVING_SEED)
+
+
+def build_all(b):
+    return {name: HAND.build(name, b, FS) for name in ("raw", "seed003", "one_euro")}
+
+
+# ---------------------------------------------------------------------------- registry
+def test_registry_builds_all_three():
+    built = build_all(4)
+    assert isinstance(built["seed003"], Seed003Hand)
+    assert isinstance(built["raw"], RawHand)
+    assert isinstance(built["one_euro"], OneEuroHand)
+    for stage in built.values():
+        assert isinstance(stage, HandStage)
+        assert stage.batch_size == 4
+    assert built["one_euro"].params == OneEuroHandParams()
+    custom = HAND.build(OneEuroHandParams(min_cutoff=1.0, beta=2.0), 2, FS)
+    assert isinstance(custom, OneEuroHand) and custom.params.beta == 2.0
+    assert custom.filter.params.rate_hz == FS
+    with pytest.raises(StageError, match="batch_size"):
+        HAND.build("one_euro", 0, FS)
+    with pytest.raises(StageError, match="fs"):
+        HAND.build("raw", 2, -1.0)
+
+
+def test_bad_params_and_frames_raise_value_errors():
+    with pytest.raises(ValueError, match=r"OneEuroHandParams\.min_cutoff=0"):
+        OneEuroHandParams(min_cutoff=0.0)
+    with pytest.raises(ValueError, match=r"OneEuroHandParams\.beta=-1"):
+        OneEuroHandParams(beta=-1.0)
+    with pytest.raises(ValueError, match=r"OneEuroHandParams\.d_cutoff=nan"):
+        OneEuroHandParams(d_cutoff=float("nan"))
+    with pytest.raises(ValueError, match=r"OneEuroHandParams\.beta=True"):
+        OneEuroHandParams(beta=True)
+    with pytest.raises(ValueError, match="params must be a OneEuroHandParams"):
+        OneEuroHand(2, FS, params={"beta": 1.0})
+    frames = synthetic(np.zeros((3, 4, 3)))
+    for stage in build_all(2).values():
+        with pytest.raises(ValueError, match=r"ypr_raw of shape \(2, M, 3\)"):
+            stage.update(frames)
+        with pytest.raises(ValueError, match="rows must lie in"):
+            stage.reset([5])
+
+
+# ---------------------------------------------------------------------------- seed003 and raw
+def test_seed003_and_raw_are_the_pipelines_own_outputs_bit_for_bit():
+    """On the hand-variance chain: the stages give exactly _simulate's Kalman + median and raw
+    angles (its pipeline runs frame by frame through update(), ours M frames per call)."""
+    for roll, rate, seed in ((np.deg2rad([-90.0, 0.0, 45.0]), None, 11),
+                             (np.deg2rad([-30.0, 10.0, 60.0]), np.deg2rad(90.0), 12)):  # fmt: skip
+        rates = None if rate is None else np.full(3, rate)
+        frames, truth = simulate(roll, rates, 3.0, seed)
+        ref = _simulate(roll, rates, 3.0, seed)
+        np.testing.assert_array_equal(truth, ref.truth)
+        stages = build_all(3)
+        ypr, valid = run(stages["seed003"], frames)
+        np.testing.assert_array_equal(ypr, ref.kalman_median)
+        stacked = np.concatenate([f.valid for f in frames], axis=1)
+        np.testing.assert_array_equal(valid, stacked)
+        raw, raw_valid = run(stages["raw"], frames)
+        np.testing.assert_array_equal(raw, ref.raw)
+        np.testing.assert_array_equal(raw_valid, np.isfinite(ref.raw).all(axis=-1))
+        # Copies: the caller may keep them while the frames are reused.
+        y0, _ = stages["seed003"].update(frames[-1])
+        assert not np.shares_memory(y0, frames[-1].ypr)
+
+
+# ---------------------------------------------------------------------------- One Euro vs truth
+def test_one_euro_beats_raw_at_rest(static_frames):
+    b = static_frames[0].ypr.shape[0]
+    stages = {name: HAND.build(name, b, FS) for name in ("raw", "seed003", "one_euro")}
+    var = {name: rest_variance(run(s, static_frames)[0]) for name, s in stages.items()}
+    reduction = 100.0 * (1.0 - var["one_euro"] / var["raw"])
+    # Documented on held-out seeds 3-8: 45-50 % per axis.
+    assert np.all(reduction > 40.0), reduction
+    assert np.all(reduction < 100.0 * (1.0 - var["seed003"] / var["raw"]))  # the price of speed
+    ypr, valid = run(stages["one_euro"], static_frames)
+    assert valid[:, WARMUP:].all() and np.isfinite(ypr[:, WARMUP:]).all()
+    assert np.all(np.abs(ypr[valid]) <= np.pi)
+
+
+def test_one_euro_beats_raw_in_motion(moving_frames):
+    frames, truth = moving_frames
+    stages = build_all(truth.shape[0])
+    res = {name: motion_errors(run(s, frames)[0], truth) for name, s in stages.items()}
+    (rmse_raw, lag_raw, axis), (rmse_oe, lag_oe, _) = res["raw"], res["one_euro"]
+    assert axis == 0  # the sweep about the forearm moves our yaw column (paper's roll)
+    # Documented on held-out seeds 3-8: 0.94-0.97 x raw on the swept axis, 0.7-0.75 elsewhere.
+    assert np.all(rmse_oe < 0.99 * rmse_raw), (rmse_oe, rmse_raw)
+    assert np.all(rmse_oe[1:] < 0.8 * rmse_raw[1:])
+    # Lag: 7 ms documented, under half a frame, far below Kalman + median's ~46 ms.
+    assert lag_oe < 0.5 / FS, lag_oe
+    assert lag_oe < 0.5 * res["seed003"][1]
+    assert lag_raw <= lag_oe + 1e-9
+    assert rmse_oe[axis] < res["seed003"][0][axis]
+
+
+# ---------------------------------------------------------------------------- One Euro mechanics
+def synthetic(ypr_raw, quat_valid=None, reselected=None):
+    """A (B, M) HandFrame with the given raw angles and flags (other fields neutral)."""
+    ypr_raw = np.asarray(ypr_raw, dtype=np.float64)
+    b, m, _ = ypr_raw.shape
+    qv = np.ones((b, m), bool) if quat_valid is None else np.asarray(quat_valid, bool)
+    rs = np.zeros((b, m), bool) if reselected is None else np.asarray(reselected, bool)
+    return HandFrame(
+        slot=np.zeros((b, m), np.int64), body_id=np.ones((b, m), np.int64), reselected=rs,
+        has_target=np.ones((b, m), bool), joints=np.full((b, m, 25, 3), np.nan),
+        joint_state=np.zeros((b, m, 25), np.int8), all_inferred=np.zeros((b, m), bool),
+        ypr_raw=ypr_raw, ypr_kalman=ypr_raw.copy(), ypr=ypr_raw.copy(), quat_valid=qv,
+        singular=np.zeros((b, m), bool), valid=np.isfinite(ypr_raw).all(axis=-1),
+    )  # fmt: skip
+
+
+def noisy_angles(rng, b, m, base=0.3):
+    return base + 0.03 * rng.standard_normal((b, m, 3))
+
+
+def test_one_euro_is_the_shared_filter_in_angular_mode(rng):
+    """The stage feeds joint_smoothing.OneEuroFilter (no second implementation); chunking the
+    frames into steps of any M changes nothing."""
+    x = noisy_angles(rng, 2, 30)
+    stage = OneEuroHand(2, FS)
+    ref = OneEuroFilter(2, (3,), stage.params.filter_params(FS), angular=True)
+    expected = np.stack([ref.update(x[:, t]) for t in range(30)], axis=1)
+    whole, _ = stage.update(synthetic(x))
+    np.testing.assert_array_equal(whole, expected)
+    chunked = OneEuroHand(2, FS)
+    parts = [chunked.update(synthetic(x[:, a:b]))[0] for a, b in ((0, 1), (1, 4), (4, 30))]
+    np.testing.assert_array_equal(np.concatenate(parts, axis=1), expected)
+
+
+def test_nan_before_the_first_frame_and_reselection_restarts(rng):
+    x = noisy_angles(rng, 2, 40)
+    x[:, 20:] -= 1.5  # the new target holds its hand elsewhere
+    qv = np.ones((2, 40), bool)
+    qv[:, :3] = False  # no usable quaternion yet
+    resel = np.zeros((2, 40), bool)
+    resel[0, 20] = True  # stream 0 selects a new user at frame 20, stream 1 does not
+    qv[0, 20:22] = False  # ... whose first usable quaternion comes at frame 22
+    ypr, valid = OneEuroHand(2, FS).update(synthetic(x, qv, resel))
+    assert not valid[:, :3].any() and np.isnan(ypr[:, :3]).all()
+    # A fresh stream starts at its sample (to the rounding of the output's wrap to (-pi, pi]).
+    np.testing.assert_allclose(ypr[:, 3], x[:, 3], rtol=0, atol=1e-15)
+    assert valid[:, 3:20].all()
+    # Restarted: nothing of the old user's estimate survives, and it starts at its sample.
+    assert not valid[0, 20:22].any() and np.isnan(ypr[0, 20:22]).all()
+    np.testing.assert_allclose(ypr[0, 22], x[0, 22], rtol=0, atol=1e-15)
+    fresh, _ = OneEuroHand(1, FS).update(synthetic(x[:1, 22:]))
+    np.testing.assert_array_equal(ypr[0, 22:], fresh[0])
+    # Without the restart the filter glides from the old pose (stream 1).
+    assert valid[1, 20:].all()
+    assert np.all(np.abs(ypr[1, 20] - x[1, 20]) > 0.05)
+
+
+def test_dropouts_hold_and_leave_the_state_alone(rng):
+    x = noisy_angles(rng, 1, 60)
+    x[:, 30:] += np.linspace(0.0, 1.0, 30)[None, :, None]  # moving after the gap
+    qv = np.ones((1, 60), bool)
+    qv[0, 20:26] = False
+    garbage = x.copy()
+    garbage[0, 20:26] = 3.0  # what a dropout frame holds must not matter
+    ypr, valid = OneEuroHand(1, FS).update(synthetic(garbage, qv))
+    assert valid.all()
+    np.testing.assert_array_equal(ypr[0, 20:26], np.repeat(ypr[0, 19:20], 6, axis=0))
+    # Same as a filter that never saw the dropout frames.
+    kept = np.concatenate([x[:, :20], x[:, 26:]], axis=1)
+    skip, _ = OneEuroHand(1, FS).update(synthetic(kept))
+    np.testing.assert_array_equal(ypr[0, 26:], skip[0, 20:])
+
+
+def test_reset_rows_forgets_only_those_rows(rng):
+    x = noisy_angles(rng, 3, 20)
+    for rows in ([1], np.array([False, True, False])):
+        stage = OneEuroHand(3, FS)
+        stage.update(synthetic(x[:, :10]))
+        stage.reset(rows)
+        after, valid = stage.update(synthetic(x[:, 10:]))
+        whole, _ = OneEuroHand(3, FS).update(synthetic(x))
+        np.testing.assert_array_equal(after[[0, 2]], whole[[0, 2], 10:])
+        fresh, _ = OneEuroHand(1, FS).update(synthetic(x[1:2, 10:]))
+        np.testing.assert_array_equal(after[1], fresh[0])
+        assert valid.all()
+    stage.reset()
+    y, v = stage.update(synthetic(np.full((3, 1, 3), np.nan), np.zeros((3, 1), bool)))
+    assert not v.any() and np.isnan(y).all()
+
+
+def test_wraparound_at_180_deg_has_no_jump():
+    m = 90
+    true = np.pi - 0.5 + np.linspace(0.0, 1.0, m)  # crosses +pi
+    x = np.angle(np.exp(1j * true))[None, :, None].repeat(3, axis=2)
+    ypr, _ = OneEuroHand(1, FS).update(synthetic(x))
+    err = angle_diff(ypr[0, :, 0], true)
+    assert np.max(np.abs(err)) < np.deg2rad(1.0)
+    assert np.all(np.abs(ypr) <= np.pi)
+
+
+def test_raw_validity_follows_the_current_target():
+    x = np.zeros((1, 6, 3))
+    x[0, :2] = np.nan  # before the target's first quaternion
+    x[0, 4] = np.nan  # reselected; the new target has no quaternion yet
+    qv = np.array([[False, False, True, False, False, True]])
+    ypr, valid = RawHand(1, FS).update(synthetic(x, qv))
+    np.testing.assert_array_equal(valid, [[False, False, True, True, False, True]])
+    np.testing.assert_array_equal(np.isnan(ypr).all(axis=-1), ~valid)
+    # The stack's fields are all of one frame count (a sanity check of the helper).
+    assert {getattr(synthetic(x), f.name).shape[:2] for f in fields(HandFrame)} == {(1, 6)}
