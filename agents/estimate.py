@@ -125,7 +125,16 @@ def _uniform(t: NDArray, x: NDArray) -> tuple[NDArray, NDArray, float]:
 
 
 def estimate_recording(path: Path, out_dir: Path, step_length: float = 0.7) -> dict:
-    """Run the estimators on ``path``; write ``NAME_estimates.csv`` and ``.png`` in ``out_dir``."""
+    """Run the estimators on ``path``; write ``NAME_estimates.csv`` and ``.png`` in ``out_dir``.
+
+    Raises:
+        ValueError: a malformed recording, or ``step_length`` outside [0.2, 1.5] m (the range
+            of a person's step, as :class:`vrloco_env.config.EstimatorConfig` allows).
+    """
+    if isinstance(step_length, bool) or not isinstance(step_length, int | float) or not (
+        0.2 <= step_length <= 1.5
+    ):
+        raise ValueError(f"step_length={step_length!r}: must be in [0.2, 1.5] m")
     rec = read_recording(path)
     gait = detect_steps(rec.t, rec.acc, params=rec.gait)
     n = rec.t.size

@@ -47,3 +47,8 @@ def test_malformed_csv_names_the_line_and_column(tmp_path, capsys):
     bad.write_text("t,gx,gy,gz,ax,ay,az\n0,0,0,0,0,0,9.8\n0.01,0,0,0,0,0,9.8\n0.01,0,0,0,0,0,9.8\n")
     with pytest.raises(ValueError, match=r"line 4, column 1 \(t\): time 0.01 does not increase"):
         read_csv_recording(bad)
+
+
+def test_a_step_length_outside_a_persons_range_is_refused(recording, tmp_path, capsys):
+    assert main(["estimate", str(recording), "--out", str(tmp_path), "--step-length", "0"]) == 2
+    assert "step_length=0.0: must be in [0.2, 1.5] m" in capsys.readouterr().err

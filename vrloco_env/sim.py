@@ -56,11 +56,40 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import pybullet
 from numpy.typing import ArrayLike, NDArray
-from pybullet_utils.bullet_client import BulletClient
 
 from estimators.rotations import quat_from_ypr, quat_to_ypr
+
+
+@contextlib.contextmanager
+def _quiet_native_output() -> Iterator[None]:
+    """Silence what native code prints to the process's stdout and stderr (PyBullet prints its
+    build time on import and ``argv[0]=`` on connecting, from C, in every process)."""
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(Exception):
+            stream.flush()
+    try:
+        saved = (os.dup(1), os.dup(2))
+    except OSError:  # no file descriptors to redirect (an embedded interpreter)
+        yield
+        return
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    libc = ctypes.CDLL(None)
+    try:
+        os.dup2(devnull, 1)
+        os.dup2(devnull, 2)
+        yield
+    finally:
+        libc.fflush(None)  # C's buffered output goes to /dev/null, not to the restored streams
+        os.dup2(saved[0], 1)
+        os.dup2(saved[1], 2)
+        for fd in (*saved, devnull):
+            os.close(fd)
+
+
+with _quiet_native_output():
+    import pybullet
+    from pybullet_utils.bullet_client import BulletClient
 
 __all__ = [
     "GROUP_AVATAR",
@@ -237,7 +266,8 @@ class Simulation:
                 "render_mode='rgb_array' or None for headless runs."
             )
         mode = pybullet.GUI if self._gui else pybullet.DIRECT
-        client = BulletClient(connection_mode=mode)
+        with _quiet_native_output():
+            client = BulletClient(connection_mode=mode)
         if client._client < 0:
             kind = "GUI" if self._gui else "DIRECT"
             raise RuntimeError(
