@@ -6,7 +6,8 @@ env (then ``(B, 5)``; the rules are evaluated for all rows at once and the per-r
 arrays). Actions are float32 in [-1, 1]: ``[walk, turn, hand_yaw_rate, hand_pitch_rate,
 hand_roll_rate]`` (:mod:`vrloco_env.actions`).
 
-Policies read the observation only (:func:`vrloco_env.core.observation_names`): the virtual
+Policies read the observation only (decoded with the env's
+:class:`~vrloco_env.observation.ObservationSpec`): the virtual
 heading, the goal bearing and distance and the ray ranges seen from the *virtual* pose (what the
 headset shows), the detected steps, and for Interact the hand error — never the ground truth in
 ``info``. What a user knows about their own body (how far one detected step carries them in VR,
@@ -62,7 +63,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from vrloco_env.actions import ACTION_SIZE
 from vrloco_env.config import EnvConfig
-from vrloco_env.core import MAX_GOAL_DISTANCE, observation_names
+from vrloco_env.observation import ObservationSpec, env_spec, ray_offsets
 from vrloco_env.validation import check_in_range
 
 __all__ = [
@@ -81,10 +82,6 @@ __all__ = [
     "ray_points",
 ]
 
-#: The observation scales the distance to the goal by this (m), :mod:`vrloco_env.core`.
-GOAL_DISTANCE_SCALE_M = float(MAX_GOAL_DISTANCE)
-
-
 @runtime_checkable
 class Policy(Protocol):
     """What the benchmark needs from a simulated user."""
@@ -99,55 +96,51 @@ class Policy(Protocol):
 # --------------------------------------------------------------------------- observation
 
 
-@dataclass(frozen=True)
 class ObservationLayout:
-    """Where things are in the observation vector and how they are scaled.
+    """What a policy knows of the observation: the env's :class:`ObservationSpec` (entries,
+    scales, the decoder) and the directions of its rays.
 
-    Mirrors :func:`vrloco_env.core.observation_names` and ``LocoCore``'s ray fan, so that a policy
-    decodes what the env encodes (``tests/test_scripted.py`` checks both against a live env).
-
-    Attributes:
-        ray_count: number of rays.
-        ray_fov_deg: angular spread of the rays, centred on the heading (deg).
-        ray_range_m: ray range (m); a ray at this range saw nothing.
-        goal_scale_m: the goal distance entry is ``min(distance / goal_scale_m, 1)`` (m).
+    Args:
+        spec: the env's observation spec (``env.unwrapped.observation_spec``).
+        ray_offsets: ray directions relative to the heading (rad, counter-clockwise).
     """
 
-    ray_count: int = 15
-    ray_fov_deg: float = 180.0
-    ray_range_m: float = 5.0
-    goal_scale_m: float = GOAL_DISTANCE_SCALE_M
+    def __init__(self, spec: ObservationSpec, ray_offsets: ArrayLike) -> None:
+        self.spec = spec
+        self.ray_offsets = np.asarray(ray_offsets, dtype=np.float64)
+        if "rays" not in spec or spec.field("rays").size != self.ray_offsets.size:
+            raise ValueError("ray_offsets must give one direction per ray of the spec")
+        self.ray_count = self.ray_offsets.size
+        self.ray_range_m = spec.field("rays").scale
 
     @classmethod
-    def from_config(cls, config: EnvConfig) -> ObservationLayout:
-        """The layout of envs built with ``config``."""
-        return cls(config.ray_count, config.ray_fov_deg, config.ray_range_m)
+    def from_config(
+        cls, config: EnvConfig | None = None, task: str = "approach", task_config: Any = None
+    ) -> ObservationLayout:
+        """The layout of envs of ``task`` built with ``config`` (defaults if None)."""
+        from vrloco_env.tasks import get_task
+
+        config = config or EnvConfig()
+        fields = get_task(task)(1, 0.1, task_config).fields()
+        spec = env_spec(config.ray_count, config.ray_range_m, fields)
+        return cls(spec, ray_offsets(config.ray_count, config.ray_fov_deg))
 
     @classmethod
     def from_env(cls, env: Any) -> ObservationLayout:
         """The layout of a ``gym.make``-built env (or its vector twin)."""
-        return cls.from_config(env.unwrapped.config)
+        core = env.unwrapped.core
+        return cls(core.spec, core.ray_offsets)
 
     @property
     def names(self) -> list[str]:
-        return observation_names(self.ray_count)
+        return self.spec.names
 
     @property
     def size(self) -> int:
-        return len(self.names)
+        return self.spec.size
 
     def index(self, name: str) -> int:
-        return self.names.index(name)
-
-    @property
-    def ray_offsets(self) -> NDArray[np.float64]:
-        """Ray directions relative to the heading (rad, counter-clockwise), as ``LocoCore``."""
-        half = np.deg2rad(self.ray_fov_deg) / 2.0
-        if self.ray_count == 1:
-            return np.zeros(1)
-        if self.ray_fov_deg >= 360.0:
-            return np.linspace(-np.pi, np.pi, self.ray_count, endpoint=False)
-        return np.linspace(-half, half, self.ray_count)
+        return self.spec.index(name)
 
 
 @dataclass
@@ -178,19 +171,20 @@ class ObsView:
 
     @classmethod
     def decode(cls, obs: NDArray[np.float64], layout: ObservationLayout) -> ObsView:
-        """Decode ``(B, n)`` observations (see :func:`vrloco_env.core.observation_names`)."""
-        i = layout.index
-        r0 = i("ray_0")
+        """Decode ``(B, n)`` observations with the env's spec (tasks without a hand target
+        read a zero hand error and dwell)."""
+        d = layout.spec.decode(obs)
+        b = obs.shape[0]
         return cls(
-            heading=np.arctan2(obs[:, i("heading_sin")], obs[:, i("heading_cos")]),
-            walking=obs[:, i("walking")] > 0.5,
-            steps=np.rint(obs[:, i("steps")] * 3.0),
-            bearing=np.arctan2(obs[:, i("goal_bearing_sin")], obs[:, i("goal_bearing_cos")]),
-            distance=obs[:, i("goal_distance")] * layout.goal_scale_m,
-            rays=obs[:, r0 : r0 + layout.ray_count] * layout.ray_range_m,
-            hand_error=obs[:, i("hand_error_yaw") : i("hand_error_roll") + 1] * np.pi,
-            hand_valid=obs[:, i("hand_valid")] > 0.5,
-            dwell=obs[:, i("dwell")],
+            heading=np.arctan2(d["heading"][:, 0], d["heading"][:, 1]),
+            walking=d["walking"][:, 0] > 0.5,
+            steps=np.rint(d["steps"][:, 0]),
+            bearing=np.arctan2(d["goal_bearing"][:, 0], d["goal_bearing"][:, 1]),
+            distance=d["goal_distance"][:, 0],
+            rays=d["rays"],
+            hand_error=d["hand_error"] if "hand_error" in d else np.zeros((b, 3)),
+            hand_valid=d["hand_valid"][:, 0] > 0.5,
+            dwell=d["dwell"][:, 0] if "dwell" in d else np.zeros(b),
         )
 
 
@@ -413,7 +407,7 @@ class ScriptedPolicy:
     def __init__(
         self, layout: ObservationLayout | None = None, params: PolicyParams | None = None
     ) -> None:
-        self.layout = layout or ObservationLayout()
+        self.layout = layout or ObservationLayout.from_config()
         self.params = params or PolicyParams()
         if not isinstance(self.layout, ObservationLayout):
             raise TypeError(f"layout must be an ObservationLayout, got {type(layout).__name__}")

@@ -22,6 +22,7 @@ import numpy as np
 
 from vrloco_env import rooms
 from vrloco_env.sim import Simulation
+from vrloco_env.tasks.approach import approach_layout
 
 
 def _median_ms(fn: Callable[[], object], repeats: int) -> float:
@@ -39,10 +40,10 @@ def bench(n: int, n_rays: int, repeats: int, threads: int) -> list[tuple[str, fl
     cfg = rooms.RoomConfig()
     origins = rooms.tile_origins(n)
     rows = []
-    rooms.approach_layout(cfg, np.random.default_rng(12345))  # warm-up: numba kernels
+    approach_layout(cfg, np.random.default_rng(12345))  # warm-up: numba kernels
     t0 = time.perf_counter()
     layouts = [
-        rooms.approach_layout(cfg, np.random.default_rng(s)).with_origin(origins[s])
+        approach_layout(cfg, np.random.default_rng(s)).with_origin(origins[s])
         for s in range(n)
     ]
     rows.append(("draw layout (per room)", (time.perf_counter() - t0) * 1e3 / n, float("nan")))
@@ -83,7 +84,7 @@ def bench(n: int, n_rays: int, repeats: int, threads: int) -> list[tuple[str, fl
     def reset_one_room() -> None:
         i = int(rng.integers(n))
         sim.remove_prefix(f"r{i}/")
-        lay = rooms.approach_layout(cfg, rng).with_origin(origins[i])
+        lay = approach_layout(cfg, rng).with_origin(origins[i])
         rooms.build(sim, lay, prefix=f"r{i}/")
 
     rows.append(("reset one room (draw+rebuild)", _median_ms(reset_one_room, 10), float("nan")))

@@ -13,10 +13,10 @@ import numpy as np
 
 import vrloco_env  # noqa: F401  (registers the ids)
 from vrloco_env.config import EnvConfig, SensorConfig
-from vrloco_env.core import observation_names
+from vrloco_env.observation import env_spec
 from vrloco_env.sensors.head_camera import camera_spec
 
-NAMES = observation_names(EnvConfig().ray_count)
+NAMES = env_spec(EnvConfig().ray_count, EnvConfig().ray_range_m).names  # the common entries
 
 
 def seek(obs: np.ndarray) -> np.ndarray:

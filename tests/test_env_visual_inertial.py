@@ -7,10 +7,10 @@ from gymnasium.utils.env_checker import check_env
 
 import vrloco_env  # noqa: F401
 from vrloco_env.config import EnvConfig, SensorConfig
-from vrloco_env.core import observation_names
+from vrloco_env.observation import env_spec
 from vrloco_env.sensors.head_camera import camera_spec
 
-NAMES = observation_names(EnvConfig().ray_count)
+NAMES = env_spec(EnvConfig().ray_count, EnvConfig().ray_range_m).names  # the common entries
 VIO = {"pose_source": "visual_inertial"}
 
 

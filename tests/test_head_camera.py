@@ -15,7 +15,7 @@ from estimators.rotations import (
     rotation_angle,
 )
 from vrloco_env.batch_rng import BatchRng
-from vrloco_env.rooms import RoomConfig, make_layout
+from vrloco_env.rooms import RoomConfig
 from vrloco_env.sensors.head_camera import (
     CONDITIONS,
     CameraFrames,
@@ -30,6 +30,7 @@ from vrloco_env.sensors.head_camera import (
     pad_landmarks,
     project,
 )
+from vrloco_env.tasks import make_layout
 
 RATE = 120.0
 

@@ -9,7 +9,11 @@ import pytest
 
 from vrloco_env import rooms
 from vrloco_env.rooms import Box, Cylinder, Layout, RoomBatch, RoomConfig
+from vrloco_env.tasks import make_layout
+from vrloco_env.tasks.approach import approach_layout
+from vrloco_env.tasks.avoid import avoid_layout
 
+TASK_NAMES = ("approach", "avoid", "interact")
 CFG = RoomConfig()
 
 
@@ -25,15 +29,15 @@ def _dense(path: np.ndarray, step: float = 0.005) -> np.ndarray:
 @cache
 def _layouts(task: str, n: int = 200) -> tuple[Layout, ...]:
     """Layouts for seeds 0..n-1, drawn once per test session."""
-    return tuple(rooms.make_layout(task, CFG, np.random.default_rng(s)) for s in range(n))
+    return tuple(make_layout(task, CFG, np.random.default_rng(s)) for s in range(n))
 
 
 def _empty_room() -> Layout:
     """An approach room with its obstacles removed: walls only, interior [-4, 4]^2."""
-    return replace(rooms.approach_layout(CFG, np.random.default_rng(0)), obstacles=())
+    return replace(approach_layout(CFG, np.random.default_rng(0)), obstacles=())
 
 
-@pytest.mark.parametrize("task", rooms.TASKS)
+@pytest.mark.parametrize("task", TASK_NAMES)
 def test_200_seeds_feasible_with_collision_free_shortest_paths(task):
     r = CFG.avatar_radius
     for lay in _layouts(task):
@@ -113,10 +117,10 @@ def test_shortest_path_around_a_wall_matches_the_taut_string():
 
 
 def test_same_seed_same_layout_different_seeds_differ():
-    for task in rooms.TASKS:
-        a = rooms.make_layout(task, CFG, np.random.default_rng(7))
-        b = rooms.make_layout(task, CFG, np.random.default_rng(7))
-        c = rooms.make_layout(task, CFG, np.random.default_rng(8))
+    for task in TASK_NAMES:
+        a = make_layout(task, CFG, np.random.default_rng(7))
+        b = make_layout(task, CFG, np.random.default_rng(7))
+        c = make_layout(task, CFG, np.random.default_rng(8))
         assert a == b
         assert a != c
         assert a.start != c.start or a.obstacles != c.obstacles
@@ -173,7 +177,7 @@ def test_ray_cast_2d_matches_hand_computed_values_and_sphere_tracing():
     # Random layouts: compare with sphere tracing on the signed distance (independent code).
     rng = np.random.default_rng(3)
     for seed in range(10):
-        lay = rooms.make_layout(rooms.TASKS[seed % 3], CFG, np.random.default_rng(seed))
+        lay = make_layout(TASK_NAMES[seed % 3], CFG, np.random.default_rng(seed))
         xmin, xmax, ymin, ymax = lay.bounds
         p = np.column_stack([rng.uniform(xmin, xmax, 400), rng.uniform(ymin, ymax, 400)])
         p = p[rooms.signed_distance(lay, p) > 0.01]
@@ -190,7 +194,7 @@ def test_ray_cast_2d_matches_hand_computed_values_and_sphere_tracing():
 
 
 def test_room_batch_equals_single_room_calls_and_updates_one_room():
-    lays = [rooms.make_layout(rooms.TASKS[s % 3], CFG, np.random.default_rng(s)) for s in range(6)]
+    lays = [make_layout(TASK_NAMES[s % 3], CFG, np.random.default_rng(s)) for s in range(6)]
     batch = RoomBatch(lays)
     rng = np.random.default_rng(1)
     o = rng.uniform(-3.0, 3.0, (6, 20, 2))
@@ -203,15 +207,15 @@ def test_room_batch_equals_single_room_calls_and_updates_one_room():
     u = np.stack([np.cos(a), np.sin(a)], -1)
     np.testing.assert_allclose(rooms._ray_cast_batch(batch._solids, o, u, 12.0), single, atol=1e-12)
     np.testing.assert_allclose(rooms._sdf_batch(batch._solids, o), sd, atol=1e-12)
-    new = rooms.avoid_layout(CFG, np.random.default_rng(99))
+    new = avoid_layout(CFG, np.random.default_rng(99))
     batch.set(2, new)
     lays[2] = new
     np.testing.assert_array_equal(batch.ray_cast(o, a, 12.0), RoomBatch(lays).ray_cast(o, a, 12.0))
 
 
 def test_landmarks_lie_on_the_inner_wall_faces():
-    for task in rooms.TASKS:
-        lay = rooms.make_layout(task, CFG, np.random.default_rng(0))
+    for task in TASK_NAMES:
+        lay = make_layout(task, CFG, np.random.default_rng(0))
         walls_only = replace(lay, obstacles=(), target=None)
         lm = lay.landmarks
         assert lm.shape[1] == 3 and lm.shape[0] == lay.landmark_ids.shape[0] > 0
@@ -236,7 +240,7 @@ def test_interact_target_faces_the_goal():
 
 
 def test_origin_and_tiling():
-    lay = rooms.approach_layout(CFG, np.random.default_rng(0))
+    lay = approach_layout(CFG, np.random.default_rng(0))
     moved = lay.with_origin([30.0, 60.0])
     assert moved.origin == (30.0, 60.0) and moved.obstacles == lay.obstacles
     np.testing.assert_allclose(moved.to_world([[1.0, 2.0]]), [[31.0, 62.0]])
@@ -244,7 +248,7 @@ def test_origin_and_tiling():
     assert o.shape == (10, 2) and np.all(o[0] == 0.0)
     dist = np.linalg.norm(o[:, None] - o[None], axis=-1) + np.eye(10) * 1e9
     assert dist.min() == pytest.approx(30.0)
-    corridor = rooms.avoid_layout(CFG, np.random.default_rng(0))
+    corridor = avoid_layout(CFG, np.random.default_rng(0))
     assert 2 * corridor.half_extent < 30.0  # the default spacing keeps rooms apart
 
 
@@ -275,7 +279,7 @@ def test_bad_config_raises_naming_the_field(field, value):
 
 
 def test_bad_inputs_raise_clear_errors():
-    lay = rooms.approach_layout(CFG, np.random.default_rng(0))
+    lay = approach_layout(CFG, np.random.default_rng(0))
     with pytest.raises(ValueError, match="points"):
         rooms.signed_distance(lay, np.zeros(3))
     with pytest.raises(ValueError, match="angles"):
@@ -283,11 +287,11 @@ def test_bad_inputs_raise_clear_errors():
     with pytest.raises(ValueError, match="max_range"):
         rooms.ray_cast_2d(lay, np.zeros((2, 2)), np.zeros(2), -1.0)
     with pytest.raises(ValueError, match="task"):
-        rooms.make_layout("dance", CFG, np.random.default_rng(0))
+        make_layout("dance", CFG, np.random.default_rng(0))
     with pytest.raises(TypeError, match="rng"):
-        rooms.approach_layout(CFG, 0)
+        approach_layout(CFG, 0)
     with pytest.raises(RuntimeError, match="max_attempts"):
-        rooms.approach_layout(
+        approach_layout(
             RoomConfig(n_obstacles_min=40, n_obstacles_max=40, max_attempts=2),
             np.random.default_rng(0),
         )
@@ -295,7 +299,7 @@ def test_bad_inputs_raise_clear_errors():
 
 def test_layouts_that_once_broke_the_planner_are_feasible():
     """Approach seed 322: relaxing the path pulled its end out of the goal region."""
-    layout = rooms.approach_layout(RoomConfig(), np.random.default_rng(322))
+    layout = approach_layout(RoomConfig(), np.random.default_rng(322))
     assert layout.in_goal(layout.path[-1:])[0]
     straight = np.hypot(*np.subtract(layout.goal, layout.start[:2])) - layout.goal_radius
     assert layout.shortest_path_length >= straight - 1e-9

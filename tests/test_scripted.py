@@ -81,10 +81,10 @@ def test_free_lengths_against_hand_made_geometry():
 
 def test_bad_observations_and_parameters_are_rejected():
     policy = GoalSeeker()
-    with pytest.raises(ValueError, match=r"obs must have shape \(33,\)"):
+    with pytest.raises(ValueError, match=r"obs must have shape \(29,\)"):
         policy.act(np.zeros(10, np.float32))
     with pytest.raises(ValueError, match="finite"):
-        policy.act(np.full(33, np.nan))
+        policy.act(np.full(29, np.nan))
     with pytest.raises(ValueError, match=r"PolicyParams.walk=2.0: must be in \[0, 1\]"):
         PolicyParams(walk=2.0)
     with pytest.raises(ValueError, match="stop_deg"):
@@ -116,7 +116,7 @@ def test_the_goal_seeker_holds_the_hand_on_the_interact_target():
     policy = seeker_for(env)
     info, _, actions = run(env, policy, seed=0)
     assert info["is_success"]  # reached the pedestal and held the hand for the dwell time
-    assert info["hand_error_deg"] < env.unwrapped.config.hand_tolerance_deg
+    assert info["hand_error_deg"] < env.unwrapped.core.task.config.hand_tolerance_deg
     assert np.any(actions[:, 2:] != 0.0)  # the hand moved, under proportional control
 
 
@@ -192,7 +192,7 @@ def test_the_reaction_delay_shows_the_policy_old_observations():
     user = HumanVariability(Scripted(0), VariabilityParams(**{**QUIET, "reaction_delay_s": 0.3}))
     user.reset(np.random.default_rng(0))
     assert user.delay_steps.tolist() == [3]
-    seen = [user.act(np.full(33, k / 100.0))[2] for k in range(8)]
+    seen = [user.act(np.full(29, k / 100.0))[2] for k in range(8)]
     # steps 0-3 see the first observation, then the one of 3 steps before
     np.testing.assert_allclose(seen, [0, 0, 0, 0, 0.01, 0.02, 0.03, 0.04], atol=1e-7)
 
@@ -201,7 +201,7 @@ def test_a_turn_bout_overshoots_by_the_drawn_fraction():
     params = VariabilityParams(**{**QUIET, "reaction_delay_s": 0.0, "overshoot": 0.2})
     user = HumanVariability(Scripted(turn_steps=10), params)
     user.reset(np.random.default_rng(0))
-    turns = np.array([user.act(np.zeros(33))[1] for _ in range(20)])
+    turns = np.array([user.act(np.zeros(29))[1] for _ in range(20)])
     np.testing.assert_allclose(turns[:10], 1.0)
     # 0.2 x 10 action-steps of extra turn, at the overshoot rate of 0.5 per step, then still
     np.testing.assert_allclose(turns[10:14], 0.5)
@@ -209,7 +209,7 @@ def test_a_turn_bout_overshoots_by_the_drawn_fraction():
     # a short correction (below min_bout) does not overshoot
     user = HumanVariability(Scripted(turn_steps=1, turn=0.3), params)
     user.reset(np.random.default_rng(0))
-    turns = np.array([user.act(np.zeros(33))[1] for _ in range(5)])
+    turns = np.array([user.act(np.zeros(29))[1] for _ in range(5)])
     np.testing.assert_allclose(turns, [0.3, 0, 0, 0, 0], atol=1e-7)
 
 
@@ -217,7 +217,7 @@ def test_cadence_varies_around_each_users_own_pace():
     params = VariabilityParams(**{**QUIET, "cadence_bias_sd": 0.1, "cadence_jitter_sd": 0.05})
     user = HumanVariability(Scripted(0), params)
     user.reset(np.random.default_rng(5))
-    walks = np.array([user.act(np.zeros(33))[0] for _ in range(400)])
+    walks = np.array([user.act(np.zeros(29))[0] for _ in range(400)])
     assert np.all(walks > 0.0)  # jitter never stops a walking user
     ratio = walks / 0.5
     assert ratio.mean() == pytest.approx(1.0 + user.cadence_bias[0], abs=0.015)
@@ -236,7 +236,7 @@ def test_the_wrapper_is_seeded_and_batches_like_single_users():
     np.testing.assert_array_equal(a1, a2)
     assert not np.array_equal(a1, b)
     # two users in one batch draw exactly what two single users draw
-    obs = np.random.default_rng(0).uniform(-1, 1, (30, 33)).astype(np.float32)
+    obs = np.random.default_rng(0).uniform(-1, 1, (30, 29)).astype(np.float32)
     batch = HumanVariability(Scripted(5))
     batch.reset([np.random.default_rng(7), np.random.default_rng(8)])
     out = np.stack([batch.act(np.stack([o, o])) for o in obs])
@@ -251,6 +251,6 @@ def test_the_wrapper_needs_a_generator():
     with pytest.raises(ValueError, match="needs rng"):
         user.reset()
     with pytest.raises(RuntimeError, match="reset"):
-        user.act(np.zeros(33))
+        user.act(np.zeros(29))
     with pytest.raises(ValueError, match="reaction_delay_s"):
         VariabilityParams(reaction_delay_s=-1.0)

@@ -7,7 +7,10 @@ import pytest
 
 from vrloco_env import rooms
 from vrloco_env.sim import Simulation, display_available
+from vrloco_env.tasks import make_layout
+from vrloco_env.tasks.interact import interact_layout
 
+TASK_NAMES = ("approach", "avoid", "interact")
 CFG = rooms.RoomConfig()
 
 
@@ -49,7 +52,7 @@ def test_pybullet_rays_match_the_analytic_2d_cast_on_random_tiled_layouts(sim):
     origins = rooms.tile_origins(9)
     err, on_surface, excluded, total = [], [], 0, 0
     for s in range(9):
-        lay = rooms.make_layout(rooms.TASKS[s % 3], CFG, np.random.default_rng(s))
+        lay = make_layout(TASK_NAMES[s % 3], CFG, np.random.default_rng(s))
         lay = lay.with_origin(origins[s])
         rooms.build(sim, lay, prefix=f"r{s}/")
         rng = np.random.default_rng(100 + s)
@@ -110,7 +113,7 @@ def test_contacts_of_many_avatars_in_tiled_rooms_match_signed_distance(sim):
     n = 12
     origins = rooms.tile_origins(n)
     lays = [
-        rooms.make_layout(rooms.TASKS[s % 3], CFG, np.random.default_rng(s)).with_origin(origins[s])
+        make_layout(TASK_NAMES[s % 3], CFG, np.random.default_rng(s)).with_origin(origins[s])
         for s in range(n)
     ]
     avatars = np.array(
@@ -212,7 +215,7 @@ def test_images_show_the_scene(sim):
 
 
 def test_build_creates_named_bodies_at_the_origin(sim):
-    lay = rooms.interact_layout(CFG, np.random.default_rng(3)).with_origin([60.0, 30.0])
+    lay = interact_layout(CFG, np.random.default_rng(3)).with_origin([60.0, 30.0])
     a = np.linspace(-np.pi, np.pi, 64, endpoint=False)
     o, e = _rays(np.tile(lay.to_world(lay.start[:2]), (64, 1)), a, 0.5, 10.0)
     # Headless sim: no visual-only bodies unless asked; walls and obstacles as two compounds.

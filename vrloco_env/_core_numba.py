@@ -1,9 +1,7 @@
 """Compiled per-step kernels of :mod:`vrloco_env.core` (one call for all B users).
 
-Each repeats the arithmetic of a numpy twin in :mod:`vrloco_env.core`, which
-``tests/test_env.py`` checks it against: :func:`observation_kernel` is
-``LocoCore.observe_reference``, :func:`attitude_error_kernel` the infos' attitude error. At one
-user the numpy versions pay ~1 us per array operation, most of a control step's budget.
+At one user numpy pays ~1 us per array operation, most of a control step's budget; these do a
+step's glue in one compiled call each (their ``py_func`` is the uncompiled reference).
 """
 
 from __future__ import annotations
@@ -27,16 +25,23 @@ def _unit(x):
     return min(max(x, -1.0), 1.0)
 
 
+# Offsets of the common fields in ``at`` (the order of observation.COMMON_FIELDS).
+_HEADING, _PITCH, _ROLL, _WALKING, _STEPS, _CADENCE, _HAND, _HAND_VALID = 0, 1, 2, 3, 4, 5, 6, 7
+_BEARING, _DISTANCE, _RAYS = 8, 9, 10
+
+
 @numba.njit(cache=True)
 def observation_kernel(
-    virtual_yaw, ypr_est, walking, steps, cadence, hand_est, hand_target, use_hand_target,
-    goal_points, position, distance, rays, ray_range, dwell_fraction, fresh, max_goal_distance,
-    out,
+    virtual_yaw, ypr_est, walking, steps, cadence, hand_est, goal_points, position, distance,
+    rays, fresh, at, scales, out,
 ):  # fmt: skip
-    """Fill ``out`` (B, obs) float32 with the observation of :func:`core.observation_names`.
+    """Fill the common fields of ``out`` (B, obs) float32: entry ``j`` is
+    ``clip(value / scales[j], -1, 1)`` of its physical value, the fields starting at the
+    offsets ``at`` (:data:`vrloco_env.observation.COMMON_FIELDS` order, from the env's
+    :class:`~vrloco_env.observation.ObservationSpec`).
 
     ``fresh[i]``: user i has just been reset (or never stepped): standing, no estimates yet, so
-    its attitude, gait and hand entries are zero and its hand error is the target itself.
+    its attitude, gait and hand entries are zero.
     """
     b = out.shape[0]
     n_rays = rays.shape[1]
@@ -48,42 +53,33 @@ def observation_kernel(
             and math.isfinite(hand_est[i, 2])
         )
         v = out[i]
-        v[0] = _unit(math.sin(yaw))
-        v[1] = _unit(math.cos(yaw))
+        j = at[_HEADING]
+        v[j] = _unit(math.sin(yaw) / scales[j])
+        v[j + 1] = _unit(math.cos(yaw) / scales[j + 1])
         if fresh[i]:
-            v[2] = 0.0
-            v[3] = 0.0
-            v[4] = 0.0
-            v[5] = 0.0
-            v[6] = 0.0
+            pitch = roll = walk = n_steps = cad = 0.0
         else:
-            v[2] = _unit(ypr_est[i, 1] / (_PI / 2.0))
-            v[3] = _unit(ypr_est[i, 2] / _PI)
-            v[4] = 1.0 if walking[i] else 0.0
-            v[5] = _unit(min(steps[i] / 3.0, 1.0))
-            v[6] = _unit(min(cadence[i] / 3.0, 1.0))
+            pitch, roll = ypr_est[i, 1], ypr_est[i, 2]
+            walk = 1.0 if walking[i] else 0.0
+            n_steps, cad = steps[i], cadence[i]
+        v[at[_PITCH]] = _unit(pitch / scales[at[_PITCH]])
+        v[at[_ROLL]] = _unit(roll / scales[at[_ROLL]])
+        v[at[_WALKING]] = _unit(walk / scales[at[_WALKING]])
+        v[at[_STEPS]] = _unit(n_steps / scales[at[_STEPS]])
+        v[at[_CADENCE]] = _unit(cad / scales[at[_CADENCE]])
+        j = at[_HAND]
         for k in range(3):
-            v[7 + k] = _unit(hand_est[i, k] / _PI) if ok else 0.0
-        v[10] = 1.0 if ok else 0.0
+            v[j + k] = _unit(hand_est[i, k] / scales[j + k]) if ok else 0.0
+        v[at[_HAND_VALID]] = 1.0 if ok else 0.0
         bearing = math.atan2(goal_points[i, 1] - position[i, 1],
                              goal_points[i, 0] - position[i, 0]) - yaw  # fmt: skip
-        v[11] = _unit(math.sin(bearing))
-        v[12] = _unit(math.cos(bearing))
-        v[13] = _unit(min(distance[i] / max_goal_distance, 1.0))
+        j = at[_BEARING]
+        v[j] = _unit(math.sin(bearing) / scales[j])
+        v[j + 1] = _unit(math.cos(bearing) / scales[j + 1])
+        v[at[_DISTANCE]] = _unit(distance[i] / scales[at[_DISTANCE]])
+        j = at[_RAYS]
         for k in range(n_rays):
-            v[14 + k] = _unit(min(rays[i, k], ray_range) / ray_range)
-        j = 14 + n_rays
-        for k in range(3):
-            if not use_hand_target:
-                err = 0.0
-            elif fresh[i]:
-                err = hand_target[i, k]
-            elif ok:
-                err = _wrap(hand_target[i, k] - hand_est[i, k])
-            else:
-                err = 0.0
-            v[j + k] = _unit(err / _PI)
-        v[j + 3] = _unit(min(dwell_fraction[i], 1.0))
+            v[j + k] = _unit(rays[i, k] / scales[j + k])
 
 
 @numba.njit(cache=True)

@@ -23,12 +23,8 @@ from typing import Any
 
 import gymnasium as gym
 
-#: id -> task name.
-ENV_IDS = {
-    "VRLoco-Approach-v0": "approach",
-    "VRLoco-Avoid-v0": "avoid",
-    "VRLoco-Interact-v0": "interact",
-}
+#: id -> task name, one per registered task (:func:`vrloco_env.tasks.register_task`).
+ENV_IDS: dict[str, str] = {}
 
 
 def _gym_make_horizon(frame: Any) -> int | None:
@@ -78,14 +74,20 @@ def make_env(**kwargs: Any) -> gym.Env:
 
 
 
+def register_id(env_id: str, task: str) -> None:
+    """Register the Gymnasium id ``env_id`` for task ``task`` (replacing an earlier one)."""
+    ENV_IDS[env_id] = task
+    if env_id in gym.registry:
+        del gym.registry[env_id]
+    gym.register(
+        id=env_id,
+        entry_point="vrloco_env.registration:make_env",
+        vector_entry_point="vrloco_env.vector:VRLocoVectorEnv",
+        kwargs={"task": task},
+    )
+
+
 def register_envs() -> None:
-    """Register every id (idempotent)."""
-    for env_id, task in ENV_IDS.items():
-        if env_id in gym.registry:
-            continue
-        gym.register(
-            id=env_id,
-            entry_point="vrloco_env.registration:make_env",
-            vector_entry_point="vrloco_env.vector:VRLocoVectorEnv",
-            kwargs={"task": task},
-        )
+    """Register the ids of every registered task (idempotent: importing
+    :mod:`vrloco_env.tasks` registers them)."""
+    import vrloco_env.tasks  # noqa: F401

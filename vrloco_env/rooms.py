@@ -13,8 +13,10 @@ room's interior, yaw counter-clockwise from +x (ENU, z up, as in :mod:`estimator
 does the same for points. Several rooms tile one world with :func:`tile_origins`; rooms are closed
 by walls, so a horizontal ray never leaves its room.
 
-Generators draw every random number from the ``numpy.random.Generator`` they are given (the env's
-``np_random``), so the same seed gives the same layout. Feasibility is guaranteed by planning on an
+Each task draws its own layout (:mod:`vrloco_env.tasks`, one file per task) with the building
+blocks here — :func:`room_bounds`, :func:`scatter_obstacles`, :func:`finish_layout` — from the
+``numpy.random.Generator`` it is given (the env's ``np_random``), so the same seed gives the same
+layout. Feasibility is guaranteed by planning on an
 occupancy grid inflated by the avatar radius plus one grid cell (8-connected Dijkstra with
 ``scipy.sparse.csgraph``), then shortening the grid path by string pulling against the exact
 geometry; a draw without a path is redrawn. The inflation margin makes the guarantee conservative
@@ -40,24 +42,22 @@ if TYPE_CHECKING:
     from vrloco_env.sim import Simulation
 
 __all__ = [
-    "TASKS",
     "Box",
     "Cylinder",
     "Layout",
     "RoomBatch",
     "RoomConfig",
-    "approach_layout",
-    "avoid_layout",
     "build",
-    "interact_layout",
-    "make_layout",
+    "check_rng",
+    "finish_layout",
+    "no_layout_error",
     "ray_cast_2d",
+    "room_bounds",
+    "scatter_obstacles",
     "signed_distance",
+    "solid_distance",
     "tile_origins",
 ]
-
-#: Task kinds a layout can be drawn for.
-TASKS = ("approach", "avoid", "interact")
 
 
 @dataclass(frozen=True)
@@ -541,7 +541,7 @@ class Layout:
     """One drawn room, in its local frame (see the module docstring).
 
     Attributes:
-        task: one of :data:`TASKS`.
+        task: the name of the task the layout was drawn for (:mod:`vrloco_env.tasks`).
         bounds: interior ``(xmin, xmax, ymin, ymax)`` (m); walls lie outside it.
         walls: wall boxes.
         obstacles: static obstacles (the Interact pedestal is :attr:`target`, not in here).
@@ -677,6 +677,12 @@ def signed_distance(
         ``(P,)`` distances (m); +inf if there is no solid.
     """
     return _sdf_fast(layout._packed.above(z), _points("points", points)[None])[0]
+
+
+def solid_distance(solids: Sequence[Solid], points: ArrayLike) -> NDArray[np.float64]:
+    """Signed distance (m) from local points (P, 2) to the nearest of ``solids`` (+inf if none):
+    what a task's layout generator checks a candidate start or goal against."""
+    return _sdf(_pack(tuple(solids)), _points("points", points))
 
 
 def ray_cast_2d(
@@ -1073,7 +1079,7 @@ def _bounding_radius(s: Solid) -> float:
     return s.radius if isinstance(s, Cylinder) else float(np.hypot(*s.half_extents))
 
 
-def _scatter(
+def scatter_obstacles(
     cfg: RoomConfig,
     rng: np.random.Generator,
     bounds: tuple[float, float, float, float],
@@ -1104,7 +1110,8 @@ def _scatter(
     return out
 
 
-def _room_bounds(cfg: RoomConfig) -> tuple[float, float, float, float]:
+def room_bounds(cfg: RoomConfig) -> tuple[float, float, float, float]:
+    """The interior ``(xmin, xmax, ymin, ymax)`` (m) of a room of ``cfg``'s size, centred."""
     return (
         -cfg.room_width / 2.0,
         cfg.room_width / 2.0,
@@ -1113,7 +1120,7 @@ def _room_bounds(cfg: RoomConfig) -> tuple[float, float, float, float]:
     )
 
 
-def _finish(
+def finish_layout(
     cfg: RoomConfig,
     task: str,
     bounds: tuple[float, float, float, float],
@@ -1159,158 +1166,19 @@ def _finish(
     return replace(layout, path=path, shortest_path_length=_path_length(path))
 
 
-def _check_rng(rng: object) -> np.random.Generator:
+def check_rng(rng: object) -> np.random.Generator:
+    """``rng`` if it is a numpy Generator, else a TypeError."""
     if not isinstance(rng, np.random.Generator):
         raise TypeError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
     return rng
 
 
-def _give_up(cfg: RoomConfig, task: str) -> RuntimeError:
+def no_layout_error(cfg: RoomConfig, task: str) -> RuntimeError:
+    """The error of a generator that drew no feasible layout in ``cfg.max_attempts``."""
     return RuntimeError(
         f"no feasible {task} layout in max_attempts={cfg.max_attempts} draws; the RoomConfig "
         "leaves too little free space (fewer/smaller obstacles or a larger room would help)"
     )
-
-
-def approach_layout(config: RoomConfig, rng: np.random.Generator) -> Layout:
-    """An Approach room: start and goal at least ``min_start_goal_distance`` apart, obstacles kept
-    ``keepout_radius`` away from both, and a guaranteed collision-free path for the avatar.
-
-    Args:
-        config: room parameters.
-        rng: the only source of randomness (the env's ``np_random``).
-
-    Returns:
-        The layout (local frame, origin (0, 0)).
-
-    Raises:
-        RuntimeError: if no feasible layout is drawn in ``config.max_attempts`` attempts.
-    """
-    cfg, rng = config, _check_rng(rng)
-    bounds = _room_bounds(cfg)
-    k = cfg.keepout_radius
-    inner = np.array([[bounds[0] + k, bounds[2] + k], [bounds[1] - k, bounds[3] - k]])
-    for _ in range(cfg.max_attempts):
-        start = rng.uniform(inner[0], inner[1])
-        goal = rng.uniform(inner[0], inner[1])
-        yaw = float(rng.uniform(-np.pi, np.pi))
-        if np.hypot(*(goal - start)) < cfg.min_start_goal_distance:
-            continue
-        obstacles = _scatter(cfg, rng, bounds, [(start, k), (goal, k)])
-        if obstacles is None:
-            continue
-        layout = _finish(cfg, "approach", bounds, obstacles, start, yaw, goal, None, None)
-        if layout is not None:
-            return layout
-    raise _give_up(cfg, "approach")
-
-
-def avoid_layout(config: RoomConfig, rng: np.random.Generator) -> Layout:
-    """The Avoid corridor of seed 000 Fig. 5: walk straight, pass an obstacle, reach the end line.
-
-    The corridor (interior ``corridor_length`` along +x by a width drawn in
-    ``corridor_width +- corridor_width_jitter``) is closed by end walls. The start sits
-    ``corridor_margin`` from the near end on the centre line, facing +x (yaw 0); the end line is
-    ``corridor_margin`` before the far end. One box (turned by up to pi/8) or cylinder, of half
-    size in ``avoid_size_range``, is centred ``avoid_distance_range`` ahead of the start and within
-    ``avoid_lateral_jitter`` of the centre line, which it therefore always blocks.
-
-    Args:
-        config: room parameters.
-        rng: the only source of randomness.
-
-    Returns:
-        The layout (local frame, origin (0, 0)).
-
-    Raises:
-        RuntimeError: if no feasible layout is drawn in ``config.max_attempts`` attempts.
-    """
-    cfg, rng = config, _check_rng(rng)
-    half_l = cfg.corridor_length / 2.0
-    for _ in range(cfg.max_attempts):
-        width = cfg.corridor_width + float(rng.uniform(-1.0, 1.0)) * cfg.corridor_width_jitter
-        bounds = (-half_l, half_l, -width / 2.0, width / 2.0)
-        start = np.array([-half_l + cfg.corridor_margin, 0.0])
-        x_line = half_l - cfg.corridor_margin
-        ahead = float(rng.uniform(*cfg.avoid_distance_range))
-        lateral = float(rng.uniform(-1.0, 1.0)) * cfg.avoid_lateral_jitter
-        c = (float(start[0] + ahead), lateral)
-        height = float(rng.uniform(*cfg.obstacle_height_range))
-        obstacle: Solid
-        if rng.random() < cfg.cylinder_probability:
-            obstacle = Cylinder(c, float(rng.uniform(*cfg.avoid_size_range)), height)
-        else:
-            he = rng.uniform(*cfg.avoid_size_range, size=2)
-            yaw = float(rng.uniform(-np.pi / 8.0, np.pi / 8.0))
-            obstacle = Box(c, (float(he[0]), float(he[1])), yaw, height)
-        line = ((x_line, -width / 2.0), (x_line, width / 2.0))
-        layout = _finish(
-            cfg, "avoid", bounds, [obstacle], start, 0.0, np.array([x_line, 0.0]), line, None
-        )
-        if layout is not None:
-            return layout
-    raise _give_up(cfg, "avoid")
-
-
-def interact_layout(config: RoomConfig, rng: np.random.Generator) -> Layout:
-    """An Interact room: an Approach room whose goal is the stand point in front of a pedestal.
-
-    The pedestal (square footprint ``target_half_size``, ``target_height`` tall, random yaw) is
-    placed so that its stand point — ``target_half_size + avatar_radius + interact_standoff``
-    in front of its local +x face — keeps ``keepout_radius`` from the walls. The start is at least
-    ``min_start_goal_distance`` from the stand point and ``keepout_radius`` from the pedestal;
-    the other obstacles keep out of both and clear of the pedestal.
-
-    Args:
-        config: room parameters.
-        rng: the only source of randomness.
-
-    Returns:
-        The layout (local frame, origin (0, 0)); :attr:`Layout.target` is the pedestal.
-
-    Raises:
-        RuntimeError: if no feasible layout is drawn in ``config.max_attempts`` attempts.
-    """
-    cfg, rng = config, _check_rng(rng)
-    bounds = _room_bounds(cfg)
-    k = cfg.keepout_radius
-    inner = np.array([[bounds[0] + k, bounds[2] + k], [bounds[1] - k, bounds[3] - k]])
-    hs = cfg.target_half_size
-    reach = hs + cfg.avatar_radius + cfg.interact_standoff
-    for _ in range(cfg.max_attempts):
-        yaw_t = float(rng.uniform(-np.pi, np.pi))
-        goal = rng.uniform(inner[0], inner[1])
-        center = goal - reach * np.array([math.cos(yaw_t), math.sin(yaw_t)])
-        start = rng.uniform(inner[0], inner[1])
-        yaw = float(rng.uniform(-np.pi, np.pi))
-        rb = hs * math.sqrt(2.0)
-        if (
-            center[0] - rb < bounds[0]
-            or center[0] + rb > bounds[1]
-            or center[1] - rb < bounds[2]
-            or center[1] + rb > bounds[3]
-        ):
-            continue
-        target = Box((float(center[0]), float(center[1])), (hs, hs), yaw_t, cfg.target_height)
-        if np.hypot(*(goal - start)) < cfg.min_start_goal_distance:
-            continue
-        if _sdf(_pack((target,)), start[None])[0] < k:
-            continue
-        obstacles = _scatter(cfg, rng, bounds, [(start, k), (goal, k), (center, rb + k)])
-        if obstacles is None:
-            continue
-        layout = _finish(cfg, "interact", bounds, obstacles, start, yaw, goal, None, target)
-        if layout is not None:
-            return layout
-    raise _give_up(cfg, "interact")
-
-
-def make_layout(task: str, config: RoomConfig, rng: np.random.Generator) -> Layout:
-    """Dispatch to :func:`approach_layout`, :func:`avoid_layout` or :func:`interact_layout`."""
-    makers = {"approach": approach_layout, "avoid": avoid_layout, "interact": interact_layout}
-    if task not in makers:
-        raise ValueError(f"task must be one of {TASKS}, got {task!r}")
-    return makers[task](config, rng)
 
 
 # --------------------------------------------------------------------------- PyBullet

@@ -12,7 +12,7 @@ Trajectories (one user each, ``duration`` s, default 120 s, at 1 kHz)
 * ``rotation``: in place, 2 s still, then a constant body yaw rate of 10 deg/s (the paper's
   turntable: "uniform rotation").
 * ``walk``: overground (``MotionParams(overground=True)``) around the 8 m x 8 m "approach" room
-  (:func:`vrloco_env.rooms.make_layout`, local frame, walls at +-4 m, 96 wall landmarks): 1 s
+  (:func:`vrloco_env.tasks.make_layout`, local frame, walls at +-4 m, 96 wall landmarks): 1 s
   standing at (0, -2.5) facing +x, then cadence 1.6 steps/s (0.65 m strides, 1.04 m/s) turning
   at ``1.04 / 2.5`` rad/s, a circle of radius ~2.5 m about the room centre, with a head
   serpentine (0.15 rad at 0.3 Hz) and nod (0.08 rad at 0.5 Hz) on top. Every visual and fused row
@@ -140,7 +140,7 @@ from estimators.visual_pose import (
 from vrloco_env.batch_rng import BatchRng
 from vrloco_env.head_tracking import PnpParams, camera_intrinsics, frame_triggers, pnp_mount
 from vrloco_env.motion import Intent, MotionParams, MotionRecord, UserMotion
-from vrloco_env.rooms import RoomConfig, make_layout
+from vrloco_env.rooms import RoomConfig
 from vrloco_env.sensors.head_camera import (
     CameraSpec,
     HeadCamera,
@@ -148,6 +148,7 @@ from vrloco_env.sensors.head_camera import (
     layout_landmarks,
 )
 from vrloco_env.sensors.imu import HeadImu, get_imu_spec
+from vrloco_env.tasks import make_layout
 
 __all__ = [
     "CAMERA_RATE_HZ",

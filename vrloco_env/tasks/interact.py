@@ -1,0 +1,173 @@
+"""Interact: approach a pedestal, then hold the hand — as the Kinect pipeline estimates it —
+within :attr:`InteractConfig.hand_tolerance_deg` of a target orientation for
+:attr:`InteractConfig.dwell_s` while standing at it."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from vrloco_env._hand_frame_numba import hand_error as _hand_error_kernel
+from vrloco_env.observation import Field
+from vrloco_env.rooms import (
+    Box,
+    Layout,
+    RoomConfig,
+    check_rng,
+    finish_layout,
+    no_layout_error,
+    room_bounds,
+    scatter_obstacles,
+    solid_distance,
+)
+from vrloco_env.tasks.base import Task
+from vrloco_env.validation import check_in_range
+
+__all__ = ["Interact", "InteractConfig", "hand_error", "interact_layout"]
+
+
+@dataclass(frozen=True)
+class InteractConfig:
+    """The Interact task's settings.
+
+    Attributes:
+        hand_tolerance_deg: hand orientation tolerance (deg): the rotation angle between the
+            estimated and the target hand orientation.
+        dwell_s: time the hand must be held within tolerance in the goal region (s).
+        target_range_deg: target hand [yaw, pitch, roll] relative to the torso are drawn
+            uniformly within +- these (deg).
+    """
+
+    hand_tolerance_deg: float = 15.0
+    dwell_s: float = 1.0
+    target_range_deg: tuple[float, float, float] = (40.0, 30.0, 60.0)
+
+    def __post_init__(self) -> None:
+        check_in_range(self, "hand_tolerance_deg", 1.0, 90.0, "deg")
+        check_in_range(self, "dwell_s", 0.0, 30.0, "s", lo_open=True)
+        r = self.target_range_deg
+        if not (isinstance(r, tuple) and len(r) == 3
+                and all(isinstance(x, int | float) and 0.0 <= x <= 90.0 for x in r)):  # fmt: skip
+            raise ValueError(
+                f"InteractConfig.target_range_deg={r!r}: must be three angles in [0, 90] deg"
+            )
+
+
+def hand_error(estimate: NDArray, target: NDArray) -> NDArray:
+    """Rotation angle (rad) between estimated and target hand orientations ([yaw, pitch, roll]
+    (B, 3) each); NaN where there is no estimate. Compiled."""
+    out = np.empty(estimate.shape[0])
+    _hand_error_kernel(np.ascontiguousarray(estimate, dtype=np.float64),
+                       np.ascontiguousarray(target, dtype=np.float64), out)  # fmt: skip
+    return out
+
+
+class Interact(Task):
+    """Stand at the pedestal and hold a target hand orientation (:func:`interact_layout`)."""
+
+    name = "interact"
+    description = "reach the pedestal and hold the hand at a target orientation"
+    Config = InteractConfig
+
+    def __init__(self, batch_size: int, dt: float, config: Any = None) -> None:
+        super().__init__(batch_size, dt, config)
+        self.hand_target = np.zeros((self.batch_size, 3))
+        self.dwell = np.zeros(self.batch_size)
+
+    def draw_layout(self, room: RoomConfig, rng: np.random.Generator) -> Layout:
+        return interact_layout(room, rng)
+
+    def draw(self, user: int, room: RoomConfig, rng: np.random.Generator) -> Layout:
+        layout = super().draw(user, room, rng)
+        lim = np.deg2rad(np.asarray(self.config.target_range_deg, dtype=np.float64))
+        self.hand_target[user] = rng.uniform(-lim, lim)
+        return layout
+
+    def reset(self, rows: NDArray[np.intp]) -> None:
+        self.dwell[rows] = 0.0
+
+    def finished(self, in_goal: NDArray[np.bool_], user_step: Any) -> NDArray[np.bool_]:
+        err = hand_error(user_step.hand_est, self.hand_target)
+        holding = in_goal & (err <= np.deg2rad(self.config.hand_tolerance_deg))
+        self.dwell = np.where(holding, self.dwell + self.dt, 0.0)
+        return self.dwell >= self.config.dwell_s - 1e-9
+
+    def fields(self) -> tuple[Field, ...]:
+        return (
+            Field("hand_error", ("hand_error_yaw", "hand_error_pitch", "hand_error_roll"),
+                  math.pi, "rad", "target minus estimated hand [yaw, pitch, roll] (0 without "
+                  "estimate; the target itself just after a reset)"),
+            Field("dwell", doc="fraction of the dwell time held so far"),
+        )  # fmt: skip
+
+    def observe(self, user_step: Any, fresh: NDArray[np.bool_]) -> dict[str, Any]:
+        target = self.hand_target
+        if user_step is None:
+            err = target.copy()
+        else:
+            est = user_step.hand_est
+            ok = np.all(np.isfinite(est), axis=-1) & ~fresh
+            x = target - np.nan_to_num(est)
+            diff = np.pi - ((np.pi - x) % (2.0 * np.pi))  # wrapped to (-pi, pi]
+            err = np.where(fresh[:, None], target, np.where(ok[:, None], diff, 0.0))
+        return {"hand_error": err, "dwell": (self.dwell / self.config.dwell_s)[:, None]}
+
+    def info(self) -> dict[str, NDArray]:
+        return {"dwell": self.dwell.copy()}
+
+
+def interact_layout(config: RoomConfig, rng: np.random.Generator) -> Layout:
+    """An Interact room: an Approach room whose goal is the stand point in front of a pedestal.
+
+    The pedestal (square footprint ``target_half_size``, ``target_height`` tall, random yaw) is
+    placed so that its stand point — ``target_half_size + avatar_radius + interact_standoff``
+    in front of its local +x face — keeps ``keepout_radius`` from the walls. The start is at least
+    ``min_start_goal_distance`` from the stand point and ``keepout_radius`` from the pedestal;
+    the other obstacles keep out of both and clear of the pedestal.
+
+    Args:
+        config: room parameters.
+        rng: the only source of randomness.
+
+    Returns:
+        The layout (local frame, origin (0, 0)); :attr:`Layout.target` is the pedestal.
+
+    Raises:
+        RuntimeError: if no feasible layout is drawn in ``config.max_attempts`` attempts.
+    """
+    cfg, rng = config, check_rng(rng)
+    bounds = room_bounds(cfg)
+    k = cfg.keepout_radius
+    inner = np.array([[bounds[0] + k, bounds[2] + k], [bounds[1] - k, bounds[3] - k]])
+    hs = cfg.target_half_size
+    reach = hs + cfg.avatar_radius + cfg.interact_standoff
+    for _ in range(cfg.max_attempts):
+        yaw_t = float(rng.uniform(-np.pi, np.pi))
+        goal = rng.uniform(inner[0], inner[1])
+        center = goal - reach * np.array([math.cos(yaw_t), math.sin(yaw_t)])
+        start = rng.uniform(inner[0], inner[1])
+        yaw = float(rng.uniform(-np.pi, np.pi))
+        rb = hs * math.sqrt(2.0)
+        if (
+            center[0] - rb < bounds[0]
+            or center[0] + rb > bounds[1]
+            or center[1] - rb < bounds[2]
+            or center[1] + rb > bounds[3]
+        ):
+            continue
+        target = Box((float(center[0]), float(center[1])), (hs, hs), yaw_t, cfg.target_height)
+        if np.hypot(*(goal - start)) < cfg.min_start_goal_distance:
+            continue
+        if solid_distance((target,), start[None])[0] < k:
+            continue
+        obstacles = scatter_obstacles(cfg, rng, bounds, [(start, k), (goal, k), (center, rb + k)])
+        if obstacles is None:
+            continue
+        layout = finish_layout(cfg, "interact", bounds, obstacles, start, yaw, goal, None, target)
+        if layout is not None:
+            return layout
+    raise no_layout_error(cfg, "interact")
