@@ -1,6 +1,8 @@
-"""``vrloco benchmark``: scripted users x tasks x sensor presets over seeded episodes.
+"""``vrloco benchmark``: scripted users x tasks x techniques over seeded episodes.
 
-Every cell of the grid (task, policy, sensor preset) runs ``episodes`` single-env episodes; episode
+A technique (:mod:`vrloco_env.techniques`) is a sensor preset plus one choice per estimation
+stage; ``--sensors`` is a shorthand for seed 000's chain on each IMU preset. Every cell of the
+grid (task, policy, technique) runs ``episodes`` single-env episodes; episode
 ``i`` of every cell is seeded ``seed + i`` (the env's ``reset(seed=...)``; a human-variability
 wrapper draws from ``default_rng([seed + i, 1])``), so the same episode index meets the same room
 in every cell and the results do not depend on how the episodes are spread over worker
@@ -16,7 +18,8 @@ append ``+human`` for the :class:`agents.variability.HumanVariability` wrapper
 (``goal_seeker+human``).
 
 The default grid — approach and avoid x goal_seeker, goal_seeker+human and avoid_manoeuvre x
-both IMU presets x 40 episodes, 480 episodes — takes about 95 s with 2 workers on the 2-core
+seed 000's chain on both IMU presets (``seed000``, ``seed000_consumer``) x 40 episodes, 480
+episodes — takes about 95 s with 2 workers on the 2-core
 development machine (81 s measured); ``reactive_avoider`` is left out of it because its
 failures run to the 60 s time limit and would double that.
 """
@@ -36,17 +39,19 @@ from typing import Any
 import numpy as np
 
 from agents.metrics import EpisodeRecorder, EpisodeStats, summarize
-from agents.scripted import POLICIES, ObservationLayout, make_policy, params_from_env
-from agents.variability import HumanVariability
+from agents.policies import build_policy, check_policy
+from vrloco_env.tasks import env_id, get_task
 
 __all__ = [
     "DEFAULT_EPISODES",
     "DEFAULT_POLICIES",
     "DEFAULT_SENSORS",
     "DEFAULT_TASKS",
+    "DEFAULT_TECHNIQUES",
     "ROW_KEYS",
     "Cell",
     "run_benchmark",
+    "run_cell_episode",
     "run_episode",
     "step_window",
 ]
@@ -54,13 +59,14 @@ __all__ = [
 DEFAULT_TASKS = ("approach", "avoid")
 DEFAULT_POLICIES = ("goal_seeker", "goal_seeker+human", "avoid_manoeuvre")
 DEFAULT_SENSORS = ("ig500n", "consumer_mems")
+DEFAULT_TECHNIQUES = ("seed000", "seed000_consumer")
 DEFAULT_EPISODES = 40
-HUMAN_SUFFIX = "+human"
 
 #: Keys of every row of the CSV/JSON output, in order.
 ROW_KEYS = (
     "task",
     "policy",
+    "technique",
     "sensors",
     "episodes",
     "success_rate",
@@ -79,101 +85,115 @@ ROW_KEYS = (
     "mean_collisions",
 )
 
-_TASK_IDS = {
-    "approach": "VRLoco-Approach-v0",
-    "avoid": "VRLoco-Avoid-v0",
-    "interact": "VRLoco-Interact-v0",
-}
 
 
 @dataclass(frozen=True)
 class Cell:
-    """One cell of the benchmark grid."""
+    """One cell of the benchmark grid: a task, a policy and a technique (a registered name, a
+    ``"module:attr"`` naming a :class:`~vrloco_env.techniques.Technique`, or one)."""
 
     task: str
     policy: str
-    sensors: str
+    technique: Any = "seed000"
+
+    @property
+    def technique_name(self) -> str:
+        from vrloco_env.techniques import get_technique
+
+        return get_technique(self.technique).name
+
+    @property
+    def sensors(self) -> str:
+        """The technique's IMU preset."""
+        from vrloco_env.techniques import get_technique
+
+        return get_technique(self.technique).sensor_preset
 
     @property
     def label(self) -> str:
-        return f"{self.task}_{self.policy.replace('+', '-')}_{self.sensors}"
+        name = self.technique_name.replace(":", "-").replace(".", "-")
+        return f"{self.task}_{self.policy.replace('+', '-')}_{name}"
+
+
+def technique_for_preset(preset: str) -> Any:
+    """Seed 000's chain on the IMU ``preset`` (the ``--sensors`` shorthand): the registered
+    technique if one is exactly that, else an unregistered one named ``seed000_<preset>``."""
+    from vrloco_env.config import EstimatorConfig
+    from vrloco_env.sensors.imu import get_imu_spec
+    from vrloco_env.techniques import TECHNIQUES, Technique
+
+    get_imu_spec(preset)  # raises with the valid names
+    for tech in TECHNIQUES.values():
+        if tech.sensor_preset == preset and tech.estimators == EstimatorConfig():
+            return tech.name
+    return Technique(f"seed000_{preset}", f"seed 000's chain on {preset}", preset)
 
 
 def check_policy_name(name: str) -> str:
-    """``name`` if it names a scripted user, optionally with ``+human``; else a ValueError."""
-    base = name[: -len(HUMAN_SUFFIX)] if name.endswith(HUMAN_SUFFIX) else name
-    if base not in POLICIES:
-        raise ValueError(
-            f"policy={name!r}: must be one of {', '.join(POLICIES)}, optionally with "
-            f"'{HUMAN_SUFFIX}' (e.g. goal_seeker{HUMAN_SUFFIX})"
-        )
-    return name
+    """``name`` if it names a policy (:func:`agents.policies.check_policy`), else a ValueError."""
+    return check_policy(name)
 
 
-def step_window(env: Any) -> tuple[int, int]:
-    """The step-matching window ``(late, early)`` in control steps for an env's gait detector:
-    a detection may come up to gamma_t plus the detector's latency after its heel strike (the
-    first step of a bout is held until the second), and one control step early (a heel strike at
-    a control-step boundary). See :mod:`agents.metrics`."""
-    u = env.unwrapped
-    gait = u.estimators.gait
-    fs = u.sensors.imu_rate_hz
-    late = math.ceil((gait.gamma_t + gait.latency(fs)) / u.core.dt - 1e-9)
+def step_window(reset_info: dict, dt: float) -> tuple[int, int]:
+    """The step-matching window ``(late, early)`` in control steps of ``dt`` s, from an episode's
+    reset info: a detection may come up to the step stage's report delay after its heel strike
+    (seed 000: gamma_t plus the detector's latency, a bout's first step being held until the
+    second), and one control step early (a heel strike at a control-step boundary). See
+    :mod:`agents.metrics`."""
+    late = math.ceil(float(reset_info["step_report_delay_s"]) / dt - 1e-9)
     return late, 1
 
 
 # --------------------------------------------------------------------------- one episode
 
-_ENVS: dict[tuple[str, str], Any] = {}  # per process: one env per (task, sensors)
+_ENVS: dict[tuple[str, Any], Any] = {}  # per process: one env per (task, technique)
 
 
-def _env(task: str, sensors: str) -> Any:
+def _env(task: str, technique: Any) -> Any:
     import gymnasium as gym
 
     import vrloco_env  # noqa: F401  (registers the ids)
 
-    key = (task, sensors)
+    key = (task, technique)
     if key not in _ENVS:
-        _ENVS[key] = gym.make(_TASK_IDS[task], sensor_preset=sensors)
+        _ENVS[key] = gym.make(env_id(task), technique=technique)
     return _ENVS[key]
 
 
-def run_episode(cell: Cell, seed: int, trace: bool = False) -> EpisodeStats:
-    """Run one episode of ``cell`` with ``reset(seed=seed)``.
-
-    Args:
-        cell: task, policy (optionally ``+human``) and sensor preset.
-        seed: the episode's seed.
-        trace: keep per-step traces and the room for figures.
+def run_episode(
+    env: Any, policy: Any, seed: int, trace: bool = False
+) -> tuple[EpisodeStats, dict]:
+    """Run one episode of ``policy`` (scripted, learned or a user's: ``reset(rng)``,
+    ``act(obs)``) in the single env ``env`` with ``reset(seed=seed)``; the policy's randomness
+    comes from ``default_rng([seed, 1])``. The stats come from ``info`` alone.
 
     Returns:
-        The episode's :class:`~agents.metrics.EpisodeStats` (``trace`` also holds ``layout``).
+        The episode's :class:`~agents.metrics.EpisodeStats` (with ``trace``: per-step traces,
+        the room in ``trace["layout"]`` for figures) and the reset info.
     """
-    env = _env(cell.task, cell.sensors)
-    human = cell.policy.endswith(HUMAN_SUFFIX)
-    base = cell.policy[: -len(HUMAN_SUFFIX)] if human else cell.policy
-    policy: Any = make_policy(base, ObservationLayout.from_env(env), params_from_env(env))
-    if human:
-        policy = HumanVariability(policy)
-    obs, info = env.reset(seed=seed)
+    obs, reset_info = env.reset(seed=seed)
     policy.reset(np.random.default_rng([seed, 1]))
-    rec = EpisodeRecorder(seed, info, trace=trace)
-    start = env.unwrapped.core.ep.position[0].copy()
+    rec = EpisodeRecorder(seed, reset_info, trace=trace)
     while True:
         obs, _, terminated, truncated, info = env.step(policy.act(obs))
         rec.add(info)
         if terminated or truncated:
             break
-    stats = rec.finish(start_position=start)
+    stats = rec.finish(start_position=reset_info["position"])
     if stats.trace is not None:
-        stats.trace["layout"] = env.unwrapped.layout
-        stats.trace["dt"] = env.unwrapped.core.dt
-    return stats
+        stats.trace["layout"] = env.unwrapped.layout  # for the figures only
+    return stats, reset_info
 
 
-def _job(args: tuple[Cell, int, int, bool]) -> tuple[Cell, int, EpisodeStats]:
+def run_cell_episode(cell: Cell, seed: int, trace: bool = False) -> tuple[EpisodeStats, dict]:
+    """Episode ``seed`` of ``cell``: its task and technique's env, its policy."""
+    env = _env(cell.task, cell.technique)
+    return run_episode(env, build_policy(cell.policy, env), seed, trace)
+
+
+def _job(args: tuple[Cell, int, int, bool]) -> tuple[Cell, int, EpisodeStats, dict]:
     cell, index, seed, trace = args
-    return cell, index, run_episode(cell, seed, trace)
+    return cell, index, *run_cell_episode(cell, seed, trace)
 
 
 # --------------------------------------------------------------------------- the grid
@@ -182,7 +202,7 @@ def _job(args: tuple[Cell, int, int, bool]) -> tuple[Cell, int, EpisodeStats]:
 def run_benchmark(
     tasks: Sequence[str] = DEFAULT_TASKS,
     policies: Sequence[str] = DEFAULT_POLICIES,
-    sensors: Sequence[str] = DEFAULT_SENSORS,
+    sensors: Sequence[str] | None = None,
     episodes: int = DEFAULT_EPISODES,
     seed: int = 0,
     workers: int = 2,
@@ -190,13 +210,18 @@ def run_benchmark(
     json_path: Path | str | None = None,
     progress: bool = True,
     print_table: bool = True,
+    techniques: Sequence[Any] | None = None,
 ) -> list[dict[str, Any]]:
     """Run the grid and write the outputs.
 
     Args:
         tasks: ``approach``, ``avoid``, ``interact``.
         policies: scripted users, optionally with ``+human``.
-        sensors: IMU presets (``ig500n``, ``consumer_mems``).
+        sensors: IMU presets (``ig500n``, ``consumer_mems``): shorthand for seed 000's chain on
+            each, added to ``techniques``.
+        techniques: registered technique names, ``"module:attr"`` strings or
+            :class:`~vrloco_env.techniques.Technique` objects. Without ``sensors`` and
+            ``techniques``: :data:`DEFAULT_TECHNIQUES`.
         episodes: episodes per cell (>= 1).
         seed: episode ``i`` is seeded ``seed + i``.
         workers: worker processes (>= 1; 1 runs in this process).
@@ -209,21 +234,24 @@ def run_benchmark(
         One dict per cell with :data:`ROW_KEYS`.
 
     Raises:
-        ValueError: an unknown task, policy or preset, or a bad count.
+        ValueError: an unknown task, policy, technique or preset, or a bad count.
     """
-    from vrloco_env.sensors.imu import get_imu_spec
+    from vrloco_env.techniques import get_technique
 
-    tasks, policies, sensors = list(tasks), list(policies), list(sensors)
-    for name, values in (("tasks", tasks), ("policies", policies), ("sensors", sensors)):
+    if sensors is None and techniques is None:
+        techniques = DEFAULT_TECHNIQUES
+    techs = [*(technique_for_preset(s) for s in sensors or ()), *(techniques or ())]
+    tasks, policies = list(tasks), list(policies)
+    for name, values in (("tasks", tasks), ("policies", policies), ("techniques", techs)):
         if not values:
             raise ValueError(f"{name} must name at least one entry")
     for t in tasks:
-        if t not in _TASK_IDS:
-            raise ValueError(f"task={t!r}: must be one of {', '.join(_TASK_IDS)}")
+        get_task(t)  # raises with the registered names
     for p in policies:
         check_policy_name(p)
-    for s in sensors:
-        get_imu_spec(s)  # raises with the valid names
+    names = [get_technique(t).name for t in techs]  # raises with the valid names
+    if len(set(names)) != len(names):
+        raise ValueError(f"techniques must not repeat a name, got {', '.join(names)}")
     if isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 1:
         raise ValueError(f"episodes must be an integer >= 1, got {episodes!r}")
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
@@ -231,20 +259,23 @@ def run_benchmark(
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
 
-    cells = [Cell(t, p, s) for t in tasks for p in policies for s in sensors]
+    cells = [Cell(t, p, k) for t in tasks for p in policies for k in techs]
     want_figures = out_dir is not None
     jobs = [(c, i, seed + i, want_figures and i == 0) for c in cells for i in range(episodes)]
     results: dict[tuple[Cell, int], EpisodeStats] = {}
-    for cell, index, stats in _run_jobs(jobs, workers, progress):
+    windows: dict[Cell, tuple[int, int]] = {}
+    for cell, index, stats, reset_info in _run_jobs(jobs, workers, progress):
         results[(cell, index)] = stats
+        windows[cell] = step_window(reset_info, stats.elapsed_s / max(stats.steps, 1))
 
     rows = []
     for c in cells:
         eps = [results[(c, i)] for i in range(episodes)]
-        late, early = step_window(_env(c.task, c.sensors))
+        late, early = windows[c]
         row = {
             "task": c.task,
             "policy": c.policy,
+            "technique": c.technique_name,
             "sensors": c.sensors,
             **summarize(eps, late, early),
         }
@@ -252,7 +283,7 @@ def run_benchmark(
     if print_table:
         _print_table(rows, seed)
     meta = {"seed": seed, "episodes": episodes, "workers": workers, "tasks": tasks,
-            "policies": policies, "sensors": sensors}  # fmt: skip
+            "policies": policies, "techniques": names}  # fmt: skip
     written = []
     if out_dir is not None:
         out = Path(out_dir)
@@ -308,14 +339,16 @@ def _print_table(rows: list[dict[str, Any]], seed: int) -> None:
     from rich.table import Table
 
     table = Table(title=f"vrloco benchmark (seeds {seed}..{seed + rows[0]['episodes'] - 1})")
-    cols = (("task", "task"), ("policy", "policy"), ("sensors", "sensors"), ("episodes", "n"),
+    cols = (("task", "task"), ("policy", "policy"), ("technique", "technique"),
+            ("sensors", "sensors"), ("episodes", "n"),
             ("success_rate", "success"), ("collision_rate", "collision"),
             ("collision_free_success_rate", "coll.-free succ."), ("spl", "SPL"),
             ("time_to_goal_s", "time to goal (s)"), ("path_length_ratio", "path ratio"),
             ("step_f1", "step F1"), ("attitude_rmse_deg", "attitude RMSE (°)"),
             ("hand_error_deg", "hand err (°)"))  # fmt: skip
     for _, head in cols:
-        table.add_column(head, justify="left" if head in ("task", "policy", "sensors") else "right")
+        left = head in ("task", "policy", "technique", "sensors")
+        table.add_column(head, justify="left" if left else "right")
     for r in rows:
         table.add_row(*(_fmt(r[k], 1 if k in ("time_to_goal_s",) else 3) for k, _ in cols))
     console = Console()
@@ -399,7 +432,7 @@ def draw_cell(out_dir: Path, cell: Cell, stats: EpisodeStats) -> list[Path]:
     if tr is None:
         raise ValueError("stats has no trace: run the episode with trace=True")
     out_dir.mkdir(parents=True, exist_ok=True)
-    title = f"{cell.task}, {cell.policy}, {cell.sensors}, seed {stats.seed}"
+    title = f"{cell.task}, {cell.policy}, {cell.technique_name}, seed {stats.seed}"
     outcome = "success" if stats.success else "failure"
     written = []
 
@@ -424,7 +457,7 @@ def draw_cell(out_dir: Path, cell: Cell, stats: EpisodeStats) -> list[Path]:
     fig, axes = plt.subplots(3, 1, figsize=(9, 6.5), sharex=True, constrained_layout=True)
     for k, (ax, name) in enumerate(zip(axes, ("yaw", "pitch", "roll"), strict=True)):
         ax.plot(t, true[:, k], color="0.6", lw=2.2, label="truth")
-        ax.plot(t, est[:, k], color="k", lw=0.8, label="estimate (attitude EKF)")
+        ax.plot(t, est[:, k], color="k", lw=0.8, label="estimate")
         ax.set_ylabel(f"{name} (deg)")
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=8)

@@ -78,7 +78,8 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
         run_benchmark(
             tasks=names(args.tasks),
             policies=names(args.policies),
-            sensors=names(args.sensors),
+            sensors=names(args.sensors) if args.sensors else None,
+            techniques=names(args.techniques) if args.techniques else None,
             episodes=args.episodes,
             seed=args.seed,
             workers=args.workers,
@@ -88,6 +89,33 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
     except ValueError as err:  # a bad option value: one clear line, no traceback
         print(f"vrloco benchmark: {err}", file=sys.stderr)
         return 2
+    return 0
+
+
+def _cmd_techniques(args: argparse.Namespace) -> int:
+    from estimators import stages
+    from vrloco_env.config import STAGE_FIELDS, EstimatorConfig
+    from vrloco_env.techniques import TECHNIQUES
+
+    base = EstimatorConfig()
+    chain = ", ".join(f"{k}={base.label(k)}" for k in STAGE_FIELDS)
+    print("techniques (gym.make(..., technique=NAME); vrloco benchmark --techniques A,B):")
+    print(f"  each is seed 000's chain but for what it names:\n    {chain}")
+    width = max(len(n) for n in TECHNIQUES)
+    for name, tech in TECHNIQUES.items():
+        e = tech.estimators
+        changed = [f"{k}={e.label(k)}" for k in STAGE_FIELDS if getattr(e, k) != getattr(base, k)]
+        if e != base and not changed:
+            changed = ["stage parameters"]
+        what = ", ".join([tech.sensor_preset, *changed])
+        print(f"  {name:<{width}}  {what}: {tech.description}")
+    print()
+    print("stages (EstimatorConfig(FIELD=NAME) or FIELD='package.module:attr' for your own):")
+    for field in STAGE_FIELDS:
+        registry = getattr(stages, field.upper())
+        print(f"  {field} {registry.signature}:")
+        for name, text in registry.describe().items():
+            print(f"    {name:<18} {text}")
     return 0
 
 
@@ -138,6 +166,8 @@ def _cmd_estimate(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from vrloco_env.tasks import TASKS
+
     parser = argparse.ArgumentParser(
         prog="vrloco",
         description="Hands-free VR locomotion: simulated users, sensors, estimators, benchmark.",
@@ -198,7 +228,9 @@ def build_parser() -> argparse.ArgumentParser:
         "benchmark",
         help="scripted users x tasks x IMU presets: success, collisions, SPL, steps, errors",
     )
-    bench.add_argument("--tasks", default="approach,avoid", help="comma-separated tasks")
+    bench.add_argument(
+        "--tasks", default="approach,avoid", help=f"comma-separated tasks: {', '.join(TASKS)}"
+    )
     bench.add_argument(
         "--policies",
         default="goal_seeker,goal_seeker+human,avoid_manoeuvre",
@@ -206,7 +238,14 @@ def build_parser() -> argparse.ArgumentParser:
         "append +human for human variability",
     )
     bench.add_argument(
-        "--sensors", default="ig500n,consumer_mems", help="comma-separated IMU presets"
+        "--techniques",
+        help="comma-separated techniques (vrloco techniques lists them; 'module:attr' names "
+        "your own); default: seed000,seed000_consumer unless --sensors is given",
+    )
+    bench.add_argument(
+        "--sensors",
+        help="comma-separated IMU presets: shorthand for seed 000's chain on each "
+        "(ig500n = seed000, consumer_mems = seed000_consumer), added to --techniques",
     )
     bench.add_argument("--episodes", type=int, default=40, help="episodes per cell")
     bench.add_argument("--seed", type=int, default=0, help="episode i uses seed + i")
@@ -215,8 +254,13 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--out", default="out/benchmark", help="folder for CSV, JSON, figures")
     bench.set_defaults(func=_cmd_benchmark)
 
+    techniques = sub.add_parser(
+        "techniques", help="list the techniques and every stage's implementations"
+    )
+    techniques.set_defaults(func=_cmd_techniques)
+
     train = sub.add_parser("train", help="train a PPO user (stable-baselines3) on a task")
-    train.add_argument("--task", default="approach", help="approach, avoid or interact")
+    train.add_argument("--task", default="approach", help=f"one of {', '.join(TASKS)}")
     train.add_argument("--steps", type=int, default=2_000_000, help="environment steps")
     train.add_argument("--num-envs", type=int, default=32, help="users stepped together")
     train.add_argument("--sensors", default="ig500n", help="IMU preset (default: ig500n)")
@@ -228,7 +272,7 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate = sub.add_parser("evaluate", help="the benchmark's metrics for a trained PPO model")
     evaluate.add_argument("model", help="path of a saved PPO model (.zip)")
     evaluate.add_argument(
-        "--task", help="approach, avoid or interact (default: the task the model was trained on)"
+        "--task", help=f"one of {', '.join(TASKS)} (default: the task the model was trained on)"
     )
     evaluate.add_argument("--episodes", type=int, default=100, help="seeded episodes")
     evaluate.add_argument("--sensors", help="IMU preset (default: the model's own)")

@@ -231,12 +231,10 @@ def run_policy_episodes(model: Any, env: VRLocoVectorEnv, seed: int) -> dict[str
 def env_settings(task: str, sensor_preset: str = "ig500n", **configs: Any) -> dict[str, Any]:
     """The env a policy is trained on, as the keywords of :class:`~vrloco_env.env.VRLocoEnv`:
     the task and every configuration dataclass filled in (stored with the model)."""
-    from vrloco_env import ENV_IDS
     from vrloco_env.env import make_configs
+    from vrloco_env.tasks import get_task
 
-    tasks = sorted(ENV_IDS.values())
-    if task not in tasks:
-        raise ValueError(f"task={task!r}: must be one of {', '.join(tasks)}")
+    get_task(task)  # raises with the registered names
     config, sensors, estimators, room, reward = make_configs(sensor_preset=sensor_preset, **configs)
     return {
         "task": task, "config": config, "sensors": sensors, "estimators": estimators,
@@ -274,8 +272,10 @@ def evaluate_model(
     import gymnasium as gym
     from stable_baselines3 import PPO
 
-    from agents.metrics import EpisodeRecorder, summarize
-    from vrloco_env import ENV_IDS
+    from agents.benchmark import run_episode
+    from agents.metrics import summarize
+    from agents.policies import LearnedPolicy
+    from vrloco_env.tasks import env_id
 
     model = PPO.load(path)
     try:
@@ -296,23 +296,15 @@ def evaluate_model(
             f"{trained_preset!r} ({path}); leave the sensors out to evaluate on the model's own"
         )
     task = settings.pop("task")
-    ids = {name: env_id for env_id, name in ENV_IDS.items()}
-    env = gym.make(ids[task], **settings)
-    stats = []
-    for i in range(episodes):
-        obs, info = env.reset(seed=seed + i)
-        rec = EpisodeRecorder(seed + i, info)
-        while True:
-            action, _ = model.predict(obs, deterministic=True)
-            obs, _, terminated, truncated, info = env.step(action)
-            rec.add(info)
-            if terminated or truncated:
-                break
-        stats.append(rec.finish())
+    env = gym.make(env_id(task), **settings)
+    policy = LearnedPolicy(path, env)
+    stats = [run_episode(env, policy, seed + i)[0] for i in range(episodes)]
+    technique = env.unwrapped.technique
     env.close()
     return {
         "task": task,
         "policy": f"ppo:{Path(path).name}",
+        "technique": technique,
         "sensors": trained_preset,
         **summarize(stats),
     }

@@ -4,11 +4,14 @@ Run from the repository root::
 
     python benchmarks/bench_env.py                 # speed table (about a minute)
     python benchmarks/bench_env.py --soak 100000   # 10^5 random steps: NaN and memory check
+    python benchmarks/bench_env.py --techniques    # cost per user-step of every technique
 
 Prints steps/s of the single env with random actions and the full pipeline (motion, IMU, Kinect,
 attitude EKF, step detector, hand pipeline, locomotion, world), of PandaReach-v3 measured in the
 same run, and the aggregate user-steps/s of the native vector env at N = 16, 64, 256, each as a
-ratio to PandaReach-v3. Issue 5's targets: single >= 2x, vector N = 256 >= 20x.
+ratio to PandaReach-v3. Targets: single >= 2x, vector N = 256 >= 20x. ``--techniques`` times
+every registered technique (:mod:`vrloco_env.techniques`) per user-step, single env and vector
+N = 64, beside the default technique.
 """
 
 from __future__ import annotations
@@ -39,8 +42,8 @@ def steps_per_second(env: gym.Env, seconds: float) -> float:
     return n / (time.perf_counter() - t0)
 
 
-def vector_steps_per_second(num_envs: int, seconds: float) -> float:
-    envs = gym.make_vec("VRLoco-Approach-v0", num_envs=num_envs)
+def vector_steps_per_second(num_envs: int, seconds: float, **kwargs) -> float:
+    envs = gym.make_vec("VRLoco-Approach-v0", num_envs=num_envs, **kwargs)
     envs.reset(seed=0)
     envs.action_space.seed(0)
     envs.step(envs.action_space.sample())  # compile / warm caches
@@ -71,6 +74,21 @@ def speed(seconds: float) -> None:
         print(f"{f'vector N={n}':28}{rate:10.0f}{rate / panda:14.2f}{note}")
 
 
+def technique_costs(seconds: float) -> None:
+    """Microseconds per user-step of every registered technique, beside the default's."""
+    from vrloco_env.techniques import TECHNIQUES
+
+    print(f"{'technique':20}{'single us/step':>16}{'x seed000':>11}{'N=64 us/user-step':>20}"
+          f"{'x seed000':>11}")  # fmt: skip
+    base = None
+    for name in TECHNIQUES:
+        single = 1e6 / steps_per_second(gym.make("VRLoco-Approach-v0", technique=name), seconds)
+        vec = 1e6 / vector_steps_per_second(64, seconds, technique=name)
+        if base is None:
+            base = (single, vec)
+        print(f"{name:20}{single:16.0f}{single / base[0]:11.2f}{vec:20.1f}{vec / base[1]:11.2f}")
+
+
 def soak(steps: int) -> None:
     """Random steps with autoreset: observations stay finite, memory stays flat."""
     envs = gym.make_vec("VRLoco-Approach-v0", num_envs=16)
@@ -96,9 +114,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=8.0, help="time per measurement")
     parser.add_argument("--soak", type=int, default=0, help="user-steps of the soak test")
+    parser.add_argument("--techniques", action="store_true", help="cost of every technique")
     args = parser.parse_args()
     if args.soak:
         soak(args.soak)
+    elif args.techniques:
+        technique_costs(args.seconds)
     else:
         speed(args.seconds)
 

@@ -102,7 +102,7 @@ def test_a_tiny_benchmark_writes_its_outputs_and_ignores_the_worker_count(tmp_pa
         rows = list(csv.DictReader(f))
     assert len(rows) == 1 and float(rows[0]["spl"]) == pytest.approx(row["spl"])
     for kind in ("trajectory", "attitude", "gait"):
-        png = tmp_path / "one" / f"{kind}_approach_goal_seeker_ig500n.png"
+        png = tmp_path / "one" / f"{kind}_approach_goal_seeker_seed000.png"
         assert png.stat().st_size > 10_000
 
 
@@ -127,3 +127,41 @@ def test_step_times_are_matched_within_0_2_s():
     detected = [1.05, 1.78, 2.41, 2.79, 3.5]  # 2.41 is 0.21 s late: a miss and a false step
     assert match_step_times(true, detected) == (3, 2, 1)
     assert match_step_times([], []) == (0, 0, 0)
+
+
+# --------------------------------------------------------------------------- an open benchmark
+
+
+def test_cells_take_techniques_and_a_users_own_policy(tmp_path):
+    plugin = tmp_path / "my_user.py"
+    plugin.write_text(
+        "import numpy as np\n"
+        "class Stand:\n"
+        "    def __init__(self, env):\n"
+        "        self.n = env.action_space.shape[0]\n"
+        "    def reset(self, rng=None, rows=None):\n"
+        "        pass\n"
+        "    def act(self, obs):\n"
+        "        return -np.ones(self.n, np.float32)\n"
+    )
+    rows = run_benchmark(
+        tasks=["avoid"], policies=["goal_seeker", f"{plugin}:Stand"],
+        techniques=["seed000", "smooth"], episodes=1, seed=3, workers=1, progress=False,
+        print_table=False,
+    )  # fmt: skip
+    assert [(r["policy"], r["technique"]) for r in rows] == [
+        ("goal_seeker", "seed000"), ("goal_seeker", "smooth"),
+        (f"{plugin}:Stand", "seed000"), (f"{plugin}:Stand", "smooth"),
+    ]  # fmt: skip
+    stand = [r for r in rows if r["policy"].endswith(":Stand")]
+    assert all(r["success_rate"] == 0.0 and r["collision_rate"] == 0.0 for r in stand)
+    assert all(r["sensors"] == "ig500n" for r in rows)
+
+
+def test_unknown_policies_and_techniques_are_named():
+    with pytest.raises(ValueError, match="technique='nope': unknown"):
+        run_benchmark(techniques=["nope"], progress=False)
+    with pytest.raises(ValueError, match="no such model file"):
+        check_policy_name("absent.zip")
+    with pytest.raises(ValueError, match="cannot import"):
+        check_policy_name("no_such_pkg.users:Walker")

@@ -8,15 +8,15 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import vrloco_env
 from vrloco_env.config import EnvConfig, EstimatorConfig
-from vrloco_env.core import observation_names
 from vrloco_env.env import VRLocoEnv
+from vrloco_env.observation import env_spec
 from vrloco_env.rooms import signed_distance
 from vrloco_env.sim import display_available
 
 IDS = list(vrloco_env.ENV_IDS)
 
 
-NAMES = observation_names(EnvConfig().ray_count)
+NAMES = env_spec(EnvConfig().ray_count, EnvConfig().ray_range_m).names  # the common entries
 
 
 def goal_seeker(obs, names=NAMES):
@@ -31,7 +31,7 @@ def goal_seeker(obs, names=NAMES):
 @pytest.mark.parametrize("env_id", IDS)
 def test_gymnasium_and_sb3_checkers_pass(env_id):
     env = gym.make(env_id)
-    check_env(env.unwrapped, skip_render_check=True)  # "human" needs a display: tested below
+    check_env(env.unwrapped)  # every mode it declares renders (headless: "human" is not one)
     sb3_check_env(env.unwrapped, warn=True)
     env.close()
 
@@ -57,7 +57,7 @@ def test_same_seed_same_episode_bit_for_bit(env_id):
 def test_reset_observation_and_info_contents():
     env = gym.make("VRLoco-Approach-v0")
     obs, info = env.reset(seed=0)
-    names = observation_names(EnvConfig().ray_count)
+    names = env.unwrapped.observation_spec.names
     assert obs.shape == (len(names),) and obs.dtype == np.float32
     assert env.observation_space.contains(obs)
     assert info["distance_to_goal"] > 0 and info["shortest_path"] >= info["distance_to_goal"]
@@ -172,7 +172,7 @@ def test_human_render_without_a_display_says_so():
     [
         ({"task": "fly"}, "task='fly': must be one of approach, avoid, interact"),
         ({"sensor_preset": "iphone"}, "iphone"),
-        ({"locomotion": "teleport"}, "locomotion='teleport': must be one of eq17, smooth"),
+        ({"locomotion": "teleport"}, "locomotion='teleport': unknown; valid names: eq17, smooth"),
         ({"render_mode": "ascii"}, "render_mode='ascii'"),
         (
             {"config": EnvConfig(max_episode_steps=10), "max_episode_steps": 0},
@@ -197,3 +197,18 @@ def test_sensor_noise_comes_from_the_seed():
 
     np.testing.assert_array_equal(first_imu(1), first_imu(1))
     assert not np.array_equal(first_imu(1), first_imu(2))
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"terminate_on_collision": "yes"}, r"terminate_on_collision='yes': must be True"),
+        ({"ray_count": 2.5}, r"EnvConfig.ray_count=2.5: must be an integer in \[1, 360\]"),
+        ({"max_episode_steps": "600"}, r"EnvConfig.max_episode_steps='600': must be an integer"),
+        ({"max_episode_steps": 1.5}, r"EnvConfig.max_episode_steps=1.5: must be an integer"),
+    ],
+)
+def test_config_types_are_checked(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        EnvConfig(**kwargs)
+    assert EnvConfig(max_episode_steps=np.int64(50)).max_episode_steps == 50

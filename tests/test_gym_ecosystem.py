@@ -127,3 +127,19 @@ def test_default_horizon_is_600_steps():
 def test_contradicting_horizons_are_an_error():
     with pytest.raises(ValueError, match="contradicts"):
         gym.make("VRLoco-Approach-v0", max_episode_steps=10, config=EnvConfig(max_episode_steps=20))
+
+
+def test_importing_and_building_the_simulation_prints_nothing():
+    import subprocess
+    import sys
+
+    code = (
+        "import gymnasium as gym, vrloco_env\n"
+        "env = gym.make('VRLoco-Approach-v0', render_mode='rgb_array')\n"
+        "env.reset(seed=0); env.render(); env.close()\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert "pybullet build time" not in out.stdout + out.stderr
+    assert "argv[0]" not in out.stdout + out.stderr
+    assert out.stdout == ""

@@ -53,6 +53,16 @@ def test_tiny_ppo_run_writes_a_model_and_a_learning_curve(tmp_path):
     result = evaluate_model(path, episodes=2)
     assert result["task"] == "avoid"  # the model's own task, not a default
     assert result["sensors"] == "ig500n"
+    # The benchmark plays the same model through the same episode loop: the same numbers.
+    from agents.benchmark import run_benchmark
+
+    (row,) = run_benchmark(tasks=["avoid"], policies=[str(path)], techniques=["seed000"],
+                           episodes=2, workers=1, progress=False, print_table=False)  # fmt: skip
+    for key in ("success_rate", "spl", "attitude_rmse_deg", "mean_collisions"):
+        assert row[key] == pytest.approx(result[key], nan_ok=True), key
+    with pytest.raises(ValueError, match="trained on task 'avoid'"):
+        run_benchmark(tasks=["approach"], policies=[str(path)], episodes=1, workers=1,
+                      progress=False, print_table=False)  # fmt: skip
     with pytest.raises(ValueError, match="contradicts the model"):
         evaluate_model(path, task="approach", episodes=1)
     with pytest.raises(ValueError, match="contradicts the model"):

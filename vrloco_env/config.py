@@ -9,20 +9,18 @@ Pass any of them to ``gym.make`` as keyword arguments
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
-from estimators.attitude import AttitudeParams
-from estimators.gait import GaitParams
 from estimators.hand import HandParams
 from estimators.visual_inertial import VioConfig
 from vrloco_env.motion import MotionParams
 from vrloco_env.sensors.head_camera import CameraSpec, camera_spec
 from vrloco_env.sensors.imu import EarthField, ImuSpec, MagneticDisturbance, get_imu_spec
 from vrloco_env.sensors.kinect import KinectSpec
-from vrloco_env.validation import check_in_range
+from vrloco_env.validation import check_bool, check_in_range
 
-__all__ = ["EnvConfig", "EstimatorConfig", "RewardConfig", "SensorConfig"]
+__all__ = ["STAGE_FIELDS", "EnvConfig", "EstimatorConfig", "RewardConfig", "SensorConfig"]
 
-LOCOMOTION_KINDS = ("eq17", "smooth")
 #: Where the virtual head pose comes from (:attr:`EnvConfig.pose_source`).
 POSE_SOURCES = ("walk_in_place", "visual_inertial")
 
@@ -79,36 +77,73 @@ class SensorConfig:
         return self.imu if isinstance(self.imu, str) else self.imu.name
 
 
+#: The stages of :class:`EstimatorConfig`, each with the registry it is resolved in.
+STAGE_FIELDS = ("attitude", "steps", "hand", "steering", "locomotion")
+
+
 @dataclass(frozen=True)
 class EstimatorConfig:
-    """The estimators that turn sensor samples into the virtual body's motion.
+    """The estimation stages that turn sensor samples into the virtual body's motion.
+
+    Each stage field takes a registered name (:mod:`estimators.stages`: ``vrloco techniques``
+    lists them), a ``"package.module:attr"`` string naming your own class or factory, or an
+    object with a ``build(...)`` method such as a parameter dataclass
+    (``attitude=AttitudeParams(acc_noise=0.03)``, ``steps=GaitParams(gamma=0.8)``).
 
     Attributes:
-        attitude: parameters of seed 000's error-state EKF (``model="paper_literal"`` for the
-            paper's printed F = 0).
-        gait: step detector parameters (seed 000 eqs 15-16).
-        locomotion: ``"eq17"`` (seed 000: jump one step length at each detected step) or
-            ``"smooth"`` (seed 001: a planar filter moving the body continuously).
+        attitude: head attitude from the IMU (default ``"ekf"``, seed 000's error-state EKF;
+            ``"ekf_paper_literal"``, ``"vqf"``, ``"madgwick"``, ``"mahony"``, ``"gyro_only"``).
+        steps: step detector (default ``"seed000"``, eqs 15-16; ``"threshold"``,
+            ``"nod_robust"``).
+        hand: filter of the Kinect's wrist angles (default ``"seed003"``, Kalman + median;
+            ``"one_euro"``, ``"raw"``).
+        steering: which yaw turns the walking direction (default ``"head"``; ``"torso"``, the
+            Kinect's shoulder line).
+        locomotion: ``"eq17"`` (seed 000: jump one step length at each detected step),
+            ``"smooth"`` (seed 001: a planar filter moving the body continuously) or
+            ``"cadence_speed"`` (speed proportional to the estimated cadence).
         step_length: SL of eq (17) (m).
-        hand: seed 003's hand pipeline parameters.
+        hand_pipeline: seed 003's Kinect processing (target selection, joint smoothing, eq 1/2,
+            and the Kalman + median filter that the ``"seed003"`` hand stage reports).
         visual_inertial: seed 004's visual-inertial filter (``pose_source="visual_inertial"``);
             Sage-Husa adaptive R by default, since the camera's noise changes with the light.
     """
 
-    attitude: AttitudeParams = field(default_factory=AttitudeParams)
-    gait: GaitParams = field(default_factory=GaitParams)
-    locomotion: str = "eq17"
+    attitude: Any = "ekf"
+    steps: Any = "seed000"
+    hand: Any = "seed003"
+    steering: Any = "head"
+    locomotion: Any = "eq17"
     step_length: float = 0.7
-    hand: HandParams = field(default_factory=HandParams)
+    hand_pipeline: HandParams = field(default_factory=HandParams)
     visual_inertial: VioConfig = field(default_factory=lambda: VioConfig(adaptive="sage_husa"))
 
     def __post_init__(self) -> None:
-        _check(
-            self.locomotion in LOCOMOTION_KINDS,
-            f"EstimatorConfig.locomotion={self.locomotion!r}: must be one of "
-            f"{', '.join(LOCOMOTION_KINDS)}",
-        )
+        from estimators import stages
+
+        for name in STAGE_FIELDS:
+            value = getattr(self, name)
+            if isinstance(value, HandParams):
+                raise ValueError(
+                    f"EstimatorConfig.{name}: HandParams configure the Kinect pipeline; pass "
+                    "them as hand_pipeline=HandParams(...)"
+                )
+            try:
+                getattr(stages, name.upper()).check(value)
+            except ValueError as err:
+                raise ValueError(f"EstimatorConfig.{err}") from None
         check_in_range(self, "step_length", 0.2, 1.5, "m")
+        _check(
+            isinstance(self.hand_pipeline, HandParams),
+            f"EstimatorConfig.hand_pipeline must be a HandParams, got "
+            f"{type(self.hand_pipeline).__name__}",
+        )
+
+    def label(self, stage: str) -> str:
+        """The short name of a stage's choice (``"ekf"``, ``"custom:my.module:Filter"``)."""
+        from estimators import stages
+
+        return getattr(stages, stage.upper()).label(getattr(self, stage))
 
 
 @dataclass(frozen=True)
@@ -145,8 +180,6 @@ class EnvConfig:
         ray_count: rays cast from the virtual head, spread over ``ray_fov_deg``.
         ray_fov_deg: angular spread of the rays, centred on the virtual heading (deg).
         ray_range_m: rays report at most this range (m).
-        hand_tolerance_deg: Interact: hand orientation tolerance (deg).
-        dwell_s: Interact: time the hand must be held within tolerance (s).
         pose_source: where the virtual head pose comes from.
             ``"walk_in_place"`` (default, seed 000): the user steps in place; the virtual body
             moves a step length along the IMU's estimated yaw per detected step (eq 17 or the
@@ -167,17 +200,14 @@ class EnvConfig:
     ray_count: int = 15
     ray_fov_deg: float = 180.0
     ray_range_m: float = 5.0
-    hand_tolerance_deg: float = 15.0
-    dwell_s: float = 1.0
     pose_source: str = "walk_in_place"
 
     def __post_init__(self) -> None:
-        check_in_range(self, "max_episode_steps", 1, 100_000)
-        check_in_range(self, "ray_count", 1, 360)
+        check_in_range(self, "max_episode_steps", 1, 100_000, integer=True)
+        check_bool(self, "terminate_on_collision")
+        check_in_range(self, "ray_count", 1, 360, integer=True)
         check_in_range(self, "ray_fov_deg", 0.0, 360.0, "deg", lo_open=True)
         check_in_range(self, "ray_range_m", 0.5, 50.0, "m")
-        check_in_range(self, "hand_tolerance_deg", 1.0, 90.0, "deg")
-        check_in_range(self, "dwell_s", 0.0, 30.0, "s", lo_open=True)
         _check(
             self.pose_source in POSE_SOURCES,
             f"EnvConfig.pose_source={self.pose_source!r}: must be one of {', '.join(POSE_SOURCES)}",

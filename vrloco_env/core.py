@@ -36,42 +36,24 @@ from vrloco_env._core_numba import attitude_error_kernel, observation_kernel
 from vrloco_env.actions import action_to_intent, check_actions
 from vrloco_env.batch_rng import BatchRng
 from vrloco_env.config import EnvConfig, EstimatorConfig, RewardConfig, SensorConfig
+from vrloco_env.observation import (
+    COMMON_FIELDS,
+    MAX_GOAL_DISTANCE,
+    ObservationSpec,
+    env_spec,
+    ray_offsets,
+)
+from vrloco_env.pipeline import build_stages
 from vrloco_env.rooms import Layout, RoomBatch, RoomConfig
-from vrloco_env.tasks import Task, get_task, goal_distance, hand_error
+from vrloco_env.tasks import get_task
+from vrloco_env.tasks.base import Task
+from vrloco_env.tasks.interact import hand_error
 from vrloco_env.users import SimulatedUsers, UserStep
 
-__all__ = ["MAX_GOAL_DISTANCE", "LocoCore", "observation_names"]
+__all__ = ["MAX_GOAL_DISTANCE", "LocoCore"]
 
 _SWEEP_SAMPLES = 8  # points along a step's displacement checked against the room
 _SWEEP_FRACTIONS = (np.arange(1, _SWEEP_SAMPLES + 1) / _SWEEP_SAMPLES)[None, :, None]
-#: Goal distance (m) that the observation scales to 1 (farther goals read 1).
-MAX_GOAL_DISTANCE = 20.0
-
-
-def observation_names(ray_count: int) -> list[str]:
-    """Names of the observation's entries, in order (all scaled into [-1, 1])."""
-    return (
-        [
-            "heading_sin",
-            "heading_cos",
-            "pitch",
-            "roll",  # estimated head attitude (virtual yaw)
-            "walking",
-            "steps",
-            "cadence",  # gait state
-            "hand_yaw",
-            "hand_pitch",
-            "hand_roll",
-            "hand_valid",  # estimated hand vs torso
-            "goal_bearing_sin",
-            "goal_bearing_cos",
-            "goal_distance",
-        ]  # from the virtual pose
-        + [f"ray_{k}" for k in range(ray_count)]
-        + ["hand_error_yaw", "hand_error_pitch", "hand_error_roll", "dwell"]  # Interact
-    )
-
-
 
 
 @dataclass
@@ -84,12 +66,7 @@ class _Episode:
     elapsed: NDArray[np.int64]  # control steps since reset
     walked: NDArray[np.float64]  # path length of the virtual body (m)
     distance: NDArray[np.float64]  # to the goal region (m)
-    goal: NDArray[np.float64]  # (B, 2)
-    goal_radius: NDArray[np.float64]
-    line_x: NDArray[np.float64]  # Avoid end line x (NaN elsewhere)
     shortest: NDArray[np.float64]  # shortest path length (m), for SPL
-    hand_target: NDArray[np.float64]  # (B, 3) rad
-    dwell: NDArray[np.float64]  # s the hand has been held on target in the goal region
     start_time: NDArray[np.float64]  # batch time at reset (s)
     detector_start: NDArray[np.float64]  # step detector's clock at reset, less one sample (s)
     virtual_yaw: NDArray[np.float64]
@@ -105,12 +82,7 @@ class _Episode:
             elapsed=np.zeros(b, np.int64),
             walked=z.copy(),
             distance=z.copy(),
-            goal=np.zeros((b, 2)),
-            goal_radius=z.copy(),
-            line_x=np.full(b, np.nan),
             shortest=z.copy(),
-            hand_target=np.zeros((b, 3)),
-            dwell=z.copy(),
             start_time=z.copy(),
             detector_start=z.copy(),
             virtual_yaw=z.copy(),
@@ -122,9 +94,10 @@ class LocoCore:
     """B users, each in its own room, with their sensors, estimators and task.
 
     Args:
-        task: ``"approach"``, ``"avoid"`` or ``"interact"``.
+        task: a registered task's name (:mod:`vrloco_env.tasks`).
         num_users: B.
         config, sensors, estimators, room, reward: the configuration dataclasses.
+        task_config: the task's own configuration (its ``Config``; defaults if None).
     """
 
     def __init__(
@@ -136,30 +109,36 @@ class LocoCore:
         estimators: EstimatorConfig,
         room: RoomConfig,
         reward: RewardConfig,
+        task_config: object = None,
     ) -> None:
         if not isinstance(num_users, int | np.integer) or num_users < 1:
             raise ValueError(f"num_users must be an integer >= 1, got {num_users!r}")
-        self.task: Task = get_task(task)
+        task_class = get_task(task)
         self.batch_size = b = int(num_users)
         self.config, self.sensors, self.estimators = config, sensors, estimators
         self.room, self.reward = room, reward
         self.generators = [np.random.default_rng() for _ in range(b)]
         self.rng = BatchRng([np.random.default_rng(0) for _ in range(b)])
-        self.users = SimulatedUsers(
-            b, self.rng, config.motion, sensors, estimators, pose_source=config.pose_source
+        self.stages = build_stages(
+            estimators, b, sensors.imu_rate_hz, sensors.kinect.frame_rate_hz
         )
+        self.users = SimulatedUsers(
+            b, self.rng, config.motion, sensors, estimators, self.stages,
+            pose_source=config.pose_source,
+        )  # fmt: skip
         self.dt = self.users.dt
+        self.task: Task = task_class(b, self.dt, task_config)
         self.layouts: list[Layout | None] = [None] * b
         self.rooms: RoomBatch | None = None
         self.ep = _Episode.empty(b)
-        half = np.deg2rad(config.ray_fov_deg) / 2.0
-        if config.ray_count == 1:
-            self.ray_offsets = np.zeros(1)
-        elif config.ray_fov_deg >= 360.0:
-            self.ray_offsets = np.linspace(-np.pi, np.pi, config.ray_count, endpoint=False)
-        else:
-            self.ray_offsets = np.linspace(-half, half, config.ray_count)
-        self.obs_size = len(observation_names(config.ray_count))
+        self.ray_offsets = ray_offsets(config.ray_count, config.ray_fov_deg)
+        #: the observation's fields, scales and units (:mod:`vrloco_env.observation`)
+        self.spec: ObservationSpec = env_spec(
+            config.ray_count, config.ray_range_m, self.task.fields()
+        )
+        self.obs_size = self.spec.size
+        self._obs_at = np.array([self.spec.offset(f) for f in COMMON_FIELDS], np.int64)
+        self._task_fields = [f.name for f in self.task.fields()]
         self.last: UserStep | None = None
         self._zeros = np.zeros(b)
         # What observe() reads before a user's first step: nothing estimated yet.
@@ -168,6 +147,15 @@ class LocoCore:
             cadence=self._zeros, hand_est=np.full((b, 3), np.nan),
         )  # fmt: skip
         self.last_rays = np.full((b, config.ray_count), config.ray_range_m)
+        #: the longest delay (s) from a heel strike to its step being reported: the step
+        #: stage's ``report_delay_s``, else its ``params.gamma_t`` (a bout's first step is held
+        #: until the second) plus its ``latency``
+        steps = self.stages.steps
+        delay = getattr(steps, "report_delay_s", None)
+        if delay is None:
+            gamma_t = getattr(getattr(steps, "params", None), "gamma_t", 0.0)
+            delay = float(gamma_t) + float(getattr(steps, "latency", 0.0))
+        self.step_report_delay_s = float(delay)
         self.batch_time = 0.0
 
     # ------------------------------------------------------------------------------ reset
@@ -186,17 +174,13 @@ class LocoCore:
             if seeds is not None and seeds[k] is not None:
                 self.generators[i] = np.random.default_rng(seeds[k])
             g = self.generators[i]
-            layout = self.task.draw_layout(self.room, g)
-            self.ep.hand_target[i] = self.task.draw_hand_target(g)
+            layout = self.task.draw(int(i), self.room, g)
             self.rng.reseed(i, np.random.default_rng(int(g.integers(2**63))))
             self.layouts[i] = layout
             self.users.set_room(int(i), layout)
             if self.rooms is not None:
                 self.rooms.set(i, layout)
             start[k] = layout.start
-            self.ep.goal[i] = layout.goal
-            self.ep.goal_radius[i] = layout.goal_radius
-            self.ep.line_x[i] = layout.goal_line[0][0] if layout.goal_line is not None else np.nan
             self.ep.shortest[i] = layout.shortest_path_length
         if self.rooms is None:
             self.rooms = RoomBatch(self.layouts)  # type: ignore[arg-type]
@@ -212,14 +196,11 @@ class LocoCore:
         ep.collisions[rows] = 0
         ep.elapsed[rows] = 0
         ep.walked[rows] = 0.0
-        ep.dwell[rows] = 0.0
         ep.done[rows] = False
+        self.task.reset(rows)
         ep.start_time[rows] = self.batch_time
-        gait = self.users.gait
-        ep.detector_start[rows] = (gait.samples_seen - 1) / gait.fs
-        ep.distance[rows] = goal_distance(
-            ep.position[rows], ep.goal[rows], ep.goal_radius[rows], ep.line_x[rows]
-        )
+        ep.detector_start[rows] = (self.users.gait.samples_seen - 1) / self.users.imu_rate_hz
+        ep.distance[rows] = self.task.goal_distance(ep.position)[rows]
         self.last_rays[rows] = self._rays(rows)
         return self.observe(reset_rows=rows)
 
@@ -258,15 +239,8 @@ class LocoCore:
 
         # Task progress.
         prev = ep.distance
-        ep.distance = goal_distance(ep.position, ep.goal, ep.goal_radius, ep.line_x)
-        in_goal = ep.distance <= 0.0
-        if self.task.hand_target:
-            err = hand_error(us.hand_est, ep.hand_target)
-            holding = in_goal & (err <= np.deg2rad(cfg.hand_tolerance_deg))
-            ep.dwell = np.where(holding, ep.dwell + self.dt, 0.0)
-            finished = ep.dwell >= cfg.dwell_s - 1e-9
-        else:
-            finished = in_goal
+        ep.distance = self.task.goal_distance(ep.position)
+        finished = self.task.finished(ep.distance <= 0.0, us)
         success = finished & ((ep.collisions == 0) | (not self.task.collision_free_success))
         terminated = finished | (blocked & cfg.terminate_on_collision)
         truncated = (ep.elapsed >= cfg.max_episode_steps) & ~terminated
@@ -291,102 +265,29 @@ class LocoCore:
         return np.minimum(r if rows is None else r[rows], rng)
 
     def observe(self, reset_rows: NDArray[np.intp] | None = None) -> NDArray[np.float32]:
-        """The observations of all users (see :func:`observation_names`).
+        """The observations of all users (fields: :attr:`spec`).
 
         Users in ``reset_rows`` have just been reset: they stand still, their estimated attitude
-        is the start heading and no hand estimate exists yet. Compiled
-        (:func:`~vrloco_env._core_numba.observation_kernel`); :meth:`observe_reference` is the
-        numpy version the tests compare it with.
+        is the start heading and no hand estimate exists yet. The common fields are one compiled
+        call (:func:`~vrloco_env._core_numba.observation_kernel`), the task's own fields its
+        :meth:`~vrloco_env.tasks.base.Task.observe`.
         """
-        b, ep, cfg, last = self.batch_size, self.ep, self.config, self.last
+        b, ep, last = self.batch_size, self.ep, self.last
         fresh = np.zeros(b, bool) if last is not None else np.ones(b, bool)
         if reset_rows is not None:
             fresh[reset_rows] = True
-        if last is None:
-            last = self._standing
+        src = last if last is not None else self._standing
         out = np.empty((b, self.obs_size), np.float32)
         observation_kernel(
-            ep.virtual_yaw, last.ypr_est, last.walking, last.steps, last.cadence, last.hand_est,
-            ep.hand_target, self.task.hand_target, self._goal_points(), ep.position, ep.distance,
-            self.last_rays, cfg.ray_range_m,
-            ep.dwell / cfg.dwell_s if self.task.hand_target else self._zeros,
-            fresh, MAX_GOAL_DISTANCE, out,
+            ep.virtual_yaw, src.ypr_est, src.walking, src.steps, src.cadence, src.hand_est,
+            self.task.goal_point(ep.position), ep.position, ep.distance, self.last_rays, fresh,
+            self._obs_at, self.spec.scales, out,
         )  # fmt: skip
+        if self._task_fields:
+            values = self.task.observe(last, fresh)
+            for name in self._task_fields:
+                self.spec.encode(name, values[name], out)
         return out
-
-    def observe_reference(self, reset_rows: NDArray[np.intp] | None = None) -> NDArray[np.float32]:
-        """The numpy version of :meth:`observe`."""
-        b, ep, cfg = self.batch_size, self.ep, self.config
-        last = self.last
-        pitch = np.zeros(b)
-        roll = np.zeros(b)
-        walking = np.zeros(b)
-        steps = np.zeros(b)
-        cadence = np.zeros(b)
-        hand = np.zeros((b, 3))
-        hand_valid = np.zeros(b)
-        hand_err = np.zeros((b, 3))
-        if last is not None:
-            pitch, roll = last.ypr_est[:, 1], last.ypr_est[:, 2]
-            walking = last.walking.astype(np.float64)
-            steps = last.steps
-            cadence = last.cadence
-            ok = np.all(np.isfinite(last.hand_est), axis=-1)
-            hand = np.where(ok[:, None], last.hand_est, 0.0)
-            hand_valid = ok.astype(np.float64)
-            if self.task.hand_target:
-                hand_err = np.where(ok[:, None], rot.angle_diff(ep.hand_target, hand), 0.0)
-        if reset_rows is not None and reset_rows.size:
-            r = reset_rows
-            pitch, roll, walking, steps, cadence = (
-                x.copy() for x in (pitch, roll, walking, steps, cadence)
-            )
-            hand, hand_valid, hand_err = hand.copy(), hand_valid.copy(), hand_err.copy()
-            for x in (pitch, roll, walking, steps, cadence, hand_valid):
-                x[r] = 0.0
-            hand[r] = 0.0
-            hand_err[r] = ep.hand_target[r] if self.task.hand_target else 0.0
-        to_goal = self._goal_points() - ep.position
-        bearing = np.arctan2(to_goal[:, 1], to_goal[:, 0]) - ep.virtual_yaw
-        dwell = ep.dwell / cfg.dwell_s if self.task.hand_target else np.zeros(b)
-        obs = np.concatenate(
-            [
-                np.stack(
-                    [
-                        np.sin(ep.virtual_yaw),
-                        np.cos(ep.virtual_yaw),
-                        pitch / (np.pi / 2),
-                        roll / np.pi,
-                        walking,
-                        np.minimum(steps / 3.0, 1.0),
-                        np.minimum(cadence / 3.0, 1.0),
-                    ],
-                    -1,
-                ),
-                hand / np.pi,
-                hand_valid[:, None],
-                np.stack(
-                    [
-                        np.sin(bearing),
-                        np.cos(bearing),
-                        np.minimum(ep.distance / MAX_GOAL_DISTANCE, 1.0),
-                    ],
-                    -1,
-                ),
-                self.last_rays / cfg.ray_range_m,
-                hand_err / np.pi,
-                np.minimum(dwell, 1.0)[:, None],
-            ],
-            axis=-1,
-        )
-        return np.clip(obs, -1.0, 1.0).astype(np.float32)
-
-    def _goal_points(self) -> NDArray[np.float64]:
-        """The goal point each user heads for: the goal, or straight ahead across the end line."""
-        ep = self.ep
-        line = np.isfinite(ep.line_x)
-        ahead = np.stack([np.where(line, ep.line_x, 0.0), ep.position[:, 1]], -1)
-        return np.where(line[:, None], ahead, ep.goal)
 
     def infos(self, us: UserStep, blocked, success, finished) -> dict[str, NDArray]:
         """Per-user arrays: ground truth, estimation errors and task state."""
@@ -426,4 +327,5 @@ class LocoCore:
             "walked": ep.walked.copy(),
             "shortest_path": ep.shortest.copy(),
             "elapsed_time": ep.elapsed * self.dt,
+            **self.task.info(),
         }

@@ -5,10 +5,11 @@ Spaces:
 * action: ``Box(-1, 1, (5,), float32)`` = [walk, turn, hand yaw rate, hand pitch rate, hand roll
   rate] (see :mod:`vrloco_env.actions`: ``walk <= 0`` stands still; finite values outside [-1, 1]
   are clipped to the box, NaN/inf raise a ValueError).
-* observation: ``Box(-1, 1, (n,), float32)``, named by :func:`vrloco_env.core.observation_names`:
-  the estimated head attitude (virtual heading as sin/cos, pitch, roll), the gait state (walking,
-  steps this step, cadence), the estimated hand orientation, the goal bearing and distance and the
-  ray ranges seen from the *virtual* pose, and the Interact hand error and dwell.
+* observation: ``Box(-1, 1, (n,), float32)``, declared by ``env.observation_spec``
+  (:mod:`vrloco_env.observation`: entry names, scales, units, and ``decode``): the estimated head
+  attitude (virtual heading as sin/cos, pitch, roll), the gait state (walking, steps this step,
+  cadence), the estimated hand orientation, the goal bearing and distance and the ray ranges seen
+  from the *virtual* pose, then the task's own fields (Interact: the hand error and dwell).
 
 ``info`` holds the ground truth and the errors (see :meth:`vrloco_env.core.LocoCore.infos`):
 true and estimated head attitude, true and detected steps, true and estimated hand orientation,
@@ -31,8 +32,9 @@ from vrloco_env.actions import ACTION_SIZE
 from vrloco_env.config import EnvConfig, EstimatorConfig, RewardConfig, SensorConfig
 from vrloco_env.core import LocoCore
 from vrloco_env.rooms import RoomConfig
+from vrloco_env.techniques import TECHNIQUES, Technique, get_technique
 
-__all__ = ["VRLocoEnv", "make_configs"]
+__all__ = ["VRLocoEnv", "make_configs", "technique_name"]
 
 RENDER_SIZE = 480
 
@@ -47,8 +49,11 @@ def make_configs(
     locomotion: str | None = None,
     max_episode_steps: int | None = None,
     pose_source: str | None = None,
+    technique: str | Technique | None = None,
 ) -> tuple[EnvConfig, SensorConfig, EstimatorConfig, RoomConfig, RewardConfig]:
-    """Fill in defaults and apply the keyword shortcuts, with clear errors for wrong types."""
+    """Fill in defaults and apply the technique and the keyword shortcuts, with clear errors for
+    wrong types and for arguments that contradict each other (a ``sensor_preset`` other than
+    ``sensors.imu`` or the technique's preset, ``estimators`` beside a technique, ...)."""
     for name, value, cls in (
         ("config", config, EnvConfig),
         ("sensors", sensors, SensorConfig),
@@ -58,6 +63,33 @@ def make_configs(
     ):
         if value is not None and not isinstance(value, cls):
             raise TypeError(f"{name} must be a {cls.__name__}, got {type(value).__name__}")
+    default_imu = SensorConfig.__dataclass_fields__["imu"].default
+    if technique is not None:
+        tech = get_technique(technique)
+        if estimators is not None:
+            raise ValueError(
+                f"estimators=... contradicts technique={tech.name!r}, which sets the estimators; "
+                "give one (or register a Technique with your EstimatorConfig)"
+            )
+        for arg, value in (("sensor_preset", sensor_preset), ("sensors.imu", _imu_name(sensors))):
+            if value not in (None, tech.sensor_preset) and not (
+                arg == "sensors.imu" and value == default_imu
+            ):
+                raise ValueError(
+                    f"{arg}={value!r} contradicts technique={tech.name!r} "
+                    f"(sensor preset {tech.sensor_preset!r}); give one"
+                )
+        if locomotion is not None and locomotion != tech.estimators.locomotion:
+            raise ValueError(
+                f"locomotion={locomotion!r} contradicts technique={tech.name!r} (locomotion "
+                f"{tech.estimators.locomotion!r}); give one"
+            )
+        sensor_preset, estimators = tech.sensor_preset, tech.estimators
+    elif sensor_preset is not None and _imu_name(sensors) not in (None, default_imu, sensor_preset):
+        raise ValueError(
+            f"sensor_preset={sensor_preset!r} contradicts sensors=SensorConfig(imu="
+            f"{_imu_name(sensors)!r}); give one"
+        )
     config = config or EnvConfig()
     sensors = sensors or SensorConfig()
     estimators = estimators or EstimatorConfig()
@@ -72,18 +104,36 @@ def make_configs(
     return config, sensors, estimators, room or RoomConfig(), reward or RewardConfig()
 
 
+def _imu_name(sensors: SensorConfig | None) -> str | None:
+    return None if sensors is None else sensors.preset_name
+
+
+def technique_name(sensors: SensorConfig, estimators: EstimatorConfig) -> str:
+    """The registered technique these sensors and estimators make up, or ``"custom"``."""
+    for tech in TECHNIQUES.values():
+        if tech.sensor_preset == sensors.preset_name and tech.estimators == estimators:
+            return tech.name
+    return "custom"
+
+
 class VRLocoEnv(gym.Env):
     """One simulated VR user walking in place (or, with ``pose_source="visual_inertial"``, really
     walking, tracked by a head camera and IMU) through a virtual room.
 
     Args:
-        task: ``"approach"``, ``"avoid"`` or ``"interact"``.
+        task: a registered task (:mod:`vrloco_env.tasks`: ``"approach"``, ``"avoid"``,
+            ``"interact"``, or one registered with ``register_task``).
         render_mode: None, ``"rgb_array"`` (top-down map beside a first-person view) or
             ``"human"`` (a PyBullet GUI window; needs a display).
         config, sensors, estimators, room, reward: configuration dataclasses
             (:mod:`vrloco_env.config`, :class:`vrloco_env.rooms.RoomConfig`).
         sensor_preset, locomotion, max_episode_steps, pose_source: shortcuts for common fields
             (``pose_source="visual_inertial"``: :attr:`vrloco_env.config.EnvConfig.pose_source`).
+        technique: a registered technique's name (:mod:`vrloco_env.techniques`), a
+            ``"module:attr"`` naming a :class:`~vrloco_env.techniques.Technique`, or one: the
+            sensor preset and every estimation stage at once.
+        task_config: the task's own configuration (e.g.
+            :class:`~vrloco_env.tasks.interact.InteractConfig`).
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array", "human"], "render_fps": 10}
@@ -114,6 +164,8 @@ class VRLocoEnv(gym.Env):
         locomotion: str | None = None,
         max_episode_steps: int | None = None,
         pose_source: str | None = None,
+        technique: str | Technique | None = None,
+        task_config: Any = None,
     ) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(
@@ -122,13 +174,28 @@ class VRLocoEnv(gym.Env):
             )
         cfgs = make_configs(
             config, sensors, estimators, room, reward, sensor_preset, locomotion,
-            max_episode_steps, pose_source,
+            max_episode_steps, pose_source, technique,
         )  # fmt: skip
         self.config, self.sensors, self.estimators, self.room, self.reward = cfgs
+        #: the technique's name (``"custom"`` for an unregistered combination)
+        self.technique = (
+            technique_name(self.sensors, self.estimators)
+            if technique is None
+            else get_technique(technique).name
+        )
         self.task_name = task
         self.render_mode = render_mode
-        self.core = LocoCore(task, 1, *cfgs)
-        self.metadata = {**self.metadata, "render_fps": round(1.0 / self.core.dt)}
+        self.core = LocoCore(task, 1, *cfgs, task_config=task_config)
+        #: the observation's fields, scales and units (``observation_spec.decode(obs)``)
+        self.observation_spec = self.core.spec
+        # The modes this env can render here: "human" only where a display exists, so that
+        # gymnasium's checker (which renders every declared mode) passes on a headless machine;
+        # asking for "human" without a display still fails with a clear error at reset.
+        from vrloco_env.sim import display_available
+
+        modes = [m for m in self.metadata["render_modes"] if m != "human" or display_available()]
+        self.metadata = {**self.metadata, "render_modes": modes,
+                         "render_fps": round(1.0 / self.core.dt)}  # fmt: skip
         self.action_space = spaces.Box(-1.0, 1.0, (ACTION_SIZE,), np.float32)
         self.observation_space = spaces.Box(-1.0, 1.0, (self.core.obs_size,), np.float32)
         self._sim = None
@@ -152,6 +219,8 @@ class VRLocoEnv(gym.Env):
             "shortest_path": float(self.core.ep.shortest[0]),
             "is_success": False,
             "collisions": 0,
+            "position": self.core.ep.position[0].copy(),
+            "step_report_delay_s": self.core.step_report_delay_s,
         }
         return obs[0], info
 

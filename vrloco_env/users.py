@@ -13,31 +13,32 @@ With ``pose_source="visual_inertial"`` (seed 004) the user really walks through 
 and a head camera + PnP + visual-inertial filter (:mod:`vrloco_env.head_tracking`) replace the
 attitude EKF and the locomotion model: the virtual head follows the estimated pose one to one.
 
-Every stage is batched over the B users; this module only composes them (no estimator logic lives
-here). The virtual heading is the estimated yaw plus a per-user offset fixed when the episode
+Every stage is batched over the B users and given to :class:`SimulatedUsers` ready-built
+(:func:`vrloco_env.pipeline.build_stages`); this module only composes them (no estimator logic
+lives here). The virtual heading is the estimated yaw plus a per-user offset fixed when the episode
 starts ("recentring", as a headset aligns the virtual world to where the user faces), so estimation
 errors — drift, magnetic disturbances — turn into heading errors in the virtual world.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from estimators import rotations as rot
-from estimators.attitude import AttitudeEKF
 from estimators.batching import stream_rows
-from estimators.gait import StepDetector
 from estimators.hand import HandFrame, HandPipeline
-from estimators.locomotion import make_locomotion
+from estimators.stages import StageError, check_output
+from estimators.steering import torso_yaw
 from vrloco_env._core_numba import quat_to_ypr_rows, step_summary_kernel
 from vrloco_env._hand_frame_numba import hand_relative_to_torso
 from vrloco_env.batch_rng import BatchRng
 from vrloco_env.config import POSE_SOURCES, EstimatorConfig, SensorConfig
 from vrloco_env.head_tracking import VisualInertialTracker
 from vrloco_env.motion import Intent, MotionChunk, MotionParams, UserMotion
+from vrloco_env.pipeline import Stages
 from vrloco_env.rooms import Layout
 from vrloco_env.sensors.head_camera import layout_landmarks
 from vrloco_env.sensors.imu import HeadImu, ImuSamples
@@ -103,15 +104,43 @@ class UserStep:
     hand_true: NDArray[np.float64]
 
 
+def _derived_motion(motion: MotionParams, sensors: SensorConfig, overground: bool) -> MotionParams:
+    """``motion`` with its sensor rates and ``overground`` taken from the sensors and the pose
+    source; a field set to anything but its default that disagrees with them is an error."""
+    derived = {
+        "imu_rate_hz": ("SensorConfig.imu_rate_hz", sensors.imu_rate_hz),
+        "kinect_rate_hz": ("SensorConfig.kinect.frame_rate_hz", sensors.kinect.frame_rate_hz),
+        "overground": ("EnvConfig.pose_source", overground),
+    }
+    defaults = MotionParams()
+    for name, (source, value) in derived.items():
+        mine = getattr(motion, name)
+        if mine != value and mine != getattr(defaults, name):
+            raise ValueError(
+                f"MotionParams.{name}={mine!r} contradicts {source} (which gives {value!r}); "
+                f"leave MotionParams.{name} at its default, it follows from {source}"
+            )
+    fs = sensors.imu_rate_hz
+    ratio = fs / motion.control_rate_hz
+    if abs(ratio - round(ratio)) > 1e-9:
+        raise ValueError(
+            f"SensorConfig.imu_rate_hz={fs} must be a multiple of the control rate "
+            f"{motion.control_rate_hz} Hz"
+        )
+    return replace(motion, **{k: v for k, (_, v) in derived.items()})
+
+
 class SimulatedUsers:
     """B simulated users with their sensors and estimators, advanced one control step at a time.
 
     Args:
         batch_size: B.
         rng: one random stream per user (:class:`~vrloco_env.batch_rng.BatchRng`).
-        motion: the body model's parameters.
+        motion: the body model's parameters. Its sensor rates and ``overground`` follow from
+            ``sensors`` and ``pose_source``; set to anything but their defaults, they must agree.
         sensors: IMU and Kinect configuration.
-        estimators: estimator configuration.
+        estimators: estimator configuration (step length, hand pipeline, visual-inertial filter).
+        stages: the built estimation stages (:func:`vrloco_env.pipeline.build_stages`).
         pose_source: ``"walk_in_place"`` or ``"visual_inertial"``
             (:attr:`vrloco_env.config.EnvConfig.pose_source`).
     """
@@ -123,6 +152,7 @@ class SimulatedUsers:
         motion: MotionParams,
         sensors: SensorConfig,
         estimators: EstimatorConfig,
+        stages: Stages,
         pose_source: str = "walk_in_place",
     ) -> None:
         if pose_source not in POSE_SOURCES:
@@ -133,19 +163,10 @@ class SimulatedUsers:
             raise ValueError(f"rng has {rng.batch_size} streams, expected {batch_size}")
         self.batch_size = batch_size
         self.rng = rng
-        self.motion_params = motion
         self.sensors = sensors
         self.estimator_config = estimators
         fs = sensors.imu_rate_hz
-        if abs(fs / motion.control_rate_hz - round(fs / motion.control_rate_hz)) > 1e-9:
-            raise ValueError(
-                f"SensorConfig.imu_rate_hz={fs} must be a multiple of the control rate "
-                f"{motion.control_rate_hz} Hz"
-            )
-        self.motion_params = MotionParams(
-            **{**motion.__dict__, "imu_rate_hz": fs, "kinect_rate_hz": sensors.kinect.frame_rate_hz,
-               "overground": self.overground}
-        )  # fmt: skip
+        self.motion_params = _derived_motion(motion, sensors, self.overground)
         self.motion = UserMotion(self.motion_params, rng)
         self.imu = HeadImu(
             sensors.imu_spec,
@@ -155,10 +176,15 @@ class SimulatedUsers:
             disturbances=sensors.magnetic_disturbances,
         )
         self.kinect = KinectV2(sensors.kinect, rng)
-        self.attitude = AttitudeEKF(batch_size, fs, estimators.attitude)
-        self.gait = StepDetector(batch_size, fs, estimators.gait)
-        self.hand_pipeline = HandPipeline(batch_size, estimators.hand)
-        self.locomotion = make_locomotion(estimators.locomotion, batch_size, estimators.step_length)
+        self.stages = stages
+        self.attitude = stages.attitude
+        self.gait = stages.steps
+        self.hand_filter = stages.hand
+        self.steering = stages.steering
+        self.locomotion = stages.locomotion
+        self.imu_rate_hz = fs
+        self.hand_pipeline = HandPipeline(batch_size, estimators.hand_pipeline)
+        self._steer_with_torso = getattr(stages.steering, "uses_torso", True)
         self.dt = 1.0 / self.motion_params.control_rate_hz
         b = batch_size
         self.yaw_offset = np.zeros(b)
@@ -232,9 +258,12 @@ class SimulatedUsers:
             self.motion.reset(yaw=physical_yaw, users=None if every else rows)
         self.imu.reset() if every else self.imu.reset(users=rows)
         self.kinect.reset() if every else self.kinect.reset(users=rows)
-        self.attitude.reset() if every else self.attitude.reset(mask)
-        self.gait.reset(mask)
+        which = None if every else rows
+        self.attitude.reset(which)
+        self.gait.reset(which)
         self.hand_pipeline.reset(mask)
+        self.hand_filter.reset(which)
+        self.steering.reset(which)
         xy = np.broadcast_to(np.asarray(start_xy, np.float64), (u, 2))
         self._last_loco[rows] = xy
         self._start_yaw[rows] = start_yaw
@@ -267,10 +296,19 @@ class SimulatedUsers:
             hand_quat = rot.quat_multiply(q_start, hand_quat)
         frames = self.kinect.capture(kin.t, joints, hand_quat, validated=True)
         if self.tracker is None:
-            q = self.attitude.update_batch(imu.gyr, imu.acc, imu.mag)
+            if self.stages.trusted["attitude"]:
+                q = self.attitude.update(imu.gyr, imu.acc, imu.mag)
+            else:
+                q = self._plugin("attitude", self.attitude.update, imu.gyr, imu.acc, imu.mag)
+                q = check_output("attitude", self.stages.labels["attitude"], "quat", q,
+                                 (*imu.gyr.shape[:2], 4))  # fmt: skip
         else:
             q = self._track(chunk, imu)
-        gait = self.gait.update(imu.acc)
+        if self.stages.trusted["steps"]:
+            gait = self.gait.update(imu.acc, imu.gyr, q)
+        else:
+            gait = self._plugin("steps", self.gait.update, imu.acc, imu.gyr, q)
+            gait = self._checked_gait(gait, imu.acc.shape[1])
         ypr_est = np.empty((self.batch_size, 3))
         quat_to_ypr_rows(q[:, -1], ypr_est)  # rot.quat_to_ypr, compiled (one user: 1 us, not 10)
         if self._recentre.any():  # first samples of an episode: align virtual and estimated yaw
@@ -283,8 +321,26 @@ class SimulatedUsers:
         steps, true_steps, virtual_yaw, true_virtual_yaw, true_displacement = self._summary(
             gait.steps, chunk.step, ypr_est[:, 0], ypr_true[:, 0]
         )
+        if frames.body_id.shape[1] == 0:
+            raise RuntimeError("a control step must contain at least one Kinect frame")
+        hand_frames = self.hand_pipeline.update_frames(
+            frames.body_id,
+            frames.body_tracked,
+            frames.joints,
+            frames.joint_state,
+            frames.hand_quat,
+        )
+        hand = self._filtered_hand(hand_frames)
         if self.tracker is None:
-            pos = self.locomotion.update(steps, virtual_yaw, self.dt)
+            walk_yaw = virtual_yaw
+            if self._steer_with_torso:
+                walk_yaw = self._steering_yaw(hand, virtual_yaw)
+            if self.stages.trusted["locomotion"]:
+                pos = self.locomotion.update(steps, walk_yaw, self.dt)
+            else:
+                pos = self._plugin("locomotion", self.locomotion.update, steps, walk_yaw, self.dt)
+                pos = check_output("locomotion", self.stages.labels["locomotion"], "position",
+                                   pos, (self.batch_size, 2))  # fmt: skip
         else:  # the virtual head follows the estimated one; the truth is the real head
             pos = self._tracked_xy
             true_xy = chunk.pos[:, -1, :2]
@@ -292,15 +348,6 @@ class SimulatedUsers:
             self._last_true = true_xy.copy()
         displacement = pos - self._last_loco
         self._last_loco = pos.copy()
-        if frames.body_id.shape[1] == 0:
-            raise RuntimeError("a control step must contain at least one Kinect frame")
-        hand = self.hand_pipeline.update_frames(
-            frames.body_id,
-            frames.body_tracked,
-            frames.joints,
-            frames.joint_state,
-            frames.hand_quat,
-        ).at(-1)
         return UserStep(
             motion=chunk,
             imu=imu,
@@ -320,6 +367,72 @@ class SimulatedUsers:
             hand_est=self._hand_relative_to_torso(hand),
             hand_true=kin.hand_ypr[:, -1],
         )
+
+    def _filtered_hand(self, frames: HandFrame) -> HandFrame:
+        """The last frame of the step, its angles and validity from the hand stage."""
+        last = frames.at(-1)
+        if self.stages.trusted["hand"]:
+            ypr, valid = self.hand_filter.update(frames)
+        else:
+            label = self.stages.labels["hand"]
+            out = self._plugin("hand", self.hand_filter.update, frames)
+            if not (isinstance(out, tuple) and len(out) == 2):
+                raise StageError(f"hand plug-in {label!r} returned {type(out).__name__}; "
+                                 "expected a tuple (ypr, valid)")  # fmt: skip
+            ypr, valid = out
+            m = frames.ypr_raw.shape[1]
+            valid = np.asarray(valid)
+            if valid.shape != (self.batch_size, m):
+                raise StageError(f"hand plug-in {label!r} returned valid of shape {valid.shape}; "
+                                 f"expected {(self.batch_size, m)}")  # fmt: skip
+            ypr = check_output("hand", label, "ypr", ypr, (self.batch_size, m, 3), finite=False)
+            if not np.isfinite(ypr[valid.astype(bool)]).all():
+                raise StageError(f"hand plug-in {label!r} returned non-finite ypr where valid")
+        last.ypr = ypr[:, -1]
+        last.valid = np.asarray(valid[:, -1], dtype=bool)
+        return last
+
+    def _steering_yaw(self, hand: HandFrame, head_virtual_yaw: NDArray) -> NDArray[np.float64]:
+        """The walking yaw in the virtual room from the steering stage: the estimated head yaw
+        and the Kinect's torso yaw, each mapped into the room (the head's through the headset's
+        recentring offset, the torso's through the play area's fixed calibration)."""
+        spec = self.sensors.kinect
+        sh = camera_to_world(spec, hand.joints[:, [Joint.SHOULDER_LEFT, Joint.SHOULDER_RIGHT]])
+        yaw, valid = torso_yaw(sh[:, 0], sh[:, 1])
+        torso_virtual = rot.wrap_angle(yaw + self.true_yaw_offset)
+        args = (head_virtual_yaw, torso_virtual, valid & hand.has_target)
+        if self.stages.trusted["steering"]:
+            return self.steering.update(*args)
+        out = self._plugin("steering", self.steering.update, *args)
+        return check_output("steering", self.stages.labels["steering"], "yaw", out,
+                            (self.batch_size,))  # fmt: skip
+
+    def _plugin(self, stage: str, update, *args):
+        """Call a plug-in stage's update; an exception becomes a StageError naming it."""
+        try:
+            return update(*args)
+        except StageError:
+            raise
+        except Exception as err:
+            raise StageError(
+                f"{stage} plug-in {self.stages.labels[stage]!r} raised in update(): "
+                f"{type(err).__name__}: {err}"
+            ) from err
+
+    def _checked_gait(self, gait, n: int):
+        """A plug-in step detector's output, checked against the GaitChunk layout."""
+        label, b = self.stages.labels["steps"], self.batch_size
+        for name, shape in (("state", (b, n)), ("steps", (b, n)), ("peak_time", (b, n, 2))):
+            value = getattr(gait, name, None)
+            if value is None or np.shape(value) != shape:
+                raise StageError(
+                    f"steps plug-in {label!r} returned {name} of shape "
+                    f"{None if value is None else np.shape(value)}; expected {shape} "
+                    "(an estimators.gait.GaitChunk)"
+                )
+        if not np.isfinite(np.asarray(gait.steps, dtype=np.float64)).all():
+            raise StageError(f"steps plug-in {label!r} returned non-finite step counts")
+        return gait
 
     def _track(self, chunk: MotionChunk, imu: ImuSamples) -> NDArray[np.float64]:
         """Visual-inertial tracking of one step; returns the estimated attitudes (B, N, 4) and

@@ -25,7 +25,8 @@ from numpy.typing import NDArray
 
 from vrloco_env.actions import ACTION_SIZE
 from vrloco_env.core import LocoCore
-from vrloco_env.env import make_configs
+from vrloco_env.env import make_configs, technique_name
+from vrloco_env.techniques import get_technique
 
 __all__ = ["VRLocoVectorEnv"]
 
@@ -44,16 +45,26 @@ class VRLocoVectorEnv(VectorEnv):
         num_envs: int = 1,
         task: str = "approach",
         render_mode: str | None = None,
+        task_config: Any = None,
         **config: Any,
     ) -> None:
         """``config``: the configuration keywords of :func:`~vrloco_env.env.make_configs`
         (``config``, ``sensors``, ``estimators``, ``room``, ``reward``, ``sensor_preset``,
-        ``locomotion``, ``max_episode_steps``, ``pose_source``), as for the single env."""
+        ``locomotion``, ``max_episode_steps``, ``pose_source``, ``technique``), as for the
+        single env."""
         if render_mode is not None:
             raise ValueError("VRLocoVectorEnv does not render; use gym.make(...) for pictures")
         cfgs = make_configs(**config)
+        self.config, self.sensors, self.estimators, self.room, self.reward = cfgs
+        #: the technique's name (``"custom"`` for an unregistered combination)
+        self.technique = (
+            technique_name(self.sensors, self.estimators)
+            if config.get("technique") is None
+            else get_technique(config["technique"]).name
+        )
         self.num_envs = int(num_envs)
-        self.core = LocoCore(task, self.num_envs, *cfgs)
+        self.core = LocoCore(task, self.num_envs, *cfgs, task_config=task_config)
+        self.observation_spec = self.core.spec
         self.task_name = task
         self.single_action_space = spaces.Box(-1.0, 1.0, (ACTION_SIZE,), np.float32)
         self.single_observation_space = spaces.Box(-1.0, 1.0, (self.core.obs_size,), np.float32)
@@ -81,7 +92,12 @@ class VRLocoVectorEnv(VectorEnv):
         obs = self.core.reset()
         self._started = True
         ep = self.core.ep
-        return obs, {"distance_to_goal": ep.distance.copy(), "shortest_path": ep.shortest.copy()}
+        return obs, {
+            "distance_to_goal": ep.distance.copy(),
+            "shortest_path": ep.shortest.copy(),
+            "position": ep.position.copy(),
+            "step_report_delay_s": np.full(n, self.core.step_report_delay_s),
+        }
 
     def step(
         self, actions: Any

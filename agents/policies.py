@@ -1,0 +1,133 @@
+"""Simulated users for the benchmark, by name: scripted, learned, or your own.
+
+A policy spec is one of
+
+* a scripted user of :data:`agents.scripted.POLICIES` (``goal_seeker``, ``avoid_manoeuvre``,
+  ``reactive_avoider``);
+* ``"package.module:attr"`` or ``"path/to/file.py:attr"`` naming a class or factory called as
+  ``factory(env)`` that returns an object with the :class:`~agents.scripted.Policy` protocol
+  (``reset(rng=None, rows=None)``, ``act(obs) -> action``);
+* the path of a stable-baselines3 PPO model (``.zip``), played with its deterministic policy;
+
+each optionally followed by ``+human`` for :class:`agents.variability.HumanVariability` (reaction
+delay, turn overshoot, cadence jitter).
+"""
+
+from __future__ import annotations
+
+import functools
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from agents.scripted import POLICIES, ObservationLayout, make_policy, params_from_env
+from agents.variability import HumanVariability
+
+__all__ = ["HUMAN_SUFFIX", "LearnedPolicy", "build_policy", "check_policy"]
+
+HUMAN_SUFFIX = "+human"
+
+
+def _split(spec: str) -> tuple[str, bool]:
+    if not isinstance(spec, str) or not spec:
+        raise ValueError(f"policy={spec!r}: must be a non-empty string")
+    human = spec.endswith(HUMAN_SUFFIX)
+    return (spec[: -len(HUMAN_SUFFIX)] if human else spec), human
+
+
+def check_policy(spec: str) -> str:
+    """``spec`` if it names a policy (see the module docstring), else a ValueError saying what
+    is allowed. Checks what can be checked without an env: a scripted name, an existing model
+    file, an importable ``module:attr``."""
+    base, _ = _split(spec)
+    if base in POLICIES:
+        return spec
+    if base.endswith(".zip"):
+        if not Path(base).is_file():
+            raise ValueError(f"policy={spec!r}: no such model file {base!r}")
+        return spec
+    if ":" in base:
+        from estimators.stages import load_attr
+
+        try:
+            obj = load_attr(base, "policy")
+        except ValueError as err:
+            raise ValueError(str(err)) from None
+        if not callable(obj):
+            raise ValueError(
+                f"policy={spec!r} names a {type(obj).__name__}, not a class or factory"
+            )
+        return spec
+    raise ValueError(
+        f"policy={spec!r}: must be one of {', '.join(POLICIES)}, a stable-baselines3 model "
+        f"(.zip) or 'package.module:attr', optionally with '{HUMAN_SUFFIX}' "
+        f"(e.g. goal_seeker{HUMAN_SUFFIX})"
+    )
+
+
+class LearnedPolicy:
+    """A saved stable-baselines3 PPO model as a policy (deterministic actions).
+
+    Args:
+        path: the model's ``.zip``.
+        env: the env it will play; a model that ``vrloco train`` saved carries its task, which
+            must be the env's, and its observation size must be the env's.
+    """
+
+    def __init__(self, path: str | Path, env: Any) -> None:
+        self.path = Path(path)
+        self.name = f"ppo:{self.path.name}"
+        self.model = _load_ppo(str(self.path.resolve()))
+        settings = getattr(self.model, "vrloco_env", None)
+        task = getattr(env.unwrapped, "task_name", None)
+        if isinstance(settings, dict) and task is not None and settings.get("task") != task:
+            raise ValueError(
+                f"policy {str(self.path)!r} was trained on task {settings.get('task')!r}, not "
+                f"{task!r}"
+            )
+        want = env.unwrapped.observation_space.shape[-1:]
+        have = self.model.observation_space.shape
+        if have != want:
+            raise ValueError(
+                f"policy {str(self.path)!r} takes observations of shape {have}, the env gives "
+                f"{want}"
+            )
+
+    def reset(self, rng: Any = None, rows: ArrayLike | None = None) -> None:
+        """Stateless (a feed-forward policy): nothing to reset."""
+
+    def act(self, obs: ArrayLike) -> NDArray[np.float32]:
+        action, _ = self.model.predict(np.asarray(obs, dtype=np.float32), deterministic=True)
+        return np.asarray(action, dtype=np.float32)
+
+
+@functools.lru_cache(maxsize=8)
+def _load_ppo(path: str) -> Any:
+    """A PPO model, loaded once per process (the policy is stateless)."""
+    from stable_baselines3 import PPO
+
+    return PPO.load(path)
+
+
+def build_policy(spec: str, env: Any) -> Any:
+    """The policy ``spec`` names, built for ``env`` (see the module docstring)."""
+    check_policy(spec)
+    base, human = _split(spec)
+    policy: Any
+    if base in POLICIES:
+        policy = make_policy(base, ObservationLayout.from_env(env), params_from_env(env))
+    elif base.endswith(".zip"):
+        policy = LearnedPolicy(base, env)
+    else:
+        from estimators.stages import load_attr
+
+        policy = load_attr(base, "policy")(env)
+        for method in ("reset", "act"):
+            if not callable(getattr(policy, method, None)):
+                raise ValueError(
+                    f"policy={spec!r} built a {type(policy).__name__} without a {method}() "
+                    "method (a policy has reset(rng=None, rows=None) and act(obs))"
+                )
+    return HumanVariability(policy) if human else policy

@@ -1,0 +1,71 @@
+"""The estimation stages of B simulated users, built from an :class:`EstimatorConfig`.
+
+:func:`build_stages` resolves each stage of the configuration in its registry
+(:mod:`estimators.stages`) and builds it for the batch; :class:`SimulatedUsers
+<vrloco_env.users.SimulatedUsers>` receives the result and only composes the stages. Stages
+that come from outside the package (a ``"module:attr"`` string, a class or an object with a
+``build`` method that is not one of ours) are marked untrusted: their outputs are checked every
+step (shape, finiteness) and a failure names the stage, the plug-in and what was expected.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from estimators import stages as st
+from estimators.locomotion import Locomotion
+from vrloco_env.config import STAGE_FIELDS, EstimatorConfig
+
+__all__ = ["Stages", "build_stages"]
+
+_OURS = ("estimators.", "vrloco_env.", "agents.")
+
+
+@dataclass
+class Stages:
+    """One built stage per field of :data:`~vrloco_env.config.STAGE_FIELDS`, for B users.
+
+    Attributes:
+        labels: stage -> the short name of its choice.
+        trusted: stage -> whether it is one of the package's own (outputs not re-checked).
+    """
+
+    attitude: st.AttitudeStage
+    steps: st.StepStage
+    hand: st.HandStage
+    steering: st.SteeringStage
+    locomotion: Locomotion
+    labels: dict[str, str]
+    trusted: dict[str, bool]
+
+
+def _is_ours(spec: Any, registry: st.Registry) -> bool:
+    if isinstance(spec, str):
+        return spec in registry
+    return type(spec).__module__.startswith(_OURS)
+
+
+def build_stages(
+    estimators: EstimatorConfig, batch_size: int, imu_rate_hz: float, kinect_rate_hz: float
+) -> Stages:
+    """Build every stage of ``estimators`` for ``batch_size`` users: the attitude and step
+    stages at the IMU rate, the hand stage at the Kinect's frame rate, steering, and locomotion
+    with the configuration's step length."""
+    args = {
+        "attitude": (batch_size, imu_rate_hz),
+        "steps": (batch_size, imu_rate_hz),
+        "hand": (batch_size, kinect_rate_hz),
+        "steering": (batch_size,),
+        "locomotion": (batch_size, estimators.step_length),
+    }
+    built: dict[str, Any] = {}
+    labels: dict[str, str] = {}
+    trusted: dict[str, bool] = {}
+    for name in STAGE_FIELDS:
+        registry: st.Registry = getattr(st, name.upper())
+        spec = getattr(estimators, name)
+        built[name] = registry.build(spec, *args[name])
+        labels[name] = registry.label(spec)
+        trusted[name] = _is_ours(spec, registry)
+    return Stages(**built, labels=labels, trusted=trusted)
