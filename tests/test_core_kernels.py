@@ -70,36 +70,45 @@ def test_ray_fan_equals_ray_cast():
         rooms.ray_fan(pos, np.full(4, np.nan), offsets, 8.0)
 
 
-def test_step_summary_kernel_equals_the_numpy_summary():
-    from vrloco_env.batch_rng import BatchRng
-    from vrloco_env.config import EstimatorConfig, SensorConfig
-    from vrloco_env.motion import MotionParams
-    from vrloco_env.pipeline import build_stages
-    from vrloco_env.users import SimulatedUsers
+def test_step_summary_kernel_equals_its_uncompiled_reference():
+    from vrloco_env._core_numba import step_summary_kernel
 
     b = 6
-    stages = build_stages(EstimatorConfig(), b, 100.0, 30.0)
-    users = SimulatedUsers(b, BatchRng.from_seeds(range(b)), MotionParams(), SensorConfig(),
-                           EstimatorConfig(), stages)  # fmt: skip
     rng = np.random.default_rng(0)
-    users._since_step[:] = [np.inf, 0.3, 0.05, 1.0, 0.2, np.inf]
-    users.cadence[:] = rng.uniform(0, 3, b)
-    users.yaw_offset[:] = rng.uniform(-3, 3, b)
-    users.true_yaw_offset[:] = rng.uniform(-3, 3, b)
-    for _ in range(20):
+    for in_place in (True, False):
         gait_steps = (rng.random((b, 10)) < 0.08).astype(np.int8)
         true_step = rng.random((b, 10)) < 0.08
-        yaw_est, yaw_true = rng.uniform(-4, 4, b), rng.uniform(-4, 4, b)
-        since, cadence = users._since_step.copy(), users.cadence.copy()
-        fast = users._summary(gait_steps, true_step, yaw_est, yaw_true)
-        after = users._since_step.copy(), users.cadence.copy()
-        users._since_step[:], users.cadence[:] = since, cadence
-        ref = users._summary_reference(gait_steps, true_step, yaw_est, yaw_true)
-        for a, r in zip(fast, ref, strict=True):
-            np.testing.assert_allclose(a, r, rtol=0, atol=1e-12)
-        np.testing.assert_array_equal(after[0], users._since_step)
-        np.testing.assert_allclose(after[1], users.cadence, rtol=0, atol=1e-12)
-    assert users.cadence.max() > 0.5  # steps were detected: the cadence path ran
+        args = (gait_steps, true_step, *rng.uniform(-4, 4, (4, b)), 0.7, in_place)
+        outs = [[np.empty(b), np.empty(b), np.empty(b), np.empty(b), np.zeros((b, 2))]
+                for _ in range(2)]  # fmt: skip
+        step_summary_kernel(*args, *outs[0])
+        step_summary_kernel.py_func(*args, *outs[1])
+        for x, y in zip(*outs, strict=True):
+            np.testing.assert_array_equal(x, y)
+        np.testing.assert_array_equal(outs[0][0], gait_steps.sum(axis=1))
+
+
+def test_cadence_is_the_step_rate_and_decays_at_rest():
+    from estimators.cadence import CadenceEstimator, cadence_kernel
+
+    est = CadenceEstimator(2)
+    dt = 0.1
+    for k in range(40):  # user 0 steps every 0.5 s (2 steps/s), user 1 stands
+        c = est.update(np.array([1.0 if k % 5 == 0 else 0.0, 0.0]), dt)
+        if k % 5 == 0 and k > 0:
+            assert c[0] == pytest.approx(2.0)
+    assert c[1] == 0.0
+    for _ in range(15):  # the last step came at k = 35: 4 + 15 updates without one
+        c = est.update(np.zeros(2), dt)
+    assert c[0] == pytest.approx(2.0 * np.exp(-19 * dt / 1.5), rel=1e-9)
+    since, cad = np.array([0.3, np.inf]), np.array([1.0, 0.0])
+    a, b_ = (since.copy(), cad.copy()), (since.copy(), cad.copy())
+    cadence_kernel(np.array([2.0, 1.0]), dt, 1.5, *a)
+    cadence_kernel.py_func(np.array([2.0, 1.0]), dt, 1.5, *b_)
+    np.testing.assert_array_equal(a[1], b_[1])
+    assert a[1][0] == 4.0  # 2 steps in 0.4 s: 5 steps/s, capped at 4
+    assert a[1][1] == 0.0  # a bout's first step: no interval, no rate
+
 
 
 def test_parallel_builds_give_the_serial_builds_bits(monkeypatch):

@@ -265,3 +265,24 @@ def test_overground_walking_follows_the_heading_and_its_acceleration_integrates_
     # In place (the default) the body stays within the sway of its standing place.
     rec0 = walk(1.8, seconds=6.0)
     assert np.abs(rec0.pos[0, :, :2] - rec0.pos[0, 0, :2]).max() < 0.15
+
+
+def test_head_yaw_is_body_yaw_plus_the_head_on_torso_gesture():
+    from vrloco_env.batch_rng import BatchRng
+    from vrloco_env.motion import Intent, MotionParams, UserMotion
+
+    motion = UserMotion(MotionParams(), BatchRng.from_seeds([1, 2]))
+    motion.reset(yaw=np.array([0.3, -1.0]))
+    amp = np.deg2rad(30.0)
+    chunks = [
+        motion.advance(Intent(cadence=np.array([1.6, 0.0]), turn_rate=np.array([0.0, 0.5]),
+                              gesture_amplitude=np.array([[amp, 0, 0], [0, 0, 0]]),
+                              gesture_frequency=np.array([[0.4, 0.4, 0.4]] * 2)))
+        for _ in range(60)
+    ]  # fmt: skip
+    body = np.concatenate([c.body_yaw for c in chunks], axis=1)
+    rel = np.concatenate([c.head_on_torso_yaw for c in chunks], axis=1)
+    np.testing.assert_allclose(body[0], 0.3, atol=1e-12)  # user 0 never turns its body ...
+    assert np.abs(rel[0, -200:]).max() > np.deg2rad(25)  # ... but looks +-30 deg around
+    np.testing.assert_allclose(rel[1], 0.0, atol=1e-9)  # user 1 turns, head with the body
+    assert body[1, -1] - body[1, 0] > 2.0

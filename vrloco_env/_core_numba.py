@@ -103,14 +103,12 @@ def quat_to_ypr_rows(q, out):
 @numba.njit(cache=True)
 def step_summary_kernel(
     gait_steps, true_step, yaw_est, yaw_offset, yaw_true, true_yaw_offset, step_length, in_place,
-    dt, cadence_tau, since_step, cadence, o_steps, o_true_steps, o_virtual_yaw,
-    o_true_virtual_yaw, o_true_displacement,
+    o_steps, o_true_steps, o_virtual_yaw, o_true_virtual_yaw, o_true_displacement,
 ):  # fmt: skip
     """Per-user summary of a control step (``SimulatedUsers._summary_reference`` in numpy):
-    detected and true step counts, virtual and true virtual yaw, the cadence estimate
-    (``since_step`` and ``cadence`` updated in place) and, walking in place, the displacement
-    perfect sensing would give (``step_length`` per true step along the true virtual yaw)."""
-    decay = math.exp(-dt / cadence_tau)
+    detected and true step counts, virtual and true virtual yaw and, walking in place, the
+    displacement perfect sensing would give (``step_length`` per true step along the true
+    virtual yaw)."""
     for b in range(gait_steps.shape[0]):
         s = 0.0
         for k in range(gait_steps.shape[1]):
@@ -123,13 +121,6 @@ def step_summary_kernel(
         o_virtual_yaw[b] = _wrap(yaw_est[b] + yaw_offset[b])
         tvy = _wrap(yaw_true[b] + true_yaw_offset[b])
         o_true_virtual_yaw[b] = tvy
-        since = since_step[b] + dt
-        if s > 0.0 and math.isfinite(since):
-            c = s / max(since, dt)
-        else:
-            c = cadence[b] * decay
-        cadence[b] = min(c, 4.0)
-        since_step[b] = 0.0 if s > 0.0 else since
         if in_place:
             o_true_displacement[b, 0] = step_length * ts * math.cos(tvy)
             o_true_displacement[b, 1] = step_length * ts * math.sin(tvy)

@@ -299,10 +299,10 @@ class LocoCore:
         # shape stacks in any vector env, and inf == inf where gymnasium's checker compares
         # infos): the motion clock and the detector's clock count from their own origins; each
         # user's offsets were stored at its reset.
-        true_times = np.nan_to_num(us.motion.step_time - ep.start_time[:, None], nan=np.inf)
-        detected_times = np.nan_to_num(
-            us.step_peak_time - ep.detector_start[:, None], nan=np.inf
-        )
+        true_times = us.motion.step_time - ep.start_time[:, None]
+        detected_times = us.step_peak_time - ep.detector_start[:, None]
+        for times in (true_times, detected_times):
+            np.copyto(times, np.inf, where=np.isnan(times))
         return {
             "true_ypr": np.rad2deg(us.ypr_true),
             "est_ypr": np.rad2deg(us.ypr_est),

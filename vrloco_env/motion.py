@@ -219,6 +219,8 @@ class MotionChunk:
         pos: IMU position in the world (m), (B, N, 3).
         acc: IMU linear acceleration in the world (m/s^2, gravity excluded), (B, N, 3).
         ypr: head [yaw, pitch, roll] (rad; yaw unwrapped), (B, N, 3).
+        body_yaw: the body's (torso's) yaw (rad, unwrapped), (B, N): the head's yaw is this plus
+            the head-on-torso yaw of the gestures (looking around), :attr:`head_on_torso_yaw`.
         step: a heel strike happened in this sample's interval, (B, N) bool.
         step_time: time (s) of that heel strike, NaN where none, (B, N).
         walking: the user is mid-step at this sample, (B, N) bool.
@@ -231,10 +233,16 @@ class MotionChunk:
     pos: NDArray[np.float64]
     acc: NDArray[np.float64]
     ypr: NDArray[np.float64]
+    body_yaw: NDArray[np.float64]
     step: NDArray[np.bool_]
     step_time: NDArray[np.float64]
     walking: NDArray[np.bool_]
     kinect: KinectChunk
+
+    @property
+    def head_on_torso_yaw(self) -> NDArray[np.float64]:
+        """The head's yaw relative to the torso (rad), (B, N)."""
+        return self.ypr[..., 0] - self.body_yaw
 
 
 @dataclass
@@ -614,6 +622,7 @@ class UserMotion:
             pos=p_0,
             acc=acc,
             ypr=head_ypr,
+            body_yaw=ev_all["yaw"][:, samples],
             step=step,
             step_time=step_time,
             walking=ev_all["walking"][:, samples],

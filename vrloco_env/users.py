@@ -29,6 +29,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from estimators import rotations as rot
 from estimators.batching import stream_rows
+from estimators.cadence import CadenceEstimator
 from estimators.hand import HandFrame, HandPipeline
 from estimators.stages import StageError, check_output
 from estimators.steering import torso_yaw
@@ -55,7 +56,6 @@ from vrloco_env.skeleton import Joint
 
 __all__ = ["SimulatedUsers", "UserStep"]
 
-_CADENCE_TAU_S = 1.5  # s, time constant of the cadence estimate's decay after the last step
 
 
 @dataclass
@@ -189,8 +189,7 @@ class SimulatedUsers:
         b = batch_size
         self.yaw_offset = np.zeros(b)
         self.true_yaw_offset = np.zeros(b)
-        self.cadence = np.zeros(b)
-        self._since_step = np.full(b, np.inf)
+        self.cadence = CadenceEstimator(b)
         self._last_loco = np.zeros((b, 2))
         self._camera_q = camera_quat(sensors.kinect)
         self._sdk_to_hand = rot.quat_conjugate(HAND_FROM_SDK_WRIST)
@@ -273,8 +272,7 @@ class SimulatedUsers:
         self._recentre[rows] = not self.overground
         self.yaw_offset[rows] = 0.0
         self.true_yaw_offset[rows] = rot.wrap_angle(start_yaw - physical_yaw)
-        self.cadence[rows] = 0.0
-        self._since_step[rows] = np.inf
+        self.cadence.reset(rows)
 
     # ------------------------------------------------------------------------------ step
     def step(self, intent: Intent, validated: bool = False) -> UserStep:
@@ -360,7 +358,7 @@ class SimulatedUsers:
             step_peak_time=gait.peak_time.reshape(self.batch_size, -1),
             true_steps=true_steps,
             walking=gait.state[:, -1] > 0,
-            cadence=self.cadence.copy(),
+            cadence=self.cadence.update(steps, self.dt),
             displacement=displacement,
             true_displacement=true_displacement,
             hand=hand,
@@ -454,41 +452,17 @@ class SimulatedUsers:
         return tracked.quat
 
     def _summary(self, gait_steps, true_step, yaw_est, yaw_true) -> tuple[NDArray, ...]:
-        """Step counts, virtual yaws, cadence update and (in place) the true displacement, in
-        one compiled call (:func:`~vrloco_env._core_numba.step_summary_kernel`);
-        :meth:`_summary_reference` is the numpy version the tests compare it with."""
+        """Step counts, virtual yaws and the true displacement, in one compiled call
+        (:func:`~vrloco_env._core_numba.step_summary_kernel`)."""
         b = self.batch_size
         steps, true_steps = np.empty(b), np.empty(b)
         virtual_yaw, true_virtual_yaw = np.empty(b), np.empty(b)
         true_displacement = np.zeros((b, 2))
         step_summary_kernel(
             gait_steps, true_step, yaw_est, self.yaw_offset, yaw_true, self.true_yaw_offset,
-            self.estimator_config.step_length, not self.overground, self.dt, _CADENCE_TAU_S,
-            self._since_step, self.cadence, steps, true_steps, virtual_yaw, true_virtual_yaw,
-            true_displacement,
+            self.estimator_config.step_length, not self.overground, steps, true_steps, virtual_yaw,
+            true_virtual_yaw, true_displacement,
         )  # fmt: skip
-        return steps, true_steps, virtual_yaw, true_virtual_yaw, true_displacement
-
-    def _summary_reference(self, gait_steps, true_step, yaw_est, yaw_true) -> tuple[NDArray, ...]:
-        """The numpy version of :meth:`_summary` (same state updates)."""
-        steps = gait_steps.sum(axis=1).astype(np.float64)
-        true_steps = true_step.sum(axis=1).astype(np.float64)
-        virtual_yaw = rot.wrap_angle(yaw_est + self.yaw_offset)
-        true_virtual_yaw = rot.wrap_angle(yaw_true + self.true_yaw_offset)
-        # Cadence: steps/s from the interval between detected steps, decaying after.
-        self._since_step += self.dt
-        stepped = steps > 0
-        inst = np.where(stepped, steps / np.maximum(self._since_step, self.dt), 0.0)
-        fresh = stepped & np.isfinite(self._since_step)
-        cadence = np.where(fresh, inst, self.cadence * np.exp(-self.dt / _CADENCE_TAU_S))
-        self.cadence[:] = np.minimum(cadence, 4.0)
-        self._since_step[:] = np.where(stepped, 0.0, self._since_step)
-        true_displacement = np.zeros((self.batch_size, 2))
-        if not self.overground:
-            d = self.estimator_config.step_length * true_steps
-            true_displacement = d[:, None] * np.stack(
-                [np.cos(true_virtual_yaw), np.sin(true_virtual_yaw)], -1
-            )
         return steps, true_steps, virtual_yaw, true_virtual_yaw, true_displacement
 
     def _hand_relative_to_torso(self, hand: HandFrame) -> NDArray[np.float64]:
