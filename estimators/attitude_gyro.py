@@ -25,19 +25,16 @@ from dataclasses import dataclass
 
 import numba
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from estimators._attitude_helpers_numba import (
-    check_batch_size,
-    check_fs,
-    check_samples,
     quat_from_acc,
     quat_from_acc_mag,
     usable3,
 )
 from estimators._parallel import BatchKernel
+from estimators._quaternion_stage import QuaternionStage
 from estimators._rotations_numba import quat_from_rotvec, quat_mul
-from estimators.batching import stream_rows
 
 __all__ = ["GyroOnly", "GyroOnlyParams", "gyro_kernel"]
 
@@ -96,7 +93,7 @@ def _gyro_run(q, ready, gyr, acc, mag, dt, init_from_acc, out):
 gyro_kernel = BatchKernel(_gyro_run)
 
 
-class GyroOnly:
+class GyroOnly(QuaternionStage):
     """Gyro integration as an attitude stage (:class:`estimators.stages.AttitudeStage`).
 
     Args:
@@ -106,40 +103,12 @@ class GyroOnly:
     """
 
     name = "gyro_only"
+    Params = GyroOnlyParams
 
-    def __init__(self, batch_size: int, fs: float, params: GyroOnlyParams | None = None) -> None:
-        self.batch_size = check_batch_size(batch_size, "GyroOnly")
-        self.fs = check_fs(fs, "GyroOnly")
-        if params is None:
-            params = GyroOnlyParams()
-        if not isinstance(params, GyroOnlyParams):
-            raise ValueError(f"GyroOnly: params must be a GyroOnlyParams, got {params!r}")
-        self.params = params
-        self.dt = 1.0 / self.fs
-        self.q = np.zeros((self.batch_size, 4))
-        self.ready = np.zeros(self.batch_size, dtype=bool)
-        self.reset()
-
-    def reset(self, rows: ArrayLike | None = None) -> None:
-        """Forget the streams ``rows`` (indices, a (B,) mask, or None for all): identity attitude,
-        re-initialised by their next usable accelerometer sample. Other streams are untouched."""
-        r = stream_rows(rows, self.batch_size, "rows", unique=False)
-        self.q[r] = (1.0, 0.0, 0.0, 0.0)
-        self.ready[r] = False
-
-    def update(
-        self, gyr: ArrayLike, acc: ArrayLike, mag: ArrayLike | None = None
-    ) -> NDArray[np.float64]:
-        """Consume (B, N, 3) gyro (rad/s), accelerometer (m/s^2) and magnetometer (any unit, or
-        None) samples; return the (B, N, 4) attitude ``[w, x, y, z]`` (sensor -> ENU) after each."""
-        g, a, m = check_samples(gyr, acc, mag, self.batch_size, "GyroOnly")
-        if m is None:
-            m = np.full(g.shape, np.nan)
-        out = np.empty((g.shape[0], g.shape[1], 4))
+    def _run(self, gyr: NDArray, acc: NDArray, mag: NDArray, out: NDArray) -> None:
         gyro_kernel(self.batch_size)(
-            self.q, self.ready, g, a, m, self.dt, bool(self.params.init_from_acc), out
+            self.q, self.ready, gyr, acc, mag, self.dt, bool(self.params.init_from_acc), out
         )
-        return out
 
     @property
     def quat(self) -> NDArray[np.float64]:

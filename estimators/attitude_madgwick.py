@@ -55,19 +55,16 @@ from dataclasses import dataclass
 
 import numba
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from estimators._attitude_helpers_numba import (
-    check_batch_size,
-    check_fs,
-    check_samples,
     quat_from_acc,
     quat_from_acc_mag,
     usable3,
 )
 from estimators._parallel import BatchKernel
+from estimators._quaternion_stage import QuaternionStage
 from estimators._rotations_numba import quat_mul, quat_rotate
-from estimators.batching import stream_rows
 from estimators.rotations import quat_multiply
 
 __all__ = ["Madgwick", "MadgwickParams", "madgwick_kernel"]
@@ -209,7 +206,7 @@ def _madgwick_run(q, ready, gyr, acc, mag, dt, beta_imu, beta_marg, out):
 madgwick_kernel = BatchKernel(_madgwick_run)
 
 
-class Madgwick:
+class Madgwick(QuaternionStage):
     """Madgwick's filter as an attitude stage (:class:`estimators.stages.AttitudeStage`).
 
     Args:
@@ -219,41 +216,14 @@ class Madgwick:
     """
 
     name = "madgwick"
+    Params = MadgwickParams
+    identity = tuple(_ENU_IDENTITY_NWU)
 
-    def __init__(self, batch_size: int, fs: float, params: MadgwickParams | None = None) -> None:
-        self.batch_size = check_batch_size(batch_size, "Madgwick")
-        self.fs = check_fs(fs, "Madgwick")
-        if params is None:
-            params = MadgwickParams()
-        if not isinstance(params, MadgwickParams):
-            raise ValueError(f"Madgwick: params must be a MadgwickParams, got {params!r}")
-        self.params = params
-        self.dt = 1.0 / self.fs
-        self.q = np.zeros((self.batch_size, 4))
-        self.ready = np.zeros(self.batch_size, dtype=bool)
-        self.reset()
-
-    def reset(self, rows: ArrayLike | None = None) -> None:
-        """Forget the streams ``rows`` (indices, a (B,) mask, or None for all): identity attitude,
-        re-initialised by their next usable accelerometer sample. Other streams are untouched."""
-        r = stream_rows(rows, self.batch_size, "rows", unique=False)
-        self.q[r] = _ENU_IDENTITY_NWU
-        self.ready[r] = False
-
-    def update(
-        self, gyr: ArrayLike, acc: ArrayLike, mag: ArrayLike | None = None
-    ) -> NDArray[np.float64]:
-        """Consume (B, N, 3) gyro (rad/s), accelerometer (m/s^2) and magnetometer (any unit, or
-        None) samples; return the (B, N, 4) attitude ``[w, x, y, z]`` (sensor -> ENU) after each."""
-        g, a, m = check_samples(gyr, acc, mag, self.batch_size, "Madgwick")
-        if m is None:
-            m = np.full(g.shape, np.nan)
-        out = np.empty((g.shape[0], g.shape[1], 4))
+    def _run(self, gyr: NDArray, acc: NDArray, mag: NDArray, out: NDArray) -> None:
         p = self.params
         madgwick_kernel(self.batch_size)(
-            self.q, self.ready, g, a, m, self.dt, float(p.beta_imu), float(p.beta_marg), out
+            self.q, self.ready, gyr, acc, mag, self.dt, float(p.beta_imu), float(p.beta_marg), out
         )
-        return out
 
     @property
     def quat(self) -> NDArray[np.float64]:

@@ -39,19 +39,16 @@ from dataclasses import dataclass
 
 import numba
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from estimators._attitude_helpers_numba import (
-    check_batch_size,
-    check_fs,
-    check_samples,
     quat_from_acc,
     quat_from_acc_mag,
     usable3,
 )
 from estimators._parallel import BatchKernel
+from estimators._quaternion_stage import QuaternionStage
 from estimators._rotations_numba import quat_mul, quat_rotate
-from estimators.batching import stream_rows
 
 __all__ = ["Mahony", "MahonyParams", "mahony_kernel"]
 
@@ -144,7 +141,7 @@ def _mahony_run(q, bias, ready, gyr, acc, mag, dt, kp, ki, out):
 mahony_kernel = BatchKernel(_mahony_run)
 
 
-class Mahony:
+class Mahony(QuaternionStage):
     """Mahony's filter as an attitude stage (:class:`estimators.stages.AttitudeStage`).
 
     Args:
@@ -154,44 +151,19 @@ class Mahony:
     """
 
     name = "mahony"
+    Params = MahonyParams
 
-    def __init__(self, batch_size: int, fs: float, params: MahonyParams | None = None) -> None:
-        self.batch_size = check_batch_size(batch_size, "Mahony")
-        self.fs = check_fs(fs, "Mahony")
-        if params is None:
-            params = MahonyParams()
-        if not isinstance(params, MahonyParams):
-            raise ValueError(f"Mahony: params must be a MahonyParams, got {params!r}")
-        self.params = params
-        self.dt = 1.0 / self.fs
-        self.q = np.zeros((self.batch_size, 4))
-        self.b = np.zeros((self.batch_size, 3))
-        self.ready = np.zeros(self.batch_size, dtype=bool)
-        self.reset()
+    def _allocate(self) -> None:
+        self.b = np.zeros((self.batch_size, 3))  # gyro-bias estimates (rad/s)
 
-    def reset(self, rows: ArrayLike | None = None) -> None:
-        """Forget the streams ``rows`` (indices, a (B,) mask, or None for all): identity attitude,
-        zero bias, re-initialised by their next usable accelerometer sample. Other streams are
-        untouched."""
-        r = stream_rows(rows, self.batch_size, "rows", unique=False)
-        self.q[r] = (1.0, 0.0, 0.0, 0.0)
-        self.b[r] = 0.0
-        self.ready[r] = False
+    def _reset_rows(self, rows: NDArray[np.intp]) -> None:
+        self.b[rows] = 0.0
 
-    def update(
-        self, gyr: ArrayLike, acc: ArrayLike, mag: ArrayLike | None = None
-    ) -> NDArray[np.float64]:
-        """Consume (B, N, 3) gyro (rad/s), accelerometer (m/s^2) and magnetometer (any unit, or
-        None) samples; return the (B, N, 4) attitude ``[w, x, y, z]`` (sensor -> ENU) after each."""
-        g, a, m = check_samples(gyr, acc, mag, self.batch_size, "Mahony")
-        if m is None:
-            m = np.full(g.shape, np.nan)
-        out = np.empty((g.shape[0], g.shape[1], 4))
+    def _run(self, gyr: NDArray, acc: NDArray, mag: NDArray, out: NDArray) -> None:
         p = self.params
         mahony_kernel(self.batch_size)(
-            self.q, self.b, self.ready, g, a, m, self.dt, float(p.kp), float(p.ki), out
+            self.q, self.b, self.ready, gyr, acc, mag, self.dt, float(p.kp), float(p.ki), out
         )
-        return out
 
     @property
     def quat(self) -> NDArray[np.float64]:

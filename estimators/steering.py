@@ -50,17 +50,21 @@ def torso_yaw(
     return np.arctan2(np.sin(yaw), np.cos(yaw)), valid
 
 
-class HeadSteering:
-    """Walk where the head points (seed 000): the steering yaw is the estimated head yaw."""
-
-    name = "head"
-    uses_torso = False
+class _StatelessSteering:
+    """A steering rule with no state: built for B users, nothing to reset."""
 
     def __init__(self, batch_size: int) -> None:
         self.batch_size = int(batch_size)
 
     def reset(self, rows: ArrayLike | None = None) -> None:
         """Stateless: nothing to forget."""
+
+
+class HeadSteering(_StatelessSteering):
+    """Walk where the head points (seed 000): the steering yaw is the estimated head yaw."""
+
+    name = "head"
+    uses_torso = False
 
     def update(
         self,
@@ -71,17 +75,11 @@ class HeadSteering:
         return head_yaw
 
 
-class TorsoSteering:
+class TorsoSteering(_StatelessSteering):
     """Walk where the torso points: the Kinect's torso yaw, the head yaw while it has none."""
 
     name = "torso"
     uses_torso = True
-
-    def __init__(self, batch_size: int) -> None:
-        self.batch_size = int(batch_size)
-
-    def reset(self, rows: ArrayLike | None = None) -> None:
-        """Stateless: nothing to forget."""
 
     def update(
         self,
