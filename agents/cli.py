@@ -15,6 +15,88 @@ from pathlib import Path
 from vrloco_env import __version__
 
 
+class _Help(argparse.ArgumentDefaultsHelpFormatter):
+    """Help that shows each option's default (unless it has none or says it already)."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        if action.default is None or "default" in (action.help or ""):
+            return action.help
+        return super()._get_help_string(action)
+
+
+def _int_at_least(lo: int):
+    """An argparse type: an integer >= ``lo``."""
+
+    def convert(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+        if value < lo:
+            raise argparse.ArgumentTypeError(f"{value} must be >= {lo}")
+        return value
+
+    return convert
+
+
+def _preset(text: str) -> str:
+    """An argparse type: an IMU preset name."""
+    from vrloco_env.sensors.imu import get_imu_spec
+
+    try:
+        get_imu_spec(text)
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
+    return text
+
+
+def _task(text: str) -> str:
+    """An argparse type: a registered task."""
+    from vrloco_env.tasks import get_task
+
+    try:
+        get_task(text)
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
+    return text
+
+
+def _model(text: str) -> str:
+    """An argparse type: an existing stable-baselines3 model file (.zip)."""
+    path = Path(text)
+    if path.suffix != ".zip":
+        raise argparse.ArgumentTypeError(f"{text!r} is not a saved model (a .zip file)")
+    if not path.is_file():
+        raise argparse.ArgumentTypeError(f"no such model file {text!r}")
+    return text
+
+
+def _out_dir(text: str) -> str:
+    """An argparse type: a folder that can be written (created if need be), checked before the
+    work starts."""
+    import tempfile
+
+    path = Path(text)
+    if path.exists() and not path.is_dir():
+        raise argparse.ArgumentTypeError(f"{text!r} is a file, not a folder")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=path):
+            pass
+    except OSError as err:
+        raise argparse.ArgumentTypeError(f"cannot write to {text!r}: {err.strerror}") from None
+    return text
+
+
+def _out_file(text: str) -> str:
+    """An argparse type: a file whose folder can be written (checked before the work)."""
+    path = Path(text)
+    if path.is_dir():
+        raise argparse.ArgumentTypeError(f"{text!r} is a folder, not a file")
+    _out_dir(str(path.parent if str(path.parent) else "."))
+    return text
+
+
 def _cmd_demo(args: argparse.Namespace) -> int:
     from agents.experiments.imu_trace import run_imu_trace
 
@@ -174,55 +256,65 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"vrloco {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub_add = sub.add_parser
+
+    def add_parser(*a, **kw):  # every subcommand's --help shows the defaults
+        return sub_add(*a, formatter_class=_Help, **kw)
+
+    sub.add_parser = add_parser  # type: ignore[method-assign]
 
     demo = sub.add_parser(
         "demo",
         help="synthetic head-IMU trace of standing, stepping in place and turning (a figure)",
     )
-    demo.add_argument("--out", default="out", help="folder for the figure (default: out)")
-    demo.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
+    demo.add_argument("--out", default="out", type=_out_dir, help="folder for the figure")
+    demo.add_argument("--seed", type=int, default=0, help="random seed")
     demo.add_argument(
-        "--sensors", default="ig500n", help="IMU preset: ig500n or consumer_mems (default: ig500n)"
+        "--sensors", default="ig500n", type=_preset, help="IMU preset: ig500n or consumer_mems"
     )
     demo.set_defaults(func=_cmd_demo)
 
     exp = sub.add_parser("experiment", help="reproduce a source paper's experiment")
     exp_sub = exp.add_subparsers(dest="experiment", metavar="EXPERIMENT", required=True)
+    exp_add = exp_sub.add_parser
+    exp_sub.add_parser = lambda *a, **kw: exp_add(  # type: ignore[method-assign]
+        *a, formatter_class=_Help, **kw
+    )
     hm = exp_sub.add_parser(
         "head-motions",
         help="seed 000: attitude on five head motions, step detection, Fig. 2-5 analogues",
     )
-    hm.add_argument("--out", default="out", help="folder for the figures (default: out)")
-    hm.add_argument("--json", help="write the results to this JSON file")
-    hm.add_argument("--users", type=int, default=8, help="simulated users per case (default: 8)")
-    hm.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
+    hm.add_argument("--out", default="out", type=_out_dir, help="folder for the figures")
+    hm.add_argument("--json", type=_out_file, help="write the results to this JSON file")
+    hm.add_argument("--users", type=_int_at_least(1), default=8, help="simulated users per case")
+    hm.add_argument("--seed", type=int, default=0, help="random seed")
     hm.set_defaults(func=_cmd_head_motions)
     hv = exp_sub.add_parser(
         "hand-variance",
         help="seed 003 Tables 1-4 on the synthetic Kinect, with lag and RMSE while moving",
     )
-    hv.add_argument("--json", help="write the results to this JSON file")
-    hv.add_argument("--repeats", type=int, default=10, help="repeats per angle (default: 10)")
-    hv.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
+    hv.add_argument("--json", type=_out_file, help="write the results to this JSON file")
+    hv.add_argument("--repeats", type=_int_at_least(1), default=10, help="repeats per angle")
+    hv.add_argument("--seed", type=int, default=0, help="random seed")
     hv.set_defaults(func=_cmd_hand_variance)
     vio = exp_sub.add_parser(
         "vio",
         help="seed 004: IMU-only drift, visual-only and fused helmet pose, adaptive vs fixed R",
     )
-    vio.add_argument("--json", help="write the results to this JSON file")
+    vio.add_argument("--json", type=_out_file, help="write the results to this JSON file")
     vio.add_argument(
-        "--duration", type=float, default=120.0, help="length of every run, s (default: 120)"
+        "--duration", type=float, default=120.0, help="length of every run, s"
     )
-    vio.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
-    vio.add_argument("--out", help="folder for the error-vs-time figure (default: no figure)")
+    vio.add_argument("--seed", type=int, default=0, help="random seed")
+    vio.add_argument("--out", type=_out_dir, help="folder for the error-vs-time figure")
     vio.add_argument(
-        "--workers", type=int, default=2, help="threads for the PnP solves (default: 2)"
+        "--workers", type=int, default=2, help="threads for the PnP solves"
     )
     vio.set_defaults(func=_cmd_vio)
     loco = exp_sub.add_parser(
         "locomotion", help="eq (17) vs the smooth-locomotion filter: distance and jerk (seed 001)"
     )
-    loco.add_argument("--json", help="write the results to this JSON file")
+    loco.add_argument("--json", type=_out_file, help="write the results to this JSON file")
     loco.set_defaults(func=_cmd_locomotion)
     bench = sub.add_parser(
         "benchmark",
@@ -247,11 +339,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="comma-separated IMU presets: shorthand for seed 000's chain on each "
         "(ig500n = seed000, consumer_mems = seed000_consumer), added to --techniques",
     )
-    bench.add_argument("--episodes", type=int, default=40, help="episodes per cell")
-    bench.add_argument("--seed", type=int, default=0, help="episode i uses seed + i")
-    bench.add_argument("--workers", type=int, default=2, help="worker processes")
-    bench.add_argument("--json", help="also write the rows to this JSON file")
-    bench.add_argument("--out", default="out/benchmark", help="folder for CSV, JSON, figures")
+    bench.add_argument("--episodes", type=_int_at_least(1), default=40, help="episodes per cell")
+    bench.add_argument("--seed", type=_int_at_least(0), default=0, help="episode i uses seed + i")
+    bench.add_argument("--workers", type=_int_at_least(1), default=2, help="worker processes")
+    bench.add_argument("--json", type=_out_file, help="also write the rows to this JSON file")
+    bench.add_argument("--out", default="out/benchmark", type=_out_dir,
+                       help="folder for CSV, JSON, figures")  # fmt: skip
     bench.set_defaults(func=_cmd_benchmark)
 
     techniques = sub.add_parser(
@@ -260,23 +353,29 @@ def build_parser() -> argparse.ArgumentParser:
     techniques.set_defaults(func=_cmd_techniques)
 
     train = sub.add_parser("train", help="train a PPO user (stable-baselines3) on a task")
-    train.add_argument("--task", default="approach", help=f"one of {', '.join(TASKS)}")
-    train.add_argument("--steps", type=int, default=2_000_000, help="environment steps")
-    train.add_argument("--num-envs", type=int, default=32, help="users stepped together")
-    train.add_argument("--sensors", default="ig500n", help="IMU preset (default: ig500n)")
-    train.add_argument("--eval-every", type=int, default=100_000, help="steps between evals")
-    train.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
-    train.add_argument("--out", default="runs/ppo", help="folder for logs and models")
+    train.add_argument("--task", default="approach", type=_task,
+                       help=f"one of {', '.join(TASKS)}")  # fmt: skip
+    train.add_argument("--steps", type=_int_at_least(1), default=2_000_000,
+                       help="environment steps, rounded up to whole PPO rollouts")  # fmt: skip
+    train.add_argument("--num-envs", type=_int_at_least(1), default=32,
+                       help="users stepped together")  # fmt: skip
+    train.add_argument("--sensors", default="ig500n", type=_preset, help="IMU preset")
+    train.add_argument("--eval-every", type=_int_at_least(1), default=100_000,
+                       help="steps between evals")  # fmt: skip
+    train.add_argument("--seed", type=_int_at_least(0), default=0, help="random seed")
+    train.add_argument("--out", default="runs/ppo", type=_out_dir,
+                       help="folder for logs and models")  # fmt: skip
     train.set_defaults(func=_cmd_train)
 
     evaluate = sub.add_parser("evaluate", help="the benchmark's metrics for a trained PPO model")
-    evaluate.add_argument("model", help="path of a saved PPO model (.zip)")
+    evaluate.add_argument("model", type=_model, help="path of a saved PPO model (.zip)")
     evaluate.add_argument(
         "--task", help=f"one of {', '.join(TASKS)} (default: the task the model was trained on)"
     )
-    evaluate.add_argument("--episodes", type=int, default=100, help="seeded episodes")
-    evaluate.add_argument("--sensors", help="IMU preset (default: the model's own)")
-    evaluate.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
+    evaluate.add_argument("--episodes", type=_int_at_least(1), default=100,
+                          help="seeded episodes")  # fmt: skip
+    evaluate.add_argument("--sensors", type=_preset, help="IMU preset (default: the model's own)")
+    evaluate.add_argument("--seed", type=_int_at_least(0), default=0, help="random seed")
     evaluate.set_defaults(func=_cmd_evaluate)
     est = sub.add_parser(
         "estimate",
@@ -288,7 +387,7 @@ def build_parser() -> argparse.ArgumentParser:
         ),
     )
     est.add_argument("path", help="a CSV file, a BROAD trial or an Oxford folder")
-    est.add_argument("--out", default="out", help="output folder (default: out)")
+    est.add_argument("--out", default="out", type=_out_dir, help="output folder")
     est.add_argument("--step-length", type=float, default=0.7, help="eq (17) SL in m")
     est.set_defaults(func=_cmd_estimate)
     return parser
@@ -300,7 +399,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     if getattr(args, "func", None) is None:
         parser.print_help()
         return 0
-    return int(args.func(args))
+    try:
+        return int(args.func(args))
+    except ValueError as err:  # a bad value found by the work itself: one line, no traceback
+        print(f"vrloco {args.command}: {err}", file=sys.stderr)
+        return 2
 
 
 if __name__ == "__main__":

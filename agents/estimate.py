@@ -104,6 +104,12 @@ def read_recording(path: Path) -> Recording:
     if path.is_dir():
         from estimators.io_oxford import load_oxford
 
+        if not (path / "accelerometer.csv").is_file():
+            raise ValueError(
+                f"{path}: a folder, but not an Oxford step-counter recording (no "
+                "accelerometer.csv); give a CSV file, a BROAD trial (.hdf5/.mat) or an Oxford "
+                "recording's folder"
+            )
         rec = load_oxford(path)
         return Recording(path.name, rec.t, rec.acc, None, None, GaitParams.neck_pouch())
     if not path.is_file():

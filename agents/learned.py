@@ -92,6 +92,38 @@ class SB3VecEnv(VecEnv):
         raise NotImplementedError("render a single env (gym.make) for pictures")
 
 
+def defaults_ppo() -> dict[str, Any]:
+    """PPO's settings for vrloco train (stable-baselines3 keywords)."""
+    return {
+        "n_steps": 256,
+        "batch_size": 2048,
+        "n_epochs": 5,
+        "gamma": 0.99,
+        "gae_lambda": 0.95,
+        "learning_rate": 3e-4,
+        "ent_coef": 0.0,
+    }
+
+
+def rollout_steps(steps: int, n_steps: int, num_envs: int) -> int:
+    """``steps`` rounded up to whole PPO rollouts of ``n_steps x num_envs`` (what PPO trains
+    anyway); fewer steps than one rollout is an error, not a silent rollout."""
+    if isinstance(steps, bool) or not isinstance(steps, int) or steps < 1:
+        raise ValueError(f"steps={steps!r}: must be an integer >= 1")
+    if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
+        raise ValueError(f"num_envs={num_envs!r}: must be an integer >= 1")
+    rollout = n_steps * num_envs
+    if steps < rollout:
+        raise ValueError(
+            f"steps={steps:,}: PPO trains in rollouts of n_steps x num_envs = {n_steps} x "
+            f"{num_envs} = {rollout:,} steps; ask for at least that many (or fewer --num-envs)"
+        )
+    whole = -(-steps // rollout) * rollout
+    if whole != steps:
+        print(f"training {whole:,} steps: {steps:,} rounded up to whole rollouts of {rollout:,}")
+    return whole
+
+
 def train_ppo(
     task: str = "approach",
     steps: int = 2_000_000,
@@ -114,6 +146,8 @@ def train_ppo(
     from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback
     from stable_baselines3.common.vec_env import VecMonitor
 
+    settings = {**defaults_ppo(), **ppo_kwargs}
+    steps = rollout_steps(steps, settings["n_steps"], num_envs)
     out_dir.mkdir(parents=True, exist_ok=True)
     env_kwargs = env_settings(task, sensor_preset=sensor_preset)
     venv = VecMonitor(
@@ -146,22 +180,13 @@ def train_ppo(
             (out_dir / "learning_curve.json").write_text(json.dumps(curve, indent=2))
             return True
 
-    defaults = {
-        "n_steps": 256,
-        "batch_size": 2048,
-        "n_epochs": 5,
-        "gamma": 0.99,
-        "gae_lambda": 0.95,
-        "learning_rate": 3e-4,
-        "ent_coef": 0.0,
-    }
     model = PPO(
         "MlpPolicy",
         venv,
         seed=seed,
         verbose=0,
         tensorboard_log=str(out_dir / "tb"),
-        **{**defaults, **ppo_kwargs},
+        **settings,
     )
     # Saved with every checkpoint, the best and the final model: what the policy was trained on.
     model.vrloco_env = env_kwargs

@@ -1,0 +1,55 @@
+"""The command line refuses bad options with one clear line, before any work starts."""
+
+import pytest
+
+from agents.cli import main
+from agents.learned import rollout_steps
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["train", "--task", "nope"], "task='nope': must be one of approach"),
+        (["train", "--num-envs", "0"], "--num-envs: 0 must be >= 1"),
+        (["train", "--steps", "0"], "--steps: 0 must be >= 1"),
+        (["train", "--sensors", "nope"], "--sensors"),
+        (["evaluate", "nonexist.zip"], "no such model file 'nonexist.zip'"),
+        (["evaluate", "x.csv"], "'x.csv' is not a saved model"),
+        (["evaluate", "--episodes", "0", "m.zip"], "--episodes: 0 must be >= 1"),
+        (["demo", "--sensors", "nope"], "--sensors"),
+        (["experiment", "head-motions", "--users", "0"], "--users: 0 must be >= 1"),
+        (["benchmark", "--out", "/proc/nope"], "cannot write to '/proc/nope'"),
+        (["benchmark", "--episodes", "two"], "'two' is not an integer"),
+    ],
+)
+def test_bad_options_get_one_clear_line(argv, message, capsys):
+    with pytest.raises(SystemExit) as exit_:
+        main(argv)
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+
+
+def test_outputs_are_checked_before_the_work(tmp_path, capsys):
+    taken = tmp_path / "file.txt"
+    taken.write_text("x")
+    with pytest.raises(SystemExit):
+        main(["estimate", str(taken), "--out", str(taken)])
+    assert "is a file, not a folder" in capsys.readouterr().err
+    assert main(["estimate", str(tmp_path), "--out", str(tmp_path / "o")]) == 2
+    assert "not an Oxford step-counter recording" in capsys.readouterr().err
+
+
+def test_help_shows_the_defaults(capsys):
+    with pytest.raises(SystemExit):
+        main(["train", "--help"])
+    out = capsys.readouterr().out
+    assert "(default: 2000000)" in out and "(default: approach)" in out
+
+
+def test_training_steps_are_whole_rollouts(capsys):
+    assert rollout_steps(8192, 256, 32) == 8192
+    assert rollout_steps(10_000, 256, 32) == 16_384
+    assert "rounded up" in capsys.readouterr().out
+    with pytest.raises(ValueError, match="rollouts of n_steps x num_envs = 256 x 32 = 8,192"):
+        rollout_steps(1000, 256, 32)
