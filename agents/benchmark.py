@@ -264,9 +264,17 @@ def run_benchmark(
     jobs = [(c, i, seed + i, want_figures and i == 0) for c in cells for i in range(episodes)]
     results: dict[tuple[Cell, int], EpisodeStats] = {}
     windows: dict[Cell, tuple[int, int]] = {}
-    for cell, index, stats, reset_info in _run_jobs(jobs, workers, progress):
-        results[(cell, index)] = stats
-        windows[cell] = step_window(reset_info, stats.elapsed_s / max(stats.steps, 1))
+    interrupted = False
+    try:
+        for cell, index, stats, reset_info in _run_jobs(jobs, workers, progress):
+            results[(cell, index)] = stats
+            windows[cell] = step_window(reset_info, stats.elapsed_s / max(stats.steps, 1))
+    except KeyboardInterrupt:  # Ctrl-C: keep the cells that finished
+        interrupted = True
+    all_cells = cells
+    cells = [c for c in cells if all((c, i) in results for i in range(episodes))]
+    if interrupted:
+        print(f"interrupted: {len(cells)} of {len(all_cells)} cells finished; writing those")
 
     rows = []
     for c in cells:
@@ -280,7 +288,7 @@ def run_benchmark(
             **summarize(eps, late, early),
         }
         rows.append({k: _round(row[k]) for k in ROW_KEYS})
-    if print_table:
+    if print_table and rows:
         _print_table(rows, seed)
     meta = {"seed": seed, "episodes": episodes, "workers": workers, "tasks": tasks,
             "policies": policies, "techniques": names}  # fmt: skip
@@ -296,6 +304,8 @@ def run_benchmark(
         written.append(_write_json(Path(json_path), rows, meta))
     for p in written:
         print(f"wrote {p}")
+    if interrupted:
+        raise KeyboardInterrupt
     return rows
 
 
@@ -312,11 +322,25 @@ def _run_jobs(jobs: list, workers: int, progress: bool):
                 yield _job(job)
                 bar.advance(task)
             return
-        with ProcessPoolExecutor(max_workers=min(workers, len(jobs))) as pool:
+        pool = ProcessPoolExecutor(max_workers=min(workers, len(jobs)), initializer=_ignore_sigint)
+        try:
             futures = [pool.submit(_job, job) for job in jobs]
             for f in as_completed(futures):
                 yield f.result()
                 bar.advance(task)
+        except BaseException:  # Ctrl-C (or an error): stop the workers now, not after the grid
+            for process in list(getattr(pool, "_processes", {}).values()):
+                process.terminate()
+            pool.shutdown(wait=False, cancel_futures=True)
+            raise
+        pool.shutdown()
+
+
+def _ignore_sigint() -> None:
+    """Worker processes leave Ctrl-C to the main process, which stops them."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def _round(v: Any) -> Any:

@@ -404,6 +404,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ValueError as err:  # a bad value found by the work itself: one line, no traceback
         print(f"vrloco {args.command}: {err}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:  # the command has kept what it finished and said so
+        print(f"vrloco {args.command}: stopped (Ctrl-C)", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":

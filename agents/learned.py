@@ -193,8 +193,18 @@ def train_ppo(
     checkpoints = CheckpointCallback(
         max(eval_every // num_envs, 1), str(out_dir / "checkpoints"), name_prefix=f"ppo_{task}"
     )
-    model.learn(steps, callback=[checkpoints, Evaluate()], progress_bar=progress)
     final = out_dir / f"ppo_{task}_final"
+    try:
+        model.learn(steps, callback=[checkpoints, Evaluate()], progress_bar=progress)
+    except KeyboardInterrupt:  # Ctrl-C: keep the model and the curve so far
+        model.save(final)
+        (out_dir / "learning_curve.json").write_text(json.dumps(curve, indent=2))
+        if curve:
+            plot_learning_curve(curve, out_dir / "learning_curve.png", title=f"PPO on {task}")
+        venv.close()
+        print(f"interrupted after {model.num_timesteps:,} steps: saved {final}.zip and the "
+              f"learning curve so far in {out_dir}")  # fmt: skip
+        raise
     model.save(final)
     result = run_policy_episodes(model, eval_env, seed=10_000 + seed)
     result.update(steps=model.num_timesteps, wall_s=time.perf_counter() - t_start)
