@@ -358,27 +358,44 @@ def _fmt(v: Any, digits: int = 3) -> str:
     return str(v)
 
 
-def _print_table(rows: list[dict[str, Any]], seed: int) -> None:
-    from rich.console import Console
-    from rich.table import Table
-
-    table = Table(title=f"vrloco benchmark (seeds {seed}..{seed + rows[0]['episodes'] - 1})")
-    cols = (("task", "task"), ("policy", "policy"), ("technique", "technique"),
+#: The table's columns (row key, heading); :data:`_COMPACT` those kept on a narrow terminal.
+_COLUMNS = (("task", "task"), ("policy", "policy"), ("technique", "technique"),
             ("sensors", "sensors"), ("episodes", "n"),
             ("success_rate", "success"), ("collision_rate", "collision"),
             ("collision_free_success_rate", "coll.-free succ."), ("spl", "SPL"),
             ("time_to_goal_s", "time to goal (s)"), ("path_length_ratio", "path ratio"),
             ("step_f1", "step F1"), ("attitude_rmse_deg", "attitude RMSE (°)"),
             ("hand_error_deg", "hand err (°)"))  # fmt: skip
-    for _, head in cols:
-        left = head in ("task", "policy", "technique", "sensors")
-        table.add_column(head, justify="left" if left else "right")
+_COMPACT = ("task", "policy", "technique", "success_rate", "collision_rate", "spl", "step_f1",
+            "attitude_rmse_deg")  # fmt: skip
+_COMPACT_HEADS = {"success_rate": "succ.", "collision_rate": "coll.", "step_f1": "F1",
+                  "attitude_rmse_deg": "att. (°)"}  # fmt: skip
+#: Narrower terminals than this get the compact table (the files keep every column).
+_FULL_WIDTH = 180
+
+
+def _print_table(rows: list[dict[str, Any]], seed: int, width: int | None = None) -> None:
+    """The rows as a table fitted to the terminal (``width``: its columns, None to ask it)."""
+    from rich.console import Console
+    from rich.table import Table
+
+    console = Console(width=width) if width is not None else Console()
+    if width is None and not console.is_terminal:  # a pipe or a file: the full table
+        console = Console(width=200)
+    compact = console.width < _FULL_WIDTH
+    cols = [(k, _COMPACT_HEADS.get(k, h)) for k, h in _COLUMNS if k in _COMPACT] if compact else (
+        list(_COLUMNS))  # fmt: skip
+    title = f"vrloco benchmark (seeds {seed}..{seed + rows[0]['episodes'] - 1})"
+    table = Table(title=title, pad_edge=False, padding=(0, 1) if not compact else (0, 0))
+    for key, head in cols:
+        left = key in ("task", "policy", "technique", "sensors")
+        table.add_column(head, justify="left" if left else "right", overflow="fold")
     for r in rows:
         table.add_row(*(_fmt(r[k], 1 if k in ("time_to_goal_s",) else 3) for k, _ in cols))
-    console = Console()
-    if not console.is_terminal:  # a pipe or a file: do not squeeze the table into 80 columns
-        console = Console(width=200)
     console.print(table)
+    if compact:
+        console.print(f"(a compact view for {console.width} columns: every column is in the "
+                      "CSV and JSON files)")  # fmt: skip
 
 
 def _clean(v: Any) -> Any:
