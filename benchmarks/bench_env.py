@@ -5,6 +5,7 @@ Run from the repository root::
     python benchmarks/bench_env.py                 # speed table (about a minute)
     python benchmarks/bench_env.py --soak 100000   # 10^5 random steps: NaN and memory check
     python benchmarks/bench_env.py --techniques    # cost per user-step of every technique
+    python benchmarks/bench_env.py --contention    # vector N=64, idle cores and one busy core
 
 Prints steps/s of the single env with random actions and the full pipeline (motion, IMU, Kinect,
 attitude EKF, step detector, hand pipeline, locomotion, world), of PandaReach-v3 measured in the
@@ -109,6 +110,35 @@ def technique_costs(seconds: float) -> None:
         print(f"{name:20}{single:16.0f}{single / base[0]:11.2f}{vec:20.1f}{vec / base[1]:11.2f}")
 
 
+def _burn() -> None:
+    while True:
+        pass
+
+
+def contention(seconds: float) -> None:
+    """Vector N = 64 user-steps/s with idle cores and while another process holds one core; the
+    parallel builds (threads, with the OpenMP policy of estimators/_parallel.py) beside the
+    serial builds."""
+    import multiprocessing as mp
+
+    import estimators._parallel as parallel
+
+    print(f"OMP_WAIT_POLICY={parallel.os.environ.get('OMP_WAIT_POLICY')}")
+    print(f"{'vector N=64':28}{'idle cores':>12}{'one core busy':>15}")
+    builds = (("parallel builds", parallel.PARALLEL_MIN_BATCH), ("serial builds", 10**9))
+    for label, min_batch in builds:
+        parallel.PARALLEL_MIN_BATCH = min_batch
+        idle = vector_steps_per_second(64, seconds)
+        load = mp.get_context("fork").Process(target=_burn, daemon=True)
+        load.start()
+        try:
+            busy = vector_steps_per_second(64, seconds)
+        finally:
+            load.terminate()
+            load.join()
+        print(f"{label:28}{idle:12.0f}{busy:15.0f}")
+
+
 def soak(steps: int) -> None:
     """Random steps with autoreset: observations stay finite, memory stays flat."""
     envs = gym.make_vec("VRLoco-Approach-v0", num_envs=16)
@@ -135,9 +165,12 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=8.0, help="time per measurement")
     parser.add_argument("--soak", type=int, default=0, help="user-steps of the soak test")
     parser.add_argument("--techniques", action="store_true", help="cost of every technique")
+    parser.add_argument("--contention", action="store_true", help="speed beside a busy core")
     args = parser.parse_args()
     if args.soak:
         soak(args.soak)
+    elif args.contention:
+        contention(args.seconds)
     elif args.techniques:
         technique_costs(args.seconds)
     else:

@@ -8,14 +8,27 @@ kernel, so both builds give the same bits.
 
 The parallel build is compiled from a copy of the function under another name, because numba's
 on-disk cache keys a function by its name and bytecode, not by its compile flags.
+
+Busy cores. Numba's default threading layer here is OpenMP (GNU libgomp), whose idle threads
+spin on a core after each parallel region. While another job holds a core, those spinning
+threads take the time the real work needs: a vector env of 64 users ran 10,100 user-steps/s with
+idle cores and 5,400 while one other process kept one of the two cores busy, below the serial
+build's 8,400. With passive waiting (``OMP_WAIT_POLICY=PASSIVE``, idle threads sleep) the same
+run gave 11,000 and 9,900: no loss with idle cores, graceful under load. This module sets that
+policy unless the environment already chooses one; it must be set before the OpenMP runtime
+starts, which happens at the first parallel call, after this import.
+(``python benchmarks/bench_env.py --contention`` measures both cases.)
 """
 
 from __future__ import annotations
 
+import os
 import types
 from collections.abc import Callable
 
-import numba
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+
+import numba  # after the OpenMP policy: see the module docstring
 
 __all__ = ["PARALLEL_MIN_BATCH", "BatchKernel"]
 

@@ -143,3 +143,19 @@ def test_importing_and_building_the_simulation_prints_nothing():
     assert "pybullet build time" not in out.stdout + out.stderr
     assert "argv[0]" not in out.stdout + out.stderr
     assert out.stdout == ""
+
+
+def test_openmp_threads_sleep_when_idle_unless_the_user_chose():
+    """Spinning OpenMP threads halve the vector env's speed while another job holds a core
+    (python benchmarks/bench_env.py --contention); the package asks for passive waiting."""
+    import os
+    import subprocess
+    import sys
+
+    code = "import os, vrloco_env.core; print(os.environ['OMP_WAIT_POLICY'])"
+    env = {k: v for k, v in os.environ.items() if k != "OMP_WAIT_POLICY"}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    assert out.stdout.strip() == "PASSIVE", out.stderr
+    env["OMP_WAIT_POLICY"] = "ACTIVE"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    assert out.stdout.strip() == "ACTIVE"
