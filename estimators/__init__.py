@@ -3,13 +3,22 @@ leading dimension of B streams, with no knowledge of the environment.
 
 Modules:
 
+* :mod:`estimators.stages` — the stage protocols (attitude, steps, hand, steering, locomotion)
+  and their registries of named implementations; ``"module:attr"`` plug-ins.
 * :mod:`estimators.rotations` — the one quaternion / rotation-matrix / ZYX-Euler module.
-* :mod:`estimators.attitude` — seed 000's error-state attitude EKF (streaming and offline).
-* :mod:`estimators.gait` — seed 000's still/walk and step detector; step F1.
+* :mod:`estimators.attitude` — seed 000's error-state attitude EKF (streaming and offline);
+  :mod:`estimators.attitude_vqf`, :mod:`estimators.attitude_madgwick`,
+  :mod:`estimators.attitude_mahony`, :mod:`estimators.attitude_gyro` — the other attitude stages.
+* :mod:`estimators.gait` — seed 000's still/walk and step detector; step F1;
+  :mod:`estimators.steps_threshold`, :mod:`estimators.steps_nod_robust` — other step stages;
+  :mod:`estimators.cadence` — cadence from step events.
+* :mod:`estimators.steering` — head and torso steering, the torso's yaw from the shoulders.
 * :mod:`estimators.dead_reckoning` — seed 000's eq (17) virtual path.
-* :mod:`estimators.locomotion` — seed 001's smooth-locomotion filter (continuous virtual motion).
+* :mod:`estimators.locomotion` — seed 001's smooth-locomotion filter (continuous virtual motion);
+  :mod:`estimators.locomotion_cadence` — speed proportional to the cadence.
 * :mod:`estimators.joint_smoothing`, :mod:`estimators.hand` — seed 003's hand-orientation
-  pipeline (target selection, Holt smoothing, eq 1/2, Kalman + median) and a One Euro filter.
+  pipeline (target selection, Holt smoothing, eq 1/2, Kalman + median) and a One Euro filter;
+  :mod:`estimators.hand_one_euro` — the One Euro hand stage.
 * :mod:`estimators.strapdown`, :mod:`estimators.visual_pose`, :mod:`estimators.visual_inertial`
   — seed 004's strapdown inertial solution, OpenCV PnP pose from landmarks, and the (adaptive)
   error-state Kalman filter fusing them.
