@@ -1,10 +1,13 @@
-"""The paper experiments reproduce and beat the source papers' numbers (issue targets)."""
+"""The paper experiments reproduce and beat the source papers' numbers."""
 
 import json
+
+import pytest
 
 from agents.cli import main
 
 
+@pytest.mark.slow
 def test_hand_variance_beats_seed_003_table_4(tmp_path, capsys):
     path = tmp_path / "hv.json"
     assert main(["experiment", "hand-variance", "--json", str(path)]) == 0

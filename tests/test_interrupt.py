@@ -29,6 +29,7 @@ def _interrupt_after(argv: list[str], seconds: float) -> tuple[int, str, float]:
     return proc.returncode, out, time.monotonic() - sent
 
 
+@pytest.mark.slow
 def test_ctrl_c_stops_the_benchmark_in_seconds(tmp_path):
     code, out, took = _interrupt_after(
         ["benchmark", "--episodes", "40", "--workers", "2", "--out", str(tmp_path / "b")], 12.0
@@ -37,6 +38,7 @@ def test_ctrl_c_stops_the_benchmark_in_seconds(tmp_path):
     assert "interrupted:" in out and "Traceback" not in out
 
 
+@pytest.mark.slow
 def test_ctrl_c_stops_training_and_keeps_the_model(tmp_path):
     code, out, took = _interrupt_after(
         ["train", "--steps", "100000000", "--num-envs", "4", "--eval-every", "4096",

@@ -232,6 +232,7 @@ def test_target_joint_noise_has_the_specified_white_fraction_and_time_constant()
     assert abs(np.mean(x[:, 1:] * x[:, :-1]) - rho) > 0.03
 
 
+@pytest.mark.slow
 def test_joint_noise_is_stationary_from_the_first_frame():
     """Noise states start in their stationary distribution: the std over users at frames 0 and 1
     is the spec's std (no warm-up transient)."""
