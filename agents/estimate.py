@@ -20,6 +20,7 @@ eq (17). A malformed CSV gets one error naming the line and the column.
 from __future__ import annotations
 
 import csv
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -86,12 +87,20 @@ def read_csv_recording(path: Path) -> Recording:
     data = np.asarray(rows)
     get = {c: data[:, k] for k, c in enumerate(cols)}
     t = get["t"]
-    bad = np.flatnonzero(np.diff(t) <= 0)
+    bad = np.flatnonzero(np.diff(t) < 0)
     if bad.size:
         raise ValueError(
-            f"{path}, line {bad[0] + 3}, column {where[0] + 1} (t): time {t[bad[0] + 1]} does not "
-            f"increase after {t[bad[0]]}; timestamps must be strictly increasing (s)"
+            f"{path}, line {bad[0] + 3}, column {where[0] + 1} (t): time {t[bad[0] + 1]} runs "
+            f"backwards after {t[bad[0]]}; timestamps must not decrease (s)"
         )
+    repeated = int(np.sum(np.diff(t) == 0))
+    if repeated:  # rows sharing a timestamp are one sample: their mean
+        t_u, inverse = np.unique(t, return_inverse=True)
+        counts = np.bincount(inverse)
+        get = {c: np.bincount(inverse, weights=v) / counts for c, v in get.items()}
+        get["t"] = t = t_u
+        print(f"{path}: {repeated} rows repeat the previous row's timestamp; merged them into "
+              "the mean of the rows sharing it", file=sys.stderr)  # fmt: skip
     acc = np.stack([get["ax"], get["ay"], get["az"]], -1)
     gyr = np.stack([get["gx"], get["gy"], get["gz"]], -1)
     mag = np.stack([get[c] for c in OPTIONAL], -1) if all(c in get for c in OPTIONAL) else None

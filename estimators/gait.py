@@ -458,7 +458,8 @@ def detect_steps(
     """Detect the steps of one recording, offline.
 
     Args:
-        t: sample timestamps (s), (n,), strictly increasing (irregular spacing allowed).
+        t: sample timestamps (s), (n,), non-decreasing (irregular spacing allowed; samples
+            sharing a timestamp are merged into their mean).
         acc: specific force (m/s^2), (n, 3); rows with a NaN are ignored (the norm is
             interpolated across them).
         fs: rate (Hz) of the uniform grid the norm is averaged onto before detection, in
@@ -471,7 +472,7 @@ def detect_steps(
         stream is padded with the baseline after its end.
 
     Raises:
-        ValueError: bad shapes, non-finite or non-increasing timestamps, fewer than 2 valid
+        ValueError: bad shapes, non-finite or decreasing timestamps, fewer than 2 valid
             samples, or an invalid parameter.
     """
     params = GaitParams() if params is None else params
@@ -492,18 +493,27 @@ def detect_steps(
     if not np.all(np.isfinite(tt)):
         raise ValueError("t contains NaN or infinite timestamps")
     d = np.diff(tt)
-    if np.any(d <= 0.0):
-        k = int(np.argmax(d <= 0.0))
+    if np.any(d < 0.0):
+        k = int(np.argmax(d < 0.0))
         raise ValueError(
-            f"t must be strictly increasing: t[{k + 1}]={tt[k + 1]!r} <= t[{k}]={tt[k]!r}"
+            f"t runs backwards: t[{k + 1}]={float(tt[k + 1])!r} < t[{k}]={float(tt[k])!r} "
+            "(timestamps must not decrease; equal ones are merged)"
         )
     norm = np.linalg.norm(a, axis=1)
     ok = np.isfinite(norm)
     if ok.sum() < 2:
         raise ValueError("acc must hold at least 2 finite samples")
+    # Samples sharing a timestamp (a logger writing two rows for one tick) are one sample: the
+    # mean of their finite norms.
+    t_ok, norm_ok = tt[ok], norm[ok]
+    if np.any(np.diff(t_ok) == 0.0):
+        t_ok, inverse = np.unique(t_ok, return_inverse=True)
+        norm_ok = np.bincount(inverse, weights=norm_ok) / np.bincount(inverse)
+    if t_ok.size < 2 or t_ok[-1] <= t_ok[0]:
+        raise ValueError("acc must hold finite samples at at least 2 distinct times")
     det = StepDetector(1, fs, params)
     grid = tt[0] + np.arange(int(np.floor((tt[-1] - tt[0]) * det.fs)) + 1) / det.fs
-    x = _bin_average(tt[ok], norm[ok], grid, det.fs)
+    x = _bin_average(t_ok, norm_ok, grid, det.fs)
     out = det.update_norm(x[None, :])
     pad = det.h + det.m
     tail = det.update_norm(np.full((1, pad), det.baseline[0]))

@@ -40,7 +40,8 @@ class OxfordRecording:
     """One Oxford recording.
 
     Attributes:
-        t: accelerometer sample times (s from the first sample), (n,), strictly increasing.
+        t: accelerometer sample times (s from the first sample), (n,), strictly increasing (rows
+            of the file sharing a timestamp are merged into their mean).
         acc: specific force (m/s^2, phone frame), (n, 3).
         switch_t: foot-switch poll times (s, same clock), (m,).
         right, left: foot-switch states (0/1) at those polls, (m,) int8.
@@ -75,9 +76,13 @@ def _read_csv(path: Path, n_cols: int) -> tuple[NDArray[np.int64], NDArray[np.fl
                          f"({err})") from None  # fmt: skip
     if t_ns.size < 2:
         raise ValueError(f"{path.name}: needs at least 2 rows, got {t_ns.size}")
-    if np.any(np.diff(t_ns) <= 0):
-        k = int(np.argmax(np.diff(t_ns) <= 0))
-        raise ValueError(f"{path.name}: timestamps must increase (row {k + 2} does not)")
+    if np.any(np.diff(t_ns) < 0):
+        k = int(np.argmax(np.diff(t_ns) < 0))
+        raise ValueError(f"{path.name}: time runs backwards at row {k + 2}")
+    if np.any(np.diff(t_ns) == 0):  # rows sharing a timestamp are one sample: their mean
+        t_ns, inverse = np.unique(t_ns, return_inverse=True)
+        counts = np.bincount(inverse)
+        vals = np.stack([np.bincount(inverse, weights=v) / counts for v in vals.T], -1)
     return t_ns, vals
 
 

@@ -44,11 +44,30 @@ def test_malformed_csv_names_the_line_and_column(tmp_path, capsys):
     bad.write_text("t,gx,gy,gz,ax,ay\n0,0,0,0,0,0\n")
     with pytest.raises(ValueError, match=r"line 1: missing column.*az"):
         read_csv_recording(bad)
-    bad.write_text("t,gx,gy,gz,ax,ay,az\n0,0,0,0,0,0,9.8\n0.01,0,0,0,0,0,9.8\n0.01,0,0,0,0,0,9.8\n")
-    with pytest.raises(ValueError, match=r"line 4, column 1 \(t\): time 0.01 does not increase"):
+    bad.write_text("t,gx,gy,gz,ax,ay,az\n0,0,0,0,0,0,9.8\n0.01,0,0,0,0,0,9.8\n0.005,0,0,0,0,0,9.8\n")
+    with pytest.raises(ValueError, match=r"line 4, column 1 \(t\): time 0.005 runs backwards"):
         read_csv_recording(bad)
+    # Equal timestamps are one sample (the mean of the rows), said in one line.
+    bad.write_text("t,gx,gy,gz,ax,ay,az\n0,0,0,0,0,0,9.8\n0.01,0,0,0,0,0,9.6\n0.01,0,0,0,0,0,9.8\n")
+    rec = read_csv_recording(bad)
+    np.testing.assert_allclose(rec.t, [0.0, 0.01])
+    np.testing.assert_allclose(rec.acc[:, 2], [9.8, 9.7])
+    assert "1 rows repeat the previous row's timestamp" in capsys.readouterr().err
 
 
 def test_a_step_length_outside_a_persons_range_is_refused(recording, tmp_path, capsys):
     assert main(["estimate", str(recording), "--out", str(tmp_path), "--step-length", "0"]) == 2
     assert "step_length=0.0: must be in [0.2, 1.5] m" in capsys.readouterr().err
+
+
+def test_the_oxford_reader_merges_repeated_timestamps_and_refuses_backward_time(tmp_path):
+    from estimators.io_oxford import _read_csv
+
+    p = tmp_path / "accelerometer.csv"
+    p.write_text("100,1,2,3\n200,1,2,3\n200,3,2,1\n300,0,0,0\n")
+    t, v = _read_csv(p, 4)
+    np.testing.assert_array_equal(t, [100, 200, 300])
+    np.testing.assert_allclose(v[1], [2.0, 2.0, 2.0])
+    p.write_text("100,1,2,3\n50,1,2,3\n")
+    with pytest.raises(ValueError, match="time runs backwards at row 2"):
+        _read_csv(p, 4)
