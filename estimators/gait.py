@@ -629,6 +629,9 @@ class Seed000Steps:
         self.fs = self.detector.fs
         self.latency = self.detector.latency
         """Delay (s) from a heel strike to the sample that confirms its step."""
+        self.report_delay_s = self.params.gamma_t + self.latency
+        """Longest delay (s) from a heel strike to its report: a bout's first step is held
+        until the second, at most ``gamma_t`` later."""
 
     @property
     def samples_seen(self) -> int:

@@ -21,7 +21,9 @@ Protocols (each a :class:`typing.Protocol`, checked structurally):
 * :class:`StepStage` — ``update(acc, gyr, quat) -> GaitChunk``: still/walk per sample, steps
   confirmed per sample and their estimated heel-strike times on the detector's clock (sample k
   of the stream is at ``k / fs`` s; ``samples_seen`` counts the samples consumed). ``quat`` is
-  the attitude stage's output for the same samples (a detector may ignore it).
+  the attitude stage's output for the same samples (a detector may ignore it). An optional
+  ``report_delay_s`` gives the longest delay from a heel strike to its report (the step-matching
+  window of the benchmark; ``latency`` or 0 if absent).
 * :class:`HandStage` — ``update(frames) -> (ypr, valid)``: filters the raw wrist angles of the
   hand pipeline's frames (:class:`estimators.hand.HandFrame` stacked over the step's M Kinect
   frames: ``ypr_raw``, ``quat_valid``, ``reselected``, ...) into (B, M, 3) angles and a (B, M)

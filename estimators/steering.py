@@ -19,6 +19,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from estimators.rotations import wrap_angle
+
 __all__ = ["HeadSteering", "TorsoSteering", "torso_yaw"]
 
 
@@ -46,8 +48,7 @@ def torso_yaw(
     d = left[:, :2] - right[:, :2]
     width = np.hypot(d[:, 0], d[:, 1])
     valid = np.isfinite(width) & (width >= min_width_m)
-    yaw = np.where(valid, np.arctan2(d[:, 1], d[:, 0]) - np.pi / 2.0, 0.0)
-    return np.arctan2(np.sin(yaw), np.cos(yaw)), valid
+    return np.where(valid, wrap_angle(np.arctan2(d[:, 1], d[:, 0]) - np.pi / 2.0), 0.0), valid
 
 
 class _StatelessSteering:

@@ -302,6 +302,7 @@ class NodRobustSteps:
         p = self.params
         self.m, self.h = p.samples(self.fs)
         self.latency = p.latency(self.fs)
+        self.report_delay_s = p.gamma_t + self.latency  # a bout's first step waits for the second
         """Delay (s) from a heel strike to the sample that confirms its step."""
         self._cfg = _Config(self.fs, p.gamma, p.min_step_interval, p.gamma_t, p.gravity,
                             p.baseline_tau * self.fs, p.baseline_limit, self.latency,

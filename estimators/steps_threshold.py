@@ -206,6 +206,7 @@ class ThresholdSteps:
         p = self.params
         self._cfg = _Config(self.fs, p.gravity + p.threshold, p.refractory, p.hold, p.gravity)
         self.latency = 1.0 / self.fs
+        self.report_delay_s = self.latency  # every peak is reported one sample after it
         """Delay (s) from a peak to the sample that confirms its step."""
         self.samples_seen = 0
         self._state = np.zeros((self.batch_size, 4))

@@ -147,15 +147,12 @@ class LocoCore:
             cadence=self._zeros, hand_est=np.full((b, 3), np.nan),
         )  # fmt: skip
         self.last_rays = np.full((b, config.ray_count), config.ray_range_m)
-        #: the longest delay (s) from a heel strike to its step being reported: the step
-        #: stage's ``report_delay_s``, else its ``params.gamma_t`` (a bout's first step is held
-        #: until the second) plus its ``latency``
+        #: the longest delay (s) from a heel strike to its step being reported (the step
+        #: stage's ``report_delay_s``; its ``latency``, or 0, for a stage that gives none)
         steps = self.stages.steps
-        delay = getattr(steps, "report_delay_s", None)
-        if delay is None:
-            gamma_t = getattr(getattr(steps, "params", None), "gamma_t", 0.0)
-            delay = float(gamma_t) + float(getattr(steps, "latency", 0.0))
-        self.step_report_delay_s = float(delay)
+        self.step_report_delay_s = float(
+            getattr(steps, "report_delay_s", getattr(steps, "latency", 0.0))
+        )
         self.batch_time = 0.0
 
     # ------------------------------------------------------------------------------ reset

@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from estimators.rotations import wrap_angle
 from vrloco_env._hand_frame_numba import hand_error as _hand_error_kernel
 from vrloco_env.observation import Field
 from vrloco_env.rooms import (
@@ -111,8 +112,7 @@ class Interact(Task):
         else:
             est = user_step.hand_est
             ok = np.all(np.isfinite(est), axis=-1) & ~fresh
-            x = target - np.nan_to_num(est)
-            diff = np.pi - ((np.pi - x) % (2.0 * np.pi))  # wrapped to (-pi, pi]
+            diff = wrap_angle(target - np.nan_to_num(est))
             err = np.where(fresh[:, None], target, np.where(ok[:, None], diff, 0.0))
         return {"hand_error": err, "dwell": (self.dwell / self.config.dwell_s)[:, None]}
 
