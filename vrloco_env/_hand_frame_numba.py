@@ -1,7 +1,9 @@
 """Compiled hand-frame arithmetic of the env: the hand relative to the torso, and hand errors.
 
-Twins of :meth:`vrloco_env.users.SimulatedUsers._hand_relative_reference` and
-:func:`vrloco_env.tasks.hand_error_reference` (tests compare them to 1e-12).
+:func:`hand_relative_to_torso` has a numpy twin,
+:meth:`vrloco_env.users.SimulatedUsers._hand_relative_reference` (tests compare them to 1e-12);
+:func:`hand_error` (the Interact task's success and the infos' hand error) is checked against
+rotation angles computed with :mod:`estimators.rotations`.
 """
 
 from __future__ import annotations
@@ -52,8 +54,17 @@ def hand_relative_to_torso(ypr, valid, shoulder_left, shoulder_right, cam_q, sdk
         out[b, 2] = r
 
 
+def hand_error(estimate, target):
+    """Rotation angle (rad) between estimated and target hand orientations ([yaw, pitch, roll]
+    (B, 3) each); NaN where there is no estimate."""
+    out = np.empty(np.shape(estimate)[0])
+    hand_error_kernel(np.ascontiguousarray(estimate, dtype=np.float64),
+                      np.ascontiguousarray(target, dtype=np.float64), out)  # fmt: skip
+    return out
+
+
 @numba.njit(cache=True)
-def hand_error(estimate, target, out):
+def hand_error_kernel(estimate, target, out):
     """Rotation angle (rad) between estimated and target [yaw, pitch, roll]; NaN without one."""
     for b in range(estimate.shape[0]):
         e = estimate[b]

@@ -33,6 +33,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from estimators import rotations as rot
 from vrloco_env._core_numba import attitude_error_kernel, observation_kernel
+from vrloco_env._hand_frame_numba import hand_error
 from vrloco_env.actions import action_to_intent, check_actions
 from vrloco_env.batch_rng import BatchRng
 from vrloco_env.config import EnvConfig, EstimatorConfig, RewardConfig, SensorConfig
@@ -47,7 +48,6 @@ from vrloco_env.pipeline import build_stages
 from vrloco_env.rooms import Layout, RoomBatch, RoomConfig
 from vrloco_env.tasks import get_task
 from vrloco_env.tasks.base import Task
-from vrloco_env.tasks.interact import hand_error
 from vrloco_env.users import SimulatedUsers, UserStep
 
 __all__ = ["MAX_GOAL_DISTANCE", "LocoCore"]

@@ -12,7 +12,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from estimators.rotations import wrap_angle
-from vrloco_env._hand_frame_numba import hand_error as _hand_error_kernel
+from vrloco_env._hand_frame_numba import hand_error
 from vrloco_env.observation import Field
 from vrloco_env.rooms import (
     Box,
@@ -56,15 +56,6 @@ class InteractConfig:
             raise ValueError(
                 f"InteractConfig.target_range_deg={r!r}: must be three angles in [0, 90] deg"
             )
-
-
-def hand_error(estimate: NDArray, target: NDArray) -> NDArray:
-    """Rotation angle (rad) between estimated and target hand orientations ([yaw, pitch, roll]
-    (B, 3) each); NaN where there is no estimate. Compiled."""
-    out = np.empty(estimate.shape[0])
-    _hand_error_kernel(np.ascontiguousarray(estimate, dtype=np.float64),
-                       np.ascontiguousarray(target, dtype=np.float64), out)  # fmt: skip
-    return out
 
 
 class Interact(Task):
