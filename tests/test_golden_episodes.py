@@ -1,0 +1,32 @@
+"""Same seed, same episode, bit for bit: every recorded case replays exactly (see golden_episodes)."""
+
+import numpy as np
+import pytest
+
+from golden_episodes import GOLDEN, cases
+
+CASES = cases()
+
+
+@pytest.fixture(scope="module")
+def recorded():
+    if not GOLDEN.exists():
+        pytest.fail(f"{GOLDEN} is missing: record it with `python tests/golden_episodes.py`")
+    with np.load(GOLDEN) as data:
+        return {name: data[name] for name in data.files}
+
+
+def test_every_case_is_recorded(recorded):
+    assert sorted(recorded) == sorted(CASES)
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_case_replays_bit_for_bit(name, recorded):
+    got = CASES[name]()
+    want = recorded[name]
+    assert got.shape == want.shape, f"{name}: {got.size} numbers, recorded {want.size}"
+    differ = np.flatnonzero(got.view(np.uint64) != want.view(np.uint64))
+    assert differ.size == 0, (
+        f"{name}: {differ.size} of {got.size} numbers differ, first at {differ[0]}: "
+        f"{got[differ[0]]!r} vs recorded {want[differ[0]]!r}"
+    )
