@@ -117,11 +117,11 @@ def _burn() -> None:
 
 def contention(seconds: float) -> None:
     """Vector N = 64 user-steps/s with idle cores and while another process holds one core; the
-    parallel builds (threads, with the OpenMP policy of estimators/_parallel.py) beside the
+    parallel builds (threads, with the OpenMP policy of estimators/kernels/batch.py) beside the
     serial builds."""
     import multiprocessing as mp
 
-    import estimators._parallel as parallel
+    import estimators.kernels.batch as parallel
 
     print(f"OMP_WAIT_POLICY={parallel.os.environ.get('OMP_WAIT_POLICY')}")
     print(f"{'vector N=64':28}{'idle cores':>12}{'one core busy':>15}")

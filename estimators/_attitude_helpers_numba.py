@@ -1,7 +1,7 @@
 """What the reference attitude stages (gyro_only, Madgwick, Mahony, VQF) share.
 
 * Scalar helpers for their compiled kernels (same conventions as
-  :mod:`estimators._rotations_numba`: Hamilton ``[w, x, y, z]``, sensor -> ENU world): the
+  :mod:`estimators.kernels.rotations`: Hamilton ``[w, x, y, z]``, sensor -> ENU world): the
   initialisation of a stream's attitude from one accelerometer (+ magnetometer) sample and the
   sample-validity tests.
 * The checks of a stage's constructor arguments and of the (B, N, 3) samples of one ``update``.
@@ -23,7 +23,7 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from estimators._rotations_numba import quat_mul, quat_rotate
+from estimators.kernels.rotations import quat_mul, quat_rotate
 
 __all__ = [
     "check_batch_size",

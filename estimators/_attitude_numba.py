@@ -24,7 +24,7 @@ import math
 import numba
 import numpy as np
 
-from estimators._rotations_numba import quat_from_rotvec
+from estimators.kernels.rotations import quat_from_rotvec
 
 # Packed parameters (float64 vector), filled by ``AttitudeParams.packed()``; units as there.
 PRM_MODEL_TRAWNY = 0  # 1.0: F = [[-[w x], -I], [0, 0]] (Trawny); 0.0: the paper's printed F = 0

@@ -1,6 +1,6 @@
 """The stage shell shared by the compiled quaternion filters (Madgwick, Mahony, gyro-only).
 
-Each filter is a scalar kernel over its users (a :class:`~estimators._parallel.BatchKernel`);
+Each filter is a scalar kernel over its users (a :class:`~estimators.kernels.batch.BatchKernel`);
 this base holds what is the same around it: the checks of the batch size, the rate and the
 parameters, the per-user attitude and initialisation flag, ``reset(rows)``, and ``update``
 checking the samples and handing them to the subclass's :meth:`QuaternionStage._run`.

@@ -29,7 +29,7 @@ import math
 import numba
 import numpy as np
 
-from estimators._rotations_numba import quat_from_rotvec
+from estimators.kernels.rotations import quat_from_rotvec
 
 # Nominal state, per user.
 X_P = 0  # position, world, m (3)

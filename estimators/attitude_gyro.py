@@ -32,9 +32,9 @@ from estimators._attitude_helpers_numba import (
     quat_from_acc_mag,
     usable3,
 )
-from estimators._parallel import BatchKernel
 from estimators._quaternion_stage import QuaternionStage
-from estimators._rotations_numba import quat_from_rotvec, quat_mul
+from estimators.kernels.batch import BatchKernel
+from estimators.kernels.rotations import quat_from_rotvec, quat_mul
 
 __all__ = ["GyroOnly", "GyroOnlyParams", "gyro_kernel"]
 

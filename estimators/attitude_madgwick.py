@@ -62,9 +62,9 @@ from estimators._attitude_helpers_numba import (
     quat_from_acc_mag,
     usable3,
 )
-from estimators._parallel import BatchKernel
 from estimators._quaternion_stage import QuaternionStage
-from estimators._rotations_numba import quat_mul, quat_rotate
+from estimators.kernels.batch import BatchKernel
+from estimators.kernels.rotations import quat_mul, quat_rotate
 from estimators.rotations import quat_multiply
 
 __all__ = ["Madgwick", "MadgwickParams", "madgwick_kernel"]

@@ -71,9 +71,9 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike
 
-from estimators._rotations_numba import quat_rotate
 from estimators.batching import stream_rows
 from estimators.gait import GaitChunk
+from estimators.kernels.rotations import quat_rotate
 from estimators.rotations import GRAVITY
 from estimators.steps_threshold import check_chunk, check_param, check_stage_args, empty_chunk
 

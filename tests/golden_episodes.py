@@ -66,10 +66,8 @@ def _vector(env_id: str, seed: int, num_envs: int) -> np.ndarray:
 
 def cases() -> dict[str, callable]:
     """Name -> a function that plays the case and returns its numbers as one float vector."""
-    magnet = SensorConfig(
-        imu="consumer_mems",
-        magnetic_disturbances=(MagneticDisturbance(position=(0.4, 0.0, 1.5), moment=(0.0, 0.0, 2.0)),),
-    )
+    metal = MagneticDisturbance(position=(0.4, 0.0, 1.5), moment=(0.0, 0.0, 2.0))
+    magnet = SensorConfig(imu="consumer_mems", magnetic_disturbances=(metal,))
     return {
         "approach_s0": lambda: _single("VRLoco-Approach-v0", 0),
         "approach_s1": lambda: _single("VRLoco-Approach-v0", 1),

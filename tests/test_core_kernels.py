@@ -115,7 +115,7 @@ def test_cadence_is_the_step_rate_and_decays_at_rest():
 def test_parallel_builds_give_the_serial_builds_bits(monkeypatch):
     """Vector envs of >= PARALLEL_MIN_BATCH users run the motion and Kinect kernels on all
     cores; the episodes must not change (users share no scratch memory)."""
-    from estimators import _parallel
+    from estimators.kernels import batch as _parallel
 
     n = _parallel.PARALLEL_MIN_BATCH
 

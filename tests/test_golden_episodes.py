@@ -1,8 +1,7 @@
-"""Same seed, same episode, bit for bit: every recorded case replays exactly (see golden_episodes)."""
+"""Same seed, same episode, bit for bit: every recorded case replays exactly."""
 
 import numpy as np
 import pytest
-
 from golden_episodes import GOLDEN, cases
 
 CASES = cases()

@@ -126,7 +126,7 @@ def test_ensure_quaternion_rejects_bad_input(bad):
 
 
 def test_compiled_scalar_helpers_match_the_numpy_module(rng):
-    from estimators import _rotations_numba as nb
+    from estimators.kernels import rotations as nb
 
     q = random_quats(rng, 50)
     p = random_quats(rng, 50)

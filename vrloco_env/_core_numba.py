@@ -10,7 +10,7 @@ import math
 
 import numba
 
-from estimators._rotations_numba import quat_from_ypr, quat_mul, quat_to_ypr, rotation_angle
+from estimators.kernels.rotations import quat_from_ypr, quat_mul, quat_to_ypr, rotation_angle
 
 _PI = math.pi
 

@@ -13,7 +13,7 @@ import math
 import numba
 import numpy as np
 
-from estimators._rotations_numba import (
+from estimators.kernels.rotations import (
     quat_from_ypr,
     quat_mul,
     quat_rotate,

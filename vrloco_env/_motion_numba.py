@@ -11,8 +11,8 @@ import math
 
 import numba
 
-from estimators._parallel import BatchKernel
-from estimators._rotations_numba import quat_from_ypr, quat_rotate
+from estimators.kernels.batch import BatchKernel
+from estimators.kernels.rotations import quat_from_ypr, quat_rotate
 
 
 @numba.njit(cache=True)
@@ -35,7 +35,7 @@ def _evaluate(
     t_n = tau.shape[0]
     k_n = pulse_pos.shape[0]
     two_pi = 2.0 * math.pi
-    for b in numba.prange(b_n):  # users are independent (estimators._parallel)
+    for b in numba.prange(b_n):  # users are independent (estimators.kernels.batch)
         c_old = step_cad[b]
         c_new = cad_cmd[b]
         ph0 = phase0[b]

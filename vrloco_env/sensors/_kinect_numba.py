@@ -63,7 +63,7 @@ import math
 import numba
 import numpy as np
 
-from estimators._parallel import BatchKernel
+from estimators.kernels.batch import BatchKernel
 
 NUM_JOINTS = 25
 # Joint indices used by the kernel (Kinect v2 JointType, vrloco_env.skeleton.Joint).
@@ -320,7 +320,7 @@ def _capture_frames(
     margin_m, occlusion_depth = prm[P_TORSO_MARGIN], prm[P_OCCLUSION_DEPTH]
     p_inferred, q_inferred = prm[P_INFERRED_PROB], prm[P_INFERRED_Q]
 
-    for b in numba.prange(B):  # users are independent (estimators._parallel)
+    for b in numba.prange(B):  # users are independent (estimators.kernels.batch)
         # Scratch of this user (users run in parallel: nothing is shared). Each body's joints in
         # camera space are an affine map of a source skeleton: the target's world joints, or the
         # bystander template.

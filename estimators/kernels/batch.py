@@ -22,30 +22,57 @@ starts, which happens at the first parallel call, after this import.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import types
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 import numba  # after the OpenMP policy: see the module docstring
 
-__all__ = ["PARALLEL_MIN_BATCH", "BatchKernel"]
+__all__ = ["PARALLEL_MIN_BATCH", "BatchKernel", "python_reference"]
 
 #: Batches at least this large take the multi-threaded build (measured on 2 cores: below ~16
 #: users the thread start-up outweighs the work of the motion and Kinect kernels).
 PARALLEL_MIN_BATCH = 16
 
 
+_python_reference = False
+
+
+@contextlib.contextmanager
+def python_reference() -> Iterator[None]:
+    """Run every :class:`BatchKernel` uncompiled (its ``py_func``) inside the ``with`` block.
+
+    For debugging (breakpoints, prints inside a kernel) and for the tests that check each compiled
+    build against its Python source. Helpers a kernel calls stay compiled.
+    """
+    global _python_reference
+    before, _python_reference = _python_reference, True
+    try:
+        yield
+    finally:
+        _python_reference = before
+
+
 class BatchKernel:
-    """Callable pair of builds of ``func``; call ``kernel(batch_size)(*args)``.
+    """Callable builds of ``func``; call ``kernel(batch_size)(*args)``.
 
     Args:
         func: the kernel's Python source, its outer loop over users a ``numba.prange``.
+        parallel: also compile the multi-threaded build, taken for batches of at least
+            :data:`PARALLEL_MIN_BATCH` users. Off for kernels whose work per call is too small
+            to share out (their serial build serves every batch and compiles once).
     """
 
-    def __init__(self, func: Callable) -> None:
+    def __init__(self, func: Callable, parallel: bool = True) -> None:
         self.serial = numba.njit(cache=True)(func)
+        self.py_func = func  # the uncompiled reference (prange runs as range in Python)
+        self.__doc__ = func.__doc__
+        self.parallel = self.serial
+        if not parallel:
+            return
         clone = types.FunctionType(
             func.__code__, func.__globals__, func.__name__ + "_parallel", func.__defaults__,
             func.__closure__,
@@ -54,9 +81,10 @@ class BatchKernel:
         clone.__module__ = func.__module__
         clone.__doc__ = func.__doc__
         self.parallel = numba.njit(cache=True, parallel=True)(clone)
-        self.py_func = func  # the uncompiled reference (prange runs as range in Python)
-        self.__doc__ = func.__doc__
 
     def __call__(self, batch_size: int) -> Callable:
-        """The build for a batch of ``batch_size`` users."""
+        """The build for a batch of ``batch_size`` users (``py_func`` under
+        :func:`python_reference`)."""
+        if _python_reference:
+            return self.py_func
         return self.parallel if batch_size >= PARALLEL_MIN_BATCH else self.serial

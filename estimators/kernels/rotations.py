@@ -1,8 +1,9 @@
-"""Scalar rotation helpers for compiled kernels: the formulas of :mod:`estimators.rotations`.
+"""Scalar rotation helpers for every compiled kernel: the formulas of :mod:`estimators.rotations`.
 
-Each function repeats the arithmetic of its numpy twin (same conventions: Hamilton ``[w, x, y,
-z]``, sensor -> world, intrinsic ZYX ``[yaw, pitch, roll]``); ``tests/test_rotations.py`` checks
-them against it.
+One home for the small per-sample rotation arithmetic that kernels share (same conventions as the
+numpy module: Hamilton ``[w, x, y, z]``, sensor -> world, intrinsic ZYX ``[yaw, pitch, roll]``);
+``tests/test_rotations.py`` checks each against its numpy counterpart. Quaternions travel as
+components and come back as tuples, so a kernel keeps them in registers.
 """
 
 from __future__ import annotations
@@ -10,6 +11,36 @@ from __future__ import annotations
 import math
 
 import numba
+
+_TWO_PI = 2.0 * math.pi
+
+
+@numba.njit(cache=True, inline="always")
+def wrap_angle(a):
+    """``pi - mod(pi - a, 2 pi)``: an angle (rad) wrapped into (-pi, pi], NaN stays NaN; bit for
+    bit :func:`estimators.rotations.wrap_angle` (numba's float ``%`` is Python's floored modulo,
+    numpy's algorithm)."""
+    x = math.pi - a
+    if 0.0 <= x < _TWO_PI:  # the usual case, where the modulo returns x itself: skip its fmod
+        return math.pi - x
+    return math.pi - x % _TWO_PI
+
+
+@numba.njit(cache=True, inline="always")
+def rotation_matrix(qw, qx, qy, qz, m):
+    """Fill ``m`` (3, 3) with the rotation matrix of unit quaternion ``q`` (body -> world)."""
+    xx, yy, zz = qx * qx, qy * qy, qz * qz
+    xy, xz, yz = qx * qy, qx * qz, qy * qz
+    wx, wy, wz = qw * qx, qw * qy, qw * qz
+    m[0, 0] = 1.0 - 2.0 * (yy + zz)
+    m[0, 1] = 2.0 * (xy - wz)
+    m[0, 2] = 2.0 * (xz + wy)
+    m[1, 0] = 2.0 * (xy + wz)
+    m[1, 1] = 1.0 - 2.0 * (xx + zz)
+    m[1, 2] = 2.0 * (yz - wx)
+    m[2, 0] = 2.0 * (xz - wy)
+    m[2, 1] = 2.0 * (yz + wx)
+    m[2, 2] = 1.0 - 2.0 * (xx + yy)
 
 
 @numba.njit(cache=True)
