@@ -88,15 +88,16 @@ Beyond the paper
   ``(gyr_gap_rate * dt)^2``, the rotation missed), a non-finite accelerometer or magnetometer
   sample skips its measurement. Timestamps are not taken: samples are uniform at ``fs``.
 
-The per-sample loop runs in the numba kernel :mod:`estimators._attitude_numba`;
-:func:`ekf_step_reference` is the readable numpy version of the same step, and the tests check
-that both agree.
+The per-sample loop runs in the numba kernel :mod:`estimators._attitude_numba`, one stage per
+step above; its uncompiled Python source is the readable reference. The filter state of each
+stream is a record (:attr:`AttitudeEKF.state`), the parameters a record built once from
+:class:`AttitudeParams`.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field, fields, replace
+from dataclasses import asdict, dataclass, fields, replace
 from typing import Any
 
 import numpy as np
@@ -104,26 +105,19 @@ from numpy.typing import ArrayLike, NDArray
 
 from estimators import _attitude_numba as _k
 from estimators.batching import stream_rows
+from estimators.kernels import param_record, state_records
 from estimators.rotations import (
     GRAVITY,
     quat_conjugate,
-    quat_from_rotvec,
-    quat_identity,
-    quat_integrate,
     quat_multiply,
     quat_normalize,
-    quat_to_matrix,
     quat_to_ypr,
-    skew,
-    wrap_angle,
 )
 
 __all__ = [
     "AttitudeEKF",
     "AttitudeParams",
-    "AttitudeState",
     "EkfStage",
-    "ekf_step_reference",
     "estimate_attitude",
     "orientation_errors",
     "paper_literal_ekf",
@@ -229,7 +223,6 @@ class AttitudeParams:
     rest_gyr: float = math.radians(2.0)
     rest_acc: float = 0.5
     rest_time: float = 1.5
-    _packed: NDArray[np.float64] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         if self.model not in _MODELS:
@@ -262,33 +255,6 @@ class AttitudeParams:
                 raise ValueError(
                     f"mag_ref_dip must be in [-pi/2, pi/2] rad, got {self.mag_ref_dip!r}"
                 )
-        prm = np.zeros(_k.N_PRM)
-        prm[_k.PRM_MODEL_TRAWNY] = 1.0 if self.model == "trawny" else 0.0
-        prm[_k.PRM_GYR_NOISE] = self.gyr_noise
-        prm[_k.PRM_BIAS_WALK] = self.bias_walk
-        prm[_k.PRM_ATT_INIT_STD] = self.att_init_std
-        prm[_k.PRM_BIAS_INIT_STD] = self.bias_init_std
-        prm[_k.PRM_ACC_NOISE] = self.acc_noise
-        prm[_k.PRM_ACC_MOTION_REF] = self.acc_motion_ref
-        prm[_k.PRM_MOTION_TAU] = self.motion_tau
-        prm[_k.PRM_GRAVITY] = self.gravity
-        prm[_k.PRM_MAG_NOISE] = self.mag_noise
-        prm[_k.PRM_MAG_NORM_TOL] = self.mag_norm_tol
-        prm[_k.PRM_MAG_DIP_TOL] = self.mag_dip_tol
-        prm[_k.PRM_MAG_LEARN_TIME] = self.mag_learn_time
-        prm[_k.PRM_MAG_OK_TIME] = self.mag_ok_time
-        prm[_k.PRM_MAG_NEW_TIME] = self.mag_new_time
-        prm[_k.PRM_DECLINATION] = self.declination
-        prm[_k.PRM_GYR_GAP_RATE] = self.gyr_gap_rate
-        prm[_k.PRM_REST_GYR] = self.rest_gyr
-        prm[_k.PRM_REST_ACC] = self.rest_acc
-        prm[_k.PRM_REST_TIME] = self.rest_time
-        prm.flags.writeable = False
-        object.__setattr__(self, "_packed", prm)
-
-    def packed(self) -> NDArray[np.float64]:
-        """The parameters as the kernel's read-only float64 vector (layout ``_attitude_numba``)."""
-        return self._packed
 
     def replace(self, **changes: Any) -> AttitudeParams:
         """A copy with some fields changed (validated like the original)."""
@@ -296,9 +262,7 @@ class AttitudeParams:
 
     def as_dict(self) -> dict[str, Any]:
         """The public fields as a plain dict."""
-        d = asdict(self)
-        d.pop("_packed", None)
-        return d
+        return asdict(self)
 
     def build(self, batch_size: int, fs: float) -> EkfStage:
         """The EKF with these parameters as an attitude stage (:mod:`estimators.stages`)."""
@@ -320,233 +284,32 @@ def _make_params(params: AttitudeParams | None, overrides: dict[str, Any]) -> At
     return base.replace(**overrides) if overrides else base
 
 
-@dataclass
-class AttitudeState:
-    """State of B filter streams, shared by the numba kernel and the numpy reference.
-
-    Attributes:
-        q: (B, 4) nominal quaternions, sensor -> ENU.
-        b: (B, 3) gyro bias estimates, rad/s.
-        P: (B, 6, 6) error-state covariances (rad^2, rad^2/s, rad^2/s^2 blocks).
-        aux: (B, N_AUX) auxiliary state (initialisation flags, magnetic reference, timers,
-            motion level; layout ``AUX_*`` in :mod:`estimators._attitude_numba`).
-    """
-
-    q: NDArray[np.float64]
-    b: NDArray[np.float64]
-    P: NDArray[np.float64]
-    aux: NDArray[np.float64]
-
-    @classmethod
-    def fresh(cls, n_streams: int, params: AttitudeParams) -> AttitudeState:
-        """B uninitialised streams (identity attitude, zero bias) for ``params``."""
-        aux = np.zeros((n_streams, _k.N_AUX))
-        if params.mag_ref_norm is not None:
-            aux[:, _k.AUX_MAG_NORM] = params.mag_ref_norm
-            aux[:, _k.AUX_MAG_DIP] = params.mag_ref_dip
-            aux[:, _k.AUX_MAG_LEARN_T] = math.inf
-        P = np.zeros((n_streams, 6, 6))
-        P[:, :3, :3] = np.eye(3) * params.att_init_std**2
-        P[:, 3:, 3:] = np.eye(3) * params.bias_init_std**2
-        return cls(quat_identity((n_streams,)), np.zeros((n_streams, 3)), P, aux)
-
-    def copy(self) -> AttitudeState:
-        """A deep copy."""
-        return AttitudeState(self.q.copy(), self.b.copy(), self.P.copy(), self.aux.copy())
+def _fresh_state(n_streams: int, params: AttitudeParams) -> NDArray:
+    """(B,) records of uninitialised streams for ``params`` (fields
+    :data:`estimators._attitude_numba.STATE_FIELDS`): identity attitude, zero bias, the initial
+    covariance, the magnetic reference unlearned or as given, zeroed unit-guard counters."""
+    state = state_records(_k.STATE_FIELDS, n_streams)
+    if params.mag_ref_norm is not None:
+        state["mag_norm"] = params.mag_ref_norm
+        state["mag_dip"] = params.mag_ref_dip
+        state["mag_learn_t"] = math.inf
+    P = state["P"]
+    P[:, :3, :3] = np.eye(3) * params.att_init_std**2
+    P[:, 3:, 3:] = np.eye(3) * params.bias_init_std**2
+    state["q"][:, 0] = 1.0
+    return state
 
 
-# ------------------------------------------------------------------------------------------------
-# The readable numpy reference of one step (what the kernel computes, vectorised over B).
-# ------------------------------------------------------------------------------------------------
-
-
-def _scalar_update_ref(
-    P: NDArray,
-    dx: NDArray,
-    h: NDArray | None,
-    z: NDArray,
-    r: NDArray | float,
-    mask: NDArray,
-    bias_axis: int | None = None,
-) -> None:
-    """Eq (14) for one measurement row on the streams in ``mask`` (in place).
-
-    The row is ``H = [h 0]`` (an attitude measurement), or ``H = e_{3 + bias_axis}`` (a bias
-    component, for the zero-rate update).
-    """
-    H = np.zeros(dx.shape)
-    if bias_axis is None:
-        H[:, :3] = h
-    else:
-        H[:, 3 + bias_axis] = 1.0
-    ph = np.einsum("bij,bj->bi", P, H)  # P H^T
-    s = np.einsum("bi,bi->b", H, ph) + r  # H P H^T + R
-    innov = z - np.einsum("bi,bi->b", H, dx)  # z - H dx-
-    k = ph / s[:, None]
-    dx[mask] = (dx + k * innov[:, None])[mask]
-    P_new = P - k[:, :, None] * ph[:, None, :]
-    upper = np.triu(np.ones((6, 6), dtype=bool))
-    P_new = np.where(upper, P_new, np.swapaxes(P_new, -1, -2))  # exactly symmetric, as the kernel
-    P[mask] = P_new[mask]
-
-
-def ekf_step_reference(
-    state: AttitudeState,
-    gyr: ArrayLike,
-    acc: ArrayLike,
-    mag: ArrayLike | None,
-    dt: float,
-    params: AttitudeParams,
-) -> NDArray[np.float64]:
-    """One EKF step for B streams in numpy: the readable reference of the numba kernel.
-
-    Same mathematics, same order, as ``_attitude_numba.ekf_step`` (see the module docstring for
-    the derivation); slow (about 100 us per step), used by the tests to check the kernel.
-
-    Args:
-        state: filter state, updated in place.
-        gyr: (B, 3) gyro samples, rad/s (non-finite: skip the propagation).
-        acc: (B, 3) accelerometer samples, m/s^2 (non-finite: skip the tilt measurement).
-        mag: (B, 3) magnetometer samples, any unit, or None (non-finite: skip the heading).
-        dt: sample interval, s.
-        params: filter parameters.
-
-    Returns:
-        (B, 4) quaternions after the step (a copy of ``state.q``).
-    """
-    K = _k
-    p = params
-    g = p.gravity
-    q, b, P, aux = state.q, state.b, state.P, state.aux
-    n = q.shape[0]
-    gyr = np.asarray(gyr, dtype=np.float64)
-    acc = np.asarray(acc, dtype=np.float64)
-    mag = np.full((n, 3), np.nan) if mag is None else np.asarray(mag, dtype=np.float64)
-
-    w_ok = np.all(np.isfinite(gyr), axis=-1)
-    f_ok = np.all(np.isfinite(acc), axis=-1)
-    m_ok = np.all(np.isfinite(mag), axis=-1)
-    w = np.where(w_ok[:, None], gyr, 0.0)
-    f = np.where(f_ok[:, None], acc, 0.0)
-    m = np.where(m_ok[:, None], mag, 0.0)
-    fn = np.linalg.norm(f, axis=-1)
-    mn = np.linalg.norm(m, axis=-1)
-    f_ok &= fn > 0.0
-    m_ok &= mn > 0.0
-
-    # Initialisation from the first plausible accelerometer sample.
-    not_init = aux[:, K.AUX_INIT] == 0.0
-    can_init = not_init & f_ok & (np.abs(fn - g) < 0.5 * g)
-    if np.any(can_init):
-        u = f[can_init] / fn[can_init, None]
-        s = np.hypot(u[:, 0], u[:, 1])
-        axis = np.stack([u[:, 1], -u[:, 0], np.zeros_like(s)], axis=-1)
-        axis = np.where(s[:, None] > 0, axis / np.where(s > 0, s, 1.0)[:, None], [1.0, 0, 0])
-        q[can_init] = quat_from_rotvec(axis * np.arctan2(s, u[:, 2])[:, None])
-        b[can_init] = 0.0
-        P[can_init] = 0.0
-        P[can_init, :3, :3] = np.eye(3) * p.att_init_std**2
-        P[can_init, 3:, 3:] = np.eye(3) * p.bias_init_std**2
-        aux[can_init, K.AUX_INIT] = 1.0
-        aux[can_init, K.AUX_MOTION] = np.abs(fn[can_init] - g)
-    integ = not_init & ~can_init & w_ok
-    q[integ] = quat_integrate(q[integ], w[integ], dt)
-    act = aux[:, K.AUX_INIT] != 0.0
-
-    # Heading initialisation: turn about the vertical until east (m x f) points at yaw -D.
-    head = act & (aux[:, K.AUX_HEAD_INIT] == 0.0) & m_ok & f_ok
-    if np.any(head):
-        e_w = quat_to_matrix(q[head]) @ np.cross(m[head], f[head])[..., None]
-        ok = e_w[:, 0, 0] ** 2 + e_w[:, 1, 0] ** 2 > 0.0
-        turn = wrap_angle(-p.declination - np.arctan2(e_w[:, 1, 0], e_w[:, 0, 0]))
-        rz = quat_from_rotvec(np.stack([0 * turn, 0 * turn, turn], -1))
-        idx = np.flatnonzero(head)[ok]
-        q[idx] = quat_multiply(rz[ok], q[idx])
-        aux[idx, K.AUX_HEAD_INIT] = 1.0
-
-    # Propagation, eqs (3)-(9).
-    prop = act & w_ok
-    wc = w - b
-    if p.model == "trawny":
-        phi = np.broadcast_to(np.eye(6), (n, 6, 6)).copy()
-        phi[:, :3, :3] -= skew(wc) * dt  # I - [w x] dt
-        phi[:, :3, 3:] = -np.eye(3) * dt
-        P[prop] = (phi @ P @ np.swapaxes(phi, -1, -2))[prop]
-    q[prop] = quat_integrate(q[prop], wc[prop], dt)
-    qg = p.gyr_noise**2 * dt + np.where(w_ok, 0.0, (p.gyr_gap_rate * dt) ** 2)
-    P[act, :3, :3] += np.eye(3) * qg[act, None, None]
-    P[act, 3:, 3:] += np.eye(3) * p.bias_walk**2 * dt
-
-    R = quat_to_matrix(q)
-    dx = np.zeros((n, 6))
-
-    # Tilt: horizontal specific force in the world over g, with a motion-dependent weight.
-    tilt = act & f_ok
-    alpha = min(1.0, dt / p.motion_tau)
-    aux[tilt, K.AUX_MOTION] += alpha * (np.abs(fn - g) - aux[:, K.AUX_MOTION])[tilt]
-    lvl = aux[:, K.AUX_MOTION] / p.acc_motion_ref
-    r_acc = p.acc_noise**2 * (1.0 + lvl * lvl) / dt
-    a_w = np.einsum("bij,bj->bi", R, f)
-    _scalar_update_ref(P, dx, R[:, 0, :], a_w[:, 1] / g, r_acc, tilt)
-    _scalar_update_ref(P, dx, R[:, 1, :], -a_w[:, 0] / g, r_acc, tilt)
-
-    # Heading: field through the predicted attitude; reference learning and gating.
-    magm = act & m_ok & (aux[:, K.AUX_HEAD_INIT] != 0.0)
-    m_w = np.einsum("bij,bj->bi", R, m) / np.where(m_ok, mn, 1.0)[:, None]
-    dip = np.arcsin(np.clip(-m_w[:, 2], -1.0, 1.0))
-    accept = magm.copy()
-    learn = magm & (aux[:, K.AUX_MAG_LEARN_T] < p.mag_learn_time)
-    n_l = aux[:, K.AUX_MAG_LEARN_N] + 1.0
-    aux[learn, K.AUX_MAG_NORM] += ((mn - aux[:, K.AUX_MAG_NORM]) / n_l)[learn]
-    aux[learn, K.AUX_MAG_DIP] += ((dip - aux[:, K.AUX_MAG_DIP]) / n_l)[learn]
-    aux[learn, K.AUX_MAG_LEARN_N] = n_l[learn]
-    aux[learn, K.AUX_MAG_LEARN_T] += dt
-    gate = magm & ~learn
-
-    def consistent(norm_ref: NDArray, dip_ref: NDArray) -> NDArray:
-        return (np.abs(mn - norm_ref) <= p.mag_norm_tol * norm_ref) & (
-            np.abs(dip - dip_ref) <= p.mag_dip_tol
-        )
-
-    good = gate & consistent(aux[:, K.AUX_MAG_NORM], aux[:, K.AUX_MAG_DIP])
-    aux[good, K.AUX_CAND_T] = 0.0
-    aux[good, K.AUX_MAG_OK_T] += dt
-    accept[good] = aux[good, K.AUX_MAG_OK_T] >= p.mag_ok_time
-    bad = gate & ~good
-    c_n, c_d = aux[:, K.AUX_CAND_NORM].copy(), aux[:, K.AUX_CAND_DIP].copy()
-    same = bad & (aux[:, K.AUX_CAND_T] > 0.0) & consistent(c_n, c_d)
-    a_c = min(1.0, dt / p.motion_tau)
-    aux[same, K.AUX_CAND_T] += dt
-    aux[same, K.AUX_CAND_NORM] += (a_c * (mn - c_n))[same]
-    aux[same, K.AUX_CAND_DIP] += (a_c * (dip - c_d))[same]
-    new = bad & ~same
-    aux[new, K.AUX_CAND_NORM] = mn[new]
-    aux[new, K.AUX_CAND_DIP] = dip[new]
-    aux[new, K.AUX_CAND_T] = dt
-    adopt = bad & (aux[:, K.AUX_CAND_T] >= p.mag_new_time)
-    aux[adopt, K.AUX_MAG_NORM] = aux[adopt, K.AUX_CAND_NORM]
-    aux[adopt, K.AUX_MAG_DIP] = aux[adopt, K.AUX_CAND_DIP]
-    aux[adopt, K.AUX_CAND_T] = 0.0
-    aux[adopt, K.AUX_MAG_OK_T] = p.mag_ok_time
-    aux[bad & ~adopt, K.AUX_MAG_OK_T] = 0.0
-    accept[bad & ~adopt] = False
-    accept &= m_w[:, 0] ** 2 + m_w[:, 1] ** 2 > 1e-6
-    z_psi = wrap_angle(0.5 * np.pi - p.declination - np.arctan2(m_w[:, 1], m_w[:, 0]))
-    _scalar_update_ref(P, dx, R[:, 2, :], z_psi, p.mag_noise**2 / dt, accept)
-
-    # Zero-rate update at rest: the gyro reads its bias, z = y - b with H = [0 I].
-    zaru = act & w_ok & f_ok
-    still = zaru & (np.abs(fn - g) < p.rest_acc) & (np.sum(wc * wc, axis=-1) < p.rest_gyr**2)
-    aux[zaru, K.AUX_REST_T] = np.where(still, aux[:, K.AUX_REST_T] + dt, 0.0)[zaru]
-    rest = zaru & (aux[:, K.AUX_REST_T] >= p.rest_time)
-    for j in range(3):
-        _scalar_update_ref(P, dx, None, wc[:, j], p.gyr_noise**2 / dt, rest, bias_axis=j)
-
-    # Inject and reset.
-    upd = tilt | accept | rest
-    q[upd] = quat_integrate(q[upd], dx[upd, :3], 1.0)
-    b[upd] += dx[upd, 3:]
-    return q.copy()
+def _kernel_params(params: AttitudeParams, dt: float) -> NDArray:
+    """The kernel's (1,) parameter record: the numeric fields of ``params`` it reads, the error
+    model as ``trawny`` (1.0 or 0.0), the sample interval ``dt`` (s) and the unit guard's limits
+    (squared norms)."""
+    return param_record(
+        params, exclude=("mag_ref_norm", "mag_ref_dip"),
+        trawny=1.0 if params.model == "trawny" else 0.0, dt=dt,
+        max_gyr_norm2=MAX_GYR_NORM**2, min_acc_norm2=MIN_ACC_NORM**2,
+        unit_min_count=_UNIT_MIN_COUNT,
+    )  # fmt: skip
 
 
 # ------------------------------------------------------------------------------------------------
@@ -576,21 +339,19 @@ def _check_fs(fs: float) -> float:
     return fs
 
 
-_GUARD = np.array([MAX_GYR_NORM, MIN_ACC_NORM, _UNIT_MIN_COUNT], dtype=np.float64)
-
-
-def _raise_units(flag: int, units: NDArray[np.int64]) -> None:
+def _raise_units(flag: int, state: NDArray) -> None:
     """Turn the kernel's unit-guard flag into a clear error."""
     i, kind = divmod(flag, 2)
+    s = state[i]
     if kind == 0:
         raise ValueError(
-            f"gyr must be in rad/s: stream {i} has {units[i, _k.UNIT_GYR_BIG]} samples above "
+            f"gyr must be in rad/s: stream {i} has {int(s['n_gyr_big'])} samples above "
             f"{MAX_GYR_NORM} rad/s (2000 deg/s, beyond MEMS ranges); deg/s data? Convert with "
             "np.radians. The filter state is now meaningless: call reset()."
         )
     raise ValueError(
         f"acc must be in m/s^2: stream {i} reads a specific-force norm below {MIN_ACC_NORM} "
-        f"m/s^2 in {units[i, _k.UNIT_ACC_SMALL]} of {units[i, _k.UNIT_SEEN]} samples (about 1 "
+        f"m/s^2 in {int(s['n_acc_small'])} of {int(s['n_seen'])} samples (about 1 "
         f"means g units); multiply by {GRAVITY}. The filter state is now meaningless: call reset()."
     )
 
@@ -627,16 +388,17 @@ class AttitudeEKF:
         self.fs = _check_fs(fs)
         self.dt = 1.0 / self.fs
         self.params = _make_params(params, overrides)
-        self._prm = self.params.packed()
+        self._prm = _kernel_params(self.params, self.dt)
+        self._scratch = state_records(_k.SCRATCH_FIELDS, self.n_streams)
         self._no_mag = np.full((self.n_streams, 1, 3), np.nan)
         self.reset()
 
     def reset(self, mask: ArrayLike | None = None) -> None:
         """Forget some or all streams: their next accelerometer/magnetometer samples re-initialise.
 
-        A reset stream gets the rows of :meth:`AttitudeState.fresh` (identity attitude, zero bias,
-        initial covariance, magnetic reference unlearned or as given) and zeroed unit-guard
-        counters; from then on it equals a new single-stream filter fed the same samples. The
+        A reset stream's state record is that of a new filter (identity attitude, zero bias,
+        initial covariance, magnetic reference unlearned or as given, zeroed unit-guard
+        counters); from then on it equals a new single-stream filter fed the same samples. The
         other streams are untouched (a vector env resetting one sub-env).
 
         Args:
@@ -647,17 +409,10 @@ class AttitudeEKF:
         """
         b = self.n_streams
         if mask is None:
-            self.state = AttitudeState.fresh(b, self.params)
-            self._units = np.zeros((b, _k.N_UNIT), dtype=np.int64)
+            self._state = _fresh_state(b, self.params)
             return
         rows = stream_rows(mask, b, "mask", unique=False)
-        fresh = AttitudeState.fresh(rows.size, self.params)
-        s = self.state  # assigned in place: the kernel works on these arrays
-        s.q[rows] = fresh.q
-        s.b[rows] = fresh.b
-        s.P[rows] = fresh.P
-        s.aux[rows] = fresh.aux
-        self._units[rows] = 0
+        self._state[rows] = _fresh_state(rows.size, self.params)
 
     def update(self, gyr: ArrayLike, acc: ArrayLike, mag: ArrayLike | None = None) -> NDArray:
         """Process one sample per stream.
@@ -701,40 +456,48 @@ class AttitudeEKF:
 
     def _run(self, g: NDArray, a: NDArray, m: NDArray) -> NDArray[np.float64]:
         out = np.empty((self.n_streams, g.shape[1], 4))
-        s = self.state
-        flag = _k.ekf_run(
-            s.q, s.b, s.P, s.aux, self._units,
+        flag = _k.ekf_kernel(self.n_streams)(
+            self._state, self._scratch,
             np.ascontiguousarray(g), np.ascontiguousarray(a), np.ascontiguousarray(m),
-            self.dt, self._prm, _GUARD, out,
+            self._prm, out,
         )  # fmt: skip
         if flag >= 0:
-            _raise_units(flag, self._units)
+            _raise_units(flag, self._state)
         return out
+
+    @property
+    def state(self) -> np.recarray:
+        """(B,) filter state, one record per stream, fields named in
+        :data:`estimators._attitude_numba.STATE_FIELDS`: ``q`` (4,) quaternion, ``b`` (3,) gyro
+        bias (rad/s), ``P`` (6, 6) error-state covariance, the initialisation flags, magnetic
+        reference and timers, motion level and unit-guard counters (``ekf.state.mag_norm``).
+        A live view: the filter updates it in place, and writes to it reach the filter."""
+        return self._state.view(np.recarray)
 
     @property
     def quat(self) -> NDArray[np.float64]:
         """(B, 4) current quaternions ``[w, x, y, z]``, sensor -> ENU."""
-        return self.state.q.copy()
+        return self._state["q"].copy()
 
     @property
     def bias(self) -> NDArray[np.float64]:
         """(B, 3) current gyro bias estimates, rad/s."""
-        return self.state.b.copy()
+        return self._state["b"].copy()
 
     @property
     def ypr(self) -> NDArray[np.float64]:
         """(B, 3) current ZYX Euler angles ``[yaw, pitch, roll]``, rad (yaw from east, CCW)."""
-        return quat_to_ypr(self.state.q)
+        return quat_to_ypr(self._state["q"].copy())
 
     @property
     def cov(self) -> NDArray[np.float64]:
         """(B, 6, 6) current error-state covariance (``[dphi (rad), db (rad/s)]``)."""
-        return self.state.P.copy()
+        return self._state["P"].copy()
 
     @property
     def initialized(self) -> NDArray[np.bool_]:
         """(B,) whether each stream has been initialised from an accelerometer sample."""
-        return self.state.aux[:, _k.AUX_INIT] != 0.0
+        return self._state["init"] != 0.0
 
 
 class EkfStage:

@@ -1,10 +1,14 @@
 """Named parameters and state for compiled kernels, as numpy record arrays.
 
-A kernel reads its parameters by name (``p = prm[0]; p.gyro_noise``) from a one-element record
+A kernel reads its parameters by name (``p = prm[0]; p["gyro_noise"]``) from a one-element record
 built from the parameter dataclass's own fields, so each parameter is written once: in the
 dataclass, with its unit, default and check. Per-user state is a (B,) record array whose fields
 (scalars or fixed-shape sub-arrays such as a quaternion or a covariance) are named where the
-kernel module declares them, next to the code that reads them (``s = state[i]; s.q[0]``).
+kernel module declares them, next to the code that reads them (``s = state[i]; s["q"][0]``).
+Index fields by name (``p["name"]``), not as attributes: numba compiles both, but the uncompiled
+``py_func`` gets numpy's plain record elements, which only support indexing (a ``np.recarray``
+view would, at several microseconds per kernel call). In a parallel build, take the record
+element (``prm[0]``, ``state[i]``) inside the ``prange`` loop: numba cannot hoist it.
 
 Numba types a record by its field names, types and offsets, so renaming or reordering a field
 changes the compiled signature: an on-disk cache can never feed stale offsets to new code. A
