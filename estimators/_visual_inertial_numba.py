@@ -1,25 +1,30 @@
-"""Compiled per-sample kernels of seed 004: strapdown mechanisation and the visual-inertial ESKF.
-
-This module is the fast mirror of the readable numpy code that documents the algorithms:
+"""Compiled per-user kernels of seed 004: strapdown mechanisation and the visual-inertial ESKF.
 
 * :func:`strapdown_run` <-> :func:`estimators.strapdown.mechanisation_step` (and
-  :func:`estimators.strapdown.rk4_attitude`);
-* :func:`eskf_predict` <-> :func:`estimators.visual_inertial.eskf_predict_reference`;
-* :func:`eskf_update` <-> :func:`estimators.visual_inertial.eskf_update_reference`.
+  :func:`estimators.strapdown.rk4_attitude`), checked by ``tests/test_strapdown.py``;
+* :data:`predict_kernel`: the ESKF prediction, per IMU sample the stages :func:`_mech_step`
+  (nominal state) and :func:`_propagate_cov` (covariance);
+* :data:`update_kernel`: the ESKF update with one visual pose, in stages: :func:`_innovation`,
+  :func:`_project` (``H P H^T`` and ``S``), the gate, :func:`_adapt_q`, :func:`_adapt_r`
+  (Sage-Husa), :func:`_gain`, :func:`_joseph`, :func:`_inject` and :func:`_reset_cov`.
 
-``tests/test_strapdown.py`` and ``tests/test_visual_inertial.py`` check that both sides agree
-(1e-12 and 1e-10). Numba cannot call the broadcasting functions of :mod:`estimators.rotations`,
-so the few quaternion products needed are written out on scalars: the same formulas (Hamilton,
-``[w, x, y, z]``, body -> ENU world), kept honest by those equality tests.
+The filter (state, equations, choices) is described in :mod:`estimators.visual_inertial`. The
+two ESKF kernels are :class:`~estimators.kernels.BatchKernel` s over users with a serial build
+only; their ``py_func`` is the readable reference that ``tests/test_kernels_compiled.py`` plays
+against the compiled build.
 
-Streams (users) are independent: every kernel loops over streams outside and samples inside, with
+Streams (users) are independent: every kernel loops over users outside and samples inside, with
 no Python object in the loop, so a batch of B gives bit for bit the results of B single runs.
 
-Packed layouts (filled by :mod:`estimators.strapdown` and :mod:`estimators.visual_inertial`):
+Layouts (filled by :mod:`estimators.strapdown` and :mod:`estimators.visual_inertial`):
 
-* nominal state ``x`` (B, N_X): the ``X_*`` offsets below; the last IMU sample is kept raw (bias
-  not removed) so that a bias correction applies to both ends of the next interval.
-* ``prm`` (N_PRM,) float64 filter parameters, ``aux`` (B, N_AUX) float64 per-user counters.
+* nominal state ``x`` (N_X,) per user: the ``X_*`` offsets below, shared with the strapdown
+  kernel; the last IMU sample is kept raw (bias not removed) so that a bias correction applies
+  to both ends of the next interval.
+* the filter's per-user state: a (B,) record array with the fields of :data:`STATE_FIELDS`;
+* its parameters: the (1,) record of :meth:`estimators.visual_inertial.VioConfig.packed`;
+* per-user scratch: a (B,) record array with the fields of :data:`WORK_FIELDS`, allocated once
+  by the filter, so that no step allocates and users share no memory.
 """
 
 from __future__ import annotations
@@ -29,7 +34,9 @@ import math
 import numba
 import numpy as np
 
-from estimators.kernels.rotations import quat_from_rotvec
+from estimators.kernels.batch import BatchKernel
+from estimators.kernels.records import state_records
+from estimators.kernels.rotations import quat_from_rotvec, quat_mul, rotation_matrix
 
 # Nominal state, per user.
 X_P = 0  # position, world, m (3)
@@ -41,38 +48,40 @@ X_GYR = 16  # previous raw gyro sample, rad/s (3)
 X_ACC = 19  # previous raw specific-force sample, m/s^2 (3)
 N_X = 22
 
-# Filter parameters (float64 vector), from ``VioConfig.packed()``; units as there.
-PRM_GRAVITY = 0  # m/s^2
-PRM_ACC_NOISE = 1  # m/s^2/sqrt(Hz)
-PRM_GYR_NOISE = 2  # rad/s/sqrt(Hz)
-PRM_ACC_WALK = 3  # m/s^2/sqrt(s)
-PRM_GYR_WALK = 4  # rad/s/sqrt(s)
-PRM_SAGE_HUSA = 5  # 1.0: Sage-Husa R estimation, 0.0: fixed R
-PRM_FORGET = 6  # Sage-Husa forgetting factor b
-PRM_DIAGONAL = 7  # 1.0: diagonal-only R estimate
-PRM_PRIOR_FRAMES = 8  # frames the initial R (and Q scale) count for in the fading average
-PRM_ADAPT_Q = 9  # 1.0: adapt the Q scale factor
-PRM_Q_FORGET = 10  # forgetting factor of the Q scale
-PRM_Q_MIN = 11  # lower bound of the Q scale
-PRM_Q_MAX = 12  # upper bound of the Q scale
-PRM_GATE = 13  # chi-square threshold on the 6-dof NIS (inf: no gate)
-PRM_GATE_MAX = 14  # consecutive rejections after which a frame is taken anyway
-PRM_R_FLOOR_POS = 15  # m^2
-PRM_R_FLOOR_ATT = 16  # rad^2
-PRM_R_CEIL_POS = 17  # m^2
-PRM_R_CEIL_ATT = 18  # rad^2
-N_PRM = 19
+#: The filter's per-user state (record fields and shapes).
+STATE_FIELDS = {
+    "x": (N_X,),  # nominal state, ``X_*`` offsets
+    "P": (15, 15),  # error-state covariance (m, m/s, rad, m/s^2, rad/s)
+    "R": (6, 6),  # measurement covariance (m^2, rad^2)
+    "has_prev": (),  # 1.0 once an IMU sample has been seen (first-order hold possible)
+    "k": (),  # fading-memory count k of d_k (prior frames + frames in the R estimate)
+    "q_scale": (),  # current Q scale factor
+    "consec": (),  # consecutive gate rejections
+    "updates": (),  # accepted (incl. forced) updates since reset
+    "rejected": (),  # gate rejections since reset
+    "forced": (),  # frames taken after gate_max_consecutive rejections
+    "nis": (),  # normalised innovation squared of the last valid frame (with the prior R)
+}
 
-# Per-user auxiliary state (float64).
-AUX_HAS_PREV = 0  # 1.0 once an IMU sample has been seen (first-order hold possible)
-AUX_K = 1  # fading-memory count k of d_k (prior frames + accepted updates)
-AUX_Q_SCALE = 2  # current Q scale factor
-AUX_CONSEC = 3  # consecutive gate rejections
-AUX_UPDATES = 4  # accepted (incl. forced) updates since reset
-AUX_REJECTED = 5  # gate rejections since reset
-AUX_FORCED = 6  # frames taken after gate_max_consecutive rejections
-AUX_NIS = 7  # normalised innovation squared of the last valid frame (with the prior R)
-N_AUX = 8
+#: Per-user scratch of the two ESKF kernels.
+WORK_FIELDS = {
+    "r0": (3, 3),  # rotation at the start of the IMU interval
+    "r1": (3, 3),  # rotation at its end
+    "af": (3,),  # world specific force at its end (bias-corrected)
+    "m": (15, 15),  # A P
+    "n": (15, 15),  # A P A^T
+    "nu": (6,),  # innovation
+    "hph": (6, 6),  # H P^- H^T
+    "s": (6, 6),  # innovation covariance S
+    "low": (6, 6),  # its Cholesky factor
+    "tmp": (6,),
+    "rhs": (6,),
+    "gain": (15, 6),  # K
+    "hp": (6, 15),  # H P, then R K^T
+    "a1": (15, 15),  # (I - K H) P
+    "work": (6, 6),  # raw Sage-Husa estimate (full mode)
+    "dx": (15,),  # error-state correction
+}
 
 # Update status codes (per user and frame).
 STATUS_SKIPPED = 0  # valid was False: no measurement
@@ -82,6 +91,13 @@ STATUS_FORCED = 3  # failed the gate but taken after too many consecutive reject
 
 # Measured error-state rows: position (0-2) and attitude (6-8).
 _IDX = (0, 1, 2, 6, 7, 8)
+
+
+def records(fields: dict, batch_size: int) -> np.ndarray:
+    """Zeroed (B,) record array of ``fields`` whose elements read fields as attributes
+    (``s = state[i]; s.P``) in Python too, as they do in the kernels."""
+    out = state_records(fields, batch_size)
+    return out.view(np.dtype((np.record, out.dtype)))
 
 
 @numba.njit(cache=True, inline="always")
@@ -115,32 +131,24 @@ def rk4_quat(qw, qx, qy, qz, ax, ay, az, bx, by, bz, dt):
     return nw / n, nx / n, ny / n, nz / n
 
 
-@numba.njit(cache=True, inline="always")
-def _rotmat(qw, qx, qy, qz, m):
-    """Fill ``m`` (3, 3) with the rotation matrix of unit ``q`` (body -> world)."""
-    xx, yy, zz = qx * qx, qy * qy, qz * qz
-    xy, xz, yz = qx * qy, qx * qz, qy * qz
-    wx, wy, wz = qw * qx, qw * qy, qw * qz
-    m[0, 0] = 1.0 - 2.0 * (yy + zz)
-    m[0, 1] = 2.0 * (xy - wz)
-    m[0, 2] = 2.0 * (xz + wy)
-    m[1, 0] = 2.0 * (xy + wz)
-    m[1, 1] = 1.0 - 2.0 * (xx + zz)
-    m[1, 2] = 2.0 * (yz - wx)
-    m[2, 0] = 2.0 * (xz - wy)
-    m[2, 1] = 2.0 * (yz + wx)
-    m[2, 2] = 1.0 - 2.0 * (xx + yy)
+# ------------------------------------------------------------------------------------------------
+# Prediction stages.
+# ------------------------------------------------------------------------------------------------
 
 
 @numba.njit(cache=True, inline="always")
-def _mech_step(x, has_prev, w1x, w1y, w1z, f1x, f1y, f1z, dt, g, r0, r1, af):
-    """Advance the nominal state ``x`` (N_X,) by one IMU interval, in place.
+def _mech_step(x, has_prev, w1, f1, dt, g, r0, r1, af):
+    """Advance the nominal state ``x`` (N_X,) by one IMU interval ending at the raw gyro and
+    specific-force samples ``w1``, ``f1`` (3,), in place.
 
-    RK4 attitude with the gyro linear between the previous and this sample; specific force of
-    each end rotated with the attitude at that end, gravity added, trapezoid for v and p. Fills
-    ``r1`` with the rotation matrix at the end and ``af`` with the world specific force there
-    (bias-corrected): the ESKF's Jacobian needs both. ``r0`` is (3, 3) scratch.
+    RK4 attitude with the gyro linear between the previous and this sample (this sample held
+    over the interval without ``has_prev``); specific force of each end rotated with the attitude
+    at that end, gravity ``g`` added, trapezoid for v and p. Fills ``r1`` with the rotation
+    matrix at the end and ``af`` with the world specific force there (bias-corrected): the
+    ESKF's Jacobian needs both. ``r0`` is (3, 3) scratch.
     """
+    w1x, w1y, w1z = w1[0], w1[1], w1[2]
+    f1x, f1y, f1z = f1[0], f1[1], f1[2]
     bax, bay, baz = x[X_BA], x[X_BA + 1], x[X_BA + 2]
     bgx, bgy, bgz = x[X_BG], x[X_BG + 1], x[X_BG + 2]
     if has_prev:
@@ -153,8 +161,8 @@ def _mech_step(x, has_prev, w1x, w1y, w1z, f1x, f1y, f1z, dt, g, r0, r1, af):
     nw, nx, ny, nz = rk4_quat(
         qw, qx, qy, qz, w0x - bgx, w0y - bgy, w0z - bgz, w1x - bgx, w1y - bgy, w1z - bgz, dt
     )
-    _rotmat(qw, qx, qy, qz, r0)
-    _rotmat(nw, nx, ny, nz, r1)
+    rotation_matrix(qw, qx, qy, qz, r0)
+    rotation_matrix(nw, nx, ny, nz, r1)
     c0x, c0y, c0z = f0x - bax, f0y - bay, f0z - baz
     c1x, c1y, c1z = f1x - bax, f1y - bay, f1z - baz
     h = 0.5 * dt
@@ -184,12 +192,7 @@ def strapdown_run(x, has_prev, gyr, acc, dt, g, out_q, out_v, out_p):
     for b in range(gyr.shape[0]):
         xb = x[b]
         for k in range(gyr.shape[1]):
-            _mech_step(
-                xb, has_prev[b] != 0.0,
-                gyr[b, k, 0], gyr[b, k, 1], gyr[b, k, 2],
-                acc[b, k, 0], acc[b, k, 1], acc[b, k, 2],
-                dt, g, r0, r1, af,
-            )  # fmt: skip
+            _mech_step(xb, has_prev[b] != 0.0, gyr[b, k], acc[b, k], dt, g, r0, r1, af)
             has_prev[b] = 1.0
             for i in range(4):
                 out_q[b, k, i] = xb[X_Q + i]
@@ -199,13 +202,27 @@ def strapdown_run(x, has_prev, gyr, acc, dt, g, out_q, out_v, out_p):
 
 
 @numba.njit(cache=True, inline="always")
-def _propagate_cov(P, r1, af, dt, qv, qth, qba, qbg, m, n):
+def _process_noise(q_scale, dt, p):
+    """Diagonal of ``Q`` per block (dv, dtheta, db_a, db_g) for the Q scale ``q_scale``."""
+    s = q_scale * dt
+    return (
+        s * p.accel_noise_density**2,
+        s * p.gyro_noise_density**2,
+        s * p.accel_bias_walk**2,
+        s * p.gyro_bias_walk**2,
+    )
+
+
+@numba.njit(cache=True, inline="always")
+def _propagate_cov(P, r1, af, dt, q, m, n):
     """``P <- F P F^T + Q`` with ``F = I + A dt`` and the sparse A of the ESKF, in place.
 
     ``A``: rows dp: ``dv``; rows dv: ``-[af x] dtheta - R dba``; rows dtheta: ``-R dbg``. With
     ``M = A P`` and ``N = M A^T`` (= A P A^T): ``P + dt (M + M^T) + dt^2 N + Q``, computed on
-    the upper triangle and mirrored. ``m``, ``n`` are (15, 15) scratch.
+    the upper triangle and mirrored. ``q`` is :func:`_process_noise`; ``m``, ``n`` are (15, 15)
+    scratch.
     """
+    qv, qth, qba, qbg = q
     ax, ay, az = af[0], af[1], af[2]
     # [af x] = [[0, -az, ay], [az, 0, -ax], [-ay, ax, 0]]
     for j in range(15):
@@ -249,36 +266,73 @@ def _propagate_cov(P, r1, af, dt, qv, qth, qba, qbg, m, n):
         P[12 + i, 12 + i] += qbg
 
 
-@numba.njit(cache=True)
-def eskf_predict(x, P, aux, gyr, acc, dt, prm, out_p, out_q):
-    """ESKF prediction over (B, N) IMU samples: mechanisation + covariance, in place."""
-    g = prm[PRM_GRAVITY]
-    r0 = np.empty((3, 3))
-    r1 = np.empty((3, 3))
-    af = np.empty(3)
-    m = np.empty((15, 15))
-    n = np.empty((15, 15))
-    for b in range(gyr.shape[0]):
-        xb = x[b]
-        pb = P[b]
-        s = aux[b, AUX_Q_SCALE] * dt
-        qv = s * prm[PRM_ACC_NOISE] ** 2
-        qth = s * prm[PRM_GYR_NOISE] ** 2
-        qba = s * prm[PRM_ACC_WALK] ** 2
-        qbg = s * prm[PRM_GYR_WALK] ** 2
+def _predict(state, prm, gyr, acc, dt, out_p, out_q, work):
+    """ESKF prediction over (B, N) IMU samples ``gyr`` (rad/s), ``acc`` (m/s^2) at interval
+    ``dt`` (s): mechanisation and covariance of each user's ``state`` record, in place; the
+    position and attitude after each sample into ``out_p`` (B, N, 3) and ``out_q`` (B, N, 4)."""
+    p = prm[0]
+    for i in numba.prange(gyr.shape[0]):
+        s = state[i]
+        w = work[i]
+        x = s.x
+        P = s.P
+        q = _process_noise(s.q_scale, dt, p)
         for k in range(gyr.shape[1]):
-            _mech_step(
-                xb, aux[b, AUX_HAS_PREV] != 0.0,
-                gyr[b, k, 0], gyr[b, k, 1], gyr[b, k, 2],
-                acc[b, k, 0], acc[b, k, 1], acc[b, k, 2],
-                dt, g, r0, r1, af,
-            )  # fmt: skip
-            aux[b, AUX_HAS_PREV] = 1.0
-            _propagate_cov(pb, r1, af, dt, qv, qth, qba, qbg, m, n)
-            for i in range(3):
-                out_p[b, k, i] = xb[X_P + i]
-            for i in range(4):
-                out_q[b, k, i] = xb[X_Q + i]
+            _mech_step(x, s.has_prev != 0.0, gyr[i, k], acc[i, k], dt, p.gravity, w.r0, w.r1,
+                       w.af)  # fmt: skip
+            s.has_prev = 1.0
+            _propagate_cov(P, w.r1, w.af, dt, q, w.m, w.n)
+            for j in range(3):
+                out_p[i, k, j] = x[X_P + j]
+            for j in range(4):
+                out_q[i, k, j] = x[X_Q + j]
+
+
+#: ESKF prediction kernel, ``predict_kernel(B)(state, prm, gyr, acc, dt, out_p, out_q, work)``.
+predict_kernel = BatchKernel(_predict, parallel=False)
+
+
+# ------------------------------------------------------------------------------------------------
+# Update stages.
+# ------------------------------------------------------------------------------------------------
+
+
+@numba.njit(cache=True, inline="always")
+def _innovation(x, pos, quat, nu):
+    """``nu`` (6,) = [position difference, world-frame small rotation log(q_meas ⊗ q_est^-1)]
+    of the measured pose ``pos`` (3,), ``quat`` (4,) of any norm; the sign of the quaternion
+    difference is chosen so that its scalar part is >= 0."""
+    for i in range(3):
+        nu[i] = pos[i] - x[X_P + i]
+    mw, mx, my, mz = quat[0], quat[1], quat[2], quat[3]
+    mn = math.sqrt(mw * mw + mx * mx + my * my + mz * mz)
+    mw, mx, my, mz = mw / mn, mx / mn, my / mn, mz / mn
+    dw, dqx, dqy, dqz = quat_mul(mw, mx, my, mz, x[X_Q], -x[X_Q + 1], -x[X_Q + 2], -x[X_Q + 3])
+    if dw < 0.0:
+        dw, dqx, dqy, dqz = -dw, -dqx, -dqy, -dqz
+    sn = math.sqrt(dqx * dqx + dqy * dqy + dqz * dqz)
+    if sn < 1e-8:
+        sc = 2.0 / dw
+    else:
+        sc = 2.0 * math.atan2(sn, dw) / sn
+    nu[3], nu[4], nu[5] = sc * dqx, sc * dqy, sc * dqz
+
+
+@numba.njit(cache=True, inline="always")
+def _innovation_cov(hph, R, s):
+    """``S = H P^- H^T + R`` into ``s``."""
+    for i in range(6):
+        for j in range(6):
+            s[i, j] = hph[i, j] + R[i, j]
+
+
+@numba.njit(cache=True, inline="always")
+def _project(P, R, hph, s):
+    """``H P^- H^T`` into ``hph`` and ``S`` into ``s``."""
+    for i in range(6):
+        for j in range(6):
+            hph[i, j] = P[_IDX[i], _IDX[j]]
+    _innovation_cov(hph, R, s)
 
 
 @numba.njit(cache=True, inline="always")
@@ -324,27 +378,35 @@ def _fading_weight(b, k):
 
 
 @numba.njit(cache=True, inline="always")
-def _adapt_r(Rb, nu, hph, d, prm, work):
+def _adapt_q(s, p, k, nis):
+    """Q scale ``alpha <- clip(alpha (1 + d_q (nis / 6 - 1)), q_scale_bounds)`` of record ``s``."""
+    dq_ = _fading_weight(p.q_forgetting, k)
+    qs = s.q_scale * (1.0 + dq_ * (nis / 6.0 - 1.0))
+    s.q_scale = min(max(qs, p.q_min), p.q_max)
+
+
+@numba.njit(cache=True, inline="always")
+def _adapt_r(R, nu, hph, d, p, work):
     """Sage-Husa ``R <- (1 - d) R + d (nu nu^T - H P^- H^T)``, clamped (see VioConfig)."""
-    if prm[PRM_DIAGONAL] != 0.0:
+    if p.sage_husa_diagonal != 0.0:
         for i in range(6):
-            lo = prm[PRM_R_FLOOR_POS] if i < 3 else prm[PRM_R_FLOOR_ATT]
-            hi = prm[PRM_R_CEIL_POS] if i < 3 else prm[PRM_R_CEIL_ATT]
-            v = (1.0 - d) * Rb[i, i] + d * (nu[i] * nu[i] - hph[i, i])
+            lo = p.r_floor_pos if i < 3 else p.r_floor_att
+            hi = p.r_ceil_pos if i < 3 else p.r_ceil_att
+            v = (1.0 - d) * R[i, i] + d * (nu[i] * nu[i] - hph[i, i])
             for j in range(6):
-                Rb[i, j] = 0.0
-            Rb[i, i] = min(max(v, lo), hi)
+                R[i, j] = 0.0
+            R[i, i] = min(max(v, lo), hi)
         return
     for i in range(6):
         for j in range(6):
-            work[i, j] = (1.0 - d) * Rb[i, j] + d * (nu[i] * nu[j] - hph[i, j])
+            work[i, j] = (1.0 - d) * R[i, j] + d * (nu[i] * nu[j] - hph[i, j])
     for i in range(6):
         for j in range(i + 1, 6):
             v = 0.5 * (work[i, j] + work[j, i])
             work[i, j] = v
             work[j, i] = v
-    lo = min(prm[PRM_R_FLOOR_POS], prm[PRM_R_FLOOR_ATT])
-    hi = max(prm[PRM_R_CEIL_POS], prm[PRM_R_CEIL_ATT])
+    lo = min(p.r_floor_pos, p.r_floor_att)
+    hi = max(p.r_ceil_pos, p.r_ceil_att)
     w, vec = np.linalg.eigh(work)
     for i in range(6):
         w[i] = min(max(w[i], lo), hi)
@@ -353,160 +415,158 @@ def _adapt_r(Rb, nu, hph, d, prm, work):
             v = 0.0
             for k in range(6):
                 v += vec[i, k] * w[k] * vec[j, k]
-            Rb[i, j] = v
-            Rb[j, i] = v
+            R[i, j] = v
+            R[j, i] = v
 
 
-@numba.njit(cache=True)
-def eskf_update(x, P, R, aux, pos, quat, valid, prm, status):
-    """ESKF update with a visual pose per user (rows with ``valid`` False are skipped)."""
-    nu = np.empty(6)
-    hph = np.empty((6, 6))
-    s = np.empty((6, 6))
-    low = np.empty((6, 6))
-    tmp = np.empty(6)
-    rhs = np.empty(6)
-    gain = np.empty((15, 6))
-    hp = np.empty((6, 15))
-    a1 = np.empty((15, 15))
-    work = np.empty((6, 6))
-    dx = np.empty(15)
-    for b in range(x.shape[0]):
-        if not valid[b]:
-            status[b] = STATUS_SKIPPED
-            continue
-        xb = x[b]
-        pb = P[b]
-        rb = R[b]
-        # Innovation: position difference, and the world-frame small rotation
-        # log(q_meas ⊗ q_est^-1), sign chosen so that its scalar part is >= 0.
-        for i in range(3):
-            nu[i] = pos[b, i] - xb[X_P + i]
-        mw, mx, my, mz = quat[b, 0], quat[b, 1], quat[b, 2], quat[b, 3]
-        mn = math.sqrt(mw * mw + mx * mx + my * my + mz * mz)
-        mw, mx, my, mz = mw / mn, mx / mn, my / mn, mz / mn
-        ew, ex, ey, ez = xb[X_Q], -xb[X_Q + 1], -xb[X_Q + 2], -xb[X_Q + 3]
-        dw = mw * ew - mx * ex - my * ey - mz * ez
-        dqx = mw * ex + mx * ew + my * ez - mz * ey
-        dqy = mw * ey - mx * ez + my * ew + mz * ex
-        dqz = mw * ez + mx * ey - my * ex + mz * ew
-        if dw < 0.0:
-            dw, dqx, dqy, dqz = -dw, -dqx, -dqy, -dqz
-        sn = math.sqrt(dqx * dqx + dqy * dqy + dqz * dqz)
-        if sn < 1e-8:
-            sc = 2.0 / dw
-        else:
-            sc = 2.0 * math.atan2(sn, dw) / sn
-        nu[3], nu[4], nu[5] = sc * dqx, sc * dqy, sc * dqz
+@numba.njit(cache=True, inline="always")
+def _adapt_r_refused(s, p, nis, w):
+    """Robust Sage-Husa step of a frame the gate refused: its innovation clipped to the gate
+    (Huber), ``k`` advanced."""
+    clip = math.sqrt(p.gate / nis)
+    tmp = w.tmp
+    nu = w.nu
+    for i in range(6):
+        tmp[i] = clip * nu[i]
+    k = s.k
+    _adapt_r(s.R, tmp, w.hph, _fading_weight(p.forgetting, k), p, w.work)
+    s.k = k + 1.0
+
+
+@numba.njit(cache=True, inline="always")
+def _gain(P, low, nu, w):
+    """Gain ``K = P H^T S^-1`` into ``w.gain``, one row at a time (S symmetric:
+    ``K^T = S^-1 H P``), and the correction ``dx = K nu`` into ``w.dx``."""
+    gain, rhs, tmp, dx = w.gain, w.rhs, w.tmp, w.dx
+    for r in range(15):
         for i in range(6):
+            rhs[i] = P[r, _IDX[i]]
+        _chol_solve6(low, rhs, tmp)
+        for i in range(6):
+            gain[r, i] = tmp[i]
+    for r in range(15):
+        v = 0.0
+        for i in range(6):
+            v += gain[r, i] * nu[i]
+        dx[r] = v
+
+
+@numba.njit(cache=True, inline="always")
+def _joseph(P, R, gain, hp, a1):
+    """Joseph form ``P <- (I - K H) P (I - K H)^T + K R K^T``, in place; ``hp`` (6, 15) and
+    ``a1`` (15, 15) scratch."""
+    for i in range(6):
+        for j in range(15):
+            hp[i, j] = P[_IDX[i], j]
+    for r in range(15):
+        for c in range(15):
+            v = P[r, c]
+            for i in range(6):
+                v -= gain[r, i] * hp[i, c]
+            a1[r, c] = v
+    for i in range(6):
+        for c in range(15):
+            t = 0.0
             for j in range(6):
-                hph[i, j] = pb[_IDX[i], _IDX[j]]
-                s[i, j] = hph[i, j] + rb[i, j]
-        if not _cholesky6(s, low):
-            status[b] = STATUS_REJECTED
-            aux[b, AUX_REJECTED] += 1.0
+                t += R[i, j] * gain[c, j]
+            hp[i, c] = t  # now R K^T
+    for r in range(15):
+        for c in range(r, 15):
+            v = a1[r, c]
+            for i in range(6):
+                v += gain[r, i] * hp[i, c] - a1[r, _IDX[i]] * gain[c, i]
+            P[r, c] = v
+    for r in range(15):
+        for c in range(r + 1, 15):
+            P[c, r] = P[r, c]
+
+
+@numba.njit(cache=True, inline="always")
+def _inject(x, dx):
+    """Inject the error state ``dx`` (15,) into the nominal state ``x``: additive for p, v and
+    the biases, ``q <- normalise(exp(dtheta) ⊗ q)``."""
+    for i in range(3):
+        x[X_P + i] += dx[i]
+        x[X_V + i] += dx[3 + i]
+        x[X_BA + i] += dx[9 + i]
+        x[X_BG + i] += dx[12 + i]
+    pw, px, py, pz = quat_from_rotvec(dx[6], dx[7], dx[8])
+    nw, nx, ny, nz = quat_mul(pw, px, py, pz, x[X_Q], x[X_Q + 1], x[X_Q + 2], x[X_Q + 3])
+    nn = math.sqrt(nw * nw + nx * nx + ny * ny + nz * nz)
+    x[X_Q], x[X_Q + 1], x[X_Q + 2], x[X_Q + 3] = nw / nn, nx / nn, ny / nn, nz / nn
+
+
+@numba.njit(cache=True, inline="always")
+def _reset_cov(P, dx):
+    """Reset Jacobian of the world-frame attitude error: ``G = I + 0.5 [dtheta x]`` on rows and
+    columns 6-8, ``P <- G P G^T`` (rows first, then columns)."""
+    hx, hy, hz = 0.5 * dx[6], 0.5 * dx[7], 0.5 * dx[8]
+    for c in range(15):
+        p6, p7, p8 = P[6, c], P[7, c], P[8, c]
+        P[6, c] = p6 - hz * p7 + hy * p8
+        P[7, c] = hz * p6 + p7 - hx * p8
+        P[8, c] = -hy * p6 + hx * p7 + p8
+    for r in range(15):
+        p6, p7, p8 = P[r, 6], P[r, 7], P[r, 8]
+        P[r, 6] = p6 - hz * p7 + hy * p8
+        P[r, 7] = hz * p6 + p7 - hx * p8
+        P[r, 8] = -hy * p6 + hx * p7 + p8
+
+
+def _update(state, prm, pos, quat, valid, status, work):
+    """ESKF update of each user's ``state`` record with its visual pose ``pos`` (B, 3) m,
+    ``quat`` (B, 4); users with ``valid`` False are skipped. Status codes into ``status`` (B,)."""
+    p = prm[0]
+    for i in numba.prange(pos.shape[0]):
+        if not valid[i]:
+            status[i] = STATUS_SKIPPED
             continue
-        _chol_solve6(low, nu, tmp)
+        s = state[i]
+        w = work[i]
+        P = s.P
+        R = s.R
+        nu = w.nu
+        _innovation(s.x, pos[i], quat[i], nu)
+        _project(P, R, w.hph, w.s)
+        if not _cholesky6(w.s, w.low):
+            status[i] = STATUS_REJECTED
+            s.rejected += 1.0
+            continue
+        _chol_solve6(w.low, nu, w.tmp)
         nis = 0.0
-        for i in range(6):
-            nis += nu[i] * tmp[i]
-        aux[b, AUX_NIS] = nis
+        for j in range(6):
+            nis += nu[j] * w.tmp[j]
+        s.nis = nis
         code = STATUS_ACCEPTED
-        if nis > prm[PRM_GATE]:
-            if aux[b, AUX_CONSEC] < prm[PRM_GATE_MAX]:
-                aux[b, AUX_CONSEC] += 1.0
-                aux[b, AUX_REJECTED] += 1.0
-                status[b] = STATUS_REJECTED
-                if prm[PRM_SAGE_HUSA] != 0.0:  # robust Sage-Husa: clipped to the gate (Huber)
-                    clip = math.sqrt(prm[PRM_GATE] / nis)
-                    for i in range(6):
-                        tmp[i] = clip * nu[i]
-                    k = aux[b, AUX_K]
-                    _adapt_r(rb, tmp, hph, _fading_weight(prm[PRM_FORGET], k), prm, work)
-                    aux[b, AUX_K] = k + 1.0
+        if nis > p.gate:
+            if s.consec < p.gate_max_consecutive:
+                s.consec += 1.0
+                s.rejected += 1.0
+                status[i] = STATUS_REJECTED
+                if p.sage_husa != 0.0:
+                    _adapt_r_refused(s, p, nis, w)
                 continue
             code = STATUS_FORCED
-            aux[b, AUX_FORCED] += 1.0
-        aux[b, AUX_CONSEC] = 0.0
-        k = aux[b, AUX_K]
-        if prm[PRM_ADAPT_Q] != 0.0:
-            dq_ = _fading_weight(prm[PRM_Q_FORGET], k)
-            qs = aux[b, AUX_Q_SCALE] * (1.0 + dq_ * (nis / 6.0 - 1.0))
-            aux[b, AUX_Q_SCALE] = min(max(qs, prm[PRM_Q_MIN]), prm[PRM_Q_MAX])
-        if prm[PRM_SAGE_HUSA] != 0.0:
-            _adapt_r(rb, nu, hph, _fading_weight(prm[PRM_FORGET], k), prm, work)
-            for i in range(6):
-                for j in range(6):
-                    s[i, j] = hph[i, j] + rb[i, j]
-            if not _cholesky6(s, low):  # cannot happen: R is clamped positive definite
-                status[b] = STATUS_REJECTED
-                aux[b, AUX_REJECTED] += 1.0
+            s.forced += 1.0
+        s.consec = 0.0
+        k = s.k
+        if p.adapt_q != 0.0:
+            _adapt_q(s, p, k, nis)
+        if p.sage_husa != 0.0:
+            _adapt_r(R, nu, w.hph, _fading_weight(p.forgetting, k), p, w.work)
+            _innovation_cov(w.hph, R, w.s)
+            if not _cholesky6(w.s, w.low):  # cannot happen: R is clamped positive definite
+                status[i] = STATUS_REJECTED
+                s.rejected += 1.0
                 continue
-        aux[b, AUX_K] = k + 1.0
-        # Gain K = P H^T S^-1, one row at a time (S symmetric: K^T = S^-1 H P).
-        for r in range(15):
-            for i in range(6):
-                rhs[i] = pb[r, _IDX[i]]
-            _chol_solve6(low, rhs, tmp)
-            for i in range(6):
-                gain[r, i] = tmp[i]
-        for r in range(15):
-            v = 0.0
-            for i in range(6):
-                v += gain[r, i] * nu[i]
-            dx[r] = v
-        # Joseph form: (I - K H) P (I - K H)^T + K R K^T.
-        for i in range(6):
-            for j in range(15):
-                hp[i, j] = pb[_IDX[i], j]
-        for r in range(15):
-            for c in range(15):
-                v = pb[r, c]
-                for i in range(6):
-                    v -= gain[r, i] * hp[i, c]
-                a1[r, c] = v
-        for i in range(6):
-            for c in range(15):
-                t = 0.0
-                for j in range(6):
-                    t += rb[i, j] * gain[c, j]
-                hp[i, c] = t  # now R K^T
-        for r in range(15):
-            for c in range(r, 15):
-                v = a1[r, c]
-                for i in range(6):
-                    v += gain[r, i] * hp[i, c] - a1[r, _IDX[i]] * gain[c, i]
-                pb[r, c] = v
-        for r in range(15):
-            for c in range(r + 1, 15):
-                pb[c, r] = pb[r, c]
-        # Inject the error state into the nominal state.
-        for i in range(3):
-            xb[X_P + i] += dx[i]
-            xb[X_V + i] += dx[3 + i]
-            xb[X_BA + i] += dx[9 + i]
-            xb[X_BG + i] += dx[12 + i]
-        rx, ry, rz = dx[6], dx[7], dx[8]
-        pw, px, py, pz = quat_from_rotvec(rx, ry, rz)
-        qw, qx, qy, qz = xb[X_Q], xb[X_Q + 1], xb[X_Q + 2], xb[X_Q + 3]
-        nw = pw * qw - px * qx - py * qy - pz * qz
-        nx = pw * qx + px * qw + py * qz - pz * qy
-        ny = pw * qy - px * qz + py * qw + pz * qx
-        nz = pw * qz + px * qy - py * qx + pz * qw
-        nn = math.sqrt(nw * nw + nx * nx + ny * ny + nz * nz)
-        xb[X_Q], xb[X_Q + 1], xb[X_Q + 2], xb[X_Q + 3] = nw / nn, nx / nn, ny / nn, nz / nn
-        # Reset Jacobian of the world-frame attitude error: G = I + 0.5 [dtheta x] on rows/cols
-        # 6-8, P <- G P G^T (rows first, then columns).
-        hx, hy, hz = 0.5 * rx, 0.5 * ry, 0.5 * rz
-        for c in range(15):
-            p6, p7, p8 = pb[6, c], pb[7, c], pb[8, c]
-            pb[6, c] = p6 - hz * p7 + hy * p8
-            pb[7, c] = hz * p6 + p7 - hx * p8
-            pb[8, c] = -hy * p6 + hx * p7 + p8
-        for r in range(15):
-            p6, p7, p8 = pb[r, 6], pb[r, 7], pb[r, 8]
-            pb[r, 6] = p6 - hz * p7 + hy * p8
-            pb[r, 7] = hz * p6 + p7 - hx * p8
-            pb[r, 8] = -hy * p6 + hx * p7 + p8
-        aux[b, AUX_UPDATES] += 1.0
-        status[b] = code
+        s.k = k + 1.0
+        _gain(P, w.low, nu, w)
+        _joseph(P, R, w.gain, w.hp, w.a1)
+        _inject(s.x, w.dx)
+        _reset_cov(P, w.dx)
+        s.updates += 1.0
+        status[i] = code
+
+
+#: ESKF update kernel, ``update_kernel(B)(state, prm, pos, quat, valid, status, work)``.
+update_kernel = BatchKernel(_update, parallel=False)

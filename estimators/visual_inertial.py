@@ -77,10 +77,8 @@ while ``H P^- H^T`` is a visible part of ``S`` (otherwise nis hardly depends on 
 drifts slowly between its bounds); with both adaptations on, R (faster) absorbs measurement noise
 changes and Q (slower) persistent prediction errors.
 
-The per-sample prediction and the update run in :mod:`estimators._visual_inertial_numba`;
-:func:`eskf_predict_reference` and :func:`eskf_update_reference` are the readable numpy versions
-the tests compare them with (1e-10). 120 s at 1 kHz with 120 Hz frames (B = 1, streaming calls)
-takes about 0.5 s.
+The per-sample prediction and the update are the compiled per-user kernels of
+:mod:`estimators._visual_inertial_numba` (their uncompiled ``py_func`` is the readable source).
 """
 
 from __future__ import annotations
@@ -95,23 +93,9 @@ from scipy.stats import chi2
 
 from estimators import _visual_inertial_numba as _k
 from estimators.batching import stream_rows
-from estimators.rotations import (
-    GRAVITY,
-    quat_conjugate,
-    quat_from_rotvec,
-    quat_multiply,
-    quat_normalize,
-    quat_to_matrix,
-    quat_to_rotvec,
-    skew,
-)
-from estimators.strapdown import (
-    _as_array,
-    _check_batch_size,
-    _check_rate,
-    mechanisation_step,
-    set_nominal_state,
-)
+from estimators.kernels.records import param_record
+from estimators.rotations import GRAVITY
+from estimators.strapdown import _as_array, _check_batch_size, _check_rate, set_nominal_state
 
 __all__ = [
     "STATUS_ACCEPTED",
@@ -119,10 +103,7 @@ __all__ = [
     "STATUS_REJECTED",
     "STATUS_SKIPPED",
     "VioConfig",
-    "VioState",
     "VisualInertialFilter",
-    "eskf_predict_reference",
-    "eskf_update_reference",
 ]
 
 STATUS_SKIPPED = _k.STATUS_SKIPPED
@@ -133,7 +114,13 @@ STATUS_FORCED = _k.STATUS_FORCED
 _ADAPTIVE = ("fixed", "sage_husa")
 _MG = 1e-3 * GRAVITY
 _DEG = math.pi / 180.0
-_IDX = np.array(_k._IDX)
+#: Numeric fields of :class:`VioConfig` the kernels do not read (``reset`` and the derived
+#: record values use them).
+_NOT_IN_KERNEL = (
+    "init_position_sigma", "init_velocity_sigma", "init_attitude_sigma", "init_accel_bias_sigma",
+    "init_gyro_bias_sigma", "position_sigma", "attitude_sigma", "r_prior_frames",
+    "gate_probability",
+)  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -209,7 +196,7 @@ class VioConfig:
     r_floor: tuple[float, float] = (1e-3, 0.05 * _DEG)
     r_ceiling: tuple[float, float] = (0.5, 10.0 * _DEG)
     gravity: float = GRAVITY
-    _packed: NDArray[np.float64] = field(init=False, repr=False, compare=False)
+    _record: NDArray | None = field(default=None, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         positive = (
@@ -247,37 +234,31 @@ class VioConfig:
         gp = self.gate_probability
         if gp is not None and not (isinstance(gp, (int, float)) and 0.5 < gp < 1.0):
             raise ValueError(f"gate_probability must be in (0.5, 1) or None, got {gp!r}")
-        prm = np.zeros(_k.N_PRM)
-        prm[_k.PRM_GRAVITY] = self.gravity
-        prm[_k.PRM_ACC_NOISE] = self.accel_noise_density
-        prm[_k.PRM_GYR_NOISE] = self.gyro_noise_density
-        prm[_k.PRM_ACC_WALK] = self.accel_bias_walk
-        prm[_k.PRM_GYR_WALK] = self.gyro_bias_walk
-        prm[_k.PRM_SAGE_HUSA] = 1.0 if self.adaptive == "sage_husa" else 0.0
-        prm[_k.PRM_FORGET] = self.forgetting
-        prm[_k.PRM_DIAGONAL] = 1.0 if self.sage_husa_diagonal else 0.0
-        prm[_k.PRM_PRIOR_FRAMES] = self.r_prior_frames
-        prm[_k.PRM_ADAPT_Q] = 1.0 if self.adapt_q else 0.0
-        prm[_k.PRM_Q_FORGET] = self.q_forgetting
-        prm[_k.PRM_Q_MIN] = lo
-        prm[_k.PRM_Q_MAX] = hi
-        prm[_k.PRM_GATE] = math.inf if gp is None else float(chi2.ppf(gp, 6))
-        prm[_k.PRM_GATE_MAX] = self.gate_max_consecutive
-        prm[_k.PRM_R_FLOOR_POS] = f_pos**2
-        prm[_k.PRM_R_FLOOR_ATT] = f_att**2
-        prm[_k.PRM_R_CEIL_POS] = c_pos**2
-        prm[_k.PRM_R_CEIL_ATT] = c_att**2
+        prm = param_record(
+            self, exclude=_NOT_IN_KERNEL,
+            sage_husa_diagonal=1.0 if self.sage_husa_diagonal else 0.0,
+            adapt_q=1.0 if self.adapt_q else 0.0,
+            sage_husa=1.0 if self.adaptive == "sage_husa" else 0.0,
+            q_min=lo, q_max=hi,
+            gate=math.inf if gp is None else float(chi2.ppf(gp, 6)),
+            r_floor_pos=f_pos**2, r_floor_att=f_att**2, r_ceil_pos=c_pos**2, r_ceil_att=c_att**2,
+        )  # fmt: skip
+        prm = prm.view(np.dtype((np.record, prm.dtype)))
         prm.flags.writeable = False
-        object.__setattr__(self, "_packed", prm)
+        object.__setattr__(self, "_record", prm)
 
-    def packed(self) -> NDArray[np.float64]:
-        """The parameters as the kernel's read-only float64 vector (``_visual_inertial_numba``)."""
-        return self._packed
+    def packed(self) -> NDArray:
+        """The parameters as the kernels' read-only (1,) float64 record: the numeric fields the
+        kernels read, by name (booleans as 0.0/1.0), and the derived ``sage_husa`` (1.0 for
+        ``adaptive="sage_husa"``), ``q_min``/``q_max`` (``q_scale_bounds``), ``gate``
+        (:attr:`gate_threshold`) and the variance bounds ``r_floor_pos``, ``r_floor_att``,
+        ``r_ceil_pos``, ``r_ceil_att`` (m^2, rad^2)."""
+        return self._record
 
     @property
     def gate_threshold(self) -> float:
         """The chi-square threshold on the 6-dof NIS (inf without a gate)."""
-        return float(self._packed[_k.PRM_GATE])
+        return float(self._record[0]["gate"])
 
     @property
     def r0(self) -> NDArray[np.float64]:
@@ -298,7 +279,7 @@ class VioConfig:
     def as_dict(self) -> dict[str, Any]:
         """The public fields as a plain dict."""
         d = asdict(self)
-        d.pop("_packed", None)
+        d.pop("_record", None)
         return d
 
 
@@ -326,167 +307,6 @@ def _pair(cfg: object, name: str) -> tuple[float, float]:
     return a, b
 
 
-@dataclass
-class VioState:
-    """The filter's arrays (the kernels' layout, :mod:`estimators._visual_inertial_numba`).
-
-    Attributes:
-        x: (B, 22) nominal state: p, v, q, b_a, b_g and the previous raw IMU sample.
-        P: (B, 15, 15) error-state covariance (m, m/s, rad, m/s^2, rad/s).
-        R: (B, 6, 6) measurement covariance (m^2, rad^2).
-        aux: (B, 8) counters and adaptive factors (``AUX_*``).
-    """
-
-    x: NDArray[np.float64]
-    P: NDArray[np.float64]
-    R: NDArray[np.float64]
-    aux: NDArray[np.float64]
-
-    def copy(self) -> VioState:
-        """A deep copy."""
-        return VioState(self.x.copy(), self.P.copy(), self.R.copy(), self.aux.copy())
-
-
-# ------------------------------------------------------------------------------------------------
-# Reference (numpy) implementation: vectorised over users, a Python loop over samples.
-# ------------------------------------------------------------------------------------------------
-
-
-def eskf_predict_reference(
-    state: VioState, gyr: NDArray, acc: NDArray, dt: float, config: VioConfig
-) -> tuple[NDArray, NDArray]:
-    """Readable numpy version of the prediction (mutates ``state``); returns per-sample p, q."""
-    x, P, aux = state.x, state.P, state.aux
-    b, n = gyr.shape[:2]
-    eye3 = np.eye(3)
-    out_p = np.empty((b, n, 3))
-    out_q = np.empty((b, n, 4))
-    for k in range(n):
-        has = aux[:, _k.AUX_HAS_PREV, None] != 0.0
-        g0 = np.where(has, x[:, _k.X_GYR : _k.X_GYR + 3], gyr[:, k])
-        f0 = np.where(has, x[:, _k.X_ACC : _k.X_ACC + 3], acc[:, k])
-        ba = x[:, _k.X_BA : _k.X_BA + 3]
-        bg = x[:, _k.X_BG : _k.X_BG + 3]
-        q1, v1, p1 = mechanisation_step(
-            x[:, _k.X_Q : _k.X_Q + 4], x[:, _k.X_V : _k.X_V + 3], x[:, _k.X_P : _k.X_P + 3],
-            g0, f0, gyr[:, k], acc[:, k], dt, config.gravity, bg, ba,
-        )  # fmt: skip
-        x[:, _k.X_Q : _k.X_Q + 4] = q1
-        x[:, _k.X_V : _k.X_V + 3] = v1
-        x[:, _k.X_P : _k.X_P + 3] = p1
-        x[:, _k.X_GYR : _k.X_GYR + 3] = gyr[:, k]
-        x[:, _k.X_ACC : _k.X_ACC + 3] = acc[:, k]
-        aux[:, _k.AUX_HAS_PREV] = 1.0
-        r1 = quat_to_matrix(q1)
-        af = np.einsum("bij,bj->bi", r1, acc[:, k] - ba)
-        a = np.zeros((b, 15, 15))
-        a[:, 0:3, 3:6] = eye3
-        a[:, 3:6, 6:9] = -skew(af)
-        a[:, 3:6, 9:12] = -r1
-        a[:, 6:9, 12:15] = -r1
-        f = np.eye(15) + dt * a
-        s = aux[:, _k.AUX_Q_SCALE] * dt
-        qd = np.repeat(
-            [0.0, config.accel_noise_density**2, config.gyro_noise_density**2,
-             config.accel_bias_walk**2, config.gyro_bias_walk**2], 3,
-        )  # fmt: skip
-        P[:] = f @ P @ np.swapaxes(f, -1, -2) + s[:, None, None] * np.diag(qd)
-        P[:] = 0.5 * (P + np.swapaxes(P, -1, -2))
-        out_p[:, k] = p1
-        out_q[:, k] = q1
-    return out_p, out_q
-
-
-def _sage_husa(rr: NDArray, nu: NDArray, hph: NDArray, k: NDArray, config: VioConfig,
-               prm: NDArray) -> NDArray:  # fmt: skip
-    """Sage-Husa ``R <- (1 - d_k) R + d_k (nu nu^T - H P^- H^T)``, clamped (numpy reference)."""
-    d = ((1.0 - config.forgetting) / (1.0 - config.forgetting ** (k + 1.0)))[:, None, None]
-    raw = (1.0 - d) * rr + d * (nu[:, :, None] * nu[:, None, :] - hph)
-    lo = np.repeat([prm[_k.PRM_R_FLOOR_POS], prm[_k.PRM_R_FLOOR_ATT]], 3)
-    hi = np.repeat([prm[_k.PRM_R_CEIL_POS], prm[_k.PRM_R_CEIL_ATT]], 3)
-    if config.sage_husa_diagonal:
-        return np.clip(np.diagonal(raw, axis1=1, axis2=2), lo, hi)[:, :, None] * np.eye(6)
-    raw = 0.5 * (raw + np.swapaxes(raw, -1, -2))
-    w, vec = np.linalg.eigh(raw)
-    w = np.clip(w, lo.min(), hi.max())
-    return np.einsum("bik,bk,bjk->bij", vec, w, vec)
-
-
-def eskf_update_reference(
-    state: VioState, pos: NDArray, quat: NDArray, valid: NDArray, config: VioConfig
-) -> NDArray[np.int8]:
-    """Readable numpy version of the update (mutates ``state``); returns the status codes."""
-    x, P, R, aux = state.x, state.P, state.R, state.aux
-    prm = config.packed()
-    b = x.shape[0]
-    status = np.full(b, STATUS_SKIPPED, dtype=np.int8)
-    rows = np.flatnonzero(valid)
-    if rows.size == 0:
-        return status
-    q_hat = x[rows, _k.X_Q : _k.X_Q + 4]
-    nu = np.concatenate(
-        [
-            pos[rows] - x[rows, _k.X_P : _k.X_P + 3],
-            quat_to_rotvec(quat_multiply(quat_normalize(quat[rows]), quat_conjugate(q_hat))),
-        ],
-        axis=-1,
-    )
-    hph = P[rows][:, _IDX][:, :, _IDX]
-    s = hph + R[rows]
-    nis = np.einsum("bi,bi->b", nu, np.linalg.solve(s, nu[..., None])[..., 0])
-    aux[rows, _k.AUX_NIS] = nis
-    out = nis > prm[_k.PRM_GATE]
-    forced = out & (aux[rows, _k.AUX_CONSEC] >= prm[_k.PRM_GATE_MAX])
-    rej = out & ~forced
-    aux[rows[rej], _k.AUX_CONSEC] += 1.0
-    aux[rows[rej], _k.AUX_REJECTED] += 1.0
-    status[rows[rej]] = STATUS_REJECTED
-    if config.adaptive == "sage_husa" and rej.any():  # robust: clipped to the gate (Huber)
-        clipped = nu[rej] * np.sqrt(prm[_k.PRM_GATE] / nis[rej])[:, None]
-        kr = aux[rows[rej], _k.AUX_K]
-        R[rows[rej]] = _sage_husa(R[rows[rej]], clipped, hph[rej], kr, config, prm)
-        aux[rows[rej], _k.AUX_K] = kr + 1.0
-    aux[rows[forced], _k.AUX_FORCED] += 1.0
-    take = ~rej
-    r = rows[take]
-    if r.size == 0:
-        return status
-    nu, hph, s, nis = nu[take], hph[take], s[take], nis[take]
-    status[r] = np.where(forced[take], STATUS_FORCED, STATUS_ACCEPTED)
-    aux[r, _k.AUX_CONSEC] = 0.0
-    k = aux[r, _k.AUX_K]
-    if config.adapt_q:
-        dq = (1.0 - config.q_forgetting) / (1.0 - config.q_forgetting ** (k + 1.0))
-        qs = aux[r, _k.AUX_Q_SCALE] * (1.0 + dq * (nis / 6.0 - 1.0))
-        aux[r, _k.AUX_Q_SCALE] = np.clip(qs, prm[_k.PRM_Q_MIN], prm[_k.PRM_Q_MAX])
-    rr = R[r]
-    if config.adaptive == "sage_husa":
-        rr = _sage_husa(rr, nu, hph, k, config, prm)
-        R[r] = rr
-        s = hph + rr
-    aux[r, _k.AUX_K] = k + 1.0
-    pr = P[r]
-    pht = pr[:, :, _IDX]  # P H^T
-    gain = np.swapaxes(np.linalg.solve(s, np.swapaxes(pht, -1, -2)), -1, -2)
-    dx = np.einsum("bij,bj->bi", gain, nu)
-    ikh = np.broadcast_to(np.eye(15), pr.shape).copy()
-    ikh[:, :, _IDX] -= gain
-    pr = ikh @ pr @ np.swapaxes(ikh, -1, -2) + gain @ rr @ np.swapaxes(gain, -1, -2)
-    pr = 0.5 * (pr + np.swapaxes(pr, -1, -2))
-    x[r, _k.X_P : _k.X_P + 3] += dx[:, 0:3]
-    x[r, _k.X_V : _k.X_V + 3] += dx[:, 3:6]
-    x[r, _k.X_BA : _k.X_BA + 3] += dx[:, 9:12]
-    x[r, _k.X_BG : _k.X_BG + 3] += dx[:, 12:15]
-    x[r, _k.X_Q : _k.X_Q + 4] = quat_normalize(
-        quat_multiply(quat_from_rotvec(dx[:, 6:9]), x[r, _k.X_Q : _k.X_Q + 4])
-    )
-    g = np.broadcast_to(np.eye(15), pr.shape).copy()
-    g[:, 6:9, 6:9] += skew(0.5 * dx[:, 6:9])
-    P[r] = g @ pr @ np.swapaxes(g, -1, -2)
-    aux[r, _k.AUX_UPDATES] += 1.0
-    return status
-
-
 # ------------------------------------------------------------------------------------------------
 # Public API.
 # ------------------------------------------------------------------------------------------------
@@ -501,6 +321,11 @@ class VisualInertialFilter:
         config: filter parameters (default :class:`VioConfig`).
 
     Until :meth:`reset`, every user starts at the origin, at rest, level, with zero biases.
+
+    Attributes:
+        state: (B,) record array of the users' filter state, fields
+            :data:`estimators._visual_inertial_numba.STATE_FIELDS` (nominal state ``x``,
+            covariances ``P`` and ``R``, counters); the properties below give copies.
 
     Example:
         >>> f = VisualInertialFilter(1, 1000.0)
@@ -524,12 +349,9 @@ class VisualInertialFilter:
         self.config = config
         self._prm = config.packed()
         b = self.batch_size
-        self.state = VioState(
-            x=np.zeros((b, _k.N_X)),
-            P=np.zeros((b, 15, 15)),
-            R=np.zeros((b, 6, 6)),
-            aux=np.zeros((b, _k.N_AUX)),
-        )
+        self.state = _k.records(_k.STATE_FIELDS, b)
+        self._x = self.state["x"]  # (B, N_X) view of the nominal states
+        self._work = _k.records(_k.WORK_FIELDS, b)
         self.reset(np.zeros(3), np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0]))
 
     def reset(
@@ -559,15 +381,15 @@ class VisualInertialFilter:
             ValueError: shapes, non-finite values, a zero quaternion or a bad mask.
         """
         rows = stream_rows(mask, self.batch_size, "mask", unique=False)
-        x = self.state.x
-        has_prev = set_nominal_state(x, rows, p, v, q, accel_bias, gyro_bias, gyr, acc)
-        aux = self.state.aux
-        aux[rows] = 0.0
-        aux[rows, _k.AUX_K] = self.config.r_prior_frames
-        aux[rows, _k.AUX_Q_SCALE] = 1.0
-        aux[rows, _k.AUX_HAS_PREV] = has_prev
-        self.state.P[rows] = self.config.p0
-        self.state.R[rows] = self.config.r0
+        has_prev = set_nominal_state(self._x, rows, p, v, q, accel_bias, gyro_bias, gyr, acc)
+        s = self.state
+        s["P"][rows] = self.config.p0
+        s["R"][rows] = self.config.r0
+        s["has_prev"][rows] = has_prev
+        s["k"][rows] = self.config.r_prior_frames
+        s["q_scale"][rows] = 1.0
+        for name in ("consec", "updates", "rejected", "forced", "nis"):
+            s[name][rows] = 0.0
 
     def predict(self, gyr: ArrayLike, acc: ArrayLike) -> tuple[NDArray, NDArray]:
         """Propagate every user through N IMU samples.
@@ -589,10 +411,9 @@ class VisualInertialFilter:
         n = g.shape[1]
         out_p = np.empty((b, n, 3))
         out_q = np.empty((b, n, 4))
-        s = self.state
-        _k.eskf_predict(
-            s.x, s.P, s.aux, np.ascontiguousarray(g), np.ascontiguousarray(a), self.dt, self._prm,
-            out_p, out_q,
+        _k.predict_kernel(b)(
+            self.state, self._prm, np.ascontiguousarray(g), np.ascontiguousarray(a), self.dt,
+            out_p, out_q, self._work,
         )  # fmt: skip
         return out_p, out_q
 
@@ -624,10 +445,9 @@ class VisualInertialFilter:
         if np.any(np.einsum("bi,bi->b", qm[ok], qm[ok]) < 1e-24):
             raise ValueError("quat contains a zero-norm quaternion in a valid row")
         status = np.empty(b, dtype=np.int8)
-        s = self.state
-        _k.eskf_update(
-            s.x, s.P, s.R, s.aux, np.ascontiguousarray(pm), np.ascontiguousarray(qm),
-            np.ascontiguousarray(ok), self._prm, status,
+        _k.update_kernel(b)(
+            self.state, self._prm, np.ascontiguousarray(pm), np.ascontiguousarray(qm),
+            np.ascontiguousarray(ok), status, self._work,
         )  # fmt: skip
         return status
 
@@ -681,8 +501,8 @@ class VisualInertialFilter:
                 )
                 start = stop
             status[:, j] = self.update(pm[:, j], qm[:, j], ok[:, j])
-            out_p[:, stop - 1] = self.state.x[:, _k.X_P : _k.X_P + 3]
-            out_q[:, stop - 1] = self.state.x[:, _k.X_Q : _k.X_Q + 4]
+            out_p[:, stop - 1] = self._x[:, _k.X_P : _k.X_P + 3]
+            out_q[:, stop - 1] = self._x[:, _k.X_Q : _k.X_Q + 4]
         if start < n:
             out_p[:, start:], out_q[:, start:] = self.predict(g[:, start:], a[:, start:])
         return out_p, out_q, status
@@ -690,59 +510,59 @@ class VisualInertialFilter:
     @property
     def position(self) -> NDArray[np.float64]:
         """(B, 3) current position estimate, m."""
-        return self.state.x[:, _k.X_P : _k.X_P + 3].copy()
+        return self._x[:, _k.X_P : _k.X_P + 3].copy()
 
     @property
     def velocity(self) -> NDArray[np.float64]:
         """(B, 3) current velocity estimate, m/s."""
-        return self.state.x[:, _k.X_V : _k.X_V + 3].copy()
+        return self._x[:, _k.X_V : _k.X_V + 3].copy()
 
     @property
     def quat(self) -> NDArray[np.float64]:
         """(B, 4) current attitude estimate, body -> world."""
-        return self.state.x[:, _k.X_Q : _k.X_Q + 4].copy()
+        return self._x[:, _k.X_Q : _k.X_Q + 4].copy()
 
     @property
     def accel_bias(self) -> NDArray[np.float64]:
         """(B, 3) accelerometer bias estimate, m/s^2."""
-        return self.state.x[:, _k.X_BA : _k.X_BA + 3].copy()
+        return self._x[:, _k.X_BA : _k.X_BA + 3].copy()
 
     @property
     def gyro_bias(self) -> NDArray[np.float64]:
         """(B, 3) gyro bias estimate, rad/s."""
-        return self.state.x[:, _k.X_BG : _k.X_BG + 3].copy()
+        return self._x[:, _k.X_BG : _k.X_BG + 3].copy()
 
     @property
     def P(self) -> NDArray[np.float64]:
         """(B, 15, 15) error-state covariance."""
-        return self.state.P.copy()
+        return self.state["P"].copy()
 
     @property
     def R(self) -> NDArray[np.float64]:
         """(B, 6, 6) current measurement covariance (m^2, rad^2)."""
-        return self.state.R.copy()
+        return self.state["R"].copy()
 
     @property
     def updates(self) -> NDArray[np.int64]:
         """(B,) frames taken (accepted or forced) since the last reset."""
-        return self.state.aux[:, _k.AUX_UPDATES].astype(np.int64)
+        return self.state["updates"].astype(np.int64)
 
     @property
     def rejected(self) -> NDArray[np.int64]:
         """(B,) frames rejected by the innovation gate since the last reset."""
-        return self.state.aux[:, _k.AUX_REJECTED].astype(np.int64)
+        return self.state["rejected"].astype(np.int64)
 
     @property
     def forced(self) -> NDArray[np.int64]:
         """(B,) frames taken despite the gate (after too many consecutive rejections)."""
-        return self.state.aux[:, _k.AUX_FORCED].astype(np.int64)
+        return self.state["forced"].astype(np.int64)
 
     @property
     def q_scale(self) -> NDArray[np.float64]:
         """(B,) current Q scale factor (1 unless ``adapt_q``)."""
-        return self.state.aux[:, _k.AUX_Q_SCALE].copy()
+        return self.state["q_scale"].copy()
 
     @property
     def nis(self) -> NDArray[np.float64]:
         """(B,) normalised innovation squared of each user's last valid frame."""
-        return self.state.aux[:, _k.AUX_NIS].copy()
+        return self.state["nis"].copy()
