@@ -12,11 +12,10 @@ recording through a fresh :class:`~estimators.hand.HandPipeline` and prints the 
 ``--repeat`` replays as milliseconds per frame (numba compilation excluded: a warm-up replay
 comes first):
 
-* ``update_reference``: the numpy stages (the pipeline before it was compiled);
 * ``update``: one compiled call per frame (what the environment calls, M times per step);
 * ``update_frames``: one compiled call per control step for its M frames, per frame.
 
-Issue 5's targets per ``update`` call: <= 0.05 ms at B = 1 and <= 0.6 ms at B = 256 (the
+Targets per ``update`` call: <= 0.05 ms at B = 1 and <= 0.6 ms at B = 256 (the
 whole env must make >= 2,000 steps/s single and >= 22,000 user-steps/s at B = 256; see
 ``benchmarks/bench_env.py``). The machine is shared: figures move by 10-30 % between runs, so
 take the best of a few.
@@ -67,13 +66,6 @@ def record_frames(batch: int, steps: int, seed: int = 0) -> list[tuple[np.ndarra
 Step = tuple[np.ndarray, ...]
 
 
-def replay_reference(pipe: HandPipeline, steps: list[Step]) -> None:
-    """``update_reference`` once per frame, frames sliced as the env does (``a[:, t]``)."""
-    for step in steps:
-        for t in range(step[0].shape[1]):
-            pipe.update_reference(*(a[:, t] for a in step))
-
-
 def replay_update(pipe: HandPipeline, steps: list[Step]) -> None:
     """``update`` once per frame, frames sliced as the env does (``a[:, t]``)."""
     for step in steps:
@@ -116,19 +108,16 @@ def main() -> None:
 
     print(f"hand pipeline, ms per Kinect frame (best of {args.repeat}), frames from the env")
     print(
-        f"{'B':>5} {'frames':>7} {'reference':>10} {'update':>9} {'update_frames':>14} "
-        f"{'speed-up':>9} {'target':>7}"
+        f"{'B':>5} {'frames':>7} {'update':>9} {'update_frames':>14} {'target':>7}"
     )
     for b in args.batch:
         steps = record_frames(b, args.steps)
         frames = sum(step[0].shape[1] for step in steps)
-        ref = best_ms_per_frame(replay_reference, steps, args.repeat)
         fast = best_ms_per_frame(replay_update, steps, args.repeat)
         multi = best_ms_per_frame(replay_update_frames, steps, args.repeat)
         target = f"{TARGETS_MS[b]:.2f}" if b in TARGETS_MS else "-"
         print(
-            f"{b:>5} {frames:>7} {ref:>10.4f} {fast:>9.4f} {multi:>14.4f} "
-            f"{ref / fast:>8.1f}x {target:>7}"
+            f"{b:>5} {frames:>7} {fast:>9.4f} {multi:>14.4f} {target:>7}"
         )
 
 

@@ -1,34 +1,34 @@
-"""Compiled kernel of the hand pipeline (see :mod:`estimators.hand`).
+"""Seed 003's hand pipeline, compiled, one user at a time (:class:`estimators.hand.HandPipeline`).
 
-This module is the fast mirror of :meth:`estimators.hand.HandPipeline.update_reference`, which
-chains the readable numpy stages :func:`~estimators.hand.select_target`,
-:class:`~estimators.joint_smoothing.HoltSmoother` and :class:`~estimators.hand.OrientationFilter`
-(eq (1)/(2), :class:`~estimators.hand.EulerKalman`, :class:`~estimators.hand.StreamingMedian`).
-Those classes document the mathematics and the semantics (dropouts, reselection, inferred joints,
-wrap-around); this kernel evaluates the same formulas in the same order, with explicit loops
-over streams, body slots and joints. Only numpy's reductions (vector norms, ``einsum``) may add
-in another order, so the two agree to the last bit or two: ``tests/test_hand.py`` checks 1e-12
-on sequences that exercise every branch. Numba cannot call the broadcasting helpers of
-:mod:`estimators.rotations`, so ``wrap_angle`` is written out here on scalars with the same
-definition (``pi - mod(pi - a, 2 pi)``, floored modulo, which numba's float ``%`` implements as
-numpy does).
+:data:`hand_kernel` runs, for each user (the ``prange`` loop over users) and each of the M Kinect
+frames of a call, these stages in order:
 
-Why a kernel: at B = 1 one frame of the numpy stages is well over a hundred small numpy calls,
-about 0.35 ms of interpreter overhead; the kernel does the frame in about 2 us (plus some 10 us of
-Python around it), and ``HandPipeline.update_frames`` takes the M frames of a control step in one
-call (``benchmarks/bench_hand.py`` has the figures).
+1. :func:`_select_target` (seed 003, 1.1): keep the current target by id while it is tracked,
+   else take the tracked body whose centre, the mean of its valid centre joints, is nearest the
+   sensor (ties to the lowest slot); a new target makes :func:`_forget` clear the filters.
+2. :func:`_smooth_joints` (1.2): per joint the Kinect SDK's Holt filter (:func:`_holt_joint`;
+   :class:`~estimators.joint_smoothing.HoltSmoother` documents the recursion), then the weighted
+   average over the ring of its last outputs (:func:`_ring_average`).
+3. :func:`_orientation`: the wrist quaternion to eq (1)/(2) angles (:func:`_paper_ypr`, 1.3),
+   the Kalman filter of each angle (:func:`_kalman_step`, 1.4; the model is documented in
+   :class:`~estimators.hand.KalmanParams`) and the median over the last Kalman angles
+   (:func:`_median_step`).
 
-The filters' state stays in the reference objects' arrays (``HandPipeline.holt``,
-``HandPipeline.orientation``), which the kernel updates in place, so the two paths can be mixed
-and ``reset`` is shared. Frames are laid out row-major as ``r = b * M + t`` (B streams of M
-frames) for inputs and outputs; streams are independent, so the loop runs over streams outside
-and frames inside. The Holt ring's newest entry is global (one index for all streams): at frame
-``t`` it is ``(head0 - 1 - t) mod n``, as ``HoltSmoother`` advances it once per frame; the
-weighted average sums over ages, newest first, as ``HoltSmoother`` does, so a stream's numbers
-do not depend on where the ring stands.
+``hand_kernel.py_func`` is the readable uncompiled source. The numpy
+:class:`~estimators.hand.OrientationFilter` (the engine of the Table 4 experiment) evaluates
+stage 3 with the same formulas in the same order; numpy's ``arctan2`` and ``arcsin`` may differ
+from the C library's in the last bit, so the two agree to about 1e-12, not bit for bit.
 
-The packed parameter vectors are filled by :meth:`estimators.hand.HandPipeline` from
-:class:`~estimators.hand.HandParams`; their layouts are the ``F_*`` and ``I_*`` indices below.
+Layouts. Inputs and outputs are rows ``r = b * M + t`` (B users of M frames): ``frames`` is the
+tuple ``(ids, tracked, joints, joint_state, quat)``, ``out`` the tuple of the
+:class:`~estimators.hand.HandFrame` fields in their order. The state is the tuple
+``(target, user, joint, ring, window)`` of :func:`new_state`, whose record fields are declared
+below (:data:`USER_FIELDS`, :data:`JOINT_FIELDS`, :data:`RING_FIELDS`). The ring of Holt outputs
+has one newest entry for all users: at frame ``t`` of a call it is ``(head0 - 1 - t) mod n``, and
+the weighted average sums over ages, newest first, so a user's numbers do not depend on where the
+ring stands. Parameters are named records built once by the pipeline: ``prm`` (1,) with the
+fields of :class:`~estimators.joint_smoothing.HoltParams` and those listed in
+:data:`PARAM_FIELDS`, ``axes`` (3,) with the per-angle :data:`AXIS_FIELDS`.
 """
 
 from __future__ import annotations
@@ -37,32 +37,75 @@ import math
 
 import numba
 import numpy as np
+from numpy.typing import NDArray
 
-# Packed float parameters (float64 vector).
-F_SMOOTHING = 0  # Holt smoothing, [0, 1)
-F_CORRECTION = 1  # Holt correction, [0, 1]
-F_PREDICTION = 2  # Holt prediction, frames
-F_JITTER = 3  # Holt jitter radius, m
-F_MAX_DEV = 4  # Holt max deviation radius, m
-F_INFERRED_SCALE = 5  # radius factor for inferred joints
-F_DT = 6  # Kalman frame period, s
-F_DT2_2 = 7  # dt^2 / 2, s^2 (computed in Python, as EulerKalman does)
-F_DT3_3 = 8  # dt^3 / 3, s^3
-F_LAM = 9  # innovation low-pass gain per frame
-F_THRESHOLD = 10  # eq (2) threshold on |wy - zx|
-F_R = 11  # 3 values: measurement variance per axis, rad^2
-F_Q = 14  # 3 values: accel PSD at rest, rad^2/s^3
-F_Q_MAX = 17  # 3 values: cap of the adapted PSD, rad^2/s^3
-F_P11_INIT = 20  # 3 values: initial rate variance, rad^2/s^2
-N_F = 23
+from estimators.kernels.batch import BatchKernel
+from estimators.kernels.records import record_dtype, state_records
+from estimators.kernels.rotations import wrap_angle
 
-# Packed integer parameters (int64 vector).
-I_WRIST = 0  # wrist joint index
-I_MIN_WRIST_STATE = 1  # 1 inferred accepted, 2 tracked only
-I_MAX_COAST = 2  # Kalman coasting frames before a stream goes stale
-N_I = 3
+__all__ = [
+    "AXIS_FIELDS",
+    "JOINT_FIELDS",
+    "PARAM_FIELDS",
+    "RING_FIELDS",
+    "USER_FIELDS",
+    "forget_kernel",
+    "hand_kernel",
+    "new_state",
+    "shared_layout",
+    "validate",
+]
 
-# Error codes of :func:`validate` (the reference raises them in this order within a frame).
+#: Parameter record fields besides :class:`~estimators.joint_smoothing.HoltParams`' own.
+PARAM_FIELDS = (
+    "singularity_threshold",  # eq (2) threshold on |wy - zx| (HandParams)
+    "wrist_joint",  # joint index of the wrist (HandParams)
+    "min_wrist_state",  # 1 inferred accepted, 2 tracked only (HandParams)
+    "max_coast_frames",  # Kalman coasting frames before a user goes stale (KalmanParams)
+    "dt",  # Kalman frame period, s
+    "dt2_2",  # dt^2 / 2, s^2
+    "dt3_3",  # dt^3 / 3, s^3
+    "nis_gain",  # gain per frame of the low-pass on the normalised innovation squared
+)
+
+#: Per-angle parameter record fields, ``[yaw, pitch, roll]`` rows.
+AXIS_FIELDS = (
+    "measurement_var",  # rad^2
+    "accel_psd",  # angular acceleration PSD at rest, rad^2/s^3
+    "max_accel_psd",  # cap of the adapted PSD, rad^2/s^3
+    "init_rate_var",  # rate variance at (re)initialisation, rad^2/s^2
+)
+
+#: Per-user state (B,): Kalman filter per angle, median output and the held outputs.
+USER_FIELDS = {
+    "angle": (3,),  # unwrapped Kalman angle, rad (NaN before the first measurement)
+    "rate": (3,),  # rad/s
+    "p00": (3,),  # covariance of [angle, rate]
+    "p01": (3,),
+    "p11": (3,),
+    "nis": (3,),  # low-passed normalised innovation squared
+    "active": (),  # 1.0 while the filter holds an estimate that is updated or coasted
+    "missed": (),  # frames since the last usable wrist quaternion
+    "median": (3,),  # last median of the Kalman angles, rad (unwrapped)
+    "ypr_raw": (3,),  # last usable eq (1)/(2) angles, rad
+    "ypr_kalman": (3,),  # last Kalman output, wrapped to (-pi, pi], rad
+}
+
+#: Holt state per user and joint (B, J), metres.
+JOINT_FIELDS = {
+    "count": (),  # consecutive valid frames, capped at 2
+    "raw": (3,),  # last valid raw sample
+    "filtered": (3,),  # smoothed position
+    "trend": (3,),  # trend per frame
+}
+
+#: The ring of Holt outputs per user, ring slot and joint (B, n, J).
+RING_FIELDS = {
+    "x": (3,),  # Holt output, metres
+    "ok": (),  # 1.0 where the entry is valid
+}
+
+# Error codes of :func:`validate`, in the order the checks run within a frame.
 ERR_JOINTS_INF = 1
 ERR_QUAT_INF = 2
 ERR_STATE_RANGE = 3
@@ -70,18 +113,42 @@ ERR_NEGATIVE_ID = 4
 ERR_DUPLICATE_ID = 5
 
 _MIN_QUAT_NORM = 1e-6  # as estimators.hand._MIN_QUAT_NORM
-_TWO_PI = 2.0 * np.pi
+
+_LAYOUTS: dict[np.dtype, np.dtype] = {}
 
 
-@numba.njit(cache=True, inline="always")
-def _wrap(a):
-    """``pi - mod(pi - a, 2 pi)`` with numpy's floored float modulo: (-pi, pi], NaN stays NaN."""
-    x = math.pi - a
-    if 0.0 <= x < _TWO_PI:  # the usual case, where the modulo returns x itself: skip its fmod
-        return math.pi - x
-    # numba's float % is Python's floored modulo (fmod, then shifted to the divisor's sign,
-    # +0.0 for an exact zero), the same algorithm as numpy's np.mod for float64.
-    return math.pi - x % _TWO_PI
+def shared_layout(a: NDArray) -> NDArray:
+    """``a``, a record array, viewed with the one dtype object of its layout, so that numba's
+    dispatcher finds the record type by identity whichever pipeline built the array."""
+    return a.view(_LAYOUTS.setdefault(a.dtype, a.dtype))
+
+
+def new_state(
+    batch_size: int, num_joints: int, history: int, window: int
+) -> tuple[NDArray, NDArray, NDArray, NDArray, NDArray]:
+    """A fresh state tuple ``(target, user, joint, ring, window)`` for the kernels.
+
+    ``target`` (B,) int64 target ids (0: none); ``user`` (B,) :data:`USER_FIELDS`; ``joint``
+    (B, J) :data:`JOINT_FIELDS`; ``ring`` (B, history, J) :data:`RING_FIELDS`; ``window``
+    (B, window, 3) the median's Kalman angles, newest first.
+    """
+    user = shared_layout(state_records(USER_FIELDS, batch_size))
+    user["nis"] = 1.0
+    joint = np.zeros((batch_size, num_joints), record_dtype(JOINT_FIELDS))
+    ring = np.zeros((batch_size, history, num_joints), record_dtype(RING_FIELDS))
+    state = (
+        np.zeros(batch_size, np.int64),
+        user,
+        shared_layout(joint),
+        shared_layout(ring),
+        np.full((batch_size, window, 3), np.nan),
+    )
+    forget_kernel(batch_size)(np.ones(batch_size, np.bool_), state)
+    return state
+
+
+# ----------------------------------------------------------------------------------------------
+# Input checks
 
 
 @numba.njit(cache=True)
@@ -90,7 +157,7 @@ def _any_error(ids, joints, state, quat, joints_flat):
 
     Branch-free per value so that the loops run at memory speed. ``joints_flat`` is ``joints``
     as one contiguous 1-D view, or empty where ``joints`` is not contiguous: the flat loop
-    vectorises, the nested one does not (0.012 against 0.045 ms for B = 256 on the dev machine).
+    vectorises, the nested one does not.
     """
     bad = False
     for r in range(ids.shape[0]):
@@ -127,7 +194,8 @@ def _any_duplicate(ids):
 
 @numba.njit(cache=True)
 def validate(ids, joints, state, quat, b, m, joints_flat):
-    """First input error, frame by frame, in the reference's order; ``(code, frame)`` or (0, -1).
+    """First input error, frame by frame, checks in the ``ERR_*`` order; ``(code, frame)`` or
+    ``(0, -1)``.
 
     Args:
         ids: (B*M, K) int body ids. joints: (B*M, K, J, 3) float64. state: (B*M, K, J) int.
@@ -167,8 +235,12 @@ def validate(ids, joints, state, quat, b, m, joints_flat):
     return 0, -1
 
 
+# ----------------------------------------------------------------------------------------------
+# Stage 1: target selection
+
+
 @numba.njit(cache=True, inline="always")
-def _body_distance(joints, state, r, k, center):
+def _body_distance(joints, jstate, r, k, center):
     """Distance (m) of body ``k``'s centre (mean of its valid centre joints) from the sensor."""
     n = 0
     sx = 0.0
@@ -179,7 +251,7 @@ def _body_distance(joints, state, r, k, center):
         x = joints[r, k, jc, 0]
         y = joints[r, k, jc, 1]
         z = joints[r, k, jc, 2]
-        if state[r, k, jc] >= 1 and math.isfinite(x) and math.isfinite(y) and math.isfinite(z):
+        if jstate[r, k, jc] >= 1 and math.isfinite(x) and math.isfinite(y) and math.isfinite(z):
             sx += x
             sy += y
             sz += z
@@ -193,27 +265,79 @@ def _body_distance(joints, state, r, k, center):
 
 
 @numba.njit(cache=True, inline="always")
-def _holt_step(x0, x1, x2, count, raw, filt, trend, b, j, valid, jitter_r, max_dev_r, s, c, k):
-    """One HoltSmoother step of joint ``j`` of stream ``b`` (raw sample ``x``, 0 if invalid).
+def _select_target(ids, tracked, joints, jstate, r, center, cur):
+    """Slot of row ``r``'s target (-1: no tracked body with a valid centre) given the current
+    target id ``cur`` (0: none)."""
+    keep = -1
+    nearest = 0
+    best = np.inf
+    for k in range(ids.shape[1]):
+        present = tracked[r, k] and ids[r, k] != 0
+        if not present:
+            continue
+        if keep < 0 and cur != 0 and ids[r, k] == cur:
+            keep = k
+        d = _body_distance(joints, jstate, r, k, center)
+        if d < best:
+            best = d
+            nearest = k
+    if keep >= 0:
+        return keep
+    if math.isfinite(best):
+        return nearest
+    return -1
 
-    Updates ``count``, ``raw``, ``filt``, ``trend`` in place as ``HoltSmoother.update`` does and
-    returns the output ``p`` (after the max-deviation pull), m.
-    """
-    cnt = count[b, j]
-    f0p = filt[b, j, 0]
-    f1p = filt[b, j, 1]
-    f2p = filt[b, j, 2]
-    b0p = trend[b, j, 0]
-    b1p = trend[b, j, 1]
-    b2p = trend[b, j, 2]
-    if cnt == 0:
+
+@numba.njit(cache=True, inline="always")
+def _forget(s, hj, hr, win):
+    """Clear one user's filters (a new target, or a reset): Kalman inactive, outputs NaN,
+    median window empty, Holt restarted and its ring emptied."""
+    s["active"] = 0.0
+    for c in range(3):
+        s["angle"][c] = np.nan
+        s["rate"][c] = 0.0
+        s["median"][c] = np.nan
+        s["ypr_raw"][c] = np.nan
+        s["ypr_kalman"][c] = np.nan
+        for i in range(win.shape[0]):
+            win[i, c] = np.nan
+    for j in range(hj.shape[0]):
+        h = hj[j]
+        h["count"] = 0.0
+        h["trend"][0] = 0.0
+        h["trend"][1] = 0.0
+        h["trend"][2] = 0.0
+        for a in range(hr.shape[0]):
+            hr[a, j]["ok"] = 0.0
+
+
+# ----------------------------------------------------------------------------------------------
+# Stage 2: joint smoothing
+
+
+@numba.njit(cache=True, inline="always")
+def _holt_joint(h, x0, x1, x2, valid, scale, p):
+    """One Holt step of a joint (state record ``h``, raw sample ``x``, 0 if invalid): updates
+    ``h`` and returns the output, pulled to within the max deviation radius of ``x``, m."""
+    jitter_r = p["jitter_radius"] * scale
+    max_dev_r = p["max_deviation_radius"] * scale
+    s = p["smoothing"]
+    c = p["correction"]
+    cnt = h["count"]
+    f0p = h["filtered"][0]
+    f1p = h["filtered"][1]
+    f2p = h["filtered"][2]
+    b0p = h["trend"][0]
+    b1p = h["trend"][1]
+    b2p = h["trend"][2]
+    if cnt == 0.0:
         f0, f1, f2 = x0, x1, x2
         b0 = b1 = b2 = 0.0
     else:
-        if cnt == 1:
-            f0 = 0.5 * (x0 + raw[b, j, 0])
-            f1 = 0.5 * (x1 + raw[b, j, 1])
-            f2 = 0.5 * (x2 + raw[b, j, 2])
+        if cnt == 1.0:
+            f0 = 0.5 * (x0 + h["raw"][0])
+            f1 = 0.5 * (x1 + h["raw"][1])
+            f2 = 0.5 * (x2 + h["raw"][2])
         else:
             d0, d1, d2 = x0 - f0p, x1 - f1p, x2 - f2p
             a = min(math.sqrt(d0 * d0 + d1 * d1 + d2 * d2) / jitter_r, 1.0)
@@ -223,373 +347,348 @@ def _holt_step(x0, x1, x2, count, raw, filt, trend, b, j, valid, jitter_r, max_d
         b0 = c * (f0 - f0p) + (1.0 - c) * b0p
         b1 = c * (f1 - f1p) + (1.0 - c) * b1p
         b2 = c * (f2 - f2p) + (1.0 - c) * b2p
-    p0 = f0 + k * b0
-    p1 = f1 + k * b1
-    p2 = f2 + k * b2
-    e0, e1, e2 = p0 - x0, p1 - x1, p2 - x2
+    k = p["prediction"]
+    o0 = f0 + k * b0
+    o1 = f1 + k * b1
+    o2 = f2 + k * b2
+    e0, e1, e2 = o0 - x0, o1 - x1, o2 - x2
     dev = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
     if dev > max_dev_r:
         pull = max_dev_r / max(dev, 1e-300)
-        p0 = p0 * pull + x0 * (1.0 - pull)
-        p1 = p1 * pull + x1 * (1.0 - pull)
-        p2 = p2 * pull + x2 * (1.0 - pull)
+        o0 = o0 * pull + x0 * (1.0 - pull)
+        o1 = o1 * pull + x1 * (1.0 - pull)
+        o2 = o2 * pull + x2 * (1.0 - pull)
     if valid:
-        raw[b, j, 0] = x0
-        raw[b, j, 1] = x1
-        raw[b, j, 2] = x2
-        filt[b, j, 0] = f0
-        filt[b, j, 1] = f1
-        filt[b, j, 2] = f2
-        trend[b, j, 0] = b0
-        trend[b, j, 1] = b1
-        trend[b, j, 2] = b2
-        count[b, j] = min(cnt + 1, 2)
+        h["raw"][0] = x0
+        h["raw"][1] = x1
+        h["raw"][2] = x2
+        h["filtered"][0] = f0
+        h["filtered"][1] = f1
+        h["filtered"][2] = f2
+        h["trend"][0] = b0
+        h["trend"][1] = b1
+        h["trend"][2] = b2
+        h["count"] = min(cnt + 1.0, 2.0)
     else:
-        trend[b, j, 0] = 0.0
-        trend[b, j, 1] = 0.0
-        trend[b, j, 2] = 0.0
-        count[b, j] = 0
-    return p0, p1, p2
+        h["trend"][0] = 0.0
+        h["trend"][1] = 0.0
+        h["trend"][2] = 0.0
+        h["count"] = 0.0
+    return o0, o1, o2
 
 
-@numba.njit(cache=True)
-def hand_frames(
-    ids,
-    tracked,
-    joints,
-    state,
-    quat,
-    b_count,
-    m_count,
-    center,
-    fprm,
-    iprm,
-    weights,
-    head0,
-    target_id,
-    h_count,
-    h_raw,
-    h_filt,
-    h_trend,
-    h_hist,
-    h_hist_ok,
-    h_out,
-    k_angle,
-    k_rate,
-    k_p00,
-    k_p01,
-    k_p11,
-    k_active,
-    k_missed,
-    k_init_now,
-    k_nis,
-    m_buf,
-    m_last,
-    o_raw,
-    o_kf,
-    out_slot,
-    out_id,
-    out_changed,
-    out_has,
-    out_joints,
-    out_state,
-    out_all_inferred,
-    out_ypr_raw,
-    out_ypr_kalman,
-    out_ypr,
-    out_quat_valid,
-    out_singular,
-    out_valid,
-):
-    """Run the hand pipeline over M frames of B streams (inputs already validated).
+@numba.njit(cache=True, inline="always")
+def _ring_average(hr, j, ages, weights, x0, x1, x2):
+    """Store joint ``j``'s Holt output ``x`` as the newest ring entry (``ages[0]``) and return
+    the weighted mean over the valid entries, newest first (``ages``: ring slot of each age)."""
+    e = hr[ages[0], j]
+    e["x"][0] = x0
+    e["x"][1] = x1
+    e["x"][2] = x2
+    e["ok"] = 1.0
+    wsum = 0.0
+    acc0 = 0.0
+    acc1 = 0.0
+    acc2 = 0.0
+    for age in range(weights.shape[0]):
+        g = hr[ages[age], j]
+        wi = g["ok"] * weights[age]
+        wsum += wi
+        acc0 += wi * g["x"][0]
+        acc1 += wi * g["x"][1]
+        acc2 += wi * g["x"][2]
+    wsum = max(wsum, 1e-300)
+    return acc0 / wsum, acc1 / wsum, acc2 / wsum
 
-    Inputs (rows ``r = b * M + t``): ``ids`` (B*M, K) int, ``tracked`` (B*M, K) bool, ``joints``
-    (B*M, K, J, 3) m, ``state`` (B*M, K, J) int, ``quat`` (B*M, K, 4). ``center`` (C,) centre
-    joint indices, ``fprm``/``iprm`` the packed parameters, ``weights`` (n,) the normalised Holt
-    average weights (newest first), ``head0`` the Holt ring's newest index before the first frame.
 
-    State (updated in place): ``target_id`` (B,); Holt ``h_count`` (B, J), ``h_raw``, ``h_filt``,
-    ``h_trend``, ``h_out`` (B, J, 3), ``h_hist`` (n, B, J, 3), ``h_hist_ok`` (n, B, J); Kalman
-    ``k_*`` (B, 3) and (B,); median ``m_buf`` (W, B, 3), ``m_last`` (B, 3); held raw and Kalman
-    outputs ``o_raw``, ``o_kf`` (B, 3).
+@numba.njit(cache=True, inline="always")
+def _ring_clear(hr, j, head):
+    """An invalid frame of joint ``j``: zero its newest ring entry, invalidate all of them."""
+    e = hr[head, j]
+    e["x"][0] = 0.0
+    e["x"][1] = 0.0
+    e["x"][2] = 0.0
+    for a in range(hr.shape[0]):
+        hr[a, j]["ok"] = 0.0
 
-    Outputs (rows ``r``): the :class:`~estimators.hand.HandFrame` fields.
-    """
-    nk = ids.shape[1]
-    nj = state.shape[2]
+
+@numba.njit(cache=True, inline="always")
+def _smooth_joints(joints, jstate, r, slot, hj, hr, ages, weights, p, out_joints, out_state):
+    """Holt filter and weighted average of every joint of the target in ``slot`` (-1: none),
+    into ``out_joints[r]`` (NaN where invalid) and ``out_state[r]``; True where the target has
+    inferred joints and no tracked one."""
+    has = slot >= 0
     n_hist = weights.shape[0]
-    win = m_buf.shape[0]
-    smoothing = fprm[F_SMOOTHING]
-    correction = fprm[F_CORRECTION]
-    prediction = fprm[F_PREDICTION]
-    jitter = fprm[F_JITTER]
-    max_dev = fprm[F_MAX_DEV]
-    inferred_scale = fprm[F_INFERRED_SCALE]
-    dt = fprm[F_DT]
-    dt2_2 = fprm[F_DT2_2]
-    dt3_3 = fprm[F_DT3_3]
-    lam = fprm[F_LAM]
-    threshold = fprm[F_THRESHOLD]
-    wrist = iprm[I_WRIST]
-    min_wrist_state = iprm[I_MIN_WRIST_STATE]
-    max_coast = iprm[I_MAX_COAST]
-    sorted_buf = np.empty(win)
-    ypr = np.empty(3)
-    # The ring's newest index at frame t, and the ring index of each age (newest first): both
-    # depend on t only.
-    heads = np.empty(m_count, np.int64)
-    ring = np.empty((m_count, n_hist), np.int64)
-    for t in range(m_count):
-        heads[t] = (head0 - 1 - t) % n_hist
-        for i in range(n_hist):
-            ring[t, i] = (heads[t] + i) % n_hist
+    any_tracked = False
+    any_inferred = False
+    for j in range(hj.shape[0]):
+        st = jstate[r, slot, j] if has else 0
+        out_state[r, j] = st
+        if st == 2:
+            any_tracked = True
+        elif st == 1:
+            any_inferred = True
+        if has:
+            x0 = joints[r, slot, j, 0]
+            x1 = joints[r, slot, j, 1]
+            x2 = joints[r, slot, j, 2]
+            valid = st >= 1 and math.isfinite(x0) and math.isfinite(x1) and math.isfinite(x2)
+        else:
+            valid = False
+        if not valid:
+            x0 = x1 = x2 = 0.0
+        scale = p["inferred_radius_scale"] if st == 1 else 1.0
+        o0, o1, o2 = _holt_joint(hj[j], x0, x1, x2, valid, scale, p)
+        if not valid:
+            out_joints[r, j, 0] = np.nan
+            out_joints[r, j, 1] = np.nan
+            out_joints[r, j, 2] = np.nan
+            if n_hist > 1:
+                _ring_clear(hr, j, ages[0])
+            continue
+        if n_hist > 1:
+            o0, o1, o2 = _ring_average(hr, j, ages, weights, o0, o1, o2)
+        out_joints[r, j, 0] = o0
+        out_joints[r, j, 1] = o1
+        out_joints[r, j, 2] = o2
+    return has and not any_tracked and any_inferred
 
-    for b in range(b_count):
+
+# ----------------------------------------------------------------------------------------------
+# Stage 3: orientation
+
+
+@numba.njit(cache=True, inline="always")
+def _paper_ypr(w, x, y, z, threshold):
+    """Eq (1), or eq (2) where ``|wy - zx| > threshold``, of a unit quaternion in our order:
+    ``(about_z, pitch, about_x, singular)`` (see :mod:`estimators.hand` for the names)."""
+    s = w * y - z * x
+    singular = abs(s) > threshold
+    about_x = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
+    pitch = math.asin(min(max(2.0 * s, -1.0), 1.0))
+    about_z = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+    if singular:
+        sgn = 1.0 if s > 0.0 else -1.0
+        about_z = wrap_angle(-2.0 * sgn * math.atan2(x, w))
+        pitch = sgn * (0.5 * np.pi)
+        about_x = 0.0
+    return about_z, pitch, about_x, singular
+
+
+@numba.njit(cache=True, inline="always")
+def _kalman_axis(s, c, a, p, z, init, a_act, upd, stale):
+    """One frame of the Kalman filter of angle ``c`` (axis parameters ``a``): (re)initialise
+    from ``z``, predict and correct with ``z``, predict only, or stop a stale stream's rate."""
+    dt = p["dt"]
+    p00_0 = s["p00"][c]
+    p01_0 = s["p01"][c]
+    p11_0 = s["p11"][c]
+    a_p = s["angle"][c] + dt * s["rate"][c]
+    nis_old = s["nis"][c]
+    q = min(a["accel_psd"] * max(nis_old, 1.0) ** 2, a["max_accel_psd"])
+    p00 = p00_0 + 2.0 * dt * p01_0 + dt * dt * p11_0 + q * p["dt3_3"]
+    p01 = p01_0 + dt * p11_0 + q * p["dt2_2"]
+    p11 = p11_0 + q * dt
+    if init:
+        s["angle"][c] = z
+        s["rate"][c] = 0.0
+        s["p00"][c] = a["measurement_var"]
+        s["p01"][c] = 0.0
+        s["p11"][c] = a["init_rate_var"]
+        s["nis"][c] = 1.0
+    elif a_act:
+        if upd:
+            a_p0 = a_p if math.isfinite(a_p) else 0.0
+            innov = wrap_angle(z - a_p0)
+            sv = p00 + a["measurement_var"]
+            k0 = p00 / sv
+            k1 = p01 / sv
+            nis = innov * innov / sv
+            s["nis"][c] = nis_old + p["nis_gain"] * (nis - nis_old)
+            s["angle"][c] = a_p + k0 * innov
+            s["rate"][c] = s["rate"][c] + k1 * innov
+            s["p00"][c] = (1.0 - k0) * p00
+            s["p01"][c] = (1.0 - k0) * p01
+            s["p11"][c] = p11 - k1 * p01
+        else:
+            s["angle"][c] = a_p
+            s["p00"][c] = p00
+            s["p01"][c] = p01
+            s["p11"][c] = p11
+    elif stale:
+        s["rate"][c] = 0.0
+
+
+@numba.njit(cache=True, inline="always")
+def _kalman_step(s, axes, p, ok, z0, z1, z2):
+    """The Kalman filters of the three angles, measurement ``z`` where ``ok``; returns
+    ``(init, active)``: re-initialised this frame, holds an estimate after it."""
+    act = s["active"] != 0.0
+    missed = 0.0 if ok else s["missed"] + 1.0
+    s["missed"] = missed
+    stale = act and missed > p["max_coast_frames"]
+    init = ok and not act
+    upd = act and ok
+    a_act = act and not stale
+    _kalman_axis(s, 0, axes[0], p, z0, init, a_act, upd, stale)
+    _kalman_axis(s, 1, axes[1], p, z1, init, a_act, upd, stale)
+    _kalman_axis(s, 2, axes[2], p, z2, init, a_act, upd, stale)
+    active = a_act or init
+    s["active"] = 1.0 if active else 0.0
+    if active:
+        for c in range(3):
+            s["ypr_kalman"][c] = wrap_angle(s["angle"][c])
+    return init, active
+
+
+@numba.njit(cache=True, inline="always")
+def _sorted_at(win, c, k):
+    """The ``k``-th (0-based) finite value of ``win[:, c]`` in ascending order, ties in window
+    order (a stable sort's order)."""
+    for i in range(win.shape[0]):
+        v = win[i, c]
+        if not math.isfinite(v):
+            continue
+        rank = 0
+        for i2 in range(win.shape[0]):
+            u = win[i2, c]
+            if math.isfinite(u) and (u < v or (u == v and i2 < i)):
+                rank += 1
+        if rank == k:
+            return v
+    return np.nan
+
+
+@numba.njit(cache=True, inline="always")
+def _median_step(s, win, init, active):
+    """Median over the window of Kalman angles: emptied on (re)initialisation, fed while the
+    filter is active (its median then in ``s["median"]``, NaN without a finite sample)."""
+    if init:
+        for c in range(3):
+            s["median"][c] = np.nan
+            for i in range(win.shape[0]):
+                win[i, c] = np.nan
+    if not active:
+        return
+    for c in range(3):
+        for i in range(win.shape[0] - 1, 0, -1):
+            win[i, c] = win[i - 1, c]
+        win[0, c] = s["angle"][c]
+        n = 0
+        for i in range(win.shape[0]):
+            if math.isfinite(win[i, c]):
+                n += 1
+        if n == 0:
+            s["median"][c] = np.nan
+            continue
+        lo = _sorted_at(win, c, (n - 1) // 2)
+        hi = lo if n % 2 == 1 else _sorted_at(win, c, n // 2)
+        s["median"][c] = 0.5 * (lo + hi)
+
+
+@numba.njit(cache=True, inline="always")
+def _orientation(quat, jstate, r, slot, s, win, axes, p):
+    """Eq (1)/(2) of the target's wrist quaternion, Kalman filter and median; returns
+    ``(ok, singular)``: the quaternion was usable, eq (2) was taken."""
+    has = slot >= 0
+    wrist_ok = has and jstate[r, slot, int(p["wrist_joint"])] >= p["min_wrist_state"]
+    if has:
+        qw = quat[r, slot, 0]
+        qx = quat[r, slot, 1]
+        qy = quat[r, slot, 2]
+        qz = quat[r, slot, 3]
+    else:
+        qw = qx = qy = qz = np.nan
+    norm = math.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
+    ok = math.isfinite(norm) and norm > _MIN_QUAT_NORM and wrist_ok
+    if ok:
+        w, x, y, z = qw / norm, qx / norm, qy / norm, qz / norm
+    else:
+        w, x, y, z = 1.0, 0.0, 0.0, 0.0
+    about_z, pitch, about_x, singular = _paper_ypr(w, x, y, z, p["singularity_threshold"])
+    if ok:
+        s["ypr_raw"][0] = about_z
+        s["ypr_raw"][1] = pitch
+        s["ypr_raw"][2] = about_x
+    init, active = _kalman_step(s, axes, p, ok, about_z, pitch, about_x)
+    _median_step(s, win, init, active)
+    return ok, singular
+
+
+# ----------------------------------------------------------------------------------------------
+# The kernels
+
+
+def _hand_frames(frames, m_count, prm, axes, center, weights, head0, state, out):
+    """The hand pipeline over M frames of B users (inputs already checked by :func:`validate`).
+
+    Args:
+        frames: ``(ids, tracked, joints, joint_state, quat)``, rows ``r = b * M + t``: (B*M, K)
+            int ids, (B*M, K) bool, (B*M, K, J, 3) m, (B*M, K, J) int states, (B*M, K, 4).
+        m_count: M.
+        prm, axes: the parameter records (module docstring).
+        center: (C,) int64 centre joints. weights: (n,) normalised Holt average weights, newest
+            first. head0: the ring's newest slot before the first frame.
+        state: :func:`new_state`'s tuple, updated in place.
+        out: the :class:`~estimators.hand.HandFrame` fields as rows, written.
+    """
+    ids, tracked, joints, jstate, quat = frames
+    target, user, joint, ring, window = state
+    o_slot, o_id, o_changed, o_has, o_joints, o_state, o_inferred = out[:7]
+    o_raw, o_kalman, o_ypr, o_quat_valid, o_singular, o_valid = out[7:]
+    n_hist = weights.shape[0]
+    ages = np.empty((m_count, n_hist), np.int64)  # ring slot of each age at frame t
+    for t in range(m_count):
+        head = (head0 - 1 - t) % n_hist
+        for a in range(n_hist):
+            ages[t, a] = (head + a) % n_hist
+    for i in numba.prange(target.shape[0]):  # users are independent (estimators.kernels.batch)
+        p = prm[0]
+        s = user[i]
+        hj = joint[i]
+        hr = ring[i]
+        win = window[i]
         for t in range(m_count):
-            r = b * m_count + t
-            # ---- target selection (select_target)
-            cur = target_id[b]
-            keep = -1
-            nearest = 0
-            best = np.inf
-            for k in range(nk):
-                present = tracked[r, k] and ids[r, k] != 0
-                if not present:
-                    continue
-                if keep < 0 and cur != 0 and ids[r, k] == cur:
-                    keep = k
-                d = _body_distance(joints, state, r, k, center)
-                if d < best:
-                    best = d
-                    nearest = k
-            if keep >= 0:
-                slot = keep
-            elif math.isfinite(best):
-                slot = nearest
-            else:
-                slot = -1
+            r = i * m_count + t
+            cur = target[i]
+            slot = _select_target(ids, tracked, joints, jstate, r, center, cur)
             new_id = ids[r, slot] if slot >= 0 else 0
             changed = new_id != cur and new_id != 0
-            target_id[b] = new_id
-            has = slot >= 0
-            out_slot[r] = slot
-            out_id[r] = new_id
-            out_changed[r] = changed
-            out_has[r] = has
-
-            # ---- Holt smoother (HoltSmoother.reset, then HoltSmoother.update)
+            target[i] = new_id
+            o_slot[r] = slot
+            o_id[r] = new_id
+            o_changed[r] = changed
+            o_has[r] = slot >= 0
             if changed:
-                for j in range(nj):
-                    h_count[b, j] = 0
-                    for c in range(3):
-                        h_trend[b, j, c] = 0.0
-                        h_out[b, j, c] = np.nan
-                    for i in range(n_hist):
-                        h_hist_ok[i, b, j] = 0.0
-            head = heads[t]
-            any_tracked = False
-            any_inferred = False
-            for j in range(nj):
-                st = state[r, slot, j] if has else 0
-                out_state[r, j] = st
-                if st == 2:
-                    any_tracked = True
-                elif st == 1:
-                    any_inferred = True
-                if has:
-                    x0 = joints[r, slot, j, 0]
-                    x1 = joints[r, slot, j, 1]
-                    x2 = joints[r, slot, j, 2]
-                    valid = (
-                        st >= 1 and math.isfinite(x0) and math.isfinite(x1) and math.isfinite(x2)
-                    )
-                else:
+                _forget(s, hj, hr, win)
+            o_inferred[r] = _smooth_joints(
+                joints, jstate, r, slot, hj, hr, ages[t], weights, p, o_joints, o_state
+            )
+            ok, singular = _orientation(quat, jstate, r, slot, s, win, axes, p)
+            o_quat_valid[r] = ok
+            o_singular[r] = singular and ok
+            valid = True
+            for c in range(3):
+                o_raw[r, c] = s["ypr_raw"][c]
+                o_kalman[r, c] = s["ypr_kalman"][c]
+                o_ypr[r, c] = wrap_angle(s["median"][c])
+                if not math.isfinite(s["ypr_kalman"][c]):
                     valid = False
-                if not valid:
-                    x0 = x1 = x2 = 0.0
-                scale = inferred_scale if st == 1 else 1.0
-                p0, p1, p2 = _holt_step(
-                    x0,
-                    x1,
-                    x2,
-                    h_count,
-                    h_raw,
-                    h_filt,
-                    h_trend,
-                    b,
-                    j,
-                    valid,
-                    jitter * scale,
-                    max_dev * scale,
-                    smoothing,
-                    correction,
-                    prediction,
-                )
-                if not valid:
-                    for c in range(3):
-                        h_out[b, j, c] = np.nan
-                        out_joints[r, j, c] = np.nan
-                    if n_hist > 1:
-                        for c in range(3):
-                            h_hist[head, b, j, c] = 0.0
-                        for i in range(n_hist):
-                            h_hist_ok[i, b, j] = 0.0
-                    continue
-                h_out[b, j, 0] = p0
-                h_out[b, j, 1] = p1
-                h_out[b, j, 2] = p2
-                if n_hist == 1:
-                    out_joints[r, j, 0] = p0
-                    out_joints[r, j, 1] = p1
-                    out_joints[r, j, 2] = p2
-                    continue
-                # Weighted average over the ring of the last Holt outputs.
-                h_hist[head, b, j, 0] = p0
-                h_hist[head, b, j, 1] = p1
-                h_hist[head, b, j, 2] = p2
-                h_hist_ok[head, b, j] = 1.0
-                wsum = 0.0
-                acc0 = 0.0
-                acc1 = 0.0
-                acc2 = 0.0
-                for age in range(n_hist):  # newest first, as HoltSmoother sums
-                    i = ring[t, age]
-                    wi = h_hist_ok[i, b, j] * weights[age]
-                    wsum += wi
-                    acc0 += wi * h_hist[i, b, j, 0]
-                    acc1 += wi * h_hist[i, b, j, 1]
-                    acc2 += wi * h_hist[i, b, j, 2]
-                wsum = max(wsum, 1e-300)
-                out_joints[r, j, 0] = acc0 / wsum
-                out_joints[r, j, 1] = acc1 / wsum
-                out_joints[r, j, 2] = acc2 / wsum
-            out_all_inferred[r] = has and not any_tracked and any_inferred
+            o_valid[r] = valid
 
-            # ---- orientation (OrientationFilter.reset, then OrientationFilter.update)
-            if changed:
-                k_active[b] = False
-                for c in range(3):
-                    k_angle[b, c] = np.nan
-                    k_rate[b, c] = 0.0
-                    m_last[b, c] = np.nan
-                    o_raw[b, c] = np.nan
-                    o_kf[b, c] = np.nan
-                    for i in range(win):
-                        m_buf[i, b, c] = np.nan
-            wrist_ok = has and state[r, slot, wrist] >= min_wrist_state
-            if has:
-                qw = quat[r, slot, 0]
-                qx = quat[r, slot, 1]
-                qy = quat[r, slot, 2]
-                qz = quat[r, slot, 3]
-            else:
-                qw = qx = qy = qz = np.nan
-            norm = math.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
-            ok = math.isfinite(norm) and norm > _MIN_QUAT_NORM and wrist_ok
-            if ok:
-                w, x, y, z = qw / norm, qx / norm, qy / norm, qz / norm
-            else:
-                w, x, y, z = 1.0, 0.0, 0.0, 0.0
-            # eq (1), eq (2) in our [yaw, pitch, roll] order (hand._paper_ypr)
-            s = w * y - z * x
-            singular = abs(s) > threshold
-            about_x = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
-            pitch = math.asin(min(max(2.0 * s, -1.0), 1.0))
-            about_z = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
-            if singular:
-                sgn = 1.0 if s > 0.0 else -1.0
-                about_z = _wrap(-2.0 * sgn * math.atan2(x, w))
-                pitch = sgn * (0.5 * np.pi)
-                about_x = 0.0
-            ypr[0] = about_z
-            ypr[1] = pitch
-            ypr[2] = about_x
-            out_quat_valid[r] = ok
-            out_singular[r] = singular and ok
-            if ok:
-                for c in range(3):
-                    o_raw[b, c] = ypr[c]
-            # EulerKalman.update
-            act = k_active[b]
-            missed = 0 if ok else k_missed[b] + 1
-            k_missed[b] = missed
-            stale = act and missed > max_coast
-            init = ok and not act
-            upd = act and ok
-            a_act = act and not stale
-            for c in range(3):
-                p00_0 = k_p00[b, c]
-                p01_0 = k_p01[b, c]
-                p11_0 = k_p11[b, c]
-                a_p = k_angle[b, c] + dt * k_rate[b, c]
-                nis_old = k_nis[b, c]
-                q = min(fprm[F_Q + c] * max(nis_old, 1.0) ** 2, fprm[F_Q_MAX + c])
-                p00 = p00_0 + 2.0 * dt * p01_0 + dt * dt * p11_0 + q * dt3_3
-                p01 = p01_0 + dt * p11_0 + q * dt2_2
-                p11 = p11_0 + q * dt
-                zz = ypr[c] if ok else 0.0
-                if init:
-                    k_angle[b, c] = zz
-                    k_rate[b, c] = 0.0
-                    k_p00[b, c] = fprm[F_R + c]
-                    k_p01[b, c] = 0.0
-                    k_p11[b, c] = fprm[F_P11_INIT + c]
-                    k_nis[b, c] = 1.0
-                elif a_act:
-                    if upd:
-                        a_p0 = a_p if math.isfinite(a_p) else 0.0
-                        innov = _wrap(zz - a_p0)
-                        sv = p00 + fprm[F_R + c]
-                        k0 = p00 / sv
-                        k1 = p01 / sv
-                        nis = innov * innov / sv
-                        k_nis[b, c] = nis_old + lam * (nis - nis_old)
-                        k_angle[b, c] = a_p + k0 * innov
-                        k_rate[b, c] = k_rate[b, c] + k1 * innov
-                        k_p00[b, c] = (1.0 - k0) * p00
-                        k_p01[b, c] = (1.0 - k0) * p01
-                        k_p11[b, c] = p11 - k1 * p01
-                    else:
-                        k_angle[b, c] = a_p
-                        k_p00[b, c] = p00
-                        k_p01[b, c] = p01
-                        k_p11[b, c] = p11
-                elif stale:
-                    k_rate[b, c] = 0.0
-            active = a_act or init
-            k_active[b] = active
-            k_init_now[b] = init
-            # StreamingMedian.reset(initialised_now), StreamingMedian.update(angle, active)
-            if init:
-                for c in range(3):
-                    m_last[b, c] = np.nan
-                    for i in range(win):
-                        m_buf[i, b, c] = np.nan
-            if active:
-                for c in range(3):
-                    for i in range(win - 1, 0, -1):
-                        m_buf[i, b, c] = m_buf[i - 1, b, c]
-                    m_buf[0, b, c] = k_angle[b, c]
-                    n = 0
-                    for i in range(win):  # insertion sort of the finite samples
-                        v = m_buf[i, b, c]
-                        if math.isfinite(v):
-                            p = n
-                            while p > 0 and sorted_buf[p - 1] > v:
-                                sorted_buf[p] = sorted_buf[p - 1]
-                                p -= 1
-                            sorted_buf[p] = v
-                            n += 1
-                    if n > 0:
-                        m_last[b, c] = 0.5 * (sorted_buf[(n - 1) // 2] + sorted_buf[n // 2])
-                    else:
-                        m_last[b, c] = np.nan
-                    o_kf[b, c] = _wrap(k_angle[b, c])
-            all_finite = True
-            for c in range(3):
-                out_ypr_raw[r, c] = o_raw[b, c]
-                out_ypr_kalman[r, c] = o_kf[b, c]
-                out_ypr[r, c] = _wrap(m_last[b, c])
-                if not math.isfinite(o_kf[b, c]):
-                    all_finite = False
-            out_valid[r] = all_finite
+
+#: ``hand_kernel(B)(frames, m_count, prm, axes, center, weights, head0, state, out)``.
+hand_kernel = BatchKernel(_hand_frames, parallel=False)
+
+
+def _forget_rows(rows, state):
+    """Forget the target and filters of the users where ``rows`` (B,) bool is True."""
+    target, user, joint, ring, window = state
+    for i in numba.prange(rows.shape[0]):
+        if rows[i]:
+            target[i] = 0
+            _forget(user[i], joint[i], ring[i], window[i])
+
+
+#: ``forget_kernel(B)(rows, state)``.
+forget_kernel = BatchKernel(_forget_rows, parallel=False)

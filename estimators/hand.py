@@ -1,22 +1,22 @@
 """Hand orientation from Kinect v2 frames: the pipeline of seed 003 (Yao, Chen, Pan, Huang 2023).
 
-The stages, each usable alone and batched over B streams (users):
+The stages (seed 003, sections 1.1-1.4):
 
-1. :func:`select_target` — target user selection (seed 003, 1.1): among the tracked bodies pick the
-   one nearest the sensor, keep it by id from frame to frame, re-select when its id is gone or no
-   longer tracked.
-2. :class:`~estimators.joint_smoothing.HoltSmoother` — the Kinect SDK's Holt double-exponential
-   joint filter plus a weighted average over the last 5 frames (1.2).
+1. Target user selection (1.1): among the tracked bodies pick the one nearest the sensor, keep it
+   by id from frame to frame, re-select when its id is gone or no longer tracked.
+2. Joint smoothing (1.2): the Kinect SDK's Holt double-exponential joint filter plus a weighted
+   average over the last 5 frames (:class:`~estimators.joint_smoothing.HoltSmoother`).
 3. :func:`quat_to_euler_paper` — the wrist quaternion to Euler angles with eq (1), and eq (2) where
    ``|wy - zx| > 0.499`` (1.3).
 4. :class:`EulerKalman` then :class:`StreamingMedian` (offline: :func:`median_filter`) — a Kalman
-   filter per angle, then a median over consecutive Kalman outputs (1.4).
+   filter per angle, then a median over consecutive Kalman outputs (1.4); :class:`OrientationFilter`
+   chains 3 and 4, batched over B streams.
 
-:class:`HandPipeline` chains them for the environment: one Kinect frame per ``update`` call, or
-the M frames of a control step per ``update_frames`` call, both through the compiled kernel
-:mod:`estimators._hand_numba` (``update_reference`` runs the numpy stages above, which define the
-numbers); :func:`estimate_hand_orientation` runs it over recorded or simulated sequences;
-:func:`hand_variance_experiment` is the core of the paper's static-variance experiment (Tables 1-4).
+:class:`HandPipeline` runs all four for the environment through the compiled kernel
+:mod:`estimators._hand_numba`: one Kinect frame per ``update`` call, or the M frames of a control
+step per ``update_frames`` call; :func:`estimate_hand_orientation` runs it over recorded or
+simulated sequences; :func:`hand_variance_experiment` is the core of the paper's static-variance
+experiment (Tables 1-4), on :class:`OrientationFilter`.
 
 Axis names. Seed 003's eq (1) writes::
 
@@ -65,6 +65,7 @@ from estimators.joint_smoothing import (
     OneEuroFilter,
     OneEuroParams,
 )
+from estimators.kernels.records import param_record, record_dtype
 from estimators.rotations import quat_from_ypr, wrap_angle
 
 __all__ = [
@@ -90,7 +91,6 @@ __all__ = [
     "median_filter",
     "paper_to_ypr",
     "quat_to_euler_paper",
-    "select_target",
     "unwrap_angles",
     "ypr_to_paper",
 ]
@@ -185,100 +185,6 @@ def quat_to_euler_paper(
 
 
 # ----------------------------------------------------------------------------------------------
-# Target selection (1.1)
-
-
-def _body_distance(
-    joints: NDArray[np.float64], joint_state: NDArray, center_joints: Sequence[int]
-) -> NDArray[np.float64]:
-    """Distance (m) from the sensor of each body's centre; inf where no centre joint is valid."""
-    idx = list(center_joints)
-    c = joints[..., idx, :]  # (B, K, C, 3)
-    ok = (joint_state[..., idx] >= INFERRED) & np.all(np.isfinite(c), axis=-1)
-    n = ok.sum(axis=-1)
-    centre = np.sum(np.where(ok[..., None], c, 0.0), axis=-2) / np.maximum(n, 1)[..., None]
-    return np.where(n > 0, np.linalg.norm(centre, axis=-1), np.inf)
-
-
-def select_target(
-    body_id: ArrayLike,
-    body_tracked: ArrayLike,
-    joints: ArrayLike,
-    joint_state: ArrayLike,
-    current_id: ArrayLike,
-    center_joints: Sequence[int] = (_SPINE_BASE, _SPINE_MID, _SPINE_SHOULDER),
-) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.bool_]]:
-    """Seed 003's target-user selection for one frame of B streams with K body slots each.
-
-    The current target (``current_id``, 0 = none) is kept if a slot holds that id and is tracked
-    (it is kept even when another body comes nearer). Otherwise — id gone, body no longer tracked,
-    or no target yet — the nearest tracked body is selected: nearest by the Euclidean distance from
-    the sensor of its centre, the mean of its valid ``center_joints`` (default SpineBase, SpineMid,
-    SpineShoulder: the torso, which moves least). Seed 003 says "nearest by depth data"; the
-    Euclidean distance differs from depth only for bodies far off-axis, and we prefer "nearest to
-    the sensor" in 3-D. Slots with id 0, untracked slots and bodies without a valid centre joint are
-    never selected. Ties go to the lowest slot.
-
-    Args:
-        body_id: (B, K) int body ids, 0 for an empty slot.
-        body_tracked: (B, K) bool, body tracked in this frame.
-        joints: (B, K, J, 3) camera-space joint positions, metres (NaN where not tracked).
-        joint_state: (B, K, J) tracking states 0/1/2.
-        current_id: (B,) id of the current target, 0 for none.
-        center_joints: joint indices whose mean is a body's centre (Kinect v2 JointType order).
-
-    Returns:
-        ``(slot, target_id, changed)``: (B,) int64 selected slot, -1 if no tracked body; (B,) int64
-        new target id, 0 if none; (B,) bool, True where a *new* target was selected this frame (the
-        id differs from ``current_id`` and is not 0).
-
-    Raises:
-        ValueError: inconsistent shapes, negative ids or one id in two slots of a stream.
-    """
-    ids = np.asarray(body_id)
-    tracked = np.asarray(body_tracked, dtype=bool)
-    j = np.asarray(joints, dtype=np.float64)
-    st = np.asarray(joint_state)
-    cur = np.asarray(current_id)
-    if ids.ndim != 2:
-        raise ValueError(f"body_id must have shape (B, K), got {ids.shape}")
-    b, k = ids.shape
-    if not np.issubdtype(ids.dtype, np.integer):
-        raise ValueError(f"body_id must hold integers, got dtype {ids.dtype}")
-    if tracked.shape != (b, k):
-        raise ValueError(f"body_tracked must have shape {(b, k)}, got {tracked.shape}")
-    if j.ndim != 4 or j.shape[:2] != (b, k) or j.shape[3] != 3:
-        raise ValueError(f"joints must have shape ({b}, {k}, J, 3), got {j.shape}")
-    if st.shape != j.shape[:3]:
-        raise ValueError(f"joint_state must have shape {j.shape[:3]}, got {st.shape}")
-    if cur.shape != (b,):
-        raise ValueError(f"current_id must have shape ({b},), got {cur.shape}")
-    if np.any(ids < 0):
-        raise ValueError("body_id must be >= 0 (0 marks an empty slot)")
-    srt = np.sort(ids, axis=1)
-    if np.any((srt[:, 1:] == srt[:, :-1]) & (srt[:, 1:] != 0)):
-        raise ValueError("body_id holds the same non-zero id in two slots of one stream")
-    bad = [i for i in center_joints if not 0 <= i < j.shape[2]]
-    if bad or not center_joints:
-        raise ValueError(
-            f"center_joints must be non-empty indices in [0, {j.shape[2]}), got "
-            f"{tuple(center_joints)}"
-        )
-
-    present = tracked & (ids != 0)
-    keep = present & (ids == cur[:, None]) & (cur[:, None] != 0)
-    has_keep = keep.any(axis=1)
-    dist = np.where(present, _body_distance(j, st, center_joints), np.inf)
-    nearest = np.argmin(dist, axis=1)
-    has_near = np.isfinite(dist[np.arange(b), nearest])
-    slot = np.where(has_keep, np.argmax(keep, axis=1), np.where(has_near, nearest, -1))
-    slot = slot.astype(np.int64)
-    new_id = np.where(slot >= 0, ids[np.arange(b), np.maximum(slot, 0)], 0).astype(np.int64)
-    changed = (new_id != cur) & (new_id != 0)
-    return slot, new_id, changed
-
-
-# ----------------------------------------------------------------------------------------------
 # Euler filtering (1.4)
 
 
@@ -361,6 +267,24 @@ class KalmanParams:
             )
 
 
+def _kalman_constants(
+    p: KalmanParams,
+) -> tuple[float, NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
+           NDArray[np.float64], float]:  # fmt: skip
+    """The filter's constants: frame period dt (s); per axis the measurement variance, the
+    acceleration PSD at rest and its cap, the initial rate variance; the gain per frame of the
+    innovation low-pass, ``1 - exp(-dt / adapt_time)``."""
+    dt = 1.0 / p.rate_hz
+    return (
+        dt,
+        _per_axis("measurement_std", p.measurement_std) ** 2,
+        _per_axis("accel_psd", p.accel_psd),
+        _per_axis("max_accel_psd", p.max_accel_psd),
+        _per_axis("init_rate_std", p.init_rate_std) ** 2,
+        1.0 - np.exp(-dt / p.adapt_time),
+    )
+
+
 class EulerKalman:
     """Batched Kalman filter on Euler angles (B, 3), one independent 2-state filter per angle.
 
@@ -379,11 +303,7 @@ class EulerKalman:
         self.params = params if params is not None else KalmanParams()
         self.batch_size = int(batch_size)
         p = self.params
-        self._dt = 1.0 / p.rate_hz
-        self._r = _per_axis("measurement_std", p.measurement_std) ** 2
-        self._q = _per_axis("accel_psd", p.accel_psd)
-        self._q_max = _per_axis("max_accel_psd", p.max_accel_psd)
-        self._p11_init = _per_axis("init_rate_std", p.init_rate_std) ** 2
+        self._dt, self._r, self._q, self._q_max, self._p11_init, self._lam = _kalman_constants(p)
         shape = (self.batch_size, 3)
         self.angle = np.full(shape, np.nan)  # unwrapped angle state, rad
         self.rate = np.zeros(shape)  # rad/s
@@ -396,7 +316,6 @@ class EulerKalman:
         #: (B,) bool: this frame re-initialised the stream from its measurement.
         self.initialised_now = np.zeros(self.batch_size, dtype=bool)
         self._nis = np.ones(shape)  # low-passed normalised innovation squared
-        self._lam = 1.0 - np.exp(-self._dt / p.adapt_time)
 
     def reset(self, mask: ArrayLike | None = None) -> None:
         """Deactivate the streams where ``mask`` (B,) is True (all if None); output becomes NaN."""
@@ -772,9 +691,18 @@ _HAND_FRAME_FIELDS = tuple(f.name for f in fields(HandFrame))  # in the construc
 class HandPipeline:
     """Seed 003's hand-orientation pipeline, streaming, batched over B users.
 
-    Per frame: select the target (:func:`select_target`), reset the filters of streams whose
-    target changed, smooth its joints (:class:`HoltSmoother`), convert its wrist quaternion
-    (eq 1/2) and filter the angles (Kalman, then median).
+    Per frame: select the target user (seed 003, 1.1), reset the filters of streams whose
+    target changed, smooth its joints (the Kinect SDK's Holt filter and the weighted average, as
+    :class:`~estimators.joint_smoothing.HoltSmoother` does), convert its wrist quaternion (eq 1/2)
+    and filter the angles (Kalman, then median), as :class:`OrientationFilter` does.
+
+    Target selection. The current target is kept while a slot holds its id and is tracked, else
+    the tracked body nearest the sensor is selected: nearest by the Euclidean distance from the
+    sensor of a body's centre, the mean of its valid ``center_joints`` (default SpineBase,
+    SpineMid, SpineShoulder: the torso, which moves least). Seed 003 says "nearest by depth
+    data"; the Euclidean distance differs from depth only for bodies far off-axis. Slots with id
+    0, untracked slots and bodies without a valid centre joint are never selected; ties go to the
+    lowest slot. The current target is kept even when another body comes nearer.
 
     Documented behaviour on bad frames:
 
@@ -789,16 +717,13 @@ class HandPipeline:
       smoothed with the doubled inferred radii; ``all_inferred`` is True; the wrist quaternion is
       used if ``min_wrist_state`` is 1 (default), else the frame is an orientation dropout.
     * zero-norm or NaN wrist quaternion: orientation dropout (as above), ``quat_valid`` False.
-    * infinite values, wrong shapes, states outside {0, 1, 2}, duplicate ids: ValueError.
+    * infinite values, wrong shapes, states outside {0, 1, 2}, ids that are not integers,
+      negative or repeated within a frame: ValueError.
 
-    Implementations. :meth:`update_reference` is the readable one: it chains the numpy stages
-    above. :meth:`update` (one frame) and :meth:`update_frames` (M frames in one call) run the
-    compiled kernel :mod:`estimators._hand_numba`, which computes the same numbers (the tests
-    check agreement to 1e-12 over every branch) about 25 times faster at B = 1 and 5 times at
-    B = 256 (``benchmarks/bench_hand.py``). All three share one state — the arrays of :attr:`holt`,
-    :attr:`orientation` and :attr:`target_id`, which the kernel updates in place — so they can be
-    mixed freely and :meth:`reset` serves all. Inputs whose ids or tracking states are not
-    integer arrays (or whose ids are uint64) take the reference path.
+    The frames run through the compiled kernel :mod:`estimators._hand_numba`, one user at a
+    time: :meth:`update` takes one frame, :meth:`update_frames` the M frames of a control step
+    in one call, with the same numbers. The pipeline holds the kernel's state (target ids, Holt
+    filters, Kalman filters, median windows); :meth:`reset` clears it.
 
     Args:
         batch_size: number of users B.
@@ -823,52 +748,21 @@ class HandPipeline:
         self.batch_size = int(batch_size)
         self.num_joints = int(num_joints)
         self.num_bodies = int(num_bodies)
-        #: (B,) int64 id of each stream's current target, 0 for none.
-        self.target_id = np.zeros(self.batch_size, dtype=np.int64)
-        #: the joint smoother (its arrays are the pipeline's Holt state).
-        self.holt = HoltSmoother(batch_size, num_joints, p.holt)
-        #: eq (1)/(2) + Kalman + median (its arrays are the pipeline's orientation state).
-        self.orientation = OrientationFilter(batch_size, p)
+        w = np.asarray(p.holt.average_weights, dtype=np.float64)
+        self._weights = w / w.sum()  # the Holt average's weights, newest first
+        self._head = 0  # the Holt ring's newest slot, shared by all users
         self._center = np.asarray(p.center_joints, dtype=np.int64)
-        self._fprm, self._iprm = self._packed_params()
-
-    def _packed_params(self) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
-        """The kernel's parameter vectors (layouts ``F_*``, ``I_*`` of :mod:`_hand_numba`).
-
-        Taken from the reference objects, so both paths use bit-identical constants.
-        """
-        h, kf = self.params.holt, self.orientation.kalman
-        f = np.zeros(_k.N_F)
-        f[_k.F_SMOOTHING] = h.smoothing
-        f[_k.F_CORRECTION] = h.correction
-        f[_k.F_PREDICTION] = h.prediction
-        f[_k.F_JITTER] = h.jitter_radius
-        f[_k.F_MAX_DEV] = h.max_deviation_radius
-        f[_k.F_INFERRED_SCALE] = h.inferred_radius_scale
-        f[_k.F_DT] = kf._dt
-        f[_k.F_DT2_2] = kf._dt**2 / 2.0  # as EulerKalman.update computes them
-        f[_k.F_DT3_3] = kf._dt**3 / 3.0
-        f[_k.F_LAM] = kf._lam
-        f[_k.F_THRESHOLD] = self.params.singularity_threshold
-        f[_k.F_R : _k.F_R + 3] = kf._r
-        f[_k.F_Q : _k.F_Q + 3] = kf._q
-        f[_k.F_Q_MAX : _k.F_Q_MAX + 3] = kf._q_max
-        f[_k.F_P11_INIT : _k.F_P11_INIT + 3] = kf._p11_init
-        i = np.zeros(_k.N_I, dtype=np.int64)
-        i[_k.I_WRIST] = self.params.wrist_joint
-        i[_k.I_MIN_WRIST_STATE] = self.params.min_wrist_state
-        i[_k.I_MAX_COAST] = self.params.kalman.max_coast_frames
-        return f, i
+        self._prm, self._axes = _kernel_params(p)
+        self._state = _k.new_state(self.batch_size, self.num_joints, w.size, p.median_window)
+        #: (B,) int64 id of each stream's current target, 0 for none (the kernel's own array).
+        self.target_id = self._state[0]
 
     def reset(self, mask: ArrayLike | None = None) -> None:
         """Forget target and filters of the streams where ``mask`` (B,) is True (all if None)."""
         m = np.ones(self.batch_size, bool) if mask is None else np.asarray(mask, dtype=bool)
-        self.target_id[m] = 0
-        self.holt.reset(m)
-        self.orientation.reset(m)
-
-    # ------------------------------------------------------------------------------------------
-    # Input checks shared by the paths
+        if m.shape != (self.batch_size,):
+            raise ValueError(f"mask must have shape ({self.batch_size},), got {m.shape}")
+        _k.forget_kernel(self.batch_size)(m, self._state)
 
     def _inputs(
         self,
@@ -878,8 +772,9 @@ class HandPipeline:
         joint_state: ArrayLike,
         hand_quat: ArrayLike,
         lead: tuple[int, ...],
-    ) -> tuple[NDArray, NDArray, NDArray[np.float64], NDArray, NDArray[np.float64]]:
-        """As arrays, with shapes checked against ``lead`` + (K, ...)."""
+    ) -> tuple[NDArray[np.int64], NDArray[np.bool_], NDArray[np.float64], NDArray, NDArray]:
+        """The kernel's input tuple, shapes checked against ``lead`` + (K, ...): int64 ids, bool
+        tracking flags, float64 joints and quaternions, integer joint states."""
         k, nj = self.num_bodies, self.num_joints
         ids = np.asarray(body_id)
         tracked = np.asarray(body_tracked)
@@ -895,18 +790,8 @@ class HandPipeline:
         ):
             if arr.shape != shape:
                 raise ValueError(f"{name} must have shape {shape}, got {arr.shape}")
-        return ids, tracked, jts, st, hq
-
-    @staticmethod
-    def _kernel_ids(ids: NDArray) -> NDArray[np.int64] | None:
-        """``ids`` as int64 for the kernel, or None where only the reference handles them."""
-        kind = ids.dtype.kind
-        if kind == "i" or (kind == "u" and ids.dtype.itemsize < 8):
-            return ids if ids.dtype == np.int64 else ids.astype(np.int64)
-        return None
-
-    # ------------------------------------------------------------------------------------------
-    # Fast paths (compiled kernel)
+        tracked = tracked if tracked.dtype == np.bool_ else tracked.astype(bool)
+        return _kernel_ids(ids), tracked, jts, _kernel_states(st), hq
 
     def update(
         self,
@@ -916,7 +801,7 @@ class HandPipeline:
         joint_state: ArrayLike,
         hand_quat: ArrayLike,
     ) -> HandFrame:
-        """Process one Kinect frame (compiled; equal to :meth:`update_reference` to 1e-12).
+        """Process one Kinect frame.
 
         Args:
             body_id: (B, K) int body ids, 0 = empty slot.
@@ -932,30 +817,10 @@ class HandPipeline:
             ValueError: see the class docstring.
         """
         b = self.batch_size
-        ids, tracked, jts, st, hq = self._inputs(
-            body_id, body_tracked, joints, joint_state, hand_quat, (b,)
-        )
-        ids64 = self._kernel_ids(ids)
-        if ids64 is None or st.dtype.kind not in "iu":
-            return self.update_reference(ids, tracked, jts, st, hq)
-        nj = self.num_joints
-        out = HandFrame(
-            slot=np.empty(b, np.int64),
-            body_id=np.empty(b, np.int64),
-            reselected=np.empty(b, bool),
-            has_target=np.empty(b, bool),
-            joints=np.empty((b, nj, 3)),
-            joint_state=np.empty((b, nj), np.int8),
-            all_inferred=np.empty(b, bool),
-            ypr_raw=np.empty((b, 3)),
-            ypr_kalman=np.empty((b, 3)),
-            ypr=np.empty((b, 3)),
-            quat_valid=np.empty(b, bool),
-            singular=np.empty(b, bool),
-            valid=np.empty(b, bool),
-        )
-        self._run(ids64, tracked, jts, st, hq, 1, out, "")
-        return out
+        frames = self._inputs(body_id, body_tracked, joints, joint_state, hand_quat, (b,))
+        out = _new_frames((b,), self.num_joints)
+        self._run(frames, 1, out, "")
+        return HandFrame(*out)
 
     def update_frames(
         self,
@@ -994,189 +859,102 @@ class HandPipeline:
                 f"body_id must have shape ({b}, M, {self.num_bodies}) with M >= 1, got {shape}"
             )
         m = shape[1]
-        ids, tracked, jts, st, hq = self._inputs(
-            body_id, body_tracked, joints, joint_state, hand_quat, (b, m)
-        )
-        ids64 = self._kernel_ids(ids)
-        if ids64 is None or st.dtype.kind not in "iu":
-            frames = [
-                self.update_reference(ids[:, t], tracked[:, t], jts[:, t], st[:, t], hq[:, t])
-                for t in range(m)
-            ]
-            return HandFrame(
-                **{
-                    f.name: np.stack([getattr(fr, f.name) for fr in frames], axis=1)
-                    for f in fields(HandFrame)
-                }
-            )
-        k, nj = self.num_bodies, self.num_joints
-        out = HandFrame(
-            slot=np.empty((b, m), np.int64),
-            body_id=np.empty((b, m), np.int64),
-            reselected=np.empty((b, m), bool),
-            has_target=np.empty((b, m), bool),
-            joints=np.empty((b, m, nj, 3)),
-            joint_state=np.empty((b, m, nj), np.int8),
-            all_inferred=np.empty((b, m), bool),
-            ypr_raw=np.empty((b, m, 3)),
-            ypr_kalman=np.empty((b, m, 3)),
-            ypr=np.empty((b, m, 3)),
-            quat_valid=np.empty((b, m), bool),
-            singular=np.empty((b, m), bool),
-            valid=np.empty((b, m), bool),
-        )
+        frames = self._inputs(body_id, body_tracked, joints, joint_state, hand_quat, (b, m))
         rows = b * m
-        flat = HandFrame(
-            *(
-                (a := getattr(out, name)).reshape(rows, *a.shape[2:])
-                for name in _HAND_FRAME_FIELDS
-            )
-        )
+        out = _new_frames((b, m), self.num_joints)
         self._run(
-            ids64.reshape(rows, k),
-            tracked.reshape(rows, k),
-            jts.reshape(rows, k, nj, 3),
-            st.reshape(rows, k, nj),
-            hq.reshape(rows, k, 4),
+            tuple(a.reshape(rows, *a.shape[2:]) for a in frames),
             m,
-            flat,
+            tuple(a.reshape(rows, *a.shape[2:]) for a in out),
             " (frame {t})",
         )
-        return out
+        return HandFrame(*out)
 
     def _run(
-        self,
-        ids: NDArray[np.int64],
-        tracked: NDArray,
-        jts: NDArray[np.float64],
-        st: NDArray,
-        hq: NDArray[np.float64],
-        m: int,
-        out: HandFrame,
-        where: str,
+        self, frames: tuple[NDArray, ...], m: int, out: tuple[NDArray, ...], where: str
     ) -> None:
         """Validate, then run the kernel over rows ``b * m + t``, writing into ``out``."""
         b = self.batch_size
+        ids, _, jts, st, hq = frames
         flat = jts.reshape(-1) if jts.flags.c_contiguous else _EMPTY
         code, t = _k.validate(ids, jts, st, hq, b, m, flat)
         if code:
             raise ValueError(_KERNEL_ERRORS[code] + where.format(t=t))
-        tracked = tracked if tracked.dtype == np.bool_ else tracked.astype(bool)
-        h, o = self.holt, self.orientation
-        kf, med = o.kalman, o.median
-        n_hist = h._weights.size
-        _k.hand_frames(
-            ids,
-            tracked,
-            jts,
-            st,
-            hq,
-            b,
-            m,
-            self._center,
-            self._fprm,
-            self._iprm,
-            h._weights,
-            h._head,
-            self.target_id,
-            h._count,
-            h._raw,
-            h._filtered,
-            h._trend,
-            h._history,
-            h._history_ok,
-            h.holt_output,
-            kf.angle,
-            kf.rate,
-            kf._p00,
-            kf._p01,
-            kf._p11,
-            kf.active,
-            kf._missed,
-            kf.initialised_now,
-            kf._nis,
-            med._buf,
-            med._last,
-            o._raw,
-            o._kf_out,
-            out.slot,
-            out.body_id,
-            out.reselected,
-            out.has_target,
-            out.joints,
-            out.joint_state,
-            out.all_inferred,
-            out.ypr_raw,
-            out.ypr_kalman,
-            out.ypr,
-            out.quat_valid,
-            out.singular,
-            out.valid,
-        )
-        if n_hist > 1:  # HoltSmoother advances its ring once per frame
-            h._head = (h._head - m) % n_hist
+        _k.hand_kernel(b)(
+            frames, m, self._prm, self._axes, self._center, self._weights, self._head,
+            self._state, out,
+        )  # fmt: skip
+        n_hist = self._weights.size
+        if n_hist > 1:  # the ring advances once per frame
+            self._head = (self._head - m) % n_hist
 
-    # ------------------------------------------------------------------------------------------
-    # Reference path (numpy stages)
 
-    def update_reference(
-        self,
-        body_id: ArrayLike,
-        body_tracked: ArrayLike,
-        joints: ArrayLike,
-        joint_state: ArrayLike,
-        hand_quat: ArrayLike,
-    ) -> HandFrame:
-        """One Kinect frame through the readable numpy stages: the reference :meth:`update` mirrors.
+def _kernel_params(p: HandParams) -> tuple[NDArray, NDArray]:
+    """The kernel's parameter records (:mod:`estimators._hand_numba`): ``prm`` (1,) with the
+    fields of :class:`HoltParams` and ``PARAM_FIELDS``, ``axes`` (3,) with ``AXIS_FIELDS``."""
+    dt, r, q, q_max, p11_init, lam = _kalman_constants(p.kalman)
+    values = {
+        "singularity_threshold": p.singularity_threshold,
+        "wrist_joint": p.wrist_joint,
+        "min_wrist_state": p.min_wrist_state,
+        "max_coast_frames": p.kalman.max_coast_frames,
+        "dt": dt,
+        "dt2_2": dt**2 / 2.0,
+        "dt3_3": dt**3 / 3.0,
+        "nis_gain": lam,
+    }
+    prm = param_record(p.holt, **{name: values[name] for name in _k.PARAM_FIELDS})
+    axes = np.zeros(3, record_dtype({name: () for name in _k.AXIS_FIELDS}))
+    for name, value in zip(_k.AXIS_FIELDS, (r, q, q_max, p11_init), strict=True):
+        axes[name] = value
+    return _k.shared_layout(prm), _k.shared_layout(axes)
 
-        Same arguments, result and errors as :meth:`update`.
-        """
-        b = self.batch_size
-        ids, tracked, jts, st, hq = self._inputs(
-            body_id, body_tracked, joints, joint_state, hand_quat, (b,)
-        )
-        if np.any(np.isinf(jts)):
-            raise ValueError(_KERNEL_ERRORS[_k.ERR_JOINTS_INF])
-        if np.any(np.isinf(hq)):
-            raise ValueError(_KERNEL_ERRORS[_k.ERR_QUAT_INF])
-        if np.any((st < 0) | (st > TRACKED)):
-            raise ValueError(_KERNEL_ERRORS[_k.ERR_STATE_RANGE])
-        p = self.params
-        slot, new_id, changed = select_target(
-            ids, tracked, jts, st, self.target_id, p.center_joints
-        )
-        self.target_id = new_id.copy()  # a copy: the kernel updates target_id in place
-        has = slot >= 0
-        rows = np.arange(b)
-        s0 = np.maximum(slot, 0)
-        tj = np.where(has[:, None, None], jts[rows, s0], np.nan)
-        ts = np.where(has[:, None], st[rows, s0], 0).astype(np.int8)
-        tq = np.where(has[:, None], hq[rows, s0], np.nan)
 
-        smoothed = self.holt.update(tj, ts, reset=changed)
-        wrist_ok = has & (ts[:, p.wrist_joint] >= p.min_wrist_state)
-        ori = self.orientation.update(tq, valid=wrist_ok, reset=changed)
-        all_inferred = has & ~np.any(ts == TRACKED, axis=1) & np.any(ts == INFERRED, axis=1)
-        return HandFrame(
-            slot=slot,
-            body_id=new_id,
-            reselected=changed,
-            has_target=has,
-            joints=smoothed,
-            joint_state=ts,
-            all_inferred=all_inferred,
-            ypr_raw=ori.ypr_raw,
-            ypr_kalman=ori.ypr_kalman,
-            ypr=ori.ypr,
-            quat_valid=ori.quat_valid,
-            singular=ori.singular,
-            valid=ori.valid,
-        )
+def _kernel_ids(ids: NDArray) -> NDArray[np.int64]:
+    """Body ids as int64 (uint64 ids below 2**63 included); ValueError for other dtypes."""
+    kind = ids.dtype.kind
+    if kind == "i" or (kind == "u" and ids.dtype.itemsize < 8):
+        return ids if ids.dtype == np.int64 else ids.astype(np.int64)
+    if kind == "u":
+        if ids.size and ids.max() > np.iinfo(np.int64).max:
+            raise ValueError("body_id must be < 2**63")
+        return ids.astype(np.int64)
+    raise ValueError(f"body_id must hold integers, got dtype {ids.dtype}")
+
+
+def _kernel_states(st: NDArray) -> NDArray:
+    """Tracking states as an integer array; float or bool states must be whole numbers."""
+    if st.dtype.kind in "iu":
+        return st
+    with np.errstate(invalid="ignore"):
+        whole = st.astype(np.int64)
+    if not np.array_equal(whole, st):
+        raise ValueError(_KERNEL_ERRORS[_k.ERR_STATE_RANGE])
+    return whole
+
+
+def _new_frames(lead: tuple[int, ...], nj: int) -> tuple[NDArray, ...]:
+    """Empty :class:`HandFrame` fields (in their order) for ``lead`` = (B,) or (B, M)."""
+    return (
+        np.empty(lead, np.int64),
+        np.empty(lead, np.int64),
+        np.empty(lead, bool),
+        np.empty(lead, bool),
+        np.empty((*lead, nj, 3)),
+        np.empty((*lead, nj), np.int8),
+        np.empty(lead, bool),
+        np.empty((*lead, 3)),
+        np.empty((*lead, 3)),
+        np.empty((*lead, 3)),
+        np.empty(lead, bool),
+        np.empty(lead, bool),
+        np.empty(lead, bool),
+    )
 
 
 _EMPTY = np.empty(0)  # "no flat view" for _hand_numba.validate
 
-#: ValueError messages of the kernel's input checks (the reference raises the same ones).
+#: ValueError messages of the kernel's input checks.
 _KERNEL_ERRORS = {
     _k.ERR_JOINTS_INF: "joints contains infinite coordinates; use NaN for untracked joints",
     _k.ERR_QUAT_INF: "hand_quat contains infinite entries; use NaN for a dropout",

@@ -1,9 +1,9 @@
 """Compiled hand-frame arithmetic of the env: the hand relative to the torso, and hand errors.
 
-:func:`hand_relative_to_torso` has a numpy twin,
-:meth:`vrloco_env.users.SimulatedUsers._hand_relative_reference` (tests compare them to 1e-12);
-:func:`hand_error` (the Interact task's success and the infos' hand error) is checked against
-rotation angles computed with :mod:`estimators.rotations`.
+Both are per-user kernels (:class:`~estimators.kernels.batch.BatchKernel`, serial builds: their
+work per user is a few quaternion products). ``tests/test_users.py`` checks the hand relative to
+the torso against the simulated user's true hand, and :func:`hand_error` against rotation angles
+computed with :mod:`estimators.rotations`.
 """
 
 from __future__ import annotations
@@ -13,6 +13,7 @@ import math
 import numba
 import numpy as np
 
+from estimators.kernels.batch import BatchKernel
 from estimators.kernels.rotations import (
     quat_from_ypr,
     quat_mul,
@@ -22,15 +23,15 @@ from estimators.kernels.rotations import (
 )
 
 
-@numba.njit(cache=True)
-def hand_relative_to_torso(ypr, valid, shoulder_left, shoulder_right, cam_q, sdk_to_hand, out):
+def _hand_relative_to_torso(ypr, valid, shoulder_left, shoulder_right, cam_q, sdk_to_hand, out):
     """[yaw, pitch, roll] of the hand relative to the torso heading, NaN where not valid.
 
     ``ypr`` (B, 3): filtered SDK-wrist orientation in camera space; shoulders (B, 3) in camera
     space; ``cam_q`` camera -> world; ``sdk_to_hand`` the quaternion taking the SDK wrist frame
-    to the hand frame (right-multiplied).
+    to the hand frame (right-multiplied). The torso heading is that of the left-to-right
+    shoulder line turned by -90 deg, in the world's horizontal plane.
     """
-    for b in range(ypr.shape[0]):
+    for b in numba.prange(ypr.shape[0]):  # users are independent (estimators.kernels.batch)
         ok = valid[b]
         for k in range(3):
             ok = ok and math.isfinite(ypr[b, k])
@@ -54,19 +55,23 @@ def hand_relative_to_torso(ypr, valid, shoulder_left, shoulder_right, cam_q, sdk
         out[b, 2] = r
 
 
+#: ``hand_relative_to_torso(B)(ypr, valid, shoulder_left, shoulder_right, cam_q, sdk_to_hand,
+#: out)``, every array C-contiguous.
+hand_relative_to_torso = BatchKernel(_hand_relative_to_torso, parallel=False)
+
+
 def hand_error(estimate, target):
     """Rotation angle (rad) between estimated and target hand orientations ([yaw, pitch, roll]
     (B, 3) each); NaN where there is no estimate."""
-    out = np.empty(np.shape(estimate)[0])
-    hand_error_kernel(np.ascontiguousarray(estimate, dtype=np.float64),
-                      np.ascontiguousarray(target, dtype=np.float64), out)  # fmt: skip
+    est = np.ascontiguousarray(estimate, dtype=np.float64)
+    out = np.empty(est.shape[0])
+    hand_error_kernel(est.shape[0])(est, np.ascontiguousarray(target, dtype=np.float64), out)
     return out
 
 
-@numba.njit(cache=True)
-def hand_error_kernel(estimate, target, out):
+def _hand_error(estimate, target, out):
     """Rotation angle (rad) between estimated and target [yaw, pitch, roll]; NaN without one."""
-    for b in range(estimate.shape[0]):
+    for b in numba.prange(estimate.shape[0]):  # users are independent (estimators.kernels.batch)
         e = estimate[b]
         if not (math.isfinite(e[0]) and math.isfinite(e[1]) and math.isfinite(e[2])):
             out[b] = np.nan
@@ -75,3 +80,7 @@ def hand_error_kernel(estimate, target, out):
         qe = quat_from_ypr(e[0], e[1], e[2])
         q = quat_mul(qt[0], -qt[1], -qt[2], -qt[3], qe[0], qe[1], qe[2], qe[3])
         out[b] = rotation_angle(q[0], q[1], q[2], q[3])
+
+
+#: ``hand_error_kernel(B)(estimate, target, out)``.
+hand_error_kernel = BatchKernel(_hand_error, parallel=False)

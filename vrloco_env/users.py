@@ -49,8 +49,6 @@ from vrloco_env.sensors.kinect import (
     KinectV2,
     camera_quat,
     camera_to_world,
-    quat_camera_to_world,
-    sdk_wrist_to_hand,
 )
 from vrloco_env.skeleton import Joint
 
@@ -466,34 +464,15 @@ class SimulatedUsers:
         return steps, true_steps, virtual_yaw, true_virtual_yaw, true_displacement
 
     def _hand_relative_to_torso(self, hand: HandFrame) -> NDArray[np.float64]:
-        """The hand's [yaw, pitch, roll] relative to the torso, all from the Kinect's estimates
-        (compiled; :meth:`_hand_relative_reference` is the numpy version)."""
+        """The hand's [yaw, pitch, roll] relative to the torso, all from the Kinect's estimates:
+        the filtered wrist orientation (camera space, SDK wrist frame) taken to the world and to
+        the hand frame, the torso's heading from the smoothed shoulder joints (compiled)."""
         out = np.empty((self.batch_size, 3))
         joints = hand.joints
-        hand_relative_to_torso(
+        hand_relative_to_torso(self.batch_size)(
             np.ascontiguousarray(hand.ypr), np.ascontiguousarray(hand.valid),
             np.ascontiguousarray(joints[:, Joint.SHOULDER_LEFT]),
             np.ascontiguousarray(joints[:, Joint.SHOULDER_RIGHT]), self._camera_q,
             self._sdk_to_hand, out,
         )  # fmt: skip
         return out
-
-    def _hand_relative_reference(self, hand: HandFrame) -> NDArray[np.float64]:
-        """The hand's [yaw, pitch, roll] relative to the torso, all from the Kinect's estimates.
-
-        The filtered wrist orientation (camera space, SDK wrist frame) goes to the world and to
-        the hand frame; the torso's heading comes from the smoothed shoulder joints.
-        """
-        spec = self.sensors.kinect
-        q_cam = rot.quat_from_ypr(hand.ypr)
-        q_hand = sdk_wrist_to_hand(quat_camera_to_world(spec, q_cam))
-        sh = camera_to_world(spec, hand.joints[:, [Joint.SHOULDER_LEFT, Joint.SHOULDER_RIGHT]])
-        left = sh[:, 0, :2] - sh[:, 1, :2]
-        torso_yaw = np.arctan2(left[:, 1], left[:, 0]) - np.pi / 2.0
-        q_torso = rot.quat_from_ypr(
-            np.stack([torso_yaw, np.zeros_like(torso_yaw), np.zeros_like(torso_yaw)], -1)
-        )
-        with np.errstate(invalid="ignore"):
-            rel = rot.quat_to_ypr(rot.quat_multiply(rot.quat_conjugate(q_torso), q_hand))
-        ok = hand.valid & np.all(np.isfinite(rel), axis=-1)
-        return np.where(ok[:, None], rel, np.nan)

@@ -1,0 +1,104 @@
+"""The hand pipeline (target selection, Holt, eq (1)/(2), Kalman, median) and the env's
+hand-frame arithmetic on short sequences that take every branch: reselection, a gap longer than
+the Kalman's coasting, untracked and all-inferred bodies, NaN joints, NaN and zero quaternions,
+gimbal lock, angles sweeping through +-180 deg, and a reset mid-sequence."""
+
+import numpy as np
+
+from estimators import rotations as rot
+from estimators.hand import HandParams, HandPipeline, KalmanParams
+from estimators.joint_smoothing import HoltParams
+from vrloco_env._hand_frame_numba import hand_error, hand_relative_to_torso
+
+_K, _J, _WRIST = 3, 25, 10
+
+
+def _sequence(seed: int, b: int = 2, m: int = 36) -> dict[str, np.ndarray]:
+    """(B, M, ...) Kinect frames: two bodies per stream with every edge case."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(m)
+    seq = {
+        "body_id": np.zeros((b, m, _K), np.int64),
+        "body_tracked": np.zeros((b, m, _K), bool),
+        "joints": np.full((b, m, _K, _J, 3), np.nan),
+        "joint_state": np.zeros((b, m, _K, _J), np.int8),
+        "hand_quat": np.full((b, m, _K, 4), np.nan),
+    }
+    offsets = rng.uniform(-0.4, 0.4, (_J, 3))
+    for i in range(b):
+        for slot, bid, depth in ((0, 5 + i, 2.0), (2, 9, 3.0)):
+            present = rng.random(m) > 0.1
+            seq["body_id"][i, present, slot] = bid
+            seq["body_tracked"][i, present, slot] = True
+            walk = np.cumsum(rng.normal(0.0, 0.01, (m, 3)), axis=0) + np.array([0.0, 0.0, depth])
+            seq["joints"][i, :, slot] = np.where(
+                present[:, None, None],
+                walk[:, None] + offsets + rng.normal(0.0, 0.004, (m, _J, 3)),
+                np.nan,
+            )
+            inferred = rng.random(m) < 0.15  # the whole body inferred
+            seq["joint_state"][i, present, slot] = np.where(inferred, 1, 2)[present, None]
+            yaw = np.deg2rad(178.0 + 25.0 * np.sin(2 * np.pi * t / 12.0))  # crosses +-180 deg
+            pitch = np.where(rng.random(m) < 0.2, np.deg2rad(89.5), 0.3)  # eq (2) or eq (1)
+            q = rot.quat_from_ypr(np.stack([yaw, pitch, -0.2 + 0 * t], axis=-1))
+            q[rng.random(m) < 0.1] = np.nan
+            q[rng.random(m) < 0.1] = 0.0
+            seq["hand_quat"][i, :, slot] = np.where(present[:, None], q * 1.7, np.nan)
+        lost = rng.random(m) < 0.08
+        seq["joints"][i, lost, 0, _WRIST] = np.nan
+        seq["joint_state"][i, lost, 0, _WRIST] = 0
+    seq["body_tracked"][:, 12:20] = False  # 8 frames without a body: coast, stale, reselect
+    seq["body_tracked"][0, 24:27, 0] = False  # the target untracked: the other body is taken
+    return seq
+
+
+def _pipeline(params: HandParams | None):
+    def play():
+        seq = _sequence(3)
+        b, m = seq["body_id"].shape[:2]
+        pipe = HandPipeline(b, params, num_joints=_J, num_bodies=_K)
+        out: dict[str, list[np.ndarray]] = {}
+        for t in range(0, m, 3):
+            if t == 27:
+                pipe.reset(np.arange(b) == 1)
+            if t % 2:
+                frames = [pipe.update(**{k: v[:, u] for k, v in seq.items()})
+                          for u in range(t, t + 3)]  # fmt: skip
+            else:
+                chunk = pipe.update_frames(**{k: v[:, t : t + 3] for k, v in seq.items()})
+                frames = [chunk.at(i) for i in range(3)]
+            for fr in frames:
+                for name, value in vars(fr).items():
+                    out.setdefault(name, []).append(np.asarray(value, dtype=np.float64))
+        return {name: np.stack(v, axis=1) for name, v in out.items()}
+
+    return play
+
+
+def _hand_frame():
+    rng = np.random.default_rng(5)
+    b = 6
+    ypr = rng.uniform(-3.0, 3.0, (b, 3))
+    ypr[1, 1] = np.nan
+    valid = np.array([True, True, False, True, True, True])
+    left, right = rng.normal(size=(b, 3)), rng.normal(size=(b, 3))
+    left[3, 2] = np.nan
+    cam = np.array([0.9, 0.1, -0.2, 0.3])
+    cam /= np.linalg.norm(cam)
+    sdk_to_hand = np.array([0.5, 0.5, -0.5, 0.5])
+    rel = np.empty((b, 3))
+    hand_relative_to_torso(b)(ypr, valid, left, right, cam, sdk_to_hand, rel)
+    return {"relative": rel, "error": hand_error(rel, rng.uniform(-1.0, 1.0, (b, 3)))}
+
+
+CASES = {
+    "hand_pipeline_default": _pipeline(None),
+    "hand_pipeline_window4_tracked_wrist": _pipeline(HandParams(median_window=4,
+                                                                min_wrist_state=2)),
+    "hand_pipeline_no_average_plain_kalman": _pipeline(HandParams(
+        holt=HoltParams(average_weights=(1.0,)),
+        kalman=KalmanParams(max_coast_frames=0, accel_psd=0.01, max_accel_psd=0.01),
+        median_window=1, singularity_threshold=0.45,
+    )),
+    "hand_frame": _hand_frame,
+}  # fmt: skip
