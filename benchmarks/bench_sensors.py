@@ -14,14 +14,13 @@ revision's ``vrloco_env/sensors/kinect.py`` is loaded from git (``git show REV:p
 private module and timed on the same input; its numbers are different random draws, only the
 time is compared.
 
-Targets (issue 5, with the whole env step at 0.5 ms for B = 1 and ~11 ms for B = 256):
+Targets (with the whole env step at 0.5 ms for B = 1 and ~11 ms for B = 256):
 ``capture`` <= 0.15 ms at B = 1 and <= 3 ms at B = 256.
 
 IMU section: one ``HeadImu.sample`` call of N = 10 samples (100 Hz IMU, 10 Hz control) for B users
 of the ``consumer_mems`` preset with one magnetic dipole, each user turning and walking its own
-way; the same figure for the numpy model kept in this tree (``HeadImu.sample_reference``, same
-draws, same outputs), and for the call's random draw alone (``BatchRng.normal((10, 27))``), the
-floor no kernel can go under. Targets: ``sample`` <= 0.04 ms at B = 1 and <= 0.5 ms at B = 256.
+way, and the call's random draw alone (``BatchRng.normal((10, 27))``), the floor no kernel can go
+under. Targets: ``sample`` <= 0.04 ms at B = 1 and <= 0.5 ms at B = 256.
 """
 
 from __future__ import annotations
@@ -110,7 +109,7 @@ def head_motion(b: int, n: int) -> tuple[np.ndarray, ...]:
 
 
 def time_imu(b: int, calls: int, repeat: int, what: str) -> float:
-    """Best mean seconds per call of ``what`` ("sample", "sample_reference" or "draw") for B
+    """Best mean seconds per call of ``what`` ("sample" or "draw") for B
     users, N = IMU_SAMPLES samples per call."""
     dipole = imu.MagneticDisturbance.with_field_at((1.0, 0.5, 1.5), field_ut=20.0, distance_m=0.8)
     sensor = imu.HeadImu("consumer_mems", BatchRng.from_seeds(range(b)), disturbances=[dipole])
@@ -135,22 +134,18 @@ def time_imu(b: int, calls: int, repeat: int, what: str) -> float:
 
 
 def imu_section(batches: list[int], repeat: int, seconds: float) -> None:
-    """Print the IMU table: compiled sample, numpy reference, the random draw alone."""
+    """Print the IMU table: compiled sample and the random draw alone."""
     print(f"HeadImu.sample, N = {IMU_SAMPLES} samples per call, consumer_mems, one dipole")
-    print(
-        f"{'B':>5} {'sample ms':>10} {'per user-sample us':>19} {'reference ms':>13} "
-        f"{'speed-up':>9} {'draw ms':>8} {'target ms':>10}"
-    )
+    print(f"{'B':>5} {'sample ms':>10} {'per user-sample us':>19} {'draw ms':>8} {'target ms':>10}")
     for b in batches:
         rough = time_imu(b, 3, 1, "sample")
         calls = max(5, int(seconds / max(rough, 1e-6)))
         now = time_imu(b, calls, repeat, "sample")
-        ref = time_imu(b, max(5, calls // 10), repeat, "sample_reference")
         draw = time_imu(b, calls, repeat, "draw")
         target = IMU_TARGETS_MS.get(b)
         print(
             f"{b:>5} {now * 1e3:>10.4f} {now / (b * IMU_SAMPLES) * 1e6:>19.3f} "
-            f"{ref * 1e3:>13.4f} {ref / now:>8.1f}x {draw * 1e3:>8.4f}"
+            f"{draw * 1e3:>8.4f}"
             + (f" {target:>10.2f}" if target else f" {'':>10}")
         )
 

@@ -431,8 +431,7 @@ def test_bad_construction_raises_clear_value_error(kwargs, match):
         HeadImu(**args)
 
 
-@pytest.mark.parametrize("method", ["sample", "sample_reference"])
-def test_bad_sample_input_raises_clear_value_error(method):
+def test_bad_sample_input_raises_clear_value_error():
     d = MagneticDisturbance((1.0, 0.0, 0.0), (0.0, 0.0, 1.0))
     imu = HeadImu("ig500n", BatchRng.from_seeds([0, 1]), disturbances=[d])
     q, w, a = _static(2, 5)
@@ -467,10 +466,10 @@ def test_bad_sample_input_raises_clear_value_error(method):
     ]
     for args, match in cases:
         with pytest.raises(ValueError, match=match):
-            getattr(imu, method)(*args)
+            imu.sample(*args)
     # A call that raises draws nothing and changes no state: the next call is a fresh IMU's first.
     fresh = HeadImu("ig500n", BatchRng.from_seeds([0, 1]), disturbances=[d])
-    for x, y in zip(getattr(imu, method)(q, w, a, p), fresh.sample(q, w, a, p), strict=True):
+    for x, y in zip(imu.sample(q, w, a, p), fresh.sample(q, w, a, p), strict=True):
         np.testing.assert_array_equal(x, y)
     np.testing.assert_array_equal(imu.samples_taken, [5, 5])
 
@@ -499,7 +498,7 @@ def test_bad_spec_fields_raise_clear_value_error():
         MagneticDisturbance((0, 0, 0), (0, np.nan, 0))
 
 
-# --- the compiled sample against the numpy reference ----------------------------------------------
+# --- input layouts and the converter ----------------------------------------------------------
 
 _DIPOLES = (
     MagneticDisturbance.with_field_at((1.0, 0.5, 1.5), 20.0, 0.8),
@@ -507,125 +506,26 @@ _DIPOLES = (
 )
 
 
-def _kernel_specs() -> dict[str, ImuSpec]:
-    """Specs that exercise every branch of the kernel."""
-    cm = get_imu_spec("consumer_mems")
-    return {
-        "ig500n": get_imu_spec("ig500n"),
-        "consumer_mems": cm,
-        # Constant biases (tau = inf) on the accelerometer, random walks on gyro and magnetometer.
-        "walk_and_constant": dataclasses.replace(
-            cm,
-            accel=dataclasses.replace(cm.accel, bias_tau=float("inf")),
-            gyro=dataclasses.replace(cm.gyro, bias_walk=0.01),
-            mag=dataclasses.replace(cm.mag, bias_walk=0.2, resolution=0.0),
-        ),
-        # No noise at all: biases are signed zeros, outputs the analytic values.
-        "noiseless": cm.noiseless(),
-        "noiseless_quantised": cm.noiseless(keep_resolution=True),
-    }
-
-
-def _bits(x: np.ndarray) -> np.ndarray:
-    """The float64 bit patterns of ``x`` (so -0.0 and 0.0 differ)."""
-    return np.ascontiguousarray(x).view(np.int64)
-
-
-def _assert_same(fast: HeadImu, ref: HeadImu, outs, mag_atol: float = 0.0) -> None:
-    """Outputs, last biases and bias states equal bit for bit; the magnetometer within mag_atol."""
-    (o1, o2) = outs
-    pairs = [(o1.acc, o2.acc), (o1.gyr, o2.gyr)]
-    pairs += list(zip(fast.last_bias, ref.last_bias, strict=True))
-    pairs += [(fast._gm, ref._gm), (fast._rw, ref._rw)]
-    for x, y in pairs:
-        assert x.shape == y.shape and x.dtype == y.dtype == np.float64
-        np.testing.assert_array_equal(_bits(x), _bits(y))
-    if mag_atol:
-        np.testing.assert_allclose(o1.mag, o2.mag, rtol=0.0, atol=mag_atol)
-    else:
-        np.testing.assert_array_equal(_bits(o1.mag), _bits(o2.mag))
-    np.testing.assert_array_equal(fast.samples_taken, ref.samples_taken)
-
-
-@pytest.mark.parametrize("name", sorted(_kernel_specs()))
-@pytest.mark.parametrize("dipoles", [False, True])
-def test_compiled_sample_equals_the_numpy_reference(name, dipoles):
-    spec = _kernel_specs()[name]
-    b, chunks = 3, (10, 0, 1, 19, 30, 10)
-    q, w, a, pos = _walk_inputs(b, sum(chunks))
-    q = q * np.array([1.0, 2.5, 0.3])[:, None, None]  # not unit: normalised inside
-    w = w.copy()
-    w[1, 5:8, 2] = 50.0  # saturates the gyro
-    a = a.copy()
-    a[2, 40:45, 0] = -200.0  # saturates the accelerometer
-    pos = pos.copy()
-    pos[0, 12] = _DIPOLES[1].position  # exactly at a dipole
-    pos[1, 13] = np.add(_DIPOLES[1].position, [0.05, -0.02, 0.0])  # inside min_distance
-    dist = _DIPOLES if dipoles else ()
-    fast = HeadImu(spec, BatchRng.from_seeds(SEEDS[:b]), rate_hz=250.0, disturbances=dist)
-    ref = HeadImu(spec, BatchRng.from_seeds(SEEDS[:b]), rate_hz=250.0, disturbances=dist)
-    start, first = 0, None
-    for i, c in enumerate(chunks):
-        args = [x[:, start : start + c] for x in (q, w, a, pos)]
-        outs = (fast.sample(*args), ref.sample_reference(*args))
-        first = outs[0] if first is None else first
-        # numpy may take dist**5 from its SIMD pow, the kernel from libm: ~1 ulp of the field.
-        _assert_same(fast, ref, outs, mag_atol=1e-12 if dipoles else 0.0)
-        start += c
-        if i == 2:  # a new episode for user 1 in both
-            for imu in (fast, ref):
-                imu.rng.reseed(1, np.random.default_rng(123))
-                imu.reset(users=[1])
-    # The saturated samples were compared too.
-    np.testing.assert_array_equal(first.gyr[1, 5:8, 2], spec.gyro.range)
-
-
-def test_compiled_and_reference_calls_mix_on_one_imu():
-    """Both methods advance the same state, so calls can be interleaved."""
-    q, w, a, pos = _walk_inputs(2, 60)
-    mixed = HeadImu("consumer_mems", BatchRng.from_seeds([5, 6]), disturbances=_DIPOLES[:1])
-    ref = HeadImu("consumer_mems", BatchRng.from_seeds([5, 6]), disturbances=_DIPOLES[:1])
-    for i, start in enumerate(range(0, 60, 10)):
-        args = [x[:, start : start + 10] for x in (q, w, a, pos)]
-        got = (mixed.sample if i % 2 else mixed.sample_reference)(*args)
-        want = ref.sample_reference(*args)
-        for x, y in zip(got, want, strict=True):
-            np.testing.assert_allclose(x, y, rtol=0.0, atol=1e-12)
-    np.testing.assert_array_equal(mixed._gm, ref._gm)
-
-
-def test_compiled_sample_takes_strided_and_non_float_inputs():
+def test_sample_takes_strided_read_only_and_non_float_inputs():
+    """Every input layout gives the numbers of the same values as C-contiguous float64 arrays."""
     q, w, a, pos = _walk_inputs(2, 40)
-    imu1 = HeadImu("ig500n", BatchRng.from_seeds([1, 2]), disturbances=_DIPOLES)
-    imu2 = HeadImu("ig500n", BatchRng.from_seeds([1, 2]), disturbances=_DIPOLES)
-    # Every other sample: non-contiguous views; and the same values as C-contiguous copies.
-    views = [x[:, ::2] for x in (q, w, a, pos)]
-    out1 = imu1.sample(*views)
-    out2 = imu2.sample(*(np.ascontiguousarray(x) for x in views))
-    for x, y in zip(out1, out2, strict=True):
-        np.testing.assert_array_equal(x, y)
-    # Read-only and broadcast (stride-0) input, as the reference takes it.
-    imu5 = HeadImu("ig500n", BatchRng.from_seeds([1, 2]), disturbances=_DIPOLES)
-    imu6 = HeadImu("ig500n", BatchRng.from_seeds([1, 2]), disturbances=_DIPOLES)
+
+    def same(inputs, seeds=(1, 2), spec="ig500n", dist=_DIPOLES):
+        got = HeadImu(spec, BatchRng.from_seeds(seeds), disturbances=dist).sample(*inputs)
+        plain = [np.array(x, dtype=np.float64, order="C") for x in inputs]
+        want = HeadImu(spec, BatchRng.from_seeds(seeds), disturbances=dist).sample(*plain)
+        for x, y in zip(got, want, strict=True):
+            np.testing.assert_array_equal(x, y)
+
+    same([x[:, ::2] for x in (q, w, a, pos)])  # every other sample: non-contiguous views
     frozen = q[:, :20].copy()
     frozen.flags.writeable = False
-    still = np.broadcast_to(pos[:1, :1], (2, 20, 3))
-    got = imu5.sample(frozen, w[:, :20], a[:, :20], still)
-    want = imu6.sample_reference(frozen, w[:, :20], a[:, :20], still)
-    for x, y in zip(got, want, strict=True):
-        np.testing.assert_allclose(x, y, rtol=0.0, atol=1e-12)
-    # Integer and list input is converted like the reference converts it.
-    b, n = 1, 3
-    imu3 = HeadImu("ig500n", BatchRng.from_seeds([4]))
-    imu4 = HeadImu("ig500n", BatchRng.from_seeds([4]))
-    qi = np.ones((b, n, 4), dtype=np.int64)
-    zi = [[[0, 0, 0]] * n]
-    for x, y in zip(imu3.sample(qi, zi, zi), imu4.sample_reference(qi, zi, zi), strict=True):
-        np.testing.assert_array_equal(x, y)
+    same([frozen, w[:, :20], a[:, :20], np.broadcast_to(pos[:1, :1], (2, 20, 3))])  # stride 0
+    zi = [[[0, 0, 0]] * 3]
+    same([np.ones((1, 3, 4), dtype=np.int64), zi, zi], seeds=(4,), dist=())  # integers, lists
 
 
-@pytest.mark.parametrize("method", ["sample", "sample_reference"])
-def test_quantisation_rounds_half_lsb_to_even(method):
+def test_quantisation_rounds_half_lsb_to_even():
     lsb = 2.0**-8  # rad/s, a power of two: (k + 1/2) lsb / lsb is exactly k + 1/2
     base = get_imu_spec("ig500n").noiseless()
     spec = dataclasses.replace(base, gyro=dataclasses.replace(base.gyro, resolution=lsb))
@@ -633,6 +533,6 @@ def test_quantisation_rounds_half_lsb_to_even(method):
     q, w, a = _static(1, k.size)
     w = w.copy()
     w[0, :, 0] = (k + 0.5) * lsb
-    out = getattr(HeadImu(spec, BatchRng.from_seeds([0])), method)(q, w, a)
+    out = HeadImu(spec, BatchRng.from_seeds([0])).sample(q, w, a)
     even = np.where(k % 2 == 0, k, k + 1)  # the even neighbour of k + 1/2
     np.testing.assert_array_equal(out.gyr[0, :, 0], even * lsb)

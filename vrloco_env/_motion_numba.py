@@ -1,8 +1,19 @@
-"""Compiled twin of :meth:`vrloco_env.motion.UserMotion._evaluate` (same formulas, scalar loops).
+"""Compiled body of the simulated user (see :mod:`vrloco_env.motion`): per user, per time.
 
-The numpy method is the readable reference; ``tests/test_motion.py`` checks that this kernel
-agrees with it to 1e-12. At B = 1 the numpy version pays ~1 us per array operation over ~150
-operations; the kernel does the same work in one call.
+Two kernels, each a :class:`~estimators.kernels.BatchKernel` whose loop over users runs small
+stages:
+
+* :data:`evaluate_kernel`, the head and body at given times after a control step's start, from
+  the user's state record (fields :data:`STATE`) and intent: step phase (:func:`_step_phase`),
+  vertical bob (:func:`_bob`), lateral sway (:func:`_sway`), body yaw (:func:`_body_yaw`),
+  gestures and lean (:func:`_gestures`, :func:`_critically_damped`), the head's orientation and
+  body rate (:func:`_body_rate`), the neck pivot (:func:`_neck`) and the forehead IMU;
+* :data:`skeleton_kernel`, the Kinect v2 joints and the right hand's orientation at the Kinect
+  frames, from the body evaluated there and the body geometry record of
+  :data:`vrloco_env.motion._BODY`: torso (:func:`_torso`), head, legs (:func:`_legs`) and the
+  right arm and hand (:func:`_right_hand`).
+
+Units: s, m, rad, steps/s.
 """
 
 from __future__ import annotations
@@ -11,215 +22,279 @@ import math
 
 import numba
 
-from estimators.kernels.batch import BatchKernel
+from estimators.kernels import BatchKernel
 from estimators.kernels.rotations import quat_from_ypr, quat_rotate
 
+#: Fields of one user's state record, carried between control steps: continuous step phase
+#: (integer when standing at a step boundary), cadence of the step in progress (steps/s), body
+#: yaw (rad, unwrapped) and its rate (rad/s), the gesture amplitudes (rad), their rates (rad/s)
+#: and phases (rad) about yaw, pitch, roll, head lean (rad) and its rate (rad/s), the hand's
+#: [yaw, pitch, roll] relative to the torso (rad), the standing place in the tracked space (m),
+#: the user's style factors (step impact, sway) and the overground walking speed (m/s; 0 in place).
+STATE = {
+    "phase": (), "step_cadence": (), "yaw": (), "yaw_rate": (), "gesture_amp": (3,),
+    "gesture_amp_rate": (3,), "gesture_phase": (3,), "lean": (), "lean_rate": (),
+    "hand_ypr": (3,), "base": (2,), "impact_scale": (), "sway_scale": (), "speed": (),
+}  # fmt: skip
 
-@numba.njit(cache=True)
+#: Planes of :data:`evaluate_kernel`'s per-time outputs ``scalars`` (S, B, T) and ``vectors``
+#: (V, B, T, 3), by name: step phase, cadence (steps/s), body yaw (rad) and rate (rad/s), lean
+#: (rad) and rate (rad/s); head [yaw, pitch, roll] (rad) and their rates (rad/s), the head's
+#: body-frame rate (rad/s), neck pivot and IMU position (m), gesture amplitudes (rad), their rates
+#: (rad/s) and phases (rad).
+SCALARS = ("phase", "cadence", "yaw", "yaw_rate", "lean", "lean_rate")
+VECTORS = ("head_ypr", "d_head_ypr", "omega", "neck", "imu_pos", "gesture_amp",
+           "gesture_amp_rate", "g_phase")  # fmt: skip
+S_PHASE, S_CADENCE, S_YAW, S_YAW_RATE, S_LEAN, S_LEAN_RATE = map(SCALARS.index, (
+    "phase", "cadence", "yaw", "yaw_rate", "lean", "lean_rate"))  # fmt: skip
+V_YPR, V_D_YPR, V_OMEGA, V_NECK, V_IMU, V_GAMP, V_GAMP_RATE, V_GPHASE = map(VECTORS.index, (
+    "head_ypr", "d_head_ypr", "omega", "neck", "imu_pos", "gesture_amp", "gesture_amp_rate",
+    "g_phase"))  # fmt: skip
+
+_TWO_PI = 2.0 * math.pi
+
+
+@numba.njit(cache=True, inline="always")
 def _critically_damped(x0, v0, target, lag, tau):
+    """Value and rate, ``tau`` s on, of a critically damped second-order response (time constant
+    ``lag``) from value ``x0`` and rate ``v0`` towards ``target``."""
     e0 = x0 - target
     c = v0 + e0 / lag
     decay = math.exp(-tau / lag)
     return target + (e0 + c * tau) * decay, (c - (e0 + c * tau) / lag) * decay
 
 
-def _evaluate(
-    phase0, step_cad, yaw0, yaw_rate0, gamp0, gamp_rate0, gphase0, lean0, lean_rate0, base,
-    impact, sway_scale, cad_cmd, turn_cmd, gamp_cmd, gfreq, lean_cmd,
-    lo, hi, pk_lo, pk_hi, gravity, sway_m, sway_roll, turn_lag, gesture_lag, neck_h, imu_off,
-    pulse_pos, z0, tau,
-    o_phase, o_cad, o_yaw, o_yaw_rate, o_ypr, o_dypr, o_quat, o_neck, o_imu, o_gamp, o_gamp_rate,
-    o_gphase, o_lean, o_lean_rate, o_tb, o_omega,
-):  # fmt: skip
-    b_n = phase0.shape[0]
-    t_n = tau.shape[0]
-    k_n = pulse_pos.shape[0]
-    two_pi = 2.0 * math.pi
-    for b in numba.prange(b_n):  # users are independent (estimators.kernels.batch)
-        c_old = step_cad[b]
-        c_new = cad_cmd[b]
-        ph0 = phase0[b]
+@numba.njit(cache=True, inline="always")
+def _step_phase(ph0, to_boundary, t_b, c_old, c_new, tt):
+    """Step phase and cadence ``tt`` s after the step start: the step in progress finishes at its
+    own cadence ``c_old`` (at ``t_b``, ``to_boundary`` phase on), then the commanded ``c_new``."""
+    if tt < t_b:
+        return ph0 + c_old * tt, c_old
+    return ph0 + to_boundary + c_new * (tt - t_b), c_new
+
+
+@numba.njit(cache=True, inline="always")
+def _bob(p, phase, cad, impact):
+    """Vertical head bob (m) at ``phase``: the heel-strike pulse's double integral
+    ``sum_k pos_k cos(k th)`` (cosines by the angle-addition recurrence, harmonics 1..K), less its
+    value at a step boundary, scaled by the peak acceleration ``a_peak(cad)`` over ``cad^2``."""
+    lo, hi = p["cadence_range_hz"][0], p["cadence_range_hz"][1]
+    pk_lo, pk_hi = p["peak_accel_g"][0], p["peak_accel_g"][1]
+    alpha = min(max((cad - lo) / (hi - lo), 0.0), 1.0)
+    a_peak = (pk_lo + alpha * (pk_hi - pk_lo)) * p["gravity"] * impact
+    amp = a_peak / (cad * cad) if cad > 0.0 else 0.0
+    frac = phase - math.floor(phase)
+    th = _TWO_PI * (frac - 0.5)
+    c1, s1 = math.cos(th), math.sin(th)
+    ck, sk = c1, s1
+    z = 0.0
+    pulse_pos = p["pulse_pos"]
+    for k in range(pulse_pos.shape[0]):
+        z += pulse_pos[k] * ck
+        ck, sk = ck * c1 - sk * s1, sk * c1 + ck * s1
+    return amp * (z - p["pulse_z0"])
+
+
+@numba.njit(cache=True, inline="always")
+def _sway(p, phase, cad, scale):
+    """Lateral sway (m), the head roll that goes with it (rad) and the roll's rate (rad/s): one
+    cycle per stride (two steps), zero with zero slope at step boundaries."""
+    sin_p = math.sin(math.pi * phase)
+    s3 = sin_p * sin_p * sin_p
+    sway = p["sway_m"] * scale * s3
+    roll = p["sway_roll"] * scale * s3
+    d_roll = (p["sway_roll"] * scale * 3.0 * sin_p * sin_p * math.cos(math.pi * phase) * math.pi
+              * cad)  # fmt: skip
+    return sway, roll, d_roll
+
+
+@numba.njit(cache=True, inline="always")
+def _body_yaw(yaw0, r0, rc, lag, tt):
+    """Body yaw (rad) and rate (rad/s) ``tt`` s on: the rate follows its command ``rc`` from
+    ``r0`` with a first-order lag ``lag``."""
+    decay = math.exp(-tt / lag)
+    return yaw0 + rc * tt + (r0 - rc) * lag * (1.0 - decay), rc + (r0 - rc) * decay
+
+
+@numba.njit(cache=True, inline="always")
+def _gestures(s, amp_cmd, freq, lag, tt, row):
+    """The head gestures about yaw, pitch, roll ``tt`` s on, into this time's vector outputs
+    ``row`` (V, 3): the amplitudes (critically damped towards ``amp_cmd``), their rates and the
+    oscillation phases; and into the head-angle rows the gesture angles ``amp sin(phase)`` (rad)
+    and their rates (rad/s), to which the body's angles are added after."""
+    for a in range(3):
+        ga, dga = _critically_damped(s["gesture_amp"][a], s["gesture_amp_rate"][a], amp_cmd[a],
+                                     lag, tt)  # fmt: skip
+        om = _TWO_PI * freq[a]
+        gp = s["gesture_phase"][a] + om * tt
+        sg, cg = math.sin(gp), math.cos(gp)
+        row[V_GAMP, a] = ga
+        row[V_GAMP_RATE, a] = dga
+        row[V_GPHASE, a] = gp
+        row[V_YPR, a] = ga * sg
+        row[V_D_YPR, a] = dga * sg + ga * om * cg
+
+
+@numba.njit(cache=True, inline="always")
+def _body_rate(pitch, roll, dy, dp, dr):
+    """Body-frame angular velocity (rad/s) of a ZYX attitude from its Euler-angle rates."""
+    sp, cp = math.sin(pitch), math.cos(pitch)
+    sr, cr = math.sin(roll), math.cos(roll)
+    return dr - dy * sp, dp * cr + dy * cp * sr, -dp * sr + dy * cp * cr
+
+
+@numba.njit(cache=True, inline="always")
+def _neck(base, yaw, sway, height, bob):
+    """Neck pivot (m): standing place + lateral sway (torso-left axis) + vertical bob."""
+    return base[0] - math.sin(yaw) * sway, base[1] + math.cos(yaw) * sway, height + bob
+
+
+@numba.njit(cache=True, inline="always")
+def _set3(out, x, y, z):
+    """``out[:3] = x, y, z``."""
+    out[0] = x
+    out[1] = y
+    out[2] = z
+
+
+def _evaluate(state, cadence, turn_rate, gesture_amplitude, gesture_frequency, lean, prm, tau,
+              t_boundary, scalars, vectors, quat):  # fmt: skip
+    """Head and body of B users at the times ``tau`` (T,) s after the control step's start.
+
+    Args:
+        state: (B,) records :data:`STATE` at the step start (read only).
+        cadence, turn_rate, lean: the intent (steps/s, rad/s, rad), (B,) each.
+        gesture_amplitude, gesture_frequency: the intent's gestures (rad, Hz), (B, 3) each.
+        prm: (1,) parameter record (:func:`vrloco_env.motion._kernel_params`).
+        tau: evaluation times (s), (T,).
+        t_boundary: out, time (s) at which the step in progress ends, (B,) (0 when standing).
+        scalars, vectors: out, (S, B, T) and (V, B, T, 3), planes :data:`SCALARS`, :data:`VECTORS`.
+        quat: out, head orientation (sensor -> world), (B, T, 4).
+    """
+    for b in numba.prange(state.shape[0]):  # users are independent (estimators.kernels.batch)
+        p = prm[0]  # taken here: numba's parallel build cannot pass a record into the loop
+        lag, imu_off = p["gesture_lag_s"], p["imu_offset_m"]
+        s = state[b]
+        ph0, c_old, c_new = s["phase"], s["step_cadence"], cadence[b]
         to_boundary = math.ceil(ph0 - 1e-12) - ph0
         t_b = to_boundary / c_old if c_old > 0.0 else 0.0
-        o_tb[b] = t_b
-        for t in range(t_n):
+        t_boundary[b] = t_b
+        for t in range(tau.shape[0]):
             tt = tau[t]
-            if tt < t_b:
-                phase = ph0 + c_old * tt
-                cad = c_old
-            else:
-                phase = ph0 + to_boundary + c_new * (tt - t_b)
-                cad = c_new
-            frac = phase - math.floor(phase)
-            # vertical bob
-            alpha = min(max((cad - lo) / (hi - lo), 0.0), 1.0)
-            a_peak = (pk_lo + alpha * (pk_hi - pk_lo)) * gravity * impact[b]
-            amp = a_peak / (cad * cad) if cad > 0.0 else 0.0
-            # sum_k pos_k cos(k th): cos(k th) by the angle-addition recurrence (harmonics 1..K)
-            th = two_pi * (frac - 0.5)
-            c1, s1 = math.cos(th), math.sin(th)
-            ck, sk = c1, s1
-            z = 0.0
-            for k in range(k_n):
-                z += pulse_pos[k] * ck
-                ck, sk = ck * c1 - sk * s1, sk * c1 + ck * s1
-            bob = amp * (z - z0)
-            # sway
-            sin_p = math.sin(math.pi * phase)
-            s3 = sin_p * sin_p * sin_p
-            sway = sway_m * sway_scale[b] * s3
-            sway_roll_v = sway_roll * sway_scale[b] * s3
-            d_sway_roll = (sway_roll * sway_scale[b] * 3.0 * sin_p * sin_p
-                           * math.cos(math.pi * phase) * math.pi * cad)  # fmt: skip
-            # yaw
-            r0 = yaw_rate0[b]
-            rc = turn_cmd[b]
-            decay = math.exp(-tt / turn_lag)
-            yaw = yaw0[b] + rc * tt + (r0 - rc) * turn_lag * (1.0 - decay)
-            d_yaw = rc + (r0 - rc) * decay
-            # gestures and lean
-            gest = (0.0, 0.0, 0.0)
-            dgest = (0.0, 0.0, 0.0)
-            for a in range(3):
-                ga, dga = _critically_damped(gamp0[b, a], gamp_rate0[b, a], gamp_cmd[b, a],
-                                             gesture_lag, tt)  # fmt: skip
-                om = two_pi * gfreq[b, a]
-                gp = gphase0[b, a] + om * tt
-                sg, cg = math.sin(gp), math.cos(gp)
-                if a == 0:
-                    gest = (ga * sg, gest[1], gest[2])
-                    dgest = (dga * sg + ga * om * cg, dgest[1], dgest[2])
-                elif a == 1:
-                    gest = (gest[0], ga * sg, gest[2])
-                    dgest = (dgest[0], dga * sg + ga * om * cg, dgest[2])
-                else:
-                    gest = (gest[0], gest[1], ga * sg)
-                    dgest = (dgest[0], dgest[1], dga * sg + ga * om * cg)
-                o_gamp[b, t, a] = ga
-                o_gamp_rate[b, t, a] = dga
-                o_gphase[b, t, a] = gp
-            lean, d_lean = _critically_damped(lean0[b], lean_rate0[b], lean_cmd[b], gesture_lag,
-                                              tt)  # fmt: skip
-            y = yaw + gest[0]
-            p = lean + gest[1]
-            r = sway_roll_v + gest[2]
-            o_ypr[b, t, 0] = y
-            o_ypr[b, t, 1] = p
-            o_ypr[b, t, 2] = r
-            dy = d_yaw + dgest[0]
-            dp = d_lean + dgest[1]
-            dr = d_sway_roll + dgest[2]
-            o_dypr[b, t, 0] = dy
-            o_dypr[b, t, 1] = dp
-            o_dypr[b, t, 2] = dr
-            # body rate from the ZYX Euler rates (motion._euler_rates_to_body)
-            sp_, cp_ = math.sin(p), math.cos(p)
-            sr_, cr_ = math.sin(r), math.cos(r)
-            o_omega[b, t, 0] = dr - dy * sp_
-            o_omega[b, t, 1] = dp * cr_ + dy * cp_ * sr_
-            o_omega[b, t, 2] = -dp * sr_ + dy * cp_ * cr_
-            # quaternion from ZYX (same formula as estimators.rotations.quat_from_ypr)
-            cy, sy = math.cos(0.5 * y), math.sin(0.5 * y)
-            cp, sp = math.cos(0.5 * p), math.sin(0.5 * p)
-            cr, sr = math.cos(0.5 * r), math.sin(0.5 * r)
-            qw = cy * cp * cr + sy * sp * sr
-            qx = cy * cp * sr - sy * sp * cr
-            qy = cy * sp * cr + sy * cp * sr
-            qz = sy * cp * cr - cy * sp * sr
-            o_quat[b, t, 0] = qw
-            o_quat[b, t, 1] = qx
-            o_quat[b, t, 2] = qy
-            o_quat[b, t, 3] = qz
-            # neck pivot
-            cyaw, syaw = math.cos(yaw), math.sin(yaw)
-            nx = base[b, 0] - syaw * sway
-            ny = base[b, 1] + cyaw * sway
-            nz = neck_h + bob
-            o_neck[b, t, 0] = nx
-            o_neck[b, t, 1] = ny
-            o_neck[b, t, 2] = nz
-            # IMU position: neck + R(q) imu_off (same arithmetic as rotations.quat_rotate)
-            vx, vy, vz = imu_off[0], imu_off[1], imu_off[2]
-            tx = 2.0 * (qy * vz - qz * vy)
-            ty = 2.0 * (qz * vx - qx * vz)
-            tz = 2.0 * (qx * vy - qy * vx)
-            o_imu[b, t, 0] = nx + (vx + qw * tx + (qy * tz - qz * ty))
-            o_imu[b, t, 1] = ny + (vy + qw * ty + (qz * tx - qx * tz))
-            o_imu[b, t, 2] = nz + (vz + qw * tz + (qx * ty - qy * tx))
-            o_phase[b, t] = phase
-            o_cad[b, t] = cad
-            o_yaw[b, t] = yaw
-            o_yaw_rate[b, t] = d_yaw
-            o_lean[b, t] = lean
-            o_lean_rate[b, t] = d_lean
+            phase, cad = _step_phase(ph0, to_boundary, t_b, c_old, c_new, tt)
+            bob = _bob(p, phase, cad, s["impact_scale"])
+            sway, sway_roll, d_sway_roll = _sway(p, phase, cad, s["sway_scale"])
+            yaw, d_yaw = _body_yaw(s["yaw"], s["yaw_rate"], turn_rate[b], p["turn_lag_s"], tt)
+            row = vectors[:, b, t]
+            _gestures(s, gesture_amplitude[b], gesture_frequency[b], lag, tt, row)
+            ln, d_ln = _critically_damped(s["lean"], s["lean_rate"], lean[b], lag, tt)
+            # Head angles and their rates: body yaw, lean and sway roll plus the gestures.
+            ypr, d_ypr = row[V_YPR], row[V_D_YPR]
+            y, pt, r = yaw + ypr[0], ln + ypr[1], sway_roll + ypr[2]
+            dy, dp, dr = d_yaw + d_ypr[0], d_ln + d_ypr[1], d_sway_roll + d_ypr[2]
+            _set3(ypr, y, pt, r)
+            _set3(d_ypr, dy, dp, dr)
+            wx, wy, wz = _body_rate(pt, r, dy, dp, dr)
+            _set3(row[V_OMEGA], wx, wy, wz)
+            qw, qx, qy, qz = quat_from_ypr(y, pt, r)
+            q = quat[b, t]
+            q[0], q[1], q[2], q[3] = qw, qx, qy, qz
+            nx, ny, nz = _neck(s["base"], yaw, sway, p["neck_height_m"], bob)
+            _set3(row[V_NECK], nx, ny, nz)
+            ox, oy, oz = quat_rotate(qw, qx, qy, qz, imu_off[0], imu_off[1], imu_off[2])
+            _set3(row[V_IMU], nx + ox, ny + oy, nz + oz)
+            scalars[S_PHASE, b, t] = phase
+            scalars[S_CADENCE, b, t] = cad
+            scalars[S_YAW, b, t] = yaw
+            scalars[S_YAW_RATE, b, t] = d_yaw
+            scalars[S_LEAN, b, t] = ln
+            scalars[S_LEAN_RATE, b, t] = d_ln
 
 
 evaluate_kernel = BatchKernel(_evaluate)
-"""Head and body at the given times for B users: ``evaluate_kernel(B)(...)``."""
+"""Head and body at the given times for B users: ``evaluate_kernel(B)(...)`` (:func:`_evaluate`)."""
 
 
-@numba.njit(cache=True)
-def skeleton_kernel(
-    neck, quat, yaw, phase, walking, hand_ypr, torso_joints, torso_offsets, head_joint,
-    head_offset, leg_joints, leg_rest, leg_lift, floor_z, forearm, elbow_right, wrist_right,
-    hand_joints, hand_offsets, o_joints, o_hand_q,
-):  # fmt: skip
-    """Compiled twin of :meth:`vrloco_env.motion.UserMotion._skeleton_reference`."""
-    b_n, m_n = yaw.shape
-    for b in range(b_n):
-        for m in range(m_n):
+@numba.njit(cache=True, inline="always")
+def _in_torso(cy, sy, ox, oy):
+    """A torso-frame horizontal offset turned by the body yaw (cosine ``cy``, sine ``sy``)."""
+    return cy * ox - sy * oy, sy * ox + cy * oy
+
+
+@numba.njit(cache=True, inline="always")
+def _torso(joints, body, nx, ny, nz, cy, sy):
+    """The joints fixed in the torso frame, from the neck pivot ``n`` (m)."""
+    offsets = body["torso_offsets"]
+    for j in range(offsets.shape[0]):
+        dx, dy = _in_torso(cy, sy, offsets[j, 0], offsets[j, 1])
+        _set3(joints[body["torso_joints"][j]], nx + dx, ny + dy, nz + offsets[j, 2])
+
+
+@numba.njit(cache=True, inline="always")
+def _legs(joints, body, nx, ny, nz, cy, sy, phase, walking):
+    """Legs: the leg of step n (parity of floor(phase)) lifts its knee during that step; ankles
+    and feet stay above the floor."""
+    lift = math.sin(math.pi * (phase - math.floor(phase))) * (1.0 if walking else 0.0)
+    right_lifts = math.floor(phase) % 2 == 0
+    rest, full = body["leg_rest"], body["leg_lift"]
+    for leg in range(2):
+        up = lift if (leg == 1) == right_lifts else 0.0
+        for jj in range(4):
+            ox = rest[leg, jj, 0] + up * full[jj, 0]
+            oy = rest[leg, jj, 1] + up * full[jj, 1]
+            oz = rest[leg, jj, 2] + up * full[jj, 2]
+            z = nz + oz
+            if jj >= 2:
+                z = max(z, body["floor_z"])
+            dx, dy = _in_torso(cy, sy, ox, oy)
+            _set3(joints[body["leg_joints"][leg * 4 + jj]], nx + dx, ny + dy, z)
+
+
+@numba.njit(cache=True, inline="always")
+def _right_hand(joints, body, yaw, cy, sy, hand_ypr, hand_quat):
+    """The right hand's orientation (torso yaw, then the hand's own angles ``hand_ypr``), the
+    wrist (the forearm held forward from the elbow) and the hand's joints."""
+    tw, tz = math.cos(0.5 * yaw), math.sin(0.5 * yaw)
+    aw, ax, ay, az = quat_from_ypr(hand_ypr[0], hand_ypr[1], hand_ypr[2])
+    qw = tw * aw - tz * az
+    qx = tw * ax - tz * ay
+    qy = tw * ay + tz * ax
+    qz = tw * az + tz * aw
+    hand_quat[0], hand_quat[1], hand_quat[2], hand_quat[3] = qw, qx, qy, qz
+    elbow, forearm = joints[body["elbow_right"]], body["forearm"]
+    dx, dy = _in_torso(cy, sy, forearm[0], forearm[1])
+    wx, wy, wz = elbow[0] + dx, elbow[1] + dy, elbow[2] + forearm[2]
+    _set3(joints[body["wrist_right"]], wx, wy, wz)
+    offsets = body["hand_offsets"]
+    for j in range(offsets.shape[0]):
+        px, py, pz = quat_rotate(qw, qx, qy, qz, offsets[j, 0], offsets[j, 1], offsets[j, 2])
+        _set3(joints[body["hand_joints"][j]], wx + px, wy + py, wz + pz)
+
+
+def _skeleton(neck, quat, yaw, phase, walking, hand_ypr, body, joints, hand_quat):
+    """Kinect v2 joints (world frame) and right-hand orientation of B users at M frames.
+
+    Args:
+        neck, quat, yaw, phase, walking: the body at the frames (:data:`evaluate_kernel`'s
+            outputs there; ``walking`` bool), (B, M, 3), (B, M, 4), (B, M), (B, M), (B, M).
+        hand_ypr: the hand's [yaw, pitch, roll] relative to the torso (rad), (B, M, 3).
+        body: (1,) body geometry record (:data:`vrloco_env.motion._BODY`).
+        joints: out, (B, M, 25, 3) m.
+        hand_quat: out, hand frame -> world, (B, M, 4).
+    """
+    g = body[0]
+    for b in numba.prange(yaw.shape[0]):  # users are independent (estimators.kernels.batch)
+        for m in range(yaw.shape[1]):
             cy, sy = math.cos(yaw[b, m]), math.sin(yaw[b, m])
             nx, ny, nz = neck[b, m, 0], neck[b, m, 1], neck[b, m, 2]
-            for j in range(torso_joints.shape[0]):
-                ox, oy, oz = torso_offsets[j, 0], torso_offsets[j, 1], torso_offsets[j, 2]
-                k = torso_joints[j]
-                o_joints[b, m, k, 0] = nx + (cy * ox - sy * oy)
-                o_joints[b, m, k, 1] = ny + (sy * ox + cy * oy)
-                o_joints[b, m, k, 2] = nz + oz
-            q = quat[b, m]
-            hx, hy, hz = quat_rotate(q[0], q[1], q[2], q[3], head_offset[0], head_offset[1],
-                                 head_offset[2])  # fmt: skip
-            o_joints[b, m, head_joint, 0] = nx + hx
-            o_joints[b, m, head_joint, 1] = ny + hy
-            o_joints[b, m, head_joint, 2] = nz + hz
-            # legs: the leg of step n (parity of floor(phase)) lifts its knee during that step
-            ph = phase[b, m]
-            lift = math.sin(math.pi * (ph - math.floor(ph))) * (1.0 if walking[b, m] else 0.0)
-            right_lifts = math.floor(ph) % 2 == 0
-            for leg in range(2):
-                up = lift if (leg == 1) == right_lifts else 0.0
-                for jj in range(4):
-                    ox = leg_rest[leg, jj, 0] + up * leg_lift[jj, 0]
-                    oy = leg_rest[leg, jj, 1] + up * leg_lift[jj, 1]
-                    oz = leg_rest[leg, jj, 2] + up * leg_lift[jj, 2]
-                    z = nz + oz
-                    if jj >= 2:
-                        z = max(z, floor_z)
-                    k = leg_joints[leg * 4 + jj]
-                    o_joints[b, m, k, 0] = nx + (cy * ox - sy * oy)
-                    o_joints[b, m, k, 1] = ny + (sy * ox + cy * oy)
-                    o_joints[b, m, k, 2] = z
-            # the right hand: torso yaw then the hand's own angles
-            tw, tz = math.cos(0.5 * yaw[b, m]), math.sin(0.5 * yaw[b, m])
-            aw, ax, ay, az = quat_from_ypr(hand_ypr[b, m, 0], hand_ypr[b, m, 1], hand_ypr[b, m, 2])
-            qw = tw * aw - tz * az
-            qx = tw * ax - tz * ay
-            qy = tw * ay + tz * ax
-            qz = tw * az + tz * aw
-            o_hand_q[b, m, 0] = qw
-            o_hand_q[b, m, 1] = qx
-            o_hand_q[b, m, 2] = qy
-            o_hand_q[b, m, 3] = qz
-            wx = o_joints[b, m, elbow_right, 0] + (cy * forearm[0] - sy * forearm[1])
-            wy = o_joints[b, m, elbow_right, 1] + (sy * forearm[0] + cy * forearm[1])
-            wz = o_joints[b, m, elbow_right, 2] + forearm[2]
-            o_joints[b, m, wrist_right, 0] = wx
-            o_joints[b, m, wrist_right, 1] = wy
-            o_joints[b, m, wrist_right, 2] = wz
-            for j in range(hand_joints.shape[0]):
-                px, py, pz = quat_rotate(qw, qx, qy, qz, hand_offsets[j, 0], hand_offsets[j, 1],
-                                     hand_offsets[j, 2])  # fmt: skip
-                k = hand_joints[j]
-                o_joints[b, m, k, 0] = wx + px
-                o_joints[b, m, k, 1] = wy + py
-                o_joints[b, m, k, 2] = wz + pz
+            out = joints[b, m]
+            _torso(out, g, nx, ny, nz, cy, sy)
+            q, head = quat[b, m], g["head_offset"]
+            hx, hy, hz = quat_rotate(q[0], q[1], q[2], q[3], head[0], head[1], head[2])
+            _set3(out[g["head_joint"]], nx + hx, ny + hy, nz + hz)
+            _legs(out, g, nx, ny, nz, cy, sy, phase[b, m], walking[b, m])
+            _right_hand(out, g, yaw[b, m], cy, sy, hand_ypr[b, m], hand_quat[b, m])
+
+
+skeleton_kernel = BatchKernel(_skeleton, parallel=False)
+"""Kinect joints and hand orientation: ``skeleton_kernel(B)(...)`` (:func:`_skeleton`)."""

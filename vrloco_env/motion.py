@@ -52,7 +52,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from estimators import rotations as rot
 from estimators.batching import stream_rows
-from vrloco_env._motion_numba import evaluate_kernel, skeleton_kernel
+from estimators.kernels import param_record, state_records
+from vrloco_env._motion_numba import SCALARS, STATE, VECTORS, evaluate_kernel, skeleton_kernel
 from vrloco_env.batch_rng import BatchRng
 from vrloco_env.skeleton import NUM_JOINTS, Joint
 
@@ -89,14 +90,6 @@ def _pulse_coefficients() -> tuple[NDArray[np.float64], NDArray[np.float64]]:
 _PULSE_ACC, _PULSE_POS = _pulse_coefficients()
 _PULSE_K = np.arange(1, _PULSE_HARMONICS + 1, dtype=np.float64)
 _PULSE_Z0 = float(np.sum(_PULSE_POS * np.cos(-np.pi * _PULSE_K)))  # Z at a step boundary
-
-
-def _bob_shape(frac: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Vertical shape Z(phi) - Z(0) and its phi-derivative, for phi's fractional part."""
-    arg = 2.0 * np.pi * _PULSE_K * (frac[..., None] - 0.5)
-    z = np.sum(_PULSE_POS * np.cos(arg), axis=-1) - _PULSE_Z0
-    dz = np.sum(-_PULSE_POS * 2.0 * np.pi * _PULSE_K * np.sin(arg), axis=-1)
-    return z, dz
 
 
 @dataclass(frozen=True)
@@ -291,25 +284,17 @@ class MotionRecord(MotionChunk):
         return [st[~np.isnan(st)] for st in self.step_time]
 
 
-@dataclass
 class _State:
-    """Per-user state carried between control steps (arrays of shape (B,) or (B, 3))."""
+    """Per-user state carried between control steps: the kernel's (B,) record array ``rec``
+    (fields :data:`vrloco_env._motion_numba.STATE`), a view of each of its fields as the
+    attribute of that name ((B,) or (B, k); ``s.phase[:] = x`` writes the record), and the
+    control steps done since every user was last reset (time is ``steps_done / rate``)."""
 
-    phase: NDArray[np.float64]  # continuous step phase; integer when standing at a boundary
-    step_cadence: NDArray[np.float64]  # cadence of the step in progress (steps/s)
-    yaw: NDArray[np.float64]  # body yaw (rad, unwrapped)
-    yaw_rate: NDArray[np.float64]
-    gesture_amp: NDArray[np.float64]  # (B, 3)
-    gesture_amp_rate: NDArray[np.float64]  # (B, 3)
-    gesture_phase: NDArray[np.float64]  # (B, 3) rad
-    lean: NDArray[np.float64]
-    lean_rate: NDArray[np.float64]
-    hand_ypr: NDArray[np.float64]  # (B, 3)
-    base: NDArray[np.float64]  # (B, 2) standing place in the tracked space (m)
-    impact_scale: NDArray[np.float64]  # per-user style factors
-    sway_scale: NDArray[np.float64]
-    speed: NDArray[np.float64]  # overground walking speed (m/s); 0 in place
-    steps_done: int = 0  # control steps since reset; time is steps_done / control_rate_hz
+    def __init__(self, batch_size: int) -> None:
+        self.rec = state_records(STATE, batch_size)
+        for name in STATE:
+            setattr(self, name, self.rec[name])
+        self.steps_done = 0
 
     def time(self, rate: float) -> float:
         return self.steps_done / rate
@@ -328,8 +313,6 @@ class UserMotion:
 
     params: MotionParams
     rng: BatchRng
-    use_kernel: bool = True
-    """Evaluate with the compiled kernel (same numbers as the numpy reference to 1e-12)."""
     _state: _State | None = field(default=None, init=False, repr=False)
     _grids: dict = field(default_factory=dict, init=False, repr=False)
 
@@ -338,6 +321,7 @@ class UserMotion:
         self._hand_limits = np.deg2rad(np.asarray(p.hand_limits_deg, dtype=np.float64))
         self._control_dt = np.array([1.0 / p.control_rate_hz])
         self._sample_index = np.arange(1, p.samples_per_step + 1)
+        self._kernel_params = _kernel_params(p)
 
     @property
     def batch_size(self) -> int:
@@ -373,28 +357,16 @@ class UserMotion:
         style = 1.0 + self.params.style_spread * np.clip(
             self.rng.normal((2,), rows=rows), -2.5, 2.5
         )
-        fresh = _State(
-            phase=np.zeros(u),
-            step_cadence=np.zeros(u),
-            yaw=_batch(yaw, (u,), "yaw"),
-            yaw_rate=np.zeros(u),
-            gesture_amp=np.zeros((u, 3)),
-            gesture_amp_rate=np.zeros((u, 3)),
-            gesture_phase=np.zeros((u, 3)),
-            lean=np.zeros(u),
-            lean_rate=np.zeros(u),
-            hand_ypr=_batch(hand_ypr, (u, 3), "hand_ypr"),
-            base=_batch(base, (u, 2), "base"),
-            impact_scale=style[:, 0],
-            sway_scale=style[:, 1],
-            speed=np.zeros(u),
-        )
+        fresh = _State(u)  # standing still at a step boundary
+        fresh.yaw[:] = _batch(yaw, (u,), "yaw")
+        fresh.hand_ypr[:] = _batch(hand_ypr, (u, 3), "hand_ypr")
+        fresh.base[:] = _batch(base, (u, 2), "base")
+        fresh.impact_scale[:] = style[:, 0]
+        fresh.sway_scale[:] = style[:, 1]
         if self._state is None or rows.size == b:
             self._state = fresh  # the clock restarts at 0
             return
-        for f in fields(_State):
-            if f.name != "steps_done":
-                getattr(self._state, f.name)[rows] = getattr(fresh, f.name)
+        self._state.rec[rows] = fresh.rec
 
     # ------------------------------------------------------------------ intent validation
     def _check_intent(self, intent: Intent) -> dict[str, NDArray[np.float64]]:
@@ -426,125 +398,27 @@ class UserMotion:
 
     # ------------------------------------------------------------------ the time functions
     def _evaluate(self, s: _State, cmd: dict, tau: NDArray[np.float64]) -> dict:
-        """Head and body quantities at times ``tau`` (s after the step start), shape (B, T).
-
-        Runs the compiled twin (:mod:`vrloco_env._motion_numba`) unless ``use_kernel`` is off;
-        :meth:`_evaluate_reference` is the readable numpy version the tests compare it with.
-        """
-        if not self.use_kernel:
-            return self._evaluate_reference(s, cmd, tau)
-        p = self.params
+        """Head and body quantities at times ``tau`` (s after the step start), shape (B, T, ...):
+        one call of :data:`vrloco_env._motion_numba.evaluate_kernel`. Keys: its
+        :data:`~vrloco_env._motion_numba.SCALARS` (B, T) and
+        :data:`~vrloco_env._motion_numba.VECTORS` (B, T, 3), ``quat`` (B, T, 4), ``walking``
+        (B, T) bool and ``t_boundary`` (B,), the time the step in progress ends."""
         b, t = self.batch_size, tau.shape[-1]
-        out = {
-            "phase": np.empty((b, t)), "cadence": np.empty((b, t)), "yaw": np.empty((b, t)),
-            "yaw_rate": np.empty((b, t)), "head_ypr": np.empty((b, t, 3)),
-            "d_head_ypr": np.empty((b, t, 3)), "quat": np.empty((b, t, 4)),
-            "neck": np.empty((b, t, 3)), "imu_pos": np.empty((b, t, 3)),
-            "gesture_amp": np.empty((b, t, 3)), "gesture_amp_rate": np.empty((b, t, 3)),
-            "g_phase": np.empty((b, t, 3)), "lean": np.empty((b, t)),
-            "lean_rate": np.empty((b, t)), "t_boundary": np.empty(b),
-            "omega": np.empty((b, t, 3)),
-        }  # fmt: skip
-        lo, hi = p.cadence_range_hz
+        scalars = np.empty((len(SCALARS), b, t))
+        vectors = np.empty((len(VECTORS), b, t, 3))
+        quat = np.empty((b, t, 4))
+        t_boundary = np.empty(b)
         evaluate_kernel(b)(
-            s.phase, s.step_cadence, s.yaw, s.yaw_rate, s.gesture_amp, s.gesture_amp_rate,
-            s.gesture_phase, s.lean, s.lean_rate, s.base, s.impact_scale, s.sway_scale,
-            cmd["cadence"], cmd["turn_rate"], cmd["gesture_amplitude"], cmd["gesture_frequency"],
-            cmd["lean"], lo, hi, p.peak_accel_g[0], p.peak_accel_g[1], rot.GRAVITY, p.sway_m,
-            np.deg2rad(p.sway_roll_deg), p.turn_lag_s, p.gesture_lag_s, p.neck_height_m,
-            np.asarray(p.imu_offset_m, dtype=np.float64), _PULSE_POS, _PULSE_Z0,
-            np.ascontiguousarray(tau, dtype=np.float64),
-            out["phase"], out["cadence"], out["yaw"], out["yaw_rate"], out["head_ypr"],
-            out["d_head_ypr"], out["quat"], out["neck"], out["imu_pos"], out["gesture_amp"],
-            out["gesture_amp_rate"], out["g_phase"], out["lean"], out["lean_rate"],
-            out["t_boundary"], out["omega"],
+            s.rec, cmd["cadence"], cmd["turn_rate"], cmd["gesture_amplitude"],
+            cmd["gesture_frequency"], cmd["lean"], self._kernel_params, tau, t_boundary, scalars,
+            vectors, quat,
         )  # fmt: skip
+        out = dict(zip(SCALARS, scalars, strict=True))
+        out.update(zip(VECTORS, vectors, strict=True))
+        out["quat"] = quat
+        out["t_boundary"] = t_boundary
         out["walking"] = out["cadence"] > 0.0
         return out
-
-    def _evaluate_reference(self, s: _State, cmd: dict, tau: NDArray[np.float64]) -> dict:
-        """The numpy reference of :meth:`_evaluate`."""
-        p = self.params
-        tau = np.broadcast_to(tau, (self.batch_size, tau.shape[-1]))
-
-        # Step phase: finish the step in progress at its own cadence, then the commanded one.
-        c_old = s.step_cadence[:, None]
-        c_new = cmd["cadence"][:, None]
-        ph0 = s.phase[:, None]
-        to_boundary = np.ceil(ph0 - 1e-12) - ph0
-        t_b = np.where(c_old > 0.0, to_boundary / np.where(c_old > 0.0, c_old, 1.0), 0.0)
-        before = tau < t_b
-        phase = np.where(before, ph0 + c_old * tau, ph0 + to_boundary + c_new * (tau - t_b))
-        cad = np.where(before, c_old, c_new)
-        frac = phase - np.floor(phase)
-
-        # Vertical bob: peak acceleration a_peak(cadence) at the heel strike.
-        lo, hi = p.cadence_range_hz
-        alpha = np.clip((cad - lo) / (hi - lo), 0.0, 1.0)
-        a_peak = (p.peak_accel_g[0] + alpha * (p.peak_accel_g[1] - p.peak_accel_g[0])) * rot.GRAVITY
-        a_peak = a_peak * s.impact_scale[:, None]
-        walking = cad > 0.0
-        amp = np.where(walking, a_peak / np.where(walking, cad, 1.0) ** 2, 0.0)
-        zshape, _ = _bob_shape(frac)
-        bob = amp * zshape
-
-        # Lateral sway, one cycle per stride (two steps); zero with zero slope at step boundaries.
-        sin_p = np.sin(np.pi * phase)
-        sway = p.sway_m * s.sway_scale[:, None] * sin_p**3
-        sway_roll = np.deg2rad(p.sway_roll_deg) * s.sway_scale[:, None] * sin_p**3
-        d_sway_roll = (np.deg2rad(p.sway_roll_deg) * s.sway_scale[:, None]
-                       * 3.0 * sin_p**2 * np.cos(np.pi * phase) * np.pi * cad)  # fmt: skip
-
-        # Body yaw: rate follows its command with a first-order lag.
-        r0, rc = s.yaw_rate[:, None], cmd["turn_rate"][:, None]
-        decay = np.exp(-tau / p.turn_lag_s)
-        yaw = s.yaw[:, None] + rc * tau + (r0 - rc) * p.turn_lag_s * (1.0 - decay)
-        d_yaw = rc + (r0 - rc) * decay
-
-        # Gestures (B, T, 3) and lean follow their commands critically damped (smooth rates).
-        g_amp, d_g_amp = _critically_damped(
-            s.gesture_amp[:, None, :], s.gesture_amp_rate[:, None, :],
-            cmd["gesture_amplitude"][:, None, :], p.gesture_lag_s, tau[..., None],
-        )  # fmt: skip
-        omega_g = 2.0 * np.pi * cmd["gesture_frequency"][:, None, :]
-        g_phase = s.gesture_phase[:, None, :] + omega_g * tau[..., None]
-        gesture = g_amp * np.sin(g_phase)
-        d_gesture = d_g_amp * np.sin(g_phase) + g_amp * omega_g * np.cos(g_phase)
-        lean, d_lean = _critically_damped(
-            s.lean[:, None], s.lean_rate[:, None], cmd["lean"][:, None], p.gesture_lag_s, tau
-        )
-
-        head_ypr = np.stack(
-            [yaw + gesture[..., 0], lean + gesture[..., 1], sway_roll + gesture[..., 2]], axis=-1
-        )
-        d_head_ypr = np.stack(
-            [
-                d_yaw + d_gesture[..., 0],
-                d_lean + d_gesture[..., 1],
-                d_sway_roll + d_gesture[..., 2],
-            ],
-            axis=-1,
-        )
-        quat = rot.quat_from_ypr(head_ypr)
-
-        # Neck pivot: standing place + lateral sway (torso-left axis) + vertical bob.
-        cy, sy = np.cos(yaw), np.sin(yaw)
-        neck = np.stack(
-            [
-                s.base[:, 0:1] - sy * sway,
-                s.base[:, 1:2] + cy * sway,
-                p.neck_height_m + bob,
-            ],
-            axis=-1,
-        )
-        imu_pos = neck + rot.quat_rotate(quat, np.asarray(p.imu_offset_m))
-        return {
-            "phase": phase, "cadence": cad, "walking": walking, "yaw": yaw,
-            "head_ypr": head_ypr, "d_head_ypr": d_head_ypr, "quat": quat,
-            "neck": neck, "imu_pos": imu_pos, "gesture_amp": g_amp, "gesture_amp_rate": d_g_amp,
-            "g_phase": g_phase, "lean": lean, "lean_rate": d_lean, "yaw_rate": d_yaw,
-            "t_boundary": t_b[:, 0],
-        }  # fmt: skip
 
     # ------------------------------------------------------------------ one control step
     def advance(self, intent: Intent, validate: bool = True) -> MotionChunk:
@@ -577,11 +451,7 @@ class UserMotion:
         quat = ev_all["quat"][:, samples]
         head_ypr = ev_all["head_ypr"][:, samples]
         phase = ev_all["phase"][:, samples]
-        omega = (
-            ev_all["omega"][:, samples]
-            if "omega" in ev_all
-            else _euler_rates_to_body(head_ypr, ev_all["d_head_ypr"][:, samples])
-        )
+        omega = ev_all["omega"][:, samples]
 
         # Heel strikes: the phase crosses n + 0.5 inside a sample interval.
         ph_prev = np.concatenate([s.phase[:, None], phase[:, :-1]], axis=1)
@@ -598,21 +468,21 @@ class UserMotion:
         # Carry the state to the end of the step (the last sample).
         end = 2 * n - 1
         end_phase = ev_all["phase"][:, end]
-        s.step_cadence = np.where(
+        s.step_cadence[:] = np.where(
             np.abs(end_phase - np.round(end_phase)) < 1e-9, 0.0, ev_all["cadence"][:, end]
         )
-        s.phase = np.where(s.step_cadence == 0.0, np.round(end_phase), end_phase)
-        s.yaw = ev_all["yaw"][:, end]
-        s.yaw_rate = ev_all["yaw_rate"][:, end]
-        s.gesture_amp = ev_all["gesture_amp"][:, end, :]
-        s.gesture_amp_rate = ev_all["gesture_amp_rate"][:, end, :]
-        s.lean_rate = ev_all["lean_rate"][:, end]
-        s.gesture_phase = np.mod(ev_all["g_phase"][:, end, :], 2.0 * np.pi)
-        s.lean = ev_all["lean"][:, end]
-        s.hand_ypr = self._hand_ypr(s, cmd, self._control_dt)[:, -1]
+        s.phase[:] = np.where(s.step_cadence == 0.0, np.round(end_phase), end_phase)
+        s.yaw[:] = ev_all["yaw"][:, end]
+        s.yaw_rate[:] = ev_all["yaw_rate"][:, end]
+        s.gesture_amp[:] = ev_all["gesture_amp"][:, end, :]
+        s.gesture_amp_rate[:] = ev_all["gesture_amp_rate"][:, end, :]
+        s.lean_rate[:] = ev_all["lean_rate"][:, end]
+        s.gesture_phase[:] = np.mod(ev_all["g_phase"][:, end, :], 2.0 * np.pi)
+        s.lean[:] = ev_all["lean"][:, end]
+        s.hand_ypr[:] = self._hand_ypr(s, cmd, self._control_dt)[:, -1]
         if p.overground:
-            s.base = s.base + walked
-            s.speed = speed_end
+            s.base += walked
+            s.speed[:] = speed_end
         t_abs = (s.steps_done * n + self._sample_index) / p.imu_rate_hz
         s.steps_done += 1
         return MotionChunk(
@@ -636,7 +506,7 @@ class UserMotion:
         place) by the distance walked since the step start at each of ``times``.
 
         The speed follows ``stride_m * cadence`` with a first-order lag; the direction is the
-        body yaw (closed form, as in :meth:`_evaluate_reference`). The walked offset
+        body yaw (the closed form of :func:`vrloco_env._motion_numba._body_yaw`). The walked offset
         ``int_0^tau v(t) [cos yaw(t), sin yaw(t)] dt`` is integrated by 12-point Gauss-Legendre
         quadrature on [0, tau] — exact to rounding for a 0.1 s step — so the central differences
         of the positions give the true linear acceleration the IMU senses.
@@ -710,57 +580,10 @@ class UserMotion:
             return KinectChunk(t_abs, np.zeros((b, 0, NUM_JOINTS, 3)), np.zeros((b, 0, 4)),
                                np.zeros((b, 0, 3)))  # fmt: skip
         hand_ypr = self._hand_ypr(s, cmd, tau)
-        if self.use_kernel:
-            joints = np.empty((b, m, NUM_JOINTS, 3))
-            hand_q = np.empty((b, m, 4))
-            skeleton_kernel(
-                ev["neck"], ev["quat"], ev["yaw"], ev["phase"], ev["walking"], hand_ypr,
-                _TORSO_JOINTS, _TORSO_OFFSET_ARRAY, int(Joint.HEAD), _HEAD_OFFSET, _LEG_JOINTS,
-                _LEG_REST, _LEG_LIFT, _FLOOR_CLEARANCE, _FOREARM, int(Joint.ELBOW_RIGHT),
-                int(Joint.WRIST_RIGHT), _HAND_JOINTS, _HAND_OFFSETS, joints, hand_q,
-            )  # fmt: skip
-            return KinectChunk(t=t_abs, joints=joints, hand_quat=hand_q, hand_ypr=hand_ypr)
-        return self._skeleton_reference(ev, hand_ypr, t_abs)
-
-    def _skeleton_reference(self, ev: dict, hand_ypr: NDArray[np.float64],
-                            t_abs: NDArray[np.float64]) -> KinectChunk:  # fmt: skip
-        """The numpy reference of the skeleton (what :func:`skeleton_kernel` computes)."""
-        b, m = ev["yaw"].shape
-        yaw = ev["yaw"]
-        zero = np.zeros_like(yaw)
-        torso_q = rot.quat_from_ypr(np.stack([yaw, zero, zero], -1))
-        cy, sy = np.cos(yaw)[..., None], np.sin(yaw)[..., None]  # (B, M, 1)
-
-        def torso(offsets: NDArray[np.float64]) -> NDArray[np.float64]:
-            """Torso-frame offsets (..., J, 3) from the neck pivot -> world points (B, M, J, 3)."""
-            ox, oy, oz = offsets[..., 0], offsets[..., 1], offsets[..., 2]
-            return ev["neck"][:, :, None, :] + np.stack(
-                [cy * ox - sy * oy, sy * ox + cy * oy, np.broadcast_to(oz, (b, m, ox.shape[-1]))],
-                axis=-1,
-            )
-
         joints = np.empty((b, m, NUM_JOINTS, 3))
-        joints[:, :, _TORSO_JOINTS] = torso(_TORSO_OFFSET_ARRAY)
-        joints[:, :, Joint.HEAD] = ev["neck"] + rot.quat_rotate(ev["quat"], _HEAD_OFFSET)
-
-        # Legs: the leg of step n (parity of floor(phase)) lifts its knee during that step.
-        frac = ev["phase"] - np.floor(ev["phase"])
-        lift = np.sin(np.pi * frac) * ev["walking"]
-        right_lifts = (np.floor(ev["phase"]).astype(np.int64) % 2) == 0
-        up = np.stack([lift * ~right_lifts, lift * right_lifts], axis=-1)[..., None, None]
-        legs = _LEG_REST + up * _LEG_LIFT  # (B, M, 2 legs, 4 joints, 3) torso-frame offsets
-        legs = torso(legs.reshape(b, m, 8, 3)).reshape(b, m, 2, 4, 3)
-        legs[..., 2:, 2] = np.maximum(legs[..., 2:, 2], _FLOOR_CLEARANCE)  # feet stay above floor
-        joints[:, :, _LEG_JOINTS] = legs.reshape(b, m, 8, 3)
-
-        # Right arm held forward; the hand's orientation follows the hand angles.
-        hand_q = rot.quat_multiply(torso_q, rot.quat_from_ypr(hand_ypr))
-        wrist = joints[:, :, Joint.ELBOW_RIGHT] + torso(_FOREARM[None])[:, :, 0] - ev["neck"]
-        joints[:, :, Joint.WRIST_RIGHT] = wrist
-        hand_m = rot.quat_to_matrix(hand_q)  # (B, M, 3, 3)
-        joints[:, :, _HAND_JOINTS] = wrist[:, :, None, :] + np.einsum(
-            "bmij,kj->bmki", hand_m, _HAND_OFFSETS
-        )
+        hand_q = np.empty((b, m, 4))
+        skeleton_kernel(b)(ev["neck"], ev["quat"], ev["yaw"], ev["phase"], ev["walking"], hand_ypr,
+                           _BODY, joints, hand_q)  # fmt: skip
         return KinectChunk(t=t_abs, joints=joints, hand_quat=hand_q, hand_ypr=hand_ypr)
 
 
@@ -800,28 +623,51 @@ _HAND_JOINTS = np.array([Joint.HAND_RIGHT, Joint.HAND_TIP_RIGHT, Joint.THUMB_RIG
 _HAND_OFFSETS = np.array([[0.08, 0.0, 0.0], [0.17, 0.0, 0.0], [0.06, 0.05, 0.0]])
 
 
+def _record(base: NDArray | None = None, **values: ArrayLike) -> NDArray:
+    """A (1,) record for a kernel: the fields of ``base`` (a (1,) record such as
+    :func:`estimators.kernels.param_record` builds), then ``values``, each a number or a
+    fixed-shape array stored with its own dtype and shape."""
+    items = {} if base is None else {name: base[name][0] for name in base.dtype.names}
+    items.update((name, np.asarray(v)) for name, v in values.items())
+    rec = np.zeros(1, [(name, v.dtype, v.shape) for name, v in items.items()])
+    for name, v in items.items():
+        rec[name][0] = v
+    return rec
+
+
+#: The body geometry :data:`vrloco_env._motion_numba.skeleton_kernel` reads: torso-frame offsets
+#: (m) and the Kinect joints they place.
+_BODY = _record(
+    torso_offsets=_TORSO_OFFSET_ARRAY, torso_joints=_TORSO_JOINTS, head_offset=_HEAD_OFFSET,
+    head_joint=int(Joint.HEAD), leg_rest=_LEG_REST, leg_lift=_LEG_LIFT, leg_joints=_LEG_JOINTS,
+    floor_z=_FLOOR_CLEARANCE, forearm=_FOREARM, elbow_right=int(Joint.ELBOW_RIGHT),
+    wrist_right=int(Joint.WRIST_RIGHT), hand_offsets=_HAND_OFFSETS, hand_joints=_HAND_JOINTS,
+)  # fmt: skip
+
+#: MotionParams fields :data:`vrloco_env._motion_numba.evaluate_kernel` does not read.
+_UNREAD_PARAMS = ("imu_rate_hz", "kinect_rate_hz", "control_rate_hz", "max_turn_rate",
+                  "max_hand_rate", "sway_roll_deg", "style_spread", "overground", "stride_m",
+                  "speed_lag_s")  # fmt: skip
+
+
+def _kernel_params(p: MotionParams) -> NDArray:
+    """The (1,) parameter record of :data:`vrloco_env._motion_numba.evaluate_kernel`: the fields
+    of ``p`` it reads under their names, the sway roll in rad, gravity (m/s^2) and the
+    heel-strike pulse's position weights ``pulse_pos`` with their value at a step boundary."""
+    scalars = param_record(
+        p, exclude=_UNREAD_PARAMS, sway_roll=float(np.deg2rad(p.sway_roll_deg)),
+        gravity=rot.GRAVITY, pulse_z0=_PULSE_Z0,
+    )  # fmt: skip
+    return _record(
+        scalars, cadence_range_hz=np.asarray(p.cadence_range_hz, dtype=np.float64),
+        peak_accel_g=np.asarray(p.peak_accel_g, dtype=np.float64),
+        imu_offset_m=np.asarray(p.imu_offset_m, dtype=np.float64), pulse_pos=_PULSE_POS,
+    )  # fmt: skip
+
+
 def _intent_arrays(intent: Intent) -> dict[str, NDArray[np.float64]]:
     """The intent's fields as float arrays, unchecked (see ``UserMotion.advance``)."""
     return {name: np.asarray(getattr(intent, name), dtype=np.float64) for name in _INTENT_FIELDS}
-
-
-def _critically_damped(x0, v0, target, lag: float, tau) -> tuple[NDArray, NDArray]:
-    """Value and rate of a critically damped second-order response (time constant ``lag``)."""
-    e0 = x0 - target
-    c = v0 + e0 / lag
-    decay = np.exp(-tau / lag)
-    x = target + (e0 + c * tau) * decay
-    v = (c - (e0 + c * tau) / lag) * decay
-    return x, v
-
-
-def _euler_rates_to_body(ypr: NDArray, d_ypr: NDArray) -> NDArray[np.float64]:
-    """Body-frame angular velocity of a ZYX attitude from its Euler-angle rates."""
-    _, pitch, roll = np.moveaxis(ypr, -1, 0)
-    dy, dp, dr = np.moveaxis(d_ypr, -1, 0)
-    sp, cp = np.sin(pitch), np.cos(pitch)
-    sr, cr = np.sin(roll), np.cos(roll)
-    return np.stack([dr - dy * sp, dp * cr + dy * cp * sr, -dp * sr + dy * cp * cr], axis=-1)
 
 
 def _frame_times(step: int, control_rate: float, rate: float) -> tuple[NDArray, NDArray]:

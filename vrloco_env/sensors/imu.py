@@ -19,13 +19,8 @@ initial state drawn from the stationary distribution) and an optional random wal
 ``r_k = r_{k-1} + K sqrt(dt) u_k``. The recursions run along the time axis from the carried
 state, so a stream sampled in chunks equals the same stream sampled at once, bit for bit.
 
-Two implementations compute the same samples from the same draws: :meth:`HeadImu.sample_reference`,
-the readable numpy model (the recursions through ``scipy.signal.lfilter``), and
-:meth:`HeadImu.sample`, which runs the whole model in one compiled loop
-(:mod:`vrloco_env.sensors._imu_numba`, issue 5's speed targets) repeating the reference's
-floating-point operations in order; ``tests/test_imu.py`` checks that they agree bit for bit (to
-~1e-13 uT on the magnetometer with dipole disturbances, whose ``dist**3`` and ``dist**5`` the
-kernel takes as products, numpy through ``pow``).
+The whole model runs in one compiled loop per user (:mod:`vrloco_env.sensors._imu_numba`), the
+recursions in the order ``scipy.signal.lfilter`` runs them.
 
 White noise follows the discrete-time convention of angle/velocity random walk (IEEE Std 952,
 Kalibr's IMU noise model): a noise density ``N`` (unit/sqrt(Hz)) sampled at ``f_s`` gives a
@@ -49,10 +44,10 @@ from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.signal import lfilter
 
 from estimators.batching import stream_rows
-from estimators.rotations import GRAVITY, ensure_quaternion, quat_rotate_inverse
+from estimators.kernels import param_record, record_dtype, state_records
+from estimators.rotations import GRAVITY
 from vrloco_env.batch_rng import BatchRng
 from vrloco_env.sensors import _imu_numba as _kernel
 
@@ -77,7 +72,7 @@ _MG = 1e-3 * GRAVITY
 _DEG = math.pi / 180.0
 #: One milligauss in uT (1 G = 1e-4 T = 100 uT).
 _MGAUSS = 0.1
-#: Largest sample rate the model accepts, Hz (issue 2: "up to 1 kHz").
+#: Largest sample rate the model accepts, Hz.
 MAX_RATE_HZ = 1000.0
 #: Normal draws per sample: white noise, Gauss-Markov drive, random-walk drive, 3 sensors x 3 axes.
 _DRAWS_PER_SAMPLE = _kernel.DRAWS_PER_SAMPLE  # 27
@@ -293,7 +288,7 @@ _IG500N = ImuSpec(
 # Bias stability: BMI160 temperature drifts (typ. 1 mg/K accel, 0.05 deg/s/K gyro) over a +-5 K
 # warm-up/session swing -> 5 mg and 0.25 deg/s; magnetometer 0.5 uT (estimate). Correlation 100 s.
 # Hard iron 5 uT per axis (1-sigma): estimate of the residual of a headset's speaker magnets and
-# PCB after a factory calibration ("several uT", issue 2); soft iron 2 % scale, 1 % cross-axis.
+# PCB after a factory calibration ("several uT"); soft iron 2 % scale, 1 % cross-axis.
 _CONSUMER_MEMS = ImuSpec(
     name="consumer_mems",
     accel=SensorSpec(
@@ -528,30 +523,6 @@ class ImuSamples(NamedTuple):
     mag: NDArray[np.float64]
 
 
-def _gauss_markov(
-    drive: NDArray[np.float64], state: NDArray[np.float64], a: float
-) -> NDArray[np.float64]:
-    """Run ``x_k = a x_{k-1} + drive_k`` along axis 1 from ``state`` (B, 3); returns (B, N, 3)."""
-    if drive.shape[1] == 0:
-        return np.empty_like(drive)
-    zi = (a * state)[:, None, :]  # lfilter's transposed-direct-form state for y[-1] = state
-    y, _ = lfilter([1.0], [1.0, -a], drive, axis=1, zi=zi)
-    return y
-
-
-def _as_batch(
-    x: ArrayLike, name: str, b: int, last: int, n: int | None = None
-) -> NDArray[np.float64]:
-    """``x`` as a finite float array of shape (b, n, last), or a ValueError naming ``name``."""
-    a = np.asarray(x, dtype=np.float64)
-    if a.ndim != 3 or a.shape[0] != b or a.shape[2] != last or (n is not None and a.shape[1] != n):
-        want = f"({b}, {'N' if n is None else n}, {last})"
-        raise ValueError(f"{name} must have shape {want} (B users, N samples), got {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"{name} contains NaN or infinite entries")
-    return a
-
-
 def _batch_shaped(x: ArrayLike, name: str, b: int, last: int, n: int) -> NDArray[np.float64]:
     """``x`` as a C-contiguous float64 array of shape (b, n, last), or a ValueError naming it.
 
@@ -564,6 +535,27 @@ def _batch_shaped(x: ArrayLike, name: str, b: int, last: int, n: int) -> NDArray
             f"{name} must have shape ({b}, {n}, {last}) (B users, N samples), got {a.shape}"
         )
     return _kernel_layout(a)
+
+
+#: SensorSpec fields the kernel does not read: it reads ``range`` and ``resolution`` and the
+#: values :func:`_sensor_record` derives from the others.
+_SENSOR_UNREAD = ("noise_density", "bias_stability", "bias_tau", "bias_walk", "turn_on_bias")
+
+
+def _sensor_record(sens: SensorSpec, dt: float, rate_hz: float) -> NDArray:
+    """The kernel's (1,) parameter record of one sensor sampled every ``dt`` s (at ``rate_hz``):
+    its ``range`` and ``resolution``, the Gauss-Markov pole ``a = exp(-dt / tau)`` and drive std
+    ``sigma sqrt(1 - a^2)``, the random-walk drive std ``K sqrt(dt)`` and the white-noise std per
+    sample (unit of the sensor)."""
+    a = math.exp(-dt / sens.bias_tau)
+    return param_record(
+        sens,
+        exclude=_SENSOR_UNREAD,
+        pole=a,
+        gm_std=sens.bias_stability * math.sqrt(max(0.0, 1.0 - a * a)),
+        rw_std=sens.bias_walk * math.sqrt(dt),
+        noise_std=sens.noise_std(rate_hz),
+    )
 
 
 def _kernel_layout(a: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -579,7 +571,7 @@ def _kernel_layout(a: NDArray[np.float64]) -> NDArray[np.float64]:
 #: Left writeable: numba types a read-only array apart, which would compile the kernel twice.
 _NO_POS = np.zeros((0, 0, 3))
 
-#: Messages of the kernel's input check, by its return code (the reference's wording).
+#: Messages of the kernel's input check, by its return code.
 _INVALID = {
     _kernel.BAD_QUAT: "quat contains NaN or infinite entries",
     _kernel.ZERO_QUAT: "quat contains a zero-norm quaternion; a rotation needs |q| > 0",
@@ -597,7 +589,7 @@ class HeadImu:
         rng: one random stream per user; B = ``rng.batch_size``. The IMU draws nothing else from
             it than what :meth:`reset` and :meth:`sample` need, in a fixed order, so a batch
             reproduces B single-user runs bit for bit.
-        rate_hz: sample rate (Hz) in (0, 1000]; default 100 Hz (issue 2).
+        rate_hz: sample rate (Hz) in (0, 1000]; default 100 Hz.
         field: the undisturbed geomagnetic field.
         disturbances: magnetic dipoles in the world (metal obstacles).
 
@@ -648,37 +640,21 @@ class HeadImu:
         self.field = field
         self.disturbances = disturbances
         self._field_world = field.vector_enu()
-        sensors = (self.spec.accel, self.spec.gyro, self.spec.mag)
-        self._a = np.array([math.exp(-self.dt / s.bias_tau) for s in sensors])  # GM pole per sensor
-        self._gm_drive_std = np.array(
-            [
-                s.bias_stability * math.sqrt(max(0.0, 1.0 - a * a))
-                for s, a in zip(sensors, self._a, strict=True)
-            ]
-        )
-        self._rw_drive_std = np.array([s.bias_walk * math.sqrt(self.dt) for s in sensors])
-        self._noise_std = np.array([s.noise_std(rate) for s in sensors])
-        # The same numbers packed for the compiled kernel (rows _imu_numba.P_*, columns D_*).
-        kp = np.zeros((_kernel.N_PARAMS, 3))
-        kp[_kernel.P_POLE] = self._a
-        kp[_kernel.P_GM_STD] = self._gm_drive_std
-        kp[_kernel.P_RW_STD] = self._rw_drive_std
-        kp[_kernel.P_NOISE_STD] = self._noise_std
-        kp[_kernel.P_RESOLUTION] = [s.resolution for s in sensors]
-        kp[_kernel.P_RANGE] = [s.range for s in sensors]
-        kp[_kernel.P_FIELD] = self._field_world
-        self._kernel_params = kp
-        kd = np.zeros((len(disturbances), _kernel.N_DIPOLE))
+        # The kernel's parameter records (vrloco_env.sensors._imu_numba), built once here.
+        self._sensors = np.concatenate([
+            _sensor_record(sens, self.dt, rate)
+            for sens in (self.spec.accel, self.spec.gyro, self.spec.mag)
+        ])  # fmt: skip
+        east, north, up = self._field_world
+        self._earth = param_record(east=east, north=north, up=up)
+        dip = self._dipoles = np.zeros(len(disturbances), record_dtype(_kernel.DIPOLE))
         for i, d in enumerate(disturbances):
             moment = np.asarray(d.moment)
-            kd[i, _kernel.D_POSITION : _kernel.D_POSITION + 3] = d.position
-            kd[i, _kernel.D_MOMENT : _kernel.D_MOMENT + 3] = moment
+            dip["position"][i] = d.position
+            dip["moment"][i] = moment
             # The direction MagneticDisturbance.field_at uses at the dipole itself, same expression.
-            kd[i, _kernel.D_DIRECTION : _kernel.D_DIRECTION + 3] = moment / max(
-                np.linalg.norm(moment), 1e-300
-            )
-            kd[i, _kernel.D_MIN_DISTANCE] = d.min_distance
-        self._kernel_dipoles = kd
+            dip["direction"][i] = moment / max(np.linalg.norm(moment), 1e-300)
+            dip["min_distance"][i] = d.min_distance
         self.reset()
 
     @property
@@ -713,26 +689,24 @@ class HeadImu:
         """
         b = self.batch_size
         rows = stream_rows(users, b)
-        if users is None or not hasattr(self, "_turn_on"):  # first call: allocate every user
-            self._turn_on = np.zeros((b, 3, 3))
-            self._gm = np.zeros((b, 3, 3))
-            self._rw = np.zeros((b, 3, 3))
-            self._hard_iron = np.zeros((b, 3))
-            self._soft_iron = np.broadcast_to(np.eye(3), (b, 3, 3)).copy()
+        if users is None or not hasattr(self, "_state"):  # first call: allocate every user
+            self._state = state_records(_kernel.STATE, b)
+            self._state["soft_iron"] = np.eye(3)
             self.samples_taken = np.zeros(b, dtype=np.int64)
             self.last_bias: ImuSamples | None = None
         r = rows.size
         spec = self.spec
+        st = self._state
         z = self.rng.normal((_DRAWS_PER_RESET,), rows=rows)  # (r, 27)
         sensors = (spec.accel, spec.gyro, spec.mag)
         turn_on = z[:, 0:9].reshape(r, 3, 3)
         gm0 = z[:, 9:18].reshape(r, 3, 3)
-        self._turn_on[rows] = np.stack(
+        st["turn_on"][rows] = np.stack(
             [turn_on[:, i] * s.turn_on_bias for i, s in enumerate(sensors)], 1
         )
-        self._gm[rows] = np.stack([gm0[:, i] * s.bias_stability for i, s in enumerate(sensors)], 1)
-        self._rw[rows] = 0.0
-        self._hard_iron[rows] = z[:, 18:21] * spec.hard_iron
+        st["gm"][rows] = np.stack([gm0[:, i] * s.bias_stability for i, s in enumerate(sensors)], 1)
+        st["rw"][rows] = 0.0
+        st["hard_iron"][rows] = z[:, 18:21] * spec.hard_iron
         diag = z[:, 21:24] * spec.soft_iron_scale
         off = z[:, 24:27] * spec.soft_iron_cross
         s = np.zeros((r, 3, 3))
@@ -742,7 +716,7 @@ class HeadImu:
         s[:, 0, 1] = s[:, 1, 0] = off[:, 0]
         s[:, 0, 2] = s[:, 2, 0] = off[:, 1]
         s[:, 1, 2] = s[:, 2, 1] = off[:, 2]
-        self._soft_iron[rows] = s
+        st["soft_iron"][rows] = s
         self.samples_taken[rows] = 0
 
     @property
@@ -753,18 +727,19 @@ class HeadImu:
         multiplicative and lives in :attr:`soft_iron`. After :meth:`sample` these are the biases of
         its last sample.
         """
-        tot = self._turn_on + self._gm + self._rw
-        return ImuSamples(tot[:, 0].copy(), tot[:, 1].copy(), tot[:, 2] + self._hard_iron)
+        st = self._state
+        tot = st["turn_on"] + st["gm"] + st["rw"]
+        return ImuSamples(tot[:, 0].copy(), tot[:, 1].copy(), tot[:, 2] + st["hard_iron"])
 
     @property
     def hard_iron(self) -> NDArray[np.float64]:
         """Hard-iron offset per user (uT), (B, 3)."""
-        return self._hard_iron.copy()
+        return self._state["hard_iron"].copy()
 
     @property
     def soft_iron(self) -> NDArray[np.float64]:
         """Soft-iron matrix per user (dimensionless), (B, 3, 3), applied to the body-frame field."""
-        return self._soft_iron.copy()
+        return self._state["soft_iron"].copy()
 
     def true_field_world(
         self, pos: ArrayLike | None, shape: tuple[int, int]
@@ -790,11 +765,9 @@ class HeadImu:
         acc_world: ArrayLike,
         pos: ArrayLike | None = None,
     ) -> ImuSamples:
-        """Synthesize N successive samples for each of the B users (compiled).
+        """Synthesize N successive samples for each of the B users.
 
-        The same model, draws and results as :meth:`sample_reference`, in one call of
-        :func:`vrloco_env.sensors._imu_numba.sample_kernel`: about 0.02 ms per control step
-        (N = 10) for one user instead of ~0.17 ms (``python benchmarks/bench_sensors.py``).
+        One call of :data:`vrloco_env.sensors._imu_numba.sample_kernel` after the input checks.
 
         Args:
             quat: true sensor -> world orientations, (B, N, 4) Hamilton [w, x, y, z] (normalised
@@ -832,112 +805,11 @@ class HeadImu:
         if code != _kernel.OK:
             raise ValueError(_INVALID[code])
 
-        z = self.rng.normal((n, _DRAWS_PER_SAMPLE))  # (B, N, 27): the reference's one draw
+        z = self.rng.normal((n, _DRAWS_PER_SAMPLE))  # (B, N, 27), time-major: streams chunk-safe
         out = np.empty((6, b, n, 3))
-        _kernel.sample_kernel(
-            q,
-            w,
-            a,
-            p,
-            z,
-            self._kernel_params,
-            self._kernel_dipoles,
-            self._turn_on,
-            self._gm,
-            self._rw,
-            self._hard_iron,
-            self._soft_iron,
-            out,
+        _kernel.sample_kernel(b)(
+            q, w, a, p, z, self._sensors, self._earth, self._dipoles, self._state, out
         )
         self.samples_taken += n  # every user advances by the same N samples
         self.last_bias = ImuSamples(out[3], out[4], out[5])
         return ImuSamples(out[0], out[1], out[2])
-
-    def sample_reference(
-        self,
-        quat: ArrayLike,
-        omega: ArrayLike,
-        acc_world: ArrayLike,
-        pos: ArrayLike | None = None,
-    ) -> ImuSamples:
-        """Synthesize N successive samples for each of the B users (readable numpy model).
-
-        The reference :meth:`sample` is tested against: same draws, same results, same state
-        afterwards, so calls of the two can be mixed on one IMU.
-
-        Args:
-            quat: true sensor -> world orientations, (B, N, 4) Hamilton [w, x, y, z] (normalised
-                here; must be finite and non-zero).
-            omega: true body-frame angular rates (rad/s), (B, N, 3).
-            acc_world: true linear acceleration of the sensor in the world (m/s^2), gravity NOT
-                included, (B, N, 3).
-            pos: sensor positions in the world (m), (B, N, 3); required only with disturbances.
-
-        Returns:
-            :class:`ImuSamples` with acc (m/s^2), gyr (rad/s), mag (uT), each (B, N, 3) float64.
-            The per-sample total biases are kept in :attr:`last_bias`.
-
-        Raises:
-            ValueError: a wrong shape, a non-finite entry, or ``pos`` missing with disturbances.
-        """
-        b = self.batch_size
-        q = np.asarray(quat, dtype=np.float64)
-        if q.ndim != 3 or q.shape[0] != b or q.shape[2] != 4:
-            raise ValueError(
-                f"quat must have shape ({b}, N, 4) (B users, N samples), got {q.shape}"
-            )
-        q = ensure_quaternion(q, "quat")
-        n = q.shape[1]
-        w = _as_batch(omega, "omega", b, 3, n)
-        a = _as_batch(acc_world, "acc_world", b, 3, n)
-        if pos is not None:
-            pos = _as_batch(pos, "pos", b, 3, n)
-        elif self.disturbances:
-            raise ValueError("pos (B, N, 3) in m is required when magnetic disturbances are set")
-
-        z = self.rng.normal((n, _DRAWS_PER_SAMPLE))  # (B, N, 27), time-major: streams chunk-safe
-        white = z[..., 0:9].reshape(b, n, 3, 3)
-        gm_u = z[..., 9:18].reshape(b, n, 3, 3)
-        rw_u = z[..., 18:27].reshape(b, n, 3, 3)
-
-        biases = []
-        for i in range(3):  # the three sensors (fixed, not a batch or time loop)
-            gm = self._gm[:, i]
-            if self._gm_drive_std[i] > 0.0 or (self._a[i] != 1.0 and np.any(gm != 0.0)):
-                gm_seq = _gauss_markov(gm_u[:, :, i] * self._gm_drive_std[i], gm, self._a[i])
-            else:
-                gm_seq = np.broadcast_to(gm[:, None, :], (b, n, 3))
-            rw = self._rw[:, i]
-            if self._rw_drive_std[i] > 0.0:
-                rw_seq = _gauss_markov(rw_u[:, :, i] * self._rw_drive_std[i], rw, 1.0)
-            else:
-                rw_seq = np.broadcast_to(rw[:, None, :], (b, n, 3))
-            if n:
-                self._gm[:, i] = gm_seq[:, -1]
-                self._rw[:, i] = rw_seq[:, -1]
-            biases.append(self._turn_on[:, i][:, None, :] + gm_seq + rw_seq)
-
-        # Truth in the body frame.
-        f_true = quat_rotate_inverse(q, a - self.gravity_world)
-        m_world = self.true_field_world(pos, (b, n))
-        m_body = quat_rotate_inverse(q, m_world)
-        s = self._soft_iron[:, None]  # (B, 1, 3, 3); explicit sums keep batch == single bit for bit
-        m_soft = (
-            s[..., 0] * m_body[..., 0:1]
-            + s[..., 1] * m_body[..., 1:2]
-            + s[..., 2] * m_body[..., 2:3]
-        )
-        mag_bias = biases[2] + self._hard_iron[:, None, :]
-
-        truth = (f_true, w, m_soft)
-        bias_all = (biases[0], biases[1], mag_bias)
-        sensors = (self.spec.accel, self.spec.gyro, self.spec.mag)
-        out = []
-        for i, sens in enumerate(sensors):
-            y = truth[i] + bias_all[i] + self._noise_std[i] * white[:, :, i]
-            if sens.resolution > 0.0:
-                y = np.round(y / sens.resolution) * sens.resolution
-            out.append(np.clip(y, -sens.range, sens.range))
-        self.samples_taken += n  # every user advances by the same N samples
-        self.last_bias = ImuSamples(*(np.ascontiguousarray(x) for x in bias_all))
-        return ImuSamples(*out)
