@@ -19,6 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from estimators.batching import stream_rows
+from estimators.kernels import BatchKernel, param_record, state_records
 
 __all__ = ["MAX_CADENCE", "CadenceEstimator", "cadence_kernel"]
 
@@ -26,20 +27,29 @@ __all__ = ["MAX_CADENCE", "CadenceEstimator", "cadence_kernel"]
 MAX_CADENCE = 4.0
 
 
-@numba.njit(cache=True)
-def cadence_kernel(steps, dt, tau_s, since_step, cadence):  # pragma: no cover (compiled)
-    """One update of length ``dt`` (s) with ``steps`` (B,) new steps: ``since_step`` (s since
-    the last step, inf before any) and ``cadence`` (B,) are updated in place."""
-    decay = math.exp(-dt / tau_s)
-    for b in range(steps.shape[0]):
-        s = steps[b]
-        since = since_step[b] + dt
-        if s > 0.0 and math.isfinite(since):
-            c = s / max(since, dt)
+#: Per-user state of :func:`cadence_kernel`: time since the last step (s, inf before any) and
+#: the cadence (steps/s).
+CADENCE_STATE = {"since_step": (), "cadence": ()}
+
+
+def _cadence_run(steps, dt, prm, state):
+    """One update of length ``dt`` (s) with ``steps`` (B,) new steps; ``prm`` the (1,) record of
+    ``tau_s`` (s), ``state`` the (B,) records of :data:`CADENCE_STATE`, updated in place."""
+    decay = math.exp(-dt / prm[0]["tau_s"])
+    for b in numba.prange(steps.shape[0]):
+        s = state[b]
+        n = steps[b]
+        since = s["since_step"] + dt
+        if n > 0.0 and math.isfinite(since):
+            c = n / max(since, dt)
         else:
-            c = cadence[b] * decay
-        cadence[b] = min(c, MAX_CADENCE)
-        since_step[b] = 0.0 if s > 0.0 else since
+            c = s["cadence"] * decay
+        s["cadence"] = min(c, MAX_CADENCE)
+        s["since_step"] = 0.0 if n > 0.0 else since
+
+
+#: The compiled update: ``cadence_kernel(batch_size)(...)`` (see ``_cadence_run``).
+cadence_kernel = BatchKernel(_cadence_run, parallel=False)
 
 
 class CadenceEstimator:
@@ -57,17 +67,28 @@ class CadenceEstimator:
             raise ValueError(f"tau_s={tau_s!r}: must be in [0.05, 30] s")
         self.batch_size = int(batch_size)
         self.tau_s = float(tau_s)
-        self.cadence = np.zeros(self.batch_size)
-        self.since_step = np.full(self.batch_size, np.inf)
+        self._prm = param_record(tau_s=self.tau_s)
+        self._state = state_records(CADENCE_STATE, self.batch_size)
+        self.reset()
+
+    @property
+    def cadence(self) -> NDArray[np.float64]:
+        """The cadence (steps/s), (B,) (a copy)."""
+        return self._state["cadence"].copy()
+
+    @property
+    def since_step(self) -> NDArray[np.float64]:
+        """Time (s) since each user's last step, inf before any, (B,) (a copy)."""
+        return self._state["since_step"].copy()
 
     def reset(self, rows: ArrayLike | None = None) -> None:
         """Forget the users ``rows`` (indices, a (B,) mask, or None: all)."""
         r = stream_rows(rows, self.batch_size, "rows")
-        self.cadence[r] = 0.0
-        self.since_step[r] = np.inf
+        self._state["cadence"][r] = 0.0
+        self._state["since_step"][r] = np.inf
 
     def update(self, steps: NDArray[np.float64], dt: float) -> NDArray[np.float64]:
         """Advance by ``dt`` s with ``steps`` (B,) new steps; returns the cadence (B,) (a copy)."""
-        cadence_kernel(np.asarray(steps, dtype=np.float64), float(dt), self.tau_s,
-                       self.since_step, self.cadence)  # fmt: skip
-        return self.cadence.copy()
+        cadence_kernel(self.batch_size)(np.asarray(steps, dtype=np.float64), float(dt), self._prm,
+                                        self._state)  # fmt: skip
+        return self._state["cadence"].copy()

@@ -94,6 +94,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linear_sum_assignment
 
 from estimators.batching import stream_rows
+from estimators.kernels import BatchKernel, param_record, state_records
 from estimators.rotations import GRAVITY
 
 __all__ = [
@@ -208,73 +209,128 @@ class GaitChunk:
         return b[order], i[order], pt[order]
 
 
-@numba.njit(cache=True)
-def _gait_kernel(
-    norm, fs, m, h, gamma, tmin, gamma_t, gravity, base_n, base_lim, latency, k0,
-    raw_buf, sm_buf, last_valid, baseline, n_seen, last_peak_t, pending_t, last_step_t,
-    out_state, out_steps, out_peak_t,
-):  # fmt: skip
+#: Per-stream scalars of :class:`StepDetector`'s kernel (its ring buffers, whose lengths follow
+#: the rate, are (B, M) and (B, 2h + 1) arrays beside it): the last finite norm, the baseline
+#: (m/s^2), the samples seen, the last peak, the pending first peak of a bout and the last step
+#: (s; -inf / NaN: none).
+GAIT_STATE = {
+    "last_valid": (), "baseline": (), "n_seen": (), "last_peak": (), "pending": (),
+    "last_step": (),
+}  # fmt: skip
+
+
+# Stages shared by the detectors of seed 000's family (this one and
+# :mod:`estimators.steps_nod_robust`): ``s`` is a stream's state record, ``p`` the parameter record
+# (a step-parameter dataclass's fields plus ``fs``, ``base_n`` and ``latency``).
+
+
+@numba.njit(cache=True, inline="always")
+def running_baseline(s, p, x):
+    """Move the baseline toward sample ``x`` (after ``n_seen`` counted it): a cumulative mean,
+    then an exponential one of ``base_n`` samples, within ``gravity +- baseline_limit``; a fixed
+    gravity where ``base_n`` is 0."""
+    if p["base_n"] > 0.0:
+        alpha = max(1.0 / s["n_seen"], 1.0 / p["base_n"])
+        g0 = s["baseline"] + alpha * (x - s["baseline"])
+        g, lim = p["gravity"], p["baseline_limit"]
+        s["baseline"] = min(max(g0, g - lim), g + lim)
+
+
+@numba.njit(cache=True, inline="always")
+def mean_filter(raw, smooth, k, x):
+    """Sample ``x`` of global index ``k`` into the ring ``raw`` (M), and the mean of its last M
+    samples into the ring ``smooth`` (causal mean filter)."""
+    m = raw.size
+    raw[k % m] = x
+    s = 0.0
+    for j in range(m):
+        s += raw[j]
+    smooth[k % smooth.size] = s / m
+
+
+@numba.njit(cache=True, inline="always")
+def window_max(smooth, c, h):
+    """Is sample ``c`` of the ring ``smooth`` (2h + 1) the maximum of its centred window: strictly
+    above the h samples before it, at least the h after it (a flat top gives one peak)?"""
+    w = smooth.size
+    v = smooth[c % w]
+    for j in range(1, h + 1):
+        if smooth[(c - j) % w] >= v or smooth[(c + j) % w] > v:
+            return False
+    return True
+
+
+@numba.njit(cache=True, inline="always")
+def bout_rule(s, p, t, steps, peak_t, i):
+    """Seed 000's bout rule for a peak at ``t`` (s), confirmed at chunk sample ``i``: ignored
+    within ``min_step_interval`` of the last peak; a step, with the pending first peak of the bout
+    released beside it, within ``gamma_t``; else the pending first peak of a new bout. Fills row
+    ``i`` of ``steps`` (n,) and ``peak_t`` (n, 2)."""
+    dt = t - s["last_peak"]
+    if dt >= p["min_step_interval"]:
+        if dt <= p["gamma_t"]:
+            steps[i] = 1
+            peak_t[i, 0] = t
+            if math.isfinite(s["pending"]):
+                steps[i] = 2
+                peak_t[i, 1] = s["pending"]
+                s["pending"] = math.nan
+            s["last_step"] = t
+        else:
+            s["pending"] = t
+        s["last_peak"] = t
+
+
+@numba.njit(cache=True, inline="always")
+def walking(s, p, k):
+    """The still (0) / walk (1) state at sample ``k``: walk until ``gamma_t`` after the last
+    step's peak, on the peak time axis (``latency`` after the fact)."""
+    return 1 if k / p["fs"] - p["latency"] - s["last_step"] <= p["gamma_t"] else 0
+
+
+def _gait_run(norm, k0, prm, state, raw_buf, sm_buf, out):
     """Run the detector over a chunk ``norm`` (B, n) of specific-force norms (m/s^2).
 
-    Plain loops (streams outside, samples inside); the per-stream state arrays (the ring buffers
-    ``raw_buf`` (B, m) and ``sm_buf`` (B, 2h+1), and the (B,) scalars) are updated in place, and
-    the outputs (B, n) / (B, n, 2) are filled. ``k0`` is the global index of the chunk's first
-    sample (sample k is at time k / fs). ``base_n`` is the baseline time constant in samples
-    (0: fixed gravity). Times are in seconds, -inf / NaN meaning "none".
+    Streams outside, samples inside. ``k0`` is the global index of the chunk's first sample
+    (sample k is at time k / fs); ``prm`` the (1,) parameter record (:class:`GaitParams`' fields,
+    ``fs``, ``base_n``, the baseline time constant in samples, 0: fixed gravity, and
+    ``latency``); ``state`` the (B,) records of :data:`GAIT_STATE` and the ring buffers
+    ``raw_buf`` (B, M) and ``sm_buf`` (B, 2h + 1), updated in place; ``out`` the chunk's
+    ``(state, steps, peak_time)`` arrays (B, n), (B, n), (B, n, 2), filled.
     """
+    out_state, out_steps, out_peak_t = out
+    p = prm[0]
     nb, n = norm.shape
-    w = 2 * h + 1
+    m = raw_buf.shape[1]
+    h = (sm_buf.shape[1] - 1) // 2
     delay = 0.5 * (m - 1)
-    for b in range(nb):
+    for b in numba.prange(nb):
+        s = state[b]
+        raw, sm = raw_buf[b], sm_buf[b]
         for i in range(n):
             k = k0 + i
             x = norm[b, i]
             if not math.isfinite(x):
-                x = last_valid[b] if math.isfinite(last_valid[b]) else gravity
-            last_valid[b] = x
-            if n_seen[b] == 0:  # fresh stream: start both filters and the baseline at x
-                for j in range(m):
-                    raw_buf[b, j] = x
-                for j in range(w):
-                    sm_buf[b, j] = x
-                baseline[b] = gravity if base_n <= 0.0 else x
-            n_seen[b] += 1
-            if base_n > 0.0:
-                alpha = max(1.0 / n_seen[b], 1.0 / base_n)
-                g0 = baseline[b] + alpha * (x - baseline[b])
-                baseline[b] = min(max(g0, gravity - base_lim), gravity + base_lim)
-            # Mean filter (causal, M samples) into the peak window's ring buffer.
-            raw_buf[b, k % m] = x
-            s = 0.0
-            for j in range(m):
-                s += raw_buf[b, j]
-            sm_buf[b, k % w] = s / m
-            # Is the sample h back the maximum of its centred window of 2h + 1 samples?
-            if n_seen[b] > h:
+                x = s["last_valid"] if math.isfinite(s["last_valid"]) else p["gravity"]
+            s["last_valid"] = x
+            if s["n_seen"] == 0.0:  # fresh stream: start both filters and the baseline at x
+                raw[:] = x
+                sm[:] = x
+                s["baseline"] = p["gravity"] if p["base_n"] <= 0.0 else x
+            s["n_seen"] += 1.0
+            running_baseline(s, p, x)
+            mean_filter(raw, sm, k, x)
+            # Is the sample h back a peak: the maximum of its centred window, gamma above the
+            # baseline?
+            if s["n_seen"] > h:
                 c = k - h
-                v = sm_buf[b, c % w]
-                is_peak = v - baseline[b] >= gamma
-                j = 1
-                while is_peak and j <= h:
-                    if sm_buf[b, (c - j) % w] >= v or sm_buf[b, (c + j) % w] > v:
-                        is_peak = False
-                    j += 1
-                if is_peak:
-                    p = (c - delay) / fs
-                    dt = p - last_peak_t[b]
-                    if dt >= tmin:
-                        if dt <= gamma_t:
-                            out_steps[b, i] = 1
-                            out_peak_t[b, i, 0] = p
-                            if math.isfinite(pending_t[b]):
-                                out_steps[b, i] = 2
-                                out_peak_t[b, i, 1] = pending_t[b]
-                                pending_t[b] = math.nan
-                            last_step_t[b] = p
-                        else:
-                            pending_t[b] = p
-                        last_peak_t[b] = p
-            out_state[b, i] = 1 if k / fs - latency - last_step_t[b] <= gamma_t else 0
+                if sm[c % sm.size] - s["baseline"] >= p["gamma"] and window_max(sm, c, h):
+                    bout_rule(s, p, (c - delay) / p["fs"], out_steps[b], out_peak_t[b], i)
+            out_state[b, i] = walking(s, p, k)
+
+
+#: The compiled detector: ``_gait_kernel(batch_size)(...)`` (see ``_gait_run``).
+_gait_kernel = BatchKernel(_gait_run, parallel=False)
 
 
 def _as_array(value: ArrayLike, name: str) -> NDArray[np.float64]:
@@ -321,14 +377,12 @@ class StepDetector:
         """Delay (s) from a heel strike to the sample that confirms its step."""
         self.samples_seen = 0
         b = self.batch_size
+        self._prm = param_record(self.params, fs=fs, latency=self.latency,
+                                 base_n=self.params.baseline_tau * fs)  # fmt: skip
         self._raw = np.zeros((b, self.m))
         self._sm = np.zeros((b, 2 * self.h + 1))
-        self._last_valid = np.full(b, np.nan)
-        self._baseline = np.full(b, self.params.gravity)
-        self._n_seen = np.zeros(b, dtype=np.int64)
-        self._last_peak = np.full(b, -np.inf)
-        self._pending = np.full(b, np.nan)
-        self._last_step = np.full(b, -np.inf)
+        self._state = state_records(GAIT_STATE, b)
+        self.reset()
 
     @property
     def window_samples(self) -> int:
@@ -338,7 +392,7 @@ class StepDetector:
     @property
     def baseline(self) -> NDArray[np.float64]:
         """Current baseline of |f| per stream (m/s^2), (B,)."""
-        return self._baseline.copy()
+        return self._state["baseline"].copy()
 
     def reset(self, mask: ArrayLike | None = None) -> None:
         """Forget the past of all streams, or of those where ``mask`` (B,) bool is True.
@@ -354,12 +408,13 @@ class StepDetector:
                     f"mask must be a bool array of shape ({self.batch_size},), got "
                     f"{sel.dtype} {sel.shape}"
                 )
-        self._last_valid[sel] = np.nan
-        self._baseline[sel] = self.params.gravity
-        self._n_seen[sel] = 0
-        self._last_peak[sel] = -np.inf
-        self._pending[sel] = np.nan
-        self._last_step[sel] = -np.inf
+        st = self._state
+        st["last_valid"][sel] = np.nan
+        st["baseline"][sel] = self.params.gravity
+        st["n_seen"][sel] = 0.0
+        st["last_peak"][sel] = -np.inf
+        st["pending"][sel] = np.nan
+        st["last_step"][sel] = -np.inf
 
     def update(self, acc: ArrayLike) -> GaitChunk:
         """Process accelerometer samples (specific force, m/s^2, any sensor frame).
@@ -395,17 +450,9 @@ class StepDetector:
         """The detector over checked norms ``x`` (B, n), C-contiguous."""
         b = self.batch_size
         n = x.shape[1]
-        state = np.zeros((b, n), dtype=np.int8)
-        steps = np.zeros((b, n), dtype=np.int8)
-        peak_t = np.full((b, n, 2), np.nan)
-        p = self.params
-        base_n = p.baseline_tau * self.fs
-        _gait_kernel(
-            x, self.fs, self.m, self.h, p.gamma, p.min_step_interval, p.gamma_t, p.gravity,
-            base_n, p.baseline_limit, self.latency, self.samples_seen,
-            self._raw, self._sm, self._last_valid, self._baseline, self._n_seen,
-            self._last_peak, self._pending, self._last_step, state, steps, peak_t,
-        )  # fmt: skip
+        out = (np.zeros((b, n), np.int8), np.zeros((b, n), np.int8), np.full((b, n, 2), np.nan))
+        _gait_kernel(b)(x, self.samples_seen, self._prm, self._state, self._raw, self._sm, out)
+        state, steps, peak_t = out
         t = (self.samples_seen + np.arange(n)) / self.fs
         self.samples_seen += n
         return GaitChunk(state=state, steps=steps, peak_time=peak_t, sample_time=t)

@@ -62,6 +62,7 @@ from estimators.dead_reckoning import (
     _positions,
     check_update_inputs,
 )
+from estimators.kernels import BatchKernel, param_record, state_records
 from estimators.rotations import wrap_angle
 
 __all__ = ["CadenceSpeed", "CadenceSpeedParams", "cadence_kernel"]
@@ -132,12 +133,22 @@ class CadenceSpeedParams:
         return CadenceSpeed(batch_size, step_length, self)
 
 
-# Indices of the per-user float state (columns of CadenceSpeed._f).
-_V0, _A0, _TARGET, _ELAPSED, _INTERVAL, _LAST_EVENT, _CUM, _BEARING, _YAW = range(9)
-_N_F = 9
-# Indices of the per-user integer state (columns of CadenceSpeed._i).
-_ACTIVE, _RING_LEN, _RING_HEAD, _YAW_KNOWN = range(4)
-_N_I = 4
+#: Longest ring of the bout's last events (``cadence_window`` + 1 for the largest window).
+MAX_RING = 17
+
+#: Per-user state of :data:`cadence_kernel`. The cubic: start speed ``v0`` (m/s), start
+#: acceleration ``a0`` (m/s^2), ``target`` speed and time ``elapsed`` on it (s); the bout:
+#: ``active`` (0 / 1), step ``interval`` (s), ``last_event`` time (s), cumulative step count
+#: ``cum`` and the ring of its last events' times ``ring_t`` (s) and counts ``ring_c`` (its first
+#: ``cadence_window + 1`` entries; ``ring_len`` used, newest at ``ring_head``); the path:
+#: ``bearing`` of the last event and last ``yaw`` (rad; ``yaw_known`` 0 / 1), position ``pos``
+#: (m), distance ``dist`` (m) and the ``speed`` at the end of the last update (m/s).
+CADENCE_SPEED_STATE = {
+    "v0": (), "a0": (), "target": (), "elapsed": (), "active": (), "interval": (),
+    "last_event": (), "cum": (), "ring_t": (MAX_RING,), "ring_c": (MAX_RING,), "ring_len": (),
+    "ring_head": (), "bearing": (), "yaw": (), "yaw_known": (), "pos": (2,), "dist": (),
+    "speed": (),
+}  # fmt: skip
 
 
 @numba.njit(cache=True)
@@ -164,56 +175,52 @@ def _hermite_area(v0: float, a0t: float, w: float, s: float) -> float:
     )
 
 
-def _cadence_run(
-    steps, yaw, bearing, step_length, dt, time, fs, fi, ring_t, ring_c, pos, dist, speed,
-    ramp_time, stop_factor, default_interval, min_interval, max_interval,
-):  # fmt: skip
-    """One update of ``dt`` s (the interval starts at ``time``) for B users, state in place.
-
-    ``fs`` (B, 9) and ``fi`` (B, 4) hold the per-user state (columns ``_V0`` ... and
-    ``_ACTIVE`` ...), ``ring_t`` / ``ring_c`` (B, cadence_window + 1) the times and cumulative
-    step counts of the bout's last events, ``pos`` (B, 2), ``dist`` (B,) the path, ``speed``
-    (B,) receives the speed at the end of the interval.
-    """
-    window = ring_t.shape[1]
-    for i in range(steps.shape[0]):
+def _cadence_speed_run(steps, yaw, bearing, step_length, dt, time, prm, state):
+    """One update of ``dt`` s (the interval starts at ``time``) for B users: ``steps``, ``yaw``,
+    ``bearing`` and ``step_length`` (B,) as :meth:`CadenceSpeed.update` takes them, ``prm`` the
+    (1,) record of :class:`CadenceSpeedParams`, ``state`` the (B,) records of
+    :data:`CADENCE_SPEED_STATE`, updated in place."""
+    p = prm[0]
+    ramp_time = p["ramp_time"]
+    window = int(p["cadence_window"]) + 1
+    for i in numba.prange(steps.shape[0]):
+        s = state[i]
         n = steps[i]
-        sl = step_length[i]
-        v0, a0t, target = fs[i, _V0], fs[i, _A0] * ramp_time, fs[i, _TARGET]
-        elapsed, interval = fs[i, _ELAPSED], fs[i, _INTERVAL]
-        active = fi[i, _ACTIVE] != 0
+        v0, a0t, target = s["v0"], s["a0"] * ramp_time, s["target"]
+        elapsed, interval = s["elapsed"], s["interval"]
+        active = s["active"] != 0.0
         restart = False
         # 1. Events and timeouts, at the start of the interval.
-        if active and time - fs[i, _LAST_EVENT] > stop_factor * interval:
+        if active and time - s["last_event"] > p["stop_factor"] * interval:
             active = False  # stop timeout: the bout is over
             target = 0.0
             restart = True
         if n > 0.0:
             if not active:  # the bout's first event: no timing yet
                 active = True
-                fs[i, _CUM] = 0.0
-                fi[i, _RING_LEN] = 0
-                fi[i, _RING_HEAD] = 0
-                interval = default_interval
+                s["cum"] = 0.0
+                s["ring_len"] = 0.0
+                s["ring_head"] = 0.0
+                interval = p["default_step_interval"]
             else:
-                fs[i, _CUM] += n
-            head = (fi[i, _RING_HEAD] + 1) % window if fi[i, _RING_LEN] > 0 else 0
-            ring_t[i, head] = time
-            ring_c[i, head] = fs[i, _CUM]
-            fi[i, _RING_HEAD] = head
-            fi[i, _RING_LEN] = min(fi[i, _RING_LEN] + 1, window)
-            if fi[i, _RING_LEN] > 1:
-                oldest = (head - fi[i, _RING_LEN] + 1) % window
-                span = time - ring_t[i, oldest]
-                count = fs[i, _CUM] - ring_c[i, oldest]
-                interval = min(max(span / count, min_interval), max_interval)
-            fs[i, _LAST_EVENT] = time
-            fs[i, _BEARING] = bearing[i]
-            target = sl / interval
+                s["cum"] += n
+            ring_len = int(s["ring_len"])
+            head = (int(s["ring_head"]) + 1) % window if ring_len > 0 else 0
+            s["ring_t"][head] = time
+            s["ring_c"][head] = s["cum"]
+            ring_len = min(ring_len + 1, window)
+            s["ring_head"], s["ring_len"] = head, ring_len
+            if ring_len > 1:
+                oldest = (head - ring_len + 1) % window
+                span = time - s["ring_t"][oldest]
+                count = s["cum"] - s["ring_c"][oldest]
+                interval = min(max(span / count, p["min_step_interval"]), p["max_step_interval"])
+            s["last_event"] = time
+            s["bearing"] = bearing[i]
+            target = step_length[i] / interval
             restart = True
         if restart:  # a new cubic from the current speed and acceleration
-            s = min(elapsed / ramp_time, 1.0)
-            v_now, d_now = _hermite(v0, a0t, fs[i, _TARGET], s)
+            v_now, d_now = _hermite(v0, a0t, s["target"], min(elapsed / ramp_time, 1.0))
             v0, a0t, elapsed = v_now, d_now, 0.0
         # 2. Move along the cubic over [elapsed, elapsed + dt], then at the target.
         s0 = min(elapsed / ramp_time, 1.0)
@@ -228,22 +235,22 @@ def _cadence_run(
             v_end = _hermite(v0, a0t, target, elapsed / ramp_time)[0]
         # 3. Position along the heading halfway through the interval.
         y1 = yaw[i]
-        y0 = fs[i, _YAW] if fi[i, _YAW_KNOWN] != 0 else y1
+        y0 = s["yaw"] if s["yaw_known"] != 0.0 else y1
         turn = y1 - y0
         half = 0.5 * math.atan2(math.sin(turn), math.cos(turn))
-        ang = y0 + half + fs[i, _BEARING]
-        pos[i, 0] += ds * math.cos(ang)
-        pos[i, 1] += ds * math.sin(ang)
-        dist[i] += ds
-        speed[i] = max(v_end, 0.0)
-        fs[i, _V0], fs[i, _A0], fs[i, _TARGET] = v0, a0t / ramp_time, target
-        fs[i, _ELAPSED], fs[i, _INTERVAL], fs[i, _YAW] = elapsed, interval, y1
-        fi[i, _ACTIVE] = 1 if active else 0
-        fi[i, _YAW_KNOWN] = 1
+        ang = y0 + half + s["bearing"]
+        s["pos"][0] += ds * math.cos(ang)
+        s["pos"][1] += ds * math.sin(ang)
+        s["dist"] += ds
+        s["speed"] = max(v_end, 0.0)
+        s["v0"], s["a0"], s["target"] = v0, a0t / ramp_time, target
+        s["elapsed"], s["interval"], s["yaw"] = elapsed, interval, y1
+        s["active"] = 1.0 if active else 0.0
+        s["yaw_known"] = 1.0
 
 
-#: The compiled kernel (``cadence_kernel.py_func`` is the Python reference).
-cadence_kernel = numba.njit(cache=True)(_cadence_run)
+#: The compiled update: ``cadence_kernel(batch_size)(...)`` (see ``_cadence_speed_run``).
+cadence_kernel = BatchKernel(_cadence_speed_run, parallel=False)
 
 
 class CadenceSpeed:
@@ -278,47 +285,41 @@ class CadenceSpeed:
             )
         b = self.batch_size = int(batch_size)
         self.step_length = _check_step_length(step_length, (b,))
-        w = int(self.params.cadence_window) + 1
         self._time = 0.0
-        self._f = np.zeros((b, _N_F))
-        self._i = np.zeros((b, _N_I), dtype=np.int64)
-        self._ring_t = np.zeros((b, w))
-        self._ring_c = np.zeros((b, w))
-        self._pos = np.zeros((b, 2))
-        self._dist = np.zeros(b)
-        self._speed = np.zeros(b)
+        self._prm = param_record(self.params)
+        self._state = state_records(CADENCE_SPEED_STATE, b)
         self.reset(position=position, heading=heading)
 
     @property
     def position(self) -> NDArray[np.float64]:
         """Virtual positions (m), (B, 2)."""
-        return self._pos.copy()
+        return self._state["pos"].copy()
 
     @property
     def heading(self) -> NDArray[np.float64]:
         """Yaw of the last update (or the reset heading), rad in (-pi, pi], (B,)."""
-        return wrap_angle(self._f[:, _YAW])
+        return wrap_angle(self._state["yaw"])
 
     @property
     def distance(self) -> NDArray[np.float64]:
         """Path length travelled since reset (m), (B,)."""
-        return self._dist.copy()
+        return self._state["dist"].copy()
 
     @property
     def speed(self) -> NDArray[np.float64]:
         """Speed at the end of the last update (m/s), (B,)."""
-        return self._speed.copy()
+        return self._state["speed"].copy()
 
     @property
     def cadence(self) -> NDArray[np.float64]:
         """Estimated cadence of the current bout (steps/s), 0 where not stepping, (B,)."""
-        active = self._i[:, _ACTIVE] != 0
-        return np.where(active, 1.0 / np.maximum(self._f[:, _INTERVAL], 1e-9), 0.0)
+        st = self._state
+        return np.where(st["active"] != 0.0, 1.0 / np.maximum(st["interval"], 1e-9), 0.0)
 
     @property
     def step_interval(self) -> NDArray[np.float64]:
         """Estimated step interval of the current bout (s), NaN where not stepping, (B,)."""
-        return np.where(self._i[:, _ACTIVE] != 0, self._f[:, _INTERVAL], np.nan)
+        return np.where(self._state["active"] != 0.0, self._state["interval"], np.nan)
 
     def reset(
         self,
@@ -331,17 +332,13 @@ class CadenceSpeed:
         the next yaw."""
         b = self.batch_size
         sel = _mask(mask, b)
-        self._pos[sel] = _positions(position, b)[sel]
-        self._f[sel] = 0.0
-        self._f[sel, _INTERVAL] = self.params.default_step_interval
-        self._i[sel] = 0
-        self._ring_t[sel] = 0.0
-        self._ring_c[sel] = 0.0
-        self._dist[sel] = 0.0
-        self._speed[sel] = 0.0
+        st = self._state
+        st[sel] = 0.0
+        st["pos"][sel] = _positions(position, b)[sel]
+        st["interval"][sel] = self.params.default_step_interval
         if heading is not None:
-            self._f[sel, _YAW] = wrap_angle(_check_batch(heading, b, "heading", 0.0, "rad"))[sel]
-            self._i[sel, _YAW_KNOWN] = 1
+            st["yaw"][sel] = wrap_angle(_check_batch(heading, b, "heading", 0.0, "rad"))[sel]
+            st["yaw_known"][sel] = 1.0
 
     def update(
         self,
@@ -363,13 +360,9 @@ class CadenceSpeed:
             The new positions (m), (B, 2).
         """
         st, y, dtf, br = check_update_inputs(steps, yaw, dt, bearing, self.batch_size)
-        p = self.params
-        cadence_kernel(
+        cadence_kernel(self.batch_size)(
             np.ascontiguousarray(st), np.ascontiguousarray(y), np.ascontiguousarray(br),
-            self.step_length, dtf, self._time, self._f, self._i, self._ring_t, self._ring_c,
-            self._pos, self._dist, self._speed, float(p.ramp_time), float(p.stop_factor),
-            float(p.default_step_interval), float(p.min_step_interval),
-            float(p.max_step_interval),
+            self.step_length, dtf, self._time, self._prm, self._state,
         )  # fmt: skip
         self._time += dtf
-        return self._pos.copy()
+        return self._state["pos"].copy()

@@ -65,14 +65,21 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import NamedTuple
 
 import numba
 import numpy as np
 from numpy.typing import ArrayLike
 
 from estimators.batching import stream_rows
-from estimators.gait import GaitChunk
+from estimators.gait import (
+    GaitChunk,
+    bout_rule,
+    mean_filter,
+    running_baseline,
+    walking,
+    window_max,
+)
+from estimators.kernels import BatchKernel, param_record, state_records
 from estimators.kernels.rotations import quat_rotate
 from estimators.rotations import GRAVITY
 from estimators.steps_threshold import check_chunk, check_param, check_stage_args, empty_chunk
@@ -143,46 +150,39 @@ class NodRobustParams:
         return NodRobustSteps(batch_size, fs, self)
 
 
-class _Config(NamedTuple):
-    """The kernel's constants (s, m/s^2, m); times in seconds, lengths in samples."""
-
-    fs: float
-    gamma: float
-    tmin: float  # min_step_interval
-    gamma_t: float
-    gravity: float
-    base_n: float  # baseline time constant in samples (0: fixed gravity)
-    base_lim: float
-    latency: float
-    lever: float
+#: Per-stream scalars of :func:`nod_robust_kernel` (its ring buffers, whose lengths follow the
+#: rate, are arrays beside it): the last vertical specific force and the baseline (m/s^2), the
+#: samples seen, the last peak, the pending first peak of a bout and the last step (s; -inf /
+#: NaN: none).
+NOD_ROBUST_STATE = {
+    "last_v": (), "baseline": (), "n_seen": (), "last_peak": (), "pending": (), "last_step": (),
+}  # fmt: skip
 
 
-# Columns of the per-stream scalar state (B, 6); times in s, -inf / NaN meaning "none".
-_LAST_V, _BASELINE, _N_SEEN, _LAST_PEAK, _PENDING, _LAST_STEP = 0, 1, 2, 3, 4, 5
-_N_STATE = 6
-
-
-@numba.njit(cache=True)
-def nod_robust_kernel(
-    acc, gyr, quat, k0, cfg, v_buf, sm_buf, rot_buf, w_buf, st, out_state, out_steps, out_peak_t
-):
+def _nod_robust_run(acc, gyr, quat, k0, prm, state, v_buf, sm_buf, rot_buf, w_buf, out):
     """Run the detector over a chunk of n samples of B streams.
 
     Inputs (B, n, 3) specific force (m/s^2), (B, n, 3) gyro (rad/s), (B, n, 4) attitude
     ``[w, x, y, z]`` sensor -> world; ``k0`` the global index of the chunk's first sample (sample
-    k is at time k / fs s); ``cfg`` a :class:`_Config`. State, updated in place: ring buffers of
-    the vertical specific force ``v_buf`` (B, M), its mean ``sm_buf`` (B, 2h + 1), the rotation
-    bound ``rot_buf`` (B, 2h + 1) and the world angular rate ``w_buf`` (B, M + 1, 3), all indexed
-    by the sample's global index modulo their length, and the scalars ``st`` (B, 6) (columns
-    ``_LAST_V`` ... ``_LAST_STEP``). The outputs (B, n) / (B, n, 2) are filled.
+    k is at time k / fs s); ``prm`` the (1,) parameter record (:class:`NodRobustParams`' fields,
+    ``fs``, ``base_n``, the baseline time constant in samples, 0: fixed gravity, and
+    ``latency``). State, updated in place: the (B,) records of :data:`NOD_ROBUST_STATE` and ring
+    buffers of the vertical specific force ``v_buf`` (B, M), its mean ``sm_buf`` (B, 2h + 1),
+    the rotation bound ``rot_buf`` (B, 2h + 1) and the world angular rate ``w_buf`` (B, M + 1, 3),
+    all indexed by the sample's global index modulo their length. ``out``: the chunk's
+    ``(state, steps, peak_time)`` arrays (B, n), (B, n), (B, n, 2), filled.
     """
+    out_state, out_steps, out_peak_t = out
+    p = prm[0]
     nb, n = acc.shape[0], acc.shape[1]
     m = v_buf.shape[1]
     w = sm_buf.shape[1]
     h = (w - 1) // 2
     mw = w_buf.shape[1]  # M + 1
     delay = 0.5 * (m - 1)
-    for b in range(nb):
+    for b in numba.prange(nb):
+        s = state[b]
+        sm, rot, wb = sm_buf[b], rot_buf[b], w_buf[b]
         for i in range(n):
             k = k0 + i
             qw, qx, qy, qz = quat[b, i, 0], quat[b, i, 1], quat[b, i, 2], quat[b, i, 3]
@@ -195,89 +195,62 @@ def nod_robust_kernel(
             if q_ok and math.isfinite(ax) and math.isfinite(ay) and math.isfinite(az):
                 x = quat_rotate(qw, qx, qy, qz, ax, ay, az)[2]
             else:
-                x = st[b, _LAST_V] if math.isfinite(st[b, _LAST_V]) else cfg.gravity
-            st[b, _LAST_V] = x
+                x = s["last_v"] if math.isfinite(s["last_v"]) else p["gravity"]
+            s["last_v"] = x
             # World angular rate (the previous one where this sample's is unusable).
             gx, gy, gz = gyr[b, i, 0], gyr[b, i, 1], gyr[b, i, 2]
             g_ok = q_ok and math.isfinite(gx) and math.isfinite(gy) and math.isfinite(gz)
-            fresh = st[b, _N_SEEN] == 0.0
+            fresh = s["n_seen"] == 0.0
             wx = wy = wz = 0.0
             if g_ok:
                 wx, wy, wz = quat_rotate(qw, qx, qy, qz, gx, gy, gz)
             elif not fresh:
                 j = (k - 1) % mw
-                wx, wy, wz = w_buf[b, j, 0], w_buf[b, j, 1], w_buf[b, j, 2]
+                wx, wy, wz = wb[j, 0], wb[j, 1], wb[j, 2]
             if fresh:  # start every filter at this sample
-                for j in range(m):
-                    v_buf[b, j] = x
-                for j in range(w):
-                    sm_buf[b, j] = x
-                    rot_buf[b, j] = 0.0
+                v_buf[b] = x
+                sm[:] = x
+                rot[:] = 0.0
                 for j in range(mw):
-                    w_buf[b, j, 0], w_buf[b, j, 1], w_buf[b, j, 2] = wx, wy, wz
-                st[b, _BASELINE] = cfg.gravity if cfg.base_n <= 0.0 else x
-            st[b, _N_SEEN] += 1.0
-            n_seen = st[b, _N_SEEN]
-            if cfg.base_n > 0.0:
-                alpha = max(1.0 / n_seen, 1.0 / cfg.base_n)
-                g0 = st[b, _BASELINE] + alpha * (x - st[b, _BASELINE])
-                st[b, _BASELINE] = min(max(g0, cfg.gravity - cfg.base_lim),
-                                       cfg.gravity + cfg.base_lim)  # fmt: skip
+                    wb[j, 0], wb[j, 1], wb[j, 2] = wx, wy, wz
+                s["baseline"] = p["gravity"] if p["base_n"] <= 0.0 else x
+            s["n_seen"] += 1.0
+            running_baseline(s, p, x)
             # 2. Mean filter (causal, M samples) into the peak window's ring buffer.
-            v_buf[b, k % m] = x
-            s = 0.0
-            for j in range(m):
-                s += v_buf[b, j]
-            sm_buf[b, k % w] = s / m
+            mean_filter(v_buf[b], sm, k, x)
             # 3. Rotation bound over the same M samples: mean world rate, and the angular
             # acceleration from the rates at both ends of the window (M intervals apart).
-            w_buf[b, k % mw, 0], w_buf[b, k % mw, 1], w_buf[b, k % mw, 2] = wx, wy, wz
+            wb[k % mw, 0], wb[k % mw, 1], wb[k % mw, 2] = wx, wy, wz
             j0 = (k - m) % mw
-            alx = (wx - w_buf[b, j0, 0]) * cfg.fs / m
-            aly = (wy - w_buf[b, j0, 1]) * cfg.fs / m
+            alx = (wx - wb[j0, 0]) * p["fs"] / m
+            aly = (wy - wb[j0, 1]) * p["fs"] / m
             mx = my = mz = 0.0
             for j in range(1, m + 1):
                 jj = (k - m + j) % mw
-                mx += w_buf[b, jj, 0]
-                my += w_buf[b, jj, 1]
-                mz += w_buf[b, jj, 2]
+                mx += wb[jj, 0]
+                my += wb[jj, 1]
+                mz += wb[jj, 2]
             w_h = math.sqrt(mx * mx + my * my) / m
-            rot_buf[b, k % w] = cfg.lever * (
+            rot[k % w] = p["lever_arm"] * (
                 math.sqrt(alx * alx + aly * aly) + w_h * (w_h + abs(mz) / m)
             )
             # 4. Is the sample h back the maximum of its centred window, high enough, and higher
             # than the rotation can explain?
-            if n_seen > h:
+            if s["n_seen"] > h:
                 c = k - h
-                v = sm_buf[b, c % w]
-                excess = v - st[b, _BASELINE]
-                is_peak = excess >= cfg.gamma
-                j = 1
-                while is_peak and j <= h:
-                    if sm_buf[b, (c - j) % w] >= v or sm_buf[b, (c + j) % w] > v:
-                        is_peak = False
-                    j += 1
+                excess = sm[c % w] - s["baseline"]
+                is_peak = excess >= p["gamma"] and window_max(sm, c, h)
                 if is_peak:
                     for j in range(w):
-                        if rot_buf[b, j] >= excess:
+                        if rot[j] >= excess:
                             is_peak = False
                 if is_peak:  # 5. Seed 000's bout rule.
-                    p = (c - delay) / cfg.fs
-                    dt = p - st[b, _LAST_PEAK]
-                    if dt >= cfg.tmin:
-                        if dt <= cfg.gamma_t:
-                            out_steps[b, i] = 1
-                            out_peak_t[b, i, 0] = p
-                            if math.isfinite(st[b, _PENDING]):
-                                out_steps[b, i] = 2
-                                out_peak_t[b, i, 1] = st[b, _PENDING]
-                                st[b, _PENDING] = math.nan
-                            st[b, _LAST_STEP] = p
-                        else:
-                            st[b, _PENDING] = p
-                        st[b, _LAST_PEAK] = p
-            walking = k / cfg.fs - cfg.latency - st[b, _LAST_STEP] <= cfg.gamma_t
-            out_state[b, i] = 1 if walking else 0
+                    bout_rule(s, p, (c - delay) / p["fs"], out_steps[b], out_peak_t[b], i)
+            out_state[b, i] = walking(s, p, k)
+
+
+#: The compiled detector: ``nod_robust_kernel(batch_size)(...)`` (see ``_nod_robust_run``).
+nod_robust_kernel = BatchKernel(_nod_robust_run, parallel=False)
 
 
 class NodRobustSteps:
@@ -304,28 +277,28 @@ class NodRobustSteps:
         self.latency = p.latency(self.fs)
         self.report_delay_s = p.gamma_t + self.latency  # a bout's first step waits for the second
         """Delay (s) from a heel strike to the sample that confirms its step."""
-        self._cfg = _Config(self.fs, p.gamma, p.min_step_interval, p.gamma_t, p.gravity,
-                            p.baseline_tau * self.fs, p.baseline_limit, self.latency,
-                            p.lever_arm)  # fmt: skip
+        self._prm = param_record(p, fs=self.fs, latency=self.latency,
+                                 base_n=p.baseline_tau * self.fs)  # fmt: skip
         self.samples_seen = 0
         b, w = self.batch_size, 2 * self.h + 1
         self._v = np.zeros((b, self.m))
         self._sm = np.zeros((b, w))
         self._rot = np.zeros((b, w))
         self._w = np.zeros((b, self.m + 1, 3))
-        self._st = np.zeros((b, _N_STATE))
+        self._state = state_records(NOD_ROBUST_STATE, b)
         self.reset()
 
     def reset(self, rows: ArrayLike | None = None) -> None:
         """Forget the streams ``rows`` (indices, a (B,) bool mask, or None: all); the clock keeps
         running."""
         sel = stream_rows(rows, self.batch_size, "rows")
-        self._st[sel, _LAST_V] = np.nan
-        self._st[sel, _BASELINE] = self.params.gravity
-        self._st[sel, _N_SEEN] = 0.0
-        self._st[sel, _LAST_PEAK] = -np.inf
-        self._st[sel, _PENDING] = np.nan
-        self._st[sel, _LAST_STEP] = -np.inf
+        st = self._state
+        st["last_v"][sel] = np.nan
+        st["baseline"][sel] = self.params.gravity
+        st["n_seen"][sel] = 0.0
+        st["last_peak"][sel] = -np.inf
+        st["pending"][sel] = np.nan
+        st["last_step"][sel] = -np.inf
 
     def update(self, acc: ArrayLike, gyr: ArrayLike, quat: ArrayLike) -> GaitChunk:
         """Consume (B, N, 3) specific force (m/s^2), (B, N, 3) angular rate (rad/s) and (B, N, 4)
@@ -333,9 +306,10 @@ class NodRobustSteps:
         :class:`estimators.gait.GaitChunk` of the N samples."""
         a, g, q = check_chunk(acc, gyr, quat, self.batch_size, "NodRobustSteps")
         n = a.shape[1]
-        state, steps, peak_t = empty_chunk(self.batch_size, n)
-        nod_robust_kernel(a, g, q, self.samples_seen, self._cfg, self._v, self._sm, self._rot,
-                          self._w, self._st, state, steps, peak_t)  # fmt: skip
+        out = empty_chunk(self.batch_size, n)
+        nod_robust_kernel(self.batch_size)(a, g, q, self.samples_seen, self._prm, self._state,
+                                           self._v, self._sm, self._rot, self._w, out)  # fmt: skip
+        state, steps, peak_t = out
         t = (self.samples_seen + np.arange(n)) / self.fs
         self.samples_seen += n
         return GaitChunk(state=state, steps=steps, peak_time=peak_t, sample_time=t)

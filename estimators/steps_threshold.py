@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -32,6 +31,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from estimators.batching import stream_rows
 from estimators.gait import GaitChunk
+from estimators.kernels import BatchKernel, param_record, state_records
 from estimators.rotations import GRAVITY
 
 __all__ = [
@@ -86,57 +86,49 @@ class ThresholdParams:
         return ThresholdSteps(batch_size, fs, self)
 
 
-class _Config(NamedTuple):
-    """The kernel's constants (s and m/s^2)."""
-
-    fs: float
-    level: float  # gravity + threshold
-    refractory: float
-    hold: float
-    gravity: float
+#: Per-stream state of :func:`threshold_kernel`: the norms of the two previous samples (m/s^2),
+#: the last step's time (s, -inf: none) and the samples seen.
+THRESHOLD_STATE = {"prev2": (), "prev1": (), "last_step": (), "n_seen": ()}
 
 
-# Columns of the per-stream state array (B, 4).
-_PREV2, _PREV1, _LAST_STEP, _N_SEEN = 0, 1, 2, 3
-
-
-@numba.njit(cache=True)
-def threshold_kernel(acc, k0, cfg, state, out_state, out_steps, out_peak_t):
+def _threshold_run(acc, k0, prm, state, out):
     """Run the peak picker over a chunk ``acc`` (B, n, 3) of specific force (m/s^2).
 
     ``k0`` is the global index of the chunk's first sample (sample k is at time k / fs s);
-    ``cfg`` a :class:`_Config`; ``state`` (B, 4) holds per stream the norms of the two previous
-    samples, the last step's time (s, -inf: none) and the samples seen, updated in place. The
-    outputs (B, n) and (B, n, 2) are filled (only column 0 of ``out_peak_t`` is used).
+    ``prm`` the (1,) parameter record (:class:`ThresholdParams`' fields, ``fs`` and ``level`` =
+    gravity + threshold); ``state`` the (B,) records of :data:`THRESHOLD_STATE`, updated in place;
+    ``out`` the chunk's ``(state, steps, peak_time)`` arrays (B, n), (B, n), (B, n, 2), filled
+    (only column 0 of ``peak_time`` is used).
     """
+    out_state, out_steps, out_peak_t = out
+    p = prm[0]
     nb, n = acc.shape[0], acc.shape[1]
-    for b in range(nb):
-        x2 = state[b, _PREV2]
-        x1 = state[b, _PREV1]
-        last = state[b, _LAST_STEP]
-        seen = state[b, _N_SEEN]
+    for b in numba.prange(nb):
+        s = state[b]
+        x2, x1, last, seen = s["prev2"], s["prev1"], s["last_step"], s["n_seen"]
         for i in range(n):
             k = k0 + i
             x = math.sqrt(acc[b, i, 0] ** 2 + acc[b, i, 1] ** 2 + acc[b, i, 2] ** 2)
             if not math.isfinite(x):
-                x = x1 if seen > 0 else cfg.gravity
+                x = x1 if seen > 0 else p["gravity"]
             if seen == 0:  # fresh stream: no peak before its third sample
                 x2 = x
                 x1 = x
             seen += 1
-            if x1 > x2 and x1 >= x and x1 > cfg.level:
-                p = (k - 1) / cfg.fs
-                if p - last >= cfg.refractory:
+            if x1 > x2 and x1 >= x and x1 > p["level"]:
+                t = (k - 1) / p["fs"]
+                if t - last >= p["refractory"]:
                     out_steps[b, i] = 1
-                    out_peak_t[b, i, 0] = p
-                    last = p
-            out_state[b, i] = 1 if k / cfg.fs - last <= cfg.hold else 0
+                    out_peak_t[b, i, 0] = t
+                    last = t
+            out_state[b, i] = 1 if k / p["fs"] - last <= p["hold"] else 0
             x2 = x1
             x1 = x
-        state[b, _PREV2] = x2
-        state[b, _PREV1] = x1
-        state[b, _LAST_STEP] = last
-        state[b, _N_SEEN] = seen
+        s["prev2"], s["prev1"], s["last_step"], s["n_seen"] = x2, x1, last, seen
+
+
+#: The compiled peak picker: ``threshold_kernel(batch_size)(...)`` (see ``_threshold_run``).
+threshold_kernel = BatchKernel(_threshold_run, parallel=False)
 
 
 def check_stage_args(batch_size: object, fs: object, who: str) -> tuple[int, float]:
@@ -204,30 +196,32 @@ class ThresholdSteps:
                 f"ThresholdSteps: params must be a ThresholdParams, got {type(params).__name__}"
             )
         p = self.params
-        self._cfg = _Config(self.fs, p.gravity + p.threshold, p.refractory, p.hold, p.gravity)
+        self._prm = param_record(p, fs=self.fs, level=p.gravity + p.threshold)
         self.latency = 1.0 / self.fs
         self.report_delay_s = self.latency  # every peak is reported one sample after it
         """Delay (s) from a peak to the sample that confirms its step."""
         self.samples_seen = 0
-        self._state = np.zeros((self.batch_size, 4))
+        self._state = state_records(THRESHOLD_STATE, self.batch_size)
         self.reset()
 
     def reset(self, rows: ArrayLike | None = None) -> None:
         """Forget the streams ``rows`` (indices, a (B,) bool mask, or None: all); the clock keeps
         running."""
         sel = stream_rows(rows, self.batch_size, "rows")
-        self._state[sel, _PREV2] = self.params.gravity
-        self._state[sel, _PREV1] = self.params.gravity
-        self._state[sel, _LAST_STEP] = -np.inf
-        self._state[sel, _N_SEEN] = 0.0
+        st = self._state
+        st["prev2"][sel] = self.params.gravity
+        st["prev1"][sel] = self.params.gravity
+        st["last_step"][sel] = -np.inf
+        st["n_seen"][sel] = 0.0
 
     def update(self, acc: ArrayLike, gyr: ArrayLike, quat: ArrayLike) -> GaitChunk:
         """Consume (B, N, 3) specific force (m/s^2), (B, N, 3) angular rate and (B, N, 4)
         attitude; return the :class:`estimators.gait.GaitChunk` of the N samples."""
         a, _, _ = check_chunk(acc, gyr, quat, self.batch_size, "ThresholdSteps")
         n = a.shape[1]
-        state, steps, peak_t = empty_chunk(self.batch_size, n)
-        threshold_kernel(a, self.samples_seen, self._cfg, self._state, state, steps, peak_t)
+        out = empty_chunk(self.batch_size, n)
+        threshold_kernel(self.batch_size)(a, self.samples_seen, self._prm, self._state, out)
+        state, steps, peak_t = out
         t = (self.samples_seen + np.arange(n)) / self.fs
         self.samples_seen += n
         return GaitChunk(state=state, steps=steps, peak_time=peak_t, sample_time=t)

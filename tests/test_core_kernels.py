@@ -1,8 +1,10 @@
-"""The compiled per-step kernels of the environment against their numpy twins."""
+"""The compiled per-step kernels of the environment against the rotation module and closed
+forms (their compiled-vs-source case is ``kernel_cases/core.py``)."""
 
 import gymnasium as gym
 import numpy as np
 import pytest
+from kernel_cases.core import STEPS, episode
 
 import vrloco_env  # noqa: F401
 from estimators import rotations as rot
@@ -11,32 +13,19 @@ from vrloco_env.rooms import RoomBatch, RoomConfig
 from vrloco_env.tasks import make_layout
 
 
-@pytest.mark.parametrize("env_id", ["VRLoco-Approach-v0", "VRLoco-Interact-v0"])
-def test_observation_kernel_equals_its_uncompiled_reference(env_id, monkeypatch):
-    import vrloco_env.core as core_module
-    from vrloco_env._core_numba import observation_kernel
-
-    env = gym.make(env_id)
-    core = env.unwrapped.core
-
-    def reference(reset_rows=None):
-        with monkeypatch.context() as m:
-            m.setattr(core_module, "observation_kernel", observation_kernel.py_func)
-            return core.observe(reset_rows)[0]
-
-    obs, _ = env.reset(seed=3)
-    np.testing.assert_array_equal(obs, reference(np.arange(1)))
-    env.action_space.seed(3)
-    seen_hand = 0
-    for _ in range(200):
-        obs, *_, term, trunc, _ = env.step(env.action_space.sample())
-        np.testing.assert_array_equal(obs, reference())
-        seen_hand += bool(np.isfinite(core.last.hand_est).all())
-        if term or trunc:
-            obs, _ = env.reset()
-            np.testing.assert_array_equal(obs, reference(np.arange(1)))
-    assert seen_hand > 50  # the hand entries were exercised, not only their zero default
+def test_the_observation_case_exercises_fresh_users_and_hand_entries():
+    """The compiled-vs-source case of the observation kernel (``kernel_cases/core.py``) has
+    fresh users (zero attitude and hand entries), users with a hand estimate and one without."""
+    obs, errors, hands = episode()
+    env = gym.make("VRLoco-Interact-v0")
+    spec = env.unwrapped.core.spec
     env.close()
+    valid = obs[:, :, spec.slice("hand_valid")][..., 0]
+    assert (valid[0] == 0.0).all() and hands.any()
+    assert valid[STEPS // 2 + 2, 0] == 0.0 and valid[STEPS // 2 + 2, 1] == 1.0  # user 0 reset
+    np.testing.assert_array_equal(valid[-1], [1.0, 0.0])  # user 1's hand estimate is missing
+    assert (obs[-1, 1, spec.slice("hand")] == 0.0).all()
+    assert np.isfinite(errors).all() and (errors >= 0.0).all()
 
 
 def test_attitude_error_and_euler_kernels_equal_the_rotation_module():
@@ -44,7 +33,7 @@ def test_attitude_error_and_euler_kernels_equal_the_rotation_module():
     q = rot.quat_normalize(rng.normal(size=(500, 4)))
     ypr = rot.quat_to_ypr(rot.quat_normalize(rng.normal(size=(500, 4))))
     err = np.empty(500)
-    attitude_error_kernel(q, ypr, err)
+    attitude_error_kernel(500)(q, ypr, err)
     expect = rot.rotation_angle(rot.quat_multiply(rot.quat_conjugate(q), rot.quat_from_ypr(ypr)))
     np.testing.assert_allclose(err, expect, atol=1e-12)
     # Euler angles, gimbal lock included (pitch +-90 deg).
@@ -89,7 +78,7 @@ def test_step_summary_kernel_equals_its_uncompiled_reference():
 
 
 def test_cadence_is_the_step_rate_and_decays_at_rest():
-    from estimators.cadence import CadenceEstimator, cadence_kernel
+    from estimators.cadence import CadenceEstimator
 
     est = CadenceEstimator(2)
     dt = 0.1
@@ -101,13 +90,14 @@ def test_cadence_is_the_step_rate_and_decays_at_rest():
     for _ in range(15):  # the last step came at k = 35: 4 + 15 updates without one
         c = est.update(np.zeros(2), dt)
     assert c[0] == pytest.approx(2.0 * np.exp(-19 * dt / 1.5), rel=1e-9)
-    since, cad = np.array([0.3, np.inf]), np.array([1.0, 0.0])
-    a, b_ = (since.copy(), cad.copy()), (since.copy(), cad.copy())
-    cadence_kernel(np.array([2.0, 1.0]), dt, 1.5, *a)
-    cadence_kernel.py_func(np.array([2.0, 1.0]), dt, 1.5, *b_)
-    np.testing.assert_array_equal(a[1], b_[1])
-    assert a[1][0] == 4.0  # 2 steps in 0.4 s: 5 steps/s, capped at 4
-    assert a[1][1] == 0.0  # a bout's first step: no interval, no rate
+    est = CadenceEstimator(2)
+    est.update(np.array([1.0, 0.0]), dt)  # user 0's first step: no interval, no rate
+    for _ in range(3):
+        est.update(np.zeros(2), dt)
+    c = est.update(np.array([2.0, 1.0]), dt)
+    assert c[0] == 4.0  # 2 steps in 0.4 s: 5 steps/s, capped at 4
+    assert c[1] == 0.0  # a bout's first step: no interval, no rate
+    np.testing.assert_array_equal(est.since_step, [0.0, 0.0])
 
 
 

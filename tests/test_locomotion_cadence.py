@@ -1,12 +1,13 @@
 """Cadence-proportional speed (estimators.locomotion_cadence): speed, distance, stopping,
-continuity against eq (17), reset, the compiled kernel against its Python source."""
+continuity against eq (17), reset, and what its compiled-vs-source case covers."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from kernel_cases.steps import CASES as STEP_CASES
+from kernel_cases.steps import step_counts
 
-import estimators.locomotion_cadence as lc
 from estimators.dead_reckoning import DeadReckoning
 from estimators.locomotion import Locomotion
 from estimators.locomotion_cadence import CadenceSpeed, CadenceSpeedParams
@@ -214,23 +215,12 @@ def test_reset_rows_are_independent():
     np.testing.assert_array_equal(p1[0], pw[2])
 
 
-def test_compiled_kernel_equals_its_python_source(monkeypatch):
-    rng = np.random.default_rng(7)
-    n, b = 400, 4
-    counts = (rng.random((b, n)) < 0.06).astype(float)
-    counts[:, 40] = 2.0  # double releases
-    counts[1, 200:320] = 0.0  # a stop and a restart
-    yaw = np.cumsum(rng.normal(0, 0.05, (n, b)), axis=0)
-    bearing = np.array([0.0, np.pi, 0.3, -1.0])
-    params = CadenceSpeedParams(cadence_window=3, stop_factor=1.5, ramp_time=0.3)
-    compiled = CadenceSpeed(b, SL, params)
-    pc, sc = drive(compiled, counts, yaw=yaw, fs=20.0, bearing=bearing)
-    monkeypatch.setattr(lc, "cadence_kernel", lc.cadence_kernel.py_func)
-    python = CadenceSpeed(b, SL, params)
-    pp, sp = drive(python, counts, yaw=yaw, fs=20.0, bearing=bearing)
-    np.testing.assert_allclose(pc, pp, rtol=0, atol=1e-12)
-    np.testing.assert_allclose(sc, sp, rtol=0, atol=1e-12)
-    assert np.any(sc[1, 200:320] == 0.0) and sc[1].max() > 0.0
+def test_the_kernel_case_stops_and_restarts():
+    """The compiled-vs-source case (``kernel_cases/steps.py``) stops a user for a while (speed
+    exactly 0) and starts it again, and releases two steps in one update."""
+    speed = STEP_CASES["cadence_speed"]()["speed"]
+    assert np.any(speed[60:110, 1] == 0.0) and speed[110:, 1].max() > 0.0
+    assert step_counts().max() == 2.0
 
 
 def test_registry_build_and_protocol():

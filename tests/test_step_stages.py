@@ -14,13 +14,14 @@ from functools import cache
 
 import numpy as np
 import pytest
+from kernel_cases.steps import CASES as STEP_CASES
 
 from agents.experiments.head_motions import CADENCES, PRESETS, Trial, _simulate, run_trial
 from estimators.gait import GaitChunk, GaitParams, Seed000Steps, StepDetector, step_f1
 from estimators.rotations import GRAVITY, quat_from_ypr, quat_rotate_inverse
 from estimators.stages import STEPS, StepStage
-from estimators.steps_nod_robust import NodRobustParams, NodRobustSteps, nod_robust_kernel
-from estimators.steps_threshold import ThresholdParams, ThresholdSteps, threshold_kernel
+from estimators.steps_nod_robust import NodRobustParams, NodRobustSteps
+from estimators.steps_threshold import ThresholdParams, ThresholdSteps
 from vrloco_env.batch_rng import BatchRng
 from vrloco_env.motion import Intent, MotionParams, MotionRecord, UserMotion
 
@@ -161,45 +162,19 @@ def test_nod_robust_ignores_a_constant_tilt():
 
 
 # ------------------------------------------------------------------------------------------------
-# (3) Compiled kernels == their Python sources.
+# (3) The compiled-vs-source cases (``kernel_cases/steps.py``) take the kernels' branches.
 # ------------------------------------------------------------------------------------------------
 
 
-def _small_case(rng, b=3, n=300):
-    """Stepping-like pulses, head rotation, noise, a few NaN samples and a non-unit quaternion."""
-    t = np.arange(n) / FS
-    acc = rng.normal(0.0, 0.05, (b, n, 3))
-    acc[..., 2] += GRAVITY + 4.0 * np.abs(np.cos(np.pi * 1.7 * t)) ** 12
-    gyr = rng.normal(0.0, 0.05, (b, n, 3))
-    gyr[1, :, 1] += 3.0 * np.sin(2 * np.pi * 1.0 * t)  # stream 1 nods
-    ypr = np.stack([0.2 * t, 0.3 * np.sin(2 * np.pi * 0.5 * t), np.zeros(n)], axis=-1)
-    quat = np.broadcast_to(quat_from_ypr(ypr), (b, n, 4)).copy()
-    quat[2] *= 1.5
-    acc[0, 50] = np.nan
-    gyr[0, 60, 1] = np.nan
-    quat[2, 70] = np.nan
-    return acc, gyr, quat
-
-
-def test_compiled_kernels_equal_py_func(rng):
-    """Both kernels, compiled and uncompiled, give the same bits (outputs and state)."""
-    acc, gyr, quat = _small_case(rng)
-    b, n = acc.shape[:2]
-    for kernel, make in ((threshold_kernel, ThresholdSteps), (nod_robust_kernel, NodRobustSteps)):
-        results = []
-        for fn in (kernel, kernel.py_func):
-            stage = make(b, FS)
-            out = (np.zeros((b, n), np.int8), np.zeros((b, n), np.int8), np.full((b, n, 2), np.nan))
-            if kernel is threshold_kernel:
-                state = (stage._state,)
-                fn(acc, 0, stage._cfg, *state, *out)
-            else:
-                state = (stage._v, stage._sm, stage._rot, stage._w, stage._st)
-                fn(acc, gyr, quat, 0, stage._cfg, *state, *out)
-            results.append((*out, *state))
-        assert results[0][1].sum() > 0  # steps were found
-        for x, y in zip(*results, strict=True):
-            np.testing.assert_array_equal(x, y)
+@pytest.mark.parametrize("name", ["steps_threshold", "steps_nod_robust", "steps_seed000"])
+def test_the_kernel_cases_find_steps_and_release_held_ones(name):
+    out = STEP_CASES[name]()
+    steps = np.concatenate([out[f"steps_{k}"] for k in range(4)], axis=1)
+    assert steps.sum() > 0
+    if name != "steps_threshold":  # seed 000's bout rule: a bout's first step is held
+        assert (steps == 2).any()
+    if name == "steps_nod_robust":  # the nodding stream's peaks are vetoed
+        assert steps[2].sum() == 0 and STEP_CASES["steps_seed000"]()["steps_3"][2].sum() > 0
 
 
 # ------------------------------------------------------------------------------------------------

@@ -9,15 +9,17 @@ from __future__ import annotations
 import math
 
 import numba
+from numpy.typing import NDArray
 
-from estimators.kernels.rotations import quat_from_ypr, quat_mul, quat_to_ypr, rotation_angle
-
-_PI = math.pi
-
-
-@numba.njit(cache=True)
-def _wrap(a):
-    return _PI - ((_PI - a) % (2.0 * _PI))
+from estimators.kernels import BatchKernel, param_record
+from estimators.kernels.rotations import (
+    quat_from_ypr,
+    quat_mul,
+    quat_to_ypr,
+    rotation_angle,
+    wrap_angle,
+)
+from vrloco_env.observation import COMMON_FIELDS, ObservationSpec
 
 
 @numba.njit(cache=True)
@@ -25,27 +27,31 @@ def _unit(x):
     return min(max(x, -1.0), 1.0)
 
 
-# Offsets of the common fields in ``at`` (the order of observation.COMMON_FIELDS).
-_HEADING, _PITCH, _ROLL, _WALKING, _STEPS, _CADENCE, _HAND, _HAND_VALID = 0, 1, 2, 3, 4, 5, 6, 7
-_BEARING, _DISTANCE, _RAYS = 8, 9, 10
+def observation_offsets(spec: ObservationSpec) -> NDArray:
+    """The (1,) record of the offsets in ``spec``'s observation of the common fields
+    (:data:`~vrloco_env.observation.COMMON_FIELDS`, by name), for :data:`observation_kernel`."""
+    return param_record(**{name: spec.offset(name) for name in COMMON_FIELDS})
 
 
-@numba.njit(cache=True)
-def observation_kernel(
-    virtual_yaw, ypr_est, walking, steps, cadence, hand_est, goal_points, position, distance,
-    rays, fresh, at, scales, out,
-):  # fmt: skip
+def _observe(est, virtual_yaw, goal_points, position, distance, rays, fresh, at, scales, out):
     """Fill the common fields of ``out`` (B, obs) float32: entry ``j`` is
     ``clip(value / scales[j], -1, 1)`` of its physical value, the fields starting at the
-    offsets ``at`` (:data:`vrloco_env.observation.COMMON_FIELDS` order, from the env's
+    offsets ``at`` (:func:`observation_offsets` of the env's
     :class:`~vrloco_env.observation.ObservationSpec`).
 
+    ``est`` holds the users' estimates ``(ypr_est, walking, steps, cadence, hand_est)``;
     ``fresh[i]``: user i has just been reset (or never stepped): standing, no estimates yet, so
     its attitude, gait and hand entries are zero.
     """
+    ypr_est, walking, steps, cadence, hand_est = est
+    o = at[0]
+    j_heading, j_pitch, j_roll = int(o["heading"]), int(o["pitch"]), int(o["roll"])
+    j_walking, j_steps, j_cadence = int(o["walking"]), int(o["steps"]), int(o["cadence"])
+    j_hand, j_hand_valid, j_bearing = int(o["hand"]), int(o["hand_valid"]), int(o["goal_bearing"])
+    j_distance, j_rays = int(o["goal_distance"]), int(o["rays"])
     b = out.shape[0]
     n_rays = rays.shape[1]
-    for i in range(b):
+    for i in numba.prange(b):
         yaw = virtual_yaw[i]
         ok = (not fresh[i]) and (
             math.isfinite(hand_est[i, 0])
@@ -53,44 +59,47 @@ def observation_kernel(
             and math.isfinite(hand_est[i, 2])
         )
         v = out[i]
-        j = at[_HEADING]
-        v[j] = _unit(math.sin(yaw) / scales[j])
-        v[j + 1] = _unit(math.cos(yaw) / scales[j + 1])
+        v[j_heading] = _unit(math.sin(yaw) / scales[j_heading])
+        v[j_heading + 1] = _unit(math.cos(yaw) / scales[j_heading + 1])
         if fresh[i]:
             pitch = roll = walk = n_steps = cad = 0.0
         else:
             pitch, roll = ypr_est[i, 1], ypr_est[i, 2]
             walk = 1.0 if walking[i] else 0.0
             n_steps, cad = steps[i], cadence[i]
-        v[at[_PITCH]] = _unit(pitch / scales[at[_PITCH]])
-        v[at[_ROLL]] = _unit(roll / scales[at[_ROLL]])
-        v[at[_WALKING]] = _unit(walk / scales[at[_WALKING]])
-        v[at[_STEPS]] = _unit(n_steps / scales[at[_STEPS]])
-        v[at[_CADENCE]] = _unit(cad / scales[at[_CADENCE]])
-        j = at[_HAND]
+        v[j_pitch] = _unit(pitch / scales[j_pitch])
+        v[j_roll] = _unit(roll / scales[j_roll])
+        v[j_walking] = _unit(walk / scales[j_walking])
+        v[j_steps] = _unit(n_steps / scales[j_steps])
+        v[j_cadence] = _unit(cad / scales[j_cadence])
         for k in range(3):
-            v[j + k] = _unit(hand_est[i, k] / scales[j + k]) if ok else 0.0
-        v[at[_HAND_VALID]] = 1.0 if ok else 0.0
+            v[j_hand + k] = _unit(hand_est[i, k] / scales[j_hand + k]) if ok else 0.0
+        v[j_hand_valid] = 1.0 if ok else 0.0
         bearing = math.atan2(goal_points[i, 1] - position[i, 1],
                              goal_points[i, 0] - position[i, 0]) - yaw  # fmt: skip
-        j = at[_BEARING]
-        v[j] = _unit(math.sin(bearing) / scales[j])
-        v[j + 1] = _unit(math.cos(bearing) / scales[j + 1])
-        v[at[_DISTANCE]] = _unit(distance[i] / scales[at[_DISTANCE]])
-        j = at[_RAYS]
+        v[j_bearing] = _unit(math.sin(bearing) / scales[j_bearing])
+        v[j_bearing + 1] = _unit(math.cos(bearing) / scales[j_bearing + 1])
+        v[j_distance] = _unit(distance[i] / scales[j_distance])
         for k in range(n_rays):
-            v[j + k] = _unit(rays[i, k] / scales[j + k])
+            v[j_rays + k] = _unit(rays[i, k] / scales[j_rays + k])
 
 
-@numba.njit(cache=True)
-def attitude_error_kernel(q_true, ypr_est, out):
+#: The common observation fields of B users: ``observation_kernel(B)(...)`` (see ``_observe``).
+observation_kernel = BatchKernel(_observe, parallel=False)
+
+
+def _attitude_error(q_true, ypr_est, out):
     """Rotation angle (rad) between true attitudes (B, 4) and estimated [yaw, pitch, roll]
     (B, 3): ``angle(conj(q_true) * q(ypr_est))``."""
-    for i in range(q_true.shape[0]):
+    for i in numba.prange(q_true.shape[0]):
         ew, ex, ey, ez = quat_from_ypr(ypr_est[i, 0], ypr_est[i, 1], ypr_est[i, 2])
         w, x, y, z = quat_mul(q_true[i, 0], -q_true[i, 1], -q_true[i, 2], -q_true[i, 3],
                               ew, ex, ey, ez)  # fmt: skip
         out[i] = rotation_angle(w, x, y, z)
+
+
+#: The attitude errors of B users: ``attitude_error_kernel(B)(...)`` (see ``_attitude_error``).
+attitude_error_kernel = BatchKernel(_attitude_error, parallel=False)
 
 
 @numba.njit(cache=True)
@@ -105,7 +114,7 @@ def step_summary_kernel(
     gait_steps, true_step, yaw_est, yaw_offset, yaw_true, true_yaw_offset, step_length, in_place,
     o_steps, o_true_steps, o_virtual_yaw, o_true_virtual_yaw, o_true_displacement,
 ):  # fmt: skip
-    """Per-user summary of a control step (``SimulatedUsers._summary_reference`` in numpy):
+    """Per-user summary of a control step (:meth:`vrloco_env.users.SimulatedUsers._summary`):
     detected and true step counts, virtual and true virtual yaw and, walking in place, the
     displacement perfect sensing would give (``step_length`` per true step along the true
     virtual yaw)."""
@@ -118,8 +127,8 @@ def step_summary_kernel(
             ts += true_step[b, k]
         o_steps[b] = s
         o_true_steps[b] = ts
-        o_virtual_yaw[b] = _wrap(yaw_est[b] + yaw_offset[b])
-        tvy = _wrap(yaw_true[b] + true_yaw_offset[b])
+        o_virtual_yaw[b] = wrap_angle(yaw_est[b] + yaw_offset[b])
+        tvy = wrap_angle(yaw_true[b] + true_yaw_offset[b])
         o_true_virtual_yaw[b] = tvy
         if in_place:
             o_true_displacement[b, 0] = step_length * ts * math.cos(tvy)

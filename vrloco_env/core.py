@@ -32,13 +32,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from estimators import rotations as rot
-from vrloco_env._core_numba import attitude_error_kernel, observation_kernel
+from vrloco_env._core_numba import attitude_error_kernel, observation_kernel, observation_offsets
 from vrloco_env._hand_frame_numba import hand_error
 from vrloco_env.actions import action_to_intent, check_actions
 from vrloco_env.batch_rng import BatchRng
 from vrloco_env.config import EnvConfig, EstimatorConfig, RewardConfig, SensorConfig
 from vrloco_env.observation import (
-    COMMON_FIELDS,
     MAX_GOAL_DISTANCE,
     ObservationSpec,
     env_spec,
@@ -137,7 +136,7 @@ class LocoCore:
             config.ray_count, config.ray_range_m, self.task.fields()
         )
         self.obs_size = self.spec.size
-        self._obs_at = np.array([self.spec.offset(f) for f in COMMON_FIELDS], np.int64)
+        self._obs_at = observation_offsets(self.spec)
         self._task_fields = [f.name for f in self.task.fields()]
         self.last: UserStep | None = None
         self._zeros = np.zeros(b)
@@ -275,8 +274,8 @@ class LocoCore:
             fresh[reset_rows] = True
         src = last if last is not None else self._standing
         out = np.empty((b, self.obs_size), np.float32)
-        observation_kernel(
-            ep.virtual_yaw, src.ypr_est, src.walking, src.steps, src.cadence, src.hand_est,
+        observation_kernel(b)(
+            (src.ypr_est, src.walking, src.steps, src.cadence, src.hand_est), ep.virtual_yaw,
             self.task.goal_point(ep.position), ep.position, ep.distance, self.last_rays, fresh,
             self._obs_at, self.spec.scales, out,
         )  # fmt: skip
@@ -290,7 +289,7 @@ class LocoCore:
         """Per-user arrays: ground truth, estimation errors and task state."""
         ep = self.ep
         att_err = np.empty(self.batch_size)
-        attitude_error_kernel(us.motion.quat[:, -1], us.ypr_est, att_err)
+        attitude_error_kernel(self.batch_size)(us.motion.quat[:, -1], us.ypr_est, att_err)
         hand_err = hand_error(us.hand_est, us.hand_true)
         # Heel-strike times in episode time, padded with +inf to a fixed width (an array of one
         # shape stacks in any vector env, and inf == inf where gymnasium's checker compares

@@ -4,16 +4,13 @@
 standard normals per frame from the users' :class:`~vrloco_env.batch_rng.BatchRng` and hands
 everything to :func:`capture_frames`, which runs the whole model -- bystanders, camera transform,
 field of view, occlusion, tracking and ids, jitter bursts, random inferred episodes, noise, wrist
-orientation, slots -- with explicit loops over users, frames, bodies and joints. One call replaces
-some 150 small numpy operations per capture (issue 5: the numpy model took 1.4 ms per call for
-one user, most of it call overhead on arrays of a few dozen numbers).
+orientation, slots -- with explicit loops over users, frames, bodies and joints, in one call.
 
 The kernel is plain Python on scalars and small arrays; ``capture_frames.py_func`` runs the same
-code uncompiled, and ``tests/test_kinect.py`` checks that both give the same frames. Numba cannot
-call the broadcasting functions of :mod:`estimators.rotations`, so the few quaternion products are
-written out here on scalars: the same Hamilton ``[w, x, y, z]`` formulas (``qmul`` is
-``rotations.quat_multiply``, ``rotvec_quat`` is ``rotations.quat_from_rotvec``; the tests check the
-truth quaternions against ``rotations`` and the noise statistics against the spec).
+code uncompiled (``tests/kernel_cases/kinect.py`` checks that both give the same frames). Its
+quaternion products are the scalar helpers of :mod:`estimators.kernels.rotations`. Parameters
+are named: the spec's fields and derived values in a parameter record, the sensor's pose and the
+per-joint tables in :data:`GEOMETRY_FIELDS`, each user's session in :data:`STATE_FIELDS`.
 
 Draw layout
 -----------
@@ -29,10 +26,8 @@ Each frame of each user consumes ``draw_size(n_bodies)`` normals, in this order 
 * per bystander, ``BYSTANDER_DRAWS`` = 10 numbers: its noise vectors, white (3) and AR(1)
   innovations (3), then walk start, distance, lateral offset and speed.
 
-That is 125 numbers per frame for the default two bystanders, against 638 in the numpy model this
-kernel replaced: at B = 256 and 3 frames, drawing 638 normals per frame alone (about 5 ms at
-~10 ns a normal) would take twice as long as a whole capture does now. Four devices keep the
-statistics of the spec while drawing fewer numbers:
+That is 125 numbers per frame for the default two bystanders. Four devices keep the statistics
+of the spec while drawing few numbers:
 
 * Rare events test their normal against a threshold, ``z < ndtri(p)`` being ``ndtr(z) < p``; where
   a value is needed the uniform is ``ndtr(z)`` (computed here with ``erfc``).
@@ -64,51 +59,56 @@ import numba
 import numpy as np
 
 from estimators.kernels.batch import BatchKernel
+from estimators.kernels.rotations import quat_from_rotvec, quat_mul
+from vrloco_env.skeleton import INFERRED, NOT_TRACKED, NUM_JOINTS, TRACKED, Joint
 
-NUM_JOINTS = 25
-# Joint indices used by the kernel (Kinect v2 JointType, vrloco_env.skeleton.Joint).
-WRIST_RIGHT = 10
-# Joint-state codes (vrloco_env.skeleton): NOT_TRACKED, INFERRED, TRACKED.
-NOT_TRACKED, INFERRED, TRACKED = 0, 1, 2
+WRIST_RIGHT = int(Joint.WRIST_RIGHT)
+#: Bodies the Kinect v2 tracks at once (Microsoft Kinect for Windows v2 specification: six).
+MAX_BODIES = 6
 #: Most joints in one burst limb (an arm: elbow, wrist, hand, hand tip, thumb).
 MAX_LIMB_JOINTS = 5
+#: Limbs a jitter burst can hit (``kinect.LIMB_GROUPS``) and torso joints (``kinect.TORSO_JOINTS``).
+N_LIMB_GROUPS, N_TORSO_JOINTS = 4, 8
 
-# Packed float64 parameters (``KinectV2._params``); SI units.
-P_TAN_H = 0  # tan(horizontal fov / 2)
-P_TAN_V = 1  # tan(vertical fov / 2)
-P_NEAR = 2  # m
-P_FAR = 3  # m
-P_NOISE_A = 4  # m: joint noise std at depth z is a + b z^2
-P_NOISE_B = 5  # m / m^2
-P_WHITE_FRAC = 6  # white fraction of the joint noise variance
-P_RHO_JOINT = 7  # AR(1) coefficient per frame, joints
-P_RHO_HAND = 8  # AR(1) coefficient per frame, wrist orientation
-P_ARMA_S = 9  # innovation scale s of the target's joint noise (arma_parameters)
-P_ARMA_THETA = 10  # MA coefficient theta of the target's joint noise
-P_INFERRED_FACTOR = 11  # noise multiplier of inferred joints
-P_REF_STD = 12  # m: joint noise std at noise_ref_depth_m
-P_BURST_POS = 13  # m: extra white position std of a burst limb
-P_BURST_ROT = 14  # rad: extra white wrist rotation std in a right-arm burst
-P_TORSO_MARGIN = 15  # m
-P_OCCLUSION_DEPTH = 16  # m
-P_MIN_VISIBLE = 17  # fraction of joints
-P_BURST_PROB = 18  # probability per body and frame that a burst starts
-P_BURST_Z = 19  # ndtri(burst_prob)
-P_INFERRED_PROB = 20  # probability per joint and frame that a random inferred episode starts
-P_INFERRED_Q = 21  # exp(-1 / random_inferred_frames): geometric ratio of episode lengths
-P_WALK_Z = 22  # ndtri(p_walk): a standing bystander starts walking when its normal lies below
-P_DT = 23  # s, frame period
-P_BY_D0 = 24  # m, bystander area along the sensor axis (near)
-P_BY_D1 = 25  # m (far)
-P_BY_LATERAL = 26  # m, half-width of the bystander area
-P_BY_V0 = 27  # m/s, walking speed range
-P_BY_V1 = 28  # m/s
-P_CAM_COS = 29  # cos(camera yaw)
-P_CAM_SIN = 30  # sin(camera yaw)
-P_ACQUIRE = 31  # frames before a (re)appearing body is tracked
-P_BURST_MIN = 32  # frames
-P_BURST_MAX = 33  # frames
-N_PARAMS = 34
+#: The sensor's pose and the per-joint tables (one record per sensor; SI units). Camera -> world
+#: rotation ``cam_rot`` and quaternion ``cam_quat``, position ``cam_pos``; ``sdk_from_hand``:
+#: ``kinect.HAND_FROM_SDK_WRIST``; ``by_template``: a bystander's standing skeleton of height 1 m
+#: in its body frame (pelvis over the origin, facing +x), ``by_hand_quat`` its right hand (hand
+#: frame -> body frame); ``joint_scale``: per-joint noise multiplier; ``hand_white_sd`` /
+#: ``hand_ar_sd``: wrist rotation noise (rad) about the hand axes; ``inferred_z[k]``:
+#: ndtri(1 - (1 - p)^k), below which at least one of k joints starts a random inferred episode;
+#: ``limb_index[g, j]``: joint j's place in burst limb g (-1: not in it); ``is_torso`` (0 / 1) and
+#: ``torso_joints`` (indices): the torso silhouette.
+GEOMETRY_FIELDS = {
+    "cam_rot": (3, 3), "cam_pos": (3,), "cam_quat": (4,), "sdk_from_hand": (4,),
+    "by_template": (NUM_JOINTS, 3), "by_hand_quat": (4,), "joint_scale": (NUM_JOINTS,),
+    "hand_white_sd": (3,), "hand_ar_sd": (3,), "inferred_z": (NUM_JOINTS + 1,),
+    "limb_index": (N_LIMB_GROUPS, NUM_JOINTS), "is_torso": (NUM_JOINTS,),
+    "torso_joints": (N_TORSO_JOINTS,),
+}  # fmt: skip
+
+#: A user's session (``KinectV2``), per body (the target first, then the bystanders; rows past
+#: the spec's bodies are unused). Integers and flags are exact in float64. ``slot``: each body's
+#: slot; ``body_id``: its tracking id (1 .. 2^53); ``acquired``: consecutive detectable frames
+#: (up to ``acquire_frames``); ``prev_tracked``: tracked in the last frame (0 / 1); ``bias``: the
+#: session's joint offsets (m); ``joint_noise`` / ``joint_innov``: the target's ARMA(1, 1) state
+#: (y_{t-1}, e_{t-1}); ``ar_hand``: every wrist's and ``ar_by`` the bystanders' rigid joint
+#: noise's unit AR(1) states; ``burst_left`` / ``burst_group``: frames left and limb of a jitter
+#: burst; ``inferred_left``: frames left of random inferred episodes; ``frame``: frames since the
+#: reset (the bystanders' sway clock); ``by_*``: the bystanders' floor position (m), yaw (rad),
+#: height (m), sway amplitude (m), frequency (Hz) and phase (rad), walk target (m), speed (m/s)
+#: and whether they walk (0 / 1).
+STATE_FIELDS = {
+    "slot": (MAX_BODIES,), "body_id": (MAX_BODIES,), "acquired": (MAX_BODIES,),
+    "prev_tracked": (MAX_BODIES,), "bias": (MAX_BODIES, NUM_JOINTS, 3),
+    "joint_noise": (NUM_JOINTS, 3), "joint_innov": (NUM_JOINTS, 3), "ar_hand": (MAX_BODIES, 3),
+    "ar_by": (MAX_BODIES - 1, 3), "burst_left": (MAX_BODIES,), "burst_group": (MAX_BODIES,),
+    "inferred_left": (MAX_BODIES, NUM_JOINTS), "frame": (),
+    "by_pos": (MAX_BODIES - 1, 2), "by_yaw": (MAX_BODIES - 1,), "by_height": (MAX_BODIES - 1,),
+    "by_sway_amp": (MAX_BODIES - 1,), "by_sway_freq": (MAX_BODIES - 1,),
+    "by_sway_phase": (MAX_BODIES - 1,), "by_target": (MAX_BODIES - 1, 2),
+    "by_speed": (MAX_BODIES - 1,), "by_moving": (MAX_BODIES - 1,),
+}  # fmt: skip
 
 # Draw layout of one frame (see the module docstring).
 Z_JOINT = 0
@@ -199,79 +199,7 @@ def geometric_split(u: float, q: float) -> tuple[int, float]:
     return length, min(max((u - (1.0 - top)) / (top * (1.0 - q)), 0.0), _BELOW_ONE)
 
 
-@numba.njit(cache=True)
-def qmul(
-    aw: float, ax: float, ay: float, az: float, bw: float, bx: float, by: float, bz: float
-) -> tuple[float, float, float, float]:
-    """Hamilton product a ⊗ b of two quaternions given by components (rotations.quat_multiply)."""
-    return (
-        aw * bw - ax * bx - ay * by - az * bz,
-        aw * bx + ax * bw + ay * bz - az * by,
-        aw * by - ax * bz + ay * bw + az * bx,
-        aw * bz + ax * by - ay * bx + az * bw,
-    )
-
-
-@numba.njit(cache=True)
-def rotvec_quat(rx: float, ry: float, rz: float) -> tuple[float, float, float, float]:
-    """Exponential map of a rotation vector, rad (rotations.quat_from_rotvec)."""
-    angle = math.sqrt(rx * rx + ry * ry + rz * rz)
-    if angle < 1e-8:
-        s = 0.5 - angle * angle / 48.0
-    else:
-        s = math.sin(0.5 * angle) / angle
-    return math.cos(0.5 * angle), s * rx, s * ry, s * rz
-
-
-def _capture_frames(
-    joints_world,
-    hand_world,
-    z,
-    new_ids,
-    prm,
-    inferred_z,
-    joint_scale,
-    hand_white_sd,
-    hand_ar_sd,
-    limb_index,
-    is_torso,
-    torso_joints,
-    cam_rot,
-    cam_pos,
-    cam_quat,
-    sdk_from_hand,
-    by_template,
-    by_hand_quat,
-    slots,
-    ids,
-    acquired,
-    prev_tracked,
-    bias,
-    joint_noise,
-    joint_innov,
-    ar_hand,
-    ar_by,
-    burst_left,
-    burst_group,
-    inferred_left,
-    frame,
-    by_pos,
-    by_yaw,
-    by_height,
-    by_sway_amp,
-    by_sway_freq,
-    by_sway_phase,
-    by_target,
-    by_speed,
-    by_moving,
-    out_id,
-    out_tracked,
-    out_joints,
-    out_state,
-    out_hand,
-    truth_joints,
-    truth_hand,
-) -> None:
+def _capture_frames(joints_world, hand_world, z, new_ids, prm, geo, state, out) -> None:
     """Run M frames for B users, updating the session state in place and filling the outputs.
 
     Args (shapes; B users, M frames, N bodies, nb = N - 1 bystanders, K = 6 slots, J = 25):
@@ -279,48 +207,76 @@ def _capture_frames(
         hand_world: (B, M, 4) the target's unit hand quaternion, hand frame -> world.
         z: (B, M, draw_size(N)) standard normals (layout in the module docstring).
         new_ids: (B, M, N) int64, the id each body gets if it is acquired in that frame.
-        prm: (N_PARAMS,) packed parameters (``P_*``).
-        inferred_z: (J + 1,) ndtri(1 - (1 - p)^k): below it, at least one of k joints starts a
-            random inferred episode.
-        joint_scale: (J,) per-joint noise multiplier.
-        hand_white_sd, hand_ar_sd: (3,) rad, wrist rotation noise about the hand axes.
-        limb_index: (G, J) int64, each joint's place in burst limb g (-1: not in the limb).
-        is_torso: (J,) bool; torso_joints: the torso joints' indices.
-        cam_rot: (3, 3) camera -> world rotation; cam_pos: (3,) m; cam_quat: (4,) camera -> world.
-        sdk_from_hand: (4,) HAND_FROM_SDK_WRIST (SDK wrist frame -> hand frame).
-        by_template: (J, 3) standing skeleton of height 1 m in its body frame (pelvis over the
-            origin, facing +x); by_hand_quat: (4,) its right hand, hand frame -> body frame.
-        slots .. by_moving: the session state of ``KinectV2`` (B leading), updated in place;
-            joint_noise (B, J, 3) and joint_innov (B, J, 3) are the target's ARMA state
-            (y_{t-1}, e_{t-1}), ar_hand (B, N, 3) and ar_by (B, nb, 3) unit AR(1) states.
-        out_id .. out_hand: (B, M, K, ...) the slots' frames, filled here.
-        truth_joints: (B, M, J, 3) m, truth_hand: (B, M, 4): the target's camera-space truth.
+        prm: (1,) parameter record: :class:`~vrloco_env.sensors.kinect.KinectSpec`'s fields and
+            the derived values of ``KinectV2._param_record`` (SI units).
+        geo: (1,) record of :data:`GEOMETRY_FIELDS`: the sensor's pose and per-joint tables.
+        state: (B,) records of :data:`STATE_FIELDS`, the users' sessions, updated in place.
+        out: the slots' frames ``(body_id, body_tracked, joints, joint_state, hand_quat)``,
+            (B, M, K, ...), and the target's camera-space truth ``(truth_joints, truth_hand)``,
+            (B, M, J, 3) m and (B, M, 4), filled here.
     """
+    out_id, out_tracked, out_joints, out_state, out_hand, truth_joints, truth_hand = out
+    p = prm[0]
     B, M = joints_world.shape[0], joints_world.shape[1]
-    N = slots.shape[1]
+    N = int(p["n_bystanders"]) + 1
     nb = N - 1
     K = out_id.shape[2]
     J = NUM_JOINTS
     z_by = Z_BODIES + BODY_DRAWS * N  # bystander_offset(N)
-    dt = prm[P_DT]
-    acq = int(prm[P_ACQUIRE])
-    n_len = int(prm[P_BURST_MAX]) - int(prm[P_BURST_MIN]) + 1
-    n_groups = limb_index.shape[0]
-    wf = prm[P_WHITE_FRAC]
-    rho_j, rho_h = prm[P_RHO_JOINT], prm[P_RHO_HAND]
+    dt = p["dt"]
+    acq = int(p["acquire_frames"])
+    n_len = int(p["burst_max"]) - int(p["burst_min"]) + 1
+    n_groups = N_LIMB_GROUPS
+    wf = p["joint_noise_white_fraction"]
+    rho_j, rho_h = p["rho_joint"], p["rho_hand"]
     c_j, c_h = math.sqrt(1.0 - rho_j * rho_j), math.sqrt(1.0 - rho_h * rho_h)
-    arma_s, arma_theta = prm[P_ARMA_S], prm[P_ARMA_THETA]
+    arma_s, arma_theta = p["arma_s"], p["arma_theta"]
     sq_ar = math.sqrt(1.0 - wf)
-    cw, cx, cy, cz = cam_quat[0], -cam_quat[1], -cam_quat[2], -cam_quat[3]  # world -> camera
-    sw, sx, sy, sz = sdk_from_hand[0], sdk_from_hand[1], sdk_from_hand[2], sdk_from_hand[3]
-    near, far, tan_h, tan_v = prm[P_NEAR], prm[P_FAR], prm[P_TAN_H], prm[P_TAN_V]
-    noise_a, noise_b, ref_std = prm[P_NOISE_A], prm[P_NOISE_B], prm[P_REF_STD]
-    inferred_factor = prm[P_INFERRED_FACTOR]
-    burst_pos, burst_rot = prm[P_BURST_POS], prm[P_BURST_ROT]
-    margin_m, occlusion_depth = prm[P_TORSO_MARGIN], prm[P_OCCLUSION_DEPTH]
-    p_inferred, q_inferred = prm[P_INFERRED_PROB], prm[P_INFERRED_Q]
+    near, far, tan_h, tan_v = p["near"], p["far"], p["tan_h"], p["tan_v"]
+    noise_a, noise_b, ref_std = p["noise_a"], p["noise_b"], p["ref_std"]
+    inferred_factor = p["inferred_noise_factor"]
+    burst_pos, burst_rot = p["burst_position_std_m"], p["burst_rot"]
+    margin_m, occlusion_depth = p["torso_margin_m"], p["occlusion_depth_m"]
+    p_inferred, q_inferred = p["random_inferred_prob"], p["inferred_q"]
+    walk_z, by_lateral = p["walk_z"], p["bystander_lateral_m"]
+    cam_cos, cam_sin = p["cam_cos"], p["cam_sin"]
+    by_d0, by_d1, by_v0, by_v1 = p["by_d0"], p["by_d1"], p["by_v0"], p["by_v1"]
+    min_visible, burst_z, burst_prob = p["min_visible_fraction"], p["burst_z"], p["burst_prob"]
+    burst_min = int(p["burst_min"])
 
     for b in numba.prange(B):  # users are independent (estimators.kernels.batch)
+        # The records are read inside the loop (the parallel build takes no record value in), and
+        # the session's sub-arrays are bound right after ``s``: numba's parallel build keeps the
+        # writes through names it sees derive from an argument, and may drop others.
+        g, s = geo[0], state[b]
+        slot = s["slot"]
+        body_id = s["body_id"]
+        acquired = s["acquired"]
+        prev_tracked = s["prev_tracked"]
+        bias = s["bias"]
+        joint_noise = s["joint_noise"]
+        joint_innov = s["joint_innov"]
+        ar_hand = s["ar_hand"]
+        ar_by = s["ar_by"]
+        burst_left = s["burst_left"]
+        burst_group = s["burst_group"]
+        inferred_left = s["inferred_left"]
+        by_pos = s["by_pos"]
+        by_yaw = s["by_yaw"]
+        by_height = s["by_height"]
+        by_sway_amp = s["by_sway_amp"]
+        by_sway_freq = s["by_sway_freq"]
+        by_sway_phase = s["by_sway_phase"]
+        by_target = s["by_target"]
+        by_speed = s["by_speed"]
+        by_moving = s["by_moving"]
+        cam_rot, cam_pos, cq, sdk = g["cam_rot"], g["cam_pos"], g["cam_quat"], g["sdk_from_hand"]
+        by_template, by_hand_quat = g["by_template"], g["by_hand_quat"]
+        joint_scale, limb_index, inferred_z = g["joint_scale"], g["limb_index"], g["inferred_z"]
+        hand_white_sd, hand_ar_sd = g["hand_white_sd"], g["hand_ar_sd"]
+        is_torso, torso_joints = g["is_torso"], g["torso_joints"]
+        cw, cx, cy, cz = cq[0], -cq[1], -cq[2], -cq[3]  # world -> camera
+        sw, sx, sy, sz = sdk[0], sdk[1], sdk[2], sdk[3]
         # Scratch of this user (users run in parallel: nothing is shared). Each body's joints in
         # camera space are an affine map of a source skeleton: the target's world joints, or the
         # bystander template.
@@ -353,13 +309,13 @@ def _capture_frames(
 
         body_of_slot[:] = -1
         for n in range(N):
-            body_of_slot[slots[b, n]] = n
+            body_of_slot[int(slot[n])] = n
         for m in range(M):
             zf = z[b, m]
 
             # --- true bodies: the target, then the bystanders
             src[0] = joints_world[b, m]
-            hand_cam[0, 0], hand_cam[0, 1], hand_cam[0, 2], hand_cam[0, 3] = qmul(
+            hand_cam[0, 0], hand_cam[0, 1], hand_cam[0, 2], hand_cam[0, 3] = quat_mul(
                 cw, cx, cy, cz,
                 hand_world[b, m, 0], hand_world[b, m, 1], hand_world[b, m, 2], hand_world[b, m, 3],
             )  # fmt: skip
@@ -367,47 +323,47 @@ def _capture_frames(
                 zi = zf[z_by + BYSTANDER_DRAWS * i :]
                 # Stand for an exponential time, then walk at a random speed to a random spot of
                 # the bystander area (sensor floor frame: d along the axis, l to its left).
-                if not by_moving[b, i] and zi[Y_WALK_START] < prm[P_WALK_Z]:
-                    d = prm[P_BY_D0] + (prm[P_BY_D1] - prm[P_BY_D0]) * uniform(zi[Y_WALK_DIST])
-                    lat = prm[P_BY_LATERAL] * (2.0 * uniform(zi[Y_WALK_LATERAL]) - 1.0)
-                    by_target[b, i, 0] = cam_pos[0] + d * prm[P_CAM_COS] - lat * prm[P_CAM_SIN]
-                    by_target[b, i, 1] = cam_pos[1] + d * prm[P_CAM_SIN] + lat * prm[P_CAM_COS]
-                    v0, v1 = prm[P_BY_V0], prm[P_BY_V1]
-                    by_speed[b, i] = v0 + (v1 - v0) * uniform(zi[Y_WALK_SPEED])
-                    by_moving[b, i] = True
-                dx = by_target[b, i, 0] - by_pos[b, i, 0]
-                dy = by_target[b, i, 1] - by_pos[b, i, 1]
+                if by_moving[i] == 0.0 and zi[Y_WALK_START] < walk_z:
+                    d = by_d0 + (by_d1 - by_d0) * uniform(zi[Y_WALK_DIST])
+                    lat = by_lateral * (2.0 * uniform(zi[Y_WALK_LATERAL]) - 1.0)
+                    by_target[i, 0] = cam_pos[0] + d * cam_cos - lat * cam_sin
+                    by_target[i, 1] = cam_pos[1] + d * cam_sin + lat * cam_cos
+                    v0, v1 = by_v0, by_v1
+                    by_speed[i] = v0 + (v1 - v0) * uniform(zi[Y_WALK_SPEED])
+                    by_moving[i] = 1.0
+                dx = by_target[i, 0] - by_pos[i, 0]
+                dy = by_target[i, 1] - by_pos[i, 1]
                 dist = math.sqrt(dx * dx + dy * dy)
-                step = min(by_speed[b, i] * dt, dist)
-                if by_moving[b, i] and dist > 1e-9:
-                    by_pos[b, i, 0] += step * dx / dist
-                    by_pos[b, i, 1] += step * dy / dist
-                    by_yaw[b, i] = math.atan2(dy, dx)
-                by_moving[b, i] = by_moving[b, i] and dist - step > 1e-9
+                step = min(by_speed[i] * dt, dist)
+                if by_moving[i] != 0.0 and dist > 1e-9:
+                    by_pos[i, 0] += step * dx / dist
+                    by_pos[i, 1] += step * dy / dist
+                    by_yaw[i] = math.atan2(dy, dx)
+                by_moving[i] = 1.0 if by_moving[i] != 0.0 and dist - step > 1e-9 else 0.0
                 # Pose: yaw about z (body -> world), quiet-standing sway as a lateral shift on the
                 # bystander's own frame clock, height h: world = h Rz(yaw) template + (px, py, 0).
-                ch, sh = math.cos(0.5 * by_yaw[b, i]), math.sin(0.5 * by_yaw[b, i])
-                c, s = ch * ch - sh * sh, 2.0 * ch * sh
-                t_k = (frame[b] + m) * dt
-                sway = by_sway_amp[b, i] * math.sin(
-                    2.0 * math.pi * by_sway_freq[b, i] * t_k + by_sway_phase[b, i]
+                ch, sh = math.cos(0.5 * by_yaw[i]), math.sin(0.5 * by_yaw[i])
+                c_yaw, s_yaw = ch * ch - sh * sh, 2.0 * ch * sh
+                t_k = (s["frame"] + m) * dt
+                sway = by_sway_amp[i] * math.sin(
+                    2.0 * math.pi * by_sway_freq[i] * t_k + by_sway_phase[i]
                 )
-                ex = by_pos[b, i, 0] - sway * s - cam_pos[0]
-                ey = by_pos[b, i, 1] + sway * c - cam_pos[1]
-                h = by_height[b, i]
+                ex = by_pos[i, 0] - sway * s_yaw - cam_pos[0]
+                ey = by_pos[i, 1] + sway * c_yaw - cam_pos[1]
+                h = by_height[i]
                 for a in range(3):  # camera = h R^T Rz template + R^T ((px, py, 0) - c)
-                    aff[i + 1, a, 0] = h * (cam_rot[0, a] * c + cam_rot[1, a] * s)
-                    aff[i + 1, a, 1] = h * (cam_rot[1, a] * c - cam_rot[0, a] * s)
+                    aff[i + 1, a, 0] = h * (cam_rot[0, a] * c_yaw + cam_rot[1, a] * s_yaw)
+                    aff[i + 1, a, 1] = h * (cam_rot[1, a] * c_yaw - cam_rot[0, a] * s_yaw)
                     aff[i + 1, a, 2] = h * cam_rot[2, a]
                     aff[i + 1, a, 3] = cam_rot[0, a] * ex + cam_rot[1, a] * ey
                     aff[i + 1, a, 3] -= cam_rot[2, a] * cam_pos[2]
-                bw, bx, by_, bz = qmul(
+                bw, bx, by_, bz = quat_mul(
                     ch, 0.0, 0.0, sh,
                     by_hand_quat[0], by_hand_quat[1], by_hand_quat[2], by_hand_quat[3],
                 )  # fmt: skip
                 (
                     hand_cam[i + 1, 0], hand_cam[i + 1, 1], hand_cam[i + 1, 2], hand_cam[i + 1, 3]
-                ) = qmul(cw, cx, cy, cz, bw, bx, by_, bz)  # fmt: skip
+                ) = quat_mul(cw, cx, cy, cz, bw, bx, by_, bz)  # fmt: skip
 
             # --- camera space, the field of view, image coordinates
             for n in range(N):
@@ -430,11 +386,12 @@ def _capture_frames(
             for n in range(N):
                 acc = 0.0
                 ulo, uhi, vlo, vhi = np.inf, -np.inf, np.inf, -np.inf
-                for j in torso_joints:
+                for t in range(N_TORSO_JOINTS):
+                    j = int(torso_joints[t])
                     acc += cam[n, j, 2]
                     ulo, uhi = min(ulo, img_u[n, j]), max(uhi, img_u[n, j])
                     vlo, vhi = min(vlo, img_v[n, j]), max(vhi, img_v[n, j])
-                zt[n] = acc / torso_joints.size
+                zt[n] = acc / N_TORSO_JOINTS
                 margin = margin_m / max(zt[n], 1e-3)
                 u_lo[n], u_hi[n], v_lo[n], v_hi[n] = ulo - margin, uhi + margin, vlo, vhi
             for n in range(N):
@@ -456,53 +413,53 @@ def _capture_frames(
                                 own = True
                             else:
                                 other = True
-                    occluded[n, j] = other or (own and not is_torso[j])
+                    occluded[n, j] = other or (own and is_torso[j] == 0.0)
                     if not other:
                         n_visible[n] += 1
 
             # --- tracking: tracked after `acq` consecutive detectable frames; a body tracked
             # again gets a fresh id, unique among the user's bodies
             for n in range(N):
-                if n_visible[n] / J >= prm[P_MIN_VISIBLE]:
-                    acquired[b, n] = min(acquired[b, n] + 1, acq)
+                if n_visible[n] / J >= min_visible:
+                    acquired[n] = min(acquired[n] + 1, acq)
                 else:
-                    acquired[b, n] = 0
-                tracked[n] = acquired[b, n] >= acq
-                fresh[n] = tracked[n] and not prev_tracked[b, n]
+                    acquired[n] = 0
+                tracked[n] = acquired[n] >= acq
+                fresh[n] = tracked[n] and prev_tracked[n] == 0.0
                 if fresh[n]:
-                    ids[b, n] = new_ids[b, m, n]
-                prev_tracked[b, n] = tracked[n]
-            _unique_ids(ids[b], fresh)
+                    body_id[n] = new_ids[b, m, n]
+                prev_tracked[n] = 1.0 if tracked[n] else 0.0
+            _unique_ids(body_id[:N], fresh)
 
             # --- jitter bursts (one limb, a few frames) and random inferred episodes
             for n in range(N):
                 zb = zf[Z_BODIES + BODY_DRAWS * n :]
-                if burst_left[b, n] == 0 and zb[B_BURST] < prm[P_BURST_Z]:
+                if burst_left[n] == 0.0 and zb[B_BURST] < burst_z:
                     # Given the start, ndtr(z) / p is uniform: it picks the limb, then the length.
-                    u = min(uniform(zb[B_BURST]) / prm[P_BURST_PROB], _BELOW_ONE)
-                    burst_group[b, n], u = categorical_split(u, n_groups)
+                    u = min(uniform(zb[B_BURST]) / burst_prob, _BELOW_ONE)
+                    burst_group[n], u = categorical_split(u, n_groups)
                     length, u = categorical_split(u, n_len)
-                    burst_left[b, n] = int(prm[P_BURST_MIN]) + length
-                b_active[n] = burst_left[b, n] > 0
-                burst_left[b, n] = max(burst_left[b, n] - 1, 0)
+                    burst_left[n] = burst_min + length
+                b_active[n] = burst_left[n] > 0.0
+                burst_left[n] = max(burst_left[n] - 1.0, 0.0)
                 # Every joint not in an episode starts one with probability p, of geometric length.
                 # Trials and lengths are one chain of splits of one uniform; most frames have no
                 # start at all (u >= 1 - (1 - p)^k for k free joints), which one comparison tells.
                 free = 0
                 for j in range(J):
-                    if inferred_left[b, n, j] == 0:
+                    if inferred_left[n, j] == 0:
                         free += 1
                 if zb[B_INFERRED] < inferred_z[free]:
                     u = uniform(zb[B_INFERRED])
                     for j in range(J):
-                        if inferred_left[b, n, j] == 0:
+                        if inferred_left[n, j] == 0:
                             hit, u = bernoulli_split(u, p_inferred)
                             if hit:
-                                inferred_left[b, n, j], u = geometric_split(u, q_inferred)
+                                inferred_left[n, j], u = geometric_split(u, q_inferred)
                 for j in range(J):
-                    if inferred_left[b, n, j] > 0:
+                    if inferred_left[n, j] > 0:
                         occluded[n, j] = True
-                        inferred_left[b, n, j] -= 1
+                        inferred_left[n, j] -= 1
 
             # --- noise states: the target's ARMA(1, 1) joint noise (unit variance); unit AR(1)
             # states of every wrist and of the bystanders' joint noise (a bystander's wrist and
@@ -510,17 +467,17 @@ def _capture_frames(
             for j in range(J):
                 for a in range(3):
                     e = zf[Z_JOINT + 3 * j + a]
-                    joint_noise[b, j, a] = rho_j * joint_noise[b, j, a] + arma_s * (
-                        e + arma_theta * joint_innov[b, j, a]
+                    joint_noise[j, a] = rho_j * joint_noise[j, a] + arma_s * (
+                        e + arma_theta * joint_innov[j, a]
                     )
-                    joint_innov[b, j, a] = e
+                    joint_innov[j, a] = e
             for a in range(3):
-                ar_hand[b, 0, a] = rho_h * ar_hand[b, 0, a] + c_h * zf[Z_HAND_AR + a]
+                ar_hand[0, a] = rho_h * ar_hand[0, a] + c_h * zf[Z_HAND_AR + a]
             for i in range(nb):
                 zi = zf[z_by + BYSTANDER_DRAWS * i :]
                 for a in range(3):
-                    ar_hand[b, i + 1, a] = rho_h * ar_hand[b, i + 1, a] + c_h * zi[Y_AR + a]
-                    ar_by[b, i, a] = rho_j * ar_by[b, i, a] + c_j * zi[Y_AR + a]
+                    ar_hand[i + 1, a] = rho_h * ar_hand[i + 1, a] + c_h * zi[Y_AR + a]
+                    ar_by[i, a] = rho_j * ar_by[i, a] + c_j * zi[Y_AR + a]
 
             # --- tracking states, noisy joints and wrist orientation, into the slots
             for k in range(K):
@@ -531,16 +488,16 @@ def _capture_frames(
                     out_joints[b, m, k] = np.nan
                     out_hand[b, m, k] = np.nan
             for n in range(N):
-                k = slots[b, n]
-                out_id[b, m, k] = ids[b, n] if tracked[n] else 0
+                k = int(slot[n])
+                out_id[b, m, k] = int(body_id[n]) if tracked[n] else 0
                 out_tracked[b, m, k] = tracked[n]
-                g = burst_group[b, n] if b_active[n] else -1
+                grp = int(burst_group[n]) if b_active[n] else -1
                 # White normals of the wrist (target) or of the whole body (bystander).
                 zw = zf[Z_HAND_WHITE:] if n == 0 else zf[z_by + BYSTANDER_DRAWS * (n - 1) :]
                 w0, w1, w2 = zw[0], zw[1], zw[2]
                 a0, a1, a2 = 0.0, 0.0, 0.0
                 if n > 0:
-                    a0, a1, a2 = ar_by[b, n - 1, 0], ar_by[b, n - 1, 1], ar_by[b, n - 1, 2]
+                    a0, a1, a2 = ar_by[n - 1, 0], ar_by[n - 1, 1], ar_by[n - 1, 2]
                 wrist_factor = 1.0
                 for j in range(J):
                     if not (tracked[n] and in_view[n, j]):
@@ -558,10 +515,10 @@ def _capture_frames(
                         wrist_factor = factor
                     d = cam[n, j, 2]
                     sigma = (noise_a + noise_b * d * d) * joint_scale[j] * factor
-                    limb = limb_index[g, j] if g >= 0 else -1
+                    limb = int(limb_index[grp, j]) if grp >= 0 else -1
                     if n == 0:  # the target: independent noise per joint, burst noise per joint
                         for a in range(3):
-                            pos = cam[0, j, a] + bias[b, 0, j, a] + sigma * joint_noise[b, j, a]
+                            pos = cam[0, j, a] + bias[0, j, a] + sigma * joint_noise[j, a]
                             if limb >= 0:
                                 pos += burst_pos * zf[Z_BURST + 3 * limb + a]
                             out_joints[b, m, k, j, a] = pos
@@ -570,13 +527,13 @@ def _capture_frames(
                         white = math.sqrt(wf * sigma * sigma + burst * burst)
                         ar = sq_ar * sigma
                         out_joints[b, m, k, j, 0] = (
-                            cam[n, j, 0] + bias[b, n, j, 0] + white * w0 + ar * a0
+                            cam[n, j, 0] + bias[n, j, 0] + white * w0 + ar * a0
                         )
                         out_joints[b, m, k, j, 1] = (
-                            cam[n, j, 1] + bias[b, n, j, 1] + white * w1 + ar * a1
+                            cam[n, j, 1] + bias[n, j, 1] + white * w1 + ar * a1
                         )
                         out_joints[b, m, k, j, 2] = (
-                            cam[n, j, 2] + bias[b, n, j, 2] + white * w2 + ar * a2
+                            cam[n, j, 2] + bias[n, j, 2] + white * w2 + ar * a2
                         )
                 # Wrist orientation: white + AR(1) rotation noise about the hand axes, scaled
                 # with the joint noise at the wrist's depth, then into the SDK wrist frame.
@@ -585,7 +542,7 @@ def _capture_frames(
                     (
                         truth_hand[b, m, 0], truth_hand[b, m, 1],
                         truth_hand[b, m, 2], truth_hand[b, m, 3],
-                    ) = qmul(qw_, qx_, qy_, qz_, sw, sx, sy, sz)  # fmt: skip
+                    ) = quat_mul(qw_, qx_, qy_, qz_, sw, sx, sy, sz)  # fmt: skip
                 if out_state[b, m, k, WRIST_RIGHT] == NOT_TRACKED:
                     out_hand[b, m, k] = np.nan
                     continue
@@ -593,21 +550,21 @@ def _capture_frames(
                 f_w = wrist_factor
                 if ref_std > 0:
                     f_w *= (noise_a + noise_b * d * d) / ref_std
-                burst = burst_rot if g == 0 else 0.0
+                burst = burst_rot if grp == 0 else 0.0
                 r0 = math.sqrt((f_w * hand_white_sd[0]) ** 2 + burst * burst) * w0
                 r1 = math.sqrt((f_w * hand_white_sd[1]) ** 2 + burst * burst) * w1
                 r2 = math.sqrt((f_w * hand_white_sd[2]) ** 2 + burst * burst) * w2
-                r0 += f_w * hand_ar_sd[0] * ar_hand[b, n, 0]
-                r1 += f_w * hand_ar_sd[1] * ar_hand[b, n, 1]
-                r2 += f_w * hand_ar_sd[2] * ar_hand[b, n, 2]
-                ew, ex_, ey_, ez_ = rotvec_quat(r0, r1, r2)
-                nw, nx, ny, nz = qmul(qw_, qx_, qy_, qz_, ew, ex_, ey_, ez_)
+                r0 += f_w * hand_ar_sd[0] * ar_hand[n, 0]
+                r1 += f_w * hand_ar_sd[1] * ar_hand[n, 1]
+                r2 += f_w * hand_ar_sd[2] * ar_hand[n, 2]
+                ew, ex_, ey_, ez_ = quat_from_rotvec(r0, r1, r2)
+                nw, nx, ny, nz = quat_mul(qw_, qx_, qy_, qz_, ew, ex_, ey_, ez_)
                 (
                     out_hand[b, m, k, 0], out_hand[b, m, k, 1],
                     out_hand[b, m, k, 2], out_hand[b, m, k, 3],
-                ) = qmul(nw, nx, ny, nz, sw, sx, sy, sz)  # fmt: skip
+                ) = quat_mul(nw, nx, ny, nz, sw, sx, sy, sz)  # fmt: skip
             truth_joints[b, m] = cam[0]
-        frame[b] += M
+        s["frame"] += M
 
 
 capture_frames = BatchKernel(_capture_frames)

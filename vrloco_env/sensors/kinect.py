@@ -103,6 +103,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.special import ndtr, ndtri
 
 from estimators.batching import stream_rows
+from estimators.kernels import param_record, state_records
 from estimators.rotations import (
     ensure_quaternion,
     matrix_to_quat,
@@ -115,7 +116,7 @@ from estimators.rotations import (
 )
 from vrloco_env.batch_rng import BatchRng
 from vrloco_env.sensors import _kinect_numba as _k
-from vrloco_env.skeleton import INFERRED, NOT_TRACKED, NUM_JOINTS, TRACKED, Joint
+from vrloco_env.skeleton import NOT_TRACKED, NUM_JOINTS, Joint
 
 __all__ = [
     "HAND_FROM_SDK_WRIST",
@@ -137,7 +138,7 @@ __all__ = [
 ]
 
 #: Bodies the Kinect v2 tracks at once (Microsoft Kinect for Windows v2 specification: six).
-MAX_BODIES = 6
+MAX_BODIES = _k.MAX_BODIES
 
 J = Joint
 
@@ -693,11 +694,8 @@ def standing_skeleton(
 # --------------------------------------------------------------------------------------------------
 # The sensor
 
-_IS_TORSO = np.zeros(NUM_JOINTS, dtype=bool)
-_IS_TORSO[list(TORSO_JOINTS)] = True
-_TORSO_INDEX = np.array(TORSO_JOINTS, dtype=np.int64)
 # Each joint's place in each burst limb (-1: not in it): the target's burst noise normals.
-_LIMB_INDEX = np.full((len(LIMB_GROUPS), NUM_JOINTS), -1, dtype=np.int64)
+_LIMB_INDEX = np.full((len(LIMB_GROUPS), NUM_JOINTS), -1.0)
 for _g, _members in enumerate(LIMB_GROUPS):
     _LIMB_INDEX[_g, list(_members)] = np.arange(len(_members))
 _ID_SCALE = float(2**53)
@@ -705,12 +703,10 @@ _BELOW_ONE = np.nextafter(1.0, 0.0)  # ndtr(z) rounds to 1.0 for z > 8.3; keep u
 # A bystander: the standing skeleton of height 1 m facing +x with its pelvis over the origin, and
 # its right hand's orientation (hand frame -> body frame). Joints scale with the height.
 _BYSTANDER_TEMPLATE, _BYSTANDER_HAND = standing_skeleton(np.zeros(3), 0.0, 1.0)
-if (
-    _k.NUM_JOINTS != NUM_JOINTS
-    or _k.WRIST_RIGHT != J.WRIST_RIGHT
-    or (_k.NOT_TRACKED, _k.INFERRED, _k.TRACKED) != (NOT_TRACKED, INFERRED, TRACKED)
-):  # pragma: no cover - the kernel's copies of the skeleton constants must match
-    raise ImportError("vrloco_env.sensors._kinect_numba disagrees with vrloco_env.skeleton")
+if (len(LIMB_GROUPS), len(TORSO_JOINTS)) != (_k.N_LIMB_GROUPS, _k.N_TORSO_JOINTS) or max(
+    map(len, LIMB_GROUPS)
+) > _k.MAX_LIMB_JOINTS:  # pragma: no cover - the kernel's table sizes must match
+    raise ImportError("vrloco_env.sensors._kinect_numba disagrees with the limb and torso tables")
 
 
 def _unique_ids(ids: NDArray[np.int64], fresh: NDArray[np.bool_]) -> NDArray[np.int64]:
@@ -772,53 +768,61 @@ class KinectV2:
         self._arma = _k.arma_parameters(spec.joint_noise_white_fraction, self._rho_joint)
         self._draws = _k.draw_size(self.n_bodies)  # normals per user and frame
         self._id_cols = _k.Z_BODIES + _k.BODY_DRAWS * np.arange(self.n_bodies) + _k.B_NEW_ID
-        self._params = self._pack_params()
-        p = spec.random_inferred_prob
-        self._inferred_z = np.array(
-            [_z_threshold(1.0 - (1.0 - p) ** k) for k in range(NUM_JOINTS + 1)]
-        )
-        self._joint_scale = np.asarray(spec.joint_noise_scale, dtype=np.float64)
-        self._hand_white_sd = np.radians(np.asarray(spec.hand_rot_white_std_deg, np.float64))
-        self._hand_ar_sd = np.radians(np.asarray(spec.hand_rot_ar_std_deg, np.float64))
-        q_cam = camera_quat(spec)
-        self._cam_quat = np.ascontiguousarray(q_cam)
-        self._cam_rot = np.ascontiguousarray(quat_to_matrix(q_cam))
-        self._cam_pos = np.asarray(spec.camera_position_m, dtype=np.float64)
+        self._prm = self._param_record()
+        self._geo = self._geometry()
 
-    def _pack_params(self) -> NDArray[np.float64]:
-        """The spec as the kernel's float64 vector (layout ``_kinect_numba.P_*``; SI units)."""
+    def _param_record(self) -> NDArray:
+        """The kernel's parameter record: the spec's numeric fields and the derived values the
+        kernel reads (SI units)."""
         s = self.spec
-        p = np.zeros(_k.N_PARAMS)
-        p[_k.P_TAN_H] = math.tan(math.radians(s.fov_deg[0]) / 2)
-        p[_k.P_TAN_V] = math.tan(math.radians(s.fov_deg[1]) / 2)
-        p[_k.P_NEAR], p[_k.P_FAR] = s.depth_range_m
-        p[_k.P_NOISE_A] = s.joint_noise_a_mm * 1e-3
-        p[_k.P_NOISE_B] = s.joint_noise_b_mm_per_m2 * 1e-3
-        p[_k.P_WHITE_FRAC] = s.joint_noise_white_fraction
-        p[_k.P_RHO_JOINT] = self._rho_joint
-        p[_k.P_RHO_HAND] = self._rho_hand
-        p[_k.P_ARMA_S], p[_k.P_ARMA_THETA] = self._arma
-        p[_k.P_INFERRED_FACTOR] = s.inferred_noise_factor
-        p[_k.P_REF_STD] = float(s.joint_noise_std_m(s.noise_ref_depth_m))
-        p[_k.P_BURST_POS] = s.burst_position_std_m
-        p[_k.P_BURST_ROT] = math.radians(s.burst_rotation_std_deg)
-        p[_k.P_TORSO_MARGIN] = s.torso_margin_m
-        p[_k.P_OCCLUSION_DEPTH] = s.occlusion_depth_m
-        p[_k.P_MIN_VISIBLE] = s.min_visible_fraction
-        p[_k.P_BURST_PROB] = s.burst_prob
-        p[_k.P_BURST_Z] = _z_threshold(s.burst_prob)
-        p[_k.P_INFERRED_PROB] = s.random_inferred_prob
-        p[_k.P_INFERRED_Q] = math.exp(-1.0 / s.random_inferred_frames)
-        p[_k.P_WALK_Z] = _z_threshold(1.0 - math.exp(-self._dt / s.bystander_dwell_s))
-        p[_k.P_DT] = self._dt
-        p[_k.P_BY_D0], p[_k.P_BY_D1] = s.bystander_distance_m
-        p[_k.P_BY_LATERAL] = s.bystander_lateral_m
-        p[_k.P_BY_V0], p[_k.P_BY_V1] = s.bystander_speed_mps
-        p[_k.P_CAM_COS] = math.cos(s.camera_yaw_rad)
-        p[_k.P_CAM_SIN] = math.sin(s.camera_yaw_rad)
-        p[_k.P_ACQUIRE] = s.acquire_frames
-        p[_k.P_BURST_MIN], p[_k.P_BURST_MAX] = s.burst_frames
-        return p
+        near, far = s.depth_range_m
+        (by_d0, by_d1), (by_v0, by_v1) = s.bystander_distance_m, s.bystander_speed_mps
+        burst_min, burst_max = s.burst_frames
+        return param_record(
+            s,
+            tan_h=math.tan(math.radians(s.fov_deg[0]) / 2),
+            tan_v=math.tan(math.radians(s.fov_deg[1]) / 2),
+            near=near, far=far,
+            noise_a=s.joint_noise_a_mm * 1e-3,  # m: joint noise std at depth z is a + b z^2
+            noise_b=s.joint_noise_b_mm_per_m2 * 1e-3,  # m / m^2
+            rho_joint=self._rho_joint,  # AR(1) coefficients per frame, joints and wrists
+            rho_hand=self._rho_hand,
+            arma_s=self._arma[0],  # the target's joint noise as ARMA(1, 1) (arma_parameters)
+            arma_theta=self._arma[1],
+            ref_std=float(s.joint_noise_std_m(s.noise_ref_depth_m)),  # m
+            burst_rot=math.radians(s.burst_rotation_std_deg),
+            burst_z=_z_threshold(s.burst_prob),
+            inferred_q=math.exp(-1.0 / s.random_inferred_frames),  # ratio of episode lengths
+            # a standing bystander starts walking when its normal lies below walk_z
+            walk_z=_z_threshold(1.0 - math.exp(-self._dt / s.bystander_dwell_s)),
+            dt=self._dt,
+            by_d0=by_d0, by_d1=by_d1, by_v0=by_v0, by_v1=by_v1,
+            cam_cos=math.cos(s.camera_yaw_rad), cam_sin=math.sin(s.camera_yaw_rad),
+            burst_min=burst_min, burst_max=burst_max,
+        )  # fmt: skip
+
+    def _geometry(self) -> NDArray:
+        """The kernel's record of the sensor's pose and the per-joint tables
+        (``_kinect_numba.GEOMETRY_FIELDS``)."""
+        s = self.spec
+        geo = state_records(_k.GEOMETRY_FIELDS, 1)
+        g = geo[0]
+        q_cam = camera_quat(s)
+        g["cam_rot"] = quat_to_matrix(q_cam)
+        g["cam_pos"] = s.camera_position_m
+        g["cam_quat"] = q_cam
+        g["sdk_from_hand"] = HAND_FROM_SDK_WRIST
+        g["by_template"] = _BYSTANDER_TEMPLATE
+        g["by_hand_quat"] = _BYSTANDER_HAND
+        g["joint_scale"] = s.joint_noise_scale
+        g["hand_white_sd"] = np.radians(np.asarray(s.hand_rot_white_std_deg, np.float64))
+        g["hand_ar_sd"] = np.radians(np.asarray(s.hand_rot_ar_std_deg, np.float64))
+        p = s.random_inferred_prob
+        g["inferred_z"] = [_z_threshold(1.0 - (1.0 - p) ** k) for k in range(NUM_JOINTS + 1)]
+        g["limb_index"] = _LIMB_INDEX
+        g["is_torso"][list(TORSO_JOINTS)] = 1.0
+        g["torso_joints"] = TORSO_JOINTS
+        return geo
 
     # ----------------------------------------------------------------------------------- session
 
@@ -840,9 +844,10 @@ class KinectV2:
         """
         s, B, N = self.spec, self.batch_size, self.n_bodies
         rows = stream_rows(users, B)
-        if not hasattr(self, "_slots"):
+        if not hasattr(self, "_state"):
             self._allocate()
         R, nb = rows.size, N - 1
+        st = self._state
         # One draw per reset user (uniforms are the normal CDF of the user's single stream).
         nj3 = NUM_JOINTS * 3
         sizes = (MAX_BODIES, N, N * nj3, nj3, nj3, N * 3, nb * 3, nb * 7)
@@ -850,45 +855,48 @@ class KinectV2:
         parts = np.split(z, np.cumsum(sizes)[:-1], axis=1)
         slot_u, id_u = ndtr(parts[0]), np.minimum(ndtr(parts[1]), _BELOW_ONE)
         # Slots: a random permutation of the 6 slots per user; body 0 (the target) takes the first.
-        self._slots[rows] = np.argsort(slot_u, axis=1)[:, :N]
-        self._ids[rows] = _unique_ids(self._new_ids(id_u), np.ones((R, N), dtype=bool))
-        self._acquired[rows] = int(s.acquire_frames)
-        self._prev_tracked[rows] = True
-        self._bias[rows] = s.joint_bias_std_m * parts[2].reshape(R, N, NUM_JOINTS, 3)
+        slots = np.argsort(slot_u, axis=1)[:, :N]
+        self._target_slot[rows] = slots[:, :1]
+        st["slot"][rows, :N] = slots
+        st["body_id"][rows, :N] = _unique_ids(self._new_ids(id_u), np.ones((R, N), dtype=bool))
+        st["acquired"][rows] = int(s.acquire_frames)
+        st["prev_tracked"][rows] = 1.0
+        st["bias"][rows, :N] = s.joint_bias_std_m * parts[2].reshape(R, N, NUM_JOINTS, 3)
         # Noise states, started stationary: the target's ARMA(1, 1) joint noise (y, e) with
         # var(y) = 1 and cov(y, e) = s; unit AR(1) states of every wrist and of the bystanders'
         # rigid joint noise.
         s_arma = self._arma[0]
-        self._joint_innov[rows] = parts[3].reshape(R, NUM_JOINTS, 3)
-        self._joint_noise[rows] = (
+        st["joint_innov"][rows] = parts[3].reshape(R, NUM_JOINTS, 3)
+        st["joint_noise"][rows] = (
             s_arma * parts[3] + math.sqrt(max(1.0 - s_arma**2, 0.0)) * parts[4]
         ).reshape(R, NUM_JOINTS, 3)
-        self._ar_hand[rows] = parts[5].reshape(R, N, 3)
-        self._ar_by[rows] = parts[6].reshape(R, nb, 3)
-        self._burst_left[rows] = 0
-        self._burst_group[rows] = 0
-        self._inferred_left[rows] = 0
-        self._frame[rows] = 0
+        st["ar_hand"][rows, :N] = parts[5].reshape(R, N, 3)
+        st["ar_by"][rows, :nb] = parts[6].reshape(R, nb, 3)
+        st["burst_left"][rows] = 0.0
+        st["burst_group"][rows] = 0.0
+        st["inferred_left"][rows] = 0.0
+        st["frame"][rows] = 0.0
         # Bystanders, in the sensor's floor frame (d along the axis, l to the sensor's left).
         u = np.minimum(ndtr(parts[7]), _BELOW_ONE).reshape(R, nb, 7)
         d0, d1 = s.bystander_distance_m
         local = np.stack(
             [d0 + (d1 - d0) * u[..., 0], s.bystander_lateral_m * (2 * u[..., 1] - 1)], axis=-1
         )
-        self._by_pos[rows] = self._floor_to_world(local)
+        st["by_pos"][rows, :nb] = self._floor_to_world(local)
         # Facing the sensor within +-30 deg (engineering choice: people near a screen face it).
-        self._by_yaw[rows] = s.camera_yaw_rad + math.pi + math.radians(30.0) * (2 * u[..., 2] - 1)
+        yaw = s.camera_yaw_rad + math.pi + math.radians(30.0) * (2 * u[..., 2] - 1)
+        st["by_yaw"][rows, :nb] = yaw
         h0, h1 = s.bystander_height_m
-        self._by_height[rows] = h0 + (h1 - h0) * u[..., 3]
+        st["by_height"][rows, :nb] = h0 + (h1 - h0) * u[..., 3]
         # Quiet-standing sway: 5-20 mm at 0.15-0.4 Hz, the amplitude and band of the body's sway
         # in quiet stance (Winter 1995, "Human balance and posture control during standing and
         # walking", Gait & Posture 3(4)); applied as a lateral shift of the whole skeleton.
-        self._by_sway_amp[rows] = 0.005 + 0.015 * u[..., 4]
-        self._by_sway_freq[rows] = 0.15 + 0.25 * u[..., 5]
-        self._by_sway_phase[rows] = 2 * math.pi * u[..., 6]
-        self._by_target[rows] = self._by_pos[rows]
-        self._by_speed[rows] = 0.0
-        self._by_moving[rows] = False
+        st["by_sway_amp"][rows, :nb] = 0.005 + 0.015 * u[..., 4]
+        st["by_sway_freq"][rows, :nb] = 0.15 + 0.25 * u[..., 5]
+        st["by_sway_phase"][rows, :nb] = 2 * math.pi * u[..., 6]
+        st["by_target"][rows] = st["by_pos"][rows]
+        st["by_speed"][rows] = 0.0
+        st["by_moving"][rows] = 0.0
         # Latency delay line, filled with empty frames: nothing delivered yet.
         empty = self._empty_slots(int(s.latency_frames))
         for k, v in self._delay.items():
@@ -896,32 +904,10 @@ class KinectV2:
         self._ready[rows] = True
 
     def _allocate(self) -> None:
-        """Create every per-user session array (B leading), before the first :meth:`reset`."""
-        B, N = self.batch_size, self.n_bodies
-        nb = N - 1
-        self._slots = np.zeros((B, N), dtype=np.int64)
-        self._ids = np.zeros((B, N), dtype=np.int64)
-        self._acquired = np.zeros((B, N), dtype=np.int64)
-        self._prev_tracked = np.zeros((B, N), dtype=bool)
-        self._bias = np.zeros((B, N, NUM_JOINTS, 3))
-        self._joint_noise = np.zeros((B, NUM_JOINTS, 3))  # the target's ARMA state y_{t-1}
-        self._joint_innov = np.zeros((B, NUM_JOINTS, 3))  # and its last innovation e_{t-1}
-        self._ar_hand = np.zeros((B, N, 3))  # every body's wrist orientation
-        self._ar_by = np.zeros((B, nb, 3))  # the bystanders' rigid joint noise
-        self._burst_left = np.zeros((B, N), dtype=np.int64)
-        self._burst_group = np.zeros((B, N), dtype=np.int64)
-        self._inferred_left = np.zeros((B, N, NUM_JOINTS), dtype=np.int64)
-        #: Frames captured per user since its reset: the clock of the bystanders' sway.
-        self._frame = np.zeros(B, dtype=np.int64)
-        self._by_pos = np.zeros((B, nb, 2))
-        self._by_yaw = np.zeros((B, nb))
-        self._by_height = np.zeros((B, nb))
-        self._by_sway_amp = np.zeros((B, nb))
-        self._by_sway_freq = np.zeros((B, nb))
-        self._by_sway_phase = np.zeros((B, nb))
-        self._by_target = np.zeros((B, nb, 2))
-        self._by_speed = np.zeros((B, nb))
-        self._by_moving = np.zeros((B, nb), dtype=bool)
+        """Create the per-user session records (``_kinect_numba.STATE_FIELDS``) and the delay
+        line, before the first :meth:`reset`."""
+        self._state = state_records(_k.STATE_FIELDS, self.batch_size)
+        self._target_slot = np.zeros((self.batch_size, 1), dtype=np.int64)
         self._delay = self._empty_slots(int(self.spec.latency_frames))
 
     def _new_ids(self, u: NDArray[np.float64]) -> NDArray[np.int64]:
@@ -1024,20 +1010,9 @@ class KinectV2:
         truth_joints = np.empty((B, M, NUM_JOINTS, 3))
         truth_hand = np.empty((B, M, 4))
         _k.capture_frames(B)(
-            jw, qw, z, new_ids,
-            self._params, self._inferred_z,
-            self._joint_scale, self._hand_white_sd, self._hand_ar_sd,
-            _LIMB_INDEX, _IS_TORSO, _TORSO_INDEX,
-            self._cam_rot, self._cam_pos, self._cam_quat, HAND_FROM_SDK_WRIST,
-            _BYSTANDER_TEMPLATE, _BYSTANDER_HAND,
-            self._slots, self._ids, self._acquired, self._prev_tracked, self._bias,
-            self._joint_noise, self._joint_innov, self._ar_hand, self._ar_by,
-            self._burst_left, self._burst_group, self._inferred_left, self._frame,
-            self._by_pos, self._by_yaw, self._by_height,
-            self._by_sway_amp, self._by_sway_freq, self._by_sway_phase,
-            self._by_target, self._by_speed, self._by_moving,
-            out["body_id"], out["body_tracked"], out["joints"], out["joint_state"],
-            out["hand_quat"], truth_joints, truth_hand,
+            jw, qw, z, new_ids, self._prm, self._geo, self._state,
+            (out["body_id"], out["body_tracked"], out["joints"], out["joint_state"],
+             out["hand_quat"], truth_joints, truth_hand),
         )  # fmt: skip
         L = int(self.spec.latency_frames)
         if L:
@@ -1045,7 +1020,7 @@ class KinectV2:
             out = {k: v[:, :M] for k, v in joined.items()}
             self._delay = {k: v[:, M:].copy() for k, v in joined.items()}
         truth = KinectTruth(
-            slot=self._slots[:, :1].repeat(M, 1),
+            slot=self._target_slot.repeat(M, 1),
             joints=truth_joints,
             hand_quat=truth_hand,
         )
