@@ -189,7 +189,8 @@ class GaitChunk:
         state: 0 still, 1 walk, per sample, (B, n) int8.
         steps: number of steps confirmed at each sample (0, 1, or 2 when the second step of a bout
             also releases the first), (B, n) int8.
-        peak_time: estimated heel-strike times (s since the detector started) of the steps
+        peak_time: estimated heel-strike times (s since the stream's last reset, or since the
+            detector started) of the steps
             confirmed at each sample, NaN-padded: ``[..., 0]`` the newest step, ``[..., 1]`` the
             released first step of a bout, (B, n, 2).
         sample_time: time (s since the detector started) of each sample of the chunk, (n,).
@@ -291,11 +292,11 @@ def walking(s, p, k):
 def _gait_run(norm, k0, prm, state, raw_buf, sm_buf, out):
     """Run the detector over a chunk ``norm`` (B, n) of specific-force norms (m/s^2).
 
-    Streams outside, samples inside. ``k0`` is the global index of the chunk's first sample
-    (sample k is at time k / fs); ``prm`` the (1,) parameter record (:class:`GaitParams`' fields,
-    ``fs``, ``base_n``, the baseline time constant in samples, 0: fixed gravity, and
-    ``latency``); ``state`` the (B,) records of :data:`GAIT_STATE` and the ring buffers
-    ``raw_buf`` (B, M) and ``sm_buf`` (B, 2h + 1), updated in place; ``out`` the chunk's
+    Streams outside, samples inside. ``k0`` (B,) is each stream's index of the chunk's first sample,
+    counted from the stream's reset (sample k is at time k / fs); ``prm`` the (1,) parameter record
+    (:class:`GaitParams`' fields, ``fs``, ``base_n``, the baseline time constant in samples, 0:
+    fixed gravity, and ``latency``); ``state`` the (B,) records of :data:`GAIT_STATE` and the ring
+    buffers ``raw_buf`` (B, M) and ``sm_buf`` (B, 2h + 1), updated in place; ``out`` the chunk's
     ``(state, steps, peak_time)`` arrays (B, n), (B, n), (B, n, 2), filled.
     """
     out_state, out_steps, out_peak_t = out
@@ -308,7 +309,7 @@ def _gait_run(norm, k0, prm, state, raw_buf, sm_buf, out):
         s = state[b]
         raw, sm = raw_buf[b], sm_buf[b]
         for i in range(n):
-            k = k0 + i
+            k = k0[b] + i
             x = norm[b, i]
             if not math.isfinite(x):
                 x = s["last_valid"] if math.isfinite(s["last_valid"]) else p["gravity"]
@@ -377,6 +378,7 @@ class StepDetector:
         """Delay (s) from a heel strike to the sample that confirms its step."""
         self.samples_seen = 0
         b = self.batch_size
+        self._clock = np.zeros(b, np.int64)  # samples since each stream's reset
         self._prm = param_record(self.params, fs=fs, latency=self.latency,
                                  base_n=self.params.baseline_tau * fs)  # fmt: skip
         self._raw = np.zeros((b, self.m))
@@ -397,7 +399,8 @@ class StepDetector:
     def reset(self, mask: ArrayLike | None = None) -> None:
         """Forget the past of all streams, or of those where ``mask`` (B,) bool is True.
 
-        The clock keeps running: reported times stay on the detector's clock.
+        Their clocks restart: a reset stream's peak times count from its reset, so a stream
+        reset mid-run reports what a new detector would.
         """
         if mask is None:
             sel = np.ones(self.batch_size, dtype=bool)
@@ -415,6 +418,7 @@ class StepDetector:
         st["last_peak"][sel] = -np.inf
         st["pending"][sel] = np.nan
         st["last_step"][sel] = -np.inf
+        self._clock[sel] = 0
 
     def update(self, acc: ArrayLike) -> GaitChunk:
         """Process accelerometer samples (specific force, m/s^2, any sensor frame).
@@ -451,10 +455,11 @@ class StepDetector:
         b = self.batch_size
         n = x.shape[1]
         out = (np.zeros((b, n), np.int8), np.zeros((b, n), np.int8), np.full((b, n, 2), np.nan))
-        _gait_kernel(b)(x, self.samples_seen, self._prm, self._state, self._raw, self._sm, out)
+        _gait_kernel(b)(x, self._clock, self._prm, self._state, self._raw, self._sm, out)
         state, steps, peak_t = out
         t = (self.samples_seen + np.arange(n)) / self.fs
         self.samples_seen += n
+        self._clock += n
         return GaitChunk(state=state, steps=steps, peak_time=peak_t, sample_time=t)
 
 
@@ -686,8 +691,8 @@ class Seed000Steps:
         return self.detector.samples_seen
 
     def reset(self, rows: ArrayLike | None = None) -> None:
-        """Forget the streams ``rows`` (indices, a (B,) bool mask, or None: all); the clock keeps
-        running."""
+        """Forget the streams ``rows`` (indices, a (B,) bool mask, or None: all); their clocks
+        restart (see :meth:`StepDetector.reset`)."""
         mask = np.zeros(self.batch_size, dtype=bool)
         mask[stream_rows(rows, self.batch_size, "rows")] = True
         self.detector.reset(mask)

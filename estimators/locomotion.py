@@ -230,7 +230,7 @@ class SmoothLocomotion:
         wd = 2.0 * math.pi * self.params.distance_bandwidth_hz
         wh = 2.0 * math.pi * self.params.heading_bandwidth_hz
         self._q_dist, self._q_head = wd**4, wh**4  # process noise densities (r = 1)
-        self._time = 0.0
+        self._time = np.zeros(b)  # s since each user's reset: an episode's own clock
         self._pos = np.zeros((b, 2))
         self._s = np.zeros(b)  # filtered distance (m)
         self._v = np.zeros(b)  # filtered speed (m/s)
@@ -289,6 +289,7 @@ class SmoothLocomotion:
         self._ps[sel] = 0.0
         self._ph[sel] = 0.0
         self._last_event[sel] = -np.inf
+        self._time[sel] = 0.0
         if heading is None:
             self._psi[sel] = 0.0
             self._head_init[sel] = False

@@ -142,12 +142,13 @@ MAX_RING = 17
 #: ``cum`` and the ring of its last events' times ``ring_t`` (s) and counts ``ring_c`` (its first
 #: ``cadence_window + 1`` entries; ``ring_len`` used, newest at ``ring_head``); the path:
 #: ``bearing`` of the last event and last ``yaw`` (rad; ``yaw_known`` 0 / 1), position ``pos``
-#: (m), distance ``dist`` (m) and the ``speed`` at the end of the last update (m/s).
+#: (m), distance ``dist`` (m) and the ``speed`` at the end of the last update (m/s); ``clock``:
+#: the time since the reset (s).
 CADENCE_SPEED_STATE = {
     "v0": (), "a0": (), "target": (), "elapsed": (), "active": (), "interval": (),
     "last_event": (), "cum": (), "ring_t": (MAX_RING,), "ring_c": (MAX_RING,), "ring_len": (),
     "ring_head": (), "bearing": (), "yaw": (), "yaw_known": (), "pos": (2,), "dist": (),
-    "speed": (),
+    "speed": (), "clock": (),
 }  # fmt: skip
 
 
@@ -175,8 +176,9 @@ def _hermite_area(v0: float, a0t: float, w: float, s: float) -> float:
     )
 
 
-def _cadence_speed_run(steps, yaw, bearing, step_length, dt, time, prm, state):
-    """One update of ``dt`` s (the interval starts at ``time``) for B users: ``steps``, ``yaw``,
+def _cadence_speed_run(steps, yaw, bearing, step_length, dt, prm, state):
+    """One update of ``dt`` s for B users (user i's interval starts at its own ``clock``, the time
+    since its reset): ``steps``, ``yaw``,
     ``bearing`` and ``step_length`` (B,) as :meth:`CadenceSpeed.update` takes them, ``prm`` the
     (1,) record of :class:`CadenceSpeedParams`, ``state`` the (B,) records of
     :data:`CADENCE_SPEED_STATE`, updated in place."""
@@ -186,6 +188,7 @@ def _cadence_speed_run(steps, yaw, bearing, step_length, dt, time, prm, state):
     for i in numba.prange(steps.shape[0]):
         s = state[i]
         n = steps[i]
+        time = s["clock"]
         v0, a0t, target = s["v0"], s["a0"] * ramp_time, s["target"]
         elapsed, interval = s["elapsed"], s["interval"]
         active = s["active"] != 0.0
@@ -247,6 +250,7 @@ def _cadence_speed_run(steps, yaw, bearing, step_length, dt, time, prm, state):
         s["elapsed"], s["interval"], s["yaw"] = elapsed, interval, y1
         s["active"] = 1.0 if active else 0.0
         s["yaw_known"] = 1.0
+        s["clock"] = time + dt
 
 
 #: The compiled update: ``cadence_kernel(batch_size)(...)`` (see ``_cadence_speed_run``).
@@ -285,7 +289,6 @@ class CadenceSpeed:
             )
         b = self.batch_size = int(batch_size)
         self.step_length = _check_step_length(step_length, (b,))
-        self._time = 0.0
         self._prm = param_record(self.params)
         self._state = state_records(CADENCE_SPEED_STATE, b)
         self.reset(position=position, heading=heading)
@@ -362,7 +365,6 @@ class CadenceSpeed:
         st, y, dtf, br = check_update_inputs(steps, yaw, dt, bearing, self.batch_size)
         cadence_kernel(self.batch_size)(
             np.ascontiguousarray(st), np.ascontiguousarray(y), np.ascontiguousarray(br),
-            self.step_length, dtf, self._time, self._prm, self._state,
+            self.step_length, dtf, self._prm, self._state,
         )  # fmt: skip
-        self._time += dtf
         return self._state["pos"].copy()

@@ -19,8 +19,9 @@ Protocols (each a :class:`typing.Protocol`, checked structurally):
 * :class:`AttitudeStage` — ``update(gyr, acc, mag) -> quat`` (B, N, 4) ``[w, x, y, z]``, sensor
   -> ENU world, after each of the step's N IMU samples. ``mag`` may be None.
 * :class:`StepStage` — ``update(acc, gyr, quat) -> GaitChunk``: still/walk per sample, steps
-  confirmed per sample and their estimated heel-strike times on the detector's clock (sample k
-  of the stream is at ``k / fs`` s; ``samples_seen`` counts the samples consumed). ``quat`` is
+  confirmed per sample and their estimated heel-strike times on the stream's own clock: sample k
+  after the stream's last ``reset`` (or the start) is at ``k / fs`` s, so that a user reset
+  mid-run gets the numbers a new detector would give. ``quat`` is
   the attitude stage's output for the same samples (a detector may ignore it). An optional
   ``report_delay_s`` gives the longest delay from a heel strike to its report (the step-matching
   window of the benchmark; ``latency`` or 0 if absent).
@@ -88,10 +89,8 @@ class AttitudeStage(Protocol):
 class StepStage(Protocol):
     """Still/walk and step events from IMU samples (B streams)."""
 
-    samples_seen: int
-
     def reset(self, rows: ArrayLike | None = None) -> None:
-        """Forget the users ``rows``; the clock keeps running."""
+        """Forget the users ``rows``; their clocks restart at 0."""
         ...
 
     def update(

@@ -162,15 +162,15 @@ NOD_ROBUST_STATE = {
 def _nod_robust_run(acc, gyr, quat, k0, prm, state, v_buf, sm_buf, rot_buf, w_buf, out):
     """Run the detector over a chunk of n samples of B streams.
 
-    Inputs (B, n, 3) specific force (m/s^2), (B, n, 3) gyro (rad/s), (B, n, 4) attitude
-    ``[w, x, y, z]`` sensor -> world; ``k0`` the global index of the chunk's first sample (sample
-    k is at time k / fs s); ``prm`` the (1,) parameter record (:class:`NodRobustParams`' fields,
-    ``fs``, ``base_n``, the baseline time constant in samples, 0: fixed gravity, and
-    ``latency``). State, updated in place: the (B,) records of :data:`NOD_ROBUST_STATE` and ring
-    buffers of the vertical specific force ``v_buf`` (B, M), its mean ``sm_buf`` (B, 2h + 1),
-    the rotation bound ``rot_buf`` (B, 2h + 1) and the world angular rate ``w_buf`` (B, M + 1, 3),
-    all indexed by the sample's global index modulo their length. ``out``: the chunk's
-    ``(state, steps, peak_time)`` arrays (B, n), (B, n), (B, n, 2), filled.
+    Inputs (B, n, 3) specific force (m/s^2), (B, n, 3) gyro (rad/s), (B, n, 4) attitude ``[w, x, y,
+    z]`` sensor -> world; ``k0`` (B,) each stream's index of the chunk's first sample, counted from
+    the stream's reset (sample k is at time k / fs s); ``prm`` the (1,) parameter record
+    (:class:`NodRobustParams`' fields, ``fs``, ``base_n``, the baseline time constant in samples, 0:
+    fixed gravity, and ``latency``). State, updated in place: the (B,) records of
+    :data:`NOD_ROBUST_STATE` and ring buffers of the vertical specific force ``v_buf`` (B, M), its
+    mean ``sm_buf`` (B, 2h + 1), the rotation bound ``rot_buf`` (B, 2h + 1) and the world angular
+    rate ``w_buf`` (B, M + 1, 3), all indexed by the sample's index modulo their length. ``out``:
+    the chunk's ``(state, steps, peak_time)`` arrays (B, n), (B, n), (B, n, 2), filled.
     """
     out_state, out_steps, out_peak_t = out
     p = prm[0]
@@ -184,7 +184,7 @@ def _nod_robust_run(acc, gyr, quat, k0, prm, state, v_buf, sm_buf, rot_buf, w_bu
         s = state[b]
         sm, rot, wb = sm_buf[b], rot_buf[b], w_buf[b]
         for i in range(n):
-            k = k0 + i
+            k = k0[b] + i
             qw, qx, qy, qz = quat[b, i, 0], quat[b, i, 1], quat[b, i, 2], quat[b, i, 3]
             qn = math.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
             q_ok = math.isfinite(qn) and qn > 0.0
@@ -281,6 +281,7 @@ class NodRobustSteps:
                                  base_n=p.baseline_tau * self.fs)  # fmt: skip
         self.samples_seen = 0
         b, w = self.batch_size, 2 * self.h + 1
+        self._clock = np.zeros(b, np.int64)  # samples since each stream's reset
         self._v = np.zeros((b, self.m))
         self._sm = np.zeros((b, w))
         self._rot = np.zeros((b, w))
@@ -289,9 +290,10 @@ class NodRobustSteps:
         self.reset()
 
     def reset(self, rows: ArrayLike | None = None) -> None:
-        """Forget the streams ``rows`` (indices, a (B,) bool mask, or None: all); the clock keeps
-        running."""
+        """Forget the streams ``rows`` (indices, a (B,) bool mask, or None: all); their clocks
+        restart, so their peak times count from the reset."""
         sel = stream_rows(rows, self.batch_size, "rows")
+        self._clock[sel] = 0
         st = self._state
         st["last_v"][sel] = np.nan
         st["baseline"][sel] = self.params.gravity
@@ -307,9 +309,10 @@ class NodRobustSteps:
         a, g, q = check_chunk(acc, gyr, quat, self.batch_size, "NodRobustSteps")
         n = a.shape[1]
         out = empty_chunk(self.batch_size, n)
-        nod_robust_kernel(self.batch_size)(a, g, q, self.samples_seen, self._prm, self._state,
+        nod_robust_kernel(self.batch_size)(a, g, q, self._clock, self._prm, self._state,
                                            self._v, self._sm, self._rot, self._w, out)  # fmt: skip
         state, steps, peak_t = out
         t = (self.samples_seen + np.arange(n)) / self.fs
         self.samples_seen += n
+        self._clock += n
         return GaitChunk(state=state, steps=steps, peak_time=peak_t, sample_time=t)

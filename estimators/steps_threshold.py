@@ -94,7 +94,8 @@ THRESHOLD_STATE = {"prev2": (), "prev1": (), "last_step": (), "n_seen": ()}
 def _threshold_run(acc, k0, prm, state, out):
     """Run the peak picker over a chunk ``acc`` (B, n, 3) of specific force (m/s^2).
 
-    ``k0`` is the global index of the chunk's first sample (sample k is at time k / fs s);
+    ``k0`` (B,) is each stream's index of the chunk's first sample, counted from the stream's
+    reset (sample k is at time k / fs s);
     ``prm`` the (1,) parameter record (:class:`ThresholdParams`' fields, ``fs`` and ``level`` =
     gravity + threshold); ``state`` the (B,) records of :data:`THRESHOLD_STATE`, updated in place;
     ``out`` the chunk's ``(state, steps, peak_time)`` arrays (B, n), (B, n), (B, n, 2), filled
@@ -107,7 +108,7 @@ def _threshold_run(acc, k0, prm, state, out):
         s = state[b]
         x2, x1, last, seen = s["prev2"], s["prev1"], s["last_step"], s["n_seen"]
         for i in range(n):
-            k = k0 + i
+            k = k0[b] + i
             x = math.sqrt(acc[b, i, 0] ** 2 + acc[b, i, 1] ** 2 + acc[b, i, 2] ** 2)
             if not math.isfinite(x):
                 x = x1 if seen > 0 else p["gravity"]
@@ -201,13 +202,15 @@ class ThresholdSteps:
         self.report_delay_s = self.latency  # every peak is reported one sample after it
         """Delay (s) from a peak to the sample that confirms its step."""
         self.samples_seen = 0
+        self._clock = np.zeros(self.batch_size, np.int64)  # samples since each stream's reset
         self._state = state_records(THRESHOLD_STATE, self.batch_size)
         self.reset()
 
     def reset(self, rows: ArrayLike | None = None) -> None:
-        """Forget the streams ``rows`` (indices, a (B,) bool mask, or None: all); the clock keeps
-        running."""
+        """Forget the streams ``rows`` (indices, a (B,) bool mask, or None: all); their clocks
+        restart, so their peak times count from the reset."""
         sel = stream_rows(rows, self.batch_size, "rows")
+        self._clock[sel] = 0
         st = self._state
         st["prev2"][sel] = self.params.gravity
         st["prev1"][sel] = self.params.gravity
@@ -220,8 +223,9 @@ class ThresholdSteps:
         a, _, _ = check_chunk(acc, gyr, quat, self.batch_size, "ThresholdSteps")
         n = a.shape[1]
         out = empty_chunk(self.batch_size, n)
-        threshold_kernel(self.batch_size)(a, self.samples_seen, self._prm, self._state, out)
+        threshold_kernel(self.batch_size)(a, self._clock, self._prm, self._state, out)
         state, steps, peak_t = out
         t = (self.samples_seen + np.arange(n)) / self.fs
         self.samples_seen += n
+        self._clock += n
         return GaitChunk(state=state, steps=steps, peak_time=peak_t, sample_time=t)

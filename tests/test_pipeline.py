@@ -246,3 +246,31 @@ def test_torso_steering_walks_straight_while_the_head_looks_around():
     assert headings["seed000"] > 15.0
     # ... while the torso keeps facing the start heading.
     assert headings["torso_steering"] < 5.0
+
+
+def _walking_episode(env, seed: int, steps: int = 80) -> list:
+    """Observations, rewards and every info value of ``steps`` steps of a walking user."""
+    obs, _ = env.reset(seed=seed)
+    out = [obs]
+    rng = np.random.default_rng(seed)
+    for _ in range(steps):
+        action = rng.uniform(-1.0, 1.0, 5).astype(np.float32)
+        action[0] = 1.0  # walking: steps, movement, the locomotion stage's filters
+        obs, reward, terminated, truncated, info = env.step(action)
+        out += [obs, reward, *(info[k] for k in sorted(info))]
+        if terminated or truncated:
+            break
+    return out
+
+
+@pytest.mark.parametrize("name", sorted(TECHNIQUES))
+def test_an_env_used_before_replays_a_seed_bit_for_bit(name):
+    """No stage carries anything from one episode into the next: the env's second episode is
+    what a new env gives for that seed, every observation and info value to the bit."""
+    used = gym.make("VRLoco-Interact-v0", technique=name)
+    _walking_episode(used, 3)
+    again = _walking_episode(used, 4)
+    fresh = _walking_episode(gym.make("VRLoco-Interact-v0", technique=name), 4)
+    assert len(again) == len(fresh)
+    for k, (a, b) in enumerate(zip(again, fresh, strict=True)):
+        np.testing.assert_array_equal(a, b, err_msg=f"value {k}")

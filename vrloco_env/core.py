@@ -66,8 +66,6 @@ class _Episode:
     walked: NDArray[np.float64]  # path length of the virtual body (m)
     distance: NDArray[np.float64]  # to the goal region (m)
     shortest: NDArray[np.float64]  # shortest path length (m), for SPL
-    start_time: NDArray[np.float64]  # batch time at reset (s)
-    detector_start: NDArray[np.float64]  # step detector's clock at reset, less one sample (s)
     virtual_yaw: NDArray[np.float64]
     done: NDArray[np.bool_] = field(default=None)  # type: ignore[assignment]
 
@@ -82,8 +80,6 @@ class _Episode:
             walked=z.copy(),
             distance=z.copy(),
             shortest=z.copy(),
-            start_time=z.copy(),
-            detector_start=z.copy(),
             virtual_yaw=z.copy(),
             done=np.zeros(b, bool),
         )
@@ -152,7 +148,6 @@ class LocoCore:
         self.step_report_delay_s = float(
             getattr(steps, "report_delay_s", getattr(steps, "latency", 0.0))
         )
-        self.batch_time = 0.0
 
     # ------------------------------------------------------------------------------ reset
     def reset(
@@ -180,8 +175,6 @@ class LocoCore:
             self.ep.shortest[i] = layout.shortest_path_length
         if self.rooms is None:
             self.rooms = RoomBatch(self.layouts)  # type: ignore[arg-type]
-        if rows.size == b:
-            self.batch_time = 0.0  # a full reset restarts the motion model's clock too
         self.users.reset(
             None if rows.size == b else rows, start_yaw=start[:, 2], start_xy=start[:, :2]
         )
@@ -194,8 +187,6 @@ class LocoCore:
         ep.walked[rows] = 0.0
         ep.done[rows] = False
         self.task.reset(rows)
-        ep.start_time[rows] = self.batch_time
-        ep.detector_start[rows] = (self.users.gait.samples_seen - 1) / self.users.imu_rate_hz
         ep.distance[rows] = self.task.goal_distance(ep.position)[rows]
         self.last_rays[rows] = self._rays(rows)
         return self.observe(reset_rows=rows)
@@ -217,7 +208,6 @@ class LocoCore:
         a = check_actions(actions, self.batch_size)
         us = self.users.step(action_to_intent(a, self.users.motion_params), validated=True)
         self.last = us
-        self.batch_time += self.dt
         ep, cfg, rw = self.ep, self.config, self.reward
 
         # Move the virtual body unless the swept avatar would touch the room.
@@ -293,10 +283,13 @@ class LocoCore:
         hand_err = hand_error(us.hand_est, us.hand_true)
         # Heel-strike times in episode time, padded with +inf to a fixed width (an array of one
         # shape stacks in any vector env, and inf == inf where gymnasium's checker compares
-        # infos): the motion clock and the detector's clock count from their own origins; each
-        # user's offsets were stored at its reset.
-        true_times = us.motion.step_time - ep.start_time[:, None]
-        detected_times = us.step_peak_time - ep.detector_start[:, None]
+        # infos). Both come from each user's own clock, so a user reset mid-run reports what a
+        # new env would: the motion's offsets within this control step after the episode's
+        # completed steps, and the detector's times since its reset, whose sample 0 is the
+        # first IMU sample of the episode, one sample period after its start.
+        started = (ep.elapsed - 1)[:, None] / self.users.motion_params.control_rate_hz
+        true_times = started + us.motion.step_offset
+        detected_times = us.step_peak_time + 1.0 / self.users.imu_rate_hz
         for times in (true_times, detected_times):
             np.copyto(times, np.inf, where=np.isnan(times))
         return {

@@ -216,6 +216,8 @@ class MotionChunk:
             the head-on-torso yaw of the gestures (looking around), :attr:`head_on_torso_yaw`.
         step: a heel strike happened in this sample's interval, (B, N) bool.
         step_time: time (s) of that heel strike, NaN where none, (B, N).
+        step_offset: the same heel strikes as time (s) after the start of this control step,
+            NaN where none, (B, N): independent of how long the model has run.
         walking: the user is mid-step at this sample, (B, N) bool.
         kinect: skeleton frames that fall in this control step.
     """
@@ -229,6 +231,7 @@ class MotionChunk:
     body_yaw: NDArray[np.float64]
     step: NDArray[np.bool_]
     step_time: NDArray[np.float64]
+    step_offset: NDArray[np.float64]
     walking: NDArray[np.bool_]
     kinect: KinectChunk
 
@@ -458,9 +461,9 @@ class UserMotion:
         k_now = np.floor(phase - 0.5)
         step = k_now > np.floor(ph_prev - 0.5)
         if step.any():
-            step_time = self._heel_strike_times(s, cmd, ev_all["t_boundary"], k_now, step, t0)
+            step_offset = self._heel_strike_offsets(s, cmd, ev_all["t_boundary"], k_now, step)
         else:
-            step_time = np.full(step.shape, np.nan)
+            step_offset = np.full(step.shape, np.nan)
 
         # Kinect frames falling in (t, t + dt_ctrl].
         kin = self._skeleton(s, cmd, frames, tau_k, t_k)
@@ -494,7 +497,8 @@ class UserMotion:
             ypr=head_ypr,
             body_yaw=ev_all["yaw"][:, samples],
             step=step,
-            step_time=step_time,
+            step_time=t0 + step_offset,
+            step_offset=step_offset,
             walking=ev_all["walking"][:, samples],
             kinect=kin,
         )
@@ -552,8 +556,9 @@ class UserMotion:
             self._grids[key] = times
         return tau_k, t_k, times
 
-    def _heel_strike_times(self, s, cmd, t_b_all, k_now, step, t0) -> NDArray[np.float64]:
-        """Exact heel-strike times for the samples flagged in ``step`` (NaN elsewhere)."""
+    def _heel_strike_offsets(self, s, cmd, t_b_all, k_now, step) -> NDArray[np.float64]:
+        """Exact heel-strike times after the control step's start, for the samples flagged in
+        ``step`` (NaN elsewhere)."""
         t_b = t_b_all[:, None]
         target = k_now + 0.5  # the phase value crossed
         c_old = s.step_cadence[:, None]
@@ -564,7 +569,7 @@ class UserMotion:
             t_old = (target - ph0) / c_old
             t_new = t_b + (target - ph0 - to_boundary) / c_new
         tau = np.where((c_old > 0) & (target <= ph0 + to_boundary), t_old, t_new)
-        return np.where(step, t0 + tau, np.nan)
+        return np.where(step, tau, np.nan)
 
     def _hand_ypr(self, s: _State, cmd: dict, tau: NDArray[np.float64]) -> NDArray[np.float64]:
         lim = self._hand_limits
