@@ -37,12 +37,22 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
-from agents.metrics import EpisodeRecorder, EpisodeStats, summarize
+from agents.metrics import (
+    STEP_KEYS,
+    TRACE_KEYS,
+    EpisodeRecorder,
+    EpisodeStats,
+    episode_stats,
+    summarize,
+)
 from agents.policies import build_policy, check_policy
+from agents.scripted import is_batched
 from vrloco_env.tasks import env_id, get_task
 
 __all__ = [
+    "DEFAULT_BATCH_SIZE",
     "DEFAULT_EPISODES",
     "DEFAULT_POLICIES",
     "DEFAULT_SENSORS",
@@ -51,6 +61,7 @@ __all__ = [
     "ROW_KEYS",
     "Cell",
     "run_benchmark",
+    "run_cell_batched",
     "run_cell_episode",
     "run_episode",
     "step_window",
@@ -61,6 +72,8 @@ DEFAULT_POLICIES = ("goal_seeker", "goal_seeker+human", "avoid_manoeuvre")
 DEFAULT_SENSORS = ("ig500n", "consumer_mems")
 DEFAULT_TECHNIQUES = ("seed000", "seed000_consumer")
 DEFAULT_EPISODES = 40
+#: Users per vector env in the batched runner (:func:`run_cell_batched`).
+DEFAULT_BATCH_SIZE = 20
 
 #: Keys of every row of the CSV/JSON output, in order.
 ROW_KEYS = (
@@ -191,9 +204,119 @@ def run_cell_episode(cell: Cell, seed: int, trace: bool = False) -> tuple[Episod
     return run_episode(env, build_policy(cell.policy, env), seed, trace)
 
 
-def _job(args: tuple[Cell, int, int, bool]) -> tuple[Cell, int, EpisodeStats, dict]:
-    cell, index, seed, trace = args
-    return cell, index, *run_cell_episode(cell, seed, trace)
+def run_cell_batched(
+    cell: Cell, seeds: Sequence[int], trace: Sequence[bool] | None = None, batch_size: int = 32
+) -> list[tuple[EpisodeStats, dict]]:
+    """Episodes ``seeds`` of ``cell`` as one batch of users in the native vector env.
+
+    ``min(batch_size, len(seeds))`` users start with the first seeds; a user whose episode ends
+    is reset with the next seed of the cell, or, when none is left, idles until the batch is
+    done. Each episode gives exactly the numbers of :func:`run_cell_episode` with its seed: the
+    users of a batch are independent, the env and the policy are seeded per user as the single
+    env is, and the stats come from the same ``info`` values. A policy that does not take
+    batches (:func:`agents.scripted.is_batched`) plays the episodes one at a time instead.
+
+    Args:
+        cell: the task, policy and technique.
+        seeds: one seed per episode.
+        trace: per episode, whether to keep its per-step traces for the figures (None: none).
+        batch_size: users stepped together (>= 1).
+
+    Returns:
+        ``(stats, reset_info)`` per episode, in the order of ``seeds``.
+    """
+    from gymnasium.vector import AutoresetMode
+
+    import vrloco_env  # noqa: F401  (registers the tasks)
+    from vrloco_env.vector import VRLocoVectorEnv
+
+    seeds = [int(s) for s in seeds]
+    trace = [False] * len(seeds) if trace is None else [bool(t) for t in trace]
+    if len(trace) != len(seeds):
+        raise ValueError(f"trace must hold one flag per seed ({len(seeds)}), got {len(trace)}")
+    if isinstance(batch_size, bool) or not isinstance(batch_size, int) or batch_size < 1:
+        raise ValueError(f"batch_size must be an integer >= 1, got {batch_size!r}")
+    if not seeds:
+        return []
+    n = min(batch_size, len(seeds))
+    env = VRLocoVectorEnv(n, task=cell.task, technique=cell.technique,
+                          autoreset_mode=AutoresetMode.DISABLED)  # fmt: skip
+    try:
+        policy = build_policy(cell.policy, env)
+        if is_batched(policy):
+            return _play_batch(env, policy, seeds, trace)
+    finally:
+        env.close()
+    # a policy written for the single env: its episodes one at a time
+    return [run_cell_episode(cell, s, t) for s, t in zip(seeds, trace, strict=True)]
+
+
+def _play_batch(env: Any, policy: Any, seeds: list[int], trace: list[bool]) -> list:
+    """The loop of :func:`run_cell_batched` (``env`` with autoreset disabled)."""
+    n = env.num_envs
+    job = np.arange(n)  # the episode each user plays (-1: idle)
+    next_job = n
+    obs, reset_info = env.reset(seed=[seeds[j] for j in job])
+    policy.reset([np.random.default_rng([seeds[j], 1]) for j in job], None)
+    steps: list[dict[str, NDArray]] = []  # per control step: the info arrays of all users
+    first = np.zeros(n, np.intp)  # the step index each user's episode started at
+    start_info = [_row_info(reset_info, i) for i in range(n)]
+    done_eps: dict[int, tuple[EpisodeStats, dict]] = {}
+    keys = (*STEP_KEYS, *(k for k in TRACE_KEYS if k not in STEP_KEYS))
+    while next_job < len(seeds) or (job >= 0).any():
+        obs, _, terminated, truncated, info = env.step(policy.act(obs))
+        steps.append({k: np.array(info[k], copy=True) for k in keys})
+        ended = np.flatnonzero((terminated | truncated) & (job >= 0))
+        if ended.size == 0:
+            continue
+        for i in ended:  # once per episode: slice the user's rows out of the stacked steps
+            j = int(job[i])
+            rows = steps[first[i]:]
+            per_step = {k: np.stack([s[k][i] for s in rows]) for k in keys}
+            last = {k: info[k][i] for k in ("is_success", "collisions", "elapsed_time", "walked")}
+            tr = {k: per_step[k] for k in TRACE_KEYS} if trace[j] else None
+            stats = episode_stats(seeds[j], start_info[i]["shortest_path"], per_step, last, tr,
+                                  start_info[i]["position"])  # fmt: skip
+            if stats.trace is not None:
+                stats.trace["layout"] = env.core.layouts[i]
+            done_eps[j] = (stats, start_info[i])
+        refill = ended[: max(0, len(seeds) - next_job)]
+        job[ended] = -1
+        if refill.size:
+            job[refill] = np.arange(next_job, next_job + refill.size)
+            next_job += refill.size
+            mask = np.zeros(n, bool)
+            mask[refill] = True
+            new_seeds = [seeds[job[i]] if mask[i] else None for i in range(n)]
+            obs, reset_info = env.reset(seed=new_seeds, options={"reset_mask": mask})
+            policy.reset([np.random.default_rng([seeds[job[i]], 1]) for i in refill], refill)
+            for i in refill:
+                first[i] = len(steps)
+                start_info[i] = _row_info(reset_info, i)
+        if not (job >= 0).any():
+            break
+        if first[job >= 0].min() > 0:  # forget the steps no running episode needs
+            drop = int(first[job >= 0].min())
+            del steps[:drop]
+            first -= drop
+    return [done_eps[j] for j in range(len(seeds))]
+
+
+def _row_info(reset_info: dict, i: int) -> dict:
+    """User ``i``'s reset info as the single env gives it (scalars and (3,) arrays)."""
+    return {k: (v[i] if np.ndim(v[i]) else v[i].item()) for k, v in reset_info.items()}
+
+
+def _job(args: tuple[Cell, list[int], list[int], list[bool], int]) -> list[tuple]:
+    """Episodes ``indices`` (seeds ``seeds``) of a cell: batched in the vector env, or one at a
+    time in the single env for ``batch_size`` 0. Returns ``(cell, index, stats, reset_info)``
+    per episode."""
+    cell, indices, seeds, trace, batch_size = args
+    if batch_size == 0:
+        done = [run_cell_episode(cell, s, t) for s, t in zip(seeds, trace, strict=True)]
+    else:
+        done = run_cell_batched(cell, seeds, trace, batch_size)
+    return [(cell, i, *d) for i, d in zip(indices, done, strict=True)]
 
 
 # --------------------------------------------------------------------------- the grid
@@ -211,6 +334,7 @@ def run_benchmark(
     progress: bool = True,
     print_table: bool = True,
     techniques: Sequence[Any] | None = None,
+    batch_size: int = DEFAULT_BATCH_SIZE,
 ) -> list[dict[str, Any]]:
     """Run the grid and write the outputs.
 
@@ -225,6 +349,9 @@ def run_benchmark(
         episodes: episodes per cell (>= 1).
         seed: episode ``i`` is seeded ``seed + i``.
         workers: worker processes (>= 1; 1 runs in this process).
+        batch_size: users stepped together in the native vector env (>= 1), each job a cell's
+            batch of seeds (:func:`run_cell_batched`); 0 runs every episode alone in a single env
+            (:func:`run_cell_episode`). The results are the same either way.
         out_dir: folder for ``benchmark.csv``, ``benchmark.json`` and the figures (None: none).
         json_path: also write the JSON here.
         progress: show a progress bar.
@@ -258,10 +385,13 @@ def run_benchmark(
         raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
+    if isinstance(batch_size, bool) or not isinstance(batch_size, int) or batch_size < 0:
+        raise ValueError(f"batch_size must be an integer >= 0 (0: one episode at a time), "
+                         f"got {batch_size!r}")  # fmt: skip
 
     cells = [Cell(t, p, k) for t in tasks for p in policies for k in techs]
     want_figures = out_dir is not None
-    jobs = [(c, i, seed + i, want_figures and i == 0) for c in cells for i in range(episodes)]
+    jobs = _split_jobs(cells, episodes, seed, want_figures, batch_size, workers)
     results: dict[tuple[Cell, int], EpisodeStats] = {}
     windows: dict[Cell, tuple[int, int]] = {}
     interrupted = False
@@ -290,8 +420,8 @@ def run_benchmark(
         rows.append({k: _round(row[k]) for k in ROW_KEYS})
     if print_table and rows:
         _print_table(rows, seed)
-    meta = {"seed": seed, "episodes": episodes, "workers": workers, "tasks": tasks,
-            "policies": policies, "techniques": names}  # fmt: skip
+    meta = {"seed": seed, "episodes": episodes, "workers": workers, "batch_size": batch_size,
+            "tasks": tasks, "policies": policies, "techniques": names}  # fmt: skip
     written = []
     if out_dir is not None:
         out = Path(out_dir)
@@ -309,25 +439,45 @@ def run_benchmark(
     return rows
 
 
+def _split_jobs(
+    cells: list[Cell], episodes: int, seed: int, figures: bool, batch_size: int, workers: int
+) -> list[tuple]:
+    """The grid's jobs: per cell, its episodes in batches of at most ``batch_size`` (one
+    episode per job for 0), cut so that every worker gets work when there are few cells."""
+    per_job = 1 if batch_size == 0 else batch_size
+    if batch_size and len(cells) < workers:  # few cells: share each one's episodes out
+        per_job = min(per_job, math.ceil(episodes * len(cells) / workers))
+    jobs = []
+    for c in cells:
+        for lo in range(0, episodes, per_job):
+            idx = list(range(lo, min(lo + per_job, episodes)))
+            jobs.append((c, idx, [seed + i for i in idx], [figures and i == 0 for i in idx],
+                         batch_size))  # fmt: skip
+    return jobs
+
+
 def _run_jobs(jobs: list, workers: int, progress: bool):
-    """Yield ``(cell, index, stats)`` for every job, in any order, with a progress bar."""
+    """Yield ``(cell, index, stats, reset_info)`` for every episode of the jobs, in any order,
+    with a progress bar."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeElapsedColumn
 
     columns = ("[progress.description]{task.description}", BarColumn(), MofNCompleteColumn(),
                TimeElapsedColumn())  # fmt: skip
     with Progress(*columns, disable=not progress, transient=False) as bar:
-        task = bar.add_task("episodes", total=len(jobs))
+        task = bar.add_task("episodes", total=sum(len(job[1]) for job in jobs))
         if workers == 1 or len(jobs) == 1:
             for job in jobs:
-                yield _job(job)
-                bar.advance(task)
+                done = _job(job)
+                yield from done
+                bar.advance(task, len(done))
             return
         pool = ProcessPoolExecutor(max_workers=min(workers, len(jobs)), initializer=_ignore_sigint)
         try:
             futures = [pool.submit(_job, job) for job in jobs]
             for f in as_completed(futures):
-                yield f.result()
-                bar.advance(task)
+                done = f.result()
+                yield from done
+                bar.advance(task, len(done))
         except BaseException:  # Ctrl-C (or an error): stop the workers now, not after the grid
             for process in list(getattr(pool, "_processes", {}).values()):
                 process.terminate()

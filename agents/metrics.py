@@ -44,8 +44,11 @@ from estimators.gait import step_f1
 
 __all__ = [
     "DEFAULT_LATE_STEPS",
+    "STEP_KEYS",
+    "TRACE_KEYS",
     "EpisodeRecorder",
     "EpisodeStats",
+    "episode_stats",
     "match_step_counts",
     "match_step_times",
     "spl",
@@ -216,7 +219,8 @@ class EpisodeStats:
     trace: dict[str, Any] | None = field(default=None)
 
 
-_STEP_KEYS = (
+#: The ``info`` keys an episode's stats are built from, per control step.
+STEP_KEYS = (
     "true_steps",
     "detected_steps",
     "true_step_times",
@@ -225,7 +229,8 @@ _STEP_KEYS = (
     "hand_error_deg",
     "heading_error_deg",
 )
-_TRACE_KEYS = (
+#: The ``info`` keys kept per control step for the figures.
+TRACE_KEYS = (
     "position",
     "true_position",
     "true_ypr",
@@ -250,8 +255,8 @@ class EpisodeRecorder:
         self.seed = int(seed)
         self.shortest = float(reset_info["shortest_path"])
         self.keep_trace = trace
-        self._rows: dict[str, list] = {k: [] for k in _STEP_KEYS}
-        self._trace: dict[str, list] = {k: [] for k in _TRACE_KEYS}
+        self._rows: dict[str, list] = {k: [] for k in STEP_KEYS}
+        self._trace: dict[str, list] = {k: [] for k in TRACE_KEYS}
         self._last: dict | None = None
 
     def add(self, info: dict) -> None:
@@ -267,41 +272,63 @@ class EpisodeRecorder:
         """The episode's stats (``start_position``: the virtual start, for the trace)."""
         if self._last is None:
             raise RuntimeError("no step recorded: call add(info) after each env.step")
-        last = self._last
+        steps = {k: np.asarray(v) for k, v in self._rows.items()}
         trace = None
         if self.keep_trace:
-            trace = {k: v for k, v in self._trace.items() if k != "true_step_times"}
-            trace = {k: np.asarray(v) for k, v in trace.items()}
-            trace["true_step_times"] = _finite_times(self._trace["true_step_times"])
-            if start_position is not None:
-                s = np.asarray(start_position, dtype=np.float64)[None]
-                trace["position"] = np.concatenate([s, trace["position"]])
-                trace["true_position"] = np.concatenate([s, trace["true_position"]])
-        r = self._rows
-        return EpisodeStats(
-            seed=self.seed,
-            success=bool(last["is_success"]),
-            collisions=int(last["collisions"]),
-            steps=len(r["true_steps"]),
-            elapsed_s=float(last["elapsed_time"]),
-            walked_m=float(last["walked"]),
-            shortest_m=self.shortest,
-            true_counts=np.asarray(r["true_steps"], dtype=np.int64),
-            detected_counts=np.asarray(r["detected_steps"], dtype=np.int64),
-            true_step_times=_finite_times(r["true_step_times"]),
-            detected_step_times=_finite_times(r["detected_step_times"]),
-            attitude_error_deg=np.asarray(r["attitude_error_deg"], dtype=np.float64),
-            hand_error_deg=np.asarray(r["hand_error_deg"], dtype=np.float64),
-            heading_error_deg=np.asarray(r["heading_error_deg"], dtype=np.float64),
-            trace=trace,
-        )
+            trace = {k: np.asarray(v) for k, v in self._trace.items()}
+        return episode_stats(self.seed, self.shortest, steps, self._last, trace, start_position)
 
 
-def _finite_times(per_step: list) -> NDArray[np.float64]:
-    """Concatenate per-step padded time arrays into the sorted finite times."""
-    if not per_step:
-        return np.zeros(0)
-    t = np.concatenate([np.ravel(np.asarray(x, dtype=np.float64)) for x in per_step])
+def episode_stats(
+    seed: int,
+    shortest: float,
+    steps: dict[str, NDArray],
+    last: dict,
+    trace: dict[str, NDArray] | None = None,
+    start_position: ArrayLike | None = None,
+) -> EpisodeStats:
+    """:class:`EpisodeStats` from one episode's per-step arrays.
+
+    Args:
+        seed: the episode's seed.
+        shortest: its shortest path (m).
+        steps: the ``info`` values of every control step stacked, (T, ...) per key (the keys
+            :class:`EpisodeRecorder` keeps).
+        last: the last step's ``info`` (``is_success``, ``collisions``, ``elapsed_time``,
+            ``walked``), scalars.
+        trace: stacked trace arrays for figures (``position``, ``true_position``, ``true_ypr``,
+            ``est_ypr``, ``true_step_times``, ``elapsed_time``), or None.
+        start_position: the virtual start, prepended to the traced paths.
+    """
+    if trace is not None:
+        trace = {k: np.asarray(v, dtype=np.float64) for k, v in trace.items()}
+        trace["true_step_times"] = _finite_times(trace["true_step_times"])
+        if start_position is not None:
+            s = np.asarray(start_position, dtype=np.float64)[None]
+            trace["position"] = np.concatenate([s, trace["position"]])
+            trace["true_position"] = np.concatenate([s, trace["true_position"]])
+    return EpisodeStats(
+        seed=int(seed),
+        success=bool(last["is_success"]),
+        collisions=int(last["collisions"]),
+        steps=len(steps["true_steps"]),
+        elapsed_s=float(last["elapsed_time"]),
+        walked_m=float(last["walked"]),
+        shortest_m=float(shortest),
+        true_counts=np.asarray(steps["true_steps"], dtype=np.int64),
+        detected_counts=np.asarray(steps["detected_steps"], dtype=np.int64),
+        true_step_times=_finite_times(steps["true_step_times"]),
+        detected_step_times=_finite_times(steps["detected_step_times"]),
+        attitude_error_deg=np.asarray(steps["attitude_error_deg"], dtype=np.float64),
+        hand_error_deg=np.asarray(steps["hand_error_deg"], dtype=np.float64),
+        heading_error_deg=np.asarray(steps["heading_error_deg"], dtype=np.float64),
+        trace=trace,
+    )
+
+
+def _finite_times(per_step: ArrayLike) -> NDArray[np.float64]:
+    """The sorted finite times of per-step padded time arrays, (T, K)."""
+    t = np.ravel(np.asarray(per_step, dtype=np.float64))
     return np.sort(t[np.isfinite(t)])
 
 

@@ -76,6 +76,8 @@ class LearnedPolicy:
             must be the env's, and its observation size must be the env's.
     """
 
+    batched = True  # act() takes (B, n) rows, one at a time (see act)
+
     def __init__(self, path: str | Path, env: Any) -> None:
         self.path = Path(path)
         self.name = f"ppo:{self.path.name}"
@@ -99,8 +101,15 @@ class LearnedPolicy:
         """Stateless (a feed-forward policy): nothing to reset."""
 
     def act(self, obs: ArrayLike) -> NDArray[np.float32]:
-        action, _ = self.model.predict(np.asarray(obs, dtype=np.float32), deterministic=True)
-        return np.asarray(action, dtype=np.float32)
+        """Deterministic actions for ``obs``, (obs,) or (B, obs). A batch is evaluated one row
+        at a time: torch's matrix kernels round differently for different batch sizes, and an
+        episode must not depend on how many users it was batched with."""
+        x = np.asarray(obs, dtype=np.float32)
+        if x.ndim == 1:
+            action, _ = self.model.predict(x, deterministic=True)
+            return np.asarray(action, dtype=np.float32)
+        rows = [self.model.predict(row, deterministic=True)[0] for row in x]
+        return np.asarray(rows, dtype=np.float32).reshape(x.shape[0], -1)
 
 
 @functools.lru_cache(maxsize=8)

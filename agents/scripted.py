@@ -52,7 +52,6 @@ turn-away-and-back):
 
 from __future__ import annotations
 
-import heapq
 import math
 from dataclasses import dataclass, fields, replace
 from typing import Any, Protocol, runtime_checkable
@@ -84,13 +83,23 @@ __all__ = [
 
 @runtime_checkable
 class Policy(Protocol):
-    """What the benchmark needs from a simulated user."""
+    """What the benchmark needs from a simulated user. A policy that plays batches of users
+    (``act`` on (B, n), ``reset`` with one generator per reset row) says so with a class
+    attribute ``batched = True``; the benchmark then runs its episodes as users of one vector
+    env (:func:`agents.benchmark.run_cell_batched`), else one at a time."""
 
     def reset(self, rng: Any = None, rows: ArrayLike | None = None) -> None:
         """Start new episodes (all rows, or only ``rows`` of a batch)."""
 
     def act(self, obs: ArrayLike) -> NDArray[np.float32]:
         """Actions ``(5,)`` for one observation ``(n,)``, or ``(B, 5)`` for ``(B, n)``."""
+
+
+def is_batched(policy: Any) -> bool:
+    """Whether ``policy`` plays a batch of users (``act`` on (B, n), ``reset(rngs, rows)``): it
+    says so with a true ``batched`` attribute. A policy without one (a user's class written for
+    the single env) gets one episode at a time from the benchmark."""
+    return bool(getattr(policy, "batched", False))
 
 
 # --------------------------------------------------------------------------- observation
@@ -403,6 +412,7 @@ class ScriptedPolicy:
     """
 
     name = "scripted"
+    batched = True  # act() takes (B, n) rows: the benchmark may batch its episodes
 
     def __init__(
         self, layout: ObservationLayout | None = None, params: PolicyParams | None = None
@@ -556,6 +566,47 @@ def _march(clear, cost, i0, j0, x, y, ang, length, thr, land, geom):
     return True, end_cost
 
 
+@numba.njit(cache=True, inline="always")
+def _heap_push(heap_cost, heap_key, size, c, k):
+    """Push ``(c, k)`` onto the binary min-heap held in the first ``size`` entries; new size.
+
+    Ties in ``c`` go by ``k``; the order among equal costs does not change a Dijkstra search's
+    settled costs, only which of equal entries comes out first."""
+    i = size
+    while i > 0:
+        parent = (i - 1) >> 1
+        if heap_cost[parent] < c or (heap_cost[parent] == c and heap_key[parent] <= k):
+            break
+        heap_cost[i], heap_key[i] = heap_cost[parent], heap_key[parent]
+        i = parent
+    heap_cost[i], heap_key[i] = c, k
+    return size + 1
+
+
+@numba.njit(cache=True, inline="always")
+def _heap_pop(heap_cost, heap_key, size):
+    """Pop the smallest ``(c, k)`` of the heap of ``size`` entries; ``(c, k, new size)``."""
+    c, k = heap_cost[0], heap_key[0]
+    size -= 1
+    lc, lk = heap_cost[size], heap_key[size]
+    i = 0
+    while True:
+        child = 2 * i + 1
+        if child >= size:
+            break
+        if child + 1 < size and (
+            heap_cost[child + 1] < heap_cost[child]
+            or (heap_cost[child + 1] == heap_cost[child] and heap_key[child + 1] < heap_key[child])
+        ):
+            child += 1
+        if lc < heap_cost[child] or (lc == heap_cost[child] and lk <= heap_key[child]):
+            break
+        heap_cost[i], heap_key[i] = heap_cost[child], heap_key[child]
+        i = child
+    heap_cost[i], heap_key[i] = lc, lk
+    return c, k, size
+
+
 @numba.njit(cache=True)
 def _plan_kernel(
     occ, lo, hi, pos, heading, target, cands, cell, half, radii, comfort_cost, tight_cost,
@@ -580,6 +631,8 @@ def _plan_kernel(
     cap = w * cell
     pad = w + math.ceil((look + 1.0) / cell)
     band = max(r_comfort - r_block, 1e-9)
+    heap_cost = np.empty(0)  # the search's binary heap, reused by every user
+    heap_key = np.empty(0, np.int64)
     for b in range(nb):
         pi = min(max(int((pos[b, 0] + half) / cell), 0), n - 1)
         pj = min(max(int((pos[b, 1] + half) / cell), 0), n - 1)
@@ -607,15 +660,31 @@ def _plan_kernel(
                         d = max(math.sqrt(di * di + dj * dj) * cell - 0.5 * cell, 0.0)
                         if d < clear[ii, jj]:
                             clear[ii, jj] = d
-        # cost to go from the target (Dijkstra, 8-connected), dearer close to obstacles
+        # cost to go from the target (Dijkstra, 8-connected), dearer close to obstacles. Only
+        # the cells the rays below can read are needed (a square of ``reach`` cells around the
+        # user): the search stops once every one of them that can be entered is settled, which
+        # leaves their costs exactly what the full search gives.
         cost = np.full((ni, nj), np.inf)
+        reach = math.ceil(max(look, keep_len[b]) / cell) + 1
+        ri0, ri1 = max(pi - reach - i0, 0), min(pi + reach - i0, ni - 1)
+        rj0, rj1 = max(pj - reach - j0, 0), min(pj + reach - j0, nj - 1)
+        need = 0
+        for i in range(ri0, ri1 + 1):
+            for j in range(rj0, rj1 + 1):
+                need += clear[i, j] > r_tight
+        if heap_cost.size < 8 * ni * nj + 1:  # each cell is pushed at most once per neighbour
+            heap_cost = np.empty(8 * ni * nj + 1)
+            heap_key = np.empty(8 * ni * nj + 1, np.int64)
         cost[ti - i0, tj - j0] = 0.0
-        heap = [(0.0, (ti - i0) * nj + (tj - j0))]
-        while len(heap) > 0:
-            c, k = heapq.heappop(heap)
+        heap_cost[0], heap_key[0] = 0.0, (ti - i0) * nj + (tj - j0)
+        size = 1
+        while size > 0 and need > 0:
+            c, k, size = _heap_pop(heap_cost, heap_key, size)
             i, j = k // nj, k % nj
             if c > cost[i, j]:
                 continue
+            if ri0 <= i <= ri1 and rj0 <= j <= rj1 and clear[i, j] > r_tight:
+                need -= 1
             for di in range(-1, 2):
                 for dj in range(-1, 2):
                     if di == 0 and dj == 0:
@@ -633,7 +702,7 @@ def _plan_kernel(
                     nc = c + step * mult
                     if nc < cost[ii, jj]:
                         cost[ii, jj] = nc
-                        heapq.heappush(heap, (nc, ii * nj + jj))
+                        size = _heap_push(heap_cost, heap_key, size, nc, ii * nj + jj)
         # every heading with the full margin, and with the tight one at a penalty; the aim of
         # the last step gets a bonus (hysteresis). The user may always move away from, or
         # along, what it already stands closer to.

@@ -130,6 +130,11 @@ class HumanVariability:
         >>> action = user.act(obs)                          # doctest: +SKIP
     """
 
+    @property
+    def batched(self) -> bool:
+        """Batches of users when the wrapped policy takes them."""
+        return bool(getattr(self.policy, "batched", False))
+
     def __init__(self, policy: Policy, params: VariabilityParams | None = None) -> None:
         methods = (getattr(policy, "act", None), getattr(policy, "reset", None))
         if not all(callable(m) for m in methods):

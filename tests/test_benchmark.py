@@ -1,12 +1,20 @@
 """Benchmark metrics against hand-made ground truth, and the benchmark on a tiny grid."""
 
 import csv
+import dataclasses
 import json
 
 import numpy as np
 import pytest
 
-from agents.benchmark import ROW_KEYS, check_policy_name, run_benchmark
+from agents.benchmark import (
+    ROW_KEYS,
+    Cell,
+    check_policy_name,
+    run_benchmark,
+    run_cell_batched,
+    run_cell_episode,
+)
 from agents.cli import main
 from agents.metrics import EpisodeStats, match_step_counts, spl, summarize
 
@@ -106,6 +114,49 @@ def test_a_tiny_benchmark_writes_its_outputs_and_ignores_the_worker_count(tmp_pa
         assert png.stat().st_size > 10_000
 
 
+def _same_episode(a, b) -> None:
+    """Two EpisodeStats of one episode agree in every number, to the bit."""
+    for f in dataclasses.fields(a):
+        x, y = getattr(a, f.name), getattr(b, f.name)
+        if f.name == "trace":
+            assert (x is None) == (y is None)
+            for k in () if x is None else (k for k in x if k != "layout"):
+                np.testing.assert_array_equal(x[k], y[k], err_msg=f"trace {k}")
+        elif isinstance(x, np.ndarray):
+            np.testing.assert_array_equal(x, y, err_msg=f.name)
+        else:
+            assert x == y, f.name
+
+
+@pytest.mark.parametrize("cell", [
+    Cell("approach", "goal_seeker+human"),
+    Cell("avoid", "avoid_manoeuvre", "seed000_consumer"),
+    Cell("interact", "goal_seeker", "smooth"),
+], ids=lambda c: c.label)  # fmt: skip
+def test_batched_episodes_are_the_single_env_episodes(cell):
+    """Users of a batch end at their own step and take the cell's next seed: 5 episodes on 2
+    users give each episode exactly what it gives alone (its trace and room too)."""
+    seeds = [3, 4, 5, 6, 7]
+    trace = [True, False, False, True, False]
+    batched = run_cell_batched(cell, seeds, trace, batch_size=2)
+    assert len({stats.steps for stats, _ in batched}) > 1  # the users did not end together
+    for (stats, info), seed, tr in zip(batched, seeds, trace, strict=True):
+        alone, alone_info = run_cell_episode(cell, seed, trace=tr)
+        assert stats.seed == seed
+        _same_episode(stats, alone)
+        assert info["shortest_path"] == alone_info["shortest_path"]
+        np.testing.assert_array_equal(info["position"], alone_info["position"])
+        if tr:
+            assert stats.trace["layout"] == alone.trace["layout"]
+
+
+def test_the_batched_and_the_one_at_a_time_grid_give_one_table():
+    kw = {"tasks": ["approach", "avoid"], "policies": ["goal_seeker", "avoid_manoeuvre+human"],
+          "techniques": ["seed000"], "episodes": 3, "seed": 2, "progress": False,
+          "print_table": False, "workers": 1}  # fmt: skip
+    assert run_benchmark(**kw, batch_size=2) == run_benchmark(**kw, batch_size=0)
+
+
 def test_bad_benchmark_options_are_rejected_clearly(capsys):
     with pytest.raises(ValueError, match="task='fly'"):
         run_benchmark(tasks=["fly"], progress=False)
@@ -113,6 +164,10 @@ def test_bad_benchmark_options_are_rejected_clearly(capsys):
         run_benchmark(episodes=0, progress=False)
     with pytest.raises(ValueError, match="workers must be an integer >= 1"):
         run_benchmark(workers=0, progress=False)
+    with pytest.raises(ValueError, match="batch_size must be an integer >= 0"):
+        run_benchmark(batch_size=-1, progress=False)
+    with pytest.raises(ValueError, match="batch_size must be an integer >= 1"):
+        run_cell_batched(Cell("approach", "goal_seeker"), [0], batch_size=0)
     assert check_policy_name("goal_seeker+human") == "goal_seeker+human"
     with pytest.raises(ValueError, match="policy='robot'"):
         check_policy_name("robot")

@@ -60,6 +60,10 @@ def test_tiny_ppo_run_writes_a_model_and_a_learning_curve(tmp_path):
                            episodes=2, workers=1, progress=False, print_table=False)  # fmt: skip
     for key in ("success_rate", "spl", "attitude_rmse_deg", "mean_collisions"):
         assert row[key] == pytest.approx(result[key], nan_ok=True), key
+    # Batched users play the model row by row: the same table as one episode at a time.
+    kw = dict(tasks=["avoid"], policies=[str(path)], techniques=["seed000"], episodes=3,
+              workers=1, progress=False, print_table=False)  # fmt: skip
+    assert run_benchmark(**kw, batch_size=2) == run_benchmark(**kw, batch_size=0)
     with pytest.raises(ValueError, match="trained on task 'avoid'"):
         run_benchmark(tasks=["approach"], policies=[str(path)], episodes=1, workers=1,
                       progress=False, print_table=False)  # fmt: skip

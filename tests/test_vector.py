@@ -70,3 +70,31 @@ def test_vector_env_rejects_rendering_and_bad_seeds():
     envs = VRLocoVectorEnv(2)
     with pytest.raises(ValueError, match="list of 2 seeds"):
         envs.reset(seed=[1, 2, 3])
+
+
+def test_disabled_autoreset_leaves_resets_to_the_caller_with_a_mask():
+    from gymnasium.vector import AutoresetMode
+
+    from vrloco_env.vector import VRLocoVectorEnv
+
+    envs = VRLocoVectorEnv(3, task="avoid", max_episode_steps=4,
+                           autoreset_mode=AutoresetMode.DISABLED)  # fmt: skip
+    assert envs.metadata["autoreset_mode"] is AutoresetMode.DISABLED
+    envs.reset(seed=[7, 8, 9])
+    for _ in range(4):
+        obs, _, _, truncated, info = envs.step(np.zeros((3, 5), np.float32))
+    assert np.all(truncated) and "final_obs" not in info  # ended, not reset
+    mask = np.array([False, True, False])
+    obs, info = envs.reset(seed=[None, 21, None], options={"reset_mask": mask})
+    single = gym.make("VRLoco-Avoid-v0", max_episode_steps=4)
+    first, single_info = single.reset(seed=21)
+    np.testing.assert_array_equal(obs[1], first)  # the masked user starts seed 21's episode
+    np.testing.assert_array_equal(info["position"][1], single_info["position"])
+    info = envs.step(np.zeros((3, 5), np.float32))[-1]
+    assert info["elapsed_time"][1] == pytest.approx(0.1) and info["elapsed_time"][0] > 0.4
+    with pytest.raises(ValueError, match="reset_mask"):
+        envs.reset(options={"reset_mask": np.array([True, False])})
+    with pytest.raises(ValueError, match="selects no sub-env"):
+        envs.reset(options={"reset_mask": np.zeros(3, bool)})
+    with pytest.raises(ValueError, match="autoreset_mode"):
+        VRLocoVectorEnv(2, autoreset_mode="next-step")

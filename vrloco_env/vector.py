@@ -5,11 +5,18 @@ their ``vector_entry_point``). The motion model, the sensor models, the estimato
 queries all run once per step for the N users (:class:`~vrloco_env.core.LocoCore`); nothing loops
 over the sub-envs in Python on the step path.
 
-Autoreset: ``SAME_STEP`` — a sub-env whose episode ends in a step is reset within that step; the
-returned observation is the new episode's first one, and the last observation of the finished
-episode is in ``infos["final_obs"]`` (with ``infos["final_info"]``), as stable-baselines3's own
-vector envs do. Seeding: ``reset(seed=s)`` seeds sub-env i with ``s + i``, so sub-env i behaves
-exactly like a single env reset with ``seed=s + i`` and reset again after each of its episodes.
+Autoreset: by default ``SAME_STEP`` — a sub-env whose episode ends in a step is reset within
+that step; the returned observation is the new episode's first one, and the last observation of
+the finished episode is in ``infos["final_obs"]`` (with ``infos["final_info"]``), as
+stable-baselines3's own vector envs do. ``autoreset_mode=AutoresetMode.DISABLED`` leaves finished
+sub-envs to the caller, who resets them with ``reset(seed=[...], options={"reset_mask": mask})``
+(gymnasium's convention): the benchmark's batched runner gives each finished user the next seed
+of its cell that way. A finished sub-env that is not reset keeps being simulated; its numbers
+mean nothing until its next reset.
+
+Seeding: ``reset(seed=s)`` seeds sub-env i with ``s + i``, so sub-env i behaves exactly like a
+single env reset with ``seed=s + i`` and reset again after each of its episodes; ``seed=[...]``
+gives each sub-env its own seed (None: keep its generator).
 """
 
 from __future__ import annotations
@@ -39,6 +46,7 @@ class VRLocoVectorEnv(VectorEnv):
         "autoreset_mode": AutoresetMode.SAME_STEP,
         "render_modes": [],
     }
+    _AUTORESET_MODES = (AutoresetMode.SAME_STEP, AutoresetMode.DISABLED)
 
     def __init__(
         self,
@@ -46,14 +54,25 @@ class VRLocoVectorEnv(VectorEnv):
         task: str = "approach",
         render_mode: str | None = None,
         task_config: Any = None,
+        autoreset_mode: AutoresetMode | str = AutoresetMode.SAME_STEP,
         **config: Any,
     ) -> None:
         """``config``: the configuration keywords of :func:`~vrloco_env.env.make_configs`
         (``config``, ``sensors``, ``estimators``, ``room``, ``reward``, ``sensor_preset``,
         ``locomotion``, ``max_episode_steps``, ``pose_source``, ``technique``), as for the
-        single env."""
+        single env. ``autoreset_mode``: ``SAME_STEP`` or ``DISABLED`` (see the module
+        docstring)."""
         if render_mode is not None:
             raise ValueError("VRLocoVectorEnv does not render; use gym.make(...) for pictures")
+        modes = {m.value: m for m in self._AUTORESET_MODES}
+        mode = modes.get(getattr(autoreset_mode, "value", autoreset_mode))
+        if mode is None:
+            raise ValueError(
+                f"autoreset_mode={autoreset_mode!r}: must be one of "
+                f"{', '.join(f'AutoresetMode.{m.name}' for m in self._AUTORESET_MODES)}"
+            )
+        self.autoreset_mode = mode
+        self.metadata = {**self.metadata, "autoreset_mode": mode}
         cfgs = make_configs(**config)
         self.config, self.sensors, self.estimators, self.room, self.reward = cfgs
         #: the technique's name (``"custom"`` for an unregistered combination)
@@ -84,12 +103,26 @@ class VRLocoVectorEnv(VectorEnv):
             seeds = list(seed)
             if len(seeds) != n:
                 raise ValueError(f"seed must be an int or a list of {n} seeds, got {len(seeds)}")
-        if seed is not None:
+        mask = (options or {}).get("reset_mask")
+        rows = None
+        if mask is not None:
+            mask = np.asarray(mask)
+            if mask.dtype != np.bool_ or mask.shape != (n,):
+                raise ValueError(
+                    f"options['reset_mask'] must be a boolean array of shape ({n},), got "
+                    f"{mask.dtype} {mask.shape}"
+                )
+            if not self._started and not mask.all():
+                raise ValueError("the first reset() must reset every sub-env (no reset_mask)")
+            rows = np.flatnonzero(mask)
+            if rows.size == 0:
+                raise ValueError("options['reset_mask'] selects no sub-env to reset")
+        if seed is not None and rows is None:
             self._np_random, self._np_random_seed = seeding.np_random(seeds[0])
         for i, s in enumerate(seeds):
-            if s is not None or not self._started:
+            if (s is not None or not self._started) and (rows is None or mask[i]):
                 self.core.generators[i] = seeding.np_random(s)[0]
-        obs = self.core.reset()
+        obs = self.core.reset(rows)
         self._started = True
         ep = self.core.ep
         return obs, {
@@ -108,7 +141,7 @@ class VRLocoVectorEnv(VectorEnv):
             raise RuntimeError("reset() must be called before step()")
         obs, reward, terminated, truncated, infos = self.core.step(actions)
         done = terminated | truncated
-        if np.any(done):
+        if self.autoreset_mode is AutoresetMode.SAME_STEP and np.any(done):
             rows = np.flatnonzero(done)
             infos["final_obs"] = np.where(done[:, None], obs, 0.0).astype(np.float32)
             infos["final_info"] = {k: v for k, v in infos.items() if k != "final_obs"}
