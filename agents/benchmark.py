@@ -60,6 +60,7 @@ __all__ = [
     "DEFAULT_TECHNIQUES",
     "ROW_KEYS",
     "Cell",
+    "run_batched",
     "run_benchmark",
     "run_cell_batched",
     "run_cell_episode",
@@ -207,99 +208,166 @@ def run_cell_episode(cell: Cell, seed: int, trace: bool = False) -> tuple[Episod
 def run_cell_batched(
     cell: Cell, seeds: Sequence[int], trace: Sequence[bool] | None = None, batch_size: int = 32
 ) -> list[tuple[EpisodeStats, dict]]:
-    """Episodes ``seeds`` of ``cell`` as one batch of users in the native vector env.
-
-    ``min(batch_size, len(seeds))`` users start with the first seeds; a user whose episode ends
-    is reset with the next seed of the cell, or, when none is left, idles until the batch is
-    done. Each episode gives exactly the numbers of :func:`run_cell_episode` with its seed: the
-    users of a batch are independent, the env and the policy are seeded per user as the single
-    env is, and the stats come from the same ``info`` values. A policy that does not take
-    batches (:func:`agents.scripted.is_batched`) plays the episodes one at a time instead.
-
-    Args:
-        cell: the task, policy and technique.
-        seeds: one seed per episode.
-        trace: per episode, whether to keep its per-step traces for the figures (None: none).
-        batch_size: users stepped together (>= 1).
+    """Episodes ``seeds`` of ``cell`` as users of one vector env (:func:`run_batched`).
 
     Returns:
         ``(stats, reset_info)`` per episode, in the order of ``seeds``.
     """
+    trace = [False] * len(seeds) if trace is None else list(trace)
+    if len(trace) != len(seeds):
+        raise ValueError(f"trace must hold one flag per seed ({len(seeds)}), got {len(trace)}")
+    return run_batched([(cell, s, t) for s, t in zip(seeds, trace, strict=True)], batch_size)
+
+
+def run_batched(
+    episodes: Sequence[tuple[Cell, int, bool]], batch_size: int = 32
+) -> list[tuple[EpisodeStats, dict]]:
+    """Episodes ``(cell, seed, trace)`` of cells that share a task and a technique, as users of
+    one native vector env.
+
+    ``min(batch_size, len(episodes))`` users start with the first episodes; a user whose episode
+    ends takes the next one in the list, whichever cell it belongs to, with that episode's seed
+    (autoreset is disabled, so no user ever starts an episode the grid did not ask for); when
+    none is left it idles until the batch is done. Each cell has one policy that acts for the
+    users playing its episodes (the others' rows are masked out with ``set_active`` where the
+    policy has it, and their actions discarded). Each episode gives exactly the numbers of
+    :func:`run_cell_episode` with its seed: the users of a batch are independent, the env and
+    the policy are seeded per user as the single env is, and the stats come from the same
+    ``info`` values. A policy that does not take batches (:func:`agents.scripted.is_batched`)
+    plays its episodes one at a time instead.
+
+    Args:
+        episodes: ``(cell, seed, trace)`` per episode; ``trace`` keeps its per-step traces for
+            the figures.
+        batch_size: users stepped together (>= 1).
+
+    Returns:
+        ``(stats, reset_info)`` per episode, in the order of ``episodes``.
+
+    Raises:
+        ValueError: cells of different tasks or techniques, a bad batch size.
+    """
     from gymnasium.vector import AutoresetMode
 
     import vrloco_env  # noqa: F401  (registers the tasks)
+    from vrloco_env.techniques import get_technique
     from vrloco_env.vector import VRLocoVectorEnv
 
-    seeds = [int(s) for s in seeds]
-    trace = [False] * len(seeds) if trace is None else [bool(t) for t in trace]
-    if len(trace) != len(seeds):
-        raise ValueError(f"trace must hold one flag per seed ({len(seeds)}), got {len(trace)}")
     if isinstance(batch_size, bool) or not isinstance(batch_size, int) or batch_size < 1:
         raise ValueError(f"batch_size must be an integer >= 1, got {batch_size!r}")
-    if not seeds:
+    jobs = [(c, int(s), bool(t)) for c, s, t in episodes]
+    if not jobs:
         return []
-    n = min(batch_size, len(seeds))
-    env = VRLocoVectorEnv(n, task=cell.task, technique=cell.technique,
+    task, tech = jobs[0][0].task, get_technique(jobs[0][0].technique)
+    for c, _, _ in jobs:
+        if c.task != task or get_technique(c.technique) != tech:
+            raise ValueError(
+                f"run_batched: every episode must share one task and technique, got {c.task!r}"
+                f"/{c.technique_name!r} beside {task!r}/{tech.name!r}"
+            )
+    n = min(batch_size, len(jobs))
+    env = VRLocoVectorEnv(n, task=task, technique=jobs[0][0].technique,
                           autoreset_mode=AutoresetMode.DISABLED)  # fmt: skip
+    done: dict[int, tuple[EpisodeStats, dict]] = {}
     try:
-        policy = build_policy(cell.policy, env)
-        if is_batched(policy):
-            return _play_batch(env, policy, seeds, trace)
+        cells = list(dict.fromkeys(c for c, _, _ in jobs))
+        policies = {c: build_policy(c.policy, env) for c in cells}
+        alone = {c for c, pol in policies.items() if not is_batched(pol)}
+        batched = [j for j, (c, _, _) in enumerate(jobs) if c not in alone]
+        if batched:
+            done.update(_play_batch(env, policies, jobs, batched))
     finally:
         env.close()
-    # a policy written for the single env: its episodes one at a time
-    return [run_cell_episode(cell, s, t) for s, t in zip(seeds, trace, strict=True)]
+    for j, (c, s, t) in enumerate(jobs):  # policies written for the single env
+        if c in alone:
+            done[j] = run_cell_episode(c, s, t)
+    return [done[j] for j in range(len(jobs))]
 
 
-def _play_batch(env: Any, policy: Any, seeds: list[int], trace: list[bool]) -> list:
-    """The loop of :func:`run_cell_batched` (``env`` with autoreset disabled)."""
+def _play_batch(env: Any, policies: dict, jobs: list, order: list[int]) -> dict[int, tuple]:
+    """The loop of :func:`run_batched` over the episodes ``order`` of ``jobs`` (``env`` with
+    autoreset disabled); returns ``{episode index: (stats, reset_info)}``."""
     n = env.num_envs
-    job = np.arange(n)  # the episode each user plays (-1: idle)
-    next_job = n
-    obs, reset_info = env.reset(seed=[seeds[j] for j in job])
-    policy.reset([np.random.default_rng([seeds[j], 1]) for j in job], None)
+    cells = list(policies)
+    job = np.full(n, -1)  # the episode each user plays (-1: idle)
+    owner = np.full(n, -1)  # the index in ``cells`` of its cell
+    queue = list(order)
+    done: dict[int, tuple[EpisodeStats, dict]] = {}
+    keys = (*STEP_KEYS, *(k for k in TRACE_KEYS if k not in STEP_KEYS))
     steps: list[dict[str, NDArray]] = []  # per control step: the info arrays of all users
     first = np.zeros(n, np.intp)  # the step index each user's episode started at
-    start_info = [_row_info(reset_info, i) for i in range(n)]
-    done_eps: dict[int, tuple[EpisodeStats, dict]] = {}
-    keys = (*STEP_KEYS, *(k for k in TRACE_KEYS if k not in STEP_KEYS))
-    while next_job < len(seeds) or (job >= 0).any():
-        obs, _, terminated, truncated, info = env.step(policy.act(obs))
+    start_info: list[dict] = [{}] * n
+
+    def start(rows: NDArray[np.intp], reset_all: bool) -> NDArray[np.float32]:
+        """Give ``rows`` the next episodes of the queue; their first observations."""
+        rows = rows[: len(queue)]  # more users than episodes: the rest idle from the start
+        for i in rows:
+            job[i] = queue.pop(0)
+            owner[i] = cells.index(jobs[job[i]][0])
+        # an idle user of the first reset plays seed 0, unused (every reset is seeded)
+        seeds = [jobs[job[i]][1] if i in rows else (0 if reset_all else None) for i in range(n)]
+        if reset_all:
+            obs, info = env.reset(seed=seeds)
+        else:
+            mask = np.zeros(n, bool)
+            mask[rows] = True
+            obs, info = env.reset(seed=seeds, options={"reset_mask": mask})
+        for k, cell in enumerate(cells):
+            mine = rows[owner[rows] == k]
+            if reset_all:  # every policy learns the batch size; rows not its own are idle
+                rngs = [np.random.default_rng([seeds[i] if owner[i] == k else 0, 1])
+                        for i in range(n)]  # fmt: skip
+                policies[cell].reset(rngs, None)
+            elif mine.size:
+                policies[cell].reset([np.random.default_rng([jobs[job[i]][1], 1]) for i in mine],
+                                     mine)  # fmt: skip
+        for i in rows:
+            first[i] = len(steps)
+            start_info[i] = _row_info(info, i)
+        _set_active(policies, cells, owner)
+        return obs
+
+    obs = start(np.arange(n), reset_all=True)
+    while (job >= 0).any():
+        actions = np.zeros((n, env.single_action_space.shape[0]), np.float32)
+        for k, cell in enumerate(cells):
+            mine = owner == k
+            if mine.any():
+                actions[mine] = np.asarray(policies[cell].act(obs), np.float32)[mine]
+        obs, _, terminated, truncated, info = env.step(actions)
         steps.append({k: np.array(info[k], copy=True) for k in keys})
         ended = np.flatnonzero((terminated | truncated) & (job >= 0))
         if ended.size == 0:
             continue
-        for i in ended:  # once per episode: slice the user's rows out of the stacked steps
+        for i in ended:  # once per episode: the user's rows of the stacked steps
             j = int(job[i])
-            rows = steps[first[i]:]
-            per_step = {k: np.stack([s[k][i] for s in rows]) for k in keys}
+            per_step = {k: np.stack([st[k][i] for st in steps[first[i]:]]) for k in keys}
             last = {k: info[k][i] for k in ("is_success", "collisions", "elapsed_time", "walked")}
-            tr = {k: per_step[k] for k in TRACE_KEYS} if trace[j] else None
-            stats = episode_stats(seeds[j], start_info[i]["shortest_path"], per_step, last, tr,
+            tr = {k: per_step[k] for k in TRACE_KEYS} if jobs[j][2] else None
+            stats = episode_stats(jobs[j][1], start_info[i]["shortest_path"], per_step, last, tr,
                                   start_info[i]["position"])  # fmt: skip
             if stats.trace is not None:
                 stats.trace["layout"] = env.core.layouts[i]
-            done_eps[j] = (stats, start_info[i])
-        refill = ended[: max(0, len(seeds) - next_job)]
-        job[ended] = -1
+            done[j] = (stats, start_info[i])
+        job[ended], owner[ended] = -1, -1
+        refill = ended[: len(queue)]
         if refill.size:
-            job[refill] = np.arange(next_job, next_job + refill.size)
-            next_job += refill.size
-            mask = np.zeros(n, bool)
-            mask[refill] = True
-            new_seeds = [seeds[job[i]] if mask[i] else None for i in range(n)]
-            obs, reset_info = env.reset(seed=new_seeds, options={"reset_mask": mask})
-            policy.reset([np.random.default_rng([seeds[job[i]], 1]) for i in refill], refill)
-            for i in refill:
-                first[i] = len(steps)
-                start_info[i] = _row_info(reset_info, i)
-        if not (job >= 0).any():
-            break
-        if first[job >= 0].min() > 0:  # forget the steps no running episode needs
-            drop = int(first[job >= 0].min())
+            obs = start(refill, reset_all=False)
+        else:
+            _set_active(policies, cells, owner)
+        running = job >= 0
+        if running.any() and first[running].min() > 0:  # forget steps no episode needs
+            drop = int(first[running].min())
             del steps[:drop]
             first -= drop
-    return [done_eps[j] for j in range(len(seeds))]
+    return done
+
+
+def _set_active(policies: dict, cells: list, owner: NDArray) -> None:
+    """Tell each policy which rows are its own (where it can be told)."""
+    for k, cell in enumerate(cells):
+        if callable(getattr(policies[cell], "set_active", None)):
+            policies[cell].set_active(owner == k)
 
 
 def _row_info(reset_info: dict, i: int) -> dict:
@@ -307,16 +375,16 @@ def _row_info(reset_info: dict, i: int) -> dict:
     return {k: (v[i] if np.ndim(v[i]) else v[i].item()) for k, v in reset_info.items()}
 
 
-def _job(args: tuple[Cell, list[int], list[int], list[bool], int]) -> list[tuple]:
-    """Episodes ``indices`` (seeds ``seeds``) of a cell: batched in the vector env, or one at a
-    time in the single env for ``batch_size`` 0. Returns ``(cell, index, stats, reset_info)``
-    per episode."""
-    cell, indices, seeds, trace, batch_size = args
+def _job(args: tuple[list[tuple[Cell, int, int, bool]], int]) -> list[tuple]:
+    """Episodes ``(cell, index, seed, trace)``: batched in the vector env (cells sharing a task
+    and technique), or one at a time in the single env for ``batch_size`` 0. Returns
+    ``(cell, index, stats, reset_info)`` per episode."""
+    episodes, batch_size = args
     if batch_size == 0:
-        done = [run_cell_episode(cell, s, t) for s, t in zip(seeds, trace, strict=True)]
+        done = [run_cell_episode(c, s, t) for c, _, s, t in episodes]
     else:
-        done = run_cell_batched(cell, seeds, trace, batch_size)
-    return [(cell, i, *d) for i, d in zip(indices, done, strict=True)]
+        done = run_batched([(c, s, t) for c, _, s, t in episodes], batch_size)
+    return [(c, i, *d) for (c, i, _, _), d in zip(episodes, done, strict=True)]
 
 
 # --------------------------------------------------------------------------- the grid
@@ -442,17 +510,27 @@ def run_benchmark(
 def _split_jobs(
     cells: list[Cell], episodes: int, seed: int, figures: bool, batch_size: int, workers: int
 ) -> list[tuple]:
-    """The grid's jobs: per cell, its episodes in batches of at most ``batch_size`` (one
-    episode per job for 0), cut so that every worker gets work when there are few cells."""
-    per_job = 1 if batch_size == 0 else batch_size
-    if batch_size and len(cells) < workers:  # few cells: share each one's episodes out
-        per_job = min(per_job, math.ceil(episodes * len(cells) / workers))
+    """The grid's jobs. One episode per job for ``batch_size`` 0; else the episodes of the cells
+    that share a task and a technique (one vector env), taken episode index by episode index
+    across those cells, in jobs of about four batches, cut smaller where there would be fewer
+    jobs than workers. A ``module:attr`` policy's cells form groups of their own."""
+    def ep(c: Cell, i: int) -> tuple[Cell, int, int, bool]:
+        return (c, i, seed + i, figures and i == 0)
+
+    if batch_size == 0:
+        return [([ep(c, i)], 0) for c in cells for i in range(episodes)]
+    groups: dict[tuple, list[Cell]] = {}
+    for c in cells:  # a user's own policy gets jobs of its own: it may not take batches
+        own = c.policy if ":" in c.policy else ""
+        groups.setdefault((c.task, c.technique_name, own), []).append(c)
+    per_job = 4 * batch_size
+    total = len(cells) * episodes
+    per_job = max(1, min(per_job, math.ceil(total / workers)))
     jobs = []
-    for c in cells:
-        for lo in range(0, episodes, per_job):
-            idx = list(range(lo, min(lo + per_job, episodes)))
-            jobs.append((c, idx, [seed + i for i in idx], [figures and i == 0 for i in idx],
-                         batch_size))  # fmt: skip
+    for members in groups.values():
+        order = [ep(c, i) for i in range(episodes) for c in members]
+        for lo in range(0, len(order), per_job):
+            jobs.append((order[lo : lo + per_job], batch_size))
     return jobs
 
 
@@ -464,7 +542,7 @@ def _run_jobs(jobs: list, workers: int, progress: bool):
     columns = ("[progress.description]{task.description}", BarColumn(), MofNCompleteColumn(),
                TimeElapsedColumn())  # fmt: skip
     with Progress(*columns, disable=not progress, transient=False) as bar:
-        task = bar.add_task("episodes", total=sum(len(job[1]) for job in jobs))
+        task = bar.add_task("episodes", total=sum(len(job[0]) for job in jobs))
         if workers == 1 or len(jobs) == 1:
             for job in jobs:
                 done = _job(job)

@@ -167,6 +167,7 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
             workers=args.workers,
             out_dir=Path(args.out) if args.out else None,
             json_path=Path(args.json) if args.json else None,
+            batch_size=args.batch_size,
         )
     except ValueError as err:  # a bad option value: one clear line, no traceback
         print(f"vrloco benchmark: {err}", file=sys.stderr)
@@ -342,6 +343,11 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--episodes", type=_int_at_least(1), default=40, help="episodes per cell")
     bench.add_argument("--seed", type=_int_at_least(0), default=0, help="episode i uses seed + i")
     bench.add_argument("--workers", type=_int_at_least(1), default=2, help="worker processes")
+    bench.add_argument(
+        "--batch-size", type=_int_at_least(0), default=20,
+        help="users stepped together in one vector env (cells sharing a task and technique "
+        "mix); 0: every episode alone in a single env (the same results)",
+    )  # fmt: skip
     bench.add_argument("--json", type=_out_file, help="also write the rows to this JSON file")
     bench.add_argument("--out", default="out/benchmark", type=_out_dir,
                        help="folder for CSV, JSON, figures")  # fmt: skip

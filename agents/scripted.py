@@ -60,6 +60,7 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from estimators.kernels import BatchKernel, param_record
 from vrloco_env.actions import ACTION_SIZE
 from vrloco_env.config import EnvConfig
 from vrloco_env.observation import ObservationSpec, env_spec, ray_offsets
@@ -426,6 +427,13 @@ class ScriptedPolicy:
         self.offsets = self.layout.ray_offsets
         self._half_width = self.params.avatar_radius_m + self.params.margin_m
         self._state: dict[str, NDArray] | None = None
+        self._active: NDArray[np.bool_] | None = None
+
+    def set_active(self, mask: ArrayLike | None) -> None:
+        """The rows whose actions will be used ((B,) bool; None: all). The others' actions are
+        not computed with care (the planner skips them) until they are reset and active again:
+        for a batch whose finished users idle, or rows that belong to another policy."""
+        self._active = None if mask is None else np.array(mask, dtype=bool)
 
     # ---------------------------------------------------------------- state
     def _init_state(self, b: int) -> dict[str, NDArray]:
@@ -607,24 +615,27 @@ def _heap_pop(heap_cost, heap_key, size):
     return c, k, size
 
 
-@numba.njit(cache=True)
-def _plan_kernel(
-    occ, lo, hi, pos, heading, target, cands, cell, half, radii, comfort_cost, tight_cost,
-    look, keep_len, turn_cost, goal_tol, land, prev_aim, step_a, tight_penalty, hold,
-    aim_out, valid_out, go_out, keep_out,
-):  # fmt: skip  # pragma: no cover - compiled
+def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cands, prm, out):
     """Per user: clearance map, cost to go from the target, best heading, the walk gate.
 
-    ``occ`` (B, N, N) marks map cells with a ray hit; ``lo``/``hi`` (B, 2) bound the marked
-    cells. Planning runs on the box around the marked cells, the user and the target plus a
-    margin; unseen cells are free. ``land`` (B,) is where the next move puts the body down
-    (m): two step lengths for a standing user or one whose bout has not landed yet (a bout's
-    first step is reported with the second), 0 once it moves a step at a time (any point of
-    the way may be a landing). Writes ``aim_out`` (heading relative to the current one, rad; 0
-    when nothing is valid), ``valid_out``, ``go_out`` (the current heading is clear for ``look``
-    m or lands in the goal) and ``keep_out`` (clear for ``keep_len`` (B,) m or into the goal).
+    ``seen`` = ``(occ, lo, hi)``: ``occ`` (B, N, N) marks map cells with a ray hit, ``lo``/``hi``
+    (B, 2) bound the marked cells. Planning runs on the box around the marked cells, the user
+    and the target plus a margin; unseen cells are free. ``land`` (B,) is where the next move
+    puts the body down (m): two step lengths for a standing user or one whose bout has not
+    landed yet (a bout's first step is reported with the second), 0 once it moves a step at a
+    time (any point of the way may be a landing). ``prm`` is the policy's (1,) record of
+    :data:`PLAN_PARAMS`; users where ``active`` is False are skipped. Fills ``out`` =
+    ``(aim, valid, go, keep)``, (B,) each: the heading relative to the current one (rad; 0 when
+    nothing is valid), whether it is valid, whether the current heading is clear for ``look`` m
+    or lands in the goal, and clear for ``keep_len`` (B,) m or into the goal.
     """
-    r_tight, r_block, r_comfort = radii[0], radii[1], radii[2]
+    occ, lo, hi = seen
+    aim_out, valid_out, go_out, keep_out = out
+    p = prm[0]
+    cell, half, look, goal_tol = p["cell"], p["half"], p["look"], p["goal_tol"]
+    r_tight, r_block, r_comfort = p["r_tight"], p["r_block"], p["r_comfort"]
+    comfort_cost, tight_cost, turn_cost = p["comfort_cost"], p["tight_cost"], p["turn_cost"]
+    step_a, tight_penalty, hold = p["step_a"], p["tight_penalty"], p["hold"]
     geom = np.array([0.5 * cell, half, cell, goal_tol])
     nb, n, _ = occ.shape
     w = math.ceil(r_comfort / cell) + 1
@@ -634,6 +645,8 @@ def _plan_kernel(
     heap_cost = np.empty(0)  # the search's binary heap, reused by every user
     heap_key = np.empty(0, np.int64)
     for b in range(nb):
+        if not active[b]:
+            continue
         pi = min(max(int((pos[b, 0] + half) / cell), 0), n - 1)
         pj = min(max(int((pos[b, 1] + half) / cell), 0), n - 1)
         ti = min(max(int((target[b, 0] + half) / cell), 0), n - 1)
@@ -733,6 +746,10 @@ def _plan_kernel(
         keep_out[b] = _march(clear, cost, i0, j0, x, y, h, keep_len[b], thr, land[b], geom)[0]
 
 
+#: The goal seeker's planner: ``plan_kernel(batch_size)(...)`` (see ``_plan_run``).
+plan_kernel = BatchKernel(_plan_run, parallel=False)
+
+
 class GoalSeeker(ScriptedPolicy):
     """Turn toward the goal, step when aligned, re-align when the bearing error grows.
 
@@ -769,6 +786,16 @@ class GoalSeeker(ScriptedPolicy):
         super().__init__(layout, params)
         p = self.params
         self._cells = round(p.map_size_m / p.map_cell_m)
+        r = p.avatar_radius_m
+        self._plan_prm = param_record(
+            cell=p.map_cell_m, half=0.5 * self._cells * p.map_cell_m,
+            look=p.go_steps * p.step_length_m, goal_tol=p.goal_depth_m,
+            r_tight=r + p.tight_margin_m, r_block=self._half_width,
+            r_comfort=self._half_width + p.comfort_m, comfort_cost=p.comfort_cost,
+            tight_cost=p.tight_cost, turn_cost=p.turn_cost_m,
+            step_a=np.deg2rad(p.candidate_step_deg) * 1.01, tight_penalty=p.tight_penalty_m,
+            hold=p.hold_m,
+        )  # fmt: skip
         n = int(np.floor(180.0 / p.candidate_step_deg))
         self.candidates = _wrap(np.deg2rad(p.candidate_step_deg) * np.arange(-n, n + 1))
         self.candidates = np.unique(np.round(self.candidates, 12))
@@ -838,18 +865,14 @@ class GoalSeeker(ScriptedPolicy):
         state["landed"] = state["walking"] & (state["landed"] | (v.steps > 0))
         single = state["walking"] & state["landed"]
         land = np.where(single, 0.0, 2.0 * p.step_length_m)
-        look = p.go_steps * p.step_length_m
-        keep_len = np.where(single, p.stop_steps * p.step_length_m, look)
+        keep_len = np.where(single, p.stop_steps * p.step_length_m, self._plan_prm[0]["look"])
         aim, valid = np.zeros(b), np.zeros(b, bool)
         can_go, can_keep = np.zeros(b, bool), np.zeros(b, bool)
-        r = p.avatar_radius_m
-        radii = np.array([r + p.tight_margin_m, self._half_width, self._half_width + p.comfort_m])
-        _plan_kernel(
-            state["occ"], state["lo"], state["hi"], state["pos"], v.heading, target,
-            self.candidates, p.map_cell_m, 0.5 * self._cells * p.map_cell_m, radii,
-            p.comfort_cost, p.tight_cost, look, keep_len, p.turn_cost_m, p.goal_depth_m, land,
-            state["aim"], np.deg2rad(p.candidate_step_deg) * 1.01, p.tight_penalty_m,
-            p.hold_m, aim, valid, can_go, can_keep,
+        active = np.ones(b, bool) if self._active is None else self._active
+        plan_kernel(b)(
+            (state["occ"], state["lo"], state["hi"]), state["pos"], v.heading, target, keep_len,
+            land, state["aim"], active, self.candidates, self._plan_prm,
+            (aim, valid, can_go, can_keep),
         )  # fmt: skip
         state["aim"] = np.where(valid, v.heading + aim, np.nan)
         return np.where(valid, aim, v.bearing), valid, can_go, can_keep

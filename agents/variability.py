@@ -135,6 +135,12 @@ class HumanVariability:
         """Batches of users when the wrapped policy takes them."""
         return bool(getattr(self.policy, "batched", False))
 
+    def set_active(self, mask: Any) -> None:
+        """Passed on to the wrapped policy where it has it (see
+        :meth:`agents.scripted.ScriptedPolicy.set_active`)."""
+        if callable(getattr(self.policy, "set_active", None)):
+            self.policy.set_active(mask)
+
     def __init__(self, policy: Policy, params: VariabilityParams | None = None) -> None:
         methods = (getattr(policy, "act", None), getattr(policy, "reset", None))
         if not all(callable(m) for m in methods):

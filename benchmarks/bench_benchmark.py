@@ -4,6 +4,7 @@ Run from the repository root::
 
     python benchmarks/bench_benchmark.py                  # the default grid, 40 episodes a cell
     python benchmarks/bench_benchmark.py --episodes 10 --batch-size 10
+    python benchmarks/bench_benchmark.py --policies avoid_manoeuvre   # no route planner
 
 Both paths run the same grid (``vrloco benchmark``'s default tasks, policies and techniques)
 with the same worker processes, in this one run: ``batch_size=0`` plays every episode alone in
@@ -37,13 +38,15 @@ def main() -> None:
     ap.add_argument("--episodes", type=int, default=DEFAULT_EPISODES, help="episodes per cell")
     ap.add_argument("--batch-size", type=int, default=DEFAULT_BATCH_SIZE)
     ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--policies", nargs="+", default=list(DEFAULT_POLICIES))
     args = ap.parse_args()
-    grid = dict(tasks=DEFAULT_TASKS, policies=DEFAULT_POLICIES, techniques=DEFAULT_TECHNIQUES,
+    grid = dict(tasks=DEFAULT_TASKS, policies=args.policies, techniques=DEFAULT_TECHNIQUES,
                 workers=args.workers, progress=False, print_table=False)  # fmt: skip
-    n_cells = len(DEFAULT_TASKS) * len(DEFAULT_POLICIES) * len(DEFAULT_TECHNIQUES)
+    n_cells = len(DEFAULT_TASKS) * len(args.policies) * len(DEFAULT_TECHNIQUES)
     total = n_cells * args.episodes
-    print(f"default grid: {n_cells} cells x {args.episodes} episodes = {total} episodes, "
-          f"{args.workers} workers")  # fmt: skip
+    print(f"grid: {', '.join(DEFAULT_TASKS)} x {', '.join(args.policies)} x "
+          f"{', '.join(DEFAULT_TECHNIQUES)}: {n_cells} cells x {args.episodes} episodes = {total} "
+          f"episodes, {args.workers} workers")  # fmt: skip
     rates, tables = {}, {}
     for label, batch in (("one episode at a time", 0), (f"batched ({args.batch_size})",
                                                         args.batch_size)):  # fmt: skip

@@ -11,6 +11,7 @@ from agents.benchmark import (
     ROW_KEYS,
     Cell,
     check_policy_name,
+    run_batched,
     run_benchmark,
     run_cell_batched,
     run_cell_episode,
@@ -148,6 +149,19 @@ def test_batched_episodes_are_the_single_env_episodes(cell):
         np.testing.assert_array_equal(info["position"], alone_info["position"])
         if tr:
             assert stats.trace["layout"] == alone.trace["layout"]
+
+
+def test_cells_sharing_an_env_mix_in_one_batch():
+    """Users move from one cell's episodes to another's (a scripted user, the same with human
+    variability, a second scripted user) and each episode is still the single env's."""
+    cells = [Cell("avoid", "goal_seeker"), Cell("avoid", "goal_seeker+human"),
+             Cell("avoid", "avoid_manoeuvre")]  # fmt: skip
+    episodes = [(c, seed, False) for seed in (1, 2) for c in cells]
+    batched = run_batched(episodes, batch_size=2)
+    for (cell, seed, _), (stats, _) in zip(episodes, batched, strict=True):
+        _same_episode(stats, run_cell_episode(cell, seed)[0])
+    with pytest.raises(ValueError, match="share one task and technique"):
+        run_batched([(cells[0], 1, False), (Cell("approach", "goal_seeker"), 1, False)])
 
 
 def test_the_batched_and_the_one_at_a_time_grid_give_one_table():

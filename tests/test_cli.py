@@ -45,6 +45,13 @@ def test_help_shows_the_defaults(capsys):
         main(["train", "--help"])
     out = capsys.readouterr().out
     assert "(default: 2000000)" in out and "(default: approach)" in out
+    from agents.benchmark import DEFAULT_BATCH_SIZE, DEFAULT_EPISODES
+
+    with pytest.raises(SystemExit):
+        main(["benchmark", "--help"])
+    out = " ".join(capsys.readouterr().out.split())
+    assert f"episodes per cell (default: {DEFAULT_EPISODES})" in out
+    assert f"(the same results) (default: {DEFAULT_BATCH_SIZE})" in out
 
 
 def test_training_steps_are_whole_rollouts(capsys):
