@@ -57,7 +57,7 @@ __all__ = [
 
 #: Default lateness (control steps) allowed between a heel strike and its detection: 0.2 s.
 DEFAULT_LATE_STEPS = 2
-#: Step matching tolerance (s), seed 000's +-0.2 s (issue 3).
+#: Step matching tolerance (s), seed 000's +-0.2 s.
 STEP_TOLERANCE_S = 0.2
 
 

@@ -16,7 +16,7 @@ Rows:
   offline (one stream) and ``AttitudeEKF.update_batch`` for B = 1, 64, 1024 streams
   (sample-updates/s = B * N / time).
 
-Targets (issue 3): single stream >= 6x ahrs EKF; batched >= 2,000,000 sample-updates/s at
+Targets: single stream >= 6x ahrs EKF; batched >= 2,000,000 sample-updates/s at
 B = 1024.
 """
 

@@ -38,7 +38,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import vrloco_env  # noqa: F401  (registers the ids)
 from estimators.hand import HandPipeline
 
-TARGETS_MS = {1: 0.05, 256: 0.6}  # issue 5, per update() call
+TARGETS_MS = {1: 0.05, 256: 0.6}  # per update() call
 FIELDS = ("body_id", "body_tracked", "joints", "joint_state", "hand_quat")
 
 

@@ -16,17 +16,17 @@ Discretisation (one interval ``[t_{k-1}, t_k]`` of length ``dt = 1 / rate_hz``)
   the samples at ``t_{k-1}`` and ``t_k`` (RK4's midpoint stages use the mean rate), then
   renormalised. Local error O(dt^5) for the ODE, O(dt^3) from the linear interpolation of ``w``:
   10 s of a constant 1 rad/s rotation at 1 kHz stays within 1e-12 rad of the closed form.
-* Velocity: trapezoid on the world acceleration at the two ends,
-  ``a_k = R(q_k) f_k + g_world``, ``v_k = v_{k-1} + dt (a_{k-1} + a_k) / 2``. The brief asked for
-  "the mid-interval attitude" (``R(q_mid) (f_{k-1} + f_k) / 2``); rotating each sample with the
-  attitude *at its own instant* and averaging in the world is the same order, but exact whenever
-  the world acceleration is linear over the interval. The mid-attitude form is not exact even at
-  rest while rotating: the two body samples of gravity, averaged, are shortened by
-  ``cos(|w| dt / 2)``, a vertical acceleration error ``g (|w| dt)^2 / 8`` that integrates twice:
-  in the paper's 120 s uniform-rotation test (1 rad/s, 1 kHz) that is 9 mm of position from the
-  discretisation alone, where the end-point form stays at 1e-8 m (``tests/test_strapdown.py``).
-  On the 10 s walking-circle trajectory of the tests both end within 4e-5 m of the truth at 1 kHz
-  (the trapezoid's ``dt^2`` error on the head bob's jerk; the mid-attitude form 3e-5 m).
+* Velocity: trapezoid on the world acceleration at the two ends, ``a_k = R(q_k) f_k + g_world``,
+  ``v_k = v_{k-1} + dt (a_{k-1} + a_k) / 2``. A common alternative is "the mid-interval attitude"
+  (``R(q_mid) (f_{k-1} + f_k) / 2``); rotating each sample with the attitude *at its own instant*
+  and averaging in the world is the same order, but exact whenever the world acceleration is linear
+  over the interval. The mid-attitude form is not exact even at rest while rotating: the two body
+  samples of gravity, averaged, are shortened by ``cos(|w| dt / 2)``, a vertical acceleration error
+  ``g (|w| dt)^2 / 8`` that integrates twice: in the paper's 120 s uniform-rotation test (1 rad/s, 1
+  kHz) that is 9 mm of position from the discretisation alone, where the end-point form stays at
+  1e-8 m (``tests/test_strapdown.py``). On the 10 s walking-circle trajectory of the tests both end
+  within 4e-5 m of the truth at 1 kHz (the trapezoid's ``dt^2`` error on the head bob's jerk; the
+  mid-attitude form 3e-5 m).
 * Position: trapezoid on the velocity, ``p_k = p_{k-1} + dt (v_{k-1} + v_k) / 2``.
 
 Timing: the state always refers to the instant of the last sample consumed. :meth:`Strapdown.reset`

@@ -39,7 +39,7 @@ def test_attitude_error_and_euler_kernels_equal_the_rotation_module():
     # Euler angles, gimbal lock included (pitch +-90 deg).
     q2 = np.concatenate([q, rot.quat_from_ypr([[0.3, np.pi / 2, 0.2], [-1.0, -np.pi / 2, 0.5]])])
     out = np.empty((q2.shape[0], 3))
-    quat_to_ypr_rows(q2, out)
+    quat_to_ypr_rows(q2.shape[0])(q2, out)
     np.testing.assert_allclose(out, rot.quat_to_ypr(q2), atol=1e-9)
 
 
@@ -59,7 +59,8 @@ def test_ray_fan_equals_ray_cast():
         rooms.ray_fan(pos, np.full(4, np.nan), offsets, 8.0)
 
 
-def test_step_summary_kernel_equals_its_uncompiled_reference():
+def test_step_summary_counts_steps_and_turns_the_yaws_into_virtual_ones():
+    from estimators.kernels import param_record
     from vrloco_env._core_numba import step_summary_kernel
 
     b = 6
@@ -67,14 +68,21 @@ def test_step_summary_kernel_equals_its_uncompiled_reference():
     for in_place in (True, False):
         gait_steps = (rng.random((b, 10)) < 0.08).astype(np.int8)
         true_step = rng.random((b, 10)) < 0.08
-        args = (gait_steps, true_step, *rng.uniform(-4, 4, (4, b)), 0.7, in_place)
-        outs = [[np.empty(b), np.empty(b), np.empty(b), np.empty(b), np.zeros((b, 2))]
-                for _ in range(2)]  # fmt: skip
-        step_summary_kernel(*args, *outs[0])
-        step_summary_kernel.py_func(*args, *outs[1])
-        for x, y in zip(*outs, strict=True):
-            np.testing.assert_array_equal(x, y)
-        np.testing.assert_array_equal(outs[0][0], gait_steps.sum(axis=1))
+        yaw_est, off_est, yaw_true, off_true = rng.uniform(-4, 4, (4, b))
+        out = (np.empty(b), np.empty(b), np.empty(b), np.empty(b), np.zeros((b, 2)))
+        prm = param_record(step_length=0.7, in_place=float(in_place))
+        step_summary_kernel(b)(gait_steps, true_step, (yaw_est, yaw_true), (off_est, off_true),
+                               prm, out)  # fmt: skip
+        steps, true_steps, virtual_yaw, true_virtual_yaw, displacement = out
+        np.testing.assert_array_equal(steps, gait_steps.sum(axis=1))
+        np.testing.assert_array_equal(true_steps, true_step.sum(axis=1))
+        np.testing.assert_allclose(virtual_yaw, rot.wrap_angle(yaw_est + off_est), atol=1e-12)
+        np.testing.assert_allclose(true_virtual_yaw, rot.wrap_angle(yaw_true + off_true),
+                                   atol=1e-12)  # fmt: skip
+        expect = 0.7 * true_steps[:, None] * np.stack(
+            [np.cos(true_virtual_yaw), np.sin(true_virtual_yaw)], -1
+        )
+        np.testing.assert_allclose(displacement, expect if in_place else 0.0, atol=1e-12)
 
 
 def test_cadence_is_the_step_rate_and_decays_at_rest():

@@ -31,7 +31,7 @@ def test_locomotion_table_keeps_distance_and_removes_jerk(tmp_path):
     result = json.loads(path.read_text())
     for rate in ("100hz", "10hz"):
         r = result[rate]
-        assert all(abs(e) < 2.0 for e in r["distance_error_pct"])  # issue 4: within 2 %
+        assert all(abs(e) < 2.0 for e in r["distance_error_pct"])  # within 2 %
         assert all(ratio > 10 for ratio in r["jerk_ratio"])
 
 
@@ -40,7 +40,7 @@ def test_head_motions_meet_seed_000_targets(tmp_path):
     assert main(["experiment", "head-motions", "--users", "3", "--out", str(tmp_path),
                  "--json", str(path)]) == 0  # fmt: skip
     result = json.loads(path.read_text())
-    for preset, rows in result["steps"].items():  # issue 3: F1 >= 0.99 at 1.2-2.2 Hz
+    for preset, rows in result["steps"].items():  # F1 >= 0.99 at 1.2-2.2 Hz
         for cadence, r in rows.items():
             assert r["straight"]["f1"] >= 0.99 and r["head_scan"]["f1"] >= 0.99, (preset, cadence)
     for rows in result["phantom"].values():  # no phantom steps during head-only motions

@@ -1,4 +1,4 @@
-"""Eq (17) dead reckoning and the smooth-locomotion Kalman filter (issue 4)."""
+"""Eq (17) dead reckoning and the smooth-locomotion Kalman filter."""
 
 from __future__ import annotations
 

@@ -102,23 +102,32 @@ def _attitude_error(q_true, ypr_est, out):
 attitude_error_kernel = BatchKernel(_attitude_error, parallel=False)
 
 
-@numba.njit(cache=True)
-def quat_to_ypr_rows(q, out):
+def _quat_to_ypr_rows(q, out):
     """ZYX [yaw, pitch, roll] (rad) of B unit quaternions (B, 4) into ``out`` (B, 3)."""
-    for i in range(q.shape[0]):
+    for i in numba.prange(q.shape[0]):
         out[i, 0], out[i, 1], out[i, 2] = quat_to_ypr(q[i, 0], q[i, 1], q[i, 2], q[i, 3])
 
 
-@numba.njit(cache=True)
-def step_summary_kernel(
-    gait_steps, true_step, yaw_est, yaw_offset, yaw_true, true_yaw_offset, step_length, in_place,
-    o_steps, o_true_steps, o_virtual_yaw, o_true_virtual_yaw, o_true_displacement,
-):  # fmt: skip
-    """Per-user summary of a control step (:meth:`vrloco_env.users.SimulatedUsers._summary`):
-    detected and true step counts, virtual and true virtual yaw and, walking in place, the
-    displacement perfect sensing would give (``step_length`` per true step along the true
-    virtual yaw)."""
-    for b in range(gait_steps.shape[0]):
+#: ``quat_to_ypr_rows(batch_size)(q, out)`` (see ``_quat_to_ypr_rows``).
+quat_to_ypr_rows = BatchKernel(_quat_to_ypr_rows, parallel=False)
+
+
+def _step_summary(gait_steps, true_step, yaw, yaw_offset, prm, out):
+    """Per-user summary of a control step (:meth:`vrloco_env.users.SimulatedUsers._summary`).
+
+    ``yaw`` and ``yaw_offset`` are ``(estimated, true)`` pairs of (B,) head yaws and their
+    offsets to the virtual heading; ``prm`` the (1,) record of ``step_length`` (m) and
+    ``in_place`` (1.0 walking in place). Fills ``out`` = ``(steps, true_steps, virtual_yaw,
+    true_virtual_yaw, true_displacement)``: detected and true step counts, virtual and true
+    virtual yaw and, walking in place, the displacement perfect sensing would give
+    (``step_length`` per true step along the true virtual yaw).
+    """
+    yaw_est, yaw_true = yaw
+    yaw_offset_est, yaw_offset_true = yaw_offset
+    o_steps, o_true_steps, o_virtual_yaw, o_true_virtual_yaw, o_true_displacement = out
+    p = prm[0]
+    step_length = p["step_length"]
+    for b in numba.prange(gait_steps.shape[0]):
         s = 0.0
         for k in range(gait_steps.shape[1]):
             s += gait_steps[b, k]
@@ -127,9 +136,13 @@ def step_summary_kernel(
             ts += true_step[b, k]
         o_steps[b] = s
         o_true_steps[b] = ts
-        o_virtual_yaw[b] = wrap_angle(yaw_est[b] + yaw_offset[b])
-        tvy = wrap_angle(yaw_true[b] + true_yaw_offset[b])
+        o_virtual_yaw[b] = wrap_angle(yaw_est[b] + yaw_offset_est[b])
+        tvy = wrap_angle(yaw_true[b] + yaw_offset_true[b])
         o_true_virtual_yaw[b] = tvy
-        if in_place:
+        if p["in_place"] != 0.0:
             o_true_displacement[b, 0] = step_length * ts * math.cos(tvy)
             o_true_displacement[b, 1] = step_length * ts * math.sin(tvy)
+
+
+#: ``step_summary_kernel(batch_size)(...)`` (see ``_step_summary``).
+step_summary_kernel = BatchKernel(_step_summary, parallel=False)

@@ -31,6 +31,7 @@ from estimators import rotations as rot
 from estimators.batching import stream_rows
 from estimators.cadence import CadenceEstimator
 from estimators.hand import HandFrame, HandPipeline
+from estimators.kernels import param_record
 from estimators.stages import StageError, check_output
 from estimators.steering import torso_yaw
 from vrloco_env._core_numba import quat_to_ypr_rows, step_summary_kernel
@@ -163,6 +164,8 @@ class SimulatedUsers:
         self.rng = rng
         self.sensors = sensors
         self.estimator_config = estimators
+        self._summary_prm = param_record(step_length=estimators.step_length,
+                                         in_place=float(not self.overground))  # fmt: skip
         fs = sensors.imu_rate_hz
         self.motion_params = _derived_motion(motion, sensors, self.overground)
         self.motion = UserMotion(self.motion_params, rng)
@@ -306,7 +309,7 @@ class SimulatedUsers:
             gait = self._plugin("steps", self.gait.update, imu.acc, imu.gyr, q)
             gait = self._checked_gait(gait, imu.acc.shape[1])
         ypr_est = np.empty((self.batch_size, 3))
-        quat_to_ypr_rows(q[:, -1], ypr_est)  # rot.quat_to_ypr, compiled (one user: 1 us, not 10)
+        quat_to_ypr_rows(self.batch_size)(q[:, -1], ypr_est)  # rot.quat_to_ypr, compiled
         if self._recentre.any():  # first samples of an episode: align virtual and estimated yaw
             first = rot.quat_to_ypr(q[:, 0])[:, 0]
             self.yaw_offset = np.where(
@@ -456,10 +459,10 @@ class SimulatedUsers:
         steps, true_steps = np.empty(b), np.empty(b)
         virtual_yaw, true_virtual_yaw = np.empty(b), np.empty(b)
         true_displacement = np.zeros((b, 2))
-        step_summary_kernel(
-            gait_steps, true_step, yaw_est, self.yaw_offset, yaw_true, self.true_yaw_offset,
-            self.estimator_config.step_length, not self.overground, steps, true_steps, virtual_yaw,
-            true_virtual_yaw, true_displacement,
+        step_summary_kernel(b)(
+            gait_steps, true_step, (yaw_est, yaw_true), (self.yaw_offset, self.true_yaw_offset),
+            self._summary_prm, (steps, true_steps, virtual_yaw, true_virtual_yaw,
+                                true_displacement),
         )  # fmt: skip
         return steps, true_steps, virtual_yaw, true_virtual_yaw, true_displacement
 

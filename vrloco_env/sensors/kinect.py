@@ -17,7 +17,7 @@ orientation quaternion. It adds what makes the real sensor hard to use (seed 003
   view, in random slots, so the target user must be chosen (nearest tracked body). Their noise has
   the same per-joint std, white fraction and time constants as the target's, but one noise vector
   per frame moves all their joints (and their wrist): a rigidly jittering skeleton, drawn at lower
-  dimension for speed (engineering decision, issue 5: bystanders matter by where they stand and
+  dimension for speed (an engineering decision: bystanders matter by where they stand and
   whom they hide, not by the shape of their jitter);
 * optional latency of a whole number of frames.
 
@@ -65,7 +65,7 @@ hand faces the sensor or away from it (e.g. fingertips straight up or down); the
 90 deg from it, and motion.py's hand limits (pitch within +-80 deg) stay clear of it for single-axis
 rotations.
 
-The brief asked for the turn about the forearm to be the paper's "yaw", as the paper's text says
+One would like the turn about the forearm to be the paper's "yaw", as the paper's text says
 (its Tables 1-3 sweep "yaw" from -90 to 90 deg turning the hand about the bone). That cannot hold
 together with the SDK's bone-on-+y convention: right-multiplying by a rotation about a frame axis
 changes exactly the last ZYX angle only for the x axis, so "yaw" follows the forearm only if the
