@@ -30,6 +30,7 @@ import csv
 import json
 import math
 import os
+import re
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
@@ -48,6 +49,7 @@ from agents.metrics import (
     summarize,
 )
 from agents.policies import build_policy, check_policy
+from agents.resume import EpisodeStore, episode_key, source_fingerprint
 from agents.scripted import is_batched
 from vrloco_env.tasks import env_id, get_task
 
@@ -125,8 +127,13 @@ class Cell:
 
     @property
     def label(self) -> str:
-        name = self.technique_name.replace(":", "-").replace(".", "-")
-        return f"{self.task}_{self.policy.replace('+', '-')}_{name}"
+        """A file-name-safe name: ``task_policy_technique`` (a policy or technique given as a
+        path keeps only its file name; other characters become ``-``)."""
+
+        def safe(text: str) -> str:
+            return re.sub(r"[^A-Za-z0-9_]+", "-", text.replace("\\", "/").split("/")[-1])
+
+        return f"{self.task}_{safe(self.policy)}_{safe(self.technique_name)}"
 
 
 def technique_for_preset(preset: str) -> Any:
@@ -459,20 +466,35 @@ def run_benchmark(
 
     cells = [Cell(t, p, k) for t in tasks for p in policies for k in techs]
     want_figures = out_dir is not None
-    jobs = _split_jobs(cells, episodes, seed, want_figures, batch_size, workers)
+    store = None if out_dir is None else EpisodeStore(Path(out_dir) / ".resume")
     results: dict[tuple[Cell, int], EpisodeStats] = {}
-    windows: dict[Cell, tuple[int, int]] = {}
+    infos: dict[tuple[Cell, int], dict] = {}
+    keys = _episode_keys(cells, episodes, seed, want_figures)
+    if store is not None:
+        found = store.load()
+        for ci, key in keys.items():
+            if key in found:
+                results[ci], infos[ci] = found[key]
+        if results:
+            print(f"resuming: {len(results)} of {len(keys)} episodes found in {store.folder}")
+    jobs = _split_jobs(cells, episodes, seed, want_figures, batch_size, workers, set(results))
     interrupted = False
     try:
-        for cell, index, stats, reset_info in _run_jobs(jobs, workers, progress):
-            results[(cell, index)] = stats
-            windows[cell] = step_window(reset_info, stats.elapsed_s / max(stats.steps, 1))
+        for done in _run_jobs(jobs, workers, progress):
+            for cell, index, stats, reset_info in done:
+                results[(cell, index)], infos[(cell, index)] = stats, reset_info
+            if store is not None:
+                store.save({keys[(c, i)]: (st, ri) for c, i, st, ri in done})
     except KeyboardInterrupt:  # Ctrl-C: keep the cells that finished
         interrupted = True
+    windows = {c: step_window(infos[(c, i)], st.elapsed_s / max(st.steps, 1))
+               for (c, i), st in results.items()}  # fmt: skip
     all_cells = cells
     cells = [c for c in cells if all((c, i) in results for i in range(episodes))]
     if interrupted:
-        print(f"interrupted: {len(cells)} of {len(all_cells)} cells finished; writing those")
+        print(f"interrupted: {len(cells)} of {len(all_cells)} cells finished; writing those"
+              + ("" if store is None else f" (rerun with the same --out to resume: "
+                 f"{len(results)} episodes kept in {store.folder})"))  # fmt: skip
 
     rows = []
     for c in cells:
@@ -504,11 +526,26 @@ def run_benchmark(
         print(f"wrote {p}")
     if interrupted:
         raise KeyboardInterrupt
+    if store is not None:
+        store.clear()  # the grid is complete: nothing to resume
     return rows
 
 
+def _episode_keys(
+    cells: list[Cell], episodes: int, seed: int, figures: bool
+) -> dict[tuple[Cell, int], str]:
+    """The resume key of every episode of the grid (:func:`agents.resume.episode_key`)."""
+    from vrloco_env.techniques import get_technique
+
+    fp = source_fingerprint()
+    return {(c, i): episode_key(fp, c.task, c.policy, get_technique(c.technique), seed + i,
+                                figures and i == 0)
+            for c in cells for i in range(episodes)}  # fmt: skip
+
+
 def _split_jobs(
-    cells: list[Cell], episodes: int, seed: int, figures: bool, batch_size: int, workers: int
+    cells: list[Cell], episodes: int, seed: int, figures: bool, batch_size: int, workers: int,
+    skip: set[tuple[Cell, int]] = frozenset(),  # type: ignore[assignment]
 ) -> list[tuple]:
     """The grid's jobs. One episode per job for ``batch_size`` 0; else the episodes of the cells
     that share a task and a technique (one vector env), taken episode index by episode index
@@ -518,35 +555,37 @@ def _split_jobs(
         return (c, i, seed + i, figures and i == 0)
 
     if batch_size == 0:
-        return [([ep(c, i)], 0) for c in cells for i in range(episodes)]
+        return [([ep(c, i)], 0) for c in cells for i in range(episodes) if (c, i) not in skip]
     groups: dict[tuple, list[Cell]] = {}
     for c in cells:  # a user's own policy gets jobs of its own: it may not take batches
         own = c.policy if ":" in c.policy else ""
         groups.setdefault((c.task, c.technique_name, own), []).append(c)
     per_job = 4 * batch_size
-    total = len(cells) * episodes
+    total = max(1, len(cells) * episodes - len(skip))
     per_job = max(1, min(per_job, math.ceil(total / workers)))
     jobs = []
     for members in groups.values():
-        order = [ep(c, i) for i in range(episodes) for c in members]
+        order = [ep(c, i) for i in range(episodes) for c in members if (c, i) not in skip]
         for lo in range(0, len(order), per_job):
             jobs.append((order[lo : lo + per_job], batch_size))
     return jobs
 
 
 def _run_jobs(jobs: list, workers: int, progress: bool):
-    """Yield ``(cell, index, stats, reset_info)`` for every episode of the jobs, in any order,
-    with a progress bar."""
+    """Yield each job's ``[(cell, index, stats, reset_info), ...]`` as it finishes, in any order,
+    with a progress bar over the episodes."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeElapsedColumn
 
     columns = ("[progress.description]{task.description}", BarColumn(), MofNCompleteColumn(),
                TimeElapsedColumn())  # fmt: skip
     with Progress(*columns, disable=not progress, transient=False) as bar:
         task = bar.add_task("episodes", total=sum(len(job[0]) for job in jobs))
+        if not jobs:
+            return
         if workers == 1 or len(jobs) == 1:
             for job in jobs:
                 done = _job(job)
-                yield from done
+                yield done
                 bar.advance(task, len(done))
             return
         pool = ProcessPoolExecutor(max_workers=min(workers, len(jobs)), initializer=_ignore_sigint)
@@ -554,7 +593,7 @@ def _run_jobs(jobs: list, workers: int, progress: bool):
             futures = [pool.submit(_job, job) for job in jobs]
             for f in as_completed(futures):
                 done = f.result()
-                yield from done
+                yield done
                 bar.advance(task, len(done))
         except BaseException:  # Ctrl-C (or an error): stop the workers now, not after the grid
             for process in list(getattr(pool, "_processes", {}).values()):

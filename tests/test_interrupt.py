@@ -67,3 +67,37 @@ def test_an_interrupted_grid_writes_the_cells_that_finished(tmp_path):
                       print_table=False, out_dir=tmp_path / "out")  # fmt: skip
     rows = json.loads((tmp_path / "out" / "benchmark.json").read_text())["rows"]
     assert [r["policy"] for r in rows] == ["goal_seeker"]
+
+
+def test_an_interrupted_grid_resumes_where_it_stopped(tmp_path, capsys):
+    """The finished episodes are kept in the output folder; a rerun runs only the rest and gives
+    the table of an uninterrupted run. An unreadable resume file is reported and rerun."""
+    marker = tmp_path / "interrupted-once"
+    plugin = tmp_path / "flaky.py"
+    plugin.write_text(
+        "from pathlib import Path\n"
+        "import numpy as np\n"
+        f"MARK = Path({str(marker)!r})\n"
+        "class Flaky:\n"
+        "    def __init__(self, env):\n"
+        "        pass\n"
+        "    def reset(self, rng=None, rows=None):\n"
+        "        if not MARK.exists():\n"
+        "            MARK.touch()\n"
+        "            raise KeyboardInterrupt  # Ctrl-C while this cell runs, the first time\n"
+        "    def act(self, obs):\n"
+        "        return -np.ones(5, np.float32)\n"
+    )
+    kw = dict(tasks=["approach"], policies=["goal_seeker", f"{plugin}:Flaky"],
+              techniques=["seed000"], episodes=2, workers=1, progress=False,
+              print_table=False)  # fmt: skip
+    out = tmp_path / "out"
+    with pytest.raises(KeyboardInterrupt):
+        run_benchmark(**kw, out_dir=out)
+    assert "rerun with the same --out to resume: 2 episodes kept" in capsys.readouterr().out
+    (out / ".resume" / "garbage.pkl").write_bytes(b"not a pickle")
+    rows = run_benchmark(**kw, out_dir=out)
+    said = capsys.readouterr().out
+    assert "resuming: 2 of 4 episodes found" in said and "skipping unreadable" in said
+    assert not (out / ".resume").exists()  # complete: nothing left to resume
+    assert rows == run_benchmark(**kw)  # the same table as a run that was never interrupted
