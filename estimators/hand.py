@@ -15,8 +15,8 @@ The stages (seed 003, sections 1.1-1.4):
 :class:`HandPipeline` runs all four for the environment through the compiled kernel
 :mod:`estimators._hand_numba`: one Kinect frame per ``update`` call, or the M frames of a control
 step per ``update_frames`` call; :func:`estimate_hand_orientation` runs it over recorded or
-simulated sequences; :func:`hand_variance_experiment` is the core of the paper's static-variance
-experiment (Tables 1-4), on :class:`OrientationFilter`.
+simulated sequences. The paper's static-variance experiment (Tables 1-4) lives in
+:mod:`agents.experiments.hand_variance`.
 
 Axis names. Seed 003's eq (1) writes::
 
@@ -66,7 +66,7 @@ from estimators.joint_smoothing import (
     OneEuroParams,
 )
 from estimators.kernels.records import param_record, record_dtype
-from estimators.rotations import quat_from_ypr, wrap_angle
+from estimators.rotations import wrap_angle
 
 __all__ = [
     "PAPER_AXIS_NAMES",
@@ -74,7 +74,6 @@ __all__ = [
     "HandFrame",
     "HandParams",
     "HandPipeline",
-    "HandVarianceResult",
     "HoltParams",
     "HoltSmoother",
     "KalmanParams",
@@ -87,7 +86,6 @@ __all__ = [
     "StreamingMedian",
     "estimate_hand_orientation",
     "estimate_lag",
-    "hand_variance_experiment",
     "median_filter",
     "paper_to_ypr",
     "quat_to_euler_paper",
@@ -1055,90 +1053,6 @@ def estimate_lag(
         cost[i] = np.sqrt(np.nanmean(d * d, axis=0))
     best = shifts[np.nanargmin(cost, axis=0)] / rate_hz
     return best.reshape(est.shape[1:])
-
-
-@dataclass
-class HandVarianceResult:
-    """Seed 003 experiment 2 (Tables 1-4): variances of static hand angles, deg^2.
-
-    Columns are our ``[yaw, pitch, roll]`` = the paper's *Roll, Pitch, Yaw* (see
-    :data:`PAPER_AXIS_NAMES`).
-
-    Attributes:
-        var_raw: (A, 3) raw (eq 1/2) variance per static pose, mean over repeats, deg^2.
-        var_kalman: (A, 3) after the Kalman filter, deg^2.
-        var_filtered: (A, 3) after Kalman + median, deg^2.
-        reduction_kalman: (3,) variance reduction of the Kalman filter, %, pooled over poses
-            (``100 (1 - sum var_kalman / sum var_raw)``).
-        reduction_filtered: (3,) variance reduction of Kalman + median, %, pooled.
-    """
-
-    var_raw: NDArray[np.float64]
-    var_kalman: NDArray[np.float64]
-    var_filtered: NDArray[np.float64]
-    reduction_kalman: NDArray[np.float64]
-    reduction_filtered: NDArray[np.float64]
-
-    def table(self) -> str:
-        """Seed 003's Table 4 layout: reduction per paper axis name, Kalman and Kalman + median."""
-        lines = ["axis (paper)  Kalman %  Kalman+median %"]
-        for i, name in enumerate(PAPER_AXIS_NAMES):
-            lines.append(
-                f"{name:<13} {self.reduction_kalman[i]:8.1f}  {self.reduction_filtered[i]:15.1f}"
-            )
-        return "\n".join(lines)
-
-
-def hand_variance_experiment(
-    hand_orientation: ArrayLike, params: HandParams | None = None, warmup_frames: int = 30
-) -> HandVarianceResult:
-    """Core of seed 003's static-variance experiment (its experiment 2, Tables 1-4).
-
-    The paper holds the hand still at 11 yaw angles (its yaw: our roll, the rotation about the
-    bone) and repeats 10 times, comparing the variance of the raw, Kalman and Kalman + median
-    angles. Here each trial is a sequence of wrist orientations of a static hand; all A x R trials
-    run as one batch through :class:`OrientationFilter`, exactly as in the pipeline.
-
-    How the paper pools its 11 angles into Table 4 is not stated; the pooled ratio
-    ``1 - sum(var_filtered) / sum(var_raw)`` reproduces its Roll figure from Table 1 (65 %), so
-    we use it. Variances use unwrapped angles, so a pose at +-180 deg is not inflated.
-
-    Args:
-        hand_orientation: (A, R, M, 4) wrist quaternions ``[w, x, y, z]``, or (A, R, M, 3) raw
-            ``[yaw, pitch, roll]`` in rad (converted to quaternions first): A static poses x R
-            repeats x M frames at ``params.kalman.rate_hz``.
-        params: :class:`HandParams`.
-        warmup_frames: first frames of each trial left out of the variances (filter start-up).
-
-    Returns:
-        :class:`HandVarianceResult`.
-    """
-    q = np.asarray(hand_orientation, dtype=np.float64)
-    if q.ndim != 4 or q.shape[-1] not in (3, 4):
-        raise ValueError(
-            f"hand_orientation must have shape (A, R, M, 4) or (A, R, M, 3), got {q.shape}"
-        )
-    if q.shape[-1] == 3:
-        q = quat_from_ypr(q)
-    a, r, m, _ = q.shape
-    if not 0 <= warmup_frames < m - 1:
-        raise ValueError(f"warmup_frames must be in [0, {m - 1}), got {warmup_frames}")
-    flt = OrientationFilter(a * r, params)
-    flat = q.reshape(a * r, m, 4)
-    out = np.empty((3, a * r, m, 3))
-    for t in range(m):
-        fr = flt.update(flat[:, t])
-        out[0, :, t], out[1, :, t], out[2, :, t] = fr.ypr_raw, fr.ypr_kalman, fr.ypr
-    ang = np.rad2deg(unwrap_angles(out[:, :, warmup_frames:], axis=2))
-    var = np.nanvar(ang, axis=2, ddof=1).reshape(3, a, r, 3).mean(axis=2)  # (3, A, 3)
-    total = var.sum(axis=1)  # (3, 3)
-    return HandVarianceResult(
-        var_raw=var[0],
-        var_kalman=var[1],
-        var_filtered=var[2],
-        reduction_kalman=100.0 * (1.0 - total[1] / total[0]),
-        reduction_filtered=100.0 * (1.0 - total[2] / total[0]),
-    )
 
 
 # ----------------------------------------------------------------------------------------------

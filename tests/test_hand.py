@@ -10,6 +10,7 @@ import pytest
 from scipy.signal import lfilter
 from scipy.spatial.transform import Rotation
 
+from agents.experiments.hand_variance import hand_variance_experiment
 from estimators import hand
 from estimators import rotations as rot
 from estimators.io_kinect import read_kinect_csv
@@ -342,7 +343,7 @@ def test_kalman_median_static_variance_reduction_beats_table4(rng):
     std = np.deg2rad([2.0, 1.5, 2.5])
     noise = ar1_noise(rng, (a, r, m, 3), std / np.sqrt(2), std / np.sqrt(2), 0.5)
     q = rot.quat_from_ypr(truth[:, None, None, :] + noise)
-    res = hand.hand_variance_experiment(q)
+    res = hand_variance_experiment(q)
     print(
         f"\nstatic variance reduction (raw var {res.var_raw.mean(0).round(2)} deg^2):\n"
         f"{res.table()}"
@@ -352,7 +353,7 @@ def test_kalman_median_static_variance_reduction_beats_table4(rng):
     # Table 4 targets (Roll, Pitch, Yaw of the paper = our columns 0, 1, 2): 65 / 54 / 69 %
     assert np.all(res.reduction_filtered >= [65.0, 54.0, 69.0]), res.table()
     assert np.all(res.reduction_kalman < res.reduction_filtered), res.table()
-    same = hand.hand_variance_experiment(truth[:, None, None, :] + noise)  # Euler input
+    same = hand_variance_experiment(truth[:, None, None, :] + noise)  # Euler input
     np.testing.assert_allclose(same.var_filtered, res.var_filtered, rtol=1e-9)
     # the One Euro competitor on the same trials, for the record
     raw = (truth[:, None, None, :] + noise).reshape(a * r, m, 3)

@@ -13,6 +13,12 @@ states, noise) -> :class:`estimators.hand.HandPipeline` (target selection, Holt 
 Kalman, median). Axis names are the paper's (see :mod:`estimators.hand`): its *roll, pitch, yaw*
 are our ZYX ``[yaw, pitch, roll]`` columns of the wrist orientation in camera space.
 
+The core of the static experiment on given orientation sequences is
+:func:`hand_variance_experiment` (through :class:`estimators.hand.OrientationFilter` alone, with its
+:class:`HandVarianceResult` and the Table 4 layout); :func:`static_variance`,
+:func:`moving_accuracy` (1 and 2) and :func:`recording_jitter` (a real recording) are the
+full-chain runs, and :func:`run_hand_variance` runs them all.
+
 Run: ``vrloco experiment hand-variance --json out/hand_variance.json``.
 """
 
@@ -23,19 +29,22 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from estimators.hand import (
     PAPER_AXIS_NAMES,
+    HandParams,
     HandPipeline,
     HoltSmoother,
     OneEuroFilter,
     OneEuroParams,
+    OrientationFilter,
     estimate_lag,
     quat_to_euler_paper,
     unwrap_angles,
 )
 from estimators.io_kinect import read_kinect_csv
-from estimators.rotations import angle_diff
+from estimators.rotations import angle_diff, quat_from_ypr
 from vrloco_env.batch_rng import BatchRng
 from vrloco_env.motion import Intent, MotionParams, MotionRecord, UserMotion
 from vrloco_env.sensors.kinect import KinectSpec, KinectV2
@@ -49,6 +58,91 @@ PAPER_REDUCTION = {
 }
 ONE_EURO = OneEuroParams(rate_hz=30.0, min_cutoff=1.0, beta=1.0)
 _WARMUP_FRAMES = 30  # filter start-up left out of the statistics (1 s)
+
+
+@dataclass
+class HandVarianceResult:
+    """Seed 003 experiment 2 (Tables 1-4): variances of static hand angles, deg^2.
+
+    Columns are our ``[yaw, pitch, roll]`` = the paper's *Roll, Pitch, Yaw* (see
+    :data:`PAPER_AXIS_NAMES`).
+
+    Attributes:
+        var_raw: (A, 3) raw (eq 1/2) variance per static pose, mean over repeats, deg^2.
+        var_kalman: (A, 3) after the Kalman filter, deg^2.
+        var_filtered: (A, 3) after Kalman + median, deg^2.
+        reduction_kalman: (3,) variance reduction of the Kalman filter, %, pooled over poses
+            (``100 (1 - sum var_kalman / sum var_raw)``).
+        reduction_filtered: (3,) variance reduction of Kalman + median, %, pooled.
+    """
+
+    var_raw: NDArray[np.float64]
+    var_kalman: NDArray[np.float64]
+    var_filtered: NDArray[np.float64]
+    reduction_kalman: NDArray[np.float64]
+    reduction_filtered: NDArray[np.float64]
+
+    def table(self) -> str:
+        """Seed 003's Table 4 layout: reduction per paper axis name, Kalman and Kalman + median."""
+        lines = ["axis (paper)  Kalman %  Kalman+median %"]
+        for i, name in enumerate(PAPER_AXIS_NAMES):
+            lines.append(
+                f"{name:<13} {self.reduction_kalman[i]:8.1f}  {self.reduction_filtered[i]:15.1f}"
+            )
+        return "\n".join(lines)
+
+
+def hand_variance_experiment(
+    hand_orientation: ArrayLike, params: HandParams | None = None, warmup_frames: int = 30
+) -> HandVarianceResult:
+    """Core of seed 003's static-variance experiment (its experiment 2, Tables 1-4).
+
+    The paper holds the hand still at 11 yaw angles (its yaw: our roll, the rotation about the
+    bone) and repeats 10 times, comparing the variance of the raw, Kalman and Kalman + median
+    angles. Here each trial is a sequence of wrist orientations of a static hand; all A x R trials
+    run as one batch through :class:`~estimators.hand.OrientationFilter`, exactly as in the
+    pipeline.
+
+    How the paper pools its 11 angles into Table 4 is not stated; the pooled ratio
+    ``1 - sum(var_filtered) / sum(var_raw)`` reproduces its Roll figure from Table 1 (65 %), so
+    we use it. Variances use unwrapped angles, so a pose at +-180 deg is not inflated.
+
+    Args:
+        hand_orientation: (A, R, M, 4) wrist quaternions ``[w, x, y, z]``, or (A, R, M, 3) raw
+            ``[yaw, pitch, roll]`` in rad (converted to quaternions first): A static poses x R
+            repeats x M frames at ``params.kalman.rate_hz``.
+        params: :class:`~estimators.hand.HandParams`.
+        warmup_frames: first frames of each trial left out of the variances (filter start-up).
+
+    Returns:
+        :class:`HandVarianceResult`.
+    """
+    q = np.asarray(hand_orientation, dtype=np.float64)
+    if q.ndim != 4 or q.shape[-1] not in (3, 4):
+        raise ValueError(
+            f"hand_orientation must have shape (A, R, M, 4) or (A, R, M, 3), got {q.shape}"
+        )
+    if q.shape[-1] == 3:
+        q = quat_from_ypr(q)
+    a, r, m, _ = q.shape
+    if not 0 <= warmup_frames < m - 1:
+        raise ValueError(f"warmup_frames must be in [0, {m - 1}), got {warmup_frames}")
+    flt = OrientationFilter(a * r, params)
+    flat = q.reshape(a * r, m, 4)
+    out = np.empty((3, a * r, m, 3))
+    for t in range(m):
+        fr = flt.update(flat[:, t])
+        out[0, :, t], out[1, :, t], out[2, :, t] = fr.ypr_raw, fr.ypr_kalman, fr.ypr
+    ang = np.rad2deg(unwrap_angles(out[:, :, warmup_frames:], axis=2))
+    var = np.nanvar(ang, axis=2, ddof=1).reshape(3, a, r, 3).mean(axis=2)  # (3, A, 3)
+    total = var.sum(axis=1)  # (3, 3)
+    return HandVarianceResult(
+        var_raw=var[0],
+        var_kalman=var[1],
+        var_filtered=var[2],
+        reduction_kalman=100.0 * (1.0 - total[1] / total[0]),
+        reduction_filtered=100.0 * (1.0 - total[2] / total[0]),
+    )
 
 
 @dataclass
