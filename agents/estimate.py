@@ -23,9 +23,9 @@ the file (and, for a CSV, the line and the column):
   :data:`~estimators.attitude.MAX_GYR_NORM`): an accelerometer in g, a gyro in deg/s and a time
   in ms, us or ns are errors that say what was found and what to multiply by. A gyro is taken
   for deg/s when at least 10 samples and 1 % of them exceed 35 rad/s, or when the magnetometer's
-  direction turns 20 to 150 times slower than the gyro says (57.3 for deg/s; fitted over the
-  whole recording, :func:`gyro_to_field_ratio`). A 6D recording whose head never turns faster
-  than 35 deg/s cannot be told apart from rad/s data and passes.
+  direction turns 35 to 95 times slower than the gyro says (57.3 for deg/s; fitted over the
+  whole recording, :func:`gyro_to_field_ratio`). A recording whose head hardly turns, and a 6D
+  one that never turns faster than 35 deg/s, cannot be told apart from rad/s data and pass.
 * impossible samples: a gyro component beyond :data:`MAX_GYR_AXIS` (2000 deg/s), an accelerometer
   component beyond :data:`MAX_ACC_AXIS` (16 g), a field norm over :data:`MAX_MAG_RATIO` times the
   recording's median norm, or an infinite value, are treated as missing (a warning gives the
@@ -45,7 +45,9 @@ Irregular timestamps are resampled onto a uniform grid at the median rate (linea
 for the attitude filter, which assumes a fixed rate; the step detector takes the timestamps as
 they are. Output: a CSV (``t, qw, qx, qy, qz, yaw_deg, pitch_deg, roll_deg, walking, step, x,
 y``; without attitude ``t, walking, step, x, y``) and a PNG with the attitude (when there is
-one), the specific-force norm with the detected steps, and the path of eq (17).
+one), the specific-force norm with the detected steps, and the path of eq (17). The summary that
+``vrloco estimate`` prints (JSON) holds the comparison with the ground truth where the recording
+carries one (:func:`estimate_recording`).
 """
 
 from __future__ import annotations
@@ -110,8 +112,10 @@ MAX_BRIDGE_S = 60.0
 RATE_RANGE_HZ = (5.0, 10_000.0)
 #: Samples needed before a unit is declared wrong (as the attitude filter's guard).
 UNIT_MIN_COUNT = 10
-#: Gyro/field turning ratios read as a gyro in deg/s (57.3 expected; rad/s data gives about 1).
-DEG_RATIO_RANGE = (20.0, 150.0)
+#: Gyro/field turning ratios read as a gyro in deg/s: 57.3 expected, 50-59 measured on BROAD and
+#: the simulator; rad/s data gives about 1, a magnetometer with an uncorrected hard-iron offset
+#: more (its direction turns less).
+DEG_RATIO_RANGE = (35.0, 95.0)
 
 
 @dataclass
@@ -308,10 +312,7 @@ def read_recording(path: Path) -> Recording:
     if path.suffix.lower() in (".hdf5", ".h5", ".mat"):
         from estimators.io_broad import load_broad
 
-        try:
-            trial = load_broad(path)
-        except (OSError, NotImplementedError) as err:  # h5py/scipy on a file that is not one
-            raise ValueError(f"{path}: not a readable BROAD trial ({err})") from None
+        trial = load_broad(path)
         t = np.arange(trial.acc.shape[0]) / trial.fs
         rec = Recording(trial.name, t, trial.acc, trial.gyr, trial.mag, GaitParams(),
                         ref_quat=trial.quat, ref_mask=trial.movement)  # fmt: skip
@@ -450,7 +451,7 @@ def check_recording(rec: Recording, path: Path) -> Recording:
     if n < 2 or t[-1] <= t[0]:
         raise ValueError(f"{path}: needs samples at 2 distinct times at least, found {n} rows")
     dt = _check_rate(rec, path)
-    # Impossible in any unit: beyond 2000 (the largest gyro range in deg/s) or infinite.
+    # Gyro samples some unit allows (|component| <= 2040, 2000 deg/s and 2 %): deg/s evidence.
     possible_gyr = None
     if rec.gyr is not None:
         possible_gyr = np.all(np.abs(rec.gyr) <= np.degrees(MAX_GYR_AXIS), axis=1)

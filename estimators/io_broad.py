@@ -58,25 +58,42 @@ class BroadTrial:
 def _read_hdf5(path: Path) -> tuple[dict[str, NDArray], float]:
     import h5py
 
-    with h5py.File(path, "r") as f:
+    try:
+        f = h5py.File(path, "r")
+    except OSError as err:
+        raise ValueError(f"{path.name}: not a readable HDF5 file ({err})") from None
+    with f:
         missing = [k for k in _KEYS if k not in f]
         if missing:
             raise ValueError(f"{path.name}: not a BROAD trial, missing keys {missing}")
+        if not all(isinstance(f[k], h5py.Dataset) for k in _KEYS):
+            raise ValueError(f"{path.name}: not a BROAD trial, {list(_KEYS)} must be datasets")
         data = {k: np.asarray(f[k][()]) for k in _KEYS}
         if "sampling_rate" not in f.attrs:
             raise ValueError(f"{path.name}: missing attribute 'sampling_rate'")
-        fs = float(np.asarray(f.attrs["sampling_rate"]))
+        fs = _number(path, f.attrs["sampling_rate"])
     return data, fs
+
+
+def _number(path: Path, value: object) -> float:
+    """The sampling rate as a float, or a ValueError naming the file."""
+    try:
+        return float(np.asarray(value, dtype=np.float64).reshape(()))
+    except (TypeError, ValueError):
+        raise ValueError(f"{path.name}: sampling_rate must be one number, got {value!r}") from None
 
 
 def _read_mat(path: Path) -> tuple[dict[str, NDArray], float]:
     from scipy.io import loadmat
 
-    m = loadmat(path, squeeze_me=True)
+    try:
+        m = loadmat(path, squeeze_me=True)
+    except Exception as err:  # scipy raises ValueError, MatReadError, TypeError... on non-MAT data
+        raise ValueError(f"{path.name}: not a readable MATLAB file ({err})") from None
     missing = [k for k in (*_KEYS, "sampling_rate") if k not in m]
     if missing:
         raise ValueError(f"{path.name}: not a BROAD trial, missing keys {missing}")
-    return {k: np.asarray(m[k]) for k in _KEYS}, float(m["sampling_rate"])
+    return {k: np.asarray(m[k]) for k in _KEYS}, _number(path, m["sampling_rate"])
 
 
 def load_broad(path: str | Path) -> BroadTrial:
@@ -90,7 +107,8 @@ def load_broad(path: str | Path) -> BroadTrial:
 
     Raises:
         FileNotFoundError: no such file.
-        ValueError: unknown extension, missing keys or inconsistent shapes.
+        ValueError: not an HDF5/MAT file, unknown extension, missing keys, non-numeric data or
+            inconsistent shapes.
     """
     path = Path(path)
     if not path.is_file():
@@ -99,7 +117,11 @@ def load_broad(path: str | Path) -> BroadTrial:
     if suffix not in _SUFFIXES:
         raise ValueError(f"{path.name}: BROAD trials are {_SUFFIXES} files, got {suffix!r}")
     data, fs = _read_hdf5(path) if suffix != ".mat" else _read_mat(path)
-    arr = {k: np.ascontiguousarray(data[k], dtype=np.float64) for k in _KEYS if k != "movement"}
+    try:
+        arr = {k: np.ascontiguousarray(data[k], dtype=np.float64) for k in _KEYS if k != "movement"}
+    except (TypeError, ValueError):
+        numeric = list(_KEYS[:5])
+        raise ValueError(f"{path.name}: not a BROAD trial, {numeric} must be numeric") from None
     n = arr["imu_gyr"].shape[0]
     for k, cols in (
         ("imu_gyr", 3),

@@ -9,6 +9,7 @@ row ends with a trailing comma (so 102 fields, the last empty).
 
 from __future__ import annotations
 
+import io
 from dataclasses import dataclass
 from os import PathLike
 from pathlib import Path
@@ -57,9 +58,12 @@ def read_kinect_csv(path: str | PathLike[str], num_joints: int = NUM_JOINTS) -> 
         :class:`KinectRecording`. Joints whose state is 0 (not tracked) are set to NaN, as the
         rest of vrloco expects.
 
+    The file is ASCII text; a UTF-8 byte-order mark (a spreadsheet's) is skipped.
+
     Raises:
         FileNotFoundError: no such file.
-        ValueError: a malformed file, naming the line (1-based) and column (1-based field index):
+        ValueError: a file that is not ASCII/UTF-8 text, or a malformed file, naming the line
+            (1-based) and column (1-based field index):
             wrong field count, a non-numeric field, a tracking state outside {0, 1, 2}, a
             non-finite coordinate, non-increasing times, or no rows at all.
     """
@@ -67,7 +71,14 @@ def read_kinect_csv(path: str | PathLike[str], num_joints: int = NUM_JOINTS) -> 
     n_fields = 1 + 4 * num_joints
     ticks: list[int] = []
     rows: list[list[float]] = []
-    with p.open("r", encoding="ascii", errors="strict", newline=None) as fh:
+    try:
+        text = p.read_bytes().decode("utf-8-sig")
+    except UnicodeDecodeError as err:
+        raise ValueError(
+            f"{p.name}: not a text CSV (byte {err.start} is not ASCII/UTF-8: binary data or "
+            "another encoding)"
+        ) from None
+    with io.StringIO(text, newline=None) as fh:
         for lineno, line in enumerate(fh, start=1):
             text = line.strip()
             if not text:

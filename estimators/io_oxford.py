@@ -29,7 +29,13 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["DEFAULT_RECORDING", "OxfordRecording", "foot_switch_steps", "load_oxford"]
+__all__ = [
+    "DEFAULT_RECORDING",
+    "OxfordRecording",
+    "foot_switch_steps",
+    "load_oxford",
+    "read_accelerometer",
+]
 
 #: The neck-pouch walk kept in ``../shared/data/oxford_steps``.
 DEFAULT_RECORDING = "Pixel_Jamie_Hard_NeckPouch_1"
@@ -67,18 +73,18 @@ def _read_csv(path: Path, n_cols: int) -> tuple[NDArray[np.int64], NDArray[np.fl
     """Integer nanosecond timestamps and the float columns after them."""
     if not path.is_file():
         raise FileNotFoundError(f"Oxford step data file not found: {path}")
+    kw = {"delimiter": ",", "encoding": "utf-8-sig"}  # a spreadsheet's byte-order mark is skipped
     try:
-        t_ns = np.loadtxt(path, delimiter=",", usecols=0, dtype=np.int64, ndmin=1)
-        vals = np.loadtxt(path, delimiter=",", usecols=range(1, n_cols), dtype=np.float64,
-                          ndmin=2)  # fmt: skip
-    except ValueError as err:
-        raise ValueError(f"{path.name}: expected {n_cols} comma-separated numeric columns "
+        t_ns = np.loadtxt(path, usecols=0, dtype=np.int64, ndmin=1, **kw)
+        vals = np.loadtxt(path, usecols=range(1, n_cols), dtype=np.float64, ndmin=2, **kw)
+    except ValueError as err:  # UnicodeDecodeError included: binary data
+        raise ValueError(f"{path}: expected {n_cols} comma-separated numeric columns "
                          f"({err})") from None  # fmt: skip
     if t_ns.size < 2:
-        raise ValueError(f"{path.name}: needs at least 2 rows, got {t_ns.size}")
+        raise ValueError(f"{path}: needs at least 2 rows, got {t_ns.size}")
     if np.any(np.diff(t_ns) < 0):
         k = int(np.argmax(np.diff(t_ns) < 0))
-        raise ValueError(f"{path.name}: time runs backwards at row {k + 2}")
+        raise ValueError(f"{path}: time runs backwards at row {k + 2}")
     if np.any(np.diff(t_ns) == 0):  # rows sharing a timestamp are one sample: their mean
         t_ns, inverse = np.unique(t_ns, return_inverse=True)
         counts = np.bincount(inverse)
@@ -118,6 +124,24 @@ def foot_switch_steps(
     return np.sort(np.concatenate(times))
 
 
+def read_accelerometer(folder: str | Path) -> tuple[NDArray[np.float64], NDArray[np.float64], int]:
+    """The accelerometer of one recording directory alone (no foot switches needed).
+
+    Returns:
+        ``(t, acc, t0_ns)``: sample times (s from the first sample), (n,), strictly increasing;
+        the specific force (m/s^2), (n, 3); the first timestamp (ns).
+
+    Raises:
+        FileNotFoundError: no ``accelerometer.csv``.
+        ValueError: a malformed file (see :func:`load_oxford`).
+    """
+    acc_ns, acc_vals = _read_csv(Path(folder) / "accelerometer.csv", 5)
+    if acc_vals.shape[1] != 4:
+        raise ValueError("accelerometer.csv needs 5 columns: t_ns, accuracy, ax, ay, az")
+    t0 = int(acc_ns[0])
+    return (acc_ns - t0) * 1e-9, acc_vals[:, 1:4].copy(), t0
+
+
 def load_oxford(folder: str | Path, debounce: float = 0.3) -> OxfordRecording:
     """Read one recording directory (``accelerometer.csv`` and ``stepcounter.csv``).
 
@@ -132,19 +156,17 @@ def load_oxford(folder: str | Path, debounce: float = 0.3) -> OxfordRecording:
             switch values other than 0/1).
     """
     folder = Path(folder)
-    acc_ns, acc_vals = _read_csv(folder / "accelerometer.csv", 5)
+    t, acc, t0 = read_accelerometer(folder)
     sw_ns, sw_vals = _read_csv(folder / "stepcounter.csv", 3)
-    if acc_vals.shape[1] != 4 or sw_vals.shape[1] != 2:
-        raise ValueError("accelerometer.csv needs 5 columns and stepcounter.csv 3")
-    t0 = int(acc_ns[0])
-    t = (acc_ns - t0) * 1e-9
+    if sw_vals.shape[1] != 2:
+        raise ValueError("stepcounter.csv needs 3 columns: t_ns, right, left")
     sw_t = (sw_ns - t0) * 1e-9
     right = sw_vals[:, 0]
     left = sw_vals[:, 1]
     steps = foot_switch_steps(sw_t, right, left, debounce)
     return OxfordRecording(
         t=t,
-        acc=acc_vals[:, 1:4].copy(),
+        acc=acc,
         switch_t=sw_t,
         right=right.astype(np.int8),
         left=left.astype(np.int8),

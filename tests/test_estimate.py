@@ -1,5 +1,7 @@
 """`vrloco estimate` on a recording written from the simulator, and its errors."""
 
+import json
+
 import numpy as np
 import pytest
 
@@ -71,3 +73,278 @@ def test_the_oxford_reader_merges_repeated_timestamps_and_refuses_backward_time(
     p.write_text("100,1,2,3\n50,1,2,3\n")
     with pytest.raises(ValueError, match="time runs backwards at row 2"):
         _read_csv(p, 4)
+
+
+# ------------------------------------------------------------------------------------------------
+# Silent wrong results turned into warnings or errors, on variants of one simulated walk.
+# ------------------------------------------------------------------------------------------------
+
+HEADER = "t,gx,gy,gz,ax,ay,az,mx,my,mz"
+
+
+@pytest.fixture(scope="module")
+def walk():
+    """The 'avoid' walk (45 deg away and back, 22 s at 100 Hz): the file's columns and truth."""
+    rng = BatchRng.from_seeds([4])
+    rec = run_script("avoid", rng)
+    s = HeadImu(get_imu_spec("ig500n"), rng).sample(rec.quat, rec.omega, rec.acc, rec.pos)
+    table = np.column_stack([rec.t, s.gyr[0], s.acc[0], s.mag[0]])
+    return table, rec
+
+
+def _write(path, table, header=HEADER):
+    np.savetxt(path, table, delimiter=",", header=header, comments="", fmt="%.9g")
+    return path
+
+
+def _estimate(path, out, capsys):
+    """Run ``vrloco estimate``: its exit code, stderr, the estimates table and the summary."""
+    code = main(["estimate", str(path), "--out", str(out)])
+    std = capsys.readouterr()
+    if code != 0:
+        return code, std.err, None, None
+    summary = json.loads(std.out)
+    est = np.genfromtxt(summary["csv"], delimiter=",", names=True)
+    return code, std.err, est, summary
+
+
+def _angle_error_deg(est_deg, true_rad):
+    return np.abs((est_deg - np.rad2deg(true_rad) + 180.0) % 360.0 - 180.0)
+
+
+def test_an_impossible_gyro_sample_is_treated_as_missing_and_said(walk, tmp_path, capsys):
+    table, rec = walk
+    table = table.copy()
+    table[700, 1] = 1e30  # one corrupt sample; read as a rate it tips the attitude over
+    code, err, est, _ = _estimate(_write(tmp_path / "spike.csv", table), tmp_path, capsys)
+    assert code == 0
+    assert "1 of 2200 rows hold values beyond any IMU's range (gyro 1;" in err
+    assert "treated them as missing (NaN)" in err and "(line 702)" in err
+    assert len(err.strip().splitlines()) == 1
+    assert _angle_error_deg(est["roll_deg"], rec.ypr[0, :, 2]).max() < 3.0
+    assert _angle_error_deg(est["yaw_deg"], rec.ypr[0, :, 0]).max() < 3.0
+
+
+def test_a_file_of_mostly_impossible_values_is_an_error(walk, tmp_path):
+    table = walk[0].copy()
+    table[::2, 4:7] = 1e6  # half the rows and one more
+    table[1, 4] = 1e6
+    with pytest.raises(ValueError, match=r"1101 of 2200 rows hold values no IMU can read"):
+        read_csv_recording(_write(tmp_path / "junk.csv", table))
+
+
+def test_a_gyro_in_deg_per_s_is_an_error_saying_what_to_do(walk, tmp_path):
+    table = walk[0].copy()
+    table[:, 1:4] = np.degrees(table[:, 1:4])  # this walk never turns faster than 35 deg/s
+    assert np.linalg.norm(table[:, 1:4], axis=1).max() < 35.0
+    with pytest.raises(ValueError, match=r"turns 5\d\.\d times faster than the magnetometer.*"
+                                         r"deg/s data\? Multiply them by pi/180"):  # fmt: skip
+        read_csv_recording(_write(tmp_path / "deg.csv", table))
+    # Without a magnetometer, fast turns give deg/s away: many samples beyond 2000 deg/s.
+    rng = BatchRng.from_seeds([1])
+    rec = run_script("shake", rng)
+    s = HeadImu(get_imu_spec("ig500n"), rng).sample(rec.quat, rec.omega, rec.acc, rec.pos)
+    six = np.column_stack([rec.t, np.degrees(s.gyr[0]), s.acc[0]])
+    path = _write(tmp_path / "deg6.csv", six, "t,gx,gy,gz,ax,ay,az")
+    with pytest.raises(ValueError, match=r"samples exceed 35 rad/s .*deg/s data\?"):
+        read_csv_recording(path)
+
+
+def test_time_in_ms_or_ns_and_acc_in_g_are_errors_saying_what_to_do(walk, tmp_path):
+    table = walk[0].copy()
+    table[:, 0] *= 1000.0
+    with pytest.raises(ValueError, match=r"t looks like milliseconds \(100 Hz\); divide it by "
+                                         r"1000 to get seconds"):  # fmt: skip
+        read_csv_recording(_write(tmp_path / "ms.csv", table))
+    table[:, 0] *= 1e6
+    with pytest.raises(ValueError, match=r"t looks like nanoseconds"):
+        read_csv_recording(_write(tmp_path / "ns.csv", table))
+    # An accelerometer in g is refused with or without a gyro.
+    table = walk[0][:, [0, 4, 5, 6]] / [1.0, 9.81, 9.81, 9.81]
+    with pytest.raises(ValueError, match=r"ax, ay, az must be in m/s\^2.*multiply them by 9.80665"):
+        read_csv_recording(_write(tmp_path / "g.csv", table, "t,ax,ay,az"))
+
+
+def test_missing_samples_are_bridged_and_counted(walk, tmp_path, capsys):
+    table, rec = walk
+    table = table.copy()
+    table[800:850, 1:7] = np.nan  # half a second without gyro and accelerometer
+    table[1500, 7] = np.nan
+    code, err, est, _ = _estimate(_write(tmp_path / "holes.csv", table), tmp_path, capsys)
+    assert code == 0
+    assert ("51 of 2200 rows have missing values (NaN: acc 50, gyro 50, mag 1); the longest run "
+            "of missing rows lasts 0.5 s from t = 8.01 s (line 802)") in err  # fmt: skip
+    assert abs(est["step"].sum() - rec.step_times[0].size) <= 1
+    # The turn at 30 deg/s goes on unseen for 0.5 s; the field gives the heading back within 1 s.
+    err_deg = _angle_error_deg(est["yaw_deg"], rec.ypr[0, :, 0])
+    assert err_deg.max() < 6.0
+    assert np.delete(err_deg, np.s_[800:950]).max() < 2.0
+
+
+def test_a_gap_in_the_timestamps_is_said_and_a_huge_one_refused(walk, tmp_path, capsys):
+    table, rec = walk
+    table = table.copy()
+    table[1200:, 0] += 3600.0  # an hour without samples after 12 s
+    code, err, est, _ = _estimate(_write(tmp_path / "gap.csv", table), tmp_path, capsys)
+    assert code == 0
+    assert ("1 gap(s) in the timestamps longer than 10 sample intervals; the longest lasts "
+            "3600.01 s, after t = 12 s (line 1201)") in err  # fmt: skip
+    assert abs(est["step"].sum() - rec.step_times[0].size) <= 2
+    # The attitude is re-found after the gap from gravity and the field, not lost to it.
+    assert _angle_error_deg(est["yaw_deg"], rec.ypr[0, :, 0])[1300:].max() < 2.0
+    table[1200:, 0] += 86400.0
+    with pytest.raises(ValueError, match=r"the longest lasts 9000\d.* over the 6 h limit"):
+        read_csv_recording(_write(tmp_path / "days.csv", table))
+
+
+def test_a_row_with_an_extra_field_names_its_line(tmp_path):
+    p = tmp_path / "extra.csv"
+    p.write_text("t,gx,gy,gz,ax,ay,az\n0,0,0,0,0,0,9.8\n0.01,0,0,0,0,0,9,8\n")
+    with pytest.raises(ValueError, match=r"line 3: 8 fields, but the header has 7; a comma inside"):
+        read_csv_recording(p)
+    p.write_text("t,gx,gy,gz,ax,ay,az\n0,0,0,0,0,0,9.8\n0.01,0,0,0,0,0\n")
+    with pytest.raises(ValueError, match=r"line 3: 6 fields, but the header has 7"):
+        read_csv_recording(p)
+    p.write_text("t,gx,gy,gz,ax,ay,az\n0,0,0,0,0,0,9.8\nnan,0,0,0,0,0,9.8\n")
+    with pytest.raises(ValueError, match=r"line 3, column 1 \(t\): time nan is not a finite"):
+        read_csv_recording(p)
+    p.write_text("t,gx,gy,gz,ax,ay,az\n0,0,0,0,0,0,9.8,\n0.01,0,0,0,0,0,9.8,,\n")  # trailing commas
+    np.testing.assert_allclose(read_csv_recording(p).acc[:, 2], [9.8, 9.8])
+
+
+def test_a_spreadsheets_byte_order_mark_and_utf16_are_read(walk, tmp_path):
+    text = _write(tmp_path / "plain.csv", walk[0][:300]).read_text()
+    for name, data in (("bom", b"\xef\xbb\xbf" + text.encode()), ("u16", text.encode("utf-16"))):
+        p = tmp_path / f"{name}.csv"
+        p.write_bytes(data)
+        rec = read_csv_recording(p)
+        np.testing.assert_allclose(rec.acc, walk[0][:300, 4:7], rtol=1e-8)
+
+
+def test_binary_and_unmarked_utf16_files_are_refused_by_name(walk, tmp_path):
+    text = _write(tmp_path / "plain.csv", walk[0][:50]).read_text()
+    for name, data in (
+        ("bin", bytes(range(256)) * 4),
+        ("u16le", text.encode("utf-16-le")),
+        ("latin", "t,gx,gy,gz,ax,ay,az\n0,0,0,0,0,0,9.8 \xb5T\n".encode("latin-1")),
+    ):
+        p = tmp_path / f"{name}.csv"
+        p.write_bytes(data)
+        with pytest.raises(ValueError, match=rf"{name}.csv: not a UTF-8 text CSV"):
+            read_csv_recording(p)
+
+
+# ------------------------------------------------------------------------------------------------
+# Output: no attitude without a gyro; comparison with the ground truth a file carries.
+# ------------------------------------------------------------------------------------------------
+
+
+def test_accelerometer_only_data_has_no_attitude_output_but_steps(walk, tmp_path, capsys):
+    table, rec = walk
+    path = _write(tmp_path / "acc.csv", table[:, [0, 4, 5, 6]], "t,ax,ay,az")
+    code, err, est, _ = _estimate(path, tmp_path, capsys)
+    assert code == 0
+    assert err.count("\n") == 1 and "no gyroscope: no attitude" in err
+    assert est.dtype.names == ("t", "walking", "step", "x", "y")
+    assert abs(est["step"].sum() - rec.step_times[0].size) <= 1
+    np.testing.assert_allclose(est["y"], 0.0)  # along +x
+    # A gyro written as all-NaN columns is no gyro either.
+    nan_gyro = table.copy()
+    nan_gyro[:, 1:4] = np.nan
+    assert read_csv_recording(_write(tmp_path / "ng.csv", nan_gyro)).gyr is None
+
+
+def _broad_file(path, table, quat):
+    import h5py
+
+    n = table.shape[0]
+    with h5py.File(path, "w") as f:
+        f["imu_gyr"], f["imu_acc"], f["imu_mag"] = table[:, 1:4], table[:, 4:7], table[:, 7:10]
+        f["opt_quat"], f["opt_pos"] = quat, np.zeros((n, 3))
+        f["movement"] = np.arange(n) >= 100
+        f.attrs["sampling_rate"] = 100.0
+    return path
+
+
+def test_a_broad_trial_is_compared_with_its_reference_attitude(walk, tmp_path, capsys):
+    table, rec = walk
+    quat = rec.quat[0].copy()
+    quat[150:160] = np.nan  # markers lost
+    code, _, _, out = _estimate(_broad_file(tmp_path / "sim.h5", table, quat), tmp_path, capsys)
+    assert code == 0 and out["has_attitude"]
+    ref = out["attitude_vs_reference"]
+    assert ref["samples"] == 2200 - 100 - 10
+    assert 0.0 < ref["inclination_rmse_deg"] <= ref["total_rmse_deg"] < 2.0
+
+
+def _oxford_folder(folder, t, acc, step_times):
+    """An Oxford step-counter recording: ns timestamps, accuracy flag, one pulse per step."""
+    folder.mkdir()
+    ns = np.round(1e15 + t * 1e9).astype(np.int64)
+    with open(folder / "accelerometer.csv", "w") as f:
+        for k in range(t.size):
+            f.write(f"{ns[k]},3,{acc[k, 0]:.6f},{acc[k, 1]:.6f},{acc[k, 2]:.6f}\n")
+    rows = [(0.0, 0, 0)]
+    for k, ts in enumerate(step_times):  # feet alternate; the switch closes at the heel strike
+        rows += [(ts, 1 - k % 2, k % 2), (ts + 0.1, 0, 0)]
+    with open(folder / "stepcounter.csv", "w") as f:
+        for ts, right, left in rows:
+            f.write(f"{1_000_000_000_000_000 + round(ts * 1e9)},{right},{left}\n")
+    return folder
+
+
+def test_an_oxford_recording_is_compared_with_its_foot_switches(walk, tmp_path, capsys):
+    table, rec = walk
+    truth = rec.step_times[0]
+    fake = np.sort(np.concatenate([truth[3:], [0.5]]))  # 3 steps missed, one invented
+    folder = _oxford_folder(tmp_path / "ox", table[:, 0], table[:, 4:7], fake)
+    code, err, _, out = _estimate(folder, tmp_path, capsys)
+    assert code == 0 and not out["has_attitude"] and "no gyroscope" in err
+    ref = out["steps_vs_foot_switches"]
+    detected = out["steps"]
+    assert ref["true_steps"] == fake.size
+    assert ref["true_positives"] + ref["misses"] == fake.size
+    assert ref["true_positives"] + ref["false_positives"] == detected
+    assert ref["misses"] >= 1 and ref["false_positives"] >= 3  # the invented one, the missed ones
+    assert ref["f1"] == pytest.approx(2 * ref["true_positives"] / (fake.size + detected), abs=1e-4)
+    # Without stepcounter.csv: the steps alone, no comparison.
+    (folder / "stepcounter.csv").unlink()
+    code, _, _, out = _estimate(folder, tmp_path, capsys)
+    assert code == 0 and "steps_vs_foot_switches" not in out and out["steps"] == detected
+
+
+def test_the_real_recordings_are_compared_with_their_ground_truth(shared_data, tmp_path, capsys):
+    from estimators.io_oxford import DEFAULT_RECORDING
+
+    trial = shared_data / "broad" / "02_undisturbed_slow_rotation_B.hdf5"
+    code, err, _, out = _estimate(trial, tmp_path, capsys)
+    assert code == 0 and err == ""
+    ref = out["attitude_vs_reference"]
+    assert ref["samples"] > 30_000
+    assert 0.2 < ref["inclination_rmse_deg"] < 1.0 and ref["total_rmse_deg"] < 2.5
+    code, _, _, out = _estimate(shared_data / "oxford_steps" / DEFAULT_RECORDING, tmp_path, capsys)
+    assert code == 0
+    ref = out["steps_vs_foot_switches"]
+    assert ref["true_steps"] == 248  # the data README
+    assert ref["f1"] > 0.95 and ref["true_positives"] > 235
+
+
+def test_the_readers_refuse_non_data_files_by_name_and_skip_a_bom(tmp_path, capsys):
+    from estimators.io_kinect import read_kinect_csv
+    from estimators.io_oxford import read_accelerometer
+
+    junk = bytes(range(256)) * 2
+    for name in ("junk.hdf5", "junk.mat"):
+        (tmp_path / name).write_bytes(junk)
+        assert main(["estimate", str(tmp_path / name), "--out", str(tmp_path)]) == 2
+        assert f"{name}: not a readable" in capsys.readouterr().err
+    (tmp_path / "k.csv").write_bytes(junk)
+    with pytest.raises(ValueError, match=r"k.csv: not a text CSV"):
+        read_kinect_csv(tmp_path / "k.csv")
+    row = "0," + ",".join(["0.1,0.2,1.5,2"] * 25) + ",\n"
+    (tmp_path / "k.csv").write_bytes(b"\xef\xbb\xbf" + row.encode())
+    assert read_kinect_csv(tmp_path / "k.csv").t.size == 1
+    ox = tmp_path / "ox"
+    ox.mkdir()
+    (ox / "accelerometer.csv").write_bytes(b"\xef\xbb\xbf100,3,0,0,9.8\n200,3,0,0,9.8\n")
+    np.testing.assert_allclose(read_accelerometer(ox)[0], [0.0, 1e-7])

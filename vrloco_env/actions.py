@@ -9,7 +9,8 @@
 
 Out-of-range actions follow the Gymnasium convention for Box spaces: finite values outside
 [-1, 1] are clipped to the box (as stable-baselines3 clips policy outputs); NaN or infinite
-values, or a wrong shape, raise a ValueError naming the offending entry.
+values raise a ValueError naming the offending entry, and so do a wrong shape and values that
+are not real numbers (booleans, complex numbers, strings).
 """
 
 from __future__ import annotations
@@ -30,10 +31,14 @@ ACTION_SIZE = len(ACTION_NAMES)
 def check_actions(actions: ArrayLike, batch_size: int) -> NDArray[np.float64]:
     """Validate a (B, 5) batch of actions and clip finite values to [-1, 1].
 
+    Real numbers of any dtype are taken (ints, floats, objects such as ``Fraction``); booleans,
+    complex numbers, strings and other objects are not actions.
+
     Raises:
-        ValueError: wrong shape, or a NaN/infinite entry (named by user and action).
+        ValueError: not an array of real numbers, wrong shape, or a NaN/infinite entry (named
+            by user and action).
     """
-    a = np.asarray(actions, dtype=np.float64)
+    a = _as_numbers(actions, batch_size)
     if a.shape != (batch_size, ACTION_SIZE):
         raise ValueError(
             f"action must have shape ({batch_size}, {ACTION_SIZE}) "
@@ -46,6 +51,25 @@ def check_actions(actions: ArrayLike, batch_size: int) -> NDArray[np.float64]:
             where = f"action of sub-env {user}: {where}"
         raise ValueError(f"{where} is {a[user, k]}; actions must be finite, in [-1, 1]")
     return np.minimum(np.maximum(a, -1.0), 1.0)  # np.clip, without its ~5 us of overhead
+
+
+def _as_numbers(actions: ArrayLike, batch_size: int) -> NDArray[np.float64]:
+    """``actions`` as a float64 array, or a ValueError saying what an action is."""
+    try:
+        a = np.asarray(actions)
+        ok = a.dtype.kind in "iuf" or (a.dtype.kind == "O" and not any(
+            isinstance(x, bool | complex | str | bytes | np.bool_ | np.complexfloating)
+            for x in a.flat))  # fmt: skip
+        if ok:
+            return a.astype(np.float64, copy=False)
+    except (TypeError, ValueError, OverflowError):
+        pass
+    shown = " ".join(repr(actions).split())  # one line
+    shown = shown if len(shown) <= 60 else shown[:57] + "..."
+    raise ValueError(
+        f"action must be an array of shape ({batch_size}, {ACTION_SIZE}) of real numbers "
+        f"[{', '.join(ACTION_NAMES)}], got {type(actions).__name__} {shown}"
+    )
 
 
 def action_to_intent(actions: NDArray[np.float64], params: MotionParams) -> Intent:

@@ -17,7 +17,7 @@ from vrloco_env.motion import MotionParams
 from vrloco_env.sensors.head_camera import CameraSpec, camera_spec
 from vrloco_env.sensors.imu import EarthField, ImuSpec, MagneticDisturbance, get_imu_spec
 from vrloco_env.sensors.kinect import KinectSpec
-from vrloco_env.validation import check_bool, check_in_range
+from vrloco_env.validation import check_bool, check_in_range, check_instance, value_repr
 
 __all__ = ["STAGE_FIELDS", "EnvConfig", "EstimatorConfig", "RewardConfig", "SensorConfig"]
 
@@ -56,12 +56,18 @@ class SensorConfig:
     head_camera: CameraSpec = field(default_factory=lambda: camera_spec("ideal", rate_hz=30.0))
 
     def __post_init__(self) -> None:
+        check_instance(self, "imu", (str, ImuSpec))
         get_imu_spec(self.imu)  # raises with the valid names
         check_in_range(self, "imu_rate_hz", 10.0, 1000.0, "Hz")
+        check_instance(self, "earth_field", EarthField)
+        d = self.magnetic_disturbances
         _check(
-            isinstance(self.head_camera, CameraSpec),
-            f"SensorConfig.head_camera must be a CameraSpec, got {type(self.head_camera).__name__}",
+            isinstance(d, tuple) and all(isinstance(x, MagneticDisturbance) for x in d),
+            f"SensorConfig.magnetic_disturbances={value_repr(d)}: must be a tuple of "
+            "MagneticDisturbance",
         )
+        check_instance(self, "kinect", KinectSpec)
+        check_instance(self, "head_camera", CameraSpec)
         _check(
             self.head_camera.rate_hz <= self.imu_rate_hz,
             f"SensorConfig.head_camera.rate_hz={self.head_camera.rate_hz}: must be <= imu_rate_hz "
@@ -133,11 +139,8 @@ class EstimatorConfig:
             except ValueError as err:
                 raise ValueError(f"EstimatorConfig.{err}") from None
         check_in_range(self, "step_length", 0.2, 1.5, "m")
-        _check(
-            isinstance(self.hand_pipeline, HandParams),
-            f"EstimatorConfig.hand_pipeline must be a HandParams, got "
-            f"{type(self.hand_pipeline).__name__}",
-        )
+        check_instance(self, "hand_pipeline", HandParams)
+        check_instance(self, "visual_inertial", VioConfig)
 
     def label(self, stage: str) -> str:
         """The short name of a stage's choice (``"ekf"``, ``"custom:my.module:Filter"``)."""
@@ -203,12 +206,14 @@ class EnvConfig:
     pose_source: str = "walk_in_place"
 
     def __post_init__(self) -> None:
+        check_instance(self, "motion", MotionParams)
         check_in_range(self, "max_episode_steps", 1, 100_000, integer=True)
         check_bool(self, "terminate_on_collision")
         check_in_range(self, "ray_count", 1, 360, integer=True)
         check_in_range(self, "ray_fov_deg", 0.0, 360.0, "deg", lo_open=True)
         check_in_range(self, "ray_range_m", 0.5, 50.0, "m")
         _check(
-            self.pose_source in POSE_SOURCES,
-            f"EnvConfig.pose_source={self.pose_source!r}: must be one of {', '.join(POSE_SOURCES)}",
+            isinstance(self.pose_source, str) and self.pose_source in POSE_SOURCES,
+            f"EnvConfig.pose_source={value_repr(self.pose_source)}: must be one of "
+            f"{', '.join(POSE_SOURCES)}",
         )

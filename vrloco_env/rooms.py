@@ -195,9 +195,18 @@ class RoomConfig:
     max_attempts: int = 200
 
     def __post_init__(self) -> None:
+        from vrloco_env.validation import check_in_range, check_numbers, value_repr
+
+        def num(x: float) -> str:  # fields may be ints, Fractions or numpy numbers
+            return f"{float(x):g}"
+
+        def fail(name: str, allowed: str) -> None:
+            shown = value_repr(getattr(self, name))
+            raise ValueError(f"RoomConfig.{name}={shown}: must be {allowed}")
+
         big = 1000.0
         for name in ("room_width", "room_depth", "corridor_width", "corridor_length"):
-            _check_range(name, getattr(self, name), 0.0, big, lo_open=True)
+            check_in_range(self, name, 0.0, big, "m", lo_open=True)
         for name in (
             "wall_thickness",
             "wall_height",
@@ -208,88 +217,73 @@ class RoomConfig:
             "target_height",
             "landmark_spacing",
         ):
-            _check_range(name, getattr(self, name), 0.0, 100.0, lo_open=True)
-        _check_range("grid_resolution", self.grid_resolution, 0.005, 1.0)
+            check_in_range(self, name, 0.0, 100.0, "m", lo_open=True)
+        check_in_range(self, "grid_resolution", 0.005, 1.0, "m")
         for name in (
             "corridor_width_jitter",
             "corridor_margin",
             "avoid_lateral_jitter",
             "interact_standoff",
             "min_start_goal_distance",
+            "keepout_radius",
         ):
-            _check_range(name, getattr(self, name), 0.0, big)
-        _check_range("cylinder_probability", self.cylinder_probability, 0.0, 1.0)
-        for name in ("n_obstacles_min", "n_obstacles_max", "max_attempts"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int | np.integer):
-                raise ValueError(f"{name} must be an integer, got {v!r}")
-        if not 0 <= self.n_obstacles_min <= self.n_obstacles_max <= 100:
-            raise ValueError(
-                "n_obstacles_min and n_obstacles_max must satisfy 0 <= min <= max <= 100, got "
-                f"{self.n_obstacles_min}, {self.n_obstacles_max}"
-            )
-        if self.max_attempts < 1:
-            raise ValueError(f"max_attempts must be >= 1, got {self.max_attempts}")
-        _check_pair("obstacle_size_range", self.obstacle_size_range, 0.01, 100.0)
-        _check_pair("obstacle_height_range", self.obstacle_height_range, 0.01, 100.0)
-        _check_pair("avoid_size_range", self.avoid_size_range, 0.01, 100.0)
-        _check_pair("avoid_distance_range", self.avoid_distance_range, 0.0, big)
-        if len(self.landmark_heights) == 0:
-            raise ValueError("landmark_heights must hold at least one height")
-        for h in self.landmark_heights:
-            _check_range("landmark_heights", h, 0.0, self.wall_height)
+            check_in_range(self, name, 0.0, big, "m")
+        check_in_range(self, "cylinder_probability", 0.0, 1.0)
+        check_in_range(self, "n_obstacles_max", 0, 100, integer=True)
+        check_in_range(self, "n_obstacles_min", 0, self.n_obstacles_max,
+                       "(<= n_obstacles_max)", integer=True)  # fmt: skip
+        check_in_range(self, "max_attempts", 1, 1_000_000, integer=True)
+        check_numbers(self, "obstacle_size_range", 0.01, 100.0, "m", length=2, ordered=True)
+        check_numbers(self, "obstacle_height_range", 0.01, 100.0, "m", length=2, ordered=True)
+        check_numbers(self, "avoid_size_range", 0.01, 100.0, "m", length=2, ordered=True)
+        check_numbers(self, "avoid_distance_range", 0.0, big, "m", length=2, ordered=True)
+        check_numbers(self, "landmark_heights", 0.0, self.wall_height, "m (<= wall_height)")
         if self.avatar_height <= 2.0 * self.avatar_radius:
-            raise ValueError(
-                f"avatar_height must be > 2 * avatar_radius = {2 * self.avatar_radius} m, "
-                f"got {self.avatar_height}"
-            )
+            fail("avatar_height", f"> 2 * avatar_radius = {num(2 * self.avatar_radius)} m")
         need = self.avatar_radius + 2.0 * self.grid_resolution
         if self.keepout_radius < need:
-            raise ValueError(
-                f"keepout_radius must be >= avatar_radius + 2 * grid_resolution = {need:.3f} m, "
-                f"got {self.keepout_radius}"
-            )
+            fail("keepout_radius", f">= avatar_radius + 2 * grid_resolution = {float(need):.3f} m")
         free_w = self.room_width - 2.0 * self.keepout_radius
         free_d = self.room_depth - 2.0 * self.keepout_radius
         if free_w <= 0.0 or free_d <= 0.0:
-            raise ValueError(
-                f"keepout_radius must be < half the room size, got {self.keepout_radius} m for a "
-                f"{self.room_width} x {self.room_depth} m room"
+            fail(
+                "keepout_radius",
+                f"< half the room's smaller side (room_width {num(self.room_width)} m, "
+                f"room_depth {num(self.room_depth)} m)",
             )
         if self.min_start_goal_distance >= math.hypot(free_w, free_d):
-            raise ValueError(
-                "min_start_goal_distance must be < the diagonal of the room shrunk by the "
-                f"keep-out ({math.hypot(free_w, free_d):.2f} m), got {self.min_start_goal_distance}"
+            fail(
+                "min_start_goal_distance",
+                "< the diagonal of the room (room_width x room_depth) shrunk by keepout_radius "
+                f"on every side, {float(math.hypot(free_w, free_d)):.2f} m",
             )
         if self.corridor_width_jitter >= self.corridor_width / 2.0:
-            raise ValueError(
-                "corridor_width_jitter must be < corridor_width / 2 = "
-                f"{self.corridor_width / 2} m, got {self.corridor_width_jitter}"
-            )
+            half = num(self.corridor_width / 2)
+            fail("corridor_width_jitter", f"< corridor_width / 2 = {half} m")
         if self.avoid_lateral_jitter >= self.avoid_size_range[0]:
-            raise ValueError(
-                "avoid_lateral_jitter must be < avoid_size_range[0] "
-                f"({self.avoid_size_range[0]} m) so the obstacle always blocks the straight line, "
-                f"got {self.avoid_lateral_jitter}"
+            fail(
+                "avoid_lateral_jitter",
+                f"< avoid_size_range[0] = {num(self.avoid_size_range[0])} m, so the obstacle "
+                "always blocks the straight line",
             )
         ahead_max = self.corridor_length - 2.0 * self.corridor_margin
         if ahead_max <= 0.0:
-            raise ValueError(
-                f"corridor_margin must be < corridor_length / 2 = {self.corridor_length / 2} m, "
-                f"got {self.corridor_margin}"
-            )
+            fail("corridor_margin", f"< corridor_length / 2 = {num(self.corridor_length / 2)} m")
         hi = self.avoid_distance_range[1]
         if hi + self.avoid_size_range[1] * math.sqrt(2.0) >= ahead_max:
-            raise ValueError(
-                "avoid_distance_range must end before the end line: high + obstacle size must be "
-                f"< {ahead_max} m (corridor_length - 2 * corridor_margin), got {hi}"
+            fail(
+                "avoid_distance_range",
+                "a range whose high end + avoid_size_range[1] * sqrt(2) is < corridor_length - "
+                f"2 * corridor_margin = {num(ahead_max)} m (the obstacle ends before the end "
+                "line)",
             )
         half_min = (self.corridor_width - self.corridor_width_jitter) / 2.0
         if half_min - self.avoid_size_range[0] < 2.0 * (self.avatar_radius + self.grid_resolution):
-            raise ValueError(
-                "corridor_width is too narrow to pass the smallest Avoid obstacle: need "
-                "(corridor_width - corridor_width_jitter) / 2 - avoid_size_range[0] >= "
-                "2 * (avatar_radius + grid_resolution)"
+            fail(
+                "corridor_width",
+                "wide enough to pass the smallest Avoid obstacle: (corridor_width - "
+                "corridor_width_jitter) / 2 - avoid_size_range[0] >= 2 * (avatar_radius + "
+                "grid_resolution)",
             )
 
 

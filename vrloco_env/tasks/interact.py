@@ -26,7 +26,7 @@ from vrloco_env.rooms import (
     solid_distance,
 )
 from vrloco_env.tasks.base import Task
-from vrloco_env.validation import check_in_range
+from vrloco_env.validation import check_in_range, check_numbers
 
 __all__ = ["Interact", "InteractConfig", "hand_error", "interact_layout"]
 
@@ -50,12 +50,7 @@ class InteractConfig:
     def __post_init__(self) -> None:
         check_in_range(self, "hand_tolerance_deg", 1.0, 90.0, "deg")
         check_in_range(self, "dwell_s", 0.0, 30.0, "s", lo_open=True)
-        r = self.target_range_deg
-        if not (isinstance(r, tuple) and len(r) == 3
-                and all(isinstance(x, int | float) and 0.0 <= x <= 90.0 for x in r)):  # fmt: skip
-            raise ValueError(
-                f"InteractConfig.target_range_deg={r!r}: must be three angles in [0, 90] deg"
-            )
+        check_numbers(self, "target_range_deg", 0.0, 90.0, "deg", length=3)
 
 
 class Interact(Task):
