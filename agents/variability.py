@@ -44,8 +44,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agents.scripted import Policy
+from estimators.validation import check_in_range
 from vrloco_env.batch_rng import BatchRng
-from vrloco_env.validation import check_in_range
 
 __all__ = ["HumanVariability", "VariabilityParams"]
 

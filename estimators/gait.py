@@ -96,6 +96,7 @@ from scipy.optimize import linear_sum_assignment
 from estimators.batching import stream_rows
 from estimators.kernels import BatchKernel, param_record, state_records
 from estimators.rotations import GRAVITY
+from estimators.validation import check_in_range
 
 __all__ = [
     "GaitChunk",
@@ -136,21 +137,19 @@ class GaitParams:
     """Gravity (m/s^2), standard gravity by default (:data:`estimators.rotations.GRAVITY`)."""
 
     def __post_init__(self) -> None:
-        def check(name: str, ok: bool, allowed: str) -> None:
-            value = getattr(self, name)
-            if not (isinstance(value, int | float) and math.isfinite(value) and ok):
-                raise ValueError(f"GaitParams.{name}={value!r}: must be {allowed}")
+        def check(name: str, lo: float, hi: float, allowed: str, lo_open: bool = False) -> None:
+            check_in_range(self, name, lo, hi, lo_open=lo_open, allowed=allowed)
 
+        check("gravity", 9.0, 10.5, "in [9, 10.5] m/s^2")
         g = self.gravity
-        check("gravity", 9.0 <= g <= 10.5, "in [9, 10.5] m/s^2")
-        check("gamma", 0.0 < self.gamma <= 3.0 * g, "in (0, 3 g] m/s^2")
-        check("min_step_interval", 0.0 <= self.min_step_interval <= 2.0, "in [0, 2] s")
-        check("gamma_t", self.min_step_interval < self.gamma_t <= 10.0,
-              "in (min_step_interval, 10] s")  # fmt: skip
-        check("mean_window", 0.0 < self.mean_window <= 1.0, "in (0, 1] s")
-        check("peak_half_window", 0.0 < self.peak_half_window <= 1.0, "in (0, 1] s")
-        check("baseline_tau", 0.0 <= self.baseline_tau <= 600.0, "in [0, 600] s (0: fixed g)")
-        check("baseline_limit", 0.0 <= self.baseline_limit <= 0.5 * g, "in [0, 0.5 g] m/s^2")
+        check("gamma", 0.0, 3.0 * g, "in (0, 3 g] m/s^2", lo_open=True)
+        check("min_step_interval", 0.0, 2.0, "in [0, 2] s")
+        check("gamma_t", self.min_step_interval, 10.0, "in (min_step_interval, 10] s",
+              lo_open=True)  # fmt: skip
+        check("mean_window", 0.0, 1.0, "in (0, 1] s", lo_open=True)
+        check("peak_half_window", 0.0, 1.0, "in (0, 1] s", lo_open=True)
+        check("baseline_tau", 0.0, 600.0, "in [0, 600] s (0: fixed g)")
+        check("baseline_limit", 0.0, 0.5 * g, "in [0, 0.5 g] m/s^2")
 
     @classmethod
     def head(cls, **overrides: float) -> GaitParams:

@@ -33,6 +33,7 @@ from estimators.batching import stream_rows
 from estimators.gait import GaitChunk
 from estimators.kernels import BatchKernel, param_record, state_records
 from estimators.rotations import GRAVITY
+from estimators.validation import check_in_range
 
 __all__ = [
     "ThresholdParams",
@@ -48,12 +49,9 @@ __all__ = [
 def check_param(owner: object, name: str, lo: float, hi: float, allowed: str,
                 open_lo: bool = False) -> None:  # fmt: skip
     """Raise ``Class.name=value: must be <allowed>`` unless the field ``name`` of ``owner`` is a
-    finite real (not a bool) in ``[lo, hi]`` (``(lo, hi]`` if ``open_lo``)."""
-    value = getattr(owner, name)
-    real = isinstance(value, int | float) and not isinstance(value, bool)
-    ok = real and math.isfinite(value) and (lo < value if open_lo else lo <= value)
-    if not (ok and value <= hi):
-        raise ValueError(f"{type(owner).__name__}.{name}={value!r}: must be {allowed}")
+    finite real (not a bool) in ``[lo, hi]`` (``(lo, hi]`` if ``open_lo``):
+    :func:`estimators.validation.check_in_range` with the message's interval in words."""
+    check_in_range(owner, name, lo, hi, lo_open=open_lo, allowed=allowed)
 
 
 @dataclass(frozen=True)

@@ -222,9 +222,6 @@ def _build(cls, data, values):
 
 #: Findings in files these tests do not own: the arbitrary-type fuzz fails there.
 KNOWN = {
-    GaitParams: "estimators/gait.py: GaitParams compares a field (0.0 < value) before checking "
-    "that it is a number: a str, None or array gives a TypeError or numpy's 'truth value of an "
-    "array is ambiguous' without the field's name; True/False are accepted as numbers",
     AttitudeParams: "estimators/attitude.py: AttitudeParams accepts True/False as numbers, "
     "model=<array> gives numpy's 'truth value ... ambiguous', and mag_ref_norm/mag_ref_dip of "
     "another type give math.isfinite's TypeError without the field's name",
@@ -234,7 +231,7 @@ KNOWN = {
 @pytest.mark.parametrize(
     "cls",
     [
-        pytest.param(c, marks=pytest.mark.xfail(reason=KNOWN[c], strict=False))
+        pytest.param(c, marks=pytest.mark.xfail(reason=KNOWN[c], strict=True))
         if c in KNOWN
         else c
         for c in CONFIGS

@@ -12,12 +12,12 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from estimators.hand import HandParams
+from estimators.validation import check_bool, check_in_range, check_instance, value_repr
 from estimators.visual_inertial import VioConfig
 from vrloco_env.motion import MotionParams
 from vrloco_env.sensors.head_camera import CameraSpec, camera_spec
 from vrloco_env.sensors.imu import EarthField, ImuSpec, MagneticDisturbance, get_imu_spec
 from vrloco_env.sensors.kinect import KinectSpec
-from vrloco_env.validation import check_bool, check_in_range, check_instance, value_repr
 
 __all__ = ["STAGE_FIELDS", "EnvConfig", "EstimatorConfig", "RewardConfig", "SensorConfig"]
 

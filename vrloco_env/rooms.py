@@ -195,7 +195,7 @@ class RoomConfig:
     max_attempts: int = 200
 
     def __post_init__(self) -> None:
-        from vrloco_env.validation import check_in_range, check_numbers, value_repr
+        from estimators.validation import check_in_range, check_numbers, value_repr
 
         def num(x: float) -> str:  # fields may be ints, Fractions or numpy numbers
             return f"{float(x):g}"

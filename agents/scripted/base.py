@@ -42,8 +42,8 @@ from agents.scripted.observation import (
     free_lengths,
     ray_points,
 )
+from estimators.validation import check_in_range
 from vrloco_env.actions import ACTION_SIZE
-from vrloco_env.validation import check_in_range
 
 __all__ = ["Policy", "PolicyParams", "ScriptedPolicy", "is_batched", "params_from_env"]
 

@@ -12,6 +12,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from estimators.rotations import wrap_angle
+from estimators.validation import check_in_range, check_numbers
 from vrloco_env._hand_frame_numba import hand_error
 from vrloco_env.observation import Field
 from vrloco_env.rooms import (
@@ -26,7 +27,6 @@ from vrloco_env.rooms import (
     solid_distance,
 )
 from vrloco_env.tasks.base import Task
-from vrloco_env.validation import check_in_range, check_numbers
 
 __all__ = ["Interact", "InteractConfig", "hand_error", "interact_layout"]
 

@@ -1,4 +1,5 @@
-"""Checks for configuration dataclasses: one error format across the project.
+"""Checks for configuration dataclasses: one error format across the project (estimators, env
+and agents alike).
 
 Every check raises a ValueError that starts with ``Class.field=value:`` and says what is allowed,
 so that a command line reports it in one line.
@@ -35,11 +36,18 @@ def _g(x: float) -> str:
 
 
 def check_in_range(obj: object, name: str, lo: float, hi: float, unit: str = "",
-                   lo_open: bool = False, integer: bool = False) -> None:  # fmt: skip
+                   lo_open: bool = False, integer: bool = False,
+                   allowed: str | None = None) -> None:  # fmt: skip
     """Raise a ValueError naming ``Class.name`` unless the field is a finite real number with
     ``lo <= value <= hi`` (``lo < value`` when ``lo_open``); with ``integer``, an int (a bool,
-    a float such as 1.5 or 600.0, or a string such as "600" is not)."""
+    a float such as 1.5 or 600.0, or a string such as "600" is not). ``allowed`` replaces the
+    message's interval (``"(0, 3 g] m/s^2"`` where a bound is another field)."""
     v = getattr(obj, name)
+    if allowed is not None and not (
+        _is_real(v) and (lo < v if lo_open else lo <= v) and v <= hi
+        and (not integer or isinstance(v, numbers.Integral))
+    ):
+        raise ValueError(f"{type(obj).__name__}.{name}={value_repr(v)}: must be {allowed}")
     if integer and not (isinstance(v, numbers.Integral) and not isinstance(v, bool)):
         where = f"{type(obj).__name__}.{name}={value_repr(v)}"
         raise ValueError(f"{where}: must be an integer in [{_g(lo)}, {_g(hi)}] {unit}".rstrip())
