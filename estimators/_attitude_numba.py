@@ -5,16 +5,20 @@ One sample of one stream is :func:`_step`, cut into the stages of the filter: in
 (:func:`_initialise_tilt`, :func:`_initialise_heading`), gyro propagation (:func:`_gyro_step`),
 accelerometer update (:func:`_accelerometer_update`), magnetometer update
 (:func:`_magnetometer_gate`, :func:`_magnetometer_update`), zero-rate update at rest
-(:func:`_rest_update`) and injection of the error state (:func:`_inject`). The stages are inlined
-into the loop over samples. :data:`ekf_kernel` loops over streams outside and samples inside, so
-each stream's state stays in cache while its samples are processed; its uncompiled ``py_func`` is
-the readable reference.
+(:func:`_rest_update`) and injection of the error state (:func:`_inject`); or, in place of the
+last four, the measurement update as seed 000 prints it (:func:`_printed_update`: Euler-angle
+residuals, constant R, compensation of the Euler angles). The stages are inlined into the loop
+over samples. :data:`ekf_kernel` loops over streams outside and samples inside, so each stream's
+state stays in cache while its samples are processed; its uncompiled ``py_func`` is the readable
+reference.
 
 Named records (:mod:`estimators.kernels.records`): the parameters ``prm`` are a (1,) record of the
-fields of :class:`~estimators.attitude.AttitudeParams` read here, plus ``trawny`` (1.0: the error
-dynamics of Trawny, 0.0: the paper's printed ``F = 0``), ``dt`` (s), and the unit guard's
-``max_gyr_norm2``, ``min_acc_norm2`` (squared limits) and ``unit_min_count``. Each stream's state
-is a record of :data:`STATE_FIELDS`, its scratch memory a record of :data:`SCRATCH_FIELDS`.
+fields of :class:`~estimators.attitude.AttitudeParams` read here, plus two switches, ``trawny``
+(1.0: the error dynamics of Trawny, 0.0: the paper's printed ``F = 0``) and ``printed_meas``
+(1.0: the measurement update as printed, 0.0: the corrected one with its robustness), ``dt`` (s),
+and the unit guard's ``max_gyr_norm2``, ``min_acc_norm2`` (squared limits) and
+``unit_min_count``. Each stream's state is a record of :data:`STATE_FIELDS`, its scratch memory a
+record of :data:`SCRATCH_FIELDS`.
 Quaternions are Hamilton ``[w, x, y, z]``, sensor -> ENU world.
 
 The arguments are plain structured arrays, not ``np.recarray`` views (numba's dispatcher probes a
@@ -30,13 +34,22 @@ import math
 import numba
 
 from estimators.kernels.batch import BatchKernel
-from estimators.kernels.rotations import quat_from_rotvec, quat_mul, rotation_matrix, wrap_angle
+from estimators.kernels.rotations import (
+    quat_from_rotvec,
+    quat_from_ypr,
+    quat_mul,
+    quat_to_ypr,
+    rotation_matrix,
+    wrap_angle,
+)
 
 #: Per-stream filter state (float64 record fields and their shapes).
 STATE_FIELDS = {
     "q": (4,),  # nominal quaternion, sensor -> ENU
     "b": (3,),  # gyro bias estimate, rad/s
-    "P": (6, 6),  # error-state covariance, [dphi (rad), db (rad/s)]
+    # Error-state covariance, [dphi (rad), db (rad/s)]; under the printed measurement model dphi
+    # are the Euler-angle errors [pitch, roll, yaw] (rad) of seed 000 eq (6).
+    "P": (6, 6),
     "init": (),  # 1.0 once the attitude has been initialised from an accelerometer sample
     "head_init": (),  # 1.0 once the heading has been initialised from a magnetometer sample
     "mag_norm": (),  # reference field norm (field unit)
@@ -47,8 +60,8 @@ STATE_FIELDS = {
     "cand_dip": (),  # candidate new field dip (rad)
     "cand_t": (),  # s the candidate has stayed consistent while the reference was rejected
     "mag_ok_t": (),  # s the field has stayed consistent with the reference
-    "motion": (),  # low-passed | |f| - g | (m/s^2)
-    "rest_t": (),  # s the sensor has looked at rest
+    "motion": (),  # low-passed | |f| - g | (m/s^2); corrected measurement model only
+    "rest_t": (),  # s the sensor has looked at rest; corrected measurement model only
     "n_seen": (),  # unit guard: finite accelerometer samples
     "n_gyr_big": (),  # unit guard: gyro samples above max_gyr_norm
     "n_acc_small": (),  # unit guard: accelerometer samples below min_acc_norm
@@ -112,12 +125,12 @@ def _scalar_update(P, dx, h, z, r, ph):
 
 
 @numba.njit(cache=True, inline="always")
-def _bias_update(P, dx, j, z, r, ph):
-    """One scalar Kalman update measuring bias component j: ``H = e_{3+j}`` (in place)."""
+def _component_update(P, dx, k, z, r, ph):
+    """One scalar Kalman update measuring error-state component k: ``H = e_k`` (in place)."""
     for i in range(6):
-        ph[i] = P[i, 3 + j]
-    s = ph[3 + j] + r
-    innov = (z - dx[3 + j]) / s
+        ph[i] = P[i, k]
+    s = ph[k] + r
+    innov = (z - dx[k]) / s
     for i in range(6):
         dx[i] += ph[i] * innov
         ki = ph[i] / s
@@ -204,8 +217,9 @@ def _initialise_heading(s, p, f, m, Rm):
 @numba.njit(cache=True, inline="always")
 def _gyro_step(s, c, p, w, w_ok, dt):
     """Propagation: ``q_dot = 1/2 q ⊗ (y - b)``, eqs (3)-(5); ``P <- Phi P Phi^T + Q dt`` with
-    ``Phi = I + F dt``, eq (9). A non-finite gyro sample skips the rotation and inflates the
-    attitude variance by the rotation missed, ``(gyr_gap_rate dt)^2``."""
+    ``Phi = I + F dt``, eq (9) (``Phi = I`` under the printed ``F = 0``: ``P <- P + Q dt``). A
+    non-finite gyro sample skips the rotation and inflates the attitude variance by the rotation
+    missed, ``(gyr_gap_rate dt)^2``."""
     q, b, P = s.q, s.b, s.P
     if w_ok:
         wx, wy, wz = w[0] - b[0], w[1] - b[1], w[2] - b[2]
@@ -308,9 +322,9 @@ def _rest_update(s, c, p, w, fn, dt):
     s.rest_t = s.rest_t + dt if still else 0.0
     if s.rest_t >= p.rest_time:
         r_b = p.gyr_noise**2 / dt
-        _bias_update(s.P, c.dx, 0, w[0] - b[0], r_b, c.ph)
-        _bias_update(s.P, c.dx, 1, w[1] - b[1], r_b, c.ph)
-        _bias_update(s.P, c.dx, 2, w[2] - b[2], r_b, c.ph)
+        _component_update(s.P, c.dx, 3, w[0] - b[0], r_b, c.ph)
+        _component_update(s.P, c.dx, 4, w[1] - b[1], r_b, c.ph)
+        _component_update(s.P, c.dx, 5, w[2] - b[2], r_b, c.ph)
         return True
     return False
 
@@ -323,6 +337,47 @@ def _inject(s, dx):
     b[0] += dx[3]
     b[1] += dx[4]
     b[2] += dx[5]
+
+
+@numba.njit(cache=True, inline="always")
+def _printed_update(s, c, p, f, m, use_mag):
+    """The measurement update as printed, eqs (2) and (10)-(14), for the accelerometer sample
+    ``f`` and, if ``use_mag``, the magnetometer sample ``m`` (derivation and reading of the
+    printed equations: :mod:`estimators.attitude`).
+
+    The error state is ``dx = [dtheta, dgamma, dpsi, db]`` (pitch, roll, yaw errors, estimate
+    minus truth, eq 6), measured by ``z = [theta - theta_acc, gamma - gamma_acc,
+    psi - psi_compass]`` with ``H = [I 0]`` and the constant ``R = diag(acc_noise^2,
+    acc_noise^2, mag_noise^2) / dt``; eq (14) one row at a time; then the compensation
+    ``[theta, gamma, psi] <- [theta, gamma, psi] - dphi``, ``b <- b - db`` and back to q.
+    """
+    q, P, dx, ph = s.q, s.P, c.dx, c.ph
+    psi, theta, gamma = quat_to_ypr(q[0], q[1], q[2], q[3])  # eq (2), the prior angles
+    # Eq (11): pitch and roll from the specific force (f = g [-sin theta, cos theta sin gamma,
+    # cos theta cos gamma] in our frame).
+    theta_acc = math.atan2(-f[0], math.sqrt(f[1] * f[1] + f[2] * f[2]))
+    gamma_acc = math.atan2(f[1], f[2])
+    r_acc = p.acc_noise**2 / p.dt
+    _component_update(P, dx, 0, theta - theta_acc, r_acc, ph)
+    _component_update(P, dx, 1, wrap_angle(gamma - gamma_acc), r_acc, ph)
+    if use_mag:
+        # Eq (12): the field levelled with the accelerometer's pitch and roll; eq (13): the
+        # compass yaw, magnetic north at yaw pi/2 - D in ENU.
+        ct, st = math.cos(theta_acc), math.sin(theta_acc)
+        cg, sg = math.cos(gamma_acc), math.sin(gamma_acc)
+        hx = m[0] * ct + m[1] * st * sg + m[2] * st * cg
+        hy = m[1] * cg - m[2] * sg
+        if hx * hx + hy * hy > 1e-6 * (m[0] * m[0] + m[1] * m[1] + m[2] * m[2]):
+            psi_compass = 0.5 * math.pi - p.declination - math.atan2(hy, hx)
+            _component_update(P, dx, 2, wrap_angle(psi - psi_compass), p.mag_noise**2 / p.dt, ph)
+    # Compensation (section 1, Fig 1): the posterior angles, converted back to the quaternion.
+    qw, qx, qy, qz = quat_from_ypr(psi - dx[2], theta - dx[0], gamma - dx[1])
+    n = math.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
+    q[0], q[1], q[2], q[3] = qw / n, qx / n, qy / n, qz / n
+    b = s.b
+    b[0] -= dx[3]
+    b[1] -= dx[4]
+    b[2] -= dx[5]
 
 
 @numba.njit(cache=True, inline="always")
@@ -350,6 +405,10 @@ def _step(s, c, p, w, f, m):
     dx = c.dx
     for i in range(6):
         dx[i] = 0.0
+    if p.printed_meas != 0.0:
+        if f_ok:
+            _printed_update(s, c, p, f, m, m_ok and s.head_init != 0.0)
+        return
     q = s.q
     rotation_matrix(q[0], q[1], q[2], q[3], c.Rm)
     updated = False

@@ -22,9 +22,7 @@ the *local* attitude error ``q_true = q ⊗ exp(dphi)`` and ``b_true = b + db``.
    noise is ``G_c Q_c G_c^T dt``, used here). The paper prints ``F_c = 0``: then the bias never
    correlates with the attitude error, is unobservable and stays at its initial value. The default
    ``model="trawny"`` uses the error dynamics of the paper's reference [21],
-   ``F = [[-[w x], -I], [0, 0]]`` (``w = y - b``); ``model="paper_literal"`` keeps ``F = 0`` so the
-   difference can be shown (``tests/test_attitude.py`` asserts bias convergence with the first and
-   none with the second).
+   ``F = [[-[w x], -I], [0, 0]]`` (``w = y - b``); the other models keep ``F = 0`` (below).
 3. Measurement, eqs (10)-(13). The paper measures Euler residuals
    ``z = [theta - theta_acc, gamma - gamma_acc, psi - psi_mag]`` with ``H = [I 0]``. That ``H`` is
    wrong for this error state: ``dphi`` is a small rotation in the sensor frame, not a vector of
@@ -88,6 +86,70 @@ Beyond the paper
   ``(gyr_gap_rate * dt)^2``, the rotation missed), a non-finite accelerometer or magnetometer
   sample skips its measurement. Timestamps are not taken: samples are uniform at ``fs``.
 
+Models
+------
+``model`` selects the time update and the measurement update, each as printed or as corrected
+above (one kernel, two switches in its parameter record):
+
+* ``"trawny"`` (default): Trawny's ``F`` and the corrected measurements with everything of
+  "Beyond the paper".
+* ``"f_zero"``: an ablation, the printed ``F = 0`` with the corrected measurements, robustness
+  included. The zero-rate update at rest measures the bias directly (``H = [0 I]``), so this
+  model still learns the bias whenever the sensor rests, and ``F = 0`` shows only in motion.
+* ``"paper_literal"``: the filter as seed 000 prints it, eqs (1)-(14), read as follows.
+
+  Printed and used as printed: the state ``x = [phi, b]`` with ``phi = [theta, gamma, psi]``
+  (pitch, roll, yaw; eq 1) and the error state ``dx = [dphi, db]`` (eq 6); the quaternion update
+  with the bias-compensated rate (eqs 3-4) and the bias random walk (eq 5); ``F_c = 0``,
+  ``G_c = I``, ``Phi = I + F_c dt = I`` (eqs 7-9); the prior angles from ``q_k^-`` by the ZYX
+  formulas of eq (2); ``z = H dx + n`` (eq 10) with
+  ``z = [theta - theta_acc, gamma - gamma_acc, psi - psi_compass]`` and ``H = [I 0]``; pitch and
+  roll from the specific force (eq 11); the field levelled with those accelerometer angles
+  (eq 12, "theta_k and gamma_k from eq (11)"); ``psi_compass = atan(m_y^n / m_x^n) + D``
+  (eq 13); ``dx+ = dx- + K (z - H dx-)`` (eq 14); the compensation of the Euler angles by
+  ``dphi`` and the conversion of the posterior angles back to ``q_k^+`` (section 1, the text of
+  Fig 1). No rest detection, no motion-dependent R and no magnetometer check appear in the
+  paper, so none is applied: ``acc_motion_ref``, ``motion_tau``, ``mag_norm_tol``,
+  ``mag_dip_tol``, ``mag_ref_*``, ``mag_learn_time``, ``mag_ok_time``, ``mag_new_time`` and
+  ``rest_*`` are not read.
+
+  Interpreted (the printed text is damaged, frame-specific or silent):
+
+  - Eq (11) prints ``theta = arcsin(f_y / f_z)``, ``gamma = arctan(f_x / sqrt(f_y^2 + f_z^2))``:
+    an arcsin of a ratio that exceeds 1 beyond 45 deg, and the axes of the authors' mounting.
+    Derived for our frame (``f = g [-sin theta, cos theta sin gamma, cos theta cos gamma]`` at
+    rest): ``theta_acc = atan2(-f_x, sqrt(f_y^2 + f_z^2))``, ``gamma_acc = atan2(f_y, f_z)``,
+    the printed pair of formulas with the arcsin read as arctan and the two axes exchanged.
+  - Eq (12) prints ``m_x^n = m_x cos(theta) + m_y sin(theta) sin(gamma) + m_z cos(theta)
+    sin(gamma)``, ``m_y^n = m_y cos(gamma) - m_z sin(gamma)``. Levelling ``m`` by
+    ``Ry(theta) Rx(gamma)`` gives the same except for the last term, ``m_z sin(theta)
+    cos(gamma)`` (the standard tilt-compensated compass), used here.
+  - Eq (13) is north-referenced and clockwise; in ENU, with yaw counter-clockwise from east, it
+    reads ``psi_compass = pi/2 - D - atan2(m_y^n, m_x^n)`` (D positive east). Its arctan, and
+    eq (2)'s, are taken quadrant-correct (atan2).
+  - The residual after eq (13) is printed ``-theta_k - theta_k^{*c}`` (OCR damage), read as
+    ``theta_k - theta_k^acc`` like the two rows below it. The roll and yaw residuals are
+    wrapped into (-pi, pi] (an angle difference; unwrapped, a heading crossing +-180 deg would
+    be a 360 deg innovation).
+  - Sign: with ``z`` = prior minus measured and ``H = [I 0]``, ``dx`` estimates the prior minus
+    the truth, so the compensation subtracts: ``phi+ = phi- - dphi``, ``b+ = b - db``; ``dx`` is
+    then reset to 0 (the feedback form of the indirect filter, [21]).
+  - Not printed: the gain and covariance update of eq (14) ("the standard Kalman filter",
+    [20]): ``K = P H^T (H P H^T + R)^-1``, ``P <- P - K H P``, one row at a time (identical
+    for a diagonal R); the covariances of ``w_k`` and ``n_k``. ``Q`` is that of the corrected
+    filter: eq (8)'s ``G_k = G_c dt`` applied to per-sample gyro noise of variance
+    ``gyr_noise^2 / dt`` gives ``gyr_noise^2 dt``, and eq (5)'s increment has variance
+    ``bias_walk^2 dt``. ``R`` is constant, ``diag(acc_noise^2, acc_noise^2, mag_noise^2) / dt``
+    (the densities of the corrected filter, without its motion term).
+  - Not printed either, and shared with the corrected filter: the initialisation, the
+    discretisation ``q <- q ⊗ exp((y - b) dt)`` of eq (3), and the handling of non-finite
+    samples. A heading update needs the accelerometer sample of the same instant (eq 12).
+
+  With ``F = 0`` and ``H = [I 0]`` the cross covariance of angles and bias stays 0, so ``db``
+  is always 0 and the bias keeps its initial value 0; in 6D the yaw is never measured and
+  drifts at the vertical bias rate. The Euler-angle state is singular at pitch +-90 deg, as
+  printed.
+
 The per-sample loop runs in the numba kernel :mod:`estimators._attitude_numba`, one stage per
 step above; its uncompiled Python source is the readable reference. The filter state of each
 stream is a record (:attr:`AttitudeEKF.state`), the parameters a record built once from
@@ -119,6 +181,7 @@ __all__ = [
     "AttitudeParams",
     "EkfStage",
     "estimate_attitude",
+    "f_zero_ekf",
     "orientation_errors",
     "paper_literal_ekf",
 ]
@@ -131,7 +194,9 @@ MIN_ACC_NORM = 3.0
 #: Samples over the gyro limit before a stream is declared in the wrong unit (and at least 1 %).
 _UNIT_MIN_COUNT = 10
 
-_MODELS = ("trawny", "paper_literal")
+_MODELS = ("trawny", "f_zero", "paper_literal")
+#: Stage name of each model (:data:`estimators.stages.ATTITUDE`).
+_STAGE_NAMES = {"trawny": "ekf", "f_zero": "ekf_f_zero", "paper_literal": "ekf_paper_literal"}
 
 
 @dataclass(frozen=True)
@@ -143,9 +208,15 @@ class AttitudeParams:
     chosen there among round values, and are not tuned per trial.
 
     Attributes:
-        model: error dynamics. ``"trawny"`` (default): ``F = [[-[w x], -I], [0, 0]]`` of the
-            paper's reference [21], with which the gyro bias is observable and estimated.
-            ``"paper_literal"``: the printed ``F = 0`` (seed 000 eq 7), with which it is not.
+        model: the filter (module docstring, "Models"). ``"trawny"`` (default): the error
+            dynamics ``F = [[-[w x], -I], [0, 0]]`` of the paper's reference [21] and the
+            corrected, robust measurement update; the gyro bias is estimated. ``"f_zero"``:
+            the printed ``F = 0`` (seed 000 eq 7) with the same measurement update; the bias
+            is learned at rest only. ``"paper_literal"``: the filter as printed, ``F = 0`` and
+            the Euler-angle residuals of eqs (10)-(14) with a constant R, no rest update and
+            no magnetometer check; the bias is never estimated. ``paper_literal`` reads only
+            ``gyr_noise``, ``bias_walk``, ``att_init_std``, ``bias_init_std``, ``acc_noise``,
+            ``gravity`` (initialisation), ``mag_noise``, ``declination`` and ``gyr_gap_rate``.
         gyr_noise: gyro noise density in the process model, rad/s/sqrt(Hz). Default 0.1 deg/s/
             sqrt(Hz): ten times a MEMS white noise (0.007 deg/s/sqrt(Hz), BMI160 datasheet) to
             cover scale-factor and misalignment errors during fast head turns; 0.05-0.2 change
@@ -301,12 +372,14 @@ def _fresh_state(n_streams: int, params: AttitudeParams) -> NDArray:
 
 
 def _kernel_params(params: AttitudeParams, dt: float) -> NDArray:
-    """The kernel's (1,) parameter record: the numeric fields of ``params`` it reads, the error
-    model as ``trawny`` (1.0 or 0.0), the sample interval ``dt`` (s) and the unit guard's limits
-    (squared norms)."""
+    """The kernel's (1,) parameter record: the numeric fields of ``params`` it reads, the model
+    as two switches, ``trawny`` (1.0: Trawny's error dynamics, 0.0: ``F = 0``) and
+    ``printed_meas`` (1.0: the printed measurement update, 0.0: the corrected one), the sample
+    interval ``dt`` (s) and the unit guard's limits (squared norms)."""
     return param_record(
         params, exclude=("mag_ref_norm", "mag_ref_dip"),
-        trawny=1.0 if params.model == "trawny" else 0.0, dt=dt,
+        trawny=1.0 if params.model == "trawny" else 0.0,
+        printed_meas=1.0 if params.model == "paper_literal" else 0.0, dt=dt,
         max_gyr_norm2=MAX_GYR_NORM**2, min_acc_norm2=MIN_ACC_NORM**2,
         unit_min_count=_UNIT_MIN_COUNT,
     )  # fmt: skip
@@ -513,7 +586,7 @@ class EkfStage:
     def __init__(self, batch_size: int, fs: float, params: AttitudeParams | None = None) -> None:
         self.ekf = AttitudeEKF(batch_size, fs, params)
         self.params = self.ekf.params
-        self.name = "ekf" if self.params.model != "paper_literal" else "ekf_paper_literal"
+        self.name = _STAGE_NAMES[self.params.model]
 
     def reset(self, rows: ArrayLike | None = None) -> None:
         self.ekf.reset(rows)
@@ -525,8 +598,13 @@ class EkfStage:
 
 
 def paper_literal_ekf(batch_size: int, fs: float) -> EkfStage:
-    """Seed 000's EKF with ``model="paper_literal"`` (:attr:`AttitudeParams.model`)."""
+    """Seed 000's EKF as printed, ``model="paper_literal"`` (:attr:`AttitudeParams.model`)."""
     return EkfStage(batch_size, fs, AttitudeParams(model="paper_literal"))
+
+
+def f_zero_ekf(batch_size: int, fs: float) -> EkfStage:
+    """The corrected EKF with the printed ``F = 0``, ``model="f_zero"`` (an ablation)."""
+    return EkfStage(batch_size, fs, AttitudeParams(model="f_zero"))
 
 
 def estimate_attitude(

@@ -326,6 +326,7 @@ ATTITUDE.register("ekf", "estimators.attitude:EkfStage", "seed 000 error-state E
 ATTITUDE.register(
     "ekf_paper_literal", "estimators.attitude:paper_literal_ekf", "seed 000 EKF as printed"
 )
+ATTITUDE.register("ekf_f_zero", "estimators.attitude:f_zero_ekf", "corrected EKF with F = 0")
 ATTITUDE.register("vqf", "estimators.attitude_vqf:VqfStage", "VQF (Laidig & Seel), vqf package")
 ATTITUDE.register("madgwick", "estimators.attitude_madgwick:Madgwick", "Madgwick gradient descent")
 ATTITUDE.register("mahony", "estimators.attitude_mahony:Mahony", "Mahony complementary PI filter")

@@ -4,7 +4,8 @@ Stream 0 starts without accelerometer (gyro integration before the initialisatio
 gyro for 0.1 s and sees a lasting field change that is rejected, then adopted. Stream 1 starts
 upside down (the degenerate tilt initialisation), loses accelerometer and magnetometer, has a gyro
 glitch (unit-guard counter) and is reset halfway. Stream 2 is 6D and starts at rest (zero-rate
-updates). Both error models run; the streaming and batch entry points both play.
+updates). The three models run (the printed one sees its wrapped roll residual upside down in
+stream 1); the streaming and batch entry points both play.
 """
 
 import numpy as np
@@ -79,6 +80,7 @@ def _offline_6d():
 
 CASES = {
     "attitude_ekf_trawny": _ekf("trawny"),
+    "attitude_ekf_f_zero": _ekf("f_zero"),
     "attitude_ekf_paper_literal": _ekf("paper_literal"),
     "attitude_ekf_offline_6d": _offline_6d,
 }
