@@ -175,6 +175,7 @@ from estimators.rotations import (
     quat_normalize,
     quat_to_ypr,
 )
+from estimators.validation import check_in_range, value_repr
 
 __all__ = [
     "AttitudeEKF",
@@ -296,36 +297,32 @@ class AttitudeParams:
     rest_time: float = 1.5
 
     def __post_init__(self) -> None:
-        if self.model not in _MODELS:
-            raise ValueError(f"model must be one of {_MODELS}, got {self.model!r}")
+        if not isinstance(self.model, str) or self.model not in _MODELS:
+            raise ValueError(
+                f"AttitudeParams.model={value_repr(self.model)}: must be one of {_MODELS}"
+            )
         positive = (
             "gyr_noise", "bias_walk", "att_init_std", "bias_init_std", "acc_noise",
             "acc_motion_ref", "motion_tau", "mag_noise", "mag_norm_tol", "mag_dip_tol",
             "gyr_gap_rate", "rest_gyr", "rest_acc", "rest_time",
         )  # fmt: skip
         for name in positive:
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise ValueError(f"{name} must be a finite number > 0, got {v!r}")
+            check_in_range(self, name, 0.0, math.inf, lo_open=True,
+                           allowed="a finite number > 0")  # fmt: skip
         for name in ("mag_learn_time", "mag_ok_time"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
-                raise ValueError(f"{name} must be a finite number >= 0 (s), got {v!r}")
-        if not (isinstance(self.mag_new_time, (int, float)) and self.mag_new_time > 0):
-            raise ValueError(f"mag_new_time must be > 0 s (inf allowed), got {self.mag_new_time!r}")
-        if not (isinstance(self.gravity, (int, float)) and 9.0 <= self.gravity <= 10.5):
-            raise ValueError(f"gravity must be in [9.0, 10.5] m/s^2, got {self.gravity!r}")
-        if not (isinstance(self.declination, (int, float)) and abs(self.declination) <= math.pi):
-            raise ValueError(f"declination must be in [-pi, pi] rad, got {self.declination!r}")
+            check_in_range(self, name, 0.0, math.inf, allowed="a finite number >= 0 (s)")
+        if not (isinstance(self.mag_new_time, float) and self.mag_new_time == math.inf):
+            check_in_range(self, "mag_new_time", 0.0, math.inf, lo_open=True,
+                           allowed="> 0 s (inf allowed)")  # fmt: skip
+        check_in_range(self, "gravity", 9.0, 10.5, "m/s^2")
+        check_in_range(self, "declination", -math.pi, math.pi, allowed="in [-pi, pi] rad")
         if (self.mag_ref_norm is None) != (self.mag_ref_dip is None):
             raise ValueError("mag_ref_norm and mag_ref_dip must be given together (or neither)")
         if self.mag_ref_norm is not None:
-            if not (math.isfinite(self.mag_ref_norm) and self.mag_ref_norm > 0):
-                raise ValueError(f"mag_ref_norm must be finite and > 0, got {self.mag_ref_norm!r}")
-            if not (math.isfinite(self.mag_ref_dip) and abs(self.mag_ref_dip) <= math.pi / 2):
-                raise ValueError(
-                    f"mag_ref_dip must be in [-pi/2, pi/2] rad, got {self.mag_ref_dip!r}"
-                )
+            check_in_range(self, "mag_ref_norm", 0.0, math.inf, lo_open=True,
+                           allowed="finite and > 0")  # fmt: skip
+            check_in_range(self, "mag_ref_dip", -math.pi / 2, math.pi / 2,
+                           allowed="in [-pi/2, pi/2] rad")  # fmt: skip
 
     def replace(self, **changes: Any) -> AttitudeParams:
         """A copy with some fields changed (validated like the original)."""

@@ -221,11 +221,7 @@ def _build(cls, data, values):
 
 
 #: Findings in files these tests do not own: the arbitrary-type fuzz fails there.
-KNOWN = {
-    AttitudeParams: "estimators/attitude.py: AttitudeParams accepts True/False as numbers, "
-    "model=<array> gives numpy's 'truth value ... ambiguous', and mag_ref_norm/mag_ref_dip of "
-    "another type give math.isfinite's TypeError without the field's name",
-}
+KNOWN: dict = {}
 
 
 @pytest.mark.parametrize(
