@@ -15,7 +15,7 @@ Filters, each with its library defaults and the data's sampling rate:
 
 * ours: :func:`estimators.attitude.estimate_attitude` with the default :class:`AttitudeParams`
   (one parameter set for all trials); also 6D (no magnetometer) and ``model="paper_literal"``
-  (the printed F = 0 of seed 000, bias never estimated).
+  (the EKF as seed 000 prints it, bias never estimated).
 * VQF (Laidig & Seel 2023): ``vqf.VQF.updateBatch`` (causal) and ``vqf.offlineVQF``.
 * ahrs Madgwick (``ahrs.filters.Madgwick``, default gain 0.041) and imufusion (``imufusion.Ahrs``,
   default settings but ``sample_rate``); both return NWU-earth quaternions, turned to ENU by a
@@ -93,7 +93,7 @@ def main() -> None:
     methods: dict[str, tuple[Callable[[BroadTrial], np.ndarray], str]] = {
         "ours": (ours, "total_rmse_deg"),
         "ours 6D (incl.)": (ours_6d, "inclination_rmse_deg"),
-        "ours paper F=0": (ours_paper_literal, "total_rmse_deg"),
+        "ours as printed": (ours_paper_literal, "total_rmse_deg"),
         "VQF": (vqf_online, "total_rmse_deg"),
         "VQF offline": (vqf_offline, "total_rmse_deg"),
         "imufusion": (imufusion_ahrs, "total_rmse_deg"),

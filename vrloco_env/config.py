@@ -98,7 +98,8 @@ class EstimatorConfig:
 
     Attributes:
         attitude: head attitude from the IMU (default ``"ekf"``, seed 000's error-state EKF;
-            ``"ekf_paper_literal"``, ``"vqf"``, ``"madgwick"``, ``"mahony"``, ``"gyro_only"``).
+            ``"ekf_paper_literal"``, ``"ekf_f_zero"``, ``"vqf"``, ``"madgwick"``, ``"mahony"``,
+            ``"gyro_only"``).
         steps: step detector (default ``"seed000"``, eqs 15-16; ``"threshold"``,
             ``"nod_robust"``).
         hand: filter of the Kinect's wrist angles (default ``"seed003"``, Kalman + median;
