@@ -22,7 +22,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from vrloco_env.motion import Intent, MotionParams
 
-__all__ = ["ACTION_NAMES", "ACTION_SIZE", "action_to_intent", "check_actions"]
+__all__ = ["ACTION_NAMES", "ACTION_SIZE", "action_to_intent", "check_action", "check_actions"]
 
 ACTION_NAMES = ("walk", "turn", "hand_yaw_rate", "hand_pitch_rate", "hand_roll_rate")
 ACTION_SIZE = len(ACTION_NAMES)
@@ -53,7 +53,18 @@ def check_actions(actions: ArrayLike, batch_size: int) -> NDArray[np.float64]:
     return np.minimum(np.maximum(a, -1.0), 1.0)  # np.clip, without its ~5 us of overhead
 
 
-def _as_numbers(actions: ArrayLike, batch_size: int) -> NDArray[np.float64]:
+def check_action(action: ArrayLike) -> NDArray[np.float64]:
+    """One user's action ``(5,)`` as float64: real numbers only (as :func:`check_actions`), the
+    right shape; its range and finiteness are checked with the batch."""
+    a = _as_numbers(action, None)
+    if a.shape != (ACTION_SIZE,):
+        raise ValueError(
+            f"action must have shape ({ACTION_SIZE},) [{', '.join(ACTION_NAMES)}], got {a.shape}"
+        )
+    return a
+
+
+def _as_numbers(actions: ArrayLike, batch_size: int | None) -> NDArray[np.float64]:
     """``actions`` as a float64 array, or a ValueError saying what an action is."""
     try:
         a = np.asarray(actions)
@@ -66,8 +77,9 @@ def _as_numbers(actions: ArrayLike, batch_size: int) -> NDArray[np.float64]:
         pass
     shown = " ".join(repr(actions).split())  # one line
     shown = shown if len(shown) <= 60 else shown[:57] + "..."
+    shape = f"({ACTION_SIZE},)" if batch_size is None else f"({batch_size}, {ACTION_SIZE})"
     raise ValueError(
-        f"action must be an array of shape ({batch_size}, {ACTION_SIZE}) of real numbers "
+        f"action must be an array of shape {shape} of real numbers "
         f"[{', '.join(ACTION_NAMES)}], got {type(actions).__name__} {shown}"
     )
 

@@ -28,7 +28,7 @@ from gymnasium import spaces
 from gymnasium.envs.registration import EnvSpec
 from numpy.typing import NDArray
 
-from vrloco_env.actions import ACTION_SIZE
+from vrloco_env.actions import ACTION_SIZE, check_action
 from vrloco_env.config import EnvConfig, EstimatorConfig, RewardConfig, SensorConfig
 from vrloco_env.core import LocoCore
 from vrloco_env.rooms import RoomConfig
@@ -225,9 +225,7 @@ class VRLocoEnv(gym.Env):
         return obs[0], info
 
     def step(self, action: Any) -> tuple[NDArray[np.float32], float, bool, bool, dict]:
-        a = np.asarray(action, dtype=np.float64)
-        if a.shape != (ACTION_SIZE,):
-            raise ValueError(f"action must have shape ({ACTION_SIZE},), got {a.shape}")
+        a = check_action(action)
         obs, reward, terminated, truncated, infos = self.core.step(a[None])
         self._path.append(self.core.ep.position[0].copy())
         self._true_path.append(self.core.ep.true_position[0].copy())
