@@ -697,7 +697,7 @@ def _draw_room(ax: Any, layout: Any) -> None:
     """Walls, obstacles, the Interact pedestal and the goal region of a layout (local frame)."""
     from matplotlib.patches import Circle, Polygon
 
-    from vrloco_env.rooms import Box
+    from vrloco_env.world import Box
 
     solids = [*layout.walls, *layout.obstacles]
     if layout.target is not None:

@@ -10,7 +10,7 @@ Prints:
 * the cost of :class:`estimators.gait.StepDetector` per user-sample for the environment's shape
   (B = 256 users x 10 samples per control step at 100 Hz), and for 8 users compiled and with its
   kernel uncompiled (:func:`estimators.kernels.python_reference`);
-* F1 (+-0.2 s) and phantom steps on the simulator's scripted motions (``vrloco_env.motion`` +
+* F1 (+-0.2 s) and phantom steps on the simulator's scripted motions (``vrloco_env.user.motion`` +
   ``vrloco_env.sensors.imu``), if the environment package is importable;
 * the Oxford neck-pouch walk (CC-BY-4.0, Oxford-step-counter/DataSet) with both presets, if
   ``../shared/data`` is present;
@@ -88,12 +88,12 @@ def bench_locomotion_speed(b: int = 256, calls: int = 2000) -> None:
 def bench_simulator(users: int = 32) -> None:
     try:
         from vrloco_env.batch_rng import BatchRng
-        from vrloco_env.motion import run_script
         from vrloco_env.sensors.imu import HeadImu
+        from vrloco_env.user import run_script
     except ImportError as err:  # the environment is optional for the estimators
         print(f"simulator figures skipped ({err})")
         return
-    print(f"simulator (vrloco_env.motion scripts, {users} users, 100 Hz):")
+    print(f"simulator (vrloco_env.user.motion scripts, {users} users, 100 Hz):")
     print(f"  {'script':<16} {'imu':<14} {'true':>6} {'found':>6} {'min F1':>7} {'phantom':>8}")
     cases = [(s, {}) for s in ("stand", "serpentine", "pitch", "shake", "spin", "backward",
                                "straight", "avoid", "stand_step_turn")]  # fmt: skip

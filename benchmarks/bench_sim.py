@@ -4,12 +4,12 @@ Run: ``python benchmarks/bench_sim.py [--rays 16] [--repeats 50] [--threads 1]``
 
 For each N it builds N Approach rooms tiled in one ``Simulation`` and times the per-step calls a
 vector env makes (``set_poses`` of the N avatars, one ``ray_test`` of N x R head rays, one
-``contacts`` pass), the analytic 2-D alternatives of :class:`vrloco_env.rooms.RoomBatch`, and the
-per-episode costs (draw a layout, build a room, rebuild one room of a running vector env). It
-prints milliseconds per call, microseconds per user, and the share of the per-user-step budget
-of the issue's targets (a single env >= 2,000 steps/s: 500 us/step; the vector env at N = 256 >=
-20,000 user-steps/s: 50 us/user-step). Timings are medians over repeats; the machine may be
-shared, so compare ratios rather than absolute numbers across runs.
+``contacts`` pass), the analytic 2-D alternatives of :class:`vrloco_env.world.room_batch.RoomBatch`,
+and the per-episode costs (draw a layout, build a room, rebuild one room of a running vector env).
+It prints milliseconds per call, microseconds per user, and the share of the per-user-step budget of
+the issue's targets (a single env >= 2,000 steps/s: 500 us/step; the vector env at N = 256 >= 20,000
+user-steps/s: 50 us/user-step). Timings are medians over repeats; the machine may be shared, so
+compare ratios rather than absolute numbers across runs.
 """
 
 from __future__ import annotations
@@ -20,9 +20,9 @@ from collections.abc import Callable
 
 import numpy as np
 
-from vrloco_env import rooms
-from vrloco_env.sim import Simulation
 from vrloco_env.tasks.approach import approach_layout
+from vrloco_env.world import RoomBatch, RoomConfig, build, tile_origins
+from vrloco_env.world.sim import Simulation
 
 
 def _median_ms(fn: Callable[[], object], repeats: int) -> float:
@@ -37,8 +37,8 @@ def _median_ms(fn: Callable[[], object], repeats: int) -> float:
 
 def bench(n: int, n_rays: int, repeats: int, threads: int) -> list[tuple[str, float, float]]:
     """Rows of (call, ms per call, us per user) for n users."""
-    cfg = rooms.RoomConfig()
-    origins = rooms.tile_origins(n)
+    cfg = RoomConfig()
+    origins = tile_origins(n)
     rows = []
     approach_layout(cfg, np.random.default_rng(12345))  # warm-up: numba kernels
     t0 = time.perf_counter()
@@ -50,7 +50,7 @@ def bench(n: int, n_rays: int, repeats: int, threads: int) -> list[tuple[str, fl
     sim = Simulation(ray_threads=threads)
     t0 = time.perf_counter()
     avatars = np.array(
-        [rooms.build(sim, lay, prefix=f"r{i}/")["avatar"] for i, lay in enumerate(layouts)]
+        [build(sim, lay, prefix=f"r{i}/")["avatar"] for i, lay in enumerate(layouts)]
     )
     rows.append(("build room (per room)", (time.perf_counter() - t0) * 1e3 / n, float("nan")))
 
@@ -65,7 +65,7 @@ def bench(n: int, n_rays: int, repeats: int, threads: int) -> list[tuple[str, fl
     o3 = np.repeat(np.column_stack([world[:, :2], np.full(n, ray_z)]), n_rays, axis=0)
     dirs = np.stack([np.cos(angles), np.sin(angles), np.zeros_like(angles)], -1).reshape(-1, 3)
     e3 = o3 + max_range * dirs
-    batch = rooms.RoomBatch(layouts)
+    batch = RoomBatch(layouts)
     o2 = np.repeat(local[:, None], n_rays, axis=1)
 
     per_step = {
@@ -85,7 +85,7 @@ def bench(n: int, n_rays: int, repeats: int, threads: int) -> list[tuple[str, fl
         i = int(rng.integers(n))
         sim.remove_prefix(f"r{i}/")
         lay = approach_layout(cfg, rng).with_origin(origins[i])
-        rooms.build(sim, lay, prefix=f"r{i}/")
+        build(sim, lay, prefix=f"r{i}/")
 
     rows.append(("reset one room (draw+rebuild)", _median_ms(reset_one_room, 10), float("nan")))
     rows.append(("compact whole world", _median_ms(sim.compact, 3), float("nan")))

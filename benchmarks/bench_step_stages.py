@@ -49,7 +49,7 @@ from estimators.gait import step_f1
 from estimators.stages import STEPS
 from estimators.steps_nod_robust import NodRobustParams
 from vrloco_env.batch_rng import BatchRng
-from vrloco_env.motion import Intent, MotionParams, MotionRecord, UserMotion
+from vrloco_env.user import Intent, MotionParams, MotionRecord, UserMotion
 
 FS = 100.0
 DEV_SEEDS = (0, 1, 2)
@@ -81,7 +81,7 @@ def detectors() -> dict[str, object]:
 def gesture_trial(amp_deg, freq_hz, preset: str, users: int, seed: int, seconds: float = 20.0,
                   cadence: float = 0.0) -> Trial:  # fmt: skip
     """Standing (or stepping at ``cadence``) with a head gesture: 2 s still, the gesture, 2 s
-    still, the frequency held throughout (as :func:`vrloco_env.motion.script_intents` does)."""
+    still, the frequency held throughout (as :func:`vrloco_env.user.motion.script_intents` does)."""
     rng = BatchRng([np.random.default_rng([seed, 13, i]) for i in range(users)])
     params = MotionParams(imu_rate_hz=FS)
     motion = UserMotion(params, rng)

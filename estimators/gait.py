@@ -44,8 +44,8 @@ mean filter 0.08 s [M = 8], peak window half-width 0.10 s [N = 21 samples, 0.21 
 (0.686 m/s^2), gamma_t 1.2 s, min_step_interval 1/3.5 s. Why:
 
 * gamma: what separates steps from head gestures is the excess of the smoothed norm over its
-  baseline. The simulated head (``vrloco_env.motion``; peaks of 1.1-1.5 g when stepping in place
-  at 1.2-2.2 steps/s, after Tregillus & Folmer, VR-STEP, CHI 2016) gives at least 0.86 m/s^2
+  baseline. The simulated head (``vrloco_env.user.motion``; peaks of 1.1-1.5 g when stepping in
+  place at 1.2-2.2 steps/s, after Tregillus & Folmer, VR-STEP, CHI 2016) gives at least 0.86 m/s^2
   (0.088 g) for its lightest stepper at 1.2 steps/s; seed 000's head gestures as scripted there
   (serpentine +-40 deg at 0.4 Hz, nod +-30 deg at 0.3 Hz, shake +-25 deg at 0.5 Hz; forehead IMU
   9 cm ahead of and 12 cm above the neck pivot) reach at most 0.51 m/s^2 (0.052 g) with a consumer

@@ -103,7 +103,7 @@ PAPER_SINGULARITY_THRESHOLD = 0.499
 KINECT_RATE_HZ = 30.0
 
 # Kinect v2 JointType indices (Kinect for Windows SDK 2.0), as defaults; the environment's
-# vrloco_env.skeleton.Joint holds the same numbers.
+# vrloco_env.user.skeleton.Joint holds the same numbers.
 _SPINE_BASE, _SPINE_MID, _WRIST_RIGHT, _SPINE_SHOULDER = 0, 1, 10, 20
 
 _MIN_QUAT_NORM = 1e-6  # below this a quaternion is treated as a dropout (no orientation)

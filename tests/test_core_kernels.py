@@ -9,8 +9,8 @@ from kernel_cases.core import STEPS, episode
 import vrloco_env  # noqa: F401
 from estimators import rotations as rot
 from vrloco_env._core_numba import attitude_error_kernel, quat_to_ypr_rows
-from vrloco_env.rooms import RoomBatch, RoomConfig
 from vrloco_env.tasks import make_layout
+from vrloco_env.world import RoomBatch, RoomConfig
 
 
 def test_the_observation_case_exercises_fresh_users_and_hand_entries():

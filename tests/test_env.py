@@ -10,8 +10,8 @@ import vrloco_env
 from vrloco_env.config import EnvConfig, EstimatorConfig
 from vrloco_env.env import VRLocoEnv
 from vrloco_env.observation import env_spec
-from vrloco_env.rooms import signed_distance
-from vrloco_env.sim import display_available
+from vrloco_env.world import signed_distance
+from vrloco_env.world.sim import display_available
 
 IDS = list(vrloco_env.ENV_IDS)
 

@@ -8,8 +8,8 @@ import pytest
 from agents.cli import main
 from agents.estimate import read_csv_recording
 from vrloco_env.batch_rng import BatchRng
-from vrloco_env.motion import run_script
 from vrloco_env.sensors.imu import HeadImu, get_imu_spec
+from vrloco_env.user import run_script
 
 
 @pytest.fixture

@@ -23,8 +23,8 @@ from estimators.attitude import AttitudeParams
 from estimators.gait import GaitParams
 from vrloco_env import config
 from vrloco_env.actions import ACTION_NAMES, ACTION_SIZE, check_actions
-from vrloco_env.rooms import RoomConfig
 from vrloco_env.tasks.interact import InteractConfig
+from vrloco_env.world import RoomConfig
 
 FAST = settings(max_examples=60, deadline=None,
                 suppress_health_check=[HealthCheck.too_slow])  # fmt: skip

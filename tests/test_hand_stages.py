@@ -23,8 +23,8 @@ from estimators.joint_smoothing import OneEuroFilter
 from estimators.rotations import angle_diff
 from estimators.stages import HAND, HandStage, StageError
 from vrloco_env.batch_rng import BatchRng
-from vrloco_env.motion import Intent, MotionParams, UserMotion
 from vrloco_env.sensors.kinect import KinectSpec, KinectV2
+from vrloco_env.user import Intent, MotionParams, UserMotion
 
 FS = 30.0
 WARMUP = 30  # frames left out of the statistics (1 s), as agents/experiments/hand_variance.py

@@ -15,7 +15,6 @@ from estimators.rotations import (
     rotation_angle,
 )
 from vrloco_env.batch_rng import BatchRng
-from vrloco_env.rooms import RoomConfig
 from vrloco_env.sensors.head_camera import (
     CONDITIONS,
     CameraFrames,
@@ -31,6 +30,7 @@ from vrloco_env.sensors.head_camera import (
     project,
 )
 from vrloco_env.tasks import make_layout
+from vrloco_env.world import RoomConfig
 
 RATE = 120.0
 

@@ -29,7 +29,7 @@ from vrloco_env.sensors.kinect import (
     standing_skeleton,
     world_to_camera,
 )
-from vrloco_env.skeleton import INFERRED, NOT_TRACKED, TRACKED, Joint
+from vrloco_env.user import INFERRED, NOT_TRACKED, TRACKED, Joint
 
 FPS = 30.0
 # Seed 003, Tables 1-3: the 11 static hand "yaw" angles (turn about the forearm), deg.

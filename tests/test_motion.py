@@ -5,16 +5,17 @@ import pytest
 
 from estimators import rotations as rot
 from vrloco_env.batch_rng import BatchRng
-from vrloco_env.motion import (
+from vrloco_env.user import (
+    BONES,
     SCRIPTS,
     Intent,
+    Joint,
     MotionParams,
     MotionRecord,
     UserMotion,
     run_script,
     script_intents,
 )
-from vrloco_env.skeleton import BONES, Joint
 
 
 def specific_force_norm_g(rec: MotionRecord) -> np.ndarray:
@@ -254,7 +255,7 @@ def test_overground_walking_follows_the_heading_and_its_acceleration_integrates_
 
 def test_head_yaw_is_body_yaw_plus_the_head_on_torso_gesture():
     from vrloco_env.batch_rng import BatchRng
-    from vrloco_env.motion import Intent, MotionParams, UserMotion
+    from vrloco_env.user import Intent, MotionParams, UserMotion
 
     motion = UserMotion(MotionParams(), BatchRng.from_seeds([1, 2]))
     motion.reset(yaw=np.array([0.3, -1.0]))

@@ -9,8 +9,8 @@ from estimators import stages
 from estimators.attitude import AttitudeParams, EkfStage
 from estimators.stages import StageError
 from vrloco_env.config import EnvConfig, EstimatorConfig, SensorConfig
-from vrloco_env.motion import MotionParams
 from vrloco_env.techniques import TECHNIQUES, Technique
+from vrloco_env.user import MotionParams
 
 WALK = np.array([0.8, 0.15, 0.2, 0.0, 0.0], np.float32)
 
@@ -217,7 +217,7 @@ def test_torso_steering_walks_straight_while_the_head_looks_around():
     Head steering walks where the head looks; torso steering follows the shoulders."""
     from vrloco_env.core import LocoCore
     from vrloco_env.env import make_configs
-    from vrloco_env.motion import Intent
+    from vrloco_env.user import Intent
 
     headings = {}
     for name in ("seed000", "torso_steering"):

@@ -7,11 +7,21 @@ from functools import cache
 import numpy as np
 import pytest
 
-from vrloco_env import rooms
-from vrloco_env.rooms import Box, Cylinder, Layout, RoomBatch, RoomConfig
 from vrloco_env.tasks import make_layout
 from vrloco_env.tasks.approach import approach_layout
 from vrloco_env.tasks.avoid import avoid_layout
+from vrloco_env.world import (
+    Box,
+    Cylinder,
+    Layout,
+    RoomBatch,
+    RoomConfig,
+    ray_cast_2d,
+    signed_distance,
+    tile_origins,
+)
+from vrloco_env.world.geometry import _ray_cast_batch, _sdf_batch
+from vrloco_env.world.planning import _path_length, _plan
 
 TASK_NAMES = ("approach", "avoid", "interact")
 CFG = RoomConfig()
@@ -44,10 +54,10 @@ def test_200_seeds_feasible_with_collision_free_shortest_paths(task):
         assert lay.task == task
         start, goal = np.array(lay.start[:2]), np.array(lay.goal)
         # Start outside every solid by the keep-out (>= the avatar radius).
-        assert rooms.signed_distance(lay, start[None])[0] >= CFG.keepout_radius - 1e-9
-        sd_goal = rooms.signed_distance(lay, goal[None])[0]
+        assert signed_distance(lay, start[None])[0] >= CFG.keepout_radius - 1e-9
+        sd_goal = signed_distance(lay, goal[None])[0]
         if task == "interact":  # the stand point faces the pedestal at the stand-off
-            d_t = rooms.signed_distance(replace(lay, walls=(), obstacles=()), goal[None])[0]
+            d_t = signed_distance(replace(lay, walls=(), obstacles=()), goal[None])[0]
             assert d_t == pytest.approx(r + CFG.interact_standoff, abs=1e-9)
             assert sd_goal >= r
         else:
@@ -57,7 +67,7 @@ def test_200_seeds_feasible_with_collision_free_shortest_paths(task):
         assert np.allclose(lay.path[0], start)
         assert lay.in_goal(lay.path[-1:])[0]
         assert not lay.in_goal(lay.path[:-1]).any()
-        assert rooms.signed_distance(lay, _dense(lay.path)).min() >= r
+        assert signed_distance(lay, _dense(lay.path)).min() >= r
         # Its length is the reported shortest length, and no shorter than the straight line.
         seg = np.diff(lay.path, axis=0)
         assert lay.shortest_path_length == pytest.approx(np.hypot(*seg.T).sum(), abs=1e-9)
@@ -73,7 +83,7 @@ def test_200_seeds_feasible_with_collision_free_shortest_paths(task):
 
 def test_shortest_path_is_near_optimal_in_an_empty_room():
     lay = replace(_empty_room(), start=(-3.0, -1.0, 0.0), goal=(2.0, 1.0))
-    path = rooms._plan(
+    path = _plan(
         lay._packed,
         lay.bounds,
         np.array([-3.0, -1.0]),
@@ -83,7 +93,7 @@ def test_shortest_path_is_near_optimal_in_an_empty_room():
         CFG.grid_resolution,
     )
     true = np.hypot(5.0, 2.0) - lay.goal_radius  # a straight line to the disc
-    assert rooms._path_length(path) == pytest.approx(true, abs=0.01)
+    assert _path_length(path) == pytest.approx(true, abs=0.01)
 
 
 def test_shortest_path_around_a_wall_matches_the_taut_string():
@@ -97,7 +107,7 @@ def test_shortest_path_around_a_wall_matches_the_taut_string():
         start=(-2.0, -2.0, 0.0),
         goal=(2.0, -2.0),
     )
-    path = rooms._plan(
+    path = _plan(
         lay._packed,
         lay.bounds,
         np.array([-2.0, -2.0]),
@@ -106,12 +116,12 @@ def test_shortest_path_around_a_wall_matches_the_taut_string():
         lay.avatar_radius,
         CFG.grid_resolution,
     )
-    assert rooms.signed_distance(lay, _dense(path)).min() >= lay.avatar_radius
+    assert signed_distance(lay, _dense(path)).min() >= lay.avatar_radius
     r = lay.avatar_radius
     d = np.hypot(1.95, 4.0)  # start to the corner
     turn = np.arctan2(4.0, 1.95) + np.arcsin(r / d)  # leg heading, turned back to +x on the arc
     true = 2.0 * np.sqrt(d**2 - r**2) + 2.0 * r * turn + 0.1 - lay.goal_radius
-    length = rooms._path_length(path)
+    length = _path_length(path)
     assert length >= true - 1e-9  # nothing collision-free beats the taut string
     assert length == pytest.approx(true, rel=0.015)
 
@@ -131,7 +141,7 @@ def test_avoid_obstacle_blocks_the_straight_walk():
         assert lay.start[2] == 0.0  # facing along the corridor
         x_line = lay.goal_line[0][0]
         line = np.column_stack([np.linspace(lay.start[0], x_line, 2000), np.zeros(2000)])
-        sd = rooms.signed_distance(lay, line)
+        sd = signed_distance(lay, line)
         assert sd.min() < lay.avatar_radius  # a straight walk would collide
         (obstacle,) = lay.obstacles
         ahead = obstacle.center[0] - lay.start[0]
@@ -156,9 +166,9 @@ def test_signed_distance_matches_hand_computed_values():
         ]
     )
     want = [min(1.5, np.hypot(0.75, 0.5)), 0.5, -0.25, 0.5, -0.5, 0.5, 0.5]
-    np.testing.assert_allclose(rooms.signed_distance(lay, pts), want, atol=1e-12)
+    np.testing.assert_allclose(signed_distance(lay, pts), want, atol=1e-12)
     # A slice above the 1 m obstacles sees only the 2.5 m walls.
-    np.testing.assert_allclose(rooms.signed_distance(lay, pts[:1], z=1.2), [4.0], atol=1e-12)
+    np.testing.assert_allclose(signed_distance(lay, pts[:1], z=1.2), [4.0], atol=1e-12)
 
 
 def test_ray_cast_2d_matches_hand_computed_values_and_sphere_tracing():
@@ -168,27 +178,27 @@ def test_ray_cast_2d_matches_hand_computed_values_and_sphere_tracing():
     )
     o = np.zeros((5, 2))
     ang = np.array([0.0, np.pi / 2, np.pi, -np.pi / 2, np.pi / 4])
-    d = rooms.ray_cast_2d(lay, o, ang, 10.0)
+    d = ray_cast_2d(lay, o, ang, 10.0)
     # +x: the diamond's near vertex at x = 2 - 0.5 * sqrt(2); +y: the cylinder at 1.5; -x, -y:
     # the walls at 4; 45 deg: the wall corner region, the x = 4 face at 4 * sqrt(2).
     want = [2.0 - 0.5 * np.sqrt(2.0), 1.5, 4.0, 4.0, 4.0 * np.sqrt(2.0)]
     np.testing.assert_allclose(d, want, atol=1e-12)
-    assert rooms.ray_cast_2d(lay, o[:1], ang[:1], 1.0)[0] == 1.0  # nothing within range
+    assert ray_cast_2d(lay, o[:1], ang[:1], 1.0)[0] == 1.0  # nothing within range
     # Random layouts: compare with sphere tracing on the signed distance (independent code).
     rng = np.random.default_rng(3)
     for seed in range(10):
         lay = make_layout(TASK_NAMES[seed % 3], CFG, np.random.default_rng(seed))
         xmin, xmax, ymin, ymax = lay.bounds
         p = np.column_stack([rng.uniform(xmin, xmax, 400), rng.uniform(ymin, ymax, 400)])
-        p = p[rooms.signed_distance(lay, p) > 0.01]
+        p = p[signed_distance(lay, p) > 0.01]
         a = rng.uniform(-np.pi, np.pi, p.shape[0])
         u = np.column_stack([np.cos(a), np.sin(a)])
         t = np.zeros(p.shape[0])
         for _ in range(400):
-            t += np.maximum(rooms.signed_distance(lay, p + t[:, None] * u), 0.0)
-        d = rooms.ray_cast_2d(lay, p, a, 30.0)
+            t += np.maximum(signed_distance(lay, p + t[:, None] * u), 0.0)
+        d = ray_cast_2d(lay, p, a, 30.0)
         # Sphere tracing converges slowly on grazing rays; the rest must agree closely.
-        done = rooms.signed_distance(lay, p + t[:, None] * u) < 1e-9
+        done = signed_distance(lay, p + t[:, None] * u) < 1e-9
         assert done.mean() > 0.95
         np.testing.assert_allclose(d[done], t[done], atol=1e-6)
 
@@ -199,14 +209,14 @@ def test_room_batch_equals_single_room_calls_and_updates_one_room():
     rng = np.random.default_rng(1)
     o = rng.uniform(-3.0, 3.0, (6, 20, 2))
     a = rng.uniform(-np.pi, np.pi, (6, 20))
-    single = np.stack([rooms.ray_cast_2d(x, o[i], a[i], 12.0) for i, x in enumerate(lays)])
+    single = np.stack([ray_cast_2d(x, o[i], a[i], 12.0) for i, x in enumerate(lays)])
     np.testing.assert_array_equal(batch.ray_cast(o, a, 12.0), single)
-    sd = np.stack([rooms.signed_distance(x, o[i]) for i, x in enumerate(lays)])
+    sd = np.stack([signed_distance(x, o[i]) for i, x in enumerate(lays)])
     np.testing.assert_array_equal(batch.signed_distance(o), sd)
     # The compiled kernels mirror the readable numpy implementation.
     u = np.stack([np.cos(a), np.sin(a)], -1)
-    np.testing.assert_allclose(rooms._ray_cast_batch(batch._solids, o, u, 12.0), single, atol=1e-12)
-    np.testing.assert_allclose(rooms._sdf_batch(batch._solids, o), sd, atol=1e-12)
+    np.testing.assert_allclose(_ray_cast_batch(batch._solids, o, u, 12.0), single, atol=1e-12)
+    np.testing.assert_allclose(_sdf_batch(batch._solids, o), sd, atol=1e-12)
     new = avoid_layout(CFG, np.random.default_rng(99))
     batch.set(2, new)
     lays[2] = new
@@ -220,7 +230,7 @@ def test_landmarks_lie_on_the_inner_wall_faces():
         lm = lay.landmarks
         assert lm.shape[1] == 3 and lm.shape[0] == lay.landmark_ids.shape[0] > 0
         np.testing.assert_array_equal(lay.landmark_ids, np.arange(lm.shape[0]))
-        np.testing.assert_allclose(rooms.signed_distance(walls_only, lm[:, :2]), 0.0, atol=1e-12)
+        np.testing.assert_allclose(signed_distance(walls_only, lm[:, :2]), 0.0, atol=1e-12)
         assert set(np.unique(lm[:, 2])) == set(CFG.landmark_heights)
         gaps = np.diff(
             np.sort(lm[(lm[:, 2] == 1.0) & (np.abs(lm[:, 1] - lay.bounds[2]) < 1e-9), 0])
@@ -244,7 +254,7 @@ def test_origin_and_tiling():
     moved = lay.with_origin([30.0, 60.0])
     assert moved.origin == (30.0, 60.0) and moved.obstacles == lay.obstacles
     np.testing.assert_allclose(moved.to_world([[1.0, 2.0]]), [[31.0, 62.0]])
-    o = rooms.tile_origins(10, 30.0)
+    o = tile_origins(10, 30.0)
     assert o.shape == (10, 2) and np.all(o[0] == 0.0)
     dist = np.linalg.norm(o[:, None] - o[None], axis=-1) + np.eye(10) * 1e9
     assert dist.min() == pytest.approx(30.0)
@@ -281,11 +291,11 @@ def test_bad_config_raises_naming_the_field(field, value):
 def test_bad_inputs_raise_clear_errors():
     lay = approach_layout(CFG, np.random.default_rng(0))
     with pytest.raises(ValueError, match="points"):
-        rooms.signed_distance(lay, np.zeros(3))
+        signed_distance(lay, np.zeros(3))
     with pytest.raises(ValueError, match="angles"):
-        rooms.ray_cast_2d(lay, np.zeros((2, 2)), np.zeros(3), 5.0)
+        ray_cast_2d(lay, np.zeros((2, 2)), np.zeros(3), 5.0)
     with pytest.raises(ValueError, match="max_range"):
-        rooms.ray_cast_2d(lay, np.zeros((2, 2)), np.zeros(2), -1.0)
+        ray_cast_2d(lay, np.zeros((2, 2)), np.zeros(2), -1.0)
     with pytest.raises(ValueError, match="task"):
         make_layout("dance", CFG, np.random.default_rng(0))
     with pytest.raises(TypeError, match="rng"):

@@ -19,7 +19,7 @@ from agents.scripted import (
 )
 from agents.variability import HumanVariability, VariabilityParams
 from vrloco_env.config import EnvConfig
-from vrloco_env.rooms import signed_distance
+from vrloco_env.world import signed_distance
 
 
 def run(env, policy, seed, steps=600, rng=None):

@@ -5,13 +5,13 @@ import sys
 import numpy as np
 import pytest
 
-from vrloco_env import rooms
-from vrloco_env.sim import Simulation, display_available
 from vrloco_env.tasks import make_layout
 from vrloco_env.tasks.interact import interact_layout
+from vrloco_env.world import RoomConfig, build, ray_cast_2d, signed_distance, tile_origins
+from vrloco_env.world.sim import Simulation, display_available
 
 TASK_NAMES = ("approach", "avoid", "interact")
-CFG = rooms.RoomConfig()
+CFG = RoomConfig()
 
 
 @pytest.fixture
@@ -49,30 +49,30 @@ def test_rays_ignore_avatars_markers_and_visual_bodies(sim):
 
 
 def test_pybullet_rays_match_the_analytic_2d_cast_on_random_tiled_layouts(sim):
-    origins = rooms.tile_origins(9)
+    origins = tile_origins(9)
     err, on_surface, excluded, total = [], [], 0, 0
     for s in range(9):
         lay = make_layout(TASK_NAMES[s % 3], CFG, np.random.default_rng(s))
         lay = lay.with_origin(origins[s])
-        rooms.build(sim, lay, prefix=f"r{s}/")
+        build(sim, lay, prefix=f"r{s}/")
         rng = np.random.default_rng(100 + s)
         xmin, xmax, ymin, ymax = lay.bounds
         p = np.column_stack([rng.uniform(xmin, xmax, 600), rng.uniform(ymin, ymax, 600)])
-        p = p[rooms.signed_distance(lay, p) > 0.05][:150]
+        p = p[signed_distance(lay, p) > 0.05][:150]
         a = rng.uniform(-np.pi, np.pi, p.shape[0])
-        d2 = rooms.ray_cast_2d(lay, p, a, 20.0, z=0.5)
+        d2 = ray_cast_2d(lay, p, a, 20.0, z=0.5)
         o, e = _rays(lay.to_world(p), a, 0.5, 20.0)
         frac, hit = sim.ray_test(o, e)
         assert np.all(hit >= 0)  # closed rooms: every ray hits something of its own room
         assert all(sim.name_of(b).startswith(f"r{s}/") for b in hit)
         d_pb = frac * 20.0
         u = np.column_stack([np.cos(a), np.sin(a)])
-        on_surface.append(rooms.signed_distance(lay, p + d_pb[:, None] * u))
+        on_surface.append(signed_distance(lay, p + d_pb[:, None] * u))
         # Grazing rays (a 3 mm parallel shift changes the distance by > 1 cm) are ill-posed:
         # there a sub-mm shape difference flips hit/miss. Compare the well-posed rest.
         n = np.column_stack([-np.sin(a), np.cos(a)])
-        dp = rooms.ray_cast_2d(lay, p + 0.003 * n, a, 20.0, z=0.5)
-        dm = rooms.ray_cast_2d(lay, p - 0.003 * n, a, 20.0, z=0.5)
+        dp = ray_cast_2d(lay, p + 0.003 * n, a, 20.0, z=0.5)
+        dm = ray_cast_2d(lay, p - 0.003 * n, a, 20.0, z=0.5)
         ok = (np.abs(dp - d2) < 0.01) & (np.abs(dm - d2) < 0.01)
         err.append(np.abs(d_pb - d2)[ok])
         excluded += int((~ok).sum())
@@ -111,13 +111,13 @@ def test_contacts_overlap_vs_clear_and_avatars_ignore_each_other(sim):
 
 def test_contacts_of_many_avatars_in_tiled_rooms_match_signed_distance(sim):
     n = 12
-    origins = rooms.tile_origins(n)
+    origins = tile_origins(n)
     lays = [
         make_layout(TASK_NAMES[s % 3], CFG, np.random.default_rng(s)).with_origin(origins[s])
         for s in range(n)
     ]
     avatars = np.array(
-        [rooms.build(sim, lay, prefix=f"r{s}/")["avatar"] for s, lay in enumerate(lays)]
+        [build(sim, lay, prefix=f"r{s}/")["avatar"] for s, lay in enumerate(lays)]
     )
     assert not sim.contacts(avatars).any()  # everyone at a free start
     lo = np.array([[x.bounds[0], x.bounds[2]] for x in lays])
@@ -127,7 +127,7 @@ def test_contacts_of_many_avatars_in_tiled_rooms_match_signed_distance(sim):
     checked = 0
     for _ in range(60):  # random teleports, each avatar in its own room
         p = rng.uniform(lo, hi)
-        sd = np.array([rooms.signed_distance(x, p[i : i + 1])[0] for i, x in enumerate(lays)])
+        sd = np.array([signed_distance(x, p[i : i + 1])[0] for i, x in enumerate(lays)])
         world = np.column_stack([p + origins, np.full(n, CFG.avatar_height / 2)])
         sim.set_poses(avatars, world, rng.uniform(-np.pi, np.pi, n))
         got = sim.contacts(avatars)
@@ -219,11 +219,11 @@ def test_build_creates_named_bodies_at_the_origin(sim):
     a = np.linspace(-np.pi, np.pi, 64, endpoint=False)
     o, e = _rays(np.tile(lay.to_world(lay.start[:2]), (64, 1)), a, 0.5, 10.0)
     # Headless sim: no visual-only bodies unless asked; walls and obstacles as two compounds.
-    assert set(rooms.build(sim, lay, prefix="a/")) == {"walls", "obstacles", "target", "avatar"}
+    assert set(build(sim, lay, prefix="a/")) == {"walls", "obstacles", "target", "avatar"}
     frac_merged = sim.ray_test(o, e)[0]
     sim.remove_prefix("a/")
     assert sim.names == []
-    ids = rooms.build(sim, lay, prefix="room/", merge=False, visuals=True, landmark_markers=True)
+    ids = build(sim, lay, prefix="room/", merge=False, visuals=True, landmark_markers=True)
     want = {"floor", "target", "target_marker", "goal_marker", "avatar"}
     want |= {f"wall_{i}" for i in range(4)} | {f"obstacle_{i}" for i in range(len(lay.obstacles))}
     want |= {f"landmark_{k}" for k in lay.landmark_ids}
@@ -236,7 +236,7 @@ def test_build_creates_named_bodies_at_the_origin(sim):
     # Merged or not, the rays from the start see the same room, the one of the 2-D geometry.
     frac = sim.ray_test(o, e)[0]
     np.testing.assert_allclose(frac_merged, frac, atol=1e-9)
-    d2 = rooms.ray_cast_2d(lay, np.tile(lay.start[:2], (64, 1)), a, 10.0)
+    d2 = ray_cast_2d(lay, np.tile(lay.start[:2], (64, 1)), a, 10.0)
     np.testing.assert_allclose(frac * 10.0, d2, atol=3e-3)
 
 

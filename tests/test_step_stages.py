@@ -1,7 +1,7 @@
 """The step stages of :data:`estimators.stages.STEPS`: seed000, threshold and nod_robust.
 
-Ground truth from the simulated user (:mod:`vrloco_env.motion` through the IMU presets, with the
-trial machinery of :mod:`agents.experiments.head_motions`; the attitude input is the error-state
+Ground truth from the simulated user (:mod:`vrloco_env.user.motion` through the IMU presets, with
+the trial machinery of :mod:`agents.experiments.head_motions`; the attitude input is the error-state
 EKF's estimate from the same samples). Every simulated trial here uses seeds 2000 and up: held out
 from the development seeds (0-2) on which ``nod_robust``'s parameters were checked, and from the
 benchmark's held-out seeds (1000-1002).
@@ -23,7 +23,7 @@ from estimators.stages import STEPS, StepStage
 from estimators.steps_nod_robust import NodRobustParams, NodRobustSteps
 from estimators.steps_threshold import ThresholdParams, ThresholdSteps
 from vrloco_env.batch_rng import BatchRng
-from vrloco_env.motion import Intent, MotionParams, MotionRecord, UserMotion
+from vrloco_env.user import Intent, MotionParams, MotionRecord, UserMotion
 
 FS = 100.0
 NAMES = ("seed000", "threshold", "nod_robust")

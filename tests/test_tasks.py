@@ -11,7 +11,9 @@ import vrloco_env  # noqa: F401
 from agents.scripted import ObservationLayout, ObsView
 from vrloco_env import ENV_IDS
 from vrloco_env.observation import Field, ObservationSpec
-from vrloco_env.rooms import (
+from vrloco_env.tasks import TASKS, Task, env_id, get_task, register_task
+from vrloco_env.tasks.interact import InteractConfig
+from vrloco_env.world import (
     Cylinder,
     Layout,
     RoomConfig,
@@ -20,8 +22,6 @@ from vrloco_env.rooms import (
     no_layout_error,
     room_bounds,
 )
-from vrloco_env.tasks import TASKS, Task, env_id, get_task, register_task
-from vrloco_env.tasks.interact import InteractConfig
 
 
 @dataclass(frozen=True)

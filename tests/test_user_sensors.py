@@ -5,8 +5,8 @@ import pytest
 
 from estimators import rotations as rot
 from vrloco_env.batch_rng import BatchRng
-from vrloco_env.motion import MotionParams, run_script
 from vrloco_env.sensors.imu import HeadImu, get_imu_spec
+from vrloco_env.user import MotionParams, run_script
 
 
 def sensed(script: str, seeds, preset="ig500n", noiseless=False, rate=100.0, **kw):

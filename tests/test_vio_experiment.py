@@ -15,9 +15,9 @@ from agents.cli import main
 from agents.experiments import vio
 from vrloco_env.batch_rng import BatchRng
 from vrloco_env.head_tracking import PnpParams
-from vrloco_env.rooms import RoomConfig
 from vrloco_env.sensors.head_camera import camera_spec, layout_landmarks
 from vrloco_env.tasks import make_layout
+from vrloco_env.world import RoomConfig
 
 DURATION = 15.0
 

@@ -1,10 +1,10 @@
 """vrloco_env: the simulated hands-free VR user, its sensors, and the Gymnasium environment.
 
-Data flows one way: :mod:`vrloco_env.motion` (intent -> true head, skeleton, steps) ->
+Data flows one way: :mod:`vrloco_env.user.motion` (intent -> true head, skeleton, steps) ->
 :mod:`vrloco_env.sensors` (head IMU, Kinect v2, head camera) -> :mod:`estimators` (the stages a
 technique names: :mod:`vrloco_env.techniques`, :mod:`vrloco_env.pipeline`) -> locomotion (or
-:mod:`vrloco_env.head_tracking` for real walking) -> the world (:mod:`vrloco_env.rooms`,
-:mod:`vrloco_env.sim`, the task: :mod:`vrloco_env.tasks`) -> observation
+:mod:`vrloco_env.head_tracking` for real walking) -> the world (:mod:`vrloco_env.world`,
+:mod:`vrloco_env.world.sim`, the task: :mod:`vrloco_env.tasks`) -> observation
 (:mod:`vrloco_env.observation`, :mod:`vrloco_env.core`).
 
 Importing the package registers one id per registered task, ``VRLoco-Approach-v0``,

@@ -20,7 +20,7 @@ import functools
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vrloco_env.motion import Intent, MotionParams
+from vrloco_env.user import Intent, MotionParams
 
 __all__ = ["ACTION_NAMES", "ACTION_SIZE", "action_to_intent", "check_action", "check_actions"]
 

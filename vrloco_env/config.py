@@ -14,10 +14,10 @@ from typing import Any
 from estimators.hand import HandParams
 from estimators.validation import check_bool, check_in_range, check_instance, value_repr
 from estimators.visual_inertial import VioConfig
-from vrloco_env.motion import MotionParams
 from vrloco_env.sensors.head_camera import CameraSpec, camera_spec
 from vrloco_env.sensors.imu import EarthField, ImuSpec, MagneticDisturbance, get_imu_spec
 from vrloco_env.sensors.kinect import KinectSpec
+from vrloco_env.user import MotionParams
 
 __all__ = ["STAGE_FIELDS", "EnvConfig", "EstimatorConfig", "RewardConfig", "SensorConfig"]
 

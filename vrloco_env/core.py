@@ -9,12 +9,12 @@ Both the single :class:`~vrloco_env.env.VRLocoEnv` (B = 1) and the native
                would touch a wall or obstacle (then it stays: a collision)
             -> rays from the virtual head, goal bearing and distance -> observation, reward
 
-The world. Each user's room is a :class:`~vrloco_env.rooms.Layout`; the per-step queries (swept
-avatar against the room, rays from the virtual head) run on the rooms' exact 2-D geometry
-(:class:`~vrloco_env.rooms.RoomBatch`, one compiled call for all users), which the tests check
-against PyBullet's own rays and contacts. PyBullet (:class:`~vrloco_env.sim.Simulation`) holds
-the same rooms as bodies for rendering — the first-person view and the ``human`` GUI — and is only
-created when a render mode asks for it: at 256 users its ray cast alone would take ~14 ms per
+The world. Each user's room is a :class:`~vrloco_env.world.layout.Layout`; the per-step queries
+(swept avatar against the room, rays from the virtual head) run on the rooms' exact 2-D geometry
+(:class:`~vrloco_env.world.room_batch.RoomBatch`, one compiled call for all users), which the tests
+check against PyBullet's own rays and contacts. PyBullet (:class:`~vrloco_env.world.sim.Simulation`)
+holds the same rooms as bodies for rendering — the first-person view and the ``human`` GUI — and is
+only created when a render mode asks for it: at 256 users its ray cast alone would take ~14 ms per
 step on this machine, 30 times the 2-D twin.
 
 Randomness. User i owns one generator (the single env's ``np_random``; sub-env i's in the vector
@@ -44,10 +44,10 @@ from vrloco_env.observation import (
     ray_offsets,
 )
 from vrloco_env.pipeline import build_stages
-from vrloco_env.rooms import Layout, RoomBatch, RoomConfig
 from vrloco_env.tasks import get_task
 from vrloco_env.tasks.base import Task
 from vrloco_env.users import SimulatedUsers, UserStep
+from vrloco_env.world import Layout, RoomBatch, RoomConfig
 
 __all__ = ["MAX_GOAL_DISTANCE", "LocoCore"]
 

@@ -31,8 +31,8 @@ from numpy.typing import NDArray
 from vrloco_env.actions import ACTION_SIZE, check_action
 from vrloco_env.config import EnvConfig, EstimatorConfig, RewardConfig, SensorConfig
 from vrloco_env.core import LocoCore
-from vrloco_env.rooms import RoomConfig
 from vrloco_env.techniques import TECHNIQUES, Technique, get_technique
+from vrloco_env.world import RoomConfig
 
 __all__ = ["VRLocoEnv", "make_configs", "technique_name"]
 
@@ -126,7 +126,7 @@ class VRLocoEnv(gym.Env):
         render_mode: None, ``"rgb_array"`` (top-down map beside a first-person view) or
             ``"human"`` (a PyBullet GUI window; needs a display).
         config, sensors, estimators, room, reward: configuration dataclasses
-            (:mod:`vrloco_env.config`, :class:`vrloco_env.rooms.RoomConfig`).
+            (:mod:`vrloco_env.config`, :class:`vrloco_env.world.config.RoomConfig`).
         sensor_preset, locomotion, max_episode_steps, pose_source: shortcuts for common fields
             (``pose_source="visual_inertial"``: :attr:`vrloco_env.config.EnvConfig.pose_source`).
         technique: a registered technique's name (:mod:`vrloco_env.techniques`), a
@@ -191,7 +191,7 @@ class VRLocoEnv(gym.Env):
         # The modes this env can render here: "human" only where a display exists, so that
         # gymnasium's checker (which renders every declared mode) passes on a headless machine;
         # asking for "human" without a display still fails with a clear error at reset.
-        from vrloco_env.sim import display_available
+        from vrloco_env.world.sim import display_available
 
         modes = [m for m in self.metadata["render_modes"] if m != "human" or display_available()]
         self.metadata = {**self.metadata, "render_modes": modes,
@@ -251,7 +251,7 @@ class VRLocoEnv(gym.Env):
         if self.render_mode == "human":
             self._sync_sim()
             return None
-        from vrloco_env.render import draw_map
+        from vrloco_env.world.render import draw_map
 
         last = self.core.last
         hand = None if last is None else last.hand_est[0]
@@ -270,8 +270,8 @@ class VRLocoEnv(gym.Env):
 
     def _sync_sim(self) -> None:
         """Build the current room in PyBullet (once per layout) and place the avatar."""
-        from vrloco_env.rooms import build
-        from vrloco_env.sim import Simulation
+        from vrloco_env.world import build
+        from vrloco_env.world.sim import Simulation
 
         if self._sim is None:
             self._sim = Simulation(render_mode=self.render_mode)

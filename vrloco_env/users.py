@@ -39,9 +39,7 @@ from vrloco_env._hand_frame_numba import hand_relative_to_torso
 from vrloco_env.batch_rng import BatchRng
 from vrloco_env.config import POSE_SOURCES, EstimatorConfig, SensorConfig
 from vrloco_env.head_tracking import VisualInertialTracker
-from vrloco_env.motion import Intent, MotionChunk, MotionParams, UserMotion
 from vrloco_env.pipeline import Stages
-from vrloco_env.rooms import Layout
 from vrloco_env.sensors.head_camera import layout_landmarks
 from vrloco_env.sensors.imu import HeadImu, ImuSamples
 from vrloco_env.sensors.kinect import (
@@ -51,7 +49,8 @@ from vrloco_env.sensors.kinect import (
     camera_quat,
     camera_to_world,
 )
-from vrloco_env.skeleton import Joint
+from vrloco_env.user import Intent, Joint, MotionChunk, MotionParams, UserMotion
+from vrloco_env.world import Layout
 
 __all__ = ["SimulatedUsers", "UserStep"]
 

@@ -46,8 +46,8 @@ from estimators.hand import (
 from estimators.io_kinect import read_kinect_csv
 from estimators.rotations import angle_diff, quat_from_ypr
 from vrloco_env.batch_rng import BatchRng
-from vrloco_env.motion import Intent, MotionParams, MotionRecord, UserMotion
 from vrloco_env.sensors.kinect import KinectSpec, KinectV2
+from vrloco_env.user import Intent, MotionParams, MotionRecord, UserMotion
 
 #: Seed 003's 11 static angles (deg), in the order of its Tables 1-3.
 PAPER_ANGLES_DEG = (-90, 0, 90, -35, -50, -65, -75, 30, 45, 60, 75)

@@ -29,8 +29,8 @@ from estimators.gait import StepDetector, step_f1
 from estimators.locomotion import SmoothLocomotion
 from estimators.rotations import angle_diff, quat_to_ypr
 from vrloco_env.batch_rng import BatchRng
-from vrloco_env.motion import Intent, MotionParams, MotionRecord, UserMotion, run_script
 from vrloco_env.sensors.imu import HeadImu, ImuSamples, get_imu_spec
+from vrloco_env.user import Intent, MotionParams, MotionRecord, UserMotion, run_script
 
 HEAD_MOTIONS = ("serpentine", "pitch", "shake", "spin", "backward")
 PRESETS = ("ig500n", "consumer_mems")
@@ -66,7 +66,8 @@ def _simulate(record: MotionRecord, rng: BatchRng, preset: str, fs: float) -> Tr
 
 def run_trial(name: str, preset: str, users: int, seed: int, cadence: float = 1.7,
               fs: float = 100.0) -> Trial:  # fmt: skip
-    """Scripted motion ``name`` (see :func:`vrloco_env.motion.script_intents`) for ``users``."""
+    """Scripted motion ``name`` (see :func:`vrloco_env.user.motion.script_intents`) for
+    ``users``."""
     rng = BatchRng([np.random.default_rng([seed, i]) for i in range(users)])
     params = MotionParams(imu_rate_hz=fs)
     rec = run_script(name, rng, params, cadence=cadence)

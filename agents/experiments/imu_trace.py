@@ -11,8 +11,8 @@ import numpy as np
 
 from estimators import rotations as rot
 from vrloco_env.batch_rng import BatchRng
-from vrloco_env.motion import MotionParams, run_script
 from vrloco_env.sensors.imu import HeadImu, get_imu_spec
+from vrloco_env.user import MotionParams, run_script
 
 
 def simulate_imu_trace(seed: int = 0, preset: str = "ig500n"):

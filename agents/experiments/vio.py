@@ -139,8 +139,6 @@ from estimators.visual_pose import (
 )
 from vrloco_env.batch_rng import BatchRng
 from vrloco_env.head_tracking import PnpParams, camera_intrinsics, frame_triggers, pnp_mount
-from vrloco_env.motion import Intent, MotionParams, MotionRecord, UserMotion
-from vrloco_env.rooms import RoomConfig
 from vrloco_env.sensors.head_camera import (
     CameraSpec,
     HeadCamera,
@@ -149,6 +147,8 @@ from vrloco_env.sensors.head_camera import (
 )
 from vrloco_env.sensors.imu import HeadImu, get_imu_spec
 from vrloco_env.tasks import make_layout
+from vrloco_env.user import Intent, MotionParams, MotionRecord, UserMotion
+from vrloco_env.world import RoomConfig
 
 __all__ = [
     "CAMERA_RATE_HZ",

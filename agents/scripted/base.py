@@ -92,7 +92,7 @@ class PolicyParams:
             way costs up to ``1 + comfort_cost`` times its length inside this band.
         comfort_cost: extra cost factor of walking close to obstacles (dimensionless).
         walk: walk action while walking (0.5: 1.7 steps/s, the middle of the comfortable
-            1.2-2.2 steps/s of :class:`vrloco_env.motion.MotionParams`).
+            1.2-2.2 steps/s of :class:`vrloco_env.user.motion.MotionParams`).
         turn_gain: turn action per radian of heading error (1/rad). 1.2 turns at the full
             120 deg/s above 48 deg of error; the loop gain 1.2 x 2.09 rad/s = 2.5 /s keeps the
             turn stable under a human reaction delay of up to ~0.6 s (a delayed integrator

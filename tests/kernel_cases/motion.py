@@ -4,7 +4,7 @@ limits, a reset of one user, overground walking, and a batch large enough for th
 import numpy as np
 
 from vrloco_env.batch_rng import BatchRng
-from vrloco_env.motion import Intent, MotionParams, MotionRecord, UserMotion
+from vrloco_env.user import Intent, MotionParams, MotionRecord, UserMotion
 
 
 def _intent(k: int, b: int) -> Intent:

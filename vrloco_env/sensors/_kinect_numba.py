@@ -60,7 +60,7 @@ import numpy as np
 
 from estimators.kernels.batch import BatchKernel
 from estimators.kernels.rotations import quat_from_rotvec, quat_mul
-from vrloco_env.skeleton import INFERRED, NOT_TRACKED, NUM_JOINTS, TRACKED, Joint
+from vrloco_env.user import INFERRED, NOT_TRACKED, NUM_JOINTS, TRACKED, Joint
 
 WRIST_RIGHT = int(Joint.WRIST_RIGHT)
 #: Bodies the Kinect v2 tracks at once (Microsoft Kinect for Windows v2 specification: six).

@@ -1,11 +1,12 @@
 """Head camera model for seed 004's visual helmet pose: wall landmarks seen by a pinhole camera.
 
 A camera on the helmet looks at landmarks with known 3-D positions on the room's inner walls
-(:attr:`vrloco_env.rooms.Layout.landmarks`). For B users and N frames at once, :class:`HeadCamera`
-projects every landmark, decides which ones are geometrically visible, which of those a feature
-detector extracts, which extracted features a matcher assigns to the right landmark, and adds pixel
-noise. The output (:class:`CameraFrames`) is what a PnP solver (OpenCV ``solvePnPRansac``) takes:
-2-D pixels with the landmark index the matcher assigned, outliers included.
+(:attr:`vrloco_env.world.layout.Layout.landmarks`). For B users and N frames at once,
+:class:`HeadCamera` projects every landmark, decides which ones are geometrically visible, which of
+those a feature detector extracts, which extracted features a matcher assigns to the right landmark,
+and adds pixel noise. The output (:class:`CameraFrames`) is what a PnP solver (OpenCV
+``solvePnPRansac``) takes: 2-D pixels with the landmark index the matcher assigned, outliers
+included.
 
 Frames and conventions
 ----------------------
@@ -124,7 +125,7 @@ from estimators.rotations import (
 from vrloco_env.batch_rng import BatchRng
 
 if TYPE_CHECKING:
-    from vrloco_env.rooms import Layout
+    from vrloco_env.world import Layout
 
 __all__ = [
     "BODY_FROM_CAMERA",
@@ -465,7 +466,7 @@ def layout_landmarks(layout: Layout) -> tuple[NDArray[np.float64], NDArray[np.fl
     """A room's landmarks in the world and the inward normals of their walls.
 
     Args:
-        layout: a :class:`vrloco_env.rooms.Layout`; its landmarks lie on the inner wall faces
+        layout: a :class:`vrloco_env.world.layout.Layout`; its landmarks lie on the inner wall faces
             (local frame), shifted here by ``layout.origin`` (use ``layout.with_origin((0, 0))``
             for the local frame).
 

@@ -1,7 +1,7 @@
 """Kinect v2 body-tracking model: joints, wrist orientation, tracking states and body ids.
 
-The model turns the target user's true skeleton (world frame, from :mod:`vrloco_env.motion`) into
-what the Kinect v2 SDK hands an application at 30 frames/s: up to six body slots, each with a
+The model turns the target user's true skeleton (world frame, from :mod:`vrloco_env.user.motion`)
+into what the Kinect v2 SDK hands an application at 30 frames/s: up to six body slots, each with a
 tracking id, 25 joints in camera space with a per-joint tracking state, and the right wrist's
 orientation quaternion. It adds what makes the real sensor hard to use (seed 003, section 1):
 
@@ -51,8 +51,8 @@ Eq (1) names ``atan2(2(wx + yz), 1 - 2(x^2 + y^2))`` "yaw" (in :mod:`estimators.
 naming that is the *roll*, ``quat_to_ypr(q)[..., 2]``, the rotation about the frame's own x axis),
 ``asin(2(wy - zx))`` "pitch" (our pitch, ``[..., 1]``) and ``atan2(2(wz + xy), 1 - 2(y^2 + z^2))``
 "roll" (our *yaw* about z, ``[..., 0]``). With the SDK frame and the forearm pointing at the sensor
-— the posture of :mod:`vrloco_env.motion` (right arm held forward, user facing the Kinect) and of a
-user reaching toward it — these names are the hand's own, as for an aircraft whose nose is the
+— the posture of :mod:`vrloco_env.user.motion` (right arm held forward, user facing the Kinect) and
+of a user reaching toward it — these names are the hand's own, as for an aircraft whose nose is the
 fingertips. Starting from the rest pose (palm down, pointing at the sensor) and rotating about one
 hand axis:
 
@@ -116,7 +116,7 @@ from estimators.rotations import (
 )
 from vrloco_env.batch_rng import BatchRng
 from vrloco_env.sensors import _kinect_numba as _k
-from vrloco_env.skeleton import NOT_TRACKED, NUM_JOINTS, Joint
+from vrloco_env.user import NOT_TRACKED, NUM_JOINTS, Joint
 
 __all__ = [
     "HAND_FROM_SDK_WRIST",
@@ -529,7 +529,8 @@ class KinectFrames:
         body_id: (B, M, K) int64 tracking id, 0 where the slot holds no tracked body.
         body_tracked: (B, M, K) bool.
         joints: (B, M, K, 25, 3) camera-space joint positions, m; NaN where not tracked.
-        joint_state: (B, M, K, 25) int8, NOT_TRACKED / INFERRED / TRACKED (vrloco_env.skeleton).
+        joint_state: (B, M, K, 25) int8, NOT_TRACKED / INFERRED / TRACKED
+            (vrloco_env.user.skeleton).
         hand_quat: (B, M, K, 4) noisy right-wrist orientation [w, x, y, z], SDK wrist frame
             (bone on +y) -> camera space (see the module docstring); NaN where the body or its
             wrist is not tracked.
@@ -608,7 +609,8 @@ _TEMPLATE = np.array(
 # Right-arm poses, body frame, H units: elbow, wrist and the hand's orientation (hand frame ->
 # body frame, [w, x, y, z]).
 #   down:    arm hanging; forearm down, palm toward the thigh, thumb forward, back of hand outward.
-#   forward: upper arm down, forearm held forward and level, palm down (vrloco_env.motion's pose).
+#   forward: upper arm down, forearm held forward and level, palm down (vrloco_env.user.motion's
+#            pose).
 #   raised:  upper arm out and down, forearm vertical, palm facing forward, thumb to the left (the
 #            kinect_laban "wave hand" posture).
 _ARM_POSES = {
@@ -649,7 +651,7 @@ def standing_skeleton(
         yaw_rad: direction the person faces, (...) rad, CCW from east.
         height_m: standing height, (...) m, in (0.5, 2.5).
         right_arm: ``"down"`` (hanging), ``"forward"`` (forearm held forward, palm down: the pose
-            of :mod:`vrloco_env.motion`) or ``"raised"`` (forearm vertical, palm forward).
+            of :mod:`vrloco_env.user.motion`) or ``"raised"`` (forearm vertical, palm forward).
         hand_ypr_rad: hand rotation relative to the arm pose, (..., 3) intrinsic ZYX
             [yaw, pitch, roll] rad in the hand frame; roll is the turn about the forearm. For
             ``"forward"`` this is motion.py's ``hand_ypr``. It moves the hand, hand-tip and thumb

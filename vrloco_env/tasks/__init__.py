@@ -87,7 +87,7 @@ def get_task(name: str) -> type[Task]:
 
 def make_layout(task: str, room: Any, rng: Any, task_config: Any = None) -> Any:
     """A room of task ``task`` (:meth:`Task.draw_layout`) from ``room`` (a
-    :class:`~vrloco_env.rooms.RoomConfig`) and the generator ``rng``."""
+    :class:`~vrloco_env.world.config.RoomConfig`) and the generator ``rng``."""
     return get_task(task)(1, 0.1, task_config).draw_layout(room, rng)
 
 

@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from vrloco_env.rooms import (
+from vrloco_env.tasks.base import Task
+from vrloco_env.world import (
     Layout,
     RoomConfig,
     check_rng,
@@ -14,7 +15,6 @@ from vrloco_env.rooms import (
     room_bounds,
     scatter_obstacles,
 )
-from vrloco_env.tasks.base import Task
 
 __all__ = ["Approach", "approach_layout"]
 

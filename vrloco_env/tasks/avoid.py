@@ -6,7 +6,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from vrloco_env.rooms import (
+from vrloco_env.tasks.base import Task
+from vrloco_env.world import (
     Box,
     Cylinder,
     Layout,
@@ -16,7 +17,6 @@ from vrloco_env.rooms import (
     finish_layout,
     no_layout_error,
 )
-from vrloco_env.tasks.base import Task
 
 __all__ = ["Avoid", "avoid_layout"]
 

@@ -10,7 +10,7 @@ observation fields. Success is finishing — without a single collision where
 :attr:`Task.collision_free_success`.
 
 Adding a task: a file with a :class:`Task` subclass (its layout generator, built from the blocks
-in :mod:`vrloco_env.rooms`, and optionally its own frozen config dataclass), plus one
+in :mod:`vrloco_env.world`, and optionally its own frozen config dataclass), plus one
 :func:`vrloco_env.tasks.register_task` line, which also registers its Gymnasium id.
 """
 
@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vrloco_env.observation import Field
-from vrloco_env.rooms import Layout, RoomConfig
+from vrloco_env.world import Layout, RoomConfig
 
 __all__ = ["NoConfig", "Task"]
 

@@ -15,7 +15,8 @@ from estimators.rotations import wrap_angle
 from estimators.validation import check_in_range, check_numbers
 from vrloco_env._hand_frame_numba import hand_error
 from vrloco_env.observation import Field
-from vrloco_env.rooms import (
+from vrloco_env.tasks.base import Task
+from vrloco_env.world import (
     Box,
     Layout,
     RoomConfig,
@@ -26,7 +27,6 @@ from vrloco_env.rooms import (
     scatter_obstacles,
     solid_distance,
 )
-from vrloco_env.tasks.base import Task
 
 __all__ = ["Interact", "InteractConfig", "hand_error", "interact_layout"]
 

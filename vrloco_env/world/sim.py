@@ -29,8 +29,8 @@ Engineering decisions (measured with pybullet 3.2.7, see ``benchmarks/bench_sim.
   of exactly that size silently returns nothing in 3.2.7). They cost 2-3 µs each on one core
   whatever the world size (Bullet's GJK ray cast per shape hit), so 256 users x 16 rays take
   ~13 ms a step: over the vector env's whole 12.8 ms budget at 20,000 user-steps/s. Bullet's ray
-  cast on cylinders is within ~1 mm of the true surface. :class:`vrloco_env.rooms.RoomBatch`
-  casts the same rays analytically ~30x faster.
+  cast on cylinders is within ~1 mm of the true surface.
+  :class:`vrloco_env.world.room_batch.RoomBatch` casts the same rays analytically ~30x faster.
 * **Creating bodies** costs 100-250 µs each and grows with the number of bodies in the world
   (500-600 µs for a visual-only body); :meth:`Simulation.create_compound` makes all of a room's
   walls, or obstacles, one body.

@@ -53,9 +53,9 @@ from numpy.typing import ArrayLike, NDArray
 from estimators import rotations as rot
 from estimators.batching import stream_rows
 from estimators.kernels import param_record, state_records
-from vrloco_env._motion_numba import SCALARS, STATE, VECTORS, evaluate_kernel, skeleton_kernel
 from vrloco_env.batch_rng import BatchRng
-from vrloco_env.skeleton import NUM_JOINTS, Joint
+from vrloco_env.user._motion_numba import SCALARS, STATE, VECTORS, evaluate_kernel, skeleton_kernel
+from vrloco_env.user.skeleton import NUM_JOINTS, Joint
 
 __all__ = [
     "SCRIPTS",
@@ -289,7 +289,7 @@ class MotionRecord(MotionChunk):
 
 class _State:
     """Per-user state carried between control steps: the kernel's (B,) record array ``rec``
-    (fields :data:`vrloco_env._motion_numba.STATE`), a view of each of its fields as the
+    (fields :data:`vrloco_env.user._motion_numba.STATE`), a view of each of its fields as the
     attribute of that name ((B,) or (B, k); ``s.phase[:] = x`` writes the record), and the
     control steps done since every user was last reset (time is ``steps_done / rate``)."""
 
@@ -402,9 +402,9 @@ class UserMotion:
     # ------------------------------------------------------------------ the time functions
     def _evaluate(self, s: _State, cmd: dict, tau: NDArray[np.float64]) -> dict:
         """Head and body quantities at times ``tau`` (s after the step start), shape (B, T, ...):
-        one call of :data:`vrloco_env._motion_numba.evaluate_kernel`. Keys: its
-        :data:`~vrloco_env._motion_numba.SCALARS` (B, T) and
-        :data:`~vrloco_env._motion_numba.VECTORS` (B, T, 3), ``quat`` (B, T, 4), ``walking``
+        one call of :data:`vrloco_env.user._motion_numba.evaluate_kernel`. Keys: its
+        :data:`~vrloco_env.user._motion_numba.SCALARS` (B, T) and
+        :data:`~vrloco_env.user._motion_numba.VECTORS` (B, T, 3), ``quat`` (B, T, 4), ``walking``
         (B, T) bool and ``t_boundary`` (B,), the time the step in progress ends."""
         b, t = self.batch_size, tau.shape[-1]
         scalars = np.empty((len(SCALARS), b, t))
@@ -509,11 +509,11 @@ class UserMotion:
         """Walk the body through the tracked space: shift ``ev``'s neck and IMU positions (in
         place) by the distance walked since the step start at each of ``times``.
 
-        The speed follows ``stride_m * cadence`` with a first-order lag; the direction is the
-        body yaw (the closed form of :func:`vrloco_env._motion_numba._body_yaw`). The walked offset
+        The speed follows ``stride_m * cadence`` with a first-order lag; the direction is the body
+        yaw (the closed form of :func:`vrloco_env.user._motion_numba._body_yaw`). The walked offset
         ``int_0^tau v(t) [cos yaw(t), sin yaw(t)] dt`` is integrated by 12-point Gauss-Legendre
-        quadrature on [0, tau] — exact to rounding for a 0.1 s step — so the central differences
-        of the positions give the true linear acceleration the IMU senses.
+        quadrature on [0, tau] — exact to rounding for a 0.1 s step — so the central differences of
+        the positions give the true linear acceleration the IMU senses.
 
         Returns:
             The offset at the step's end (B, 2) m and the speed there (B,) m/s.
@@ -640,8 +640,8 @@ def _record(base: NDArray | None = None, **values: ArrayLike) -> NDArray:
     return rec
 
 
-#: The body geometry :data:`vrloco_env._motion_numba.skeleton_kernel` reads: torso-frame offsets
-#: (m) and the Kinect joints they place.
+#: The body geometry :data:`vrloco_env.user._motion_numba.skeleton_kernel` reads: torso-frame
+#: offsets (m) and the Kinect joints they place.
 _BODY = _record(
     torso_offsets=_TORSO_OFFSET_ARRAY, torso_joints=_TORSO_JOINTS, head_offset=_HEAD_OFFSET,
     head_joint=int(Joint.HEAD), leg_rest=_LEG_REST, leg_lift=_LEG_LIFT, leg_joints=_LEG_JOINTS,
@@ -649,15 +649,15 @@ _BODY = _record(
     wrist_right=int(Joint.WRIST_RIGHT), hand_offsets=_HAND_OFFSETS, hand_joints=_HAND_JOINTS,
 )  # fmt: skip
 
-#: MotionParams fields :data:`vrloco_env._motion_numba.evaluate_kernel` does not read.
+#: MotionParams fields :data:`vrloco_env.user._motion_numba.evaluate_kernel` does not read.
 _UNREAD_PARAMS = ("imu_rate_hz", "kinect_rate_hz", "control_rate_hz", "max_turn_rate",
                   "max_hand_rate", "sway_roll_deg", "style_spread", "overground", "stride_m",
                   "speed_lag_s")  # fmt: skip
 
 
 def _kernel_params(p: MotionParams) -> NDArray:
-    """The (1,) parameter record of :data:`vrloco_env._motion_numba.evaluate_kernel`: the fields
-    of ``p`` it reads under their names, the sway roll in rad, gravity (m/s^2) and the
+    """The (1,) parameter record of :data:`vrloco_env.user._motion_numba.evaluate_kernel`: the
+    fields of ``p`` it reads under their names, the sway roll in rad, gravity (m/s^2) and the
     heel-strike pulse's position weights ``pulse_pos`` with their value at a step boundary."""
     scalars = param_record(
         p, exclude=_UNREAD_PARAMS, sway_roll=float(np.deg2rad(p.sway_roll_deg)),

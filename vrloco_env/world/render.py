@@ -13,7 +13,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from estimators import rotations as rot
-from vrloco_env.rooms import Box, Layout
+from vrloco_env.world.geometry import Box
+from vrloco_env.world.layout import Layout
 
 __all__ = ["draw_map"]
 

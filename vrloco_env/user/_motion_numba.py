@@ -1,4 +1,4 @@
-"""Compiled body of the simulated user (see :mod:`vrloco_env.motion`): per user, per time.
+"""Compiled body of the simulated user (see :mod:`vrloco_env.user.motion`): per user, per time.
 
 Two kernels, each a :class:`~estimators.kernels.BatchKernel` whose loop over users runs small
 stages:
@@ -10,7 +10,7 @@ stages:
   body rate (:func:`_body_rate`), the neck pivot (:func:`_neck`) and the forehead IMU;
 * :data:`skeleton_kernel`, the Kinect v2 joints and the right hand's orientation at the Kinect
   frames, from the body evaluated there and the body geometry record of
-  :data:`vrloco_env.motion._BODY`: torso (:func:`_torso`), head, legs (:func:`_legs`) and the
+  :data:`vrloco_env.user.motion._BODY`: torso (:func:`_torso`), head, legs (:func:`_legs`) and the
   right arm and hand (:func:`_right_hand`).
 
 Units: s, m, rad, steps/s.
@@ -165,7 +165,7 @@ def _evaluate(state, cadence, turn_rate, gesture_amplitude, gesture_frequency, l
         state: (B,) records :data:`STATE` at the step start (read only).
         cadence, turn_rate, lean: the intent (steps/s, rad/s, rad), (B,) each.
         gesture_amplitude, gesture_frequency: the intent's gestures (rad, Hz), (B, 3) each.
-        prm: (1,) parameter record (:func:`vrloco_env.motion._kernel_params`).
+        prm: (1,) parameter record (:func:`vrloco_env.user.motion._kernel_params`).
         tau: evaluation times (s), (T,).
         t_boundary: out, time (s) at which the step in progress ends, (B,) (0 when standing).
         scalars, vectors: out, (S, B, T) and (V, B, T, 3), planes :data:`SCALARS`, :data:`VECTORS`.
@@ -278,7 +278,7 @@ def _skeleton(neck, quat, yaw, phase, walking, hand_ypr, body, joints, hand_quat
         neck, quat, yaw, phase, walking: the body at the frames (:data:`evaluate_kernel`'s
             outputs there; ``walking`` bool), (B, M, 3), (B, M, 4), (B, M), (B, M), (B, M).
         hand_ypr: the hand's [yaw, pitch, roll] relative to the torso (rad), (B, M, 3).
-        body: (1,) body geometry record (:data:`vrloco_env.motion._BODY`).
+        body: (1,) body geometry record (:data:`vrloco_env.user.motion._BODY`).
         joints: out, (B, M, 25, 3) m.
         hand_quat: out, hand frame -> world, (B, M, 4).
     """

@@ -1,0 +1,330 @@
+"""2-D geometry of a room's solids: the floor-standing primitives and the exact distance and
+ray-cast queries on them.
+
+:class:`Box` and :class:`Cylinder` are frozen footprints extruded from the floor (z = 0) to their
+height, in a room's local frame (x, y in metres, yaw counter-clockwise from +x; ENU, z up, as in
+:mod:`estimators.rotations`). For queries the solids of N rooms are packed into padded arrays
+(:class:`_Solids`); each query has a readable numpy reference (:func:`_sdf_batch`,
+:func:`_ray_cast_batch`) and a compiled numba mirror that the public functions call
+(``tests/test_rooms.py`` checks one against the other). :func:`solid_distance` is the query a
+task's layout generator uses on loose solids; the queries on a whole room are in
+:mod:`vrloco_env.world.layout` (one room) and :mod:`vrloco_env.world.room_batch` (N rooms).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numba
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = ["Box", "Cylinder", "Solid", "solid_distance"]
+
+
+@dataclass(frozen=True)
+class Box:
+    """An upright box standing on the floor.
+
+    Attributes:
+        center: ``(x, y)`` of the footprint centre (m, local frame).
+        half_extents: half sizes ``(hx, hy)`` along the box's own x and y (m).
+        yaw: rotation of the box about +z (rad).
+        height: height of the top face above the floor (m).
+    """
+
+    center: tuple[float, float]
+    half_extents: tuple[float, float]
+    yaw: float = 0.0
+    height: float = 1.0
+
+
+@dataclass(frozen=True)
+class Cylinder:
+    """An upright cylinder standing on the floor.
+
+    Attributes:
+        center: ``(x, y)`` of the axis (m, local frame).
+        radius: radius (m).
+        height: height of the top face above the floor (m).
+    """
+
+    center: tuple[float, float]
+    radius: float
+    height: float = 1.0
+
+
+Solid = Box | Cylinder
+
+
+def _check_range(name: str, value: object, lo: float, hi: float, lo_open: bool = False) -> float:
+    try:
+        v = float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be a number, got {value!r}") from exc
+    ok = (v > lo if lo_open else v >= lo) and v <= hi and math.isfinite(v)
+    if not ok:
+        left = "(" if lo_open else "["
+        raise ValueError(f"{name} must lie in {left}{lo}, {hi}], got {value!r}")
+    return v
+
+
+class _Solids(NamedTuple):
+    """The solids of N rooms packed as padded arrays; ``*_ok`` masks out the padding."""
+
+    box_c: NDArray[np.float64]  # (N, B, 2) centres
+    box_h: NDArray[np.float64]  # (N, B, 2) half extents
+    box_cs: NDArray[np.float64]  # (N, B, 2) cos, sin of yaw
+    box_z: NDArray[np.float64]  # (N, B) heights
+    box_ok: NDArray[np.bool_]  # (N, B) real (not padding)
+    cyl_c: NDArray[np.float64]  # (N, C, 2) centres
+    cyl_r: NDArray[np.float64]  # (N, C) radii
+    cyl_z: NDArray[np.float64]  # (N, C) heights
+    cyl_ok: NDArray[np.bool_]  # (N, C)
+
+    def above(self, z: float | None) -> _Solids:
+        """Only the solids taller than ``z`` (a horizontal slice at height z); all if None."""
+        if z is None:
+            return self
+        return self._replace(
+            box_ok=self.box_ok & (self.box_z > z), cyl_ok=self.cyl_ok & (self.cyl_z > z)
+        )
+
+
+def _pack_many(rooms: list[tuple[Solid, ...]]) -> _Solids:
+    """Pack the solids of N rooms, padding every room to the largest box and cylinder counts."""
+    n = len(rooms)
+    boxes = [[s for s in r if isinstance(s, Box)] for r in rooms]
+    cyls = [[s for s in r if isinstance(s, Cylinder)] for r in rooms]
+    nb, nc = max((len(b) for b in boxes), default=0), max((len(c) for c in cyls), default=0)
+    box = np.zeros((n, nb, 6))  # cx, cy, hx, hy, yaw, height
+    cyl = np.zeros((n, nc, 4))  # cx, cy, r, height
+    box_ok, cyl_ok = np.zeros((n, nb), bool), np.zeros((n, nc), bool)
+    for i, (bs, cs) in enumerate(zip(boxes, cyls, strict=True)):
+        if bs:
+            box[i, : len(bs)] = [(*b.center, *b.half_extents, b.yaw, b.height) for b in bs]
+            box_ok[i, : len(bs)] = True
+        if cs:
+            cyl[i, : len(cs)] = [(*c.center, c.radius, c.height) for c in cs]
+            cyl_ok[i, : len(cs)] = True
+    yaw = box[..., 4]
+    return _Solids(
+        box[..., :2],
+        box[..., 2:4],
+        np.stack([np.cos(yaw), np.sin(yaw)], -1),
+        box[..., 5],
+        box_ok,
+        cyl[..., :2],
+        cyl[..., 2],
+        cyl[..., 3],
+        cyl_ok,
+    )
+
+
+def _pack(solids: tuple[Solid, ...]) -> _Solids:
+    return _pack_many([solids])
+
+
+# The geometry in readable numpy (the reference, documented and tested against hand-computed
+# values); the public functions call the numba mirrors below, which tests/test_rooms.py checks
+# against these. In numpy, 256 rooms x 16 rays take ~7 ms, compiled ~0.4 ms.
+
+
+def _sdf_batch(s: _Solids, p: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Signed distance ``(N, P)`` from points ``(N, P, 2)`` to the union of room n's solids."""
+    out = np.full(p.shape[:2], np.inf)
+    if s.box_c.shape[1]:
+        d = p[:, :, None, :] - s.box_c[:, None]  # (N, P, B, 2)
+        cos, sin = s.box_cs[:, None, :, 0], s.box_cs[:, None, :, 1]
+        lx = np.abs(cos * d[..., 0] + sin * d[..., 1]) - s.box_h[:, None, :, 0]
+        ly = np.abs(-sin * d[..., 0] + cos * d[..., 1]) - s.box_h[:, None, :, 1]
+        outside = np.hypot(np.maximum(lx, 0.0), np.maximum(ly, 0.0))
+        inside = np.minimum(np.maximum(lx, ly), 0.0)
+        sd = np.where(s.box_ok[:, None, :], outside + inside, np.inf)
+        out = np.minimum(out, sd.min(axis=2))
+    if s.cyl_c.shape[1]:
+        d = p[:, :, None, :] - s.cyl_c[:, None]  # (N, P, C, 2)
+        sd = np.hypot(d[..., 0], d[..., 1]) - s.cyl_r[:, None, :]
+        out = np.minimum(out, np.where(s.cyl_ok[:, None, :], sd, np.inf).min(axis=2))
+    return out
+
+
+def _ray_cast_batch(
+    s: _Solids, o: NDArray[np.float64], u: NDArray[np.float64], max_range: float
+) -> NDArray[np.float64]:
+    """Distance ``(N, R)`` along unit directions ``u`` from ``o`` (both ``(N, R, 2)``) to the
+    first of room n's solids, ``max_range`` if none; 0 from inside a solid."""
+    best = np.full(o.shape[:2], float(max_range))
+    ux, uy = u[:, :, None, 0], u[:, :, None, 1]  # (N, R, 1)
+    if s.box_c.shape[1]:
+        d = o[:, :, None, :] - s.box_c[:, None]  # (N, R, B, 2)
+        cos, sin = s.box_cs[:, None, :, 0], s.box_cs[:, None, :, 1]
+        lo = np.stack([cos * d[..., 0] + sin * d[..., 1], -sin * d[..., 0] + cos * d[..., 1]], -1)
+        lu = np.stack([cos * ux + sin * uy, -sin * ux + cos * uy], -1)
+        # Slab method; a direction component of exactly 0 is nudged to 1e-300 so that the slab
+        # bounds become +-inf (or huge) with the right sign instead of 0/0.
+        lu = np.where(np.abs(lu) < 1e-300, 1e-300, lu)
+        h = s.box_h[:, None]
+        with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+            t1 = (-h - lo) / lu
+            t2 = (h - lo) / lu
+        t_near = np.minimum(t1, t2).max(axis=-1)
+        t_far = np.maximum(t1, t2).min(axis=-1)
+        hit = (t_near <= t_far) & (t_far >= 0.0) & s.box_ok[:, None, :]
+        best = np.minimum(best, np.where(hit, np.maximum(t_near, 0.0), np.inf).min(axis=2))
+    if s.cyl_c.shape[1]:
+        d = o[:, :, None, :] - s.cyl_c[:, None]  # (N, R, C, 2)
+        b = d[..., 0] * ux + d[..., 1] * uy
+        c = (d**2).sum(-1) - s.cyl_r[:, None, :] ** 2
+        disc = b * b - c
+        root = np.sqrt(np.maximum(disc, 0.0))
+        hit = (disc >= 0.0) & (-b + root >= 0.0) & s.cyl_ok[:, None, :]
+        best = np.minimum(best, np.where(hit, np.maximum(-b - root, 0.0), np.inf).min(axis=2))
+    return best
+
+
+@numba.njit(cache=True)
+def _sdf_kernel(box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, p, out):  # pragma: no cover
+    """Compiled mirror of :func:`_sdf_batch` (scalar loops, same formulas), filling ``out``."""
+    n_rooms, n_pts = p.shape[0], p.shape[1]
+    for n in range(n_rooms):
+        for k in range(n_pts):
+            px, py = p[n, k, 0], p[n, k, 1]
+            best = np.inf
+            for j in range(box_c.shape[1]):
+                if box_ok[n, j]:
+                    dx, dy = px - box_c[n, j, 0], py - box_c[n, j, 1]
+                    c, s = box_cs[n, j, 0], box_cs[n, j, 1]
+                    lx = abs(c * dx + s * dy) - box_h[n, j, 0]
+                    ly = abs(-s * dx + c * dy) - box_h[n, j, 1]
+                    ox, oy = max(lx, 0.0), max(ly, 0.0)
+                    best = min(best, math.sqrt(ox * ox + oy * oy) + min(max(lx, ly), 0.0))
+            for j in range(cyl_c.shape[1]):
+                if cyl_ok[n, j]:
+                    dx, dy = px - cyl_c[n, j, 0], py - cyl_c[n, j, 1]
+                    best = min(best, math.sqrt(dx * dx + dy * dy) - cyl_r[n, j])
+            out[n, k] = best
+
+
+@numba.njit(cache=True)
+def _ray_one(box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, n, ox, oy, ux, uy, max_range):
+    """Distance along one ray (origin ``(ox, oy)``, unit direction ``(ux, uy)``) in room ``n``."""
+    best = max_range
+    for j in range(box_c.shape[1]):
+        if not box_ok[n, j]:
+            continue
+        c, s = box_cs[n, j, 0], box_cs[n, j, 1]
+        dx, dy = ox - box_c[n, j, 0], oy - box_c[n, j, 1]
+        t_near, t_far = -np.inf, np.inf
+        for axis in range(2):
+            if axis == 0:
+                lo, lu = c * dx + s * dy, c * ux + s * uy
+            else:
+                lo, lu = -s * dx + c * dy, -s * ux + c * uy
+            h = box_h[n, j, axis]
+            if abs(lu) < 1e-300:
+                lu = 1e-300
+            t1, t2 = (-h - lo) / lu, (h - lo) / lu
+            t_near = max(t_near, min(t1, t2))
+            t_far = min(t_far, max(t1, t2))
+        if t_near <= t_far and t_far >= 0.0:
+            best = min(best, max(t_near, 0.0))
+    for j in range(cyl_c.shape[1]):
+        if not cyl_ok[n, j]:
+            continue
+        dx, dy = ox - cyl_c[n, j, 0], oy - cyl_c[n, j, 1]
+        b = dx * ux + dy * uy
+        disc = b * b - (dx * dx + dy * dy - cyl_r[n, j] ** 2)
+        if disc >= 0.0:
+            root = math.sqrt(disc)
+            if -b + root >= 0.0:
+                best = min(best, max(-b - root, 0.0))
+    return best
+
+
+@numba.njit(cache=True)
+def _ray_kernel(
+    box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, o, u, max_range, out
+):  # pragma: no cover
+    """Compiled mirror of :func:`_ray_cast_batch` (scalar loops, same formulas), filling ``out``."""
+    for n in range(o.shape[0]):
+        for k in range(o.shape[1]):
+            ox, oy, ux, uy = o[n, k, 0], o[n, k, 1], u[n, k, 0], u[n, k, 1]
+            out[n, k] = _ray_one(box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, n,
+                                 ox, oy, ux, uy, max_range)  # fmt: skip
+
+
+@numba.njit(cache=True)
+def _ray_fan_kernel(
+    box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, positions, headings, offsets, max_range,
+    out,
+):  # pragma: no cover
+    """:func:`_ray_kernel` for a fan of rays from one point per room: ``headings[n] +
+    offsets[k]`` (rad) from ``positions[n]``."""
+    for n in range(positions.shape[0]):
+        for k in range(offsets.shape[0]):
+            a = headings[n] + offsets[k]
+            out[n, k] = _ray_one(box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, n,
+                                 positions[n, 0], positions[n, 1], math.cos(a), math.sin(a),
+                                 max_range)  # fmt: skip
+
+
+def _sdf_fast(s: _Solids, p: NDArray[np.float64]) -> NDArray[np.float64]:
+    """:func:`_sdf_batch` through the compiled kernel."""
+    out = np.empty(p.shape[:2])
+    _sdf_kernel(
+        s.box_c,
+        s.box_h,
+        s.box_cs,
+        s.box_ok,
+        s.cyl_c,
+        s.cyl_r,
+        s.cyl_ok,
+        np.ascontiguousarray(p),
+        out,
+    )
+    return out
+
+
+def _sdf(s: _Solids, p: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Signed distance ``(P,)`` from points ``(P, 2)`` to one room's solids (inf if none)."""
+    return _sdf_fast(s, p[None])[0]
+
+
+def _ray_cast_fast(
+    s: _Solids, o: NDArray[np.float64], u: NDArray[np.float64], max_range: float
+) -> NDArray[np.float64]:
+    """:func:`_ray_cast_batch` through the compiled kernel."""
+    out = np.empty(o.shape[:2])
+    _ray_kernel(
+        s.box_c,
+        s.box_h,
+        s.box_cs,
+        s.box_ok,
+        s.cyl_c,
+        s.cyl_r,
+        s.cyl_ok,
+        np.ascontiguousarray(o),
+        np.ascontiguousarray(u),
+        float(max_range),
+        out,
+    )
+    return out
+
+
+def _points(name: str, points: ArrayLike) -> NDArray[np.float64]:
+    p = np.asarray(points, dtype=np.float64)
+    if p.ndim != 2 or p.shape[1] != 2:
+        raise ValueError(f"{name} must have shape (P, 2) in metres, got {p.shape}")
+    if not np.all(np.isfinite(p)):
+        raise ValueError(f"{name} must be finite")
+    return p
+
+
+def solid_distance(solids: Sequence[Solid], points: ArrayLike) -> NDArray[np.float64]:
+    """Signed distance (m) from local points (P, 2) to the nearest of ``solids`` (+inf if none):
+    what a task's layout generator checks a candidate start or goal against."""
+    return _sdf(_pack(tuple(solids)), _points("points", points))
