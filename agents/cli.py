@@ -240,7 +240,9 @@ def _cmd_estimate(args: argparse.Namespace) -> int:
     from agents.estimate import estimate_recording
 
     try:
-        result = estimate_recording(Path(args.path), Path(args.out), args.step_length)
+        result = estimate_recording(
+            Path(args.path), Path(args.out), args.step_length, offline=args.offline
+        )
     except ValueError as err:  # a malformed recording: one clear line, no traceback
         print(f"vrloco estimate: {err}", file=sys.stderr)
         return 2
@@ -395,6 +397,8 @@ def build_parser() -> argparse.ArgumentParser:
     est.add_argument("path", help="a CSV file, a BROAD trial or an Oxford folder")
     est.add_argument("--out", default="out", type=_out_dir, help="output folder")
     est.add_argument("--step-length", type=float, default=0.7, help="eq (17) SL in m")
+    est.add_argument("--offline", action="store_true",
+                     help="attitude from the forward-backward smoother")  # fmt: skip
     est.set_defaults(func=_cmd_estimate)
     return parser
 

@@ -43,11 +43,12 @@ the file (and, for a CSV, the line and the column):
 
 Irregular timestamps are resampled onto a uniform grid at the median rate (linear interpolation)
 for the attitude filter, which assumes a fixed rate; the step detector takes the timestamps as
-they are. Output: a CSV (``t, qw, qx, qy, qz, yaw_deg, pitch_deg, roll_deg, walking, step, x,
-y``; without attitude ``t, walking, step, x, y``) and a PNG with the attitude (when there is
-one), the specific-force norm with the detected steps, and the path of eq (17). The summary that
-``vrloco estimate`` prints (JSON) holds the comparison with the ground truth where the recording
-carries one (:func:`estimate_recording`).
+they are. The attitude is the causal filter's, or with ``--offline`` its forward-backward
+smoother's (:func:`estimators.attitude.estimate_attitude`). Output: a CSV (``t, qw, qx, qy, qz,
+yaw_deg, pitch_deg, roll_deg, walking, step, x, y``; without attitude ``t, walking, step, x,
+y``) and a PNG with the attitude (when there is one), the specific-force norm with the detected
+steps, and the path of eq (17). The summary that ``vrloco estimate`` prints (JSON) holds the
+comparison with the ground truth where the recording carries one (:func:`estimate_recording`).
 """
 
 from __future__ import annotations
@@ -541,13 +542,14 @@ def check_recording(rec: Recording, path: Path) -> Recording:
 # ------------------------------------------------------------------------------------------------
 
 
-def _attitude(rec: Recording) -> NDArray[np.float64]:
-    """Quaternions at ``rec.t``: the EKF at the median rate, gaps filled with missing samples."""
+def _attitude(rec: Recording, offline: bool = False) -> NDArray[np.float64]:
+    """Quaternions at ``rec.t``: the EKF at the median rate, gaps filled with missing samples;
+    with ``offline`` its forward-backward smoother (:func:`estimate_attitude`)."""
     assert rec.gyr is not None
     d = np.diff(rec.t)
     dt = float(np.median(d))
     if np.ptp(d) <= 0.05 * dt:
-        return estimate_attitude(rec.gyr, rec.acc, rec.mag, 1.0 / dt)
+        return estimate_attitude(rec.gyr, rec.acc, rec.mag, 1.0 / dt, offline=offline)
     cuts = np.flatnonzero(d > _gap_threshold(dt)) + 1
     segments = np.split(np.arange(rec.t.size), cuts)
     series = [x for x in (rec.gyr, rec.acc, rec.mag) if x is not None]
@@ -569,7 +571,7 @@ def _attitude(rec: Recording) -> NDArray[np.float64]:
             start += fill
     arrays = [np.concatenate(p) for p in pieces]
     mag = arrays[2] if rec.mag is not None else None
-    q_grid = estimate_attitude(arrays[0], arrays[1], mag, 1.0 / dt)
+    q_grid = estimate_attitude(arrays[0], arrays[1], mag, 1.0 / dt, offline=offline)
     q = np.empty((rec.t.size, 4))
     for seg, grid, (a, b) in zip(segments, grids, spans, strict=True):
         q[seg] = np.stack([np.interp(rec.t[seg], grid, q_grid[a:b, j]) for j in range(4)], -1)
@@ -610,16 +612,22 @@ def _step_reference(rec: Recording, step_times: NDArray[np.float64], tol: float 
     }
 
 
-def estimate_recording(path: Path, out_dir: Path, step_length: float = 0.7) -> dict:
+def estimate_recording(
+    path: Path, out_dir: Path, step_length: float = 0.7, offline: bool = False
+) -> dict:
     """Run the estimators on ``path``; write ``NAME_estimates.csv`` and ``.png`` in ``out_dir``.
 
+    ``offline=True`` estimates the attitude with the forward-backward smoother of
+    :func:`estimators.attitude.estimate_attitude` (the whole recording at every sample) instead
+    of the causal filter; the steps and the path are the same either way.
+
     Returns:
-        A summary: name, samples, steps, has_attitude, the output paths, and where the
-        recording carries ground truth ``attitude_vs_reference`` (BROAD: total, inclination and
-        heading RMSE in deg against ``opt_quat`` over the ``movement`` samples; the heading
-        offset is removed first for 6D data) or ``steps_vs_foot_switches`` (Oxford: true and
-        false positives, misses, precision, recall and F1 within +-0.2 s,
-        :func:`estimators.gait.step_f1`).
+        A summary: name, samples, steps, has_attitude, offline (the attitude is the
+        smoother's), the output paths, and where the recording carries ground truth
+        ``attitude_vs_reference`` (BROAD: total, inclination and heading RMSE in deg against
+        ``opt_quat`` over the ``movement`` samples; the heading offset is removed first for 6D
+        data) or ``steps_vs_foot_switches`` (Oxford: true and false positives, misses,
+        precision, recall and F1 within +-0.2 s, :func:`estimators.gait.step_f1`).
 
     Raises:
         ValueError: a malformed recording, or ``step_length`` outside [0.2, 1.5] m (the range
@@ -637,7 +645,7 @@ def estimate_recording(path: Path, out_dir: Path, step_length: float = 0.7) -> d
     walking = gait.state.astype(bool)
     result: dict = {"name": rec.name, "samples": n, "steps": int(gait.step_times.size)}
     if rec.gyr is not None:
-        q = _attitude(rec)
+        q = _attitude(rec, offline)
         ypr = quat_to_ypr(q)
         path_xy = dead_reckon(steps, ypr[:, 0], step_length)
         table = np.column_stack([rec.t, q, np.rad2deg(ypr), walking, steps, path_xy])
@@ -650,6 +658,7 @@ def estimate_recording(path: Path, out_dir: Path, step_length: float = 0.7) -> d
         table = np.column_stack([rec.t, walking, steps, path_xy])
         header = "t,walking,step,x,y"
     result["has_attitude"] = q is not None
+    result["offline"] = bool(offline) and q is not None  # the attitude is the smoother's
     out_dir.mkdir(parents=True, exist_ok=True)
     csv_path = out_dir / f"{rec.name}_estimates.csv"
     np.savetxt(csv_path, table, delimiter=",", fmt="%.6f", header=header, comments="")

@@ -348,3 +348,23 @@ def test_the_readers_refuse_non_data_files_by_name_and_skip_a_bom(tmp_path, caps
     ox.mkdir()
     (ox / "accelerometer.csv").write_bytes(b"\xef\xbb\xbf100,3,0,0,9.8\n200,3,0,0,9.8\n")
     np.testing.assert_allclose(read_accelerometer(ox)[0], [0.0, 1e-7])
+
+
+def test_offline_estimate_smooths_the_attitude_of_a_csv(walk, tmp_path, capsys):
+    table, rec = walk
+    path = _write(tmp_path / "walk.csv", table)
+    code, _, online, summary_on = _estimate(path, tmp_path / "on", capsys)
+    assert code == 0 and summary_on["offline"] is False
+    assert main(["estimate", str(path), "--out", str(tmp_path / "off"), "--offline"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["offline"] is True and summary["has_attitude"]
+    offline = np.genfromtxt(summary["csv"], delimiter=",", names=True)
+    np.testing.assert_array_equal(offline["step"], online["step"])  # steps do not change
+    err = {}
+    for name, est in (("online", online), ("offline", offline)):
+        err[name] = max(
+            _angle_error_deg(est[f"{a}_deg"], rec.ypr[0, :, k]).max()
+            for k, a in enumerate(("yaw", "pitch", "roll"))
+        )
+    assert err["offline"] < 3.0  # the 45 deg turn away and back
+    assert not np.array_equal(offline["yaw_deg"], online["yaw_deg"])
