@@ -23,6 +23,7 @@ from estimators.attitude import AttitudeParams
 from estimators.gait import GaitParams
 from vrloco_env import config
 from vrloco_env.actions import ACTION_NAMES, ACTION_SIZE, check_actions
+from vrloco_env.tasks.avoid import AvoidConfig
 from vrloco_env.tasks.interact import InteractConfig
 from vrloco_env.world import RoomConfig
 
@@ -126,6 +127,7 @@ CONFIGS = [
     config.EnvConfig,
     RoomConfig,
     InteractConfig,
+    AvoidConfig,
     PolicyParams,
     GaitParams,
     AttitudeParams,

@@ -9,7 +9,8 @@ import pytest
 
 from vrloco_env.tasks import make_layout
 from vrloco_env.tasks.approach import approach_layout
-from vrloco_env.tasks.avoid import avoid_layout
+from vrloco_env.tasks.avoid import AvoidConfig, avoid_layout
+from vrloco_env.tasks.interact import InteractConfig
 from vrloco_env.world import (
     Box,
     Cylinder,
@@ -25,6 +26,8 @@ from vrloco_env.world.planning import _path_length, _plan
 
 TASK_NAMES = ("approach", "avoid", "interact")
 CFG = RoomConfig()
+AVOID = AvoidConfig()
+INTERACT = InteractConfig()
 
 
 def _dense(path: np.ndarray, step: float = 0.005) -> np.ndarray:
@@ -58,7 +61,7 @@ def test_200_seeds_feasible_with_collision_free_shortest_paths(task):
         sd_goal = signed_distance(lay, goal[None])[0]
         if task == "interact":  # the stand point faces the pedestal at the stand-off
             d_t = signed_distance(replace(lay, walls=(), obstacles=()), goal[None])[0]
-            assert d_t == pytest.approx(r + CFG.interact_standoff, abs=1e-9)
+            assert d_t == pytest.approx(r + INTERACT.standoff, abs=1e-9)
             assert sd_goal >= r
         else:
             assert sd_goal >= CFG.keepout_radius - 1e-9
@@ -145,8 +148,9 @@ def test_avoid_obstacle_blocks_the_straight_walk():
         assert sd.min() < lay.avatar_radius  # a straight walk would collide
         (obstacle,) = lay.obstacles
         ahead = obstacle.center[0] - lay.start[0]
-        assert CFG.avoid_distance_range[0] <= ahead <= CFG.avoid_distance_range[1]
-        assert x_line - lay.start[0] == pytest.approx(CFG.corridor_length - 2 * CFG.corridor_margin)
+        assert AVOID.obstacle_distance_range[0] <= ahead <= AVOID.obstacle_distance_range[1]
+        run = AVOID.corridor_length - 2 * AVOID.corridor_margin
+        assert x_line - lay.start[0] == pytest.approx(run)
 
 
 def test_signed_distance_matches_hand_computed_values():
@@ -242,7 +246,7 @@ def test_interact_target_faces_the_goal():
     for lay in _layouts("interact")[:50]:
         t = lay.target
         facing = np.array([np.cos(t.yaw), np.sin(t.yaw)])
-        reach = CFG.target_half_size + CFG.avatar_radius + CFG.interact_standoff
+        reach = INTERACT.pedestal_half_size + CFG.avatar_radius + INTERACT.standoff
         np.testing.assert_allclose(
             np.array(lay.goal) - np.array(t.center), reach * facing, atol=1e-9
         )
@@ -275,9 +279,6 @@ def test_origin_and_tiling():
         ("cylinder_probability", 1.5),
         ("keepout_radius", 0.3),
         ("min_start_goal_distance", 20.0),
-        ("avoid_lateral_jitter", 0.3),
-        ("avoid_distance_range", (5.0, 12.5)),
-        ("corridor_width", 1.5),
         ("landmark_heights", (1.0, 3.0)),
         ("max_attempts", 0),
         ("avatar_height", 0.4),
@@ -286,6 +287,30 @@ def test_origin_and_tiling():
 def test_bad_config_raises_naming_the_field(field, value):
     with pytest.raises(ValueError, match=field):
         RoomConfig(**{field: value})
+
+
+@pytest.mark.parametrize(
+    "field, value",
+    [
+        ("obstacle_lateral_jitter", 0.3),
+        ("obstacle_distance_range", (5.0, 12.5)),
+        ("corridor_width_jitter", 1.6),
+        ("corridor_margin", 7.5),
+        ("obstacle_size_range", (0.5, 0.25)),
+    ],
+)
+def test_bad_avoid_config_raises_naming_the_field(field, value):
+    with pytest.raises(ValueError, match=f"AvoidConfig.{field}="):
+        AvoidConfig(**{field: value})
+
+
+def test_a_corridor_the_avatar_cannot_pass_is_refused_at_the_first_draw():
+    narrow = AvoidConfig(corridor_width=1.5)
+    with pytest.raises(ValueError, match=r"AvoidConfig.corridor_width=1.5: .*avatar_radius"):
+        avoid_layout(CFG, np.random.default_rng(0), narrow)
+    wide_avatar = replace(CFG, avatar_radius=0.5)
+    with pytest.raises(ValueError, match="corridor_width"):
+        avoid_layout(wide_avatar, np.random.default_rng(0))
 
 
 def test_bad_inputs_raise_clear_errors():

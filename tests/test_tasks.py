@@ -138,3 +138,17 @@ def test_spec_rejects_duplicates_and_bad_scales():
     spec.encode("x", [[1.0, 5.0]], out)
     np.testing.assert_array_equal(out, [[0.5, 1.0, 0.0]])  # scaled, then clipped at 1
     np.testing.assert_array_equal(spec.decode(out)["x"], [[1.0, 2.0]])
+
+
+def test_the_avoid_corridor_is_the_avoid_tasks_own_config():
+    import gymnasium as gym
+
+    from vrloco_env.tasks.avoid import AvoidConfig
+
+    env = gym.make("VRLoco-Avoid-v0", task_config=AvoidConfig(corridor_width=2.4,
+                                                              corridor_width_jitter=0.0))
+    env.reset(seed=3)
+    xmin, xmax, ymin, ymax = env.unwrapped.layout.bounds
+    assert ymax - ymin == pytest.approx(2.4) and xmax - xmin == pytest.approx(14.0)
+    with pytest.raises(TypeError, match="AvoidConfig"):
+        gym.make("VRLoco-Avoid-v0", task_config=object())

@@ -41,16 +41,26 @@ class InteractConfig:
         dwell_s: time the hand must be held within tolerance in the goal region (s).
         target_range_deg: target hand [yaw, pitch, roll] relative to the torso are drawn
             uniformly within +- these (deg).
+        pedestal_half_size: half size of the pedestal's square footprint (m).
+        pedestal_height: height of the pedestal (1.0 m, a table/pedestal top at hand height).
+        standoff: gap between the avatar surface at the goal and the pedestal face (0.3 m:
+            within arm's reach).
     """
 
     hand_tolerance_deg: float = 15.0
     dwell_s: float = 1.0
     target_range_deg: tuple[float, float, float] = (40.0, 30.0, 60.0)
+    pedestal_half_size: float = 0.25
+    pedestal_height: float = 1.0
+    standoff: float = 0.3
 
     def __post_init__(self) -> None:
         check_in_range(self, "hand_tolerance_deg", 1.0, 90.0, "deg")
         check_in_range(self, "dwell_s", 0.0, 30.0, "s", lo_open=True)
         check_numbers(self, "target_range_deg", 0.0, 90.0, "deg", length=3)
+        check_in_range(self, "pedestal_half_size", 0.0, 100.0, "m", lo_open=True)
+        check_in_range(self, "pedestal_height", 0.0, 100.0, "m", lo_open=True)
+        check_in_range(self, "standoff", 0.0, 1000.0, "m")
 
 
 class Interact(Task):
@@ -66,7 +76,7 @@ class Interact(Task):
         self.dwell = np.zeros(self.batch_size)
 
     def draw_layout(self, room: RoomConfig, rng: np.random.Generator) -> Layout:
-        return interact_layout(room, rng)
+        return interact_layout(room, rng, self.config)
 
     def draw(self, user: int, room: RoomConfig, rng: np.random.Generator) -> Layout:
         layout = super().draw(user, room, rng)
@@ -106,18 +116,21 @@ class Interact(Task):
         return {"dwell": self.dwell.copy()}
 
 
-def interact_layout(config: RoomConfig, rng: np.random.Generator) -> Layout:
+def interact_layout(
+    config: RoomConfig, rng: np.random.Generator, task: InteractConfig | None = None
+) -> Layout:
     """An Interact room: an Approach room whose goal is the stand point in front of a pedestal.
 
-    The pedestal (square footprint ``target_half_size``, ``target_height`` tall, random yaw) is
-    placed so that its stand point — ``target_half_size + avatar_radius + interact_standoff``
-    in front of its local +x face — keeps ``keepout_radius`` from the walls. The start is at least
+    The pedestal (square footprint ``pedestal_half_size``, ``pedestal_height`` tall, random yaw)
+    is placed so that its stand point — ``pedestal_half_size + avatar_radius + standoff`` in front
+    of its local +x face — keeps ``keepout_radius`` from the walls. The start is at least
     ``min_start_goal_distance`` from the stand point and ``keepout_radius`` from the pedestal;
     the other obstacles keep out of both and clear of the pedestal.
 
     Args:
         config: room parameters.
         rng: the only source of randomness.
+        task: the pedestal (:class:`InteractConfig`; defaults if None).
 
     Returns:
         The layout (local frame, origin (0, 0)); :attr:`Layout.target` is the pedestal.
@@ -126,11 +139,12 @@ def interact_layout(config: RoomConfig, rng: np.random.Generator) -> Layout:
         RuntimeError: if no feasible layout is drawn in ``config.max_attempts`` attempts.
     """
     cfg, rng = config, check_rng(rng)
+    ped = InteractConfig() if task is None else task
     bounds = room_bounds(cfg)
     k = cfg.keepout_radius
     inner = np.array([[bounds[0] + k, bounds[2] + k], [bounds[1] - k, bounds[3] - k]])
-    hs = cfg.target_half_size
-    reach = hs + cfg.avatar_radius + cfg.interact_standoff
+    hs = ped.pedestal_half_size
+    reach = hs + cfg.avatar_radius + ped.standoff
     for _ in range(cfg.max_attempts):
         yaw_t = float(rng.uniform(-np.pi, np.pi))
         goal = rng.uniform(inner[0], inner[1])
@@ -145,7 +159,7 @@ def interact_layout(config: RoomConfig, rng: np.random.Generator) -> Layout:
             or center[1] + rb > bounds[3]
         ):
             continue
-        target = Box((float(center[0]), float(center[1])), (hs, hs), yaw_t, cfg.target_height)
+        target = Box((float(center[0]), float(center[1])), (hs, hs), yaw_t, ped.pedestal_height)
         if np.hypot(*(goal - start)) < cfg.min_start_goal_distance:
             continue
         if solid_distance((target,), start[None])[0] < k:

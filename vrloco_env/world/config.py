@@ -12,10 +12,11 @@ __all__ = ["RoomConfig"]
 class RoomConfig:
     """Sizes and draw ranges of the task rooms. Lengths in metres, angles in radians.
 
-    Defaults follow the issue text (8 m x 8 m room, 4-7 obstacles, avatar radius 0.25 m, start-goal
-    distance >= 4 m, goal radius 0.5 m, 0.1 m planning grid, a 3 m x 14 m Avoid corridor with the
-    obstacle 5-8 m ahead, landmarks at 1.0-2.0 m height); the rest are engineering choices noted
-    per field. Seed 000 (Zhang, Chen, Gao 2021, Fig. 5) gives no dimensions for its avoid scene.
+    Defaults: an 8 m x 8 m room, 4-7 obstacles, avatar radius 0.25 m, start-goal distance >= 4 m,
+    goal radius 0.5 m, 0.1 m planning grid, landmarks at 1.0-2.0 m height; the rest are
+    engineering choices noted per field. What only one task uses lives in that task's config
+    (:class:`~vrloco_env.tasks.avoid.AvoidConfig`,
+    :class:`~vrloco_env.tasks.interact.InteractConfig`).
 
     Attributes:
         room_width: interior size along x of the Approach/Interact room.
@@ -36,19 +37,6 @@ class RoomConfig:
         min_start_goal_distance: minimum straight-line start-goal distance.
         goal_radius: success radius around the goal point.
         grid_resolution: cell size of the planning grid.
-        corridor_width: interior width of the Avoid corridor.
-        corridor_length: interior length of the Avoid corridor.
-        corridor_width_jitter: the corridor width is drawn in ``width +- jitter``.
-        corridor_margin: distance from each end wall to the start and to the end line.
-        avoid_distance_range: distance of the obstacle centre ahead of the start.
-        avoid_size_range: Avoid obstacle box half extent / cylinder radius; with the defaults a
-            box turned by up to pi/8 always leaves a passage of 0.75 m > avatar diameter + margin.
-        avoid_lateral_jitter: the Avoid obstacle centre is drawn within +- this of the straight
-            line; it must stay below ``avoid_size_range[0]`` so the obstacle always blocks it.
-        target_half_size: half size of the Interact pedestal's square footprint.
-        target_height: height of the Interact pedestal (1.0 m, a table/pedestal top at hand height).
-        interact_standoff: gap between the avatar surface at the goal and the pedestal face
-            (0.3 m: within arm's reach).
         landmark_spacing: horizontal spacing of the wall landmarks.
         landmark_heights: heights of the landmark rows.
         max_attempts: redraws before giving up with a RuntimeError.
@@ -69,16 +57,6 @@ class RoomConfig:
     min_start_goal_distance: float = 4.0
     goal_radius: float = 0.5
     grid_resolution: float = 0.1
-    corridor_width: float = 3.0
-    corridor_length: float = 14.0
-    corridor_width_jitter: float = 0.2
-    corridor_margin: float = 1.0
-    avoid_distance_range: tuple[float, float] = (5.0, 8.0)
-    avoid_size_range: tuple[float, float] = (0.25, 0.5)
-    avoid_lateral_jitter: float = 0.15
-    target_half_size: float = 0.25
-    target_height: float = 1.0
-    interact_standoff: float = 0.3
     landmark_spacing: float = 1.0
     landmark_heights: tuple[float, ...] = (1.0, 1.5, 2.0)
     max_attempts: int = 200
@@ -94,7 +72,7 @@ class RoomConfig:
             raise ValueError(f"RoomConfig.{name}={shown}: must be {allowed}")
 
         big = 1000.0
-        for name in ("room_width", "room_depth", "corridor_width", "corridor_length"):
+        for name in ("room_width", "room_depth"):
             check_in_range(self, name, 0.0, big, "m", lo_open=True)
         for name in (
             "wall_thickness",
@@ -102,20 +80,11 @@ class RoomConfig:
             "avatar_radius",
             "avatar_height",
             "goal_radius",
-            "target_half_size",
-            "target_height",
             "landmark_spacing",
         ):
             check_in_range(self, name, 0.0, 100.0, "m", lo_open=True)
         check_in_range(self, "grid_resolution", 0.005, 1.0, "m")
-        for name in (
-            "corridor_width_jitter",
-            "corridor_margin",
-            "avoid_lateral_jitter",
-            "interact_standoff",
-            "min_start_goal_distance",
-            "keepout_radius",
-        ):
+        for name in ("min_start_goal_distance", "keepout_radius"):
             check_in_range(self, name, 0.0, big, "m")
         check_in_range(self, "cylinder_probability", 0.0, 1.0)
         check_in_range(self, "n_obstacles_max", 0, 100, integer=True)
@@ -124,8 +93,6 @@ class RoomConfig:
         check_in_range(self, "max_attempts", 1, 1_000_000, integer=True)
         check_numbers(self, "obstacle_size_range", 0.01, 100.0, "m", length=2, ordered=True)
         check_numbers(self, "obstacle_height_range", 0.01, 100.0, "m", length=2, ordered=True)
-        check_numbers(self, "avoid_size_range", 0.01, 100.0, "m", length=2, ordered=True)
-        check_numbers(self, "avoid_distance_range", 0.0, big, "m", length=2, ordered=True)
         check_numbers(self, "landmark_heights", 0.0, self.wall_height, "m (<= wall_height)")
         if self.avatar_height <= 2.0 * self.avatar_radius:
             fail("avatar_height", f"> 2 * avatar_radius = {num(2 * self.avatar_radius)} m")
@@ -146,31 +113,4 @@ class RoomConfig:
                 "< the diagonal of the room (room_width x room_depth) shrunk by keepout_radius "
                 f"on every side, {float(math.hypot(free_w, free_d)):.2f} m",
             )
-        if self.corridor_width_jitter >= self.corridor_width / 2.0:
-            half = num(self.corridor_width / 2)
-            fail("corridor_width_jitter", f"< corridor_width / 2 = {half} m")
-        if self.avoid_lateral_jitter >= self.avoid_size_range[0]:
-            fail(
-                "avoid_lateral_jitter",
-                f"< avoid_size_range[0] = {num(self.avoid_size_range[0])} m, so the obstacle "
-                "always blocks the straight line",
-            )
-        ahead_max = self.corridor_length - 2.0 * self.corridor_margin
-        if ahead_max <= 0.0:
-            fail("corridor_margin", f"< corridor_length / 2 = {num(self.corridor_length / 2)} m")
-        hi = self.avoid_distance_range[1]
-        if hi + self.avoid_size_range[1] * math.sqrt(2.0) >= ahead_max:
-            fail(
-                "avoid_distance_range",
-                "a range whose high end + avoid_size_range[1] * sqrt(2) is < corridor_length - "
-                f"2 * corridor_margin = {num(ahead_max)} m (the obstacle ends before the end "
-                "line)",
-            )
-        half_min = (self.corridor_width - self.corridor_width_jitter) / 2.0
-        if half_min - self.avoid_size_range[0] < 2.0 * (self.avatar_radius + self.grid_resolution):
-            fail(
-                "corridor_width",
-                "wide enough to pass the smallest Avoid obstacle: (corridor_width - "
-                "corridor_width_jitter) / 2 - avoid_size_range[0] >= 2 * (avatar_radius + "
-                "grid_resolution)",
-            )
+
