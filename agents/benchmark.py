@@ -41,6 +41,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agents.metrics import (
+    MOTION_KEYS,
     STEP_KEYS,
     TRACE_KEYS,
     EpisodeRecorder,
@@ -99,6 +100,19 @@ ROW_KEYS = (
     "hand_error_deg",
     "hand_coverage",
     "mean_collisions",
+    "hand_tracking_availability",
+    "start_latency_s",
+    "stop_latency_s",
+    "stop_overshoot_m",
+    "false_motion_m_per_min",
+    "phantom_steps_per_min",
+    "missed_steps_per_min",
+    "yaw_drift_deg_per_min",
+    "yaw_rate_mismatch_deg_s",
+    "virtual_jerk_m_s3",
+    *(f"{k}_ci" for k in ("success_rate", "collision_rate", "spl", "time_to_goal_s",
+                          "hand_tracking_availability", "phantom_steps_per_min",
+                          "missed_steps_per_min", *MOTION_KEYS)),
 )
 
 
@@ -410,6 +424,8 @@ def run_benchmark(
     print_table: bool = True,
     techniques: Sequence[Any] | None = None,
     batch_size: int = DEFAULT_BATCH_SIZE,
+    backend: str = "local",
+    address: str | None = None,
 ) -> list[dict[str, Any]]:
     """Run the grid and write the outputs.
 
@@ -431,12 +447,21 @@ def run_benchmark(
         json_path: also write the JSON here.
         progress: show a progress bar.
         print_table: print the table.
+        backend: ``"local"`` (a process pool of ``workers`` here) or ``"ray"``: every job a Ray
+            task (:func:`agents.backends.run_jobs_ray`; ``workers`` then only sizes the jobs).
+            The rows are the same either way.
+        address: with ``"ray"``: the cluster, ``"auto"`` or ``"HOST:PORT"``; None: a running
+            cluster of this machine where there is one, else a new local Ray instance.
 
     Returns:
         One dict per cell with :data:`ROW_KEYS`.
 
     Raises:
-        ValueError: an unknown task, policy, technique or preset, or a bad count.
+        ValueError: an unknown task, policy, technique or preset, or a bad count; an unknown
+            backend, an address without ``"ray"``, ``"ray"`` without Ray installed.
+        agents.backends.BackendError: no Ray cluster at ``address``, or Ray jobs that failed
+            (raised once the other jobs have finished; with ``out_dir`` their episodes are kept
+            for a rerun to resume).
     """
     from vrloco_env.techniques import get_technique
 
@@ -463,6 +488,14 @@ def run_benchmark(
     if isinstance(batch_size, bool) or not isinstance(batch_size, int) or batch_size < 0:
         raise ValueError(f"batch_size must be an integer >= 0 (0: one episode at a time), "
                          f"got {batch_size!r}")  # fmt: skip
+    if backend not in ("local", "ray"):
+        raise ValueError(f"backend must be 'local' or 'ray', got {backend!r}")
+    if address is not None and backend != "ray":
+        raise ValueError(f"address={address!r} needs backend 'ray' (--backend ray)")
+    if backend == "ray":
+        from agents.backends import import_ray
+
+        import_ray()  # not installed: the install hint, before any work
 
     cells = [Cell(t, p, k) for t in tasks for p in policies for k in techs]
     want_figures = out_dir is not None
@@ -480,7 +513,7 @@ def run_benchmark(
     jobs = _split_jobs(cells, episodes, seed, want_figures, batch_size, workers, set(results))
     interrupted = False
     try:
-        for done in _run_jobs(jobs, workers, progress):
+        for done in _run_jobs(jobs, workers, progress, backend, address):
             for cell, index, stats, reset_info in done:
                 results[(cell, index)], infos[(cell, index)] = stats, reset_info
             if store is not None:
@@ -571,9 +604,16 @@ def _split_jobs(
     return jobs
 
 
-def _run_jobs(jobs: list, workers: int, progress: bool):
+def _run_jobs(jobs: list, workers: int, progress: bool, backend: str = "local",
+              address: str | None = None):  # fmt: skip
     """Yield each job's ``[(cell, index, stats, reset_info), ...]`` as it finishes, in any order,
-    with a progress bar over the episodes."""
+    with a progress bar over the episodes: in ``workers`` local processes, or for ``backend``
+    ``"ray"`` as Ray tasks on the cluster at ``address`` (:func:`agents.backends.run_jobs_ray`)."""
+    if backend == "ray":
+        from agents.backends import run_jobs_ray
+
+        yield from run_jobs_ray(jobs, address, progress)
+        return
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeElapsedColumn
 
     columns = ("[progress.description]{task.description}", BarColumn(), MofNCompleteColumn(),
@@ -611,9 +651,10 @@ def _ignore_sigint() -> None:
 
 
 def _round(v: Any) -> Any:
-    """Metrics to 10 significant digits. The env's hand estimate (``info["est_hand_ypr"]``)
-    differs by ~1e-13 deg between two runs of one seed with the same actions, which must not
-    make the table depend on the number of workers; the other metrics are bit-exact."""
+    """Metrics to 10 significant digits (an interval's ends too): the printed figures, and a
+    guard against last-bit differences of summed floats."""
+    if isinstance(v, tuple):
+        return tuple(_round(x) for x in v)
     if isinstance(v, float) and math.isfinite(v):
         return float(f"{v:.10g}")
     return v
@@ -666,7 +707,9 @@ def _print_table(rows: list[dict[str, Any]], seed: int, width: int | None = None
 
 
 def _clean(v: Any) -> Any:
-    """JSON-safe value: NaN becomes null."""
+    """JSON-safe value: NaN becomes null, an interval a list."""
+    if isinstance(v, tuple | list):
+        return [_clean(x) for x in v]
     if isinstance(v, float) and not math.isfinite(v):
         return None
     if isinstance(v, np.generic):
@@ -682,11 +725,20 @@ def _write_json(path: Path, rows: list[dict[str, Any]], meta: dict[str, Any]) ->
 
 
 def _write_csv(path: Path, rows: list[dict[str, Any]]) -> Path:
+    """One column per metric; an interval ``<key>_ci`` as ``<key>_ci_low`` and ``_ci_high``."""
+    columns = [c for k in ROW_KEYS for c in ((f"{k}_low", f"{k}_high") if k.endswith("_ci")
+                                            else (k,))]  # fmt: skip
     with path.open("w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=list(ROW_KEYS))
+        w = csv.DictWriter(f, fieldnames=columns)
         w.writeheader()
         for r in rows:
-            w.writerow({k: ("" if _clean(r[k]) is None else r[k]) for k in ROW_KEYS})
+            flat: dict[str, Any] = {}
+            for k in ROW_KEYS:
+                if k.endswith("_ci"):
+                    flat[f"{k}_low"], flat[f"{k}_high"] = r[k]
+                else:
+                    flat[k] = r[k]
+            w.writerow({k: ("" if _clean(v) is None else v) for k, v in flat.items()})
     return path
 
 

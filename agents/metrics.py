@@ -44,15 +44,19 @@ from estimators.gait import step_f1
 
 __all__ = [
     "DEFAULT_LATE_STEPS",
+    "MOTION_KEYS",
     "STEP_KEYS",
     "TRACE_KEYS",
     "EpisodeRecorder",
     "EpisodeStats",
+    "bootstrap_interval",
     "episode_stats",
     "match_step_counts",
     "match_step_times",
+    "motion_measures",
     "spl",
     "summarize",
+    "wilson_interval",
 ]
 
 #: Default lateness (control steps) allowed between a heel strike and its detection: 0.2 s.
@@ -200,6 +204,7 @@ class EpisodeStats:
         detected_step_times: the detector's heel-strike estimates (s), or None (then the step
             F1 falls back to :func:`match_step_counts`).
         trace: optional per-step arrays for figures (see :class:`EpisodeRecorder`).
+        motion: the episode's walking-in-place measures (:func:`motion_measures`), or None.
     """
 
     seed: int
@@ -217,6 +222,7 @@ class EpisodeStats:
     true_step_times: NDArray[np.float64] | None = None
     detected_step_times: NDArray[np.float64] | None = None
     trace: dict[str, Any] | None = field(default=None)
+    motion: dict[str, float] | None = field(default=None)
 
 
 #: The ``info`` keys an episode's stats are built from, per control step.
@@ -228,6 +234,13 @@ STEP_KEYS = (
     "attitude_error_deg",
     "hand_error_deg",
     "heading_error_deg",
+    "intent_walk",
+    "intent_turn",
+    "position",
+    "true_position",
+    "virtual_yaw",
+    "true_ypr",
+    "elapsed_time",
 )
 #: The ``info`` keys kept per control step for the figures.
 TRACE_KEYS = (
@@ -323,7 +336,149 @@ def episode_stats(
         hand_error_deg=np.asarray(steps["hand_error_deg"], dtype=np.float64),
         heading_error_deg=np.asarray(steps["heading_error_deg"], dtype=np.float64),
         trace=trace,
+        motion=motion_measures(steps, start_position) if "intent_walk" in steps else None,
     )
+
+
+#: A user counts as standing this long (s) after their last true heel strike: the stop itself
+#: (the detector's delay, a smoothing filter's ramp-down) is the stop latency, not false motion.
+STANDING_SETTLE_S = 3.0
+#: The virtual body counts as moving in a control step that carries it farther than this (m).
+MOVING_M = 1e-6
+
+
+def motion_measures(
+    steps: dict[str, NDArray], start_position: ArrayLike | None
+) -> dict[str, float]:
+    """Walking-in-place measures of one episode from its stacked ``info`` values (NaN where an
+    episode gives no case to measure).
+
+    Bouts are the runs of control steps in which the user means to step (``intent_walk``); a
+    bout's true heel strikes are those from its start to the next bout's start.
+
+    * ``start_latency_s`` (mean over bouts): from the bout's first true heel strike to the end
+      of the first control step that moves the virtual body.
+    * ``stop_latency_s``: from the bout's last true heel strike to the end of the last control
+      step within :data:`STANDING_SETTLE_S` after it that moves the virtual body (negative when
+      the body stopped before the last heel strike: its last steps were missed). Bouts the
+      episode cuts short are left out: the next bout or the episode's end must come at least
+      :data:`STANDING_SETTLE_S` after the last heel strike.
+    * ``stop_overshoot_m``: how much farther the virtual body went than perfect sensing would
+      have (``true_position``) from the bout's start to :data:`STANDING_SETTLE_S` after its
+      last heel strike, when it went farther; 0 otherwise.
+    * ``false_motion_m_per_min``: virtual metres moved per minute of standing (no intent to
+      step, the last true heel strike :data:`STANDING_SETTLE_S` or more ago).
+    * ``yaw_drift_deg_per_min``: change of the heading error (virtual minus true heading) per
+      minute while the user means to stand still: neither stepping nor turning
+      (``intent_turn``), the last true heel strike :data:`STANDING_SETTLE_S` or more ago.
+    * ``yaw_rate_mismatch_deg_s``: RMS over the episode of the virtual yaw rate minus the true
+      head yaw rate (the visual-vestibular conflict).
+    * ``virtual_jerk_m_s3``: RMS magnitude of the third difference of the virtual positions over
+      the control step cubed.
+    * ``standing_min``: the minutes of standing the false-motion rate is over.
+    """
+    intent = np.asarray(steps["intent_walk"], dtype=bool).ravel()
+    t_end = np.asarray(steps["elapsed_time"], dtype=np.float64).ravel()
+    n = intent.size
+    nan = math.nan
+    out = dict.fromkeys(("start_latency_s", "stop_latency_s", "stop_overshoot_m",
+                         "false_motion_m_per_min", "yaw_drift_deg_per_min",
+                         "yaw_rate_mismatch_deg_s", "virtual_jerk_m_s3"), nan)  # fmt: skip
+    out["standing_min"] = 0.0
+    if n == 0:
+        return out
+    dt = float(t_end[0])
+    pos = np.asarray(steps["position"], dtype=np.float64).reshape(n, 2)
+    true_pos = np.asarray(steps["true_position"], dtype=np.float64).reshape(n, 2)
+    start = pos[0] if start_position is None else np.asarray(start_position, np.float64)[:2]
+    path = np.concatenate([start[None], pos])
+    true_path = np.concatenate([start[None], true_pos])
+    moved = np.hypot(*np.diff(path, axis=0).T)
+    true_moved = np.hypot(*np.diff(true_path, axis=0).T)
+    strikes = _finite_times(steps["true_step_times"])
+    # bouts: runs of intent; each owns the steps up to the next run's start
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], intent.astype(np.int8), [0]])))
+    runs = list(zip(edges[::2], edges[1::2], strict=True))
+    starts, stops, overshoots = [], [], []
+    for b, (r0, _) in enumerate(runs):
+        r_next = runs[b + 1][0] if b + 1 < len(runs) else n
+        t0, t1 = t_end[r0] - dt, (t_end[r_next] - dt) if r_next < n else t_end[-1]
+        mine = strikes[(strikes > t0 - 1e-9) & (strikes <= t1 + 1e-9)]
+        if mine.size == 0:
+            continue
+        idx = np.arange(r0, r_next)
+        moving = idx[moved[idx] > MOVING_M]
+        if moving.size:
+            starts.append(t_end[moving[0]] - mine[0])
+        if t1 - mine[-1] < STANDING_SETTLE_S:  # cut short: no stop to measure
+            continue
+        stop_window = idx[t_end[idx] <= mine[-1] + STANDING_SETTLE_S + 1e-9]
+        stopping = stop_window[moved[stop_window] > MOVING_M]
+        if stopping.size:
+            stops.append(t_end[stopping[-1]] - mine[-1])
+        over = moved[stop_window].sum() - true_moved[stop_window].sum()
+        overshoots.append(max(0.0, float(over)))
+    for key, vals in (("start_latency_s", starts), ("stop_latency_s", stops),
+                      ("stop_overshoot_m", overshoots)):  # fmt: skip
+        if vals:
+            out[key] = _mean(vals)
+    # standing: no intent, the last true heel strike long enough ago
+    last = np.searchsorted(strikes, t_end, side="right") - 1
+    if strikes.size:
+        since = np.where(last >= 0, t_end - strikes[np.maximum(last, 0)], np.inf)
+    else:
+        since = np.full(n, np.inf)
+    standing = ~intent & (since >= STANDING_SETTLE_S)
+    minutes = standing.sum() * dt / 60.0
+    out["standing_min"] = float(minutes)
+    if minutes > 0:
+        out["false_motion_m_per_min"] = math.fsum(moved[standing].tolist()) / minutes
+    err = np.deg2rad(np.asarray(steps["heading_error_deg"], dtype=np.float64).ravel())
+    turning = np.asarray(steps.get("intent_turn", np.zeros(n, bool)), dtype=bool).ravel()
+    still = standing & ~turning
+    if n > 1 and still[1:].any():
+        d_err = np.rad2deg(np.abs(_wrap(np.diff(err))))[still[1:]]
+        out["yaw_drift_deg_per_min"] = math.fsum(d_err.tolist()) / (d_err.size * dt / 60.0)
+    if n > 1:
+        v_rate = _wrap(np.diff(np.asarray(steps["virtual_yaw"], np.float64).ravel())) / dt
+        true_yaw = np.deg2rad(np.asarray(steps["true_ypr"], np.float64).reshape(n, 3)[:, 0])
+        t_rate = _wrap(np.diff(true_yaw)) / dt
+        out["yaw_rate_mismatch_deg_s"] = math.degrees(math.sqrt(_mean((v_rate - t_rate) ** 2)))
+    if path.shape[0] >= 4:
+        jerk = np.diff(path, n=3, axis=0) / dt**3
+        out["virtual_jerk_m_s3"] = math.sqrt(_mean((jerk**2).sum(axis=1)))
+    return out
+
+
+def _wrap(a: NDArray[np.float64]) -> NDArray[np.float64]:
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def wilson_interval(successes: int, n: int, z: float = 1.959963984540054) -> tuple[float, float]:
+    """The 95 % Wilson score interval of a rate ``successes / n`` (NaN, NaN for n = 0)."""
+    if n == 0:
+        return math.nan, math.nan
+    p = successes / n
+    den = 1.0 + z * z / n
+    centre = (p + z * z / (2 * n)) / den
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
+    return max(0.0, centre - half), min(1.0, centre + half)
+
+
+def bootstrap_interval(values: ArrayLike, resamples: int = 2000,
+                       seed: int = 0) -> tuple[float, float]:  # fmt: skip
+    """The 95 % percentile bootstrap interval of the mean of ``values`` (NaN entries left out;
+    NaN, NaN without values). Seeded: the same values give the same interval."""
+    x = np.asarray(values, dtype=np.float64).ravel()
+    x = x[np.isfinite(x)]
+    if x.size == 0:
+        return math.nan, math.nan
+    if x.size == 1:
+        return float(x[0]), float(x[0])
+    rng = np.random.default_rng(seed)
+    means = x[rng.integers(0, x.size, size=(resamples, x.size))].mean(axis=1)
+    lo, hi = np.percentile(means, [2.5, 97.5])
+    return float(lo), float(hi)
 
 
 def _finite_times(per_step: ArrayLike) -> NDArray[np.float64]:
@@ -355,25 +510,34 @@ def summarize(
     shortest = np.array([e.shortest_m for e in episodes])
     walked = np.array([e.walked_m for e in episodes])
     tp = fp = fn = 0
+    fps, fns = [], []
     for e in episodes:
         if e.true_step_times is not None and e.detected_step_times is not None:
             a, b, c = match_step_times(e.true_step_times, e.detected_step_times)
         else:
             a, b, c = match_step_counts(e.true_counts, e.detected_counts, late, early)
         tp, fp, fn = tp + a, fp + b, fn + c
+        fps.append(b)
+        fns.append(c)
     precision, recall, f1 = _prf(tp, fp, fn)
     att = np.concatenate([e.attitude_error_deg for e in episodes])
     head = np.concatenate([e.heading_error_deg for e in episodes])
     hand = np.concatenate([e.hand_error_deg for e in episodes])
     has_hand = np.isfinite(hand)
 
-    return {
+    minutes = np.array([e.elapsed_s / 60.0 for e in episodes])
+    per_min = {"phantom_steps_per_min": np.asarray(fps) / minutes,
+               "missed_steps_per_min": np.asarray(fns) / minutes}  # fmt: skip
+    motion = {k: np.array([math.nan if e.motion is None else e.motion[k] for e in episodes])
+              for k in MOTION_KEYS}  # fmt: skip
+    times = np.array([e.elapsed_s for e in episodes])[succ]
+    row: dict[str, Any] = {
         "episodes": n,
         "success_rate": _mean(succ),
         "collision_rate": _mean(coll > 0),
         "collision_free_success_rate": _mean(succ & (coll == 0)),
         "spl": spl(succ, shortest, walked),
-        "time_to_goal_s": _mean(np.array([e.elapsed_s for e in episodes])[succ]),
+        "time_to_goal_s": _mean(times),
         "path_length_ratio": _mean((walked / shortest)[succ]),
         "step_precision": precision,
         "step_recall": recall,
@@ -382,5 +546,30 @@ def summarize(
         "heading_error_rmse_deg": math.sqrt(_mean(head**2)),
         "hand_error_deg": _mean(hand[has_hand]),
         "hand_coverage": _mean(has_hand),
+        "hand_tracking_availability": _mean(has_hand),
         "mean_collisions": _mean(coll),
+        **{k: _nanmean(v) for k, v in per_min.items()},
+        **{k: _nanmean(v) for k, v in motion.items()},
     }
+    row["success_rate_ci"] = wilson_interval(int(succ.sum()), n)
+    row["collision_rate_ci"] = wilson_interval(int((coll > 0).sum()), n)
+    spl_each = succ * shortest / np.maximum(shortest, walked)
+    row["spl_ci"] = bootstrap_interval(spl_each)
+    row["time_to_goal_s_ci"] = bootstrap_interval(times)
+    hand_each = np.array([np.isfinite(e.hand_error_deg).mean() if e.hand_error_deg.size else
+                          math.nan for e in episodes])  # fmt: skip
+    row["hand_tracking_availability_ci"] = bootstrap_interval(hand_each)
+    for k, v in (*per_min.items(), *motion.items()):
+        row[f"{k}_ci"] = bootstrap_interval(v)
+    return row
+
+
+#: The per-episode walking-in-place measures a row averages (:func:`motion_measures`).
+MOTION_KEYS = ("start_latency_s", "stop_latency_s", "stop_overshoot_m", "false_motion_m_per_min",
+               "yaw_drift_deg_per_min", "yaw_rate_mismatch_deg_s", "virtual_jerk_m_s3")  # fmt: skip
+
+
+def _nanmean(x: ArrayLike) -> float:
+    """:func:`_mean` of the finite values (NaN for none)."""
+    a = np.asarray(x, dtype=np.float64).ravel()
+    return _mean(a[np.isfinite(a)])

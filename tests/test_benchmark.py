@@ -250,3 +250,48 @@ def test_the_table_fits_a_narrow_terminal(capsys):
     assert "compact view" in out
     _print_table([row], 0, width=200)
     assert "time to goal" in capsys.readouterr().out
+
+
+def test_walking_in_place_measures_against_a_hand_made_episode():
+    """One bout (intent in steps 10-29, heel strikes at 1.2-3.0 s), the virtual body moving
+    0.05 m a step from 1.5 s to 3.4 s, then 0.1 m of drift while standing, a heading error that
+    grows 1 deg while standing and a true head turn of 10 deg the view does not follow."""
+    from agents.metrics import motion_measures, wilson_interval
+
+    n, dt = 100, 0.1
+    t_end = dt * np.arange(1, n + 1)
+    intent = np.zeros(n, bool)
+    intent[10:30] = True
+    moved = np.zeros(n)
+    moved[14:34] = 0.05
+    moved[70:80] = 0.01
+    pos = np.stack([np.cumsum(moved), np.zeros(n)], -1)
+    true_moved = np.zeros(n)
+    true_moved[12:31] = 0.9 / 19
+    true_pos = np.stack([np.cumsum(true_moved), np.zeros(n)], -1)
+    strikes = np.full((n, 2), np.inf)
+    strikes[12:31:6, 0] = [1.2, 1.8, 2.4, 3.0]
+    heading_error = np.zeros(n)
+    heading_error[80:90] = 0.1 * np.arange(1, 11)
+    heading_error[90:] = 1.0
+    true_ypr = np.zeros((n, 3))
+    true_ypr[50:60, 0] = np.arange(1, 11)
+    true_ypr[60:, 0] = 10.0
+    steps = {"intent_walk": intent, "elapsed_time": t_end, "position": pos,
+             "true_position": true_pos, "true_step_times": strikes,
+             "heading_error_deg": heading_error, "virtual_yaw": np.zeros(n),
+             "true_ypr": true_ypr}  # fmt: skip
+    m = motion_measures(steps, (0.0, 0.0))
+    assert m["start_latency_s"] == pytest.approx(1.5 - 1.2)
+    assert m["stop_latency_s"] == pytest.approx(3.4 - 3.0)
+    assert m["stop_overshoot_m"] == pytest.approx(20 * 0.05 - 0.9)
+    standing_min = (10 + 41) * dt / 60  # before the bout, and from 3 s after its last strike
+    assert m["standing_min"] == pytest.approx(standing_min)
+    assert m["false_motion_m_per_min"] == pytest.approx(0.1 / standing_min)
+    # drift while standing still: 51 standing steps, 50 differences within them
+    assert m["yaw_drift_deg_per_min"] == pytest.approx(1.0 / (50 * dt / 60))
+    assert m["yaw_rate_mismatch_deg_s"] == pytest.approx(np.sqrt(10 * 10.0**2 / 99))
+    assert m["virtual_jerk_m_s3"] > 0
+    lo, hi = wilson_interval(38, 40)
+    assert lo == pytest.approx(0.8347, abs=1e-3) and hi == pytest.approx(0.9862, abs=1e-3)
+    assert wilson_interval(0, 10)[0] == 0.0

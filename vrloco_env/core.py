@@ -55,6 +55,10 @@ _SWEEP_SAMPLES = 8  # points along a step's displacement checked against the roo
 _SWEEP_FRACTIONS = (np.arange(1, _SWEEP_SAMPLES + 1) / _SWEEP_SAMPLES)[None, :, None]
 
 
+#: A turn action above this (a fraction of the largest turn rate) counts as meaning to turn.
+TURNING = 0.02
+
+
 @dataclass
 class _Episode:
     """Per-user episode state, arrays over the B users."""
@@ -240,6 +244,8 @@ class LocoCore:
         )
         self.last_rays = self._rays()
         infos = self.infos(us, blocked, success, finished)
+        infos["intent_walk"] = a[:, 0] > 0.0  # the user means to step (the action's walk > 0)
+        infos["intent_turn"] = np.abs(a[:, 1]) > TURNING  # ... or to turn
         return self.observe(), reward, terminated, truncated, infos
 
     # ------------------------------------------------------------------------------ views
