@@ -1,27 +1,28 @@
-"""``vrloco benchmark``: scripted users x tasks x techniques over seeded episodes.
+"""``vrloco benchmark``: simulated users x tasks x techniques over seeded episodes.
 
 A technique (:mod:`vrloco_env.techniques`) is a sensor preset plus one choice per estimation
 stage; ``--sensors`` is a shorthand for seed 000's chain on each IMU preset. Every cell of the
-grid (task, policy, technique) runs ``episodes`` single-env episodes; episode
-``i`` of every cell is seeded ``seed + i`` (the env's ``reset(seed=...)``; a human-variability
-wrapper draws from ``default_rng([seed + i, 1])``), so the same episode index meets the same room
-in every cell and the results do not depend on how the episodes are spread over worker
-processes. Episodes run in a ``concurrent.futures.ProcessPoolExecutor`` (``workers`` processes;
-1 runs them in this process) under a progress bar, and :func:`agents.metrics.summarize` turns
-each cell into a row: a table on the terminal, a CSV and a JSON file, and for the first episode
-of each cell three figures (the analogues of seed 000's Figs. 2-5): the true and virtual paths
-over the room, the head attitude (truth vs estimate) and the gait (true heel strikes vs detected
-steps).
+grid (task, policy, technique) runs ``episodes`` episodes; episode ``i`` of every cell is seeded
+``seed + i`` (the env's ``reset(seed=...)``; the policy draws from ``default_rng([seed + i, 1])``),
+so the same episode index meets the same room in every cell, and an episode's numbers depend on
+nothing else: not on the worker processes, the batch it ran in, or the backend.
 
-Policies: ``goal_seeker``, ``avoid_manoeuvre``, ``reactive_avoider`` (:mod:`agents.scripted`);
-append ``+human`` for the :class:`agents.variability.HumanVariability` wrapper
-(``goal_seeker+human``).
+Jobs (:func:`_split_jobs`): the cells that share a task and a technique run together as users of
+one native vector env (:func:`run_batched`, ``batch_size`` users; ``batch_size=0`` runs every
+episode alone in a single env, :func:`run_cell_episode`). They run in a
+``concurrent.futures.ProcessPoolExecutor`` of ``workers`` processes (1: in this process) or, with
+``backend="ray"``, as Ray tasks (:mod:`agents.backends`), under one progress bar. Finished
+episodes are kept in ``<out>/.resume`` (:mod:`agents.resume`) until the grid is complete, so an
+interrupted run resumes. :func:`agents.metrics.summarize` turns each cell into a row: a table on
+the terminal, a CSV and a JSON file, and for the first episode of each cell three figures (the
+analogues of seed 000's Figs. 2-5): the true and virtual paths over the room, the head attitude
+(truth vs estimate) and the gait (true heel strikes vs detected steps).
 
-The default grid — approach and avoid x goal_seeker, goal_seeker+human and avoid_manoeuvre x
-seed 000's chain on both IMU presets (``seed000``, ``seed000_consumer``) x 40 episodes, 480
-episodes — takes about 95 s with 2 workers on the 2-core
-development machine (81 s measured); ``reactive_avoider`` is left out of it because its
-failures run to the 60 s time limit and would double that.
+Policies: ``goal_seeker``, ``avoid_manoeuvre``, ``reactive_avoider`` (:mod:`agents.scripted`),
+``+human`` for the :class:`agents.variability.HumanVariability` wrapper, a stable-baselines3
+``.zip`` or ``module:attr`` (:mod:`agents.policies`). The default grid: approach and avoid x
+goal_seeker, goal_seeker+human and avoid_manoeuvre x seed 000's chain on both IMU presets x 40
+episodes; ``reactive_avoider`` is left out of it because its failures run to the time limit.
 """
 
 from __future__ import annotations

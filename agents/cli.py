@@ -151,6 +151,7 @@ def _cmd_head_motions(args: argparse.Namespace) -> int:
 
 
 def _cmd_benchmark(args: argparse.Namespace) -> int:
+    from agents.backends import BackendError
     from agents.benchmark import run_benchmark
 
     def names(text: str) -> list[str]:
@@ -168,10 +169,17 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
             out_dir=Path(args.out) if args.out else None,
             json_path=Path(args.json) if args.json else None,
             batch_size=args.batch_size,
+            backend=args.backend,
+            address=args.address,
         )
     except ValueError as err:  # a bad option value: one clear line, no traceback
         print(f"vrloco benchmark: {err}", file=sys.stderr)
         return 2
+    except BackendError as err:  # no Ray cluster, or Ray jobs lost: what and where, no traceback
+        kept = (f"\nthe finished episodes are kept: rerun with --out {args.out} to resume"
+                if args.out and err.partial else "")  # fmt: skip
+        print(f"vrloco benchmark: {err}{kept}", file=sys.stderr)
+        return 1
     return 0
 
 
@@ -344,12 +352,24 @@ def build_parser() -> argparse.ArgumentParser:
     )
     bench.add_argument("--episodes", type=_int_at_least(1), default=40, help="episodes per cell")
     bench.add_argument("--seed", type=_int_at_least(0), default=0, help="episode i uses seed + i")
-    bench.add_argument("--workers", type=_int_at_least(1), default=2, help="worker processes")
+    bench.add_argument("--workers", type=_int_at_least(1), default=2,
+                       help="worker processes (--backend ray: the CPUs to cut jobs for)")
     bench.add_argument(
         "--batch-size", type=_int_at_least(0), default=20,
         help="users stepped together in one vector env (cells sharing a task and technique "
         "mix); 0: every episode alone in a single env (the same results)",
     )  # fmt: skip
+    bench.add_argument(
+        "--backend", choices=("local", "ray"), default="local",
+        help="where the episodes run: local worker processes, or Ray tasks on a Ray cluster "
+        "(pip install 'vrloco[ray]'; the same results)",
+    )  # fmt: skip
+    bench.add_argument(
+        "--address",
+        help="with --backend ray: the cluster, 'auto' (one started with `ray start` here) or "
+        "HOST:PORT of its head; default: such a cluster where one runs, else a local Ray "
+        "instance on this machine's cores",
+    )
     bench.add_argument("--json", type=_out_file, help="also write the rows to this JSON file")
     bench.add_argument("--out", default="out/benchmark", type=_out_dir,
                        help="folder for CSV, JSON, figures")  # fmt: skip
