@@ -4,9 +4,10 @@ ray-cast queries on them.
 :class:`Box` and :class:`Cylinder` are frozen footprints extruded from the floor (z = 0) to their
 height, in a room's local frame (x, y in metres, yaw counter-clockwise from +x; ENU, z up, as in
 :mod:`estimators.rotations`). For queries the solids of N rooms are packed into padded arrays
-(:class:`_Solids`); each query has a readable numpy reference (:func:`_sdf_batch`,
-:func:`_ray_cast_batch`) and a compiled numba mirror that the public functions call
-(``tests/test_rooms.py`` checks one against the other). :func:`solid_distance` is the query a
+(:class:`_Solids`); each query is one compiled kernel over rooms and points (its ``py_func``,
+under :func:`estimators.kernels.python_reference`, is the readable reference; the tests check
+the queries against hand-computed distances and sphere tracing). :func:`solid_distance` is the
+query a
 task's layout generator uses on loose solids; the queries on a whole room are in
 :mod:`vrloco_env.world.layout` (one room) and :mod:`vrloco_env.world.room_batch` (N rooms).
 """
@@ -21,6 +22,8 @@ from typing import NamedTuple
 import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+
+from estimators.kernels import BatchKernel
 
 __all__ = ["Box", "Cylinder", "Solid", "solid_distance"]
 
@@ -128,69 +131,13 @@ def _pack(solids: tuple[Solid, ...]) -> _Solids:
     return _pack_many([solids])
 
 
-# The geometry in readable numpy (the reference, documented and tested against hand-computed
-# values); the public functions call the numba mirrors below, which tests/test_rooms.py checks
-# against these. In numpy, 256 rooms x 16 rays take ~7 ms, compiled ~0.4 ms.
-
-
-def _sdf_batch(s: _Solids, p: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Signed distance ``(N, P)`` from points ``(N, P, 2)`` to the union of room n's solids."""
-    out = np.full(p.shape[:2], np.inf)
-    if s.box_c.shape[1]:
-        d = p[:, :, None, :] - s.box_c[:, None]  # (N, P, B, 2)
-        cos, sin = s.box_cs[:, None, :, 0], s.box_cs[:, None, :, 1]
-        lx = np.abs(cos * d[..., 0] + sin * d[..., 1]) - s.box_h[:, None, :, 0]
-        ly = np.abs(-sin * d[..., 0] + cos * d[..., 1]) - s.box_h[:, None, :, 1]
-        outside = np.hypot(np.maximum(lx, 0.0), np.maximum(ly, 0.0))
-        inside = np.minimum(np.maximum(lx, ly), 0.0)
-        sd = np.where(s.box_ok[:, None, :], outside + inside, np.inf)
-        out = np.minimum(out, sd.min(axis=2))
-    if s.cyl_c.shape[1]:
-        d = p[:, :, None, :] - s.cyl_c[:, None]  # (N, P, C, 2)
-        sd = np.hypot(d[..., 0], d[..., 1]) - s.cyl_r[:, None, :]
-        out = np.minimum(out, np.where(s.cyl_ok[:, None, :], sd, np.inf).min(axis=2))
-    return out
-
-
-def _ray_cast_batch(
-    s: _Solids, o: NDArray[np.float64], u: NDArray[np.float64], max_range: float
-) -> NDArray[np.float64]:
-    """Distance ``(N, R)`` along unit directions ``u`` from ``o`` (both ``(N, R, 2)``) to the
-    first of room n's solids, ``max_range`` if none; 0 from inside a solid."""
-    best = np.full(o.shape[:2], float(max_range))
-    ux, uy = u[:, :, None, 0], u[:, :, None, 1]  # (N, R, 1)
-    if s.box_c.shape[1]:
-        d = o[:, :, None, :] - s.box_c[:, None]  # (N, R, B, 2)
-        cos, sin = s.box_cs[:, None, :, 0], s.box_cs[:, None, :, 1]
-        lo = np.stack([cos * d[..., 0] + sin * d[..., 1], -sin * d[..., 0] + cos * d[..., 1]], -1)
-        lu = np.stack([cos * ux + sin * uy, -sin * ux + cos * uy], -1)
-        # Slab method; a direction component of exactly 0 is nudged to 1e-300 so that the slab
-        # bounds become +-inf (or huge) with the right sign instead of 0/0.
-        lu = np.where(np.abs(lu) < 1e-300, 1e-300, lu)
-        h = s.box_h[:, None]
-        with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
-            t1 = (-h - lo) / lu
-            t2 = (h - lo) / lu
-        t_near = np.minimum(t1, t2).max(axis=-1)
-        t_far = np.maximum(t1, t2).min(axis=-1)
-        hit = (t_near <= t_far) & (t_far >= 0.0) & s.box_ok[:, None, :]
-        best = np.minimum(best, np.where(hit, np.maximum(t_near, 0.0), np.inf).min(axis=2))
-    if s.cyl_c.shape[1]:
-        d = o[:, :, None, :] - s.cyl_c[:, None]  # (N, R, C, 2)
-        b = d[..., 0] * ux + d[..., 1] * uy
-        c = (d**2).sum(-1) - s.cyl_r[:, None, :] ** 2
-        disc = b * b - c
-        root = np.sqrt(np.maximum(disc, 0.0))
-        hit = (disc >= 0.0) & (-b + root >= 0.0) & s.cyl_ok[:, None, :]
-        best = np.minimum(best, np.where(hit, np.maximum(-b - root, 0.0), np.inf).min(axis=2))
-    return best
-
-
-@numba.njit(cache=True)
-def _sdf_kernel(box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, p, out):  # pragma: no cover
-    """Compiled mirror of :func:`_sdf_batch` (scalar loops, same formulas), filling ``out``."""
+def _sdf_run(box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, p, out):
+    """Signed distance ``out`` (N, P) from points ``p`` (N, P, 2) to the union of room n's
+    solids (inf if none): negative inside a solid. A box's distance is that of the point in the
+    box's frame to the rectangle (outside: the norm of the positive parts of ``|x| - h``;
+    inside: the largest of them), a cylinder's the distance to its centre less its radius."""
     n_rooms, n_pts = p.shape[0], p.shape[1]
-    for n in range(n_rooms):
+    for n in numba.prange(n_rooms):
         for k in range(n_pts):
             px, py = p[n, k, 0], p[n, k, 1]
             best = np.inf
@@ -245,26 +192,24 @@ def _ray_one(box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, n, ox, oy, ux, 
     return best
 
 
-@numba.njit(cache=True)
-def _ray_kernel(
-    box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, o, u, max_range, out
-):  # pragma: no cover
-    """Compiled mirror of :func:`_ray_cast_batch` (scalar loops, same formulas), filling ``out``."""
-    for n in range(o.shape[0]):
+def _ray_run(box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, o, u, max_range, out):
+    """Distance ``out`` (N, R) along unit directions ``u`` from ``o`` (both (N, R, 2)) to the
+    first of room n's solids, ``max_range`` if none, 0 from inside a solid (:func:`_ray_one`:
+    the slab method for boxes, the quadratic for cylinders)."""
+    for n in numba.prange(o.shape[0]):
         for k in range(o.shape[1]):
             ox, oy, ux, uy = o[n, k, 0], o[n, k, 1], u[n, k, 0], u[n, k, 1]
             out[n, k] = _ray_one(box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, n,
                                  ox, oy, ux, uy, max_range)  # fmt: skip
 
 
-@numba.njit(cache=True)
-def _ray_fan_kernel(
+def _ray_fan_run(
     box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, positions, headings, offsets, max_range,
     out,
-):  # pragma: no cover
-    """:func:`_ray_kernel` for a fan of rays from one point per room: ``headings[n] +
+):  # fmt: skip
+    """:func:`_ray_run` for a fan of rays from one point per room: ``headings[n] +
     offsets[k]`` (rad) from ``positions[n]``."""
-    for n in range(positions.shape[0]):
+    for n in numba.prange(positions.shape[0]):
         for k in range(offsets.shape[0]):
             a = headings[n] + offsets[k]
             out[n, k] = _ray_one(box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, n,
@@ -272,10 +217,16 @@ def _ray_fan_kernel(
                                  max_range)  # fmt: skip
 
 
+#: The compiled queries: ``sdf_kernel(n_rooms)(...)`` etc. (their ``py_func`` is the reference).
+sdf_kernel = BatchKernel(_sdf_run, parallel=False)
+ray_kernel = BatchKernel(_ray_run, parallel=False)
+ray_fan_kernel = BatchKernel(_ray_fan_run, parallel=False)
+
+
 def _sdf_fast(s: _Solids, p: NDArray[np.float64]) -> NDArray[np.float64]:
-    """:func:`_sdf_batch` through the compiled kernel."""
+    """Signed distance (N, P) from points (N, P, 2) to each room's solids (:func:`_sdf_run`)."""
     out = np.empty(p.shape[:2])
-    _sdf_kernel(
+    sdf_kernel(p.shape[0])(
         s.box_c,
         s.box_h,
         s.box_cs,
@@ -297,9 +248,9 @@ def _sdf(s: _Solids, p: NDArray[np.float64]) -> NDArray[np.float64]:
 def _ray_cast_fast(
     s: _Solids, o: NDArray[np.float64], u: NDArray[np.float64], max_range: float
 ) -> NDArray[np.float64]:
-    """:func:`_ray_cast_batch` through the compiled kernel."""
+    """Ray ranges (N, R) from origins ``o`` along unit directions ``u`` (:func:`_ray_run`)."""
     out = np.empty(o.shape[:2])
-    _ray_kernel(
+    ray_kernel(o.shape[0])(
         s.box_c,
         s.box_h,
         s.box_cs,

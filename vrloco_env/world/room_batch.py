@@ -12,9 +12,9 @@ from vrloco_env.world.geometry import (
     _pack,
     _pack_many,
     _ray_cast_fast,
-    _ray_fan_kernel,
     _sdf_fast,
     _Solids,
+    ray_fan_kernel,
 )
 from vrloco_env.world.layout import Layout
 
@@ -101,6 +101,8 @@ class RoomBatch:
             raise ValueError("ray_fan positions and headings must be finite")
         s = self._solids
         out = np.empty((positions.shape[0], offsets.shape[0]))
-        _ray_fan_kernel(s.box_c, s.box_h, s.box_cs, s.box_ok, s.cyl_c, s.cyl_r, s.cyl_ok,
-                        positions, headings, offsets, float(max_range), out)  # fmt: skip
+        ray_fan_kernel(positions.shape[0])(
+            s.box_c, s.box_h, s.box_cs, s.box_ok, s.cyl_c, s.cyl_r, s.cyl_ok, positions,
+            headings, offsets, float(max_range), out,
+        )  # fmt: skip
         return out

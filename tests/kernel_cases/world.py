@@ -1,0 +1,23 @@
+"""The room queries (signed distance, ray casts, ray fans) on six rooms of every task."""
+
+import numpy as np
+
+from vrloco_env.tasks import make_layout
+from vrloco_env.world import RoomBatch, RoomConfig
+
+
+def _queries():
+    lays = [make_layout(("approach", "avoid", "interact")[s % 3], RoomConfig(),
+                        np.random.default_rng(s)) for s in range(6)]  # fmt: skip
+    batch = RoomBatch(lays)
+    rng = np.random.default_rng(1)
+    o = rng.uniform(-4.0, 4.0, (6, 30, 2))  # inside solids, outside, beyond the walls
+    a = rng.uniform(-np.pi, np.pi, (6, 30))
+    return {
+        "signed_distance": batch.signed_distance(o),
+        "ray_cast": batch.ray_cast(o, a, 12.0),
+        "ray_fan": batch.ray_fan(o[:, 0], a[:, 0], np.linspace(-1.0, 1.0, 7), 8.0),
+    }
+
+
+CASES = {"world_queries": _queries}
