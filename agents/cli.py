@@ -39,6 +39,24 @@ def _int_at_least(lo: int):
     return convert
 
 
+def _seed_list(text: str) -> list[int]:
+    """An argparse type: comma-separated distinct integers >= 0 (``0,1,2``)."""
+    seeds = []
+    for part in text.split(","):
+        try:
+            seed = int(part)
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f"{part.strip()!r} is not an integer (give seeds like 0,1,2)"
+            ) from None
+        if seed < 0:
+            raise argparse.ArgumentTypeError(f"{seed} must be >= 0")
+        if seed in seeds:
+            raise argparse.ArgumentTypeError(f"seed {seed} is given twice")
+        seeds.append(seed)
+    return seeds
+
+
 def _preset(text: str) -> str:
     """An argparse type: an IMU preset name."""
     from vrloco_env.sensors.imu import get_imu_spec
@@ -211,18 +229,23 @@ def _cmd_techniques(args: argparse.Namespace) -> int:
 
 
 def _cmd_train(args: argparse.Namespace) -> int:
-    from agents.learned import train_ppo
+    from agents.learned import train_seeds
 
-    path = train_ppo(
-        task=args.task,
+    paths = train_seeds(
+        args.task,
+        args.seeds if args.seeds is not None else [args.seed],
+        Path(args.out),
         steps=args.steps,
         num_envs=args.num_envs,
-        seed=args.seed,
-        out_dir=Path(args.out),
         sensor_preset=args.sensors,
         eval_every=args.eval_every,
     )
-    print(f"wrote {path}; learning curve in {Path(args.out) / 'learning_curve.json'}")
+    curve = Path(args.out) / "learning_curve.json"
+    if len(paths) == 1:
+        print(f"wrote {paths[0]}; learning curve in {curve}")
+    else:
+        print(f"wrote {len(paths)} models in {Path(args.out)}/seed_*; learning curves (each "
+              f"seed, mean and std) in {curve} and {curve.with_suffix('.png')}")  # fmt: skip
     return 0
 
 
@@ -390,7 +413,15 @@ def build_parser() -> argparse.ArgumentParser:
     train.add_argument("--sensors", default="ig500n", type=_preset, help="IMU preset")
     train.add_argument("--eval-every", type=_int_at_least(1), default=100_000,
                        help="steps between evals")  # fmt: skip
-    train.add_argument("--seed", type=_int_at_least(0), default=0, help="random seed")
+    seeding = train.add_mutually_exclusive_group()
+    seeding.add_argument("--seed", type=_int_at_least(0), default=0, help="random seed")
+    seeding.add_argument(
+        "--seeds", type=_seed_list, metavar="S,S,...",
+        help="comma-separated distinct seeds >= 0: one run per seed in parallel worker "
+        "processes (one per seed, at most one per core), each in OUT/seed_<s>/, and their "
+        "curves with the mean and std in OUT/learning_curve.json and .png (default: one "
+        "run, --seed)",
+    )  # fmt: skip
     train.add_argument("--out", default="runs/ppo", type=_out_dir,
                        help="folder for logs and models")  # fmt: skip
     train.set_defaults(func=_cmd_train)

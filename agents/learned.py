@@ -4,6 +4,8 @@
 :class:`~vrloco_env.vector.VRLocoVectorEnv` (all users batched in one process), with a progress
 bar, TensorBoard logs, periodic checkpoints and an evaluation callback on separately seeded
 episodes; ``vrloco evaluate MODEL`` runs a trained policy through the benchmark's metrics.
+``vrloco train --seeds 0,1,2`` (:func:`train_seeds`) trains one run per seed in parallel worker
+processes and draws their curves together, with the mean and the spread over the seeds.
 
 :class:`SB3VecEnv` adapts the Gymnasium vector env to stable-baselines3's ``VecEnv`` interface.
 Both autoreset in the same step, so the adapter only reshapes: the finished episode's last
@@ -14,6 +16,7 @@ observation goes to ``infos[i]["terminal_observation"]`` and a time-limit end se
 from __future__ import annotations
 
 import json
+import os
 import time
 from pathlib import Path
 from typing import Any
@@ -23,7 +26,8 @@ from stable_baselines3.common.vec_env.base_vec_env import VecEnv
 
 from vrloco_env.vector import VRLocoVectorEnv
 
-__all__ = ["SB3VecEnv", "env_settings", "evaluate_model", "model_env_settings", "train_ppo"]
+__all__ = ["SB3VecEnv", "env_settings", "evaluate_model", "model_env_settings", "train_ppo",
+           "train_seeds"]  # fmt: skip
 
 #: Reported per-step keys kept in the SB3 infos (episode metrics for the callbacks).
 _INFO_KEYS = ("is_success", "collisions", "distance_to_goal")
@@ -213,6 +217,173 @@ def train_ppo(
     plot_learning_curve(curve, out_dir / "learning_curve.png", title=f"PPO on {task}")
     venv.close()
     return final.with_suffix(".zip")
+
+
+#: The evaluation metrics averaged over the seeds by :func:`train_seeds`.
+_CURVE_KEYS = ("success_rate", "collision_rate", "mean_return")
+
+
+def train_seeds(
+    task: str,
+    seeds: list[int],
+    out_dir: Path,
+    workers: int | None = None,
+    **train_kwargs: Any,
+) -> list[Path]:
+    """:func:`train_ppo` once per seed; returns the final models' paths, in the order of ``seeds``.
+
+    One seed is exactly ``train_ppo(task, seed=seed, out_dir=out_dir, ...)``: the same files in
+    ``out_dir``. Several seeds train in a :class:`~concurrent.futures.ProcessPoolExecutor` of
+    ``workers`` processes (default: one per seed, at most one per core; spawned, so a script
+    that calls this needs the ``if __name__ == "__main__":`` guard; no progress bars), each in
+    ``out_dir/seed_<s>/`` with the files of a single run, seeded by its seed. The workers keep
+    torch's default thread count, so each seed's curve and model are bit-identical to training
+    that seed alone (fewer torch threads changed the last digits). Then
+    ``out_dir/learning_curve.json`` holds ``{"task", "seeds", "per_seed": {seed: curve},
+    "mean": [...]}``, where ``mean`` has, for each evaluation step that every seed reached, the
+    mean and the standard deviation over the seeds (``ddof=0``, keys ``<metric>_std``) of the
+    success rate, collision rate and mean return, and ``out_dir/learning_curve.png`` draws each
+    seed's success rate thin, the mean bold and a mean +- std band against environment steps.
+
+    Ctrl-C stops the workers at once and re-raises ``KeyboardInterrupt``; what each seed saved
+    stays (its checkpoints, best model and learning curve up to its last evaluation; not a final
+    model), the combined curve is written from those, and one line says so.
+    """
+    from concurrent.futures import ProcessPoolExecutor
+    from multiprocessing import get_context
+
+    seeds = list(seeds)
+    if not seeds:
+        raise ValueError("seeds: give at least one seed")
+    for s in seeds:
+        if isinstance(s, bool) or not isinstance(s, int) or s < 0:
+            raise ValueError(f"seeds: {s!r} is not an integer >= 0")
+    repeated = sorted({s for s in seeds if seeds.count(s) > 1})
+    if repeated:
+        raise ValueError(f"seeds: {', '.join(map(str, repeated))} given more than once")
+    out_dir = Path(out_dir)
+    if len(seeds) == 1:
+        return [train_ppo(task, seed=seeds[0], out_dir=out_dir, **train_kwargs)]
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    cores = cores or 1
+    workers = min(len(seeds), cores) if workers is None else workers
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise ValueError(f"workers={workers!r}: must be an integer >= 1")
+    # Round (and check) the steps once here, not in every worker.
+    n_steps = train_kwargs.get("n_steps", defaults_ppo()["n_steps"])
+    kwargs = dict(train_kwargs, progress=False)
+    kwargs["steps"] = rollout_steps(kwargs.get("steps", 2_000_000), n_steps,
+                                    kwargs.get("num_envs", 32))  # fmt: skip
+    out_dir.mkdir(parents=True, exist_ok=True)
+    folders = {s: out_dir / f"seed_{s}" for s in seeds}
+    pool = ProcessPoolExecutor(
+        max_workers=workers,
+        mp_context=get_context("spawn"),  # torch in a forked child can hang
+        initializer=_ignore_sigint,
+    )
+    try:
+        futures = [pool.submit(train_ppo, task, seed=s, out_dir=folders[s], **kwargs)
+                   for s in seeds]  # fmt: skip
+        paths = [f.result() for f in futures]
+    except BaseException as err:  # Ctrl-C (or a failed seed): stop the workers now
+        for process in list(getattr(pool, "_processes", {}).values()):
+            process.terminate()
+        pool.shutdown(wait=False, cancel_futures=True)
+        curves = _read_curves(folders)
+        if curves:
+            write_seed_curves(task, curves, out_dir)
+        why = "interrupted" if isinstance(err, KeyboardInterrupt) else "a seed run failed"
+        print(f"{why}: stopped {len(seeds)} seed runs; kept what each saved (checkpoints, best "
+              f"model, learning curve so far) in {out_dir}/seed_*")  # fmt: skip
+        raise
+    pool.shutdown()
+    write_seed_curves(task, _read_curves(folders), out_dir)
+    return paths
+
+
+def _ignore_sigint() -> None:
+    """:func:`train_seeds`' workers leave Ctrl-C to the main process, which stops them."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _read_curves(folders: dict[int, Path]) -> dict[int, list[dict[str, float]]]:
+    """Each seed's ``learning_curve.json`` that exists (and is whole)."""
+    curves = {}
+    for s, folder in folders.items():
+        try:
+            curves[s] = json.loads((folder / "learning_curve.json").read_text())
+        except (OSError, ValueError):
+            continue
+    return curves
+
+
+def seed_curves_summary(curves: dict[int, list[dict[str, float]]]) -> list[dict[str, float]]:
+    """The mean and standard deviation (``ddof=0``) over the seeds of each metric in
+    :data:`_CURVE_KEYS`, at every evaluation step that all the seeds' curves have."""
+    if not curves:
+        return []
+    by_seed = [{c["steps"]: c for c in curve} for curve in curves.values()]
+    common = sorted(set.intersection(*(set(b) for b in by_seed)))
+    rows = []
+    for step in common:
+        row: dict[str, float] = {"steps": step}
+        for key in _CURVE_KEYS:
+            values = np.array([b[step][key] for b in by_seed], dtype=float)
+            row[key] = float(values.mean())
+            row[f"{key}_std"] = float(values.std())
+        rows.append(row)
+    return rows
+
+
+def write_seed_curves(
+    task: str, curves: dict[int, list[dict[str, float]]], out_dir: Path
+) -> dict[str, Any]:
+    """``out_dir/learning_curve.json`` and ``.png`` of a :func:`train_seeds` run; returns the
+    JSON's content (the png only where the seeds share an evaluation step)."""
+    mean = seed_curves_summary(curves)
+    data = {"task": task, "seeds": sorted(curves), "per_seed": {str(s): c for s, c in
+            sorted(curves.items())}, "mean": mean}  # fmt: skip
+    (out_dir / "learning_curve.json").write_text(json.dumps(data, indent=2))
+    if mean:
+        plot_seed_curves(curves, mean, out_dir / "learning_curve.png", title=f"PPO on {task}")
+    return data
+
+
+def plot_seed_curves(
+    curves: dict[int, list[dict[str, float]]],
+    mean: list[dict[str, float]],
+    path: Path,
+    title: str = "",
+) -> None:
+    """Evaluation success rate against environment steps: one thin line per seed, the mean over
+    the seeds bold and a shaded mean +- std band."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 4), constrained_layout=True)
+    for s, curve in sorted(curves.items()):
+        ax.plot([c["steps"] for c in curve], [c["success_rate"] for c in curve], lw=0.8,
+                alpha=0.6, label=f"seed {s}")  # fmt: skip
+    steps = np.array([m["steps"] for m in mean])
+    mu = np.array([m["success_rate"] for m in mean])
+    sd = np.array([m["success_rate_std"] for m in mean])
+    ax.fill_between(steps, mu - sd, mu + sd, color="C0", alpha=0.2, lw=0, label="mean ± std")
+    ax.plot(steps, mu, color="k", lw=2.5, label=f"mean of {len(curves)} seeds")
+    ax.axhline(0.9, color="0.6", lw=0.8, ls=":")
+    ax.set_xlabel("environment steps")
+    ax.set_ylabel("evaluation success rate")
+    ax.set_ylim(-0.02, 1.02)
+    ax.legend(loc="lower right", fontsize="small")
+    ax.set_title(
+        f"{title}: {mu[-1]:.0%} ± {sd[-1]:.0%} success after {steps[-1]:,} steps "
+        f"({len(curves)} seeds)"
+    )
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
 
 
 def plot_learning_curve(curve: list[dict[str, float]], path: Path, title: str = "") -> None:

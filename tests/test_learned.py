@@ -88,3 +88,47 @@ def test_tiny_ppo_run_writes_a_model_and_a_learning_curve(tmp_path):
     ):  # the benchmark's metrics
         assert key in result, key
     assert result["episodes"] == 2
+
+
+def test_tiny_runs_over_two_seeds_write_each_seed_and_their_mean(tmp_path):
+    import zipfile
+
+    from agents.learned import train_seeds
+
+    kw = dict(steps=512, num_envs=4, eval_every=256, eval_episodes=2, n_steps=64,
+              batch_size=128)  # fmt: skip
+    paths = train_seeds("avoid", [0, 1], tmp_path / "two", **kw)
+    assert paths == [tmp_path / "two" / f"seed_{s}" / "ppo_avoid_final.zip" for s in (0, 1)]
+    assert all(p.is_file() for p in paths)
+    for s in (0, 1):
+        assert (tmp_path / "two" / f"seed_{s}" / "learning_curve.png").is_file()
+    data = json.loads((tmp_path / "two" / "learning_curve.json").read_text())
+    assert data["task"] == "avoid" and data["seeds"] == [0, 1]
+    curves = [data["per_seed"][s] for s in ("0", "1")]
+    steps = [c["steps"] for c in curves[0]]
+    assert [m["steps"] for m in data["mean"]] == steps == [c["steps"] for c in curves[1]]
+    for i, m in enumerate(data["mean"]):
+        values = [curves[0][i]["mean_return"], curves[1][i]["mean_return"]]
+        assert m["mean_return"] == pytest.approx(np.mean(values))
+        assert m["mean_return_std"] == pytest.approx(np.std(values))
+        assert 0.0 <= m["success_rate"] <= 1.0 and m["success_rate_std"] >= 0.0
+    assert (tmp_path / "two" / "learning_curve.png").is_file()
+
+    def policy(path):
+        with zipfile.ZipFile(path) as z:
+            return z.read("policy.pth")
+
+    def without_wall_time(curve):
+        return [{k: v for k, v in row.items() if k != "wall_s"} for row in curve]
+
+    assert policy(paths[0]) != policy(paths[1])  # the seeds train different users
+    # Seed 0 alone (one seed: today's single run, in this process) repeats the worker's run
+    # bit for bit: the workers keep torch's thread count (fewer threads changed the last digits).
+    (alone,) = train_seeds("avoid", [0], tmp_path / "one", progress=False, **kw)
+    assert alone == tmp_path / "one" / "ppo_avoid_final.zip"
+    assert not (tmp_path / "one" / "seed_0").exists()
+    curve = json.loads((tmp_path / "one" / "learning_curve.json").read_text())
+    assert without_wall_time(curve) == without_wall_time(curves[0])
+    assert policy(alone) == policy(paths[0])
+    with pytest.raises(ValueError, match="given more than once"):
+        train_seeds("avoid", [1, 1], tmp_path / "bad", **kw)
