@@ -578,8 +578,8 @@ def _attitude(rec: Recording, offline: bool = False) -> NDArray[np.float64]:
     return q / np.linalg.norm(q, axis=-1, keepdims=True)
 
 
-def _attitude_reference(rec: Recording, q: NDArray[np.float64]) -> dict:
-    """RMSE of the estimate against the reference attitude (BROAD's metric)."""
+def _compare_attitude(rec: Recording, q: NDArray[np.float64]) -> dict:
+    """RMSE of the estimate against the recording's reference attitude (BROAD's metric)."""
     assert rec.ref_quat is not None
     mask = np.ones(rec.t.size, bool) if rec.ref_mask is None else rec.ref_mask
     err = orientation_errors(q, rec.ref_quat, mask, align_heading=rec.mag is None)
@@ -593,19 +593,22 @@ def _attitude_reference(rec: Recording, q: NDArray[np.float64]) -> dict:
     }
 
 
-def _step_reference(rec: Recording, step_times: NDArray[np.float64], tol: float = 0.2) -> dict:
-    """Detected steps against the foot-switch heel strikes, matched within +-tol s."""
+def _compare_steps(rec: Recording, step_times: NDArray[np.float64], tol: float = 0.2) -> dict:
+    """Detected steps against the foot-switch heel strikes, matched within +-tol s
+    (:func:`agents.metrics.match_step_times`, the benchmark's matching)."""
+    from agents.metrics import match_step_times
+
     assert rec.ref_steps is not None
     truth = rec.ref_steps
     precision, recall, f1 = step_f1(step_times, truth, tol)
-    hits = round(recall * truth.size) if truth.size else 0
+    hits, false_positives, misses = match_step_times(truth, step_times, tol)
     return {
         "reference": "foot switches (stepcounter.csv), rising edges",
         "tolerance_s": tol,
         "true_steps": int(truth.size),
-        "true_positives": int(hits),
-        "false_positives": int(step_times.size - hits),
-        "misses": int(truth.size - hits),
+        "true_positives": hits,
+        "false_positives": false_positives,
+        "misses": misses,
         "precision": round(precision, 4),
         "recall": round(recall, 4),
         "f1": round(f1, 4),
@@ -667,9 +670,9 @@ def estimate_recording(
     result["csv"] = str(csv_path)
     result["png"] = str(png)
     if rec.ref_quat is not None and q is not None:
-        result["attitude_vs_reference"] = _attitude_reference(rec, q)
+        result["attitude_vs_reference"] = _compare_attitude(rec, q)
     if rec.ref_steps is not None:
-        result["steps_vs_foot_switches"] = _step_reference(rec, gait.step_times)
+        result["steps_vs_foot_switches"] = _compare_steps(rec, gait.step_times)
     return result
 
 

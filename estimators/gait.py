@@ -219,6 +219,20 @@ GAIT_STATE = {
 }  # fmt: skip
 
 
+def forget_streams(
+    state: NDArray, clock: NDArray[np.int64], sel: ArrayLike, gravity: float
+) -> None:
+    """Start the streams ``sel`` of a seed-000-family detector afresh: the :data:`GAIT_STATE`
+    fields of ``state`` and their ``clock`` (samples since the reset)."""
+    state["last_valid"][sel] = np.nan
+    state["baseline"][sel] = gravity
+    state["n_seen"][sel] = 0.0
+    state["last_peak"][sel] = -np.inf
+    state["pending"][sel] = np.nan
+    state["last_step"][sel] = -np.inf
+    clock[sel] = 0
+
+
 # Stages shared by the detectors of seed 000's family (this one and
 # :mod:`estimators.steps_nod_robust`): ``s`` is a stream's state record, ``p`` the parameter record
 # (a step-parameter dataclass's fields plus ``fs``, ``base_n`` and ``latency``).
@@ -410,14 +424,7 @@ class StepDetector:
                     f"mask must be a bool array of shape ({self.batch_size},), got "
                     f"{sel.dtype} {sel.shape}"
                 )
-        st = self._state
-        st["last_valid"][sel] = np.nan
-        st["baseline"][sel] = self.params.gravity
-        st["n_seen"][sel] = 0.0
-        st["last_peak"][sel] = -np.inf
-        st["pending"][sel] = np.nan
-        st["last_step"][sel] = -np.inf
-        self._clock[sel] = 0
+        forget_streams(self._state, self._clock, sel, self.params.gravity)
 
     def update(self, acc: ArrayLike) -> GaitChunk:
         """Process accelerometer samples (specific force, m/s^2, any sensor frame).

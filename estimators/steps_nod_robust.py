@@ -72,8 +72,10 @@ from numpy.typing import ArrayLike
 
 from estimators.batching import stream_rows
 from estimators.gait import (
+    GAIT_STATE,
     GaitChunk,
     bout_rule,
+    forget_streams,
     mean_filter,
     running_baseline,
     walking,
@@ -150,13 +152,10 @@ class NodRobustParams:
         return NodRobustSteps(batch_size, fs, self)
 
 
-#: Per-stream scalars of :func:`nod_robust_kernel` (its ring buffers, whose lengths follow the
-#: rate, are arrays beside it): the last vertical specific force and the baseline (m/s^2), the
-#: samples seen, the last peak, the pending first peak of a bout and the last step (s; -inf /
-#: NaN: none).
-NOD_ROBUST_STATE = {
-    "last_v": (), "baseline": (), "n_seen": (), "last_peak": (), "pending": (), "last_step": (),
-}  # fmt: skip
+#: Per-stream scalars of :func:`nod_robust_kernel`: seed 000's detector state
+#: (:data:`estimators.gait.GAIT_STATE`), ``last_valid`` being the last usable vertical specific
+#: force (its ring buffers, whose lengths follow the rate, are arrays beside it).
+NOD_ROBUST_STATE = GAIT_STATE
 
 
 def _nod_robust_run(acc, gyr, quat, k0, prm, state, v_buf, sm_buf, rot_buf, w_buf, out):
@@ -195,8 +194,8 @@ def _nod_robust_run(acc, gyr, quat, k0, prm, state, v_buf, sm_buf, rot_buf, w_bu
             if q_ok and math.isfinite(ax) and math.isfinite(ay) and math.isfinite(az):
                 x = quat_rotate(qw, qx, qy, qz, ax, ay, az)[2]
             else:
-                x = s["last_v"] if math.isfinite(s["last_v"]) else p["gravity"]
-            s["last_v"] = x
+                x = s["last_valid"] if math.isfinite(s["last_valid"]) else p["gravity"]
+            s["last_valid"] = x
             # World angular rate (the previous one where this sample's is unusable).
             gx, gy, gz = gyr[b, i, 0], gyr[b, i, 1], gyr[b, i, 2]
             g_ok = q_ok and math.isfinite(gx) and math.isfinite(gy) and math.isfinite(gz)
@@ -293,14 +292,7 @@ class NodRobustSteps:
         """Forget the streams ``rows`` (indices, a (B,) bool mask, or None: all); their clocks
         restart, so their peak times count from the reset."""
         sel = stream_rows(rows, self.batch_size, "rows")
-        self._clock[sel] = 0
-        st = self._state
-        st["last_v"][sel] = np.nan
-        st["baseline"][sel] = self.params.gravity
-        st["n_seen"][sel] = 0.0
-        st["last_peak"][sel] = -np.inf
-        st["pending"][sel] = np.nan
-        st["last_step"][sel] = -np.inf
+        forget_streams(self._state, self._clock, sel, self.params.gravity)
 
     def update(self, acc: ArrayLike, gyr: ArrayLike, quat: ArrayLike) -> GaitChunk:
         """Consume (B, N, 3) specific force (m/s^2), (B, N, 3) angular rate (rad/s) and (B, N, 4)
