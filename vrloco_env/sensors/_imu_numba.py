@@ -25,9 +25,9 @@ Floating-point order (numba compiles without fast-math, so LLVM does not contrac
 * each bias recursion as ``scipy.signal.lfilter([1], [1, -a], drive, zi=a * state)`` runs it, the
   transposed direct form II: ``y_k = Z + drive_k`` then ``Z = drive_k * 0 - y_k * (-a)``, which
   equals ``a y_k`` up to the sign of a zero;
-* the dipole field as :meth:`~vrloco_env.sensors.imu.MagneticDisturbance.field_at` writes it, but
-  with ``dist ** 3`` and ``dist ** 5`` taken as products of ``dist`` (numpy's ``pow`` may differ
-  from them by an ulp, so the two agree to about 1e-13 uT).
+* the dipole field (:func:`_dipole_field`, also behind
+  :meth:`~vrloco_env.sensors.imu.MagneticDisturbance.field_at`) with ``dist ** 3`` and
+  ``dist ** 5`` taken as products of ``dist``.
 
 Units as in :mod:`vrloco_env.sensors.imu`: m/s^2, rad/s, uT, m, A m^2.
 """
@@ -189,33 +189,51 @@ def _specific_force(qw, qx, qy, qz, a) -> tuple[float, float, float]:
 
 
 @numba.njit(cache=True, inline="always")
+def _dipole_field(dip, rx, ry, rz) -> tuple[float, float, float]:
+    """Field (uT) of the dipole record ``dip`` (:data:`DIPOLE`) at offset ``r`` (m) from it:
+    ``mu0/(4 pi) (3 r (m . r) / |r|^5 - m / |r|^3)``, with ``r`` stretched to the record's
+    ``min_distance`` below it (at the dipole itself, along the moment)."""
+    m = dip["moment"]
+    dist = math.sqrt(rx * rx + ry * ry + rz * rz)
+    min_d = dip["min_distance"]
+    if dist < min_d:  # stretch to min_distance; at the dipole, along the moment
+        if dist > 0.0:
+            rx, ry, rz = rx / dist * min_d, ry / dist * min_d, rz / dist * min_d
+        else:
+            u = dip["direction"]
+            rx, ry, rz = u[0] * min_d, u[1] * min_d, u[2] * min_d
+        dist = min_d
+    m_dot_r = rx * m[0] + ry * m[1] + rz * m[2]
+    d3 = dist * dist * dist
+    d5 = d3 * dist * dist
+    return (MU0_OVER_4PI * (3.0 * rx * m_dot_r / d5 - m[0] / d3) * 1e6,
+            MU0_OVER_4PI * (3.0 * ry * m_dot_r / d5 - m[1] / d3) * 1e6,
+            MU0_OVER_4PI * (3.0 * rz * m_dot_r / d5 - m[2] / d3) * 1e6)  # fmt: skip
+
+
+@numba.njit(cache=True, inline="always")
 def _world_field(earth, dipoles, pos, i, k) -> tuple[float, float, float]:
     """World field (uT) at user ``i``'s sample ``k``: the earth field plus each dipole's
-    (:meth:`~vrloco_env.sensors.imu.MagneticDisturbance.field_at`); ``pos`` (B, N, 3) m is read
-    only when there are dipoles."""
+    (:func:`_dipole_field`); ``pos`` (B, N, 3) m is read only when there are dipoles."""
     mx, my, mz = earth["east"], earth["north"], earth["up"]
     for d in range(dipoles.shape[0]):
-        dip = dipoles[d]
-        at, m = dip["position"], dip["moment"]
-        rx = pos[i, k, 0] - at[0]
-        ry = pos[i, k, 1] - at[1]
-        rz = pos[i, k, 2] - at[2]
-        dist = math.sqrt(rx * rx + ry * ry + rz * rz)
-        min_d = dip["min_distance"]
-        if dist < min_d:  # stretch to min_distance; at the dipole, along the moment
-            if dist > 0.0:
-                rx, ry, rz = rx / dist * min_d, ry / dist * min_d, rz / dist * min_d
-            else:
-                u = dip["direction"]
-                rx, ry, rz = u[0] * min_d, u[1] * min_d, u[2] * min_d
-            dist = min_d
-        m_dot_r = rx * m[0] + ry * m[1] + rz * m[2]
-        d3 = dist * dist * dist
-        d5 = d3 * dist * dist
-        mx = mx + MU0_OVER_4PI * (3.0 * rx * m_dot_r / d5 - m[0] / d3) * 1e6
-        my = my + MU0_OVER_4PI * (3.0 * ry * m_dot_r / d5 - m[1] / d3) * 1e6
-        mz = mz + MU0_OVER_4PI * (3.0 * rz * m_dot_r / d5 - m[2] / d3) * 1e6
+        at = dipoles[d]["position"]
+        bx, by, bz = _dipole_field(dipoles[d], pos[i, k, 0] - at[0], pos[i, k, 1] - at[1],
+                                   pos[i, k, 2] - at[2])  # fmt: skip
+        mx = mx + bx
+        my = my + by
+        mz = mz + bz
     return mx, my, mz
+
+
+def _dipole_points(dipole, points, out) -> None:
+    """The field (uT) of the (1,) dipole record at each of the (P, 3) ``points`` (m) into
+    ``out`` (P, 3): :meth:`~vrloco_env.sensors.imu.MagneticDisturbance.field_at`."""
+    at = dipole[0]["position"]
+    for k in numba.prange(points.shape[0]):
+        out[k, 0], out[k, 1], out[k, 2] = _dipole_field(
+            dipole[0], points[k, 0] - at[0], points[k, 1] - at[1], points[k, 2] - at[2]
+        )
 
 
 @numba.njit(cache=True, inline="always")
@@ -287,4 +305,7 @@ def _sample(q, omega, acc, pos, z, sensors, earth, dipoles, state, out) -> None:
 
 
 sample_kernel = BatchKernel(_sample, parallel=False)
+
+#: The field of one dipole at P points: ``dipole_kernel(P)(dipole, points, out)``.
+dipole_kernel = BatchKernel(_dipole_points, parallel=False)
 """The measurement model for B users: ``sample_kernel(B)(...)`` (see :func:`_sample`)."""

@@ -492,21 +492,28 @@ class MagneticDisturbance:
         return cls(position=tuple(position), moment=tuple(moment), min_distance=min_distance)
 
     def field_at(self, points: ArrayLike) -> NDArray[np.float64]:
-        """Dipole field (uT) at world points (m), shape ``(..., 3)`` -> ``(..., 3)``."""
+        """Dipole field (uT) at world points (m), shape ``(..., 3)`` -> ``(..., 3)``: the IMU
+        kernel's own field (:func:`vrloco_env.sensors._imu_numba._dipole_field`)."""
         p = np.asarray(points, dtype=np.float64)
-        r = p - np.asarray(self.position)
-        dist = np.sqrt(r[..., 0] ** 2 + r[..., 1] ** 2 + r[..., 2] ** 2)[..., None]
-        near = dist < self.min_distance
-        if np.any(near):
-            # Stretch to min_distance; a point exactly at the dipole goes along the moment.
-            m_dir = np.asarray(self.moment) / max(np.linalg.norm(self.moment), 1e-300)
-            unit = np.where(dist > 0.0, r / np.where(dist > 0.0, dist, 1.0), m_dir)
-            r = np.where(near, unit * self.min_distance, r)
-            dist = np.where(near, self.min_distance, dist)
-        m = np.asarray(self.moment)
-        m_dot_r = r[..., 0:1] * m[0] + r[..., 1:2] * m[1] + r[..., 2:3] * m[2]
-        b_tesla = MU0_OVER_4PI * (3.0 * r * m_dot_r / dist**5 - m / dist**3)
-        return b_tesla * 1e6
+        if p.ndim == 0 or p.shape[-1] != 3:
+            raise ValueError(f"points must have shape (..., 3), got {p.shape}")
+        flat = np.ascontiguousarray(p.reshape(-1, 3))
+        out = np.empty_like(flat)
+        _kernel.dipole_kernel(flat.shape[0])(_dipole_records((self,)), flat, out)
+        return out.reshape(p.shape)
+
+
+def _dipole_records(disturbances: Sequence[MagneticDisturbance]) -> NDArray:
+    """The kernel's dipole records (:data:`vrloco_env.sensors._imu_numba.DIPOLE`), one per
+    disturbance."""
+    dip = np.zeros(len(disturbances), record_dtype(_kernel.DIPOLE))
+    for i, d in enumerate(disturbances):
+        moment = np.asarray(d.moment)
+        dip["position"][i] = d.position
+        dip["moment"][i] = moment
+        dip["direction"][i] = moment / max(np.linalg.norm(moment), 1e-300)  # used at the dipole
+        dip["min_distance"][i] = d.min_distance
+    return dip
 
 
 class ImuSamples(NamedTuple):
@@ -647,14 +654,7 @@ class HeadImu:
         ])  # fmt: skip
         east, north, up = self._field_world
         self._earth = param_record(east=east, north=north, up=up)
-        dip = self._dipoles = np.zeros(len(disturbances), record_dtype(_kernel.DIPOLE))
-        for i, d in enumerate(disturbances):
-            moment = np.asarray(d.moment)
-            dip["position"][i] = d.position
-            dip["moment"][i] = moment
-            # The direction MagneticDisturbance.field_at uses at the dipole itself, same expression.
-            dip["direction"][i] = moment / max(np.linalg.norm(moment), 1e-300)
-            dip["min_distance"][i] = d.min_distance
+        self._dipoles = _dipole_records(disturbances)
         self.reset()
 
     @property
