@@ -65,6 +65,7 @@ __all__ = [
     "DEFAULT_TECHNIQUES",
     "ROW_KEYS",
     "Cell",
+    "print_table",
     "run_batched",
     "run_benchmark",
     "run_cell_batched",
@@ -544,7 +545,7 @@ def run_benchmark(
         }
         rows.append({k: _round(row[k]) for k in ROW_KEYS})
     if print_table and rows:
-        _print_table(rows, seed)
+        print_table(rows, seed)
     meta = {"seed": seed, "episodes": episodes, "workers": workers, "batch_size": batch_size,
             "tasks": tasks, "policies": policies, "techniques": names}  # fmt: skip
     written = []
@@ -684,7 +685,7 @@ _COMPACT_HEADS = {"success_rate": "succ.", "collision_rate": "coll.", "step_f1":
 _FULL_WIDTH = 180
 
 
-def _print_table(rows: list[dict[str, Any]], seed: int, width: int | None = None) -> None:
+def print_table(rows: list[dict[str, Any]], seed: int, width: int | None = None) -> None:
     """The rows as a table fitted to the terminal (``width``: its columns, None to ask it)."""
     from rich.console import Console
     from rich.table import Table

@@ -41,8 +41,8 @@ from agents.experiments.head_motions import (
     CADENCES,
     PRESETS,
     Trial,
-    _simulate,
     run_trial,
+    sense_record,
     stepping_with_head_scan,
 )
 from estimators.gait import step_f1
@@ -92,7 +92,7 @@ def gesture_trial(amp_deg, freq_hz, preset: str, users: int, seed: int, seconds:
     n = round(seconds * params.control_rate_hz)
     plan = [still] * 20 + [move] * (n - 40) + [still] * 20
     rec = MotionRecord.concatenate([motion.advance(i) for i in plan])
-    return _simulate(rec, rng, preset, FS)
+    return sense_record(rec, rng, preset, FS)
 
 
 def detect(spec: object, trial: Trial, true_attitude: bool) -> list[np.ndarray]:

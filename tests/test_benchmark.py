@@ -237,18 +237,18 @@ def test_unknown_policies_and_techniques_are_named():
 
 
 def test_the_table_fits_a_narrow_terminal(capsys):
-    from agents.benchmark import _print_table
+    from agents.benchmark import print_table
 
     row = {k: 0.5 for k in ROW_KEYS}
     row.update(task="approach", policy="goal_seeker+human", technique="seed000_consumer",
                sensors="consumer_mems", episodes=40)  # fmt: skip
-    _print_table([row], 0, width=80)
+    print_table([row], 0, width=80)
     out = capsys.readouterr().out
     lines = out.splitlines()
     assert max(len(line) for line in lines) <= 80
     assert "goal_seeker+human" in out and "seed000_consumer" in out  # names are not cut
     assert "compact view" in out
-    _print_table([row], 0, width=200)
+    print_table([row], 0, width=200)
     assert "time to goal" in capsys.readouterr().out
 
 

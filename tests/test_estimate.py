@@ -63,16 +63,17 @@ def test_a_step_length_outside_a_persons_range_is_refused(recording, tmp_path, c
 
 
 def test_the_oxford_reader_merges_repeated_timestamps_and_refuses_backward_time(tmp_path):
-    from estimators.io_oxford import _read_csv
+    from estimators.io_oxford import read_accelerometer
 
     p = tmp_path / "accelerometer.csv"
-    p.write_text("100,1,2,3\n200,1,2,3\n200,3,2,1\n300,0,0,0\n")
-    t, v = _read_csv(p, 4)
-    np.testing.assert_array_equal(t, [100, 200, 300])
-    np.testing.assert_allclose(v[1], [2.0, 2.0, 2.0])
-    p.write_text("100,1,2,3\n50,1,2,3\n")
+    p.write_text("100,3,1,2,3\n200,3,1,2,3\n200,3,3,2,1\n300,3,0,0,0\n")
+    t, acc, t0 = read_accelerometer(tmp_path)
+    assert t0 == 100
+    np.testing.assert_allclose(t, [0.0, 100e-9, 200e-9], rtol=1e-12)
+    np.testing.assert_allclose(acc[1], [2.0, 2.0, 2.0])  # the two samples at 200 ns, averaged
+    p.write_text("100,3,1,2,3\n50,3,1,2,3\n")
     with pytest.raises(ValueError, match="time runs backwards at row 2"):
-        _read_csv(p, 4)
+        read_accelerometer(tmp_path)
 
 
 # ------------------------------------------------------------------------------------------------

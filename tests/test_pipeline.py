@@ -226,7 +226,8 @@ def test_torso_steering_walks_straight_while_the_head_looks_around():
             core.generators[i] = np.random.default_rng(30 + i)
         core.reset()
         users = core.users
-        start = users._last_loco.copy()
+        start_yaw = np.array([lay.start[2] for lay in core.layouts])[None, :]
+        position = np.zeros((3, 2))
         positions = []
         for _ in range(80):
             intent = Intent(
@@ -234,12 +235,11 @@ def test_torso_steering_walks_straight_while_the_head_looks_around():
                 gesture_amplitude=np.tile([np.deg2rad(35.0), 0.0, 0.0], (3, 1)),
                 gesture_frequency=np.tile([0.3, 0.3, 0.3], (3, 1)), lean=np.zeros(3),
             )  # fmt: skip
-            users.step(intent)
-            positions.append(users._last_loco - start)
+            position = position + users.step(intent).displacement
+            positions.append(position)
         path = np.diff(np.array(positions), axis=0)  # (T, B, 2)
         moving = np.hypot(path[..., 0], path[..., 1]) > 1e-6
         direction = np.arctan2(path[..., 1], path[..., 0])
-        start_yaw = users._start_yaw[None, :]
         err = np.rad2deg(np.angle(np.exp(1j * (direction - start_yaw))))[moving]
         headings[name] = np.sqrt(np.mean(err**2))
     # The head sweeps +-35 deg: the walk follows it (RMS ~ 35 / sqrt 2 = 25 deg) ...

@@ -17,11 +17,11 @@ from vrloco_env.world import (
     Layout,
     RoomBatch,
     RoomConfig,
+    finish_layout,
     ray_cast_2d,
     signed_distance,
     tile_origins,
 )
-from vrloco_env.world.planning import _path_length, _plan
 
 TASK_NAMES = ("approach", "avoid", "interact")
 CFG = RoomConfig()
@@ -47,6 +47,14 @@ def _layouts(task: str, n: int = 200) -> tuple[Layout, ...]:
 def _empty_room() -> Layout:
     """An approach room with its obstacles removed: walls only, interior [-4, 4]^2."""
     return replace(approach_layout(CFG, np.random.default_rng(0)), obstacles=())
+
+
+def _planned(obstacles, start, goal) -> Layout:
+    """The empty room's walls plus ``obstacles``, its path planned by :func:`finish_layout`."""
+    lay = finish_layout(CFG, "approach", _empty_room().bounds, list(obstacles), np.array(start),
+                        0.0, np.array(goal), None, None)  # fmt: skip
+    assert lay is not None
+    return lay
 
 
 @pytest.mark.parametrize("task", TASK_NAMES)
@@ -84,18 +92,9 @@ def test_200_seeds_feasible_with_collision_free_shortest_paths(task):
 
 
 def test_shortest_path_is_near_optimal_in_an_empty_room():
-    lay = replace(_empty_room(), start=(-3.0, -1.0, 0.0), goal=(2.0, 1.0))
-    path = _plan(
-        lay._packed,
-        lay.bounds,
-        np.array([-3.0, -1.0]),
-        lay.in_goal,
-        lay.nearest_goal_point,
-        lay.avatar_radius,
-        CFG.grid_resolution,
-    )
+    lay = _planned((), start=(-3.0, -1.0), goal=(2.0, 1.0))
     true = np.hypot(5.0, 2.0) - lay.goal_radius  # a straight line to the disc
-    assert _path_length(path) == pytest.approx(true, abs=0.01)
+    assert lay.shortest_path_length == pytest.approx(true, abs=0.01)
 
 
 def test_shortest_path_around_a_wall_matches_the_taut_string():
@@ -103,27 +102,15 @@ def test_shortest_path_around_a_wall_matches_the_taut_string():
     # pass over its top. The shortest path is a taut string: a tangent leg from the start to the
     # clearance circle (radius r) round the corner (-0.05, 2), an arc, 0.1 m along the top, the
     # mirror arc and leg towards the goal, less the goal radius.
-    lay = replace(
-        _empty_room(),
-        obstacles=(Box((0.0, -1.0), (0.05, 3.0), 0.0, 2.0),),
-        start=(-2.0, -2.0, 0.0),
-        goal=(2.0, -2.0),
-    )
-    path = _plan(
-        lay._packed,
-        lay.bounds,
-        np.array([-2.0, -2.0]),
-        lay.in_goal,
-        lay.nearest_goal_point,
-        lay.avatar_radius,
-        CFG.grid_resolution,
-    )
+    lay = _planned((Box((0.0, -1.0), (0.05, 3.0), 0.0, 2.0),), start=(-2.0, -2.0), goal=(2.0, -2.0))
+    path = lay.path
     assert signed_distance(lay, _dense(path)).min() >= lay.avatar_radius
     r = lay.avatar_radius
     d = np.hypot(1.95, 4.0)  # start to the corner
     turn = np.arctan2(4.0, 1.95) + np.arcsin(r / d)  # leg heading, turned back to +x on the arc
     true = 2.0 * np.sqrt(d**2 - r**2) + 2.0 * r * turn + 0.1 - lay.goal_radius
-    length = _path_length(path)
+    length = lay.shortest_path_length
+    assert length == pytest.approx(np.hypot(*np.diff(path, axis=0).T).sum(), abs=1e-12)
     assert length >= true - 1e-9  # nothing collision-free beats the taut string
     assert length == pytest.approx(true, rel=0.015)
 

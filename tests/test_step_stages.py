@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from kernel_cases.steps import CASES as STEP_CASES
 
-from agents.experiments.head_motions import CADENCES, PRESETS, Trial, _simulate, run_trial
+from agents.experiments.head_motions import CADENCES, PRESETS, Trial, run_trial, sense_record
 from estimators.gait import GaitChunk, GaitParams, Seed000Steps, StepDetector, step_f1
 from estimators.rotations import GRAVITY, quat_from_ypr, quat_rotate_inverse
 from estimators.stages import STEPS, StepStage
@@ -58,7 +58,8 @@ def gesture(preset: str, name: str, cadence: float = 0.0) -> Trial:
     still = Intent(gesture_frequency=freq)
     move = Intent(cadence=cadence, gesture_amplitude=tuple(np.deg2rad(amp)), gesture_frequency=freq)
     plan = [still] * 20 + [move] * 160 + [still] * 20
-    return _simulate(MotionRecord.concatenate([motion.advance(i) for i in plan]), rng, preset, FS)
+    record = MotionRecord.concatenate([motion.advance(i) for i in plan])
+    return sense_record(record, rng, preset, FS)
 
 
 def detected(name: str, trial: Trial) -> list[np.ndarray]:
@@ -193,7 +194,7 @@ def _trial_inputs() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     nod = {"gesture_amplitude": tuple(np.deg2rad(amp)), "gesture_frequency": freq}
     plan = ([Intent(gesture_frequency=freq)] * 10 + [Intent(cadence=1.7, gesture_frequency=freq)]
             * 40 + [Intent(cadence=1.7, **nod)] * 20 + [Intent(**nod)] * 20)  # fmt: skip
-    trial = _simulate(MotionRecord.concatenate([motion.advance(i) for i in plan]), rng,
+    trial = sense_record(MotionRecord.concatenate([motion.advance(i) for i in plan]), rng,
                       "consumer_mems", FS)  # fmt: skip
     return trial.imu.acc, trial.imu.gyr, trial.q_est
 

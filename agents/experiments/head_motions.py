@@ -52,7 +52,9 @@ class Trial:
     state: np.ndarray  # (B, N) still 0 / walk 1
 
 
-def _simulate(record: MotionRecord, rng: BatchRng, preset: str, fs: float) -> Trial:
+def sense_record(record: MotionRecord, rng: BatchRng, preset: str, fs: float) -> Trial:
+    """A true motion record through the head IMU ``preset`` at ``fs`` Hz, the seed 000 EKF and
+    step detector: the :class:`Trial` of every head-motion case."""
     imu = HeadImu(get_imu_spec(preset), rng, rate_hz=fs)
     s = imu.sample(record.quat, record.omega, record.acc, record.pos)
     q_est = estimate_attitude(s.gyr, s.acc, s.mag, fs)
@@ -71,7 +73,7 @@ def run_trial(name: str, preset: str, users: int, seed: int, cadence: float = 1.
     rng = BatchRng([np.random.default_rng([seed, i]) for i in range(users)])
     params = MotionParams(imu_rate_hz=fs)
     rec = run_script(name, rng, params, cadence=cadence)
-    return _simulate(rec, rng, preset, fs)
+    return sense_record(rec, rng, preset, fs)
 
 
 def stepping_with_head_scan(preset: str, users: int, seed: int, cadence: float,
@@ -86,7 +88,7 @@ def stepping_with_head_scan(preset: str, users: int, seed: int, cadence: float,
     still = Intent(gesture_frequency=(0.3, 0.2, 0.3))
     plan = [still] * 20 + [scan] * 160 + [still] * 20
     rec = MotionRecord.concatenate([motion.advance(i) for i in plan])
-    return _simulate(rec, rng, preset, fs)
+    return sense_record(rec, rng, preset, fs)
 
 
 def attitude_rmse(trial: Trial) -> dict[str, float]:
