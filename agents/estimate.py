@@ -63,7 +63,8 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from estimators.attitude import MAX_GYR_NORM, MIN_ACC_NORM, estimate_attitude, orientation_errors
+from estimators.attitude import MAX_GYR_NORM, MIN_ACC_NORM, estimate_attitude
+from estimators.attitude_errors import orientation_errors
 from estimators.dead_reckoning import dead_reckon
 from estimators.gait import GaitParams, detect_steps, step_f1
 from estimators.rotations import GRAVITY, quat_to_ypr

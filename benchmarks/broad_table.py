@@ -5,14 +5,14 @@
 Data: Laidig, Caruso, Cereatti, Seel, "BROAD - A Benchmark for Robust Inertial Orientation
 Estimation", Data 6(7):72, 2021, CC-BY-4.0 (nine of its 39 trials live in ``shared/data/broad``).
 
-Metric (:func:`estimators.attitude.orientation_errors`, BROAD's own definitions): RMSE in degrees
-over the ``movement`` samples of the earth-frame error ``q_est ⊗ conj(q_true)``: total angle,
-heading (rotation about the vertical) and inclination, one table each, per trial, with the mean
-and the win counts (the lowest RMSE of the trial among the six main columns; ties count for
+Metric (:func:`estimators.attitude_errors.orientation_errors`, BROAD's own definitions): RMSE in
+degrees over the ``movement`` samples of the earth-frame error ``q_est ⊗ conj(q_true)``: total
+angle, heading (rotation about the vertical) and inclination, one table each, per trial, with the
+mean and the win counts (the lowest RMSE of the trial among the six main columns; ties count for
 each). As in BROAD's example code no heading alignment is applied to 9D estimates: the optical
 reference is already in the magnetometer's ENU frame. Then the head-to-head counts, online EKF
-against online VQF and offline EKF against offline VQF, and the gain of each offline mode over
-its online filter.
+against online VQF and offline EKF against offline VQF, and the gain of each offline mode over its
+online filter.
 
 Columns, each with its library defaults and the data's sampling rate, and where its parameters
 come from (``in``: in-sample, ``out``: out-of-sample):
@@ -43,7 +43,8 @@ from pathlib import Path
 
 import numpy as np
 
-from estimators.attitude import estimate_attitude, orientation_errors
+from estimators.attitude import estimate_attitude
+from estimators.attitude_errors import orientation_errors
 from estimators.io_broad import BroadTrial, broad_trials, load_broad
 from estimators.rotations import GRAVITY, quat_from_rotvec, quat_multiply
 

@@ -6,7 +6,9 @@ Modules:
 * :mod:`estimators.stages` — the stage protocols (attitude, steps, hand, steering, locomotion)
   and their registries of named implementations; ``"module:attr"`` plug-ins.
 * :mod:`estimators.rotations` — the one quaternion / rotation-matrix / ZYX-Euler module.
-* :mod:`estimators.attitude` — seed 000's error-state attitude EKF (streaming and offline);
+* :mod:`estimators.attitude` — seed 000's error-state attitude EKF (streaming; offline through
+  :mod:`estimators.attitude_offline`, the forward-backward smoother);
+  :mod:`estimators.attitude_errors` — BROAD's orientation error metrics;
   :mod:`estimators.attitude_vqf`, :mod:`estimators.attitude_madgwick`,
   :mod:`estimators.attitude_mahony`, :mod:`estimators.attitude_gyro` — the other attitude stages.
 * :mod:`estimators.gait` — seed 000's still/walk and step detector; step F1;

@@ -170,18 +170,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from estimators import _attitude_numba as _k
+from estimators.attitude_offline import smooth_attitude
 from estimators.batching import stream_rows
 from estimators.kernels import param_record, state_records
-from estimators.rotations import (
-    GRAVITY,
-    quat_conjugate,
-    quat_from_rotvec,
-    quat_multiply,
-    quat_normalize,
-    quat_to_matrix,
-    quat_to_rotvec,
-    quat_to_ypr,
-)
+from estimators.rotations import GRAVITY, quat_to_ypr
 from estimators.validation import check_in_range, value_repr
 
 __all__ = [
@@ -190,7 +182,6 @@ __all__ = [
     "EkfStage",
     "estimate_attitude",
     "f_zero_ekf",
-    "orientation_errors",
     "paper_literal_ekf",
 ]
 
@@ -545,6 +536,53 @@ class AttitudeEKF:
             _raise_units(flag, self._state)
         return out
 
+    def filter_with_covariance(
+        self, gyr: ArrayLike, acc: ArrayLike, mag: ArrayLike | None = None
+    ) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+        """Process N samples per stream (B, N, 3) as :meth:`update_batch`, one kernel call per
+        sample, keeping after each sample what a smoother needs.
+
+        Returns:
+            ``q`` (B, N, 4) (bit for bit :meth:`update_batch`), the attitude block of P
+            (B, N, 3, 3), and the ``init`` and ``head_init`` flags (B, N) bool.
+
+        Raises:
+            ValueError: the unit guard, as :meth:`update_batch` raises it (its counters are
+                cumulative, so the flag of the last call is that of a single call).
+        """
+        g = _as_samples(gyr, "gyr", None)
+        if g.ndim != 3 or g.shape[0] != self.n_streams:
+            raise ValueError(f"gyr must have shape ({self.n_streams}, N, 3), got {g.shape}")
+        a = _as_samples(acc, "acc", g.shape)
+        m = np.full(g.shape, np.nan) if mag is None else _as_samples(mag, "mag", g.shape)
+        b, n = g.shape[0], g.shape[1]
+
+        def per_sample(x: NDArray) -> NDArray:  # (N, B, 1, 3): x_s[k] is the kernel's (B, 1, 3)
+            x_s = np.empty((n, b, 1, 3))  # fresh C-ordered strides: the kernel's compiled layout
+            x_s[:, :, 0] = np.moveaxis(x, 1, 0)
+            return x_s
+
+        gs, as_, ms = per_sample(g), per_sample(a), per_sample(m)
+        out = np.empty((n, b, 1, 4))
+        cov = np.empty((n, b, 3, 3))
+        flags = np.empty((n, 2, b))
+        state, scratch, prm = self._state, self._scratch, self._prm
+        # Views of the state record, which the kernel updates in place.
+        p_att, init, head = state["P"][:, :3, :3], state["init"], state["head_init"]
+        kernel = _k.ekf_kernel(b)
+        flag = -1
+        for k in range(n):
+            flag = kernel(state, scratch, gs[k], as_[k], ms[k], prm, out[k])
+            cov[k] = p_att
+            flags[k, 0] = init
+            flags[k, 1] = head
+        if flag >= 0:
+            _raise_units(flag, state)
+        return (
+            np.moveaxis(out[:, :, 0], 0, 1), np.moveaxis(cov, 0, 1),
+            np.moveaxis(flags[:, 0], 0, 1) != 0.0, np.moveaxis(flags[:, 1], 0, 1) != 0.0,
+        )  # fmt: skip
+
     @property
     def state(self) -> np.recarray:
         """(B,) filter state, one record per stream, fields named in
@@ -700,211 +738,5 @@ def estimate_attitude(
         if m.shape != g.shape:
             raise ValueError(f"mag must have the shape of gyr {g.shape[single:]}, got {m.shape}")
     ekf = AttitudeEKF(g.shape[0], fs, params, **overrides)
-    out = _smooth(ekf, g, a, m) if offline else ekf.update_batch(g, a, m)
+    out = smooth_attitude(ekf, g, a, m) if offline else ekf.update_batch(g, a, m)
     return out[0] if single else out
-
-
-# ------------------------------------------------------------------------------------------------
-# Offline mode: the forward-backward smoother of estimate_attitude(..., offline=True).
-# ------------------------------------------------------------------------------------------------
-
-#: Variance (rad^2) standing for "unknown" in the fusion: a pass not yet initialised, or its
-#: heading before its first magnetometer sample (a 1000 rad standard deviation).
-_UNKNOWN_VAR = 1e6
-
-
-def _filter_pass(
-    ekf: AttitudeEKF, g: NDArray, a: NDArray, m: NDArray
-) -> tuple[NDArray, NDArray, NDArray, NDArray]:
-    """Run ``ekf`` (fresh) over (B, N, 3) samples, one kernel call per sample, keeping what the
-    fusion needs after each sample.
-
-    Returns:
-        ``q`` (B, N, 4) (bit for bit :meth:`AttitudeEKF.update_batch`), the attitude block of P
-        (B, N, 3, 3), and the ``init`` and ``head_init`` flags (B, N) bool.
-
-    Raises:
-        ValueError: the unit guard, as :meth:`AttitudeEKF.update_batch` raises it (its counters
-            are cumulative, so the flag of the last call is that of a single call).
-    """
-    b, n = g.shape[0], g.shape[1]
-
-    def per_sample(x: NDArray) -> NDArray:  # (N, B, 1, 3): x_s[k] is the kernel's (B, 1, 3)
-        x_s = np.empty((n, b, 1, 3))  # fresh C-ordered strides: the kernel's compiled layout
-        x_s[:, :, 0] = np.moveaxis(x, 1, 0)
-        return x_s
-
-    gs, as_, ms = per_sample(g), per_sample(a), per_sample(m)
-    out = np.empty((n, b, 1, 4))
-    cov = np.empty((n, b, 3, 3))
-    flags = np.empty((n, 2, b))
-    state, scratch, prm = ekf._state, ekf._scratch, ekf._prm
-    # Views of the state record, which the kernel updates in place.
-    p_att, init, head = state["P"][:, :3, :3], state["init"], state["head_init"]
-    kernel = _k.ekf_kernel(b)
-    flag = -1
-    for k in range(n):
-        flag = kernel(state, scratch, gs[k], as_[k], ms[k], prm, out[k])
-        cov[k] = p_att
-        flags[k, 0] = init
-        flags[k, 1] = head
-    if flag >= 0:
-        _raise_units(flag, state)
-    return (
-        np.moveaxis(out[:, :, 0], 0, 1), np.moveaxis(cov, 0, 1),
-        np.moveaxis(flags[:, 0], 0, 1) != 0.0, np.moveaxis(flags[:, 1], 0, 1) != 0.0,
-    )  # fmt: skip
-
-
-def _world_cov(q: NDArray, p_att: NDArray, printed: bool) -> NDArray:
-    """(..., 3, 3) attitude error covariance in the world frame (small rotations about the ENU
-    axes, ``q_true = exp(e) ⊗ q``) from the filter's attitude block ``p_att``: the local error
-    ``dphi`` (``e = R(q) dphi``), or under the printed model the Euler-angle errors
-    ``[pitch, roll, yaw]`` (``e = J d``, J the ZYX Euler-rate Jacobian: yaw about e_z, pitch
-    about ``Rz(yaw) e_y``, roll about ``Rz(yaw) Ry(pitch) e_x``)."""
-    if printed:
-        ypr = quat_to_ypr(q)
-        cy, sy = np.cos(ypr[..., 0]), np.sin(ypr[..., 0])
-        cp, sp = np.cos(ypr[..., 1]), np.sin(ypr[..., 1])
-        zero, one = np.zeros_like(cy), np.ones_like(cy)
-        j = np.stack(
-            [-sy, cy * cp, zero,
-             cy, sy * cp, zero,
-             zero, -sp, one],
-            axis=-1,
-        ).reshape(*cy.shape, 3, 3)  # fmt: skip
-    else:
-        j = quat_to_matrix(q)
-    w = j @ p_att @ np.swapaxes(j, -1, -2)
-    return 0.5 * (w + np.swapaxes(w, -1, -2))
-
-
-def _heading_offset(q_f: NDArray, q_b: NDArray, w_zz: NDArray, both: NDArray) -> NDArray:
-    """(B,) constant heading (rad, about world z) from ``q_f`` to ``q_b``: the circular mean of
-    the heading twist of ``q_b ⊗ conj(q_f)`` over the samples ``both``, weights ``1 / w_zz``."""
-    tw = _heading_twist(quat_multiply(q_b, quat_conjugate(q_f)))
-    wt = np.where(both, 1.0 / w_zz, 0.0)
-    return np.arctan2(np.sum(wt * np.sin(tw), axis=-1), np.sum(wt * np.cos(tw), axis=-1))
-
-
-def _smooth(ekf: AttitudeEKF, g: NDArray, a: NDArray, m: NDArray | None) -> NDArray:
-    """The forward-backward smoother of :func:`estimate_attitude` (``offline=True``) on
-    (B, N, 3) samples, ``ekf`` a fresh filter with the parameters of both passes."""
-    if m is None:
-        m = np.full(g.shape, np.nan)
-    q_f, p_f, init_f, head_f = _filter_pass(ekf, g, a, m)
-    # The reversed stream: reversed sample k is sample N-1-k; its gyro is -gyr[N-k] (NaN first).
-    g_r = np.empty_like(g)
-    g_r[:, :1] = np.nan
-    g_r[:, 1:] = -g[:, :0:-1]
-    ekf.reset()
-    q_b, p_b, init_b, head_b = (x[:, ::-1] for x in _filter_pass(ekf, g_r, a[:, ::-1], m[:, ::-1]))
-
-    printed = ekf.params.model == "paper_literal"
-    has_mag = np.any(np.isfinite(m).all(axis=-1), axis=-1)
-    absolute = has_mag & head_f.any(axis=-1) & head_b.any(axis=-1)  # (B,)
-    both = init_f & init_b
-    if not absolute.all():  # no common heading origin: turn the backward pass onto the forward
-        w_zz = _world_cov(q_f, p_f, printed)[..., 2, 2] + _world_cov(q_b, p_b, printed)[..., 2, 2]
-        off = np.where(absolute, 0.0, _heading_offset(q_f, q_b, w_zz, both))
-        half = -0.5 * off[:, None]
-        rz = np.stack([np.cos(half), 0.0 * half, 0.0 * half, np.sin(half)], axis=-1)
-        q_b = quat_normalize(quat_multiply(rz, q_b))
-
-    def world(q: NDArray, p: NDArray, init: NDArray, head: NDArray) -> NDArray:
-        w = _world_cov(q, p, printed)
-        w[..., 2, 2] += np.where(absolute[:, None] & ~head, _UNKNOWN_VAR, 0.0)
-        return np.where(init[..., None, None], w, _UNKNOWN_VAR * np.eye(3))
-
-    w_f, w_b = world(q_f, p_f, init_f, head_f), world(q_b, p_b, init_b, head_b)
-    d = quat_to_rotvec(quat_multiply(q_b, quat_conjugate(q_f)))
-    e = (w_f @ np.linalg.solve(w_f + w_b, d[..., None]))[..., 0]
-    q_s = quat_normalize(quat_multiply(quat_from_rotvec(e), q_f))
-    return np.where((init_f | init_b)[..., None], q_s, q_f)
-
-
-def _heading_twist(e: NDArray) -> NDArray:
-    """Signed angle (rad) of the rotation about world z contained in earth-frame errors ``e``."""
-    return 2.0 * np.arctan2(e[..., 3], e[..., 0])
-
-
-def orientation_errors(
-    q_est: ArrayLike,
-    q_true: ArrayLike,
-    mask: ArrayLike | None = None,
-    *,
-    align_heading: bool = False,
-) -> dict[str, Any]:
-    """BROAD's orientation error metric (Laidig et al., Data 6(7), 2021, and its example code).
-
-    The earth-frame error ``e = q_est ⊗ conj(q_true)``; total error ``2 acos(|e_w|)``; heading
-    error ``2 atan(|e_z / e_w|)``; inclination error ``2 acos(sqrt(e_w^2 + e_z^2))``; each as an
-    RMSE in degrees over the masked samples, NaN (lost markers) ignored.
-
-    BROAD's own evaluation does not align headings: its ``opt_quat`` is already expressed in the
-    magnetometer's ENU frame (VQF scores 2.6 deg on our nine trials without any alignment, as the
-    data README says). ``align_heading=True`` first removes the constant heading offset between the
-    two earth frames (circular mean of the heading twist of ``e`` over the masked samples), for 6D
-    estimates or data whose reference frame has an arbitrary heading; for 6D only the
-    inclination is meaningful anyway.
-
-    Args:
-        q_est: estimated quaternions, (N, 4) or (B, N, 4), sensor -> earth.
-        q_true: reference quaternions, same shape (NaN rows ignored).
-        mask: (N,) or (B, N) booleans selecting the samples to score (BROAD: ``movement``), or
-            None for all.
-        align_heading: remove a constant heading offset first.
-
-    Returns:
-        dict with ``total_rmse_deg``, ``heading_rmse_deg``, ``inclination_rmse_deg`` (floats for
-        one recording, (B,) arrays for B), ``heading_offset_deg`` (the removed offset, 0 if not
-        aligned) and ``n_samples`` (samples scored).
-    """
-    qe = np.asarray(q_est, dtype=np.float64)
-    qt = np.asarray(q_true, dtype=np.float64)
-    if qe.ndim not in (2, 3) or qe.shape[-1] != 4:
-        raise ValueError(f"q_est must have shape (N, 4) or (B, N, 4), got {qe.shape}")
-    if qt.shape != qe.shape:
-        raise ValueError(f"q_true must have the shape of q_est {qe.shape}, got {qt.shape}")
-    if mask is None:
-        sel = np.ones(qe.shape[:-1], dtype=bool)
-    else:
-        sel = np.asarray(mask)
-        if sel.dtype != bool:
-            raise ValueError(f"mask must be boolean, got dtype {sel.dtype}")
-        if sel.shape != qe.shape[:-1]:
-            raise ValueError(f"mask must have shape {qe.shape[:-1]}, got {sel.shape}")
-    with np.errstate(invalid="ignore", divide="ignore"):
-        e = quat_normalize(quat_multiply(qe, quat_conjugate(qt)))
-    valid = sel & np.all(np.isfinite(e), axis=-1)
-    offset = np.zeros(qe.shape[:-2])
-    if align_heading:
-        tw = _heading_twist(e)
-        s = np.sum(np.where(valid, np.sin(tw), 0.0), axis=-1)
-        c = np.sum(np.where(valid, np.cos(tw), 0.0), axis=-1)
-        offset = np.arctan2(s, c)
-        half = -0.5 * offset[..., None]
-        rz = np.stack([np.cos(half), 0 * half, 0 * half, np.sin(half)], axis=-1)
-        e = quat_multiply(rz, e)
-    w = np.abs(e[..., 0])
-    with np.errstate(invalid="ignore", divide="ignore"):
-        total = 2.0 * np.arccos(np.clip(w, 0.0, 1.0))
-        heading = 2.0 * np.arctan(np.abs(e[..., 3] / e[..., 0]))
-        incl = 2.0 * np.arccos(np.clip(np.sqrt(e[..., 0] ** 2 + e[..., 3] ** 2), 0.0, 1.0))
-    n = np.sum(valid, axis=-1)
-
-    def rmse(x: NDArray) -> NDArray:
-        sq = np.where(valid, x * x, 0.0)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            return np.degrees(np.sqrt(np.sum(sq, axis=-1) / n))
-
-    out: dict[str, Any] = {
-        "total_rmse_deg": rmse(total),
-        "heading_rmse_deg": rmse(heading),
-        "inclination_rmse_deg": rmse(incl),
-        "heading_offset_deg": np.degrees(offset),
-        "n_samples": n,
-    }
-    if qe.ndim == 2:
-        out = {k: (int(v) if k == "n_samples" else float(v)) for k, v in out.items()}
-    return out

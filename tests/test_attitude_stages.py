@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from _trajectories import circle_motion
 
-from estimators.attitude import orientation_errors
+from estimators.attitude_errors import orientation_errors
 from estimators.attitude_gyro import GyroOnly, GyroOnlyParams, gyro_kernel
 from estimators.attitude_madgwick import Madgwick, MadgwickParams, madgwick_kernel
 from estimators.attitude_mahony import Mahony, MahonyParams, mahony_kernel
