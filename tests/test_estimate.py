@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from agents.cli import main
-from agents.estimate import read_csv_recording
+from agents.recordings import read_csv_recording
 from vrloco_env.batch_rng import BatchRng
 from vrloco_env.sensors.imu import HeadImu, get_imu_spec
 from vrloco_env.user import run_script

@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 import vrloco_env  # noqa: F401  (registers the environments)
-from agents.estimate import MAX_ACC_AXIS, MAX_GYR_AXIS, read_csv_recording
+from agents.recordings import MAX_ACC_AXIS, MAX_GYR_AXIS, read_csv_recording
 from agents.scripted import PolicyParams
 from estimators.attitude import AttitudeParams
 from estimators.gait import GaitParams
