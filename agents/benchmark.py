@@ -41,8 +41,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from agents.benchmark_figures import draw_cell
+from agents.benchmark_figures import draw_cell, draw_grid
 from agents.metrics import (
+    COLLISION_CAUSES,
     MOTION_KEYS,
     STEP_KEYS,
     TRACE_KEYS,
@@ -65,12 +66,12 @@ __all__ = [
     "DEFAULT_TECHNIQUES",
     "ROW_KEYS",
     "Cell",
-    "print_table",
     "run_batched",
     "run_benchmark",
     "run_cell_batched",
     "run_cell_episode",
     "run_episode",
+    "show_table",
     "step_window",
 ]
 
@@ -113,6 +114,7 @@ ROW_KEYS = (
     "yaw_drift_deg_per_min",
     "yaw_rate_mismatch_deg_s",
     "virtual_jerk_m_s3",
+    "collision_causes",
     *(f"{k}_ci" for k in ("success_rate", "collision_rate", "spl", "time_to_goal_s",
                           "hand_tracking_availability", "phantom_steps_per_min",
                           "missed_steps_per_min", *MOTION_KEYS)),
@@ -545,7 +547,7 @@ def run_benchmark(
         }
         rows.append({k: _round(row[k]) for k in ROW_KEYS})
     if print_table and rows:
-        print_table(rows, seed)
+        show_table(rows, seed)
     meta = {"seed": seed, "episodes": episodes, "workers": workers, "batch_size": batch_size,
             "tasks": tasks, "policies": policies, "techniques": names}  # fmt: skip
     written = []
@@ -556,6 +558,11 @@ def run_benchmark(
         written.append(_write_json(out / "benchmark.json", rows, meta))
         for c in cells:
             written += draw_cell(out, c, results[(c, 0)])
+        if rows:
+            written += draw_grid(out, rows, {
+                f"{c.task} · {c.policy} · {c.technique_name}": [results[(c, i)]
+                                                                 for i in range(episodes)]
+                for c in cells})  # fmt: skip
     if json_path is not None:
         written.append(_write_json(Path(json_path), rows, meta))
     for p in written:
@@ -664,6 +671,10 @@ def _round(v: Any) -> Any:
 
 
 def _fmt(v: Any, digits: int = 3) -> str:
+    if isinstance(v, dict):  # collision causes, in COLLISION_CAUSES order
+        return "/".join(str(v[c]) for c in COLLISION_CAUSES)
+    if v is None:
+        return "–"
     if isinstance(v, float):
         return "–" if math.isnan(v) else f"{v:.{digits}f}"
     return str(v)
@@ -676,7 +687,8 @@ _COLUMNS = (("task", "task"), ("policy", "policy"), ("technique", "technique"),
             ("collision_free_success_rate", "coll.-free succ."), ("spl", "SPL"),
             ("time_to_goal_s", "time to goal (s)"), ("path_length_ratio", "path ratio"),
             ("step_f1", "step F1"), ("attitude_rmse_deg", "attitude RMSE (°)"),
-            ("hand_error_deg", "hand err (°)"))  # fmt: skip
+            ("hand_error_deg", "hand err (°)"),
+            ("collision_causes", "collisions: phantom/stop/heading/steering/policy"))  # fmt: skip
 _COMPACT = ("task", "policy", "technique", "success_rate", "collision_rate", "spl", "step_f1",
             "attitude_rmse_deg")  # fmt: skip
 _COMPACT_HEADS = {"success_rate": "succ.", "collision_rate": "coll.", "step_f1": "F1",
@@ -685,7 +697,7 @@ _COMPACT_HEADS = {"success_rate": "succ.", "collision_rate": "coll.", "step_f1":
 _FULL_WIDTH = 180
 
 
-def print_table(rows: list[dict[str, Any]], seed: int, width: int | None = None) -> None:
+def show_table(rows: list[dict[str, Any]], seed: int, width: int | None = None) -> None:
     """The rows as a table fitted to the terminal (``width``: its columns, None to ask it)."""
     from rich.console import Console
     from rich.table import Table
@@ -728,9 +740,16 @@ def _write_json(path: Path, rows: list[dict[str, Any]], meta: dict[str, Any]) ->
 
 
 def _write_csv(path: Path, rows: list[dict[str, Any]]) -> Path:
-    """One column per metric; an interval ``<key>_ci`` as ``<key>_ci_low`` and ``_ci_high``."""
-    columns = [c for k in ROW_KEYS for c in ((f"{k}_low", f"{k}_high") if k.endswith("_ci")
-                                            else (k,))]  # fmt: skip
+    """One column per metric; an interval ``<key>_ci`` as ``<key>_ci_low`` and ``_ci_high``, the
+    collision causes as ``collision_causes_<cause>``."""
+    def columns_of(k: str) -> tuple[str, ...]:
+        if k.endswith("_ci"):
+            return f"{k}_low", f"{k}_high"
+        if k == "collision_causes":
+            return tuple(f"{k}_{cause}" for cause in COLLISION_CAUSES)
+        return (k,)
+
+    columns = [c for k in ROW_KEYS for c in columns_of(k)]
     with path.open("w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=columns)
         w.writeheader()
@@ -739,6 +758,9 @@ def _write_csv(path: Path, rows: list[dict[str, Any]]) -> Path:
             for k in ROW_KEYS:
                 if k.endswith("_ci"):
                     flat[f"{k}_low"], flat[f"{k}_high"] = r[k]
+                elif k == "collision_causes":
+                    for cause in COLLISION_CAUSES:
+                        flat[f"{k}_{cause}"] = None if r[k] is None else r[k][cause]
                 else:
                     flat[k] = r[k]
             w.writerow({k: ("" if _clean(v) is None else v) for k, v in flat.items()})

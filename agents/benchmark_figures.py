@@ -1,6 +1,7 @@
-"""The benchmark's figures of one episode per cell (the analogues of seed 000's Figs. 2-5): the
-true and virtual paths over the room, the head attitude (truth vs estimate) and the gait (true
-heel strikes vs detected steps)."""
+"""The benchmark's figures: of one episode per cell (the analogues of seed 000's Figs. 2-5: the
+true and virtual paths over the room, the head attitude, truth vs estimate, and the gait, true
+heel strikes vs detected steps; :func:`draw_cell`) and of the whole grid (the metrics with their
+intervals, the collisions by cause, the latency distributions; :func:`draw_grid`)."""
 
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ from agents.metrics import EpisodeStats
 if TYPE_CHECKING:
     from agents.benchmark import Cell
 
-__all__ = ["draw_cell"]
+__all__ = ["GRID_METRICS", "draw_cell", "draw_grid"]
 
 
 def _draw_room(ax: Any, layout: Any) -> None:
@@ -117,6 +118,123 @@ def draw_cell(out_dir: Path, cell: Cell, stats: EpisodeStats) -> list[Path]:
     ax.legend(fontsize=8, loc="upper left")
     ax.set_title(f"Gait: {title}", fontsize=9)
     written.append(out_dir / f"gait_{cell.label}.png")
+    fig.savefig(written[-1], dpi=100)
+    plt.close(fig)
+    return written
+
+
+#: The metrics drawn per cell by :func:`draw_grid` (row key, axis label), each with its 95 %
+#: interval where the row has one.
+GRID_METRICS = (
+    ("success_rate", "success rate"),
+    ("collision_rate", "collision rate"),
+    ("spl", "SPL"),
+    ("time_to_goal_s", "time to goal (s)"),
+    ("start_latency_s", "start latency (s)"),
+    ("stop_latency_s", "stop latency (s)"),
+    ("stop_overshoot_m", "stop overshoot (m)"),
+    ("false_motion_m_per_min", "false motion (m/min)"),
+    ("phantom_steps_per_min", "phantom steps (/min)"),
+    ("yaw_drift_deg_per_min", "yaw drift standing (deg/min)"),
+    ("yaw_rate_mismatch_deg_s", "yaw-rate mismatch (deg/s)"),
+    ("hand_tracking_availability", "hand tracking availability"),
+)
+
+
+def _cell_name(row: dict[str, Any]) -> str:
+    return f"{row['task']} · {row['policy']} · {row['technique']}"
+
+
+def draw_grid(out_dir: Path, rows: list[dict[str, Any]],
+              episodes: dict[str, list[EpisodeStats]]) -> list[Path]:
+    """The figures of the whole grid: every metric of :data:`GRID_METRICS` per cell with its
+    95 % interval (``metrics.png``), the collisions of each cell by cause
+    (``collision_causes.png``) and the distributions of the start and stop latencies over each
+    cell's episodes (``latency.png``).
+
+    Args:
+        out_dir: folder for the figures.
+        rows: the benchmark rows.
+        episodes: each row's episodes, by :func:`_cell_name` of the row.
+
+    Returns:
+        The written files.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from agents.metrics import COLLISION_CAUSES
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    names = [_cell_name(r) for r in rows]
+    y = np.arange(len(rows))
+    height = 0.6 + 0.22 * len(rows)
+    written = []
+
+    cols = 3
+    lines = math.ceil(len(GRID_METRICS) / cols)
+    fig, axes = plt.subplots(lines, cols, figsize=(15, height * lines), sharey=True,
+                             constrained_layout=True, squeeze=False)  # fmt: skip
+    for ax, (key, label) in zip(axes.flat, GRID_METRICS, strict=False):
+        v = np.array([np.nan if r.get(key) is None else r[key] for r in rows], dtype=float)
+        ci = [r.get(f"{key}_ci") for r in rows]
+        lo = np.array([np.nan if c is None or c[0] is None else c[0] for c in ci], dtype=float)
+        hi = np.array([np.nan if c is None or c[1] is None else c[1] for c in ci], dtype=float)
+        err = np.stack([np.where(np.isfinite(lo), v - lo, 0.0), np.where(np.isfinite(hi),
+                                                                         hi - v, 0.0)])  # fmt: skip
+        ax.barh(y, np.nan_to_num(v), xerr=np.clip(np.nan_to_num(err), 0.0, None), color="tab:blue",
+                alpha=0.7, ecolor="k", capsize=2)  # fmt: skip
+        for i in np.flatnonzero(~np.isfinite(v)):
+            ax.text(0.0, i, " n/a", va="center", fontsize=7, color="0.4")
+        ax.set_xlabel(label, fontsize=8)
+        ax.grid(axis="x", alpha=0.3)
+    for ax in axes.flat[len(GRID_METRICS):]:
+        ax.set_visible(False)
+    for ax in axes[:, 0]:
+        ax.set_yticks(y, names, fontsize=7)
+        ax.invert_yaxis()
+    fig.suptitle("Benchmark metrics per cell (bars: mean or rate; whiskers: 95 % interval)",
+                 fontsize=10)  # fmt: skip
+    written.append(out_dir / "metrics.png")
+    fig.savefig(written[-1], dpi=100)
+    plt.close(fig)
+
+    fig, ax = plt.subplots(figsize=(9, height + 0.8), constrained_layout=True)
+    left = np.zeros(len(rows))
+    colours = ("tab:red", "tab:orange", "tab:purple", "tab:green", "0.6")
+    for cause, colour in zip(COLLISION_CAUSES, colours, strict=True):
+        n = np.array([0 if r.get("collision_causes") is None else r["collision_causes"][cause]
+                      for r in rows], dtype=float)  # fmt: skip
+        ax.barh(y, n, left=left, color=colour, label=cause.replace("_", " "))
+        left += n
+    ax.set_yticks(y, names, fontsize=7)
+    ax.invert_yaxis()
+    ax.set_xlabel("collisions (all episodes of the cell)")
+    ax.legend(fontsize=8, loc="lower right")
+    ax.set_title("Collisions by cause", fontsize=10)
+    written.append(out_dir / "collision_causes.png")
+    fig.savefig(written[-1], dpi=100)
+    plt.close(fig)
+
+    fig, axes = plt.subplots(1, 2, figsize=(12, height + 0.8), sharey=True,
+                             constrained_layout=True)  # fmt: skip
+    for ax, key, label in zip(axes, ("start_latency_s", "stop_latency_s"),
+                              ("start latency (s)", "stop latency (s)"), strict=True):  # fmt: skip
+        for i, name in enumerate(names):
+            vals = np.array([e.motion[key] for e in episodes[name] if e.motion is not None])
+            vals = vals[np.isfinite(vals)]
+            if vals.size:
+                jitter = (np.arange(vals.size) % 7 - 3) * 0.05
+                ax.plot(vals, i + jitter, "o", ms=2.5, alpha=0.6, color="tab:blue")
+                ax.plot([np.median(vals)] * 2, [i - 0.35, i + 0.35], color="k", lw=1.5)
+        ax.set_xlabel(f"{label}, per episode (bar: median)", fontsize=8)
+        ax.grid(axis="x", alpha=0.3)
+    axes[0].set_yticks(y, names, fontsize=7)
+    axes[0].invert_yaxis()
+    fig.suptitle("Start and stop latency distributions", fontsize=10)
+    written.append(out_dir / "latency.png")
     fig.savefig(written[-1], dpi=100)
     plt.close(fig)
     return written

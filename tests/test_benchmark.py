@@ -237,18 +237,18 @@ def test_unknown_policies_and_techniques_are_named():
 
 
 def test_the_table_fits_a_narrow_terminal(capsys):
-    from agents.benchmark import print_table
+    from agents.benchmark import show_table
 
     row = {k: 0.5 for k in ROW_KEYS}
     row.update(task="approach", policy="goal_seeker+human", technique="seed000_consumer",
                sensors="consumer_mems", episodes=40)  # fmt: skip
-    print_table([row], 0, width=80)
+    show_table([row], 0, width=80)
     out = capsys.readouterr().out
     lines = out.splitlines()
     assert max(len(line) for line in lines) <= 80
     assert "goal_seeker+human" in out and "seed000_consumer" in out  # names are not cut
     assert "compact view" in out
-    print_table([row], 0, width=200)
+    show_table([row], 0, width=200)
     assert "time to goal" in capsys.readouterr().out
 
 
@@ -295,3 +295,36 @@ def test_walking_in_place_measures_against_a_hand_made_episode():
     lo, hi = wilson_interval(38, 40)
     assert lo == pytest.approx(0.8347, abs=1e-3) and hi == pytest.approx(0.9862, abs=1e-3)
     assert wilson_interval(0, 10)[0] == 0.0
+
+
+def test_each_collision_of_a_hand_made_episode_gets_its_cause():
+    """Five collisions, one per cause: a detected step far from every heel strike, a collision
+    after the user meant to stop, a 15 deg heading error, walking 20 deg off the torso's facing,
+    and one with sensing as perfect sensing would be."""
+    from agents.metrics import COLLISION_CAUSES, collision_causes
+
+    n, dt = 100, 0.1
+    t_end = dt * np.arange(1, n + 1)
+    intent = np.ones(n, bool)
+    intent[40:45] = False
+    strikes = np.full((n, 2), np.inf)
+    strikes[::5, 0] = t_end[::5] - 0.05  # a heel strike every 0.5 s
+    detected = np.full((n, 2), np.inf)
+    detected[5::5, 0] = t_end[:-5:5] - 0.04  # each reported a control step later, 10 ms off
+    detected[20, 1] = 1.8  # no heel strike within 0.2 s (1.55 and 2.05): a phantom step
+    heading = np.zeros(n)
+    heading[60] = 15.0
+    walk, body = np.zeros(n), np.zeros(n)
+    walk[75] = 20.0
+    hit = np.zeros(n, bool)
+    hit[[22, 42, 60, 75, 90]] = True
+    steps = {"collision": hit, "elapsed_time": t_end, "intent_walk": intent,
+             "heading_error_deg": heading, "true_step_times": strikes,
+             "detected_step_times": detected, "walk_yaw_deg": walk,
+             "true_body_yaw_deg": body}  # fmt: skip
+    assert collision_causes(steps) == dict.fromkeys(COLLISION_CAUSES, 1)
+    # the phantom step is out of the window 1 s later; without the steering keys, no steering
+    hit[:] = False
+    hit[[31, 75]] = True
+    del steps["walk_yaw_deg"]
+    assert collision_causes(steps) == {**dict.fromkeys(COLLISION_CAUSES, 0), "policy": 2}
