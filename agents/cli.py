@@ -168,6 +168,14 @@ def _cmd_head_motions(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_step_envelope(args: argparse.Namespace) -> int:
+    from agents.experiments.step_envelope import run_step_envelope
+
+    run_step_envelope(json_path=Path(args.json) if args.json else None, seed=args.seed,
+                      dev=args.dev, users=args.users)  # fmt: skip
+    return 0
+
+
 def _cmd_benchmark(args: argparse.Namespace) -> int:
     from agents.backends import BackendError
     from agents.benchmark import run_benchmark
@@ -323,6 +331,17 @@ def build_parser() -> argparse.ArgumentParser:
     hm.add_argument("--users", type=_int_at_least(1), default=8, help="simulated users per case")
     hm.add_argument("--seed", type=int, default=0, help="random seed")
     hm.set_defaults(func=_cmd_head_motions)
+    se = exp_sub.add_parser(
+        "step-envelope",
+        help="every step detector on light steps, heavy nods, squats, looking down, scanning; "
+        "and on the Oxford neck-pouch walk (in-sample and two-fold held-out)",
+    )
+    se.add_argument("--json", type=_out_file, help="write the results to this JSON file")
+    se.add_argument("--seed", type=_int_at_least(0), default=1000,
+                    help="first of three held-out seeds (seeds 0-2 are development seeds)")
+    se.add_argument("--dev", action="store_true", help="development seeds 0-2 instead")
+    se.add_argument("--users", type=_int_at_least(1), default=8, help="simulated users per case")
+    se.set_defaults(func=_cmd_step_envelope)
     hv = exp_sub.add_parser(
         "hand-variance",
         help="seed 003 Tables 1-4 on the synthetic Kinect, with lag and RMSE while moving",
