@@ -52,12 +52,14 @@ from agents.metrics import (
     episode_stats,
     summarize,
 )
+from agents.paired import ALPHA, BINARY_METRICS, MEAN_METRICS, paired_p_values
 from agents.policies import build_policy, check_policy
 from agents.resume import EpisodeStore, episode_key, source_fingerprint
 from agents.scripted import is_batched
 from vrloco_env.tasks import env_id, get_task
 
 __all__ = [
+    "BASELINE_TECHNIQUE",
     "DEFAULT_BATCH_SIZE",
     "DEFAULT_EPISODES",
     "DEFAULT_POLICIES",
@@ -80,6 +82,8 @@ DEFAULT_POLICIES = ("goal_seeker", "goal_seeker+human", "avoid_manoeuvre")
 DEFAULT_SENSORS = ("ig500n", "consumer_mems")
 DEFAULT_TECHNIQUES = ("seed000", "seed000_consumer")
 DEFAULT_EPISODES = 40
+#: The technique every other one is compared with, episode by episode (:mod:`agents.paired`).
+BASELINE_TECHNIQUE = "seed000"
 #: Users per vector env in the batched runner (:func:`run_cell_batched`).
 DEFAULT_BATCH_SIZE = 20
 
@@ -115,6 +119,7 @@ ROW_KEYS = (
     "yaw_rate_mismatch_deg_s",
     "virtual_jerk_m_s3",
     "collision_causes",
+    "vs_baseline",
     *(f"{k}_ci" for k in ("success_rate", "collision_rate", "spl", "time_to_goal_s",
                           "hand_tracking_availability", "phantom_steps_per_min",
                           "missed_steps_per_min", *MOTION_KEYS)),
@@ -431,6 +436,7 @@ def run_benchmark(
     batch_size: int = DEFAULT_BATCH_SIZE,
     backend: str = "local",
     address: str | None = None,
+    baseline: str = BASELINE_TECHNIQUE,
 ) -> list[dict[str, Any]]:
     """Run the grid and write the outputs.
 
@@ -457,9 +463,12 @@ def run_benchmark(
             The rows are the same either way.
         address: with ``"ray"``: the cluster, ``"auto"`` or ``"HOST:PORT"``; None: a running
             cluster of this machine where there is one, else a new local Ray instance.
+        baseline: the technique every other one is compared with, episode by episode, in the
+            same task and policy (:func:`agents.paired.paired_p_values`; the row's
+            ``vs_baseline``, None for the baseline itself or where it is not in the grid).
 
     Returns:
-        One dict per cell with :data:`ROW_KEYS`.
+        One dict per cell with :data:`ROW_KEYS`, grouped by technique.
 
     Raises:
         ValueError: an unknown task, policy, technique or preset, or a bad count; an unknown
@@ -535,19 +544,25 @@ def run_benchmark(
                  f"{len(results)} episodes kept in {store.folder})"))  # fmt: skip
 
     rows = []
+    order = {name: k for k, name in enumerate(dict.fromkeys(c.technique_name for c in cells))}
+    cells = sorted(cells, key=lambda c: order[c.technique_name])  # grouped by technique
+    base = {(c.task, c.policy): c for c in cells if c.technique_name == baseline}
     for c in cells:
         eps = [results[(c, i)] for i in range(episodes)]
         late, early = windows[c]
+        ref = base.get((c.task, c.policy))
         row = {
             "task": c.task,
             "policy": c.policy,
             "technique": c.technique_name,
             "sensors": c.sensors,
             **summarize(eps, late, early),
-        }
+            "vs_baseline": None if ref is None or ref is c else paired_p_values(
+                [results[(ref, i)] for i in range(episodes)], eps, late, early),
+        }  # fmt: skip
         rows.append({k: _round(row[k]) for k in ROW_KEYS})
     if print_table and rows:
-        show_table(rows, seed)
+        show_table(rows, seed, baseline=baseline)
     meta = {"seed": seed, "episodes": episodes, "workers": workers, "batch_size": batch_size,
             "tasks": tasks, "policies": policies, "techniques": names}  # fmt: skip
     written = []
@@ -688,7 +703,7 @@ _COLUMNS = (("task", "task"), ("policy", "policy"), ("technique", "technique"),
             ("time_to_goal_s", "time to goal (s)"), ("path_length_ratio", "path ratio"),
             ("step_f1", "step F1"), ("attitude_rmse_deg", "attitude RMSE (°)"),
             ("hand_error_deg", "hand err (°)"),
-            ("collision_causes", "collisions: phantom/stop/heading/steering/policy"))  # fmt: skip
+            ("collision_causes", "collision causes"))  # fmt: skip
 _COMPACT = ("task", "policy", "technique", "success_rate", "collision_rate", "spl", "step_f1",
             "attitude_rmse_deg")  # fmt: skip
 _COMPACT_HEADS = {"success_rate": "succ.", "collision_rate": "coll.", "step_f1": "F1",
@@ -697,8 +712,11 @@ _COMPACT_HEADS = {"success_rate": "succ.", "collision_rate": "coll.", "step_f1":
 _FULL_WIDTH = 180
 
 
-def show_table(rows: list[dict[str, Any]], seed: int, width: int | None = None) -> None:
-    """The rows as a table fitted to the terminal (``width``: its columns, None to ask it)."""
+def show_table(rows: list[dict[str, Any]], seed: int, width: int | None = None,
+               baseline: str = BASELINE_TECHNIQUE) -> None:
+    """The rows as a table fitted to the terminal (``width``: its columns, None to ask it); a
+    value that differs from ``baseline``'s in the same task and policy at p < :data:`ALPHA`
+    (the row's ``vs_baseline``) is marked ``*``."""
     from rich.console import Console
     from rich.table import Table
 
@@ -713,9 +731,24 @@ def show_table(rows: list[dict[str, Any]], seed: int, width: int | None = None) 
     for key, head in cols:
         left = key in ("task", "policy", "technique", "sensors")
         table.add_column(head, justify="left" if left else "right", overflow="fold")
+    marked = False
     for r in rows:
-        table.add_row(*(_fmt(r[k], 1 if k in ("time_to_goal_s",) else 3) for k, _ in cols))
+        cells = []
+        for k, _ in cols:
+            text = _fmt(r[k], 1 if k in ("time_to_goal_s",) else 3)
+            test = (r.get("vs_baseline") or {}).get(k)
+            if test is not None and test["p"] is not None and test["p"] < ALPHA:
+                text, marked = text + "*", True
+            cells.append(text)
+        table.add_row(*cells)
     console.print(table)
+    if not compact:
+        console.print("collision causes: " + "/".join(c.replace("_", " ")
+                                                      for c in COLLISION_CAUSES))  # fmt: skip
+    if marked:
+        console.print(f"* differs from {baseline} (same task, policy and seeds) at p < {ALPHA}: "
+                      "exact McNemar test for rates, Wilcoxon signed-rank for means "
+                      "(agents.paired)")  # fmt: skip
     if compact:
         console.print(f"(a compact view for {console.width} columns: every column is in the "
                       "CSV and JSON files)")  # fmt: skip
@@ -725,6 +758,8 @@ def _clean(v: Any) -> Any:
     """JSON-safe value: NaN becomes null, an interval a list."""
     if isinstance(v, tuple | list):
         return [_clean(x) for x in v]
+    if isinstance(v, dict):
+        return {k: _clean(x) for k, x in v.items()}
     if isinstance(v, float) and not math.isfinite(v):
         return None
     if isinstance(v, np.generic):
@@ -741,12 +776,15 @@ def _write_json(path: Path, rows: list[dict[str, Any]], meta: dict[str, Any]) ->
 
 def _write_csv(path: Path, rows: list[dict[str, Any]]) -> Path:
     """One column per metric; an interval ``<key>_ci`` as ``<key>_ci_low`` and ``_ci_high``, the
-    collision causes as ``collision_causes_<cause>``."""
+    collision causes as ``collision_causes_<cause>``, the paired test against the baseline as
+    ``p_vs_baseline_<metric>`` (its p-value)."""
     def columns_of(k: str) -> tuple[str, ...]:
         if k.endswith("_ci"):
             return f"{k}_low", f"{k}_high"
         if k == "collision_causes":
             return tuple(f"{k}_{cause}" for cause in COLLISION_CAUSES)
+        if k == "vs_baseline":
+            return tuple(f"p_vs_baseline_{m}" for m in (*BINARY_METRICS, *MEAN_METRICS))
         return (k,)
 
     columns = [c for k in ROW_KEYS for c in columns_of(k)]
@@ -761,6 +799,9 @@ def _write_csv(path: Path, rows: list[dict[str, Any]]) -> Path:
                 elif k == "collision_causes":
                     for cause in COLLISION_CAUSES:
                         flat[f"{k}_{cause}"] = None if r[k] is None else r[k][cause]
+                elif k == "vs_baseline":
+                    for m in (*BINARY_METRICS, *MEAN_METRICS):
+                        flat[f"p_vs_baseline_{m}"] = None if r[k] is None else r[k][m]["p"]
                 else:
                     flat[k] = r[k]
             w.writerow({k: ("" if _clean(v) is None else v) for k, v in flat.items()})

@@ -1,0 +1,55 @@
+"""The paired comparison of a technique with the baseline, on hand-made episodes."""
+
+import math
+
+import numpy as np
+import pytest
+
+from agents.metrics import EpisodeStats
+from agents.paired import BINARY_METRICS, MEAN_METRICS, episode_values, paired_p_values
+
+
+def _episode(seed, success=True, walked=10.0, elapsed=20.0, detected=()):
+    true = np.arange(1.0, 11.0)  # ten heel strikes, one a second
+    det = np.sort(np.concatenate([true, np.asarray(detected, dtype=float)]))
+    z = np.zeros(200)
+    return EpisodeStats(seed=seed, success=success, collisions=0 if success else 1, steps=200,
+                        elapsed_s=elapsed, walked_m=walked, shortest_m=8.0,
+                        true_counts=z.astype(np.int64), detected_counts=z.astype(np.int64),
+                        attitude_error_deg=z, hand_error_deg=z, heading_error_deg=z,
+                        true_step_times=true, detected_step_times=det)  # fmt: skip
+
+
+def test_an_episode_gives_the_values_a_row_averages():
+    v = episode_values(_episode(0, walked=10.0, detected=(4.5, 7.5)))
+    assert v["spl"] == pytest.approx(0.8)  # 8 m of 10 m walked
+    assert v["phantom_steps_per_min"] == pytest.approx(2 / (20 / 60))
+    assert v["missed_steps_per_min"] == 0.0
+    assert math.isnan(episode_values(_episode(0, success=False))["time_to_goal_s"])
+
+
+def test_paired_tests_find_a_consistent_difference_and_not_noise():
+    base = [_episode(s, walked=10.0) for s in range(20)]
+    same = [_episode(s, walked=10.0) for s in range(20)]
+    res = paired_p_values(base, same)
+    assert set(res) == {*BINARY_METRICS, *MEAN_METRICS}
+    assert res["spl"]["p"] == 1.0 and res["success_rate"]["p"] == 1.0
+    # every episode walks 1-20 cm farther and has one phantom step: both differ at p < 0.01
+    rng = np.random.default_rng(0)
+    worse = [_episode(s, walked=10.0 + rng.uniform(0.01, 0.2), detected=(5.5,))
+             for s in range(20)]  # fmt: skip
+    res = paired_p_values(base, worse)
+    assert res["spl"]["p"] < 0.01 and res["spl"]["diff"] < 0
+    assert res["phantom_steps_per_min"]["p"] < 0.01 and res["phantom_steps_per_min"]["diff"] > 0
+    # 8 of 20 episodes fail: the exact McNemar p is 2 / 2^8
+    fails = [_episode(s, success=s >= 8) for s in range(20)]
+    res = paired_p_values(base, fails)
+    assert res["success_rate"]["p"] == pytest.approx(2 / 2**8)
+    assert res["success_rate"]["diff"] == pytest.approx(-0.4)
+    # time to goal is compared only where both succeeded
+    assert res["time_to_goal_s"]["n"] == 12
+
+
+def test_paired_tests_refuse_cells_of_different_seeds():
+    with pytest.raises(ValueError, match="same seeds"):
+        paired_p_values([_episode(0)], [_episode(1)])
