@@ -218,9 +218,9 @@ def test_cells_take_techniques_and_a_users_own_policy(tmp_path):
         techniques=["seed000", "smooth"], episodes=1, seed=3, workers=1, progress=False,
         print_table=False,
     )  # fmt: skip
-    assert [(r["policy"], r["technique"]) for r in rows] == [
-        ("goal_seeker", "seed000"), ("goal_seeker", "smooth"),
-        (f"{plugin}:Stand", "seed000"), (f"{plugin}:Stand", "smooth"),
+    assert [(r["policy"], r["technique"]) for r in rows] == [  # grouped by technique
+        ("goal_seeker", "seed000"), (f"{plugin}:Stand", "seed000"),
+        ("goal_seeker", "smooth"), (f"{plugin}:Stand", "smooth"),
     ]  # fmt: skip
     stand = [r for r in rows if r["policy"].endswith(":Stand")]
     assert all(r["success_rate"] == 0.0 and r["collision_rate"] == 0.0 for r in stand)
