@@ -239,9 +239,12 @@ def test_unknown_policies_and_techniques_are_named():
 def test_the_table_fits_a_narrow_terminal(capsys):
     from agents.benchmark import show_table
 
+    from agents.metrics import COLLISION_CAUSES
+
     row = {k: 0.5 for k in ROW_KEYS}
     row.update(task="approach", policy="goal_seeker+human", technique="seed000_consumer",
-               sensors="consumer_mems", episodes=40)  # fmt: skip
+               sensors="consumer_mems", episodes=40, vs_baseline={"spl": {"p": 0.001}},
+               collision_causes=dict.fromkeys(COLLISION_CAUSES, 2))  # fmt: skip
     show_table([row], 0, width=80)
     out = capsys.readouterr().out
     lines = out.splitlines()
@@ -249,7 +252,9 @@ def test_the_table_fits_a_narrow_terminal(capsys):
     assert "goal_seeker+human" in out and "seed000_consumer" in out  # names are not cut
     assert "compact view" in out
     show_table([row], 0, width=200)
-    assert "time to goal" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "time to goal" in out and "2/2/2/2/2" in out
+    assert "0.500*" in out and "differs from seed000" in out  # the SPL marked, and why
 
 
 def test_walking_in_place_measures_against_a_hand_made_episode():
