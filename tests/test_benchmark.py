@@ -238,7 +238,6 @@ def test_unknown_policies_and_techniques_are_named():
 
 def test_the_table_fits_a_narrow_terminal(capsys):
     from agents.benchmark import show_table
-
     from agents.metrics import COLLISION_CAUSES
 
     row = {k: 0.5 for k in ROW_KEYS}
