@@ -14,10 +14,11 @@ frames of a call, these stages in order:
    :class:`~estimators.hand.KalmanParams`) and the median over the last Kalman angles
    (:func:`_median_step`).
 
-``hand_kernel.py_func`` is the readable uncompiled source. The numpy
-:class:`~estimators.hand.OrientationFilter` (the engine of the Table 4 experiment) evaluates
-stage 3 with the same formulas in the same order; numpy's ``arctan2`` and ``arcsin`` may differ
-from the C library's in the last bit, so the two agree to about 1e-12, not bit for bit.
+``hand_kernel.py_func`` is the readable uncompiled source. Stage 3 alone, without target
+selection and joint smoothing, is :data:`filter_kernel` (Kalman and median over raw angles) after
+:data:`angles_kernel` (eq (1)/(2) of quaternions): the same scalar functions, so
+:class:`~estimators.hand.OrientationFilter`, which drives them, gives the pipeline's angles bit
+for bit.
 
 Layouts. Inputs and outputs are rows ``r = b * M + t`` (B users of M frames): ``frames`` is the
 tuple ``(ids, tracked, joints, joint_state, quat)``, ``out`` the tuple of the
@@ -49,10 +50,13 @@ __all__ = [
     "PARAM_FIELDS",
     "RING_FIELDS",
     "USER_FIELDS",
+    "angles_kernel",
+    "filter_kernel",
     "forget_kernel",
     "hand_kernel",
+    "new_filter_state",
     "new_state",
-    "shared_layout",
+        "shared_layout",
     "validate",
 ]
 
@@ -289,9 +293,8 @@ def _select_target(ids, tracked, joints, jstate, r, center, cur):
 
 
 @numba.njit(cache=True, inline="always")
-def _forget(s, hj, hr, win):
-    """Clear one user's filters (a new target, or a reset): Kalman inactive, outputs NaN,
-    median window empty, Holt restarted and its ring emptied."""
+def _forget_orientation(s, win):
+    """Clear one user's angle filters: Kalman inactive, outputs NaN, median window empty."""
     s["active"] = 0.0
     for c in range(3):
         s["angle"][c] = np.nan
@@ -301,6 +304,13 @@ def _forget(s, hj, hr, win):
         s["ypr_kalman"][c] = np.nan
         for i in range(win.shape[0]):
             win[i, c] = np.nan
+
+
+@numba.njit(cache=True, inline="always")
+def _forget(s, hj, hr, win):
+    """Clear one user's filters (a new target, or a reset): the angle filters
+    (:func:`_forget_orientation`), Holt restarted and its ring emptied."""
+    _forget_orientation(s, win)
     for j in range(hj.shape[0]):
         h = hj[j]
         h["count"] = 0.0
@@ -476,6 +486,20 @@ def _paper_ypr(w, x, y, z, threshold):
 
 
 @numba.njit(cache=True, inline="always")
+def _quat_angles(qw, qx, qy, qz, threshold):
+    """A quaternion of any norm to eq (1)/(2) angles: ``(usable, about_z, pitch, about_x,
+    singular)``; not usable (NaN, infinite or norm <= 1e-6) gives the identity's angles."""
+    norm = math.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
+    usable = math.isfinite(norm) and norm > _MIN_QUAT_NORM
+    if usable:
+        w, x, y, z = qw / norm, qx / norm, qy / norm, qz / norm
+    else:
+        w, x, y, z = 1.0, 0.0, 0.0, 0.0
+    about_z, pitch, about_x, singular = _paper_ypr(w, x, y, z, threshold)
+    return usable, about_z, pitch, about_x, singular
+
+
+@numba.njit(cache=True, inline="always")
 def _kalman_axis(s, c, a, p, z, init, a_act, upd, stale):
     """One frame of the Kalman filter of angle ``c`` (axis parameters ``a``): (re)initialise
     from ``z``, predict and correct with ``z``, predict only, or stop a stale stream's rate."""
@@ -599,13 +623,10 @@ def _orientation(quat, jstate, r, slot, s, win, axes, p):
         qz = quat[r, slot, 3]
     else:
         qw = qx = qy = qz = np.nan
-    norm = math.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
-    ok = math.isfinite(norm) and norm > _MIN_QUAT_NORM and wrist_ok
-    if ok:
-        w, x, y, z = qw / norm, qx / norm, qy / norm, qz / norm
-    else:
-        w, x, y, z = 1.0, 0.0, 0.0, 0.0
-    about_z, pitch, about_x, singular = _paper_ypr(w, x, y, z, p["singularity_threshold"])
+    usable, about_z, pitch, about_x, singular = _quat_angles(
+        qw, qx, qy, qz, p["singularity_threshold"]
+    )
+    ok = usable and wrist_ok
     if ok:
         s["ypr_raw"][0] = about_z
         s["ypr_raw"][1] = pitch
@@ -692,3 +713,91 @@ def _forget_rows(rows, state):
 
 #: ``forget_kernel(B)(rows, state)``.
 forget_kernel = BatchKernel(_forget_rows, parallel=False)
+
+
+# ----------------------------------------------------------------------------------------------
+# Stage 3 alone: the orientation filter over angle or quaternion sequences
+
+
+def new_filter_state(batch_size: int, window: int) -> tuple[NDArray, NDArray]:
+    """A fresh state ``(user, window)`` for :data:`filter_kernel`: the ``user`` records
+    (:data:`USER_FIELDS`) and median windows (B, window, 3) of :func:`new_state`, all forgotten."""
+    user = shared_layout(state_records(USER_FIELDS, batch_size))
+    user["nis"] = 1.0
+    for name in ("angle", "median", "ypr_raw", "ypr_kalman"):
+        user[name] = np.nan
+    return user, np.full((batch_size, window, 3), np.nan)
+
+
+def _filter_angles(z, usable, restart, m_count, prm, axes, state, out):
+    """Stage 3 without target selection: Kalman then median of B streams of M raw angles.
+
+    The same per-frame steps as :func:`_orientation` after its eq (1)/(2) (:func:`_kalman_step`,
+    :func:`_median_step`), so a stream fed the pipeline's ``ypr_raw`` and ``quat_valid`` (and
+    restarted where the pipeline reselected) reproduces its ``ypr_kalman`` and ``ypr``.
+
+    Args:
+        z: (B*M, 3) raw ``[yaw, pitch, roll]``, rad, rows ``r = b * M + t``.
+        usable: (B*M,) bool, the frame's angles are a measurement (False: a dropout; NaN angles
+            are a dropout too).
+        restart: (B*M,) bool, forget the stream before this frame (a new target).
+        m_count: M.
+        prm, axes: the parameter records of :func:`~estimators.hand._kernel_params`.
+        state: :func:`new_filter_state`'s ``(user, window)``, updated in place.
+        out: ``(ypr_raw, ypr_kalman, ypr, valid)``: (B*M, 3) x 3 and (B*M,) bool, written.
+    """
+    user, window = state
+    o_raw, o_kalman, o_ypr, o_valid = out
+    for i in numba.prange(user.shape[0]):  # streams are independent (estimators.kernels.batch)
+        p = prm[0]
+        s = user[i]
+        win = window[i]
+        for t in range(m_count):
+            r = i * m_count + t
+            if restart[r]:
+                _forget_orientation(s, win)
+            z0 = z[r, 0]
+            z1 = z[r, 1]
+            z2 = z[r, 2]
+            ok = usable[r] and math.isfinite(z0) and math.isfinite(z1) and math.isfinite(z2)
+            if ok:
+                s["ypr_raw"][0] = z0
+                s["ypr_raw"][1] = z1
+                s["ypr_raw"][2] = z2
+            init, active = _kalman_step(s, axes, p, ok, z0, z1, z2)
+            _median_step(s, win, init, active)
+            valid = True
+            for c in range(3):
+                o_raw[r, c] = s["ypr_raw"][c]
+                o_kalman[r, c] = s["ypr_kalman"][c]
+                o_ypr[r, c] = wrap_angle(s["median"][c])
+                if not math.isfinite(s["ypr_kalman"][c]):
+                    valid = False
+            o_valid[r] = valid
+
+
+#: ``filter_kernel(B)(z, usable, restart, m_count, prm, axes, state, out)``.
+filter_kernel = BatchKernel(_filter_angles, parallel=False)
+
+
+def _angle_rows(quat, threshold, out, usable, singular):
+    """Eq (1)/(2) of N quaternions of any norm (:func:`_quat_angles`), row by row.
+
+    Args:
+        quat: (N, 4) ``[w, x, y, z]``. threshold: eq (2) threshold on ``|wy - zx|``.
+        out: (N, 3) our ``[yaw, pitch, roll]``, rad, written (the identity's angles where not
+            usable). usable, singular: (N,) bool, written.
+    """
+    for r in numba.prange(quat.shape[0]):
+        ok, about_z, pitch, about_x, sing = _quat_angles(
+            quat[r, 0], quat[r, 1], quat[r, 2], quat[r, 3], threshold
+        )
+        out[r, 0] = about_z
+        out[r, 1] = pitch
+        out[r, 2] = about_x
+        usable[r] = ok
+        singular[r] = sing and ok
+
+
+#: ``angles_kernel(N)(quat, threshold, out, usable, singular)``.
+angles_kernel = BatchKernel(_angle_rows, parallel=False)

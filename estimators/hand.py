@@ -8,15 +8,15 @@ The stages (seed 003, sections 1.1-1.4):
    average over the last 5 frames (:class:`~estimators.joint_smoothing.HoltSmoother`).
 3. :func:`quat_to_euler_paper` — the wrist quaternion to Euler angles with eq (1), and eq (2) where
    ``|wy - zx| > 0.499`` (1.3).
-4. :class:`EulerKalman` then :class:`StreamingMedian` (offline: :func:`median_filter`) — a Kalman
-   filter per angle, then a median over consecutive Kalman outputs (1.4); :class:`OrientationFilter`
-   chains 3 and 4, batched over B streams.
+4. A Kalman filter per angle (:class:`KalmanParams` documents the model), then a median over
+   consecutive Kalman outputs (1.4).
 
-:class:`HandPipeline` runs all four for the environment through the compiled kernel
-:mod:`estimators._hand_numba`: one Kinect frame per ``update`` call, or the M frames of a control
-step per ``update_frames`` call; :func:`estimate_hand_orientation` runs it over recorded or
-simulated sequences. The paper's static-variance experiment (Tables 1-4) lives in
-:mod:`agents.experiments.hand_variance`.
+Every stage runs in one compiled kernel, :mod:`estimators._hand_numba`. :class:`HandPipeline`
+runs all four for the environment: one Kinect frame per ``update`` call, or the M frames of a
+control step per ``update_frames`` call; :func:`estimate_hand_orientation` runs it over recorded
+or simulated sequences. :class:`OrientationFilter` runs stages 3 and 4 alone on wrist quaternions
+or raw angles, batched over B streams, with the same code. The paper's static-variance experiment
+(Tables 1-4) lives in :mod:`agents.experiments.hand_variance`.
 
 Axis names. Seed 003's eq (1) writes::
 
@@ -66,11 +66,9 @@ from estimators.joint_smoothing import (
     OneEuroParams,
 )
 from estimators.kernels.records import param_record, record_dtype
-from estimators.rotations import wrap_angle
 
 __all__ = [
     "PAPER_AXIS_NAMES",
-    "EulerKalman",
     "HandFrame",
     "HandParams",
     "HandPipeline",
@@ -83,10 +81,8 @@ __all__ = [
     "OrientationFrame",
     "RawHand",
     "Seed003Hand",
-    "StreamingMedian",
     "estimate_hand_orientation",
     "estimate_lag",
-    "median_filter",
     "paper_to_ypr",
     "quat_to_euler_paper",
     "unwrap_angles",
@@ -126,23 +122,6 @@ def paper_to_ypr(euler: ArrayLike) -> NDArray[np.float64]:
     return np.asarray(euler, dtype=np.float64)[..., ::-1].copy()
 
 
-def _paper_ypr(
-    q: NDArray[np.float64], threshold: float
-) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
-    """Eq (1)/(2) on unit quaternions (..., 4), in *our* order; also the eq (2) mask."""
-    w, x, y, z = np.moveaxis(q, -1, 0)
-    s = w * y - z * x
-    singular = np.abs(s) > threshold
-    about_x = np.arctan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
-    pitch = np.arcsin(np.clip(2.0 * s, -1.0, 1.0))
-    about_z = np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
-    sgn = np.sign(s)
-    about_z = np.where(singular, wrap_angle(-2.0 * sgn * np.arctan2(x, w)), about_z)
-    pitch = np.where(singular, sgn * (0.5 * np.pi), pitch)
-    about_x = np.where(singular, 0.0, about_x)
-    return np.stack([about_z, pitch, about_x], axis=-1), singular
-
-
 def _check_threshold(threshold: float) -> None:
     if not (np.isfinite(threshold) and 0.0 < threshold <= 0.5):
         raise ValueError(f"singularity threshold must be in (0, 0.5], got {threshold}")
@@ -166,20 +145,32 @@ def quat_to_euler_paper(
         other slots; see the module docstring for why that is an error).
 
     Raises:
-        ValueError: wrong shape, NaN/inf entries or a zero-norm quaternion. (The streaming pipeline
-            treats those as dropouts instead; see :class:`OrientationFilter`.)
+        ValueError: wrong shape, NaN/inf entries or a zero-norm quaternion. (The streaming filters
+            treat those as dropouts instead; see :class:`OrientationFilter`.)
     """
     qa = np.asarray(q, dtype=np.float64)
     if qa.ndim == 0 or qa.shape[-1] != 4:
         raise ValueError(f"q must have shape (..., 4), got {qa.shape}")
     if not np.all(np.isfinite(qa)):
         raise ValueError("q contains NaN or infinite entries")
-    norm = np.linalg.norm(qa, axis=-1, keepdims=True)
-    if np.any(norm < _MIN_QUAT_NORM):
-        raise ValueError(f"q contains a zero-norm quaternion (|q| < {_MIN_QUAT_NORM})")
+    if np.any(np.linalg.norm(qa, axis=-1) <= _MIN_QUAT_NORM):
+        raise ValueError(f"q contains a zero-norm quaternion (|q| <= {_MIN_QUAT_NORM})")
     _check_threshold(threshold)
-    ypr, _ = _paper_ypr(qa / norm, threshold)
+    ypr, _, _ = _angles_of(qa, threshold)
     return ypr_to_paper(ypr)
+
+
+def _angles_of(
+    q: NDArray[np.float64], threshold: float
+) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.bool_]]:
+    """Eq (1)/(2) of (..., 4) quaternions through the kernel (:data:`estimators._hand_numba.
+    angles_kernel`): our ``[yaw, pitch, roll]`` (..., 3), usable (...), singular (...)."""
+    lead = q.shape[:-1]
+    rows = np.ascontiguousarray(q.reshape(-1, 4), dtype=np.float64)
+    n = rows.shape[0]
+    ypr, usable, singular = np.empty((n, 3)), np.empty(n, bool), np.empty(n, bool)
+    _k.angles_kernel(n)(rows, float(threshold), ypr, usable, singular)
+    return ypr.reshape(*lead, 3), usable.reshape(lead), singular.reshape(lead)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -214,8 +205,10 @@ class KalmanParams:
     ``max_accel_psd == accel_psd`` gives the plain Kalman filter. The innovation is wrapped to
     (-pi, pi] and the angle state kept unwrapped, so crossing +-180 deg gives no 360 deg jump.
 
-    Defaults were tuned on synthetic static trials (white + AR(1) noise, 1.5-2.5 deg) and on
-    moving ones (90 deg/s ramp, 0.5 Hz +-60 deg sine); tests/test_hand.py asserts the figures.
+    Seed 003 states no values; ``accel_psd`` was chosen on the development seeds of
+    :mod:`agents.experiments.hand_variance` (static: seeds 1, 2, the paper's 11 angles x 5
+    repeats x 10 s; moving: seeds 101, 102, 10 users sweeping about the forearm at 90 deg/s), the
+    other fields set by the reasoning given with each.
 
     Attributes:
         rate_hz: frame rate, Hz (Kinect v2: 30).
@@ -223,10 +216,12 @@ class KalmanParams:
             roll]``). Default 2 deg: seed 003's raw static variances (Tables 1-3) span 0.5 to
             14 deg^2 (0.7 to 3.7 deg), typically about 4 deg^2.
         accel_psd: spectral density of the angular acceleration at rest, rad^2/s^3 (one or per
-            axis). Default 0.003: on the synthetic Kinect v2 (whose noise is part white, part
-            correlated over 0.2 s) 0.01 left the Kalman + median reduction of the paper's yaw at
-            68.9 %, under Table 4's 69 %; 0.003 gives 73 % and costs 0.8 deg of RMSE on a hand
-            sweeping at 90 deg/s (``vrloco experiment hand-variance``).
+            axis). Default 1: on the development seeds, the value of the grid 0.03, 0.1, 0.3, 1,
+            3, 10 whose Kalman output has the smallest RMSE against the truth relative to raw's,
+            averaged over the three axes, the still and the moving trials (0.926; 0.935 at 0.3,
+            0.926 at 3; ``python -m agents.experiments.hand_variance --only seed003``). Smaller
+            values smooth a still hand more (higher variance reduction) and fall behind a moving
+            one.
         max_accel_psd: cap of the adapted density, rad^2/s^3 (one or per axis, >= accel_psd).
             Default 10.
         adapt_time: time constant of the innovation average that drives the adaptation, s.
@@ -240,7 +235,7 @@ class KalmanParams:
 
     rate_hz: float = KINECT_RATE_HZ
     measurement_std: float | tuple[float, float, float] = float(np.deg2rad(2.0))
-    accel_psd: float | tuple[float, float, float] = 0.003
+    accel_psd: float | tuple[float, float, float] = 1.0
     max_accel_psd: float | tuple[float, float, float] = 10.0
     adapt_time: float = 0.1
     init_rate_std: float | tuple[float, float, float] = float(np.deg2rad(90.0))
@@ -283,161 +278,6 @@ def _kalman_constants(
     )
 
 
-class EulerKalman:
-    """Batched Kalman filter on Euler angles (B, 3), one independent 2-state filter per angle.
-
-    See :class:`KalmanParams` for the model. Streams without a valid measurement coast on the
-    model for ``max_coast_frames`` frames, then hold their last output and are re-initialised
-    (angle = measurement, rate 0) by the next valid measurement.
-
-    Args:
-        batch_size: number of streams B.
-        params: :class:`KalmanParams` (defaults if None).
-    """
-
-    def __init__(self, batch_size: int, params: KalmanParams | None = None) -> None:
-        if batch_size < 1:
-            raise ValueError(f"batch_size must be >= 1, got {batch_size}")
-        self.params = params if params is not None else KalmanParams()
-        self.batch_size = int(batch_size)
-        p = self.params
-        self._dt, self._r, self._q, self._q_max, self._p11_init, self._lam = _kalman_constants(p)
-        shape = (self.batch_size, 3)
-        self.angle = np.full(shape, np.nan)  # unwrapped angle state, rad
-        self.rate = np.zeros(shape)  # rad/s
-        self._p00 = np.zeros(shape)
-        self._p01 = np.zeros(shape)
-        self._p11 = np.zeros(shape)
-        #: (B,) bool: the stream holds an estimate that is being updated or coasted.
-        self.active = np.zeros(self.batch_size, dtype=bool)
-        self._missed = np.zeros(self.batch_size, dtype=np.int64)
-        #: (B,) bool: this frame re-initialised the stream from its measurement.
-        self.initialised_now = np.zeros(self.batch_size, dtype=bool)
-        self._nis = np.ones(shape)  # low-passed normalised innovation squared
-
-    def reset(self, mask: ArrayLike | None = None) -> None:
-        """Deactivate the streams where ``mask`` (B,) is True (all if None); output becomes NaN."""
-        m = np.ones(self.batch_size, bool) if mask is None else np.asarray(mask, dtype=bool)
-        if m.shape != (self.batch_size,):
-            raise ValueError(f"mask must have shape ({self.batch_size},), got {m.shape}")
-        self.active[m] = False
-        self.angle[m] = np.nan
-        self.rate[m] = 0.0
-
-    def update(self, z: ArrayLike, valid: ArrayLike | None = None) -> NDArray[np.float64]:
-        """One frame: predict, then correct with ``z`` where valid.
-
-        Args:
-            z: (B, 3) measured ``[yaw, pitch, roll]``, rad (any branch of 2 pi).
-            valid: (B,) bool; None means every row with finite ``z`` is valid.
-
-        Returns:
-            (B, 3) filtered angles wrapped to (-pi, pi], rad (NaN before the first measurement).
-            The unwrapped state is in :attr:`angle`.
-        """
-        z = np.asarray(z, dtype=np.float64)
-        if z.shape != (self.batch_size, 3):
-            raise ValueError(f"z must have shape ({self.batch_size}, 3), got {z.shape}")
-        ok = np.all(np.isfinite(z), axis=1)
-        if valid is not None:
-            v = np.asarray(valid, dtype=bool)
-            if v.shape != (self.batch_size,):
-                raise ValueError(f"valid must have shape ({self.batch_size},), got {v.shape}")
-            ok &= v
-        dt = self._dt
-        act = self.active
-        # Predict (every active stream).
-        a_p = self.angle + dt * self.rate
-        q = np.minimum(self._q * np.maximum(self._nis, 1.0) ** 2, self._q_max)
-        p00 = self._p00 + 2.0 * dt * self._p01 + dt * dt * self._p11 + q * (dt**3 / 3.0)
-        p01 = self._p01 + dt * self._p11 + q * (dt**2 / 2.0)
-        p11 = self._p11 + q * dt
-        # Correct (active streams with a measurement).
-        zz = np.where(ok[:, None], z, 0.0)
-        innov = wrap_angle(zz - np.nan_to_num(a_p))
-        s = p00 + self._r
-        k0, k1 = p00 / s, p01 / s
-        upd = (act & ok)[:, None]
-        nis = innov * innov / s
-        self._nis = np.where(upd, self._nis + self._lam * (nis - self._nis), self._nis)
-        a_u = np.where(upd, a_p + k0 * innov, a_p)
-        w_u = np.where(upd, self.rate + k1 * innov, self.rate)
-        p00_u = np.where(upd, (1.0 - k0) * p00, p00)
-        p01_u = np.where(upd, (1.0 - k0) * p01, p01)
-        p11_u = np.where(upd, p11 - k1 * p01, p11)
-        # Coasting bookkeeping: too many misses -> stale (hold output, re-init on next data).
-        self._missed = np.where(ok, 0, self._missed + 1)
-        stale = act & (self._missed > self.params.max_coast_frames)
-        init = ok & ~act
-        a_act = act[:, None] & ~stale[:, None]
-        i3 = init[:, None]
-        self.angle = np.where(i3, zz, np.where(a_act, a_u, self.angle))
-        self.rate = np.where(i3 | stale[:, None], 0.0, np.where(a_act, w_u, self.rate))
-        self._p00 = np.where(i3, self._r, np.where(a_act, p00_u, self._p00))
-        self._p01 = np.where(i3, 0.0, np.where(a_act, p01_u, self._p01))
-        self._p11 = np.where(i3, self._p11_init, np.where(a_act, p11_u, self._p11))
-        self._nis = np.where(i3, 1.0, self._nis)
-        self.active = (act & ~stale) | init
-        self.initialised_now = init
-        return wrap_angle(self.angle)
-
-
-def _median_valid(x: NDArray[np.float64], axis: int = 0) -> NDArray[np.float64]:
-    """Median along ``axis`` ignoring NaN (NaN where all are NaN); fast for short windows."""
-    s = np.sort(x, axis=axis)  # NaN sorts last
-    n = np.sum(np.isfinite(x), axis=axis, keepdims=True)
-    lo = np.take_along_axis(s, np.maximum((n - 1) // 2, 0), axis=axis)
-    hi = np.take_along_axis(s, n // 2, axis=axis)
-    med = np.where(n > 0, 0.5 * (lo + hi), np.nan)
-    return np.squeeze(med, axis=axis)
-
-
-class StreamingMedian:
-    """Causal median over the last ``window`` samples of B streams of D values each.
-
-    The median is taken over the samples received since the stream's last reset (fewer than
-    ``window`` at the start). With an even count it is the mean of the two middle values.
-
-    Args:
-        batch_size: number of streams B.
-        dim: values per sample D.
-        window: number of consecutive samples, >= 1.
-    """
-
-    def __init__(self, batch_size: int, dim: int = 3, window: int = 5) -> None:
-        if int(window) != window or window < 1:
-            raise ValueError(f"window must be an integer >= 1, got {window}")
-        self.window = int(window)
-        self.batch_size = int(batch_size)
-        self._buf = np.full((self.window, self.batch_size, dim), np.nan)  # newest first
-        self._last = np.full((self.batch_size, dim), np.nan)
-
-    def reset(self, mask: ArrayLike | None = None) -> None:
-        """Empty the streams where ``mask`` (B,) is True (all if None)."""
-        m = np.ones(self.batch_size, bool) if mask is None else np.asarray(mask, dtype=bool)
-        self._buf[:, m] = np.nan
-        self._last[m] = np.nan
-
-    def update(self, x: ArrayLike, append: ArrayLike | None = None) -> NDArray[np.float64]:
-        """Append ``x`` (B, D) for the streams where ``append`` (B,) is True (all if None).
-
-        Returns:
-            (B, D) medians; streams not appended return their previous median unchanged.
-        """
-        x = np.asarray(x, dtype=np.float64)
-        if x.shape != self._last.shape:
-            raise ValueError(f"x must have shape {self._last.shape}, got {x.shape}")
-        app = np.ones(self.batch_size, bool) if append is None else np.asarray(append, bool)
-        if app.shape != (self.batch_size,):
-            raise ValueError(f"append must have shape ({self.batch_size},), got {app.shape}")
-        # Newest first: shift the appended streams' windows by one, dropping their oldest sample.
-        shifted = np.concatenate([x[None], self._buf[:-1]], axis=0)
-        self._buf = np.where(app[None, :, None], shifted, self._buf)
-        med = _median_valid(self._buf, axis=0)
-        self._last = np.where(app[:, None], med, self._last)
-        return self._last.copy()
-
-
 def unwrap_angles(a: ArrayLike, axis: int = -2) -> NDArray[np.float64]:
     """Unwrap angles (rad) along the time ``axis``, tolerating NaN gaps (kept as NaN).
 
@@ -456,39 +296,6 @@ def unwrap_angles(a: ArrayLike, axis: int = -2) -> NDArray[np.float64]:
     return np.moveaxis(out, 0, axis)
 
 
-def median_filter(
-    x: ArrayLike, window: int = 5, axis: int = -2, angular: bool = False
-) -> NDArray[np.float64]:
-    """Causal median filter over consecutive samples: ``y[t] = median(x[t-window+1 .. t])``.
-
-    The offline twin of :class:`StreamingMedian`: at the start the window holds fewer samples;
-    NaN samples are ignored (NaN only where the whole window is NaN).
-
-    Args:
-        x: array with time along ``axis`` (default -2: ``(..., M, D)`` such as ``(B, M, 3)``).
-        window: samples per median, >= 1.
-        axis: the time axis.
-        angular: the values are angles in radians: unwrap along time, filter, wrap to (-pi, pi].
-
-    Returns:
-        Array of the shape of ``x``.
-    """
-    if int(window) != window or window < 1:
-        raise ValueError(f"window must be an integer >= 1, got {window}")
-    xa = np.asarray(x, dtype=np.float64)
-    if xa.ndim == 0:
-        raise ValueError("x must have a time axis")
-    if angular:
-        xa = unwrap_angles(xa, axis=axis)
-    t_first = np.moveaxis(xa, axis, 0)
-    pad = np.full((window - 1, *t_first.shape[1:]), np.nan)
-    padded = np.concatenate([pad, t_first], axis=0)
-    win = np.lib.stride_tricks.sliding_window_view(padded, window, axis=0)  # (M, ..., W)
-    med = _median_valid(win, axis=-1)
-    out = np.moveaxis(med, 0, axis)
-    return wrap_angle(out) if angular else out
-
-
 # ----------------------------------------------------------------------------------------------
 # Orientation chain: eq (1)/(2) -> Kalman -> median
 
@@ -503,8 +310,9 @@ class HandParams:
         median_window: frames in the median over consecutive Kalman outputs, >= 1. Default 3:
             seed 003 does not state it. On a steady rotation a causal median of n frames lags
             (n - 1) / 2 frames: 33 ms for 3, 67 ms for 5 at 30 Hz. Behind our Kalman filter the
-            median removes little more variance (a point or two, see tests/test_hand.py) but adds
-            that lag, so we keep the smallest window that is still a median; 1 disables it.
+            median removes a few points more variance at rest but adds that lag in motion (its
+            share and its price: ``vrloco experiment hand-variance``), so we keep the smallest
+            window that is still a median; 1 disables it.
         singularity_threshold: eq (2) is used where ``|wy - zx|`` exceeds this (paper: 0.499).
         wrist_joint: joint whose orientation ``hand_quat`` is (default 10, WristRight).
         center_joints: joints whose mean locates a body for the nearest-body rule (default 0
@@ -536,14 +344,17 @@ class HandParams:
 
 @dataclass
 class OrientationFrame:
-    """Output of :class:`OrientationFilter` for one frame; angles ``[yaw, pitch, roll]`` in rad.
+    """Output of :class:`OrientationFilter`; angles ``[yaw, pitch, roll]`` in rad.
+
+    Arrays are (B, ...) for :meth:`OrientationFilter.update`, (B, M, ...) for the M-frame calls.
 
     Attributes:
         ypr_raw: (B, 3) eq (1)/(2) of this frame's quaternion; the last valid value is held on a
             dropout (NaN before the first).
         ypr_kalman: (B, 3) Kalman output, wrapped to (-pi, pi].
         ypr: (B, 3) Kalman + median output (the pipeline's estimate), wrapped.
-        quat_valid: (B,) bool, this frame's quaternion was used (False: dropout, value held).
+        quat_valid: (B,) bool, this frame's quaternion (or angles) was used (False: dropout,
+            value held).
         singular: (B,) bool, eq (2) was used (|wy - zx| > threshold).
         valid: (B,) bool, the outputs hold an estimate (False before the first valid frame).
     """
@@ -557,13 +368,20 @@ class OrientationFrame:
 
 
 class OrientationFilter:
-    """Eq (1)/(2), then :class:`EulerKalman`, then :class:`StreamingMedian`, for B streams.
+    """Eq (1)/(2), then the Kalman filter, then the median, for B streams of wrist quaternions.
 
-    Dropouts — a NaN or zero-norm quaternion, or ``valid`` False — are never propagated as NaN:
-    the raw angles hold their last value, the Kalman filter coasts (then holds, see
-    :class:`KalmanParams`), the median is not fed, and ``quat_valid`` is False. Infinite entries
-    are a ValueError. The median runs on the Kalman filter's unwrapped angles, so its window never
-    straddles a +-180 deg wrap.
+    Stage 3 of :class:`HandPipeline` without target selection and joint smoothing, run by the same
+    compiled code (:data:`estimators._hand_numba.filter_kernel` after
+    :data:`estimators._hand_numba.angles_kernel`): fed the target's wrist quaternions, it gives the
+    pipeline's ``ypr_raw``, ``ypr_kalman`` and ``ypr`` bit for bit. For recorded or simulated
+    orientation sequences (the static-variance experiment of seed 003) and for hand stages that
+    filter the pipeline's raw angles again with other parameters (:meth:`update_angles`).
+
+    Dropouts -- a NaN or zero-norm quaternion, NaN angles, or ``valid`` False -- are never
+    propagated as NaN: the raw angles hold their last value, the Kalman filter coasts (then holds,
+    see :class:`KalmanParams`), the median is not fed, and ``quat_valid`` is False. Infinite
+    entries are a ValueError. The median runs on the Kalman filter's unwrapped angles, so its
+    window never straddles a +-180 deg wrap.
 
     Args:
         batch_size: number of streams B.
@@ -572,20 +390,85 @@ class OrientationFilter:
     """
 
     def __init__(self, batch_size: int, params: HandParams | None = None) -> None:
+        self.batch_size = check_batch_size(batch_size, "OrientationFilter")
         self.params = params if params is not None else HandParams()
-        self.batch_size = int(batch_size)
-        self.kalman = EulerKalman(batch_size, self.params.kalman)
-        self.median = StreamingMedian(batch_size, 3, self.params.median_window)
-        self._raw = np.full((self.batch_size, 3), np.nan)
-        self._kf_out = np.full((self.batch_size, 3), np.nan)
+        if not isinstance(self.params, HandParams):
+            raise ValueError(
+                f"OrientationFilter: params must be a HandParams, got {self.params!r}"
+            )
+        self._prm, self._axes = _kernel_params(self.params)
+        self._state = _k.new_filter_state(self.batch_size, self.params.median_window)
+        self._pending = np.zeros(self.batch_size, bool)  # streams to forget before next frame
+
+    @property
+    def active(self) -> NDArray[np.bool_]:
+        """(B,) bool: the stream's Kalman filter holds an estimate (updated or coasted)."""
+        return (self._state[0]["active"] != 0.0) & ~self._pending
 
     def reset(self, mask: ArrayLike | None = None) -> None:
-        """Forget the streams where ``mask`` (B,) is True (all if None)."""
+        """Forget the streams where ``mask`` (B,) is True (all if None), before their next frame."""
         m = np.ones(self.batch_size, bool) if mask is None else np.asarray(mask, dtype=bool)
-        self.kalman.reset(m)
-        self.median.reset(m)
-        self._raw[m] = np.nan
-        self._kf_out[m] = np.nan
+        if m.shape != (self.batch_size,):
+            raise ValueError(f"mask must have shape ({self.batch_size},), got {m.shape}")
+        self._pending |= m
+
+    def _flags(self, name: str, value: ArrayLike | None, m: int, default: bool) -> NDArray:
+        if value is None:
+            return np.full((self.batch_size, m), default)
+        v = np.asarray(value, dtype=bool)
+        if v.shape != (self.batch_size, m):
+            raise ValueError(f"{name} must have shape ({self.batch_size}, {m}), got {v.shape}")
+        return v
+
+    def update_angles(
+        self, ypr: ArrayLike, usable: ArrayLike | None = None, restart: ArrayLike | None = None
+    ) -> OrientationFrame:
+        """Filter M frames of raw angles (the Kalman filter and the median only).
+
+        Args:
+            ypr: (B, M, 3) raw ``[yaw, pitch, roll]``, rad (NaN = dropout).
+            usable: (B, M) bool, False marks a dropout; None = every frame with finite angles.
+            restart: (B, M) bool, forget the stream before that frame (e.g. a new target user).
+
+        Returns:
+            :class:`OrientationFrame` of (B, M, ...) arrays; ``singular`` is all False (the
+            angles carry no quaternion).
+        """
+        z = np.asarray(ypr, dtype=np.float64)
+        if z.ndim != 3 or z.shape[0] != self.batch_size or z.shape[2] != 3 or z.shape[1] < 1:
+            raise ValueError(
+                f"ypr must have shape ({self.batch_size}, M, 3) with M >= 1, got {z.shape}"
+            )
+        if np.isinf(z).any():
+            raise ValueError("ypr contains infinite entries; use NaN for a dropout")
+        m = z.shape[1]
+        ok = self._flags("usable", usable, m, True) & np.isfinite(z).all(axis=-1)
+        return self._run(z, ok, self._flags("restart", restart, m, False), np.zeros_like(ok))
+
+    def update_frames(
+        self, q: ArrayLike, valid: ArrayLike | None = None, reset: ArrayLike | None = None
+    ) -> OrientationFrame:
+        """Filter M frames of wrist quaternions: the same numbers as M :meth:`update` calls.
+
+        Args:
+            q: (B, M, 4) quaternions ``[w, x, y, z]`` (any norm > 1e-6; NaN or zero = dropout).
+            valid: (B, M) bool, False marks a dropout (e.g. no target user); None = all valid.
+            reset: (B, M) bool, streams to forget before that frame (e.g. a new target user).
+
+        Returns:
+            :class:`OrientationFrame` of (B, M, ...) arrays.
+        """
+        qa = np.asarray(q, dtype=np.float64)
+        if qa.ndim != 3 or qa.shape[0] != self.batch_size or qa.shape[2] != 4 or qa.shape[1] < 1:
+            raise ValueError(
+                f"hand_quat must have shape ({self.batch_size}, M, 4) with M >= 1, got {qa.shape}"
+            )
+        if np.isinf(qa).any():
+            raise ValueError("hand_quat contains infinite entries; use NaN for a dropout")
+        m = qa.shape[1]
+        ypr, usable, singular = _angles_of(qa, self.params.singularity_threshold)
+        ok = usable & self._flags("valid", valid, m, True)
+        return self._run(ypr, ok, self._flags("reset", reset, m, False), singular & ok)
 
     def update(
         self, q: ArrayLike, valid: ArrayLike | None = None, reset: ArrayLike | None = None
@@ -598,41 +481,41 @@ class OrientationFilter:
             reset: (B,) bool, streams to forget before this frame (e.g. a new target user).
 
         Returns:
-            :class:`OrientationFrame`.
+            :class:`OrientationFrame` of (B, ...) arrays.
         """
-        q = np.asarray(q, dtype=np.float64)
-        b = self.batch_size
-        if q.shape != (b, 4):
-            raise ValueError(f"hand_quat must have shape ({b}, 4), got {q.shape}")
-        if np.any(np.isinf(q)):
-            raise ValueError("hand_quat contains infinite entries; use NaN for a dropout")
-        if reset is not None:
-            self.reset(reset)
-        norm = np.linalg.norm(q, axis=1)
-        ok = np.isfinite(norm) & (norm > _MIN_QUAT_NORM)
-        if valid is not None:
-            v = np.asarray(valid, dtype=bool)
-            if v.shape != (b,):
-                raise ValueError(f"valid must have shape ({b},), got {v.shape}")
-            ok &= v
-        qn = np.where(ok[:, None], q / np.where(ok, norm, 1.0)[:, None], [1.0, 0.0, 0.0, 0.0])
-        ypr, singular = _paper_ypr(qn, self.params.singularity_threshold)
-        self._raw = np.where(ok[:, None], ypr, self._raw)
-        kf = self.kalman
-        wrapped = kf.update(ypr, ok)
-        self.median.reset(kf.initialised_now)
-        med = self.median.update(kf.angle, kf.active)
-        self._kf_out = np.where(kf.active[:, None], wrapped, self._kf_out)
-        valid_out = np.all(np.isfinite(self._kf_out), axis=1)
-        return OrientationFrame(
-            ypr_raw=self._raw.copy(),
-            ypr_kalman=self._kf_out.copy(),
-            ypr=wrap_angle(med),
-            quat_valid=ok,
-            singular=singular & ok,
-            valid=valid_out,
-        )
+        qa = np.asarray(q, dtype=np.float64)
+        if qa.shape != (self.batch_size, 4):
+            raise ValueError(f"hand_quat must have shape ({self.batch_size}, 4), got {qa.shape}")
+        flags = [None if f is None else np.asarray(f, dtype=bool) for f in (valid, reset)]
+        for name, f in zip(("valid", "reset"), flags, strict=True):
+            if f is not None and f.shape != (self.batch_size,):
+                raise ValueError(f"{name} must have shape ({self.batch_size},), got {f.shape}")
+        out = self.update_frames(qa[:, None], *(None if f is None else f[:, None] for f in flags))
+        return OrientationFrame(*(getattr(out, f.name)[:, 0] for f in fields(OrientationFrame)))
 
+    def _run(
+        self, z: NDArray, ok: NDArray, restart: NDArray, singular: NDArray
+    ) -> OrientationFrame:
+        """The kernel over (B, M) frames, the pending resets applied before the first."""
+        b, m = ok.shape
+        restart = restart.copy()
+        restart[:, 0] |= self._pending
+        self._pending[:] = False
+        rows = b * m
+        raw, kalman, ypr = np.empty((rows, 3)), np.empty((rows, 3)), np.empty((rows, 3))
+        valid = np.empty(rows, bool)
+        _k.filter_kernel(b)(
+            np.ascontiguousarray(z.reshape(rows, 3)), ok.reshape(rows), restart.reshape(rows), m,
+            self._prm, self._axes, self._state, (raw, kalman, ypr, valid),
+        )  # fmt: skip
+        return OrientationFrame(
+            ypr_raw=raw.reshape(b, m, 3),
+            ypr_kalman=kalman.reshape(b, m, 3),
+            ypr=ypr.reshape(b, m, 3),
+            quat_valid=ok,
+            singular=singular,
+            valid=valid.reshape(b, m),
+        )
 
 # ----------------------------------------------------------------------------------------------
 # The whole pipeline

