@@ -2,9 +2,12 @@
 
 :meth:`vrloco_env.sensors.kinect.KinectV2.capture` validates its input, draws one block of
 standard normals per frame from the users' :class:`~vrloco_env.batch_rng.BatchRng` and hands
-everything to :func:`capture_frames`, which runs the whole model -- bystanders, camera transform,
-field of view, occlusion, tracking and ids, jitter bursts, random inferred episodes, noise, wrist
-orientation, slots -- with explicit loops over users, frames, bodies and joints, in one call.
+everything to :func:`capture_frames`, which runs the whole model in one call, per user and frame
+in stages: the bystanders (:func:`_bystanders`), camera transform and field of view
+(:func:`_camera_space`), occlusion (:func:`_occlusion`), tracking and ids (:func:`_track`), jitter
+bursts and random inferred episodes (:func:`_episodes`), the noise states
+(:func:`_noise_states`), and each body's slot with its noisy joints and wrist orientation
+(:func:`_body_out`).
 
 The kernel is plain Python on scalars and small arrays; ``capture_frames.py_func`` runs the same
 code uncompiled (``tests/kernel_cases/kinect.py`` checks that both give the same frames). Its
@@ -199,8 +202,296 @@ def geometric_split(u: float, q: float) -> tuple[int, float]:
     return length, min(max((u - (1.0 - top)) / (top * (1.0 - q)), 0.0), _BELOW_ONE)
 
 
+@numba.njit(cache=True)
+def _bystanders(zf, z_by, nb, t_frame, p, g, by, aff, hand_cam, cq) -> None:
+    """Stage 1, the bystanders: each stands for an exponential time, then walks at a random speed
+    to a random spot of the bystander area (sensor floor frame: d along the axis, l to its left);
+    its pose (yaw, quiet-standing sway on the frame clock ``t_frame`` s, height) goes into its
+    affine map ``aff[i + 1]`` (camera point of a template point) and its hand into
+    ``hand_cam[i + 1]``. ``by`` = the session's (pos, yaw, height, sway amplitude, frequency,
+    phase, target, speed, moving) arrays; ``cq`` the world -> camera quaternion."""
+    by_pos, by_yaw, by_height, by_amp, by_freq, by_phase, by_target, by_speed, by_moving = by
+    cam_rot, cam_pos, by_hand_quat = g["cam_rot"], g["cam_pos"], g["by_hand_quat"]
+    dt = p["dt"]
+    for i in range(nb):
+        zi = zf[z_by + BYSTANDER_DRAWS * i :]
+        if by_moving[i] == 0.0 and zi[Y_WALK_START] < p["walk_z"]:
+            d = p["by_d0"] + (p["by_d1"] - p["by_d0"]) * uniform(zi[Y_WALK_DIST])
+            lat = p["bystander_lateral_m"] * (2.0 * uniform(zi[Y_WALK_LATERAL]) - 1.0)
+            by_target[i, 0] = cam_pos[0] + d * p["cam_cos"] - lat * p["cam_sin"]
+            by_target[i, 1] = cam_pos[1] + d * p["cam_sin"] + lat * p["cam_cos"]
+            v0, v1 = p["by_v0"], p["by_v1"]
+            by_speed[i] = v0 + (v1 - v0) * uniform(zi[Y_WALK_SPEED])
+            by_moving[i] = 1.0
+        dx = by_target[i, 0] - by_pos[i, 0]
+        dy = by_target[i, 1] - by_pos[i, 1]
+        dist = math.sqrt(dx * dx + dy * dy)
+        step = min(by_speed[i] * dt, dist)
+        if by_moving[i] != 0.0 and dist > 1e-9:
+            by_pos[i, 0] += step * dx / dist
+            by_pos[i, 1] += step * dy / dist
+            by_yaw[i] = math.atan2(dy, dx)
+        by_moving[i] = 1.0 if by_moving[i] != 0.0 and dist - step > 1e-9 else 0.0
+        # Pose: yaw about z (body -> world), quiet-standing sway as a lateral shift on the
+        # bystander's own frame clock, height h: world = h Rz(yaw) template + (px, py, 0).
+        ch, sh = math.cos(0.5 * by_yaw[i]), math.sin(0.5 * by_yaw[i])
+        c_yaw, s_yaw = ch * ch - sh * sh, 2.0 * ch * sh
+        sway = by_amp[i] * math.sin(2.0 * math.pi * by_freq[i] * t_frame + by_phase[i])
+        ex = by_pos[i, 0] - sway * s_yaw - cam_pos[0]
+        ey = by_pos[i, 1] + sway * c_yaw - cam_pos[1]
+        h = by_height[i]
+        for a in range(3):  # camera = h R^T Rz template + R^T ((px, py, 0) - c)
+            aff[i + 1, a, 0] = h * (cam_rot[0, a] * c_yaw + cam_rot[1, a] * s_yaw)
+            aff[i + 1, a, 1] = h * (cam_rot[1, a] * c_yaw - cam_rot[0, a] * s_yaw)
+            aff[i + 1, a, 2] = h * cam_rot[2, a]
+            aff[i + 1, a, 3] = cam_rot[0, a] * ex + cam_rot[1, a] * ey
+            aff[i + 1, a, 3] -= cam_rot[2, a] * cam_pos[2]
+        bw, bx, by_, bz = quat_mul(
+            ch, 0.0, 0.0, sh,
+            by_hand_quat[0], by_hand_quat[1], by_hand_quat[2], by_hand_quat[3],
+        )  # fmt: skip
+        (
+            hand_cam[i + 1, 0], hand_cam[i + 1, 1], hand_cam[i + 1, 2], hand_cam[i + 1, 3]
+        ) = quat_mul(cq[0], cq[1], cq[2], cq[3], bw, bx, by_, bz)  # fmt: skip
+
+
+@numba.njit(cache=True)
+def _camera_space(n_bodies, p, src, aff, view) -> None:
+    """Stage 2, camera space: every body's joints (``aff @ src``) into ``view`` = (cam (N, J, 3)
+    m, image coordinates x / z and y / z (N, J), in the field of view (N, J))."""
+    cam, img_u, img_v, in_view = view
+    near, far, tan_h, tan_v = p["near"], p["far"], p["tan_h"], p["tan_v"]
+    for n in range(n_bodies):
+        for j in range(NUM_JOINTS):
+            p0, p1, p2 = src[n, j, 0], src[n, j, 1], src[n, j, 2]
+            x = aff[n, 0, 0] * p0 + aff[n, 0, 1] * p1 + aff[n, 0, 2] * p2 + aff[n, 0, 3]
+            y = aff[n, 1, 0] * p0 + aff[n, 1, 1] * p1 + aff[n, 1, 2] * p2 + aff[n, 1, 3]
+            d = aff[n, 2, 0] * p0 + aff[n, 2, 1] * p1 + aff[n, 2, 2] * p2 + aff[n, 2, 3]
+            cam[n, j, 0], cam[n, j, 1], cam[n, j, 2] = x, y, d
+            in_view[n, j] = d >= near and d <= far and abs(x) <= tan_h * d and abs(y) <= tan_v * d
+            inv = 1.0 / max(d, 1e-3)
+            img_u[n, j], img_v[n, j] = x * inv, y * inv
+
+
+@numba.njit(cache=True)
+def _occlusion(n_bodies, p, g, view, occluded, n_visible, torso) -> None:
+    """Stage 3, occlusion: each torso is an image rectangle over its shoulder and hip joints,
+    widened by the margin, at the mean depth of its torso joints (``torso`` = (depth, u_lo, u_hi,
+    v_lo, v_hi), (N,)); a joint deeper than that by ``occlusion_depth_m`` whose image falls
+    inside is hidden (own torso: inferred, never for the torso's own joints; another body's:
+    inferred and not "visible"). Fills ``occluded`` (N, J) and ``n_visible`` (N,)."""
+    cam, img_u, img_v, in_view = view
+    zt, u_lo, u_hi, v_lo, v_hi = torso
+    is_torso, torso_joints = g["is_torso"], g["torso_joints"]
+    margin_m, occlusion_depth = p["torso_margin_m"], p["occlusion_depth_m"]
+    for n in range(n_bodies):
+        acc = 0.0
+        ulo, uhi, vlo, vhi = np.inf, -np.inf, np.inf, -np.inf
+        for t in range(N_TORSO_JOINTS):
+            j = int(torso_joints[t])
+            acc += cam[n, j, 2]
+            ulo, uhi = min(ulo, img_u[n, j]), max(uhi, img_u[n, j])
+            vlo, vhi = min(vlo, img_v[n, j]), max(vhi, img_v[n, j])
+        zt[n] = acc / N_TORSO_JOINTS
+        margin = margin_m / max(zt[n], 1e-3)
+        u_lo[n], u_hi[n], v_lo[n], v_hi[n] = ulo - margin, uhi + margin, vlo, vhi
+    for n in range(n_bodies):
+        n_visible[n] = 0
+        for j in range(NUM_JOINTS):
+            occluded[n, j] = False
+            if not in_view[n, j]:  # not tracked whatever hides it
+                continue
+            d, u, v = cam[n, j, 2], img_u[n, j], img_v[n, j]
+            own, other = False, False
+            for o in range(n_bodies):
+                if (
+                    zt[o] > 0
+                    and d > zt[o] + occlusion_depth
+                    and u_lo[o] <= u <= u_hi[o]
+                    and v_lo[o] <= v <= v_hi[o]
+                ):
+                    if o == n:
+                        own = True
+                    else:
+                        other = True
+            occluded[n, j] = other or (own and is_torso[j] == 0.0)
+            if not other:
+                n_visible[n] += 1
+
+
+@numba.njit(cache=True)
+def _track(n_bodies, p, n_visible, session, new_ids, tracked, fresh) -> None:
+    """Stage 4, tracking: a body is tracked after ``acquire_frames`` consecutive detectable
+    frames; one tracked again gets a fresh id (``new_ids`` (N,)), unique among the user's
+    bodies. ``session`` = (acquired, prev_tracked, body_id), (N,) each, updated in place; fills
+    ``tracked`` and ``fresh`` (N,)."""
+    acquired, prev_tracked, body_id = session
+    acq = int(p["acquire_frames"])
+    for n in range(n_bodies):
+        if n_visible[n] / NUM_JOINTS >= p["min_visible_fraction"]:
+            acquired[n] = min(acquired[n] + 1, acq)
+        else:
+            acquired[n] = 0
+        tracked[n] = acquired[n] >= acq
+        fresh[n] = tracked[n] and prev_tracked[n] == 0.0
+        if fresh[n]:
+            body_id[n] = new_ids[n]
+        prev_tracked[n] = 1.0 if tracked[n] else 0.0
+    _unique_ids(body_id[:n_bodies], fresh)
+
+
+@numba.njit(cache=True)
+def _episodes(n_bodies, zf, p, g, episodes, b_active, occluded) -> None:
+    """Stage 5, jitter bursts (one limb, a few frames) and random inferred episodes.
+    ``episodes`` = (burst_left, burst_group (N,), inferred_left (N, J)), the session's, updated
+    in place; fills ``b_active`` (N,) and marks the joints of inferred episodes in ``occluded``."""
+    burst_left, burst_group, inferred_left = episodes
+    inferred_z = g["inferred_z"]
+    n_len = int(p["burst_max"]) - int(p["burst_min"]) + 1
+    for n in range(n_bodies):
+        zb = zf[Z_BODIES + BODY_DRAWS * n :]
+        if burst_left[n] == 0.0 and zb[B_BURST] < p["burst_z"]:
+            # Given the start, ndtr(z) / p is uniform: it picks the limb, then the length.
+            u = min(uniform(zb[B_BURST]) / p["burst_prob"], _BELOW_ONE)
+            burst_group[n], u = categorical_split(u, N_LIMB_GROUPS)
+            length, u = categorical_split(u, n_len)
+            burst_left[n] = int(p["burst_min"]) + length
+        b_active[n] = burst_left[n] > 0.0
+        burst_left[n] = max(burst_left[n] - 1.0, 0.0)
+        # Every joint not in an episode starts one with probability p, of geometric length.
+        # Trials and lengths are one chain of splits of one uniform; most frames have no start
+        # at all (u >= 1 - (1 - p)^k for k free joints), which one comparison tells.
+        free = 0
+        for j in range(NUM_JOINTS):
+            if inferred_left[n, j] == 0:
+                free += 1
+        if zb[B_INFERRED] < inferred_z[free]:
+            u = uniform(zb[B_INFERRED])
+            for j in range(NUM_JOINTS):
+                if inferred_left[n, j] == 0:
+                    hit, u = bernoulli_split(u, p["random_inferred_prob"])
+                    if hit:
+                        inferred_left[n, j], u = geometric_split(u, p["inferred_q"])
+        for j in range(NUM_JOINTS):
+            if inferred_left[n, j] > 0:
+                occluded[n, j] = True
+                inferred_left[n, j] -= 1
+
+
+@numba.njit(cache=True)
+def _noise_states(zf, z_by, nb, p, noise) -> None:
+    """Stage 6, noise states: the target's ARMA(1, 1) joint noise (unit variance); unit AR(1)
+    states of every wrist and of the bystanders' joint noise (a bystander's wrist and joints
+    share their innovations). ``noise`` = the session's (joint_noise, joint_innov, ar_hand,
+    ar_by), updated in place."""
+    joint_noise, joint_innov, ar_hand, ar_by = noise
+    rho_j, rho_h = p["rho_joint"], p["rho_hand"]
+    c_j, c_h = math.sqrt(1.0 - rho_j * rho_j), math.sqrt(1.0 - rho_h * rho_h)
+    arma_s, arma_theta = p["arma_s"], p["arma_theta"]
+    for j in range(NUM_JOINTS):
+        for a in range(3):
+            e = zf[Z_JOINT + 3 * j + a]
+            joint_noise[j, a] = rho_j * joint_noise[j, a] + arma_s * (
+                e + arma_theta * joint_innov[j, a]
+            )
+            joint_innov[j, a] = e
+    for a in range(3):
+        ar_hand[0, a] = rho_h * ar_hand[0, a] + c_h * zf[Z_HAND_AR + a]
+    for i in range(nb):
+        zi = zf[z_by + BYSTANDER_DRAWS * i :]
+        for a in range(3):
+            ar_hand[i + 1, a] = rho_h * ar_hand[i + 1, a] + c_h * zi[Y_AR + a]
+            ar_by[i, a] = rho_j * ar_by[i, a] + c_j * zi[Y_AR + a]
+
+
+@numba.njit(cache=True)
+def _body_out(n, zf, z_by, p, g, frame, noise, row) -> None:
+    """Stage 7, one body's slot: tracking states, noisy joints, wrist orientation. ``frame`` =
+    (view, occluded, hand_cam, tracked, b_active, burst_group, bias) of this frame and session,
+    ``noise`` the session's noise states (:func:`_noise_states`), ``row`` = the slot's (joints
+    (J, 3), joint_state (J,), hand_quat (4,)) of this frame, and the target's truth hand (4,)."""
+    view, occluded, hand_cam, tracked, b_active, burst_group, bias = frame
+    cam, _, _, in_view = view
+    joint_noise, _, ar_hand, ar_by = noise
+    out_joints, out_state, out_hand, truth_hand = row
+    sdk, joint_scale, limb_index = g["sdk_from_hand"], g["joint_scale"], g["limb_index"]
+    hand_white_sd, hand_ar_sd = g["hand_white_sd"], g["hand_ar_sd"]
+    noise_a, noise_b, ref_std = p["noise_a"], p["noise_b"], p["ref_std"]
+    burst_pos = p["burst_position_std_m"]
+    wf = p["joint_noise_white_fraction"]
+    sq_ar = math.sqrt(1.0 - wf)
+    grp = int(burst_group[n]) if b_active[n] else -1
+    # White normals of the wrist (target) or of the whole body (bystander).
+    zw = zf[Z_HAND_WHITE:] if n == 0 else zf[z_by + BYSTANDER_DRAWS * (n - 1) :]
+    w0, w1, w2 = zw[0], zw[1], zw[2]
+    a0, a1, a2 = 0.0, 0.0, 0.0
+    if n > 0:
+        a0, a1, a2 = ar_by[n - 1, 0], ar_by[n - 1, 1], ar_by[n - 1, 2]
+    wrist_factor = 1.0
+    for j in range(NUM_JOINTS):
+        if not (tracked[n] and in_view[n, j]):
+            out_state[j] = NOT_TRACKED
+            for a in range(3):
+                out_joints[j, a] = np.nan
+            continue
+        factor = 1.0
+        if occluded[n, j]:
+            out_state[j] = INFERRED
+            factor = p["inferred_noise_factor"]
+        else:
+            out_state[j] = TRACKED
+        if j == WRIST_RIGHT:
+            wrist_factor = factor
+        d = cam[n, j, 2]
+        sigma = (noise_a + noise_b * d * d) * joint_scale[j] * factor
+        limb = int(limb_index[grp, j]) if grp >= 0 else -1
+        if n == 0:  # the target: independent noise per joint, burst noise per joint
+            for a in range(3):
+                pos = cam[0, j, a] + bias[0, j, a] + sigma * joint_noise[j, a]
+                if limb >= 0:
+                    pos += burst_pos * zf[Z_BURST + 3 * limb + a]
+                out_joints[j, a] = pos
+        else:  # a bystander: its rigid noise vectors, scaled per joint
+            burst = burst_pos if limb >= 0 else 0.0
+            white = math.sqrt(wf * sigma * sigma + burst * burst)
+            ar = sq_ar * sigma
+            out_joints[j, 0] = cam[n, j, 0] + bias[n, j, 0] + white * w0 + ar * a0
+            out_joints[j, 1] = cam[n, j, 1] + bias[n, j, 1] + white * w1 + ar * a1
+            out_joints[j, 2] = cam[n, j, 2] + bias[n, j, 2] + white * w2 + ar * a2
+    # Wrist orientation: white + AR(1) rotation noise about the hand axes, scaled with the joint
+    # noise at the wrist's depth, then into the SDK wrist frame.
+    qw_, qx_, qy_, qz_ = hand_cam[n, 0], hand_cam[n, 1], hand_cam[n, 2], hand_cam[n, 3]
+    if n == 0:
+        truth_hand[0], truth_hand[1], truth_hand[2], truth_hand[3] = quat_mul(
+            qw_, qx_, qy_, qz_, sdk[0], sdk[1], sdk[2], sdk[3])  # fmt: skip
+    if out_state[WRIST_RIGHT] == NOT_TRACKED:
+        out_hand[:] = np.nan
+        return
+    d = cam[n, WRIST_RIGHT, 2]
+    f_w = wrist_factor
+    if ref_std > 0:
+        f_w *= (noise_a + noise_b * d * d) / ref_std
+    burst = p["burst_rot"] if grp == 0 else 0.0
+    r0 = math.sqrt((f_w * hand_white_sd[0]) ** 2 + burst * burst) * w0
+    r1 = math.sqrt((f_w * hand_white_sd[1]) ** 2 + burst * burst) * w1
+    r2 = math.sqrt((f_w * hand_white_sd[2]) ** 2 + burst * burst) * w2
+    r0 += f_w * hand_ar_sd[0] * ar_hand[n, 0]
+    r1 += f_w * hand_ar_sd[1] * ar_hand[n, 1]
+    r2 += f_w * hand_ar_sd[2] * ar_hand[n, 2]
+    ew, ex_, ey_, ez_ = quat_from_rotvec(r0, r1, r2)
+    nw, nx, ny, nz = quat_mul(qw_, qx_, qy_, qz_, ew, ex_, ey_, ez_)
+    out_hand[0], out_hand[1], out_hand[2], out_hand[3] = quat_mul(
+        nw, nx, ny, nz, sdk[0], sdk[1], sdk[2], sdk[3])  # fmt: skip
+
+
 def _capture_frames(joints_world, hand_world, z, new_ids, prm, geo, state, out) -> None:
     """Run M frames for B users, updating the session state in place and filling the outputs.
+
+    Per user and frame, in stages: the bystanders move (:func:`_bystanders`), every body into
+    camera space and the field of view (:func:`_camera_space`), occlusion by the torsos
+    (:func:`_occlusion`), tracking and ids (:func:`_track`), jitter bursts and random inferred
+    episodes (:func:`_episodes`), the noise states (:func:`_noise_states`), then each body's
+    slot (:func:`_body_out`).
 
     Args (shapes; B users, M frames, N bodies, nb = N - 1 bystanders, K = 6 slots, J = 25):
         joints_world: (B, M, J, 3) m, the target's true joints in the world.
@@ -216,85 +507,41 @@ def _capture_frames(joints_world, hand_world, z, new_ids, prm, geo, state, out) 
             (B, M, J, 3) m and (B, M, 4), filled here.
     """
     out_id, out_tracked, out_joints, out_state, out_hand, truth_joints, truth_hand = out
-    p = prm[0]
     B, M = joints_world.shape[0], joints_world.shape[1]
-    N = int(p["n_bystanders"]) + 1
-    nb = N - 1
     K = out_id.shape[2]
     J = NUM_JOINTS
-    z_by = Z_BODIES + BODY_DRAWS * N  # bystander_offset(N)
-    dt = p["dt"]
-    acq = int(p["acquire_frames"])
-    n_len = int(p["burst_max"]) - int(p["burst_min"]) + 1
-    n_groups = N_LIMB_GROUPS
-    wf = p["joint_noise_white_fraction"]
-    rho_j, rho_h = p["rho_joint"], p["rho_hand"]
-    c_j, c_h = math.sqrt(1.0 - rho_j * rho_j), math.sqrt(1.0 - rho_h * rho_h)
-    arma_s, arma_theta = p["arma_s"], p["arma_theta"]
-    sq_ar = math.sqrt(1.0 - wf)
-    near, far, tan_h, tan_v = p["near"], p["far"], p["tan_h"], p["tan_v"]
-    noise_a, noise_b, ref_std = p["noise_a"], p["noise_b"], p["ref_std"]
-    inferred_factor = p["inferred_noise_factor"]
-    burst_pos, burst_rot = p["burst_position_std_m"], p["burst_rot"]
-    margin_m, occlusion_depth = p["torso_margin_m"], p["occlusion_depth_m"]
-    p_inferred, q_inferred = p["random_inferred_prob"], p["inferred_q"]
-    walk_z, by_lateral = p["walk_z"], p["bystander_lateral_m"]
-    cam_cos, cam_sin = p["cam_cos"], p["cam_sin"]
-    by_d0, by_d1, by_v0, by_v1 = p["by_d0"], p["by_d1"], p["by_v0"], p["by_v1"]
-    min_visible, burst_z, burst_prob = p["min_visible_fraction"], p["burst_z"], p["burst_prob"]
-    burst_min = int(p["burst_min"])
 
     for b in numba.prange(B):  # users are independent (estimators.kernels.batch)
         # The records are read inside the loop (the parallel build takes no record value in), and
         # the session's sub-arrays are bound right after ``s``: numba's parallel build keeps the
         # writes through names it sees derive from an argument, and may drop others.
-        g, s = geo[0], state[b]
+        p, g, s = prm[0], geo[0], state[b]
         slot = s["slot"]
         body_id = s["body_id"]
         acquired = s["acquired"]
         prev_tracked = s["prev_tracked"]
         bias = s["bias"]
-        joint_noise = s["joint_noise"]
-        joint_innov = s["joint_innov"]
-        ar_hand = s["ar_hand"]
-        ar_by = s["ar_by"]
-        burst_left = s["burst_left"]
-        burst_group = s["burst_group"]
-        inferred_left = s["inferred_left"]
-        by_pos = s["by_pos"]
-        by_yaw = s["by_yaw"]
-        by_height = s["by_height"]
-        by_sway_amp = s["by_sway_amp"]
-        by_sway_freq = s["by_sway_freq"]
-        by_sway_phase = s["by_sway_phase"]
-        by_target = s["by_target"]
-        by_speed = s["by_speed"]
-        by_moving = s["by_moving"]
-        cam_rot, cam_pos, cq, sdk = g["cam_rot"], g["cam_pos"], g["cam_quat"], g["sdk_from_hand"]
-        by_template, by_hand_quat = g["by_template"], g["by_hand_quat"]
-        joint_scale, limb_index, inferred_z = g["joint_scale"], g["limb_index"], g["inferred_z"]
-        hand_white_sd, hand_ar_sd = g["hand_white_sd"], g["hand_ar_sd"]
-        is_torso, torso_joints = g["is_torso"], g["torso_joints"]
-        cw, cx, cy, cz = cq[0], -cq[1], -cq[2], -cq[3]  # world -> camera
-        sw, sx, sy, sz = sdk[0], sdk[1], sdk[2], sdk[3]
+        noise = (s["joint_noise"], s["joint_innov"], s["ar_hand"], s["ar_by"])
+        episodes = (s["burst_left"], s["burst_group"], s["inferred_left"])
+        by = (s["by_pos"], s["by_yaw"], s["by_height"], s["by_sway_amp"], s["by_sway_freq"],
+              s["by_sway_phase"], s["by_target"], s["by_speed"], s["by_moving"])  # fmt: skip
+        N = int(p["n_bystanders"]) + 1
+        nb = N - 1
+        z_by = Z_BODIES + BODY_DRAWS * N  # bystander_offset(N)
+        cam_rot, cam_pos, cq = g["cam_rot"], g["cam_pos"], g["cam_quat"]
+        cq_inv = (cq[0], -cq[1], -cq[2], -cq[3])  # world -> camera
         # Scratch of this user (users run in parallel: nothing is shared). Each body's joints in
         # camera space are an affine map of a source skeleton: the target's world joints, or the
         # bystander template.
         src = np.empty((N, J, 3))
         for n in range(1, N):
-            src[n] = by_template
+            src[n] = g["by_template"]
         aff = np.empty((N, 3, 4))  # camera point = aff[:, :3] @ source point + aff[:, 3]
-        cam = np.empty((N, J, 3))
-        img_u = np.empty((N, J))  # image coordinates x / z, y / z
-        img_v = np.empty((N, J))
+        view = (np.empty((N, J, 3)), np.empty((N, J)), np.empty((N, J)),
+                np.empty((N, J), dtype=np.bool_))  # cam, image x / z, y / z, in view  # fmt: skip
         hand_cam = np.empty((N, 4))
-        in_view = np.empty((N, J), dtype=np.bool_)
         occluded = np.empty((N, J), dtype=np.bool_)  # by a torso or a random inferred episode
-        zt = np.empty(N)
-        u_lo = np.empty(N)
-        u_hi = np.empty(N)
-        v_lo = np.empty(N)
-        v_hi = np.empty(N)
+        torso = (np.empty(N), np.empty(N), np.empty(N), np.empty(N), np.empty(N))
         n_visible = np.empty(N, dtype=np.int64)
         tracked = np.empty(N, dtype=np.bool_)
         fresh = np.empty(N, dtype=np.bool_)
@@ -306,180 +553,26 @@ def _capture_frames(joints_world, hand_world, z, new_ids, prm, geo, state, out) 
                 aff[0, a, i] = cam_rot[i, a]
             aff[0, a, 3] = -(cam_rot[0, a] * cam_pos[0] + cam_rot[1, a] * cam_pos[1])
             aff[0, a, 3] -= cam_rot[2, a] * cam_pos[2]
+        frame = (view, occluded, hand_cam, tracked, b_active, episodes[1], bias)
 
         body_of_slot[:] = -1
         for n in range(N):
             body_of_slot[int(slot[n])] = n
         for m in range(M):
             zf = z[b, m]
-
-            # --- true bodies: the target, then the bystanders
             src[0] = joints_world[b, m]
             hand_cam[0, 0], hand_cam[0, 1], hand_cam[0, 2], hand_cam[0, 3] = quat_mul(
-                cw, cx, cy, cz,
+                cq_inv[0], cq_inv[1], cq_inv[2], cq_inv[3],
                 hand_world[b, m, 0], hand_world[b, m, 1], hand_world[b, m, 2], hand_world[b, m, 3],
             )  # fmt: skip
-            for i in range(nb):
-                zi = zf[z_by + BYSTANDER_DRAWS * i :]
-                # Stand for an exponential time, then walk at a random speed to a random spot of
-                # the bystander area (sensor floor frame: d along the axis, l to its left).
-                if by_moving[i] == 0.0 and zi[Y_WALK_START] < walk_z:
-                    d = by_d0 + (by_d1 - by_d0) * uniform(zi[Y_WALK_DIST])
-                    lat = by_lateral * (2.0 * uniform(zi[Y_WALK_LATERAL]) - 1.0)
-                    by_target[i, 0] = cam_pos[0] + d * cam_cos - lat * cam_sin
-                    by_target[i, 1] = cam_pos[1] + d * cam_sin + lat * cam_cos
-                    v0, v1 = by_v0, by_v1
-                    by_speed[i] = v0 + (v1 - v0) * uniform(zi[Y_WALK_SPEED])
-                    by_moving[i] = 1.0
-                dx = by_target[i, 0] - by_pos[i, 0]
-                dy = by_target[i, 1] - by_pos[i, 1]
-                dist = math.sqrt(dx * dx + dy * dy)
-                step = min(by_speed[i] * dt, dist)
-                if by_moving[i] != 0.0 and dist > 1e-9:
-                    by_pos[i, 0] += step * dx / dist
-                    by_pos[i, 1] += step * dy / dist
-                    by_yaw[i] = math.atan2(dy, dx)
-                by_moving[i] = 1.0 if by_moving[i] != 0.0 and dist - step > 1e-9 else 0.0
-                # Pose: yaw about z (body -> world), quiet-standing sway as a lateral shift on the
-                # bystander's own frame clock, height h: world = h Rz(yaw) template + (px, py, 0).
-                ch, sh = math.cos(0.5 * by_yaw[i]), math.sin(0.5 * by_yaw[i])
-                c_yaw, s_yaw = ch * ch - sh * sh, 2.0 * ch * sh
-                t_k = (s["frame"] + m) * dt
-                sway = by_sway_amp[i] * math.sin(
-                    2.0 * math.pi * by_sway_freq[i] * t_k + by_sway_phase[i]
-                )
-                ex = by_pos[i, 0] - sway * s_yaw - cam_pos[0]
-                ey = by_pos[i, 1] + sway * c_yaw - cam_pos[1]
-                h = by_height[i]
-                for a in range(3):  # camera = h R^T Rz template + R^T ((px, py, 0) - c)
-                    aff[i + 1, a, 0] = h * (cam_rot[0, a] * c_yaw + cam_rot[1, a] * s_yaw)
-                    aff[i + 1, a, 1] = h * (cam_rot[1, a] * c_yaw - cam_rot[0, a] * s_yaw)
-                    aff[i + 1, a, 2] = h * cam_rot[2, a]
-                    aff[i + 1, a, 3] = cam_rot[0, a] * ex + cam_rot[1, a] * ey
-                    aff[i + 1, a, 3] -= cam_rot[2, a] * cam_pos[2]
-                bw, bx, by_, bz = quat_mul(
-                    ch, 0.0, 0.0, sh,
-                    by_hand_quat[0], by_hand_quat[1], by_hand_quat[2], by_hand_quat[3],
-                )  # fmt: skip
-                (
-                    hand_cam[i + 1, 0], hand_cam[i + 1, 1], hand_cam[i + 1, 2], hand_cam[i + 1, 3]
-                ) = quat_mul(cw, cx, cy, cz, bw, bx, by_, bz)  # fmt: skip
-
-            # --- camera space, the field of view, image coordinates
-            for n in range(N):
-                for j in range(J):
-                    p0, p1, p2 = src[n, j, 0], src[n, j, 1], src[n, j, 2]
-                    x = aff[n, 0, 0] * p0 + aff[n, 0, 1] * p1 + aff[n, 0, 2] * p2 + aff[n, 0, 3]
-                    y = aff[n, 1, 0] * p0 + aff[n, 1, 1] * p1 + aff[n, 1, 2] * p2 + aff[n, 1, 3]
-                    d = aff[n, 2, 0] * p0 + aff[n, 2, 1] * p1 + aff[n, 2, 2] * p2 + aff[n, 2, 3]
-                    cam[n, j, 0], cam[n, j, 1], cam[n, j, 2] = x, y, d
-                    in_view[n, j] = (
-                        d >= near and d <= far and abs(x) <= tan_h * d and abs(y) <= tan_v * d
-                    )
-                    inv = 1.0 / max(d, 1e-3)
-                    img_u[n, j], img_v[n, j] = x * inv, y * inv
-
-            # --- occlusion: each torso is an image rectangle over its shoulder and hip joints,
-            # widened by the margin, at the mean depth of its torso joints; a joint deeper than
-            # that by occlusion_depth_m whose image falls inside is hidden (own torso: inferred,
-            # never for the torso's own joints; another body's: inferred and not "visible")
-            for n in range(N):
-                acc = 0.0
-                ulo, uhi, vlo, vhi = np.inf, -np.inf, np.inf, -np.inf
-                for t in range(N_TORSO_JOINTS):
-                    j = int(torso_joints[t])
-                    acc += cam[n, j, 2]
-                    ulo, uhi = min(ulo, img_u[n, j]), max(uhi, img_u[n, j])
-                    vlo, vhi = min(vlo, img_v[n, j]), max(vhi, img_v[n, j])
-                zt[n] = acc / N_TORSO_JOINTS
-                margin = margin_m / max(zt[n], 1e-3)
-                u_lo[n], u_hi[n], v_lo[n], v_hi[n] = ulo - margin, uhi + margin, vlo, vhi
-            for n in range(N):
-                n_visible[n] = 0
-                for j in range(J):
-                    occluded[n, j] = False
-                    if not in_view[n, j]:  # not tracked whatever hides it
-                        continue
-                    d, u, v = cam[n, j, 2], img_u[n, j], img_v[n, j]
-                    own, other = False, False
-                    for o in range(N):
-                        if (
-                            zt[o] > 0
-                            and d > zt[o] + occlusion_depth
-                            and u_lo[o] <= u <= u_hi[o]
-                            and v_lo[o] <= v <= v_hi[o]
-                        ):
-                            if o == n:
-                                own = True
-                            else:
-                                other = True
-                    occluded[n, j] = other or (own and is_torso[j] == 0.0)
-                    if not other:
-                        n_visible[n] += 1
-
-            # --- tracking: tracked after `acq` consecutive detectable frames; a body tracked
-            # again gets a fresh id, unique among the user's bodies
-            for n in range(N):
-                if n_visible[n] / J >= min_visible:
-                    acquired[n] = min(acquired[n] + 1, acq)
-                else:
-                    acquired[n] = 0
-                tracked[n] = acquired[n] >= acq
-                fresh[n] = tracked[n] and prev_tracked[n] == 0.0
-                if fresh[n]:
-                    body_id[n] = new_ids[b, m, n]
-                prev_tracked[n] = 1.0 if tracked[n] else 0.0
-            _unique_ids(body_id[:N], fresh)
-
-            # --- jitter bursts (one limb, a few frames) and random inferred episodes
-            for n in range(N):
-                zb = zf[Z_BODIES + BODY_DRAWS * n :]
-                if burst_left[n] == 0.0 and zb[B_BURST] < burst_z:
-                    # Given the start, ndtr(z) / p is uniform: it picks the limb, then the length.
-                    u = min(uniform(zb[B_BURST]) / burst_prob, _BELOW_ONE)
-                    burst_group[n], u = categorical_split(u, n_groups)
-                    length, u = categorical_split(u, n_len)
-                    burst_left[n] = burst_min + length
-                b_active[n] = burst_left[n] > 0.0
-                burst_left[n] = max(burst_left[n] - 1.0, 0.0)
-                # Every joint not in an episode starts one with probability p, of geometric length.
-                # Trials and lengths are one chain of splits of one uniform; most frames have no
-                # start at all (u >= 1 - (1 - p)^k for k free joints), which one comparison tells.
-                free = 0
-                for j in range(J):
-                    if inferred_left[n, j] == 0:
-                        free += 1
-                if zb[B_INFERRED] < inferred_z[free]:
-                    u = uniform(zb[B_INFERRED])
-                    for j in range(J):
-                        if inferred_left[n, j] == 0:
-                            hit, u = bernoulli_split(u, p_inferred)
-                            if hit:
-                                inferred_left[n, j], u = geometric_split(u, q_inferred)
-                for j in range(J):
-                    if inferred_left[n, j] > 0:
-                        occluded[n, j] = True
-                        inferred_left[n, j] -= 1
-
-            # --- noise states: the target's ARMA(1, 1) joint noise (unit variance); unit AR(1)
-            # states of every wrist and of the bystanders' joint noise (a bystander's wrist and
-            # joints share their innovations)
-            for j in range(J):
-                for a in range(3):
-                    e = zf[Z_JOINT + 3 * j + a]
-                    joint_noise[j, a] = rho_j * joint_noise[j, a] + arma_s * (
-                        e + arma_theta * joint_innov[j, a]
-                    )
-                    joint_innov[j, a] = e
-            for a in range(3):
-                ar_hand[0, a] = rho_h * ar_hand[0, a] + c_h * zf[Z_HAND_AR + a]
-            for i in range(nb):
-                zi = zf[z_by + BYSTANDER_DRAWS * i :]
-                for a in range(3):
-                    ar_hand[i + 1, a] = rho_h * ar_hand[i + 1, a] + c_h * zi[Y_AR + a]
-                    ar_by[i, a] = rho_j * ar_by[i, a] + c_j * zi[Y_AR + a]
-
-            # --- tracking states, noisy joints and wrist orientation, into the slots
+            _bystanders(zf, z_by, nb, (s["frame"] + m) * p["dt"], p, g, by, aff, hand_cam,
+                        cq_inv)  # fmt: skip
+            _camera_space(N, p, src, aff, view)
+            _occlusion(N, p, g, view, occluded, n_visible, torso)
+            _track(N, p, n_visible, (acquired, prev_tracked, body_id), new_ids[b, m], tracked,
+                   fresh)  # fmt: skip
+            _episodes(N, zf, p, g, episodes, b_active, occluded)
+            _noise_states(zf, z_by, nb, p, noise)
             for k in range(K):
                 if body_of_slot[k] < 0:
                     out_id[b, m, k] = 0
@@ -491,79 +584,9 @@ def _capture_frames(joints_world, hand_world, z, new_ids, prm, geo, state, out) 
                 k = int(slot[n])
                 out_id[b, m, k] = int(body_id[n]) if tracked[n] else 0
                 out_tracked[b, m, k] = tracked[n]
-                grp = int(burst_group[n]) if b_active[n] else -1
-                # White normals of the wrist (target) or of the whole body (bystander).
-                zw = zf[Z_HAND_WHITE:] if n == 0 else zf[z_by + BYSTANDER_DRAWS * (n - 1) :]
-                w0, w1, w2 = zw[0], zw[1], zw[2]
-                a0, a1, a2 = 0.0, 0.0, 0.0
-                if n > 0:
-                    a0, a1, a2 = ar_by[n - 1, 0], ar_by[n - 1, 1], ar_by[n - 1, 2]
-                wrist_factor = 1.0
-                for j in range(J):
-                    if not (tracked[n] and in_view[n, j]):
-                        out_state[b, m, k, j] = NOT_TRACKED
-                        for a in range(3):
-                            out_joints[b, m, k, j, a] = np.nan
-                        continue
-                    factor = 1.0
-                    if occluded[n, j]:
-                        out_state[b, m, k, j] = INFERRED
-                        factor = inferred_factor
-                    else:
-                        out_state[b, m, k, j] = TRACKED
-                    if j == WRIST_RIGHT:
-                        wrist_factor = factor
-                    d = cam[n, j, 2]
-                    sigma = (noise_a + noise_b * d * d) * joint_scale[j] * factor
-                    limb = int(limb_index[grp, j]) if grp >= 0 else -1
-                    if n == 0:  # the target: independent noise per joint, burst noise per joint
-                        for a in range(3):
-                            pos = cam[0, j, a] + bias[0, j, a] + sigma * joint_noise[j, a]
-                            if limb >= 0:
-                                pos += burst_pos * zf[Z_BURST + 3 * limb + a]
-                            out_joints[b, m, k, j, a] = pos
-                    else:  # a bystander: its rigid noise vectors, scaled per joint
-                        burst = burst_pos if limb >= 0 else 0.0
-                        white = math.sqrt(wf * sigma * sigma + burst * burst)
-                        ar = sq_ar * sigma
-                        out_joints[b, m, k, j, 0] = (
-                            cam[n, j, 0] + bias[n, j, 0] + white * w0 + ar * a0
-                        )
-                        out_joints[b, m, k, j, 1] = (
-                            cam[n, j, 1] + bias[n, j, 1] + white * w1 + ar * a1
-                        )
-                        out_joints[b, m, k, j, 2] = (
-                            cam[n, j, 2] + bias[n, j, 2] + white * w2 + ar * a2
-                        )
-                # Wrist orientation: white + AR(1) rotation noise about the hand axes, scaled
-                # with the joint noise at the wrist's depth, then into the SDK wrist frame.
-                qw_, qx_, qy_, qz_ = hand_cam[n, 0], hand_cam[n, 1], hand_cam[n, 2], hand_cam[n, 3]
-                if n == 0:
-                    (
-                        truth_hand[b, m, 0], truth_hand[b, m, 1],
-                        truth_hand[b, m, 2], truth_hand[b, m, 3],
-                    ) = quat_mul(qw_, qx_, qy_, qz_, sw, sx, sy, sz)  # fmt: skip
-                if out_state[b, m, k, WRIST_RIGHT] == NOT_TRACKED:
-                    out_hand[b, m, k] = np.nan
-                    continue
-                d = cam[n, WRIST_RIGHT, 2]
-                f_w = wrist_factor
-                if ref_std > 0:
-                    f_w *= (noise_a + noise_b * d * d) / ref_std
-                burst = burst_rot if grp == 0 else 0.0
-                r0 = math.sqrt((f_w * hand_white_sd[0]) ** 2 + burst * burst) * w0
-                r1 = math.sqrt((f_w * hand_white_sd[1]) ** 2 + burst * burst) * w1
-                r2 = math.sqrt((f_w * hand_white_sd[2]) ** 2 + burst * burst) * w2
-                r0 += f_w * hand_ar_sd[0] * ar_hand[n, 0]
-                r1 += f_w * hand_ar_sd[1] * ar_hand[n, 1]
-                r2 += f_w * hand_ar_sd[2] * ar_hand[n, 2]
-                ew, ex_, ey_, ez_ = quat_from_rotvec(r0, r1, r2)
-                nw, nx, ny, nz = quat_mul(qw_, qx_, qy_, qz_, ew, ex_, ey_, ez_)
-                (
-                    out_hand[b, m, k, 0], out_hand[b, m, k, 1],
-                    out_hand[b, m, k, 2], out_hand[b, m, k, 3],
-                ) = quat_mul(nw, nx, ny, nz, sw, sx, sy, sz)  # fmt: skip
-            truth_joints[b, m] = cam[0]
+                _body_out(n, zf, z_by, p, g, frame, noise, (out_joints[b, m, k],
+                          out_state[b, m, k], out_hand[b, m, k], truth_hand[b, m]))  # fmt: skip
+            truth_joints[b, m] = view[0][0]
         s["frame"] += M
 
 
