@@ -53,7 +53,7 @@ from agents.metrics import (
     summarize,
 )
 from agents.paired import ALPHA, BINARY_METRICS, MEAN_METRICS, paired_p_values
-from agents.policies import build_policy, check_policy
+from agents.policies import build_policy, check_policy, env_population
 from agents.resume import EpisodeStore, episode_key, source_fingerprint
 from agents.scripted import is_batched
 from vrloco_env.tasks import env_id, get_task
@@ -143,6 +143,12 @@ class Cell:
         return get_technique(self.technique).name
 
     @property
+    def population(self) -> str | None:
+        """The env's user population: the policy's ``+<population>`` where it acts on the body
+        (:func:`agents.policies.env_population`), else None."""
+        return env_population(self.policy)
+
+    @property
     def sensors(self) -> str:
         """The technique's IMU preset."""
         from vrloco_env.techniques import get_technique
@@ -191,17 +197,17 @@ def step_window(reset_info: dict, dt: float) -> tuple[int, int]:
 
 # --------------------------------------------------------------------------- one episode
 
-_ENVS: dict[tuple[str, Any], Any] = {}  # per process: one env per (task, technique)
+_ENVS: dict[tuple, Any] = {}  # per process: one env per (task, technique, population)
 
 
-def _env(task: str, technique: Any) -> Any:
+def _env(task: str, technique: Any, population: str | None = None) -> Any:
     import gymnasium as gym
 
     import vrloco_env  # noqa: F401  (registers the ids)
 
-    key = (task, technique)
+    key = (task, technique, population)
     if key not in _ENVS:
-        _ENVS[key] = gym.make(env_id(task), technique=technique)
+        _ENVS[key] = gym.make(env_id(task), technique=technique, population=population)
     return _ENVS[key]
 
 
@@ -232,7 +238,7 @@ def run_episode(
 
 def run_cell_episode(cell: Cell, seed: int, trace: bool = False) -> tuple[EpisodeStats, dict]:
     """Episode ``seed`` of ``cell``: its task and technique's env, its policy."""
-    env = _env(cell.task, cell.technique)
+    env = _env(cell.task, cell.technique, cell.population)
     return run_episode(env, build_policy(cell.policy, env), seed, trace)
 
 
@@ -289,15 +295,17 @@ def run_batched(
     jobs = [(c, int(s), bool(t)) for c, s, t in episodes]
     if not jobs:
         return []
-    task, tech = jobs[0][0].task, get_technique(jobs[0][0].technique)
+    first = jobs[0][0]
+    task, tech, population = first.task, get_technique(first.technique), first.population
     for c, _, _ in jobs:
-        if c.task != task or get_technique(c.technique) != tech:
+        if c.task != task or get_technique(c.technique) != tech or c.population != population:
             raise ValueError(
-                f"run_batched: every episode must share one task and technique, got {c.task!r}"
-                f"/{c.technique_name!r} beside {task!r}/{tech.name!r}"
+                "run_batched: every episode must share one task, technique and population, got "
+                f"{c.task!r}/{c.technique_name!r}/{c.population!r} beside "
+                f"{task!r}/{tech.name!r}/{population!r}"
             )
     n = min(batch_size, len(jobs))
-    env = VRLocoVectorEnv(n, task=task, technique=jobs[0][0].technique,
+    env = VRLocoVectorEnv(n, task=task, technique=first.technique, population=population,
                           autoreset_mode=AutoresetMode.DISABLED)  # fmt: skip
     done: dict[int, tuple[EpisodeStats, dict]] = {}
     try:
@@ -606,9 +614,9 @@ def _split_jobs(
     skip: set[tuple[Cell, int]] = frozenset(),  # type: ignore[assignment]
 ) -> list[tuple]:
     """The grid's jobs. One episode per job for ``batch_size`` 0; else the episodes of the cells
-    that share a task and a technique (one vector env), taken episode index by episode index
-    across those cells, in jobs of about four batches, cut smaller where there would be fewer
-    jobs than workers. A ``module:attr`` policy's cells form groups of their own."""
+    that share a task, a technique and a population (one vector env), taken episode index by
+    episode index across those cells, in jobs of about four batches, cut smaller where there
+    would be fewer jobs than workers. A ``module:attr`` policy's cells form groups of their own."""
     def ep(c: Cell, i: int) -> tuple[Cell, int, int, bool]:
         return (c, i, seed + i, figures and i == 0)
 
@@ -617,7 +625,7 @@ def _split_jobs(
     groups: dict[tuple, list[Cell]] = {}
     for c in cells:  # a user's own policy gets jobs of its own: it may not take batches
         own = c.policy if ":" in c.policy else ""
-        groups.setdefault((c.task, c.technique_name, own), []).append(c)
+        groups.setdefault((c.task, c.technique_name, c.population, own), []).append(c)
     per_job = 4 * batch_size
     total = max(1, len(cells) * episodes - len(skip))
     per_job = max(1, min(per_job, math.ceil(total / workers)))

@@ -9,8 +9,12 @@ A policy spec is one of
   (``reset(rng=None, rows=None)``, ``act(obs) -> action``);
 * the path of a stable-baselines3 PPO model (``.zip``), played with its deterministic policy;
 
-each optionally followed by ``+human`` for :class:`agents.variability.HumanVariability` (reaction
-delay, turn overshoot, cadence jitter).
+each optionally followed by ``+<population>`` for the agent-side variability of a user population
+(:mod:`vrloco_env.user.population`) through :class:`agents.variability.HumanVariability`
+(reaction delay, turn overshoot, cadence bias and jitter): ``+human`` as it always was,
+``+typical``, ``+gaze_scanners``, ``+nodders``; ``+idealised`` leaves the policy as it is. The
+population's head behaviour is the env's (``gym.make(..., population="typical")``); give both
+for the whole population.
 """
 
 from __future__ import annotations
@@ -23,18 +27,37 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agents.scripted import POLICIES, ObservationLayout, make_policy, params_from_env
-from agents.variability import HumanVariability
+from agents.variability import HumanVariability, VariabilityParams
+from vrloco_env.user.population import POPULATIONS
 
-__all__ = ["HUMAN_SUFFIX", "LearnedPolicy", "build_policy", "check_policy"]
+__all__ = ["HUMAN_SUFFIX", "LearnedPolicy", "build_policy", "check_policy", "env_population"]
 
 HUMAN_SUFFIX = "+human"
 
 
-def _split(spec: str) -> tuple[str, bool]:
+def _split(spec: str) -> tuple[str, str | None]:
+    """The policy's base spec and its population suffix's name (None without one)."""
     if not isinstance(spec, str) or not spec:
         raise ValueError(f"policy={spec!r}: must be a non-empty string")
-    human = spec.endswith(HUMAN_SUFFIX)
-    return (spec[: -len(HUMAN_SUFFIX)] if human else spec), human
+    base, sep, suffix = spec.rpartition("+")
+    if not sep or not base or not suffix.isidentifier():  # no suffix ("my+model.zip")
+        return spec, None
+    if suffix not in POPULATIONS:
+        raise ValueError(
+            f"policy={spec!r}: unknown population {suffix!r} after '+'; must be one of "
+            f"{', '.join(POPULATIONS)}"
+        )
+    return base, suffix
+
+
+def env_population(spec: str) -> str | None:
+    """The env-side population of a policy spec: its ``+<population>`` suffix where that
+    population acts on the simulated body (gaze, nods, bob: ``Population.moves_head``), else
+    None — the env of a ``+human`` or ``+idealised`` user is the default env, bit for bit."""
+    _, population = _split(spec)
+    if population is None or not POPULATIONS[population].moves_head:
+        return None
+    return population
 
 
 def check_policy(spec: str) -> str:
@@ -62,8 +85,8 @@ def check_policy(spec: str) -> str:
         return spec
     raise ValueError(
         f"policy={spec!r}: must be one of {', '.join(POLICIES)}, a stable-baselines3 model "
-        f"(.zip) or 'package.module:attr', optionally with '{HUMAN_SUFFIX}' "
-        f"(e.g. goal_seeker{HUMAN_SUFFIX})"
+        f"(.zip) or 'package.module:attr', optionally with '+<population>' "
+        f"({', '.join(POPULATIONS)}; e.g. goal_seeker{HUMAN_SUFFIX})"
     )
 
 
@@ -123,7 +146,7 @@ def _load_ppo(path: str) -> Any:
 def build_policy(spec: str, env: Any) -> Any:
     """The policy ``spec`` names, built for ``env`` (see the module docstring)."""
     check_policy(spec)
-    base, human = _split(spec)
+    base, population = _split(spec)
     policy: Any
     if base in POLICIES:
         policy = make_policy(base, ObservationLayout.from_env(env), params_from_env(env))
@@ -139,4 +162,7 @@ def build_policy(spec: str, env: Any) -> Any:
                     f"policy={spec!r} built a {type(policy).__name__} without a {method}() "
                     "method (a policy has reset(rng=None, rows=None) and act(obs))"
                 )
-    return HumanVariability(policy) if human else policy
+    if population is None or not POPULATIONS[population].variability:
+        return policy
+    params = VariabilityParams.from_population(population)
+    return HumanVariability(policy, params, population=population)

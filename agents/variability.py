@@ -28,6 +28,10 @@ and makes it behave less like a machine:
   so 5 %). The result stays in ``[0.01, 1]``: jitter never stops a walking user nor makes a
   standing one walk.
 
+A user population (:mod:`vrloco_env.user.population`) carries its own values of these parameters
+(:meth:`VariabilityParams.from_population`; the ``+<population>`` policy suffix of
+:mod:`agents.policies`): ``human`` is the defaults above.
+
 Randomness: every draw goes through :class:`vrloco_env.batch_rng.BatchRng`, row i from user
 i's generator, with a fixed number of draws per user and step (two normals per ``act``,
 two per reset), so a batch of B users reproduces B single runs bit for bit and the same
@@ -97,6 +101,18 @@ class VariabilityParams:
         check("cadence_jitter_sd", 0.0, 1.0)
         check("dt_s", 1e-3, 10.0, "s")
 
+    @classmethod
+    def from_population(cls, population: Any, **overrides: Any) -> VariabilityParams:
+        """The agent-side variability of a user population
+        (:mod:`vrloco_env.user.population`: a registered name or a ``Population``); ``human``
+        gives the defaults. ``overrides``: further fields (``dt_s``)."""
+        from vrloco_env.user.population import get_population
+
+        p = get_population(population)
+        names = ("reaction_delay_s", "reaction_delay_sd_s", "overshoot", "overshoot_sd",
+                 "cadence_bias_sd", "cadence_jitter_sd")  # fmt: skip
+        return cls(**{**{n: getattr(p, n) for n in names}, **overrides})
+
     @property
     def max_delay_steps(self) -> int:
         """The longest delay in control steps."""
@@ -122,7 +138,8 @@ class HumanVariability:
 
     Args:
         policy: the wrapped user (``reset(rng, rows)``, ``act(obs)``).
-        params: the variability model.
+        params: the variability model (a population's: :meth:`VariabilityParams.from_population`).
+        population: the population's name, for the wrapper's ``name`` (``goal_seeker+human``).
 
     Example:
         >>> user = HumanVariability(GoalSeeker())          # doctest: +SKIP
@@ -141,7 +158,8 @@ class HumanVariability:
         if callable(getattr(self.policy, "set_active", None)):
             self.policy.set_active(mask)
 
-    def __init__(self, policy: Policy, params: VariabilityParams | None = None) -> None:
+    def __init__(self, policy: Policy, params: VariabilityParams | None = None,
+                 population: str = "human") -> None:  # fmt: skip
         methods = (getattr(policy, "act", None), getattr(policy, "reset", None))
         if not all(callable(m) for m in methods):
             raise TypeError("policy must have reset(rng, rows) and act(obs) methods")
@@ -149,7 +167,9 @@ class HumanVariability:
         self.params = params or VariabilityParams()
         if not isinstance(self.params, VariabilityParams):
             raise TypeError(f"params must be a VariabilityParams, got {type(params).__name__}")
-        self.name = f"{getattr(policy, 'name', type(policy).__name__)}+human"
+        if not isinstance(population, str) or not population:
+            raise ValueError(f"population={population!r}: must be a non-empty name")
+        self.name = f"{getattr(policy, 'name', type(policy).__name__)}+{population}"
         self._rng: BatchRng | None = None
         self._b = 0
 

@@ -89,7 +89,7 @@ def action_to_intent(actions: NDArray[np.float64], params: MotionParams) -> Inte
     lo, hi = params.cadence_range_hz
     walk = actions[:, 0]
     cadence = np.where(walk > 0.0, lo + walk * (hi - lo), 0.0)
-    still_amplitude, still_frequency, upright = _no_gestures(actions.shape[0])
+    still_amplitude, still_frequency, upright, straight = _no_gestures(actions.shape[0])
     return Intent(
         cadence=cadence,
         turn_rate=actions[:, 1] * params.max_turn_rate,
@@ -97,14 +97,16 @@ def action_to_intent(actions: NDArray[np.float64], params: MotionParams) -> Inte
         gesture_amplitude=still_amplitude,
         gesture_frequency=still_frequency,
         lean=upright,
+        head_yaw=straight,
     )
 
 
 @functools.cache
-def _no_gestures(b: int) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """The intent fields the actions leave at rest (no head gestures, no lean), built once per
-    batch size and read-only (the motion model only reads its intents)."""
-    arrays = (np.zeros((b, 3)), np.full((b, 3), 0.5), np.zeros(b))
+def _no_gestures(b: int) -> tuple[NDArray[np.float64], ...]:
+    """The intent fields the actions leave at rest (no head gestures, no lean, the head straight
+    on the torso), built once per batch size and read-only (the motion model only reads its
+    intents; :mod:`vrloco_env.user.behaviour` builds new arrays for a population's head)."""
+    arrays = (np.zeros((b, 3)), np.full((b, 3), 0.5), np.zeros(b), np.zeros(b))
     for x in arrays:
         x.flags.writeable = False
     return arrays

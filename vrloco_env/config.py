@@ -17,7 +17,7 @@ from estimators.visual_inertial import VioConfig
 from vrloco_env.sensors.head_camera import CameraSpec, camera_spec
 from vrloco_env.sensors.imu import EarthField, ImuSpec, MagneticDisturbance, get_imu_spec
 from vrloco_env.sensors.kinect import KinectSpec
-from vrloco_env.user import MotionParams
+from vrloco_env.user import MotionParams, Population, get_population
 
 __all__ = ["STAGE_FIELDS", "EnvConfig", "EstimatorConfig", "RewardConfig", "SensorConfig"]
 
@@ -196,6 +196,13 @@ class EnvConfig:
             engine's collision response. The Kinect stands in front of the start marker, facing
             it (``KinectSpec`` in the start marker's frame): the hand is tracked while the user
             is in its view.
+        population: the simulated humans' head behaviour (:mod:`vrloco_env.user.population`:
+            ``"typical"``, ``"gaze_scanners"``, ``"nodders"``, ... or a ``Population``): gaze
+            that turns the head on the torso, nods, looking down at the hand, the step impact,
+            drawn per user and episode (:class:`vrloco_env.user.GazeBehaviour`). None (default)
+            or ``"idealised"``: the head stays straight on the torso, as the action alone moves
+            it. A population whose head turns on the torso adds the observation field
+            ``head_on_torso`` (what proprioception tells the user).
     """
 
     motion: MotionParams = field(default_factory=MotionParams)
@@ -205,9 +212,12 @@ class EnvConfig:
     ray_fov_deg: float = 180.0
     ray_range_m: float = 5.0
     pose_source: str = "walk_in_place"
+    population: str | Population | None = None
 
     def __post_init__(self) -> None:
         check_instance(self, "motion", MotionParams)
+        if self.population is not None:
+            get_population(self.population, "EnvConfig.population")
         check_in_range(self, "max_episode_steps", 1, 100_000, integer=True)
         check_bool(self, "terminate_on_collision")
         check_in_range(self, "ray_count", 1, 360, integer=True)

@@ -17,6 +17,14 @@ holds the same rooms as bodies for rendering — the first-person view and the `
 only created when a render mode asks for it: at 256 users its ray cast alone would take ~14 ms per
 step on this machine, 30 times the 2-D twin.
 
+The human. With a user population (:attr:`EnvConfig.population
+<vrloco_env.config.EnvConfig.population>`) a :class:`~vrloco_env.user.GazeBehaviour` adds the
+head's own behaviour to each intent — gaze at the goal, glances at what is near, scans, looking
+down at the hand while interacting (in the goal region of a task that observes a hand target),
+nods — from what the user perceived at the end of the last step: the goal's bearing and the rays
+in the view the headset showed, and the head's true yaw on the torso (proprioception), which the
+observation then carries as ``head_on_torso``.
+
 Randomness. User i owns one generator (the single env's ``np_random``; sub-env i's in the vector
 env). At each of its resets it draws the room and the task's targets from that generator, then
 one integer that seeds the user's stream for motion and sensor noise (``BatchRng.reseed``), so a
@@ -41,11 +49,13 @@ from vrloco_env.observation import (
     MAX_GOAL_DISTANCE,
     ObservationSpec,
     env_spec,
+    population_fields,
     ray_offsets,
 )
 from vrloco_env.pipeline import build_stages
 from vrloco_env.tasks import get_task
 from vrloco_env.tasks.base import Task
+from vrloco_env.user import GazeBehaviour, Intent, get_population
 from vrloco_env.users import SimulatedUsers, UserStep
 from vrloco_env.world import Layout, RoomBatch, RoomConfig
 
@@ -127,14 +137,25 @@ class LocoCore:
         )  # fmt: skip
         self.dt = self.users.dt
         self.task: Task = task_class(b, self.dt, task_config)
+        #: the user population (None: the idealised user) and its head behaviour
+        self.population = (
+            None if config.population is None else get_population(config.population)
+        )
+        self.behaviour: GazeBehaviour | None = None
         self.layouts: list[Layout | None] = [None] * b
         self.rooms: RoomBatch | None = None
         self.ep = _Episode.empty(b)
         self.ray_offsets = ray_offsets(config.ray_count, config.ray_fov_deg)
+        if self.population is not None and self.population.moves_head:
+            self.behaviour = GazeBehaviour(self.population, self.rng, self.dt, self.ray_offsets)
+        self._head_on_torso = np.zeros(b)  # the head's true yaw on the torso (rad)
+        self._hand_task = any(f.name == "hand_error" for f in self.task.fields())
+        extra = population_fields(self.population)
         #: the observation's fields, scales and units (:mod:`vrloco_env.observation`)
         self.spec: ObservationSpec = env_spec(
-            config.ray_count, config.ray_range_m, self.task.fields()
+            config.ray_count, config.ray_range_m, (*self.task.fields(), *extra)
         )
+        self._observe_head = bool(extra)
         self.obs_size = self.spec.size
         self._obs_at = observation_offsets(self.spec)
         self._task_fields = [f.name for f in self.task.fields()]
@@ -182,6 +203,9 @@ class LocoCore:
         self.users.reset(
             None if rows.size == b else rows, start_yaw=start[:, 2], start_xy=start[:, :2]
         )
+        if self.behaviour is not None:
+            self.users.motion.scale_style(rows, self.behaviour.reset(rows))
+        self._head_on_torso[rows] = 0.0
         ep = self.ep
         ep.position[rows] = start[:, :2]
         ep.true_position[rows] = start[:, :2]
@@ -210,8 +234,12 @@ class LocoCore:
         if self.rooms is None:
             raise RuntimeError("reset() must be called before step()")
         a = check_actions(actions, self.batch_size)
-        us = self.users.step(action_to_intent(a, self.users.motion_params), validated=True)
+        intent = action_to_intent(a, self.users.motion_params)
+        if self.behaviour is not None:
+            intent = self._human(intent)
+        us = self.users.step(intent, validated=True)
         self.last = us
+        self._head_on_torso = us.motion.ypr[:, -1, 0] - us.motion.body_yaw[:, -1]
         ep, cfg, rw = self.ep, self.config, self.reward
 
         # Move the virtual body unless the swept avatar would touch the room.
@@ -248,6 +276,17 @@ class LocoCore:
         infos["intent_turn"] = np.abs(a[:, 1]) > TURNING  # ... or to turn
         return self.observe(), reward, terminated, truncated, infos
 
+    def _human(self, intent: Intent) -> Intent:
+        """The intent with the population's head behaviour, from what each user perceived at
+        the end of the last step (see the module docstring)."""
+        assert self.behaviour is not None
+        ep = self.ep
+        to_goal = self.task.goal_point(ep.position) - ep.position
+        bearing = np.arctan2(to_goal[:, 1], to_goal[:, 0]) - ep.virtual_yaw
+        interacting = (ep.distance <= 0.0) & self._hand_task
+        return self.behaviour.intent(intent, self._head_on_torso, bearing, self.last_rays,
+                                     interacting)  # fmt: skip
+
     # ------------------------------------------------------------------------------ views
     def _rays(self, rows: NDArray[np.intp] | None = None) -> NDArray[np.float64]:
         """Ranges (m) along the rays from the virtual head of users ``rows`` (None: all)."""
@@ -279,6 +318,8 @@ class LocoCore:
             values = self.task.observe(last, fresh)
             for name in self._task_fields:
                 self.spec.encode(name, values[name], out)
+        if self._observe_head:
+            self.spec.encode("head_on_torso", self._head_on_torso[:, None], out)
         return out
 
     def infos(self, us: UserStep, blocked, success, finished) -> dict[str, NDArray]:

@@ -50,6 +50,7 @@ def make_configs(
     max_episode_steps: int | None = None,
     pose_source: str | None = None,
     technique: str | Technique | None = None,
+    population: Any = None,
 ) -> tuple[EnvConfig, SensorConfig, EstimatorConfig, RoomConfig, RewardConfig]:
     """Fill in defaults and apply the technique and the keyword shortcuts, with clear errors for
     wrong types and for arguments that contradict each other (a ``sensor_preset`` other than
@@ -101,6 +102,13 @@ def make_configs(
         config = replace(config, max_episode_steps=max_episode_steps)
     if pose_source is not None:
         config = replace(config, pose_source=pose_source)
+    if population is not None:
+        if config.population is not None and config.population != population:
+            raise ValueError(
+                f"population={population!r} contradicts config.population="
+                f"{config.population!r}; give one"
+            )
+        config = replace(config, population=population)
     return config, sensors, estimators, room or RoomConfig(), reward or RewardConfig()
 
 
@@ -134,6 +142,9 @@ class VRLocoEnv(gym.Env):
             sensor preset and every estimation stage at once.
         task_config: the task's own configuration (e.g.
             :class:`~vrloco_env.tasks.interact.InteractConfig`).
+        population: shortcut for :attr:`EnvConfig.population <vrloco_env.config.EnvConfig>`:
+            the simulated humans' head behaviour (``"typical"``, ``"gaze_scanners"``,
+            ``"nodders"``; :mod:`vrloco_env.user.population`).
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array", "human"], "render_fps": 10}
@@ -166,6 +177,7 @@ class VRLocoEnv(gym.Env):
         pose_source: str | None = None,
         technique: str | Technique | None = None,
         task_config: Any = None,
+        population: Any = None,
     ) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(
@@ -174,7 +186,7 @@ class VRLocoEnv(gym.Env):
             )
         cfgs = make_configs(
             config, sensors, estimators, room, reward, sensor_preset, locomotion,
-            max_episode_steps, pose_source, technique,
+            max_episode_steps, pose_source, technique, population,
         )  # fmt: skip
         self.config, self.sensors, self.estimators, self.room, self.reward = cfgs
         #: the technique's name (``"custom"`` for an unregistered combination)

@@ -8,7 +8,9 @@ of a physical value, so ``decode`` is a multiplication (exact inside the range; 
 entries read the scale).
 
 The env's spec is :func:`env_spec` of its configuration: the fields every task shares
-(:data:`COMMON_FIELDS`) followed by the task's own (:meth:`vrloco_env.tasks.Task.fields`).
+(:data:`COMMON_FIELDS`) followed by the task's own (:meth:`vrloco_env.tasks.Task.fields`) and,
+with a user population whose head turns on the torso, :data:`HEAD_ON_TORSO`
+(:func:`population_fields`).
 """
 
 from __future__ import annotations
@@ -22,10 +24,12 @@ from numpy.typing import ArrayLike, NDArray
 
 __all__ = [
     "COMMON_FIELDS",
+    "HEAD_ON_TORSO",
     "MAX_GOAL_DISTANCE",
     "Field",
     "ObservationSpec",
     "env_spec",
+    "population_fields",
     "ray_offsets",
 ]
 
@@ -173,6 +177,22 @@ def env_spec(
     )  # fmt: skip
     assert tuple(f.name for f in common) == COMMON_FIELDS
     return ObservationSpec((*common, *task_fields))
+
+
+#: The head's true yaw on the torso: what a user knows by proprioception of where their head
+#: points relative to their body (the view turns with the head; the turn action turns the body).
+HEAD_ON_TORSO = Field("head_on_torso", scale=math.pi / 2, unit="rad",
+                      doc="the head's yaw relative to the torso (proprioception)")  # fmt: skip
+
+
+def population_fields(population: object) -> tuple[Field, ...]:
+    """The observation fields a user population adds: :data:`HEAD_ON_TORSO` where its head
+    turns on the torso (``Population.gaze``), none otherwise (None: no population)."""
+    if population is None:
+        return ()
+    from vrloco_env.user.population import get_population
+
+    return (HEAD_ON_TORSO,) if get_population(population).gaze else ()
 
 
 def ray_offsets(ray_count: int, ray_fov_deg: float) -> NDArray[np.float64]:

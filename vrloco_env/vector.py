@@ -59,9 +59,9 @@ class VRLocoVectorEnv(VectorEnv):
     ) -> None:
         """``config``: the configuration keywords of :func:`~vrloco_env.env.make_configs`
         (``config``, ``sensors``, ``estimators``, ``room``, ``reward``, ``sensor_preset``,
-        ``locomotion``, ``max_episode_steps``, ``pose_source``, ``technique``), as for the
-        single env. ``autoreset_mode``: ``SAME_STEP`` or ``DISABLED`` (see the module
-        docstring)."""
+        ``locomotion``, ``max_episode_steps``, ``pose_source``, ``technique``,
+        ``population``), as for the single env. ``autoreset_mode``: ``SAME_STEP`` or
+        ``DISABLED`` (see the module docstring)."""
         if render_mode is not None:
             raise ValueError("VRLocoVectorEnv does not render; use gym.make(...) for pictures")
         modes = {m.value: m for m in self._AUTORESET_MODES}

@@ -22,6 +22,16 @@ region) and stop as soon as it is free for fewer than ``stop_steps``. After a st
 way still lands, along whatever heading the body has when the detector reports it, so the users
 hold their heading until then (``settle_steps``).
 
+The head. With a user population that turns the head on the torso (gaze,
+:mod:`vrloco_env.user.behaviour`) the view — heading, bearing, rays — follows the head, while the
+turn action turns the body. A human knows where their head points relative to their body
+(proprioception), so the users read the observation's ``head_on_torso`` and turn the body toward
+their target: the target relative to the view plus the head's yaw on the torso. The walking
+direction is the head's under seed 000's steering and the torso's under torso steering
+(``PolicyParams.walks_with_torso``, learnt like the step length): the goal seeker dead-reckons its
+map and checks the way ahead along it, and plans relative to it
+(:attr:`ScriptedPolicy.plans_along_walk`); the reactive users check the way ahead along the view.
+
 The hand. In the goal region of Interact every policy stands still and turns the hand toward the
 target by proportional control on the hand rates from the ``hand_error_*`` entries (target minus
 the Kinect-estimated hand, which the VR scene shows the user).
@@ -39,10 +49,11 @@ from agents.scripted.observation import (
     ObservationLayout,
     ObsView,
     _check_obs,
+    _wrap,
     free_lengths,
     ray_points,
 )
-from estimators.validation import check_in_range
+from estimators.validation import check_bool, check_in_range
 from vrloco_env.actions import ACTION_SIZE
 
 __all__ = ["Policy", "PolicyParams", "ScriptedPolicy", "is_batched", "params_from_env"]
@@ -118,6 +129,9 @@ class PolicyParams:
         map_size_m: side of the goal seeker's square map, centred on the start (m).
         hand_gain: hand rate action per radian of hand error (1/rad).
         hand_deadband_deg: no hand motion below this error per axis (deg).
+        walks_with_torso: the steps carry the body where the torso faces, not where the head
+            points (``EstimatorConfig.steering == "torso"``): how the locomotion works, which a
+            user learns by walking, as the step length.
     """
 
     step_length_m: float = 0.7
@@ -143,6 +157,7 @@ class PolicyParams:
     map_size_m: float = 32.0
     hand_gain: float = 1.5
     hand_deadband_deg: float = 2.0
+    walks_with_torso: bool = False
 
     def __post_init__(self) -> None:
         def check(name: str, lo: float, hi: float, unit: str = "") -> None:
@@ -173,6 +188,7 @@ class PolicyParams:
         check("map_size_m", 4.0, 200.0, "m")
         check("hand_gain", 0.0, 100.0, "1/rad")
         check("hand_deadband_deg", 0.0, 45.0, "deg")
+        check_bool(self, "walks_with_torso")
         if self.map_size_m / self.map_cell_m > 2000:
             raise ValueError(
                 "PolicyParams.map_size_m / map_cell_m must be <= 2000 cells a side, got "
@@ -189,7 +205,8 @@ def params_from_env(env: Any, **overrides: Any) -> PolicyParams:
     if bad:
         raise ValueError(f"unknown PolicyParams fields: {', '.join(sorted(bad))}")
     base = PolicyParams(
-        step_length_m=float(u.estimators.step_length), avatar_radius_m=float(u.room.avatar_radius)
+        step_length_m=float(u.estimators.step_length), avatar_radius_m=float(u.room.avatar_radius),
+        walks_with_torso=u.estimators.steering == "torso",
     )
     return replace(base, **overrides)
 
@@ -207,6 +224,8 @@ class ScriptedPolicy:
 
     name = "scripted"
     batched = True  # act() takes (B, n) rows: the benchmark may batch its episodes
+    #: ``_steer``'s target is relative to the walking direction (``walk_offset``), not the view.
+    plans_along_walk = False
 
     def __init__(
         self, layout: ObservationLayout | None = None, params: PolicyParams | None = None
@@ -221,6 +240,7 @@ class ScriptedPolicy:
         self._half_width = self.params.avatar_radius_m + self.params.margin_m
         self._state: dict[str, NDArray] | None = None
         self._active: NDArray[np.bool_] | None = None
+        self._head_on_torso = "head_on_torso" in self.layout.spec
 
     def set_active(self, mask: ArrayLike | None) -> None:
         """The rows whose actions will be used ((B,) bool; None: all). The others' actions are
@@ -266,10 +286,18 @@ class ScriptedPolicy:
         state = self._rows_state(o.shape[0])
         action = np.zeros((o.shape[0], ACTION_SIZE))
         target, want_walk, can_go, can_keep = self._steer(v, state)
+        if self._head_on_torso:  # the turn action turns the body: aim it, not the view
+            frame = self.walk_offset(v) if self.plans_along_walk else 0.0
+            target = _wrap(target + v.head_on_torso - frame)
         self._gate(v, state, target, want_walk, can_go, can_keep, action)
         self._hand(v, action)
         a = np.clip(action, -1.0, 1.0).astype(np.float32)
         return a[0] if single else a
+
+    def walk_offset(self, v: ObsView) -> NDArray[np.float64] | float:
+        """The view heading minus the walking direction (rad): the head's yaw on the torso
+        when the steps follow the torso, else 0."""
+        return v.head_on_torso if self.params.walks_with_torso else 0.0
 
     def _steer(
         self, v: ObsView, state: dict[str, NDArray]

@@ -58,6 +58,7 @@ class GoalSeeker(ScriptedPolicy):
     """
 
     name = "goal_seeker"
+    plans_along_walk = True  # its map, way-ahead checks and plans follow the walking direction
 
     def __init__(
         self, layout: ObservationLayout | None = None, params: PolicyParams | None = None
@@ -105,7 +106,8 @@ class GoalSeeker(ScriptedPolicy):
         p = self.params
         ang = v.heading + v.bearing
         goal_vec = v.distance[:, None] * np.stack([np.cos(ang), np.sin(ang)], -1)
-        u = np.stack([np.cos(v.heading), np.sin(v.heading)], -1)
+        walk = v.heading - self.walk_offset(v)  # where the steps carry the body
+        u = np.stack([np.cos(walk), np.sin(walk)], -1)
         # a step with a fair component toward (or away from) the goal changes the distance to a
         # goal disc or line; one that did not was blocked (a sideways step along an end line
         # leaves the goal vector alone either way, and is trusted)
@@ -137,6 +139,8 @@ class GoalSeeker(ScriptedPolicy):
         p = self.params
         self._remember(v, state)
         b = v.heading.size
+        offset = self.walk_offset(v)
+        walk = v.heading - offset  # the plan is relative to the walking direction
         ang = v.heading + v.bearing
         depth = v.distance + p.goal_depth_m
         target = state["pos"] + depth[:, None] * np.stack([np.cos(ang), np.sin(ang)], -1)
@@ -149,9 +153,9 @@ class GoalSeeker(ScriptedPolicy):
         can_go, can_keep = np.zeros(b, bool), np.zeros(b, bool)
         active = np.ones(b, bool) if self._active is None else self._active
         plan_kernel(b)(
-            (state["occ"], state["lo"], state["hi"]), state["pos"], v.heading, target, keep_len,
+            (state["occ"], state["lo"], state["hi"]), state["pos"], walk, target, keep_len,
             land, state["aim"], active, self.candidates, self._plan_prm,
             (aim, valid, can_go, can_keep),
         )  # fmt: skip
-        state["aim"] = np.where(valid, v.heading + aim, np.nan)
-        return np.where(valid, aim, v.bearing), valid, can_go, can_keep
+        state["aim"] = np.where(valid, walk + aim, np.nan)
+        return np.where(valid, aim, v.bearing + offset), valid, can_go, can_keep

@@ -4,7 +4,8 @@
   scales, the decoder) and the directions of its rays.
 * :class:`ObsView` — a batch of observations decoded into the virtual heading, the goal bearing and
   distance, the ray ranges seen from the *virtual* pose (what the headset shows), the detected
-  steps and, for Interact, the hand error.
+  steps, for Interact the hand error and, with a user population that turns the head, the head's
+  yaw on the torso.
 * :func:`ray_points`, :func:`free_lengths` — the obstacle points the rays see in the body frame,
   and how far the user's disc can move along each heading before touching one.
 * ``_wrap`` (angles into [-pi, pi)) and ``_check_obs`` (observation shape and finiteness), shared by
@@ -47,10 +48,12 @@ class ObservationLayout:
         cls, config: EnvConfig | None = None, task: str = "approach", task_config: Any = None
     ) -> ObservationLayout:
         """The layout of envs of ``task`` built with ``config`` (defaults if None)."""
+        from vrloco_env.observation import population_fields
         from vrloco_env.tasks import get_task
 
         config = config or EnvConfig()
-        fields = get_task(task)(1, 0.1, task_config).fields()
+        fields = (*get_task(task)(1, 0.1, task_config).fields(),
+                  *population_fields(config.population))  # fmt: skip
         spec = env_spec(config.ray_count, config.ray_range_m, fields)
         return cls(spec, ray_offsets(config.ray_count, config.ray_fov_deg))
 
@@ -86,6 +89,8 @@ class ObsView:
         hand_error: target minus estimated hand [yaw, pitch, roll] (rad), (B, 3).
         hand_valid: a hand estimate exists.
         dwell: fraction of the Interact dwell time held so far.
+        head_on_torso: the head's yaw relative to the torso (rad), from the observation's
+            ``head_on_torso`` field where a user population turns the head (0 without it).
     """
 
     heading: NDArray[np.float64]
@@ -97,6 +102,7 @@ class ObsView:
     hand_error: NDArray[np.float64]
     hand_valid: NDArray[np.bool_]
     dwell: NDArray[np.float64]
+    head_on_torso: NDArray[np.float64]
 
     @classmethod
     def decode(cls, obs: NDArray[np.float64], layout: ObservationLayout) -> ObsView:
@@ -114,6 +120,7 @@ class ObsView:
             hand_error=d["hand_error"] if "hand_error" in d else np.zeros((b, 3)),
             hand_valid=d["hand_valid"][:, 0] > 0.5,
             dwell=d["dwell"][:, 0] if "dwell" in d else np.zeros(b),
+            head_on_torso=d["head_on_torso"][:, 0] if "head_on_torso" in d else np.zeros(b),
         )
 
 

@@ -1,5 +1,6 @@
-"""The walking-in-place body: cadence changes mid-step, standing, turns, gestures, lean, hand
-limits, a reset of one user, overground walking, and a batch large enough for the parallel build."""
+"""The walking-in-place body: cadence changes mid-step, standing, turns, gestures, lean, the head
+turning on the torso, hand limits, a reset of one user, overground walking, and a batch large
+enough for the parallel build."""
 
 import numpy as np
 
@@ -16,6 +17,7 @@ def _intent(k: int, b: int) -> Intent:
         gesture_amplitude=(0.3 * (k % 6 > 2), 0.1, 0.05),
         gesture_frequency=(0.4, 0.3, 0.2),
         lean=-0.1 * (k > 4),
+        head_yaw=np.where(user % 2 == 0, 0.8 * np.sin(k / 2), 0.0),  # some heads stay straight
     )
 
 

@@ -5,11 +5,17 @@
   :mod:`vrloco_env.user._motion_numba`).
 * :mod:`~vrloco_env.user.skeleton`: the Kinect v2 joint indices, bones and tracking states shared
   by the motion and sensor models.
+* :mod:`~vrloco_env.user.population`: user populations, seeded distributions of head behaviour
+  and variability (:data:`POPULATIONS`).
+* :mod:`~vrloco_env.user.behaviour`: :class:`GazeBehaviour`, the head's gaze and nods of a
+  population's users, on top of the intent the action asks for.
 
 The names below are re-exported from their modules.
 """
 
+from vrloco_env.user.behaviour import GazeBehaviour
 from vrloco_env.user.motion import (
+    MAX_HEAD_YAW,
     SCRIPTS,
     Intent,
     KinectChunk,
@@ -20,6 +26,7 @@ from vrloco_env.user.motion import (
     run_script,
     script_intents,
 )
+from vrloco_env.user.population import POPULATIONS, Population, get_population
 from vrloco_env.user.skeleton import (
     BONES,
     INFERRED,
@@ -33,18 +40,23 @@ from vrloco_env.user.skeleton import (
 __all__ = [
     "BONES",
     "INFERRED",
+    "MAX_HEAD_YAW",
     "NOT_TRACKED",
     "NUM_JOINTS",
     "PARENT",
+    "POPULATIONS",
     "SCRIPTS",
     "TRACKED",
+    "GazeBehaviour",
     "Intent",
     "Joint",
     "KinectChunk",
     "MotionChunk",
     "MotionParams",
     "MotionRecord",
+    "Population",
     "UserMotion",
+    "get_population",
     "run_script",
     "script_intents",
 ]

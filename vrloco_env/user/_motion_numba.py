@@ -3,11 +3,11 @@
 Two kernels, each a :class:`~estimators.kernels.BatchKernel` whose loop over users runs small
 stages:
 
-* :data:`evaluate_kernel`, the head and body at given times after a control step's start, from
-  the user's state record (fields :data:`STATE`) and intent: step phase (:func:`_step_phase`),
-  vertical bob (:func:`_bob`), lateral sway (:func:`_sway`), body yaw (:func:`_body_yaw`),
-  gestures and lean (:func:`_gestures`, :func:`_critically_damped`), the head's orientation and
-  body rate (:func:`_body_rate`), the neck pivot (:func:`_neck`) and the forehead IMU;
+* :data:`evaluate_kernel`, the head and body at given times after a control step's start, from the
+  user's state record (fields :data:`STATE`) and intent: step phase (:func:`_step_phase`), vertical
+  bob (:func:`_bob`), lateral sway (:func:`_sway`), body yaw (:func:`_body_yaw`), gestures, lean and
+  head-on-torso yaw (:func:`_gestures`, :func:`_critically_damped`), the head's orientation and body
+  rate (:func:`_body_rate`), the neck pivot (:func:`_neck`) and the forehead IMU;
 * :data:`skeleton_kernel`, the Kinect v2 joints and the right hand's orientation at the Kinect
   frames, from the body evaluated there and the body geometry record of
   :data:`vrloco_env.user.motion._BODY`: torso (:func:`_torso`), head, legs (:func:`_legs`) and the
@@ -30,23 +30,27 @@ from estimators.kernels.rotations import quat_from_ypr, quat_rotate
 #: yaw (rad, unwrapped) and its rate (rad/s), the gesture amplitudes (rad), their rates (rad/s)
 #: and phases (rad) about yaw, pitch, roll, head lean (rad) and its rate (rad/s), the hand's
 #: [yaw, pitch, roll] relative to the torso (rad), the standing place in the tracked space (m),
-#: the user's style factors (step impact, sway) and the overground walking speed (m/s; 0 in place).
+#: the user's style factors (step impact, sway), the overground walking speed (m/s; 0 in place)
+#: and the head-on-torso yaw (rad) and its rate (rad/s).
 STATE = {
     "phase": (), "step_cadence": (), "yaw": (), "yaw_rate": (), "gesture_amp": (3,),
     "gesture_amp_rate": (3,), "gesture_phase": (3,), "lean": (), "lean_rate": (),
     "hand_ypr": (3,), "base": (2,), "impact_scale": (), "sway_scale": (), "speed": (),
+    "head_yaw": (), "head_yaw_rate": (),
 }  # fmt: skip
 
-#: Planes of :data:`evaluate_kernel`'s per-time outputs ``scalars`` (S, B, T) and ``vectors``
-#: (V, B, T, 3), by name: step phase, cadence (steps/s), body yaw (rad) and rate (rad/s), lean
-#: (rad) and rate (rad/s); head [yaw, pitch, roll] (rad) and their rates (rad/s), the head's
-#: body-frame rate (rad/s), neck pivot and IMU position (m), gesture amplitudes (rad), their rates
-#: (rad/s) and phases (rad).
-SCALARS = ("phase", "cadence", "yaw", "yaw_rate", "lean", "lean_rate")
+#: Planes of :data:`evaluate_kernel`'s per-time outputs ``scalars`` (S, B, T) and ``vectors`` (V, B,
+#: T, 3), by name: step phase, cadence (steps/s), body yaw (rad) and rate (rad/s), lean (rad) and
+#: rate (rad/s), head-on-torso yaw (rad) and rate (rad/s); head [yaw, pitch, roll] (rad) and their
+#: rates (rad/s), the head's body-frame rate (rad/s), neck pivot and IMU position (m), gesture
+#: amplitudes (rad), their rates (rad/s) and phases (rad).
+SCALARS = ("phase", "cadence", "yaw", "yaw_rate", "lean", "lean_rate", "head_yaw",
+           "head_yaw_rate")  # fmt: skip
 VECTORS = ("head_ypr", "d_head_ypr", "omega", "neck", "imu_pos", "gesture_amp",
            "gesture_amp_rate", "g_phase")  # fmt: skip
-S_PHASE, S_CADENCE, S_YAW, S_YAW_RATE, S_LEAN, S_LEAN_RATE = map(SCALARS.index, (
-    "phase", "cadence", "yaw", "yaw_rate", "lean", "lean_rate"))  # fmt: skip
+S_PHASE, S_CADENCE, S_YAW, S_YAW_RATE, S_LEAN, S_LEAN_RATE, S_HEAD, S_HEAD_RATE = map(
+    SCALARS.index, ("phase", "cadence", "yaw", "yaw_rate", "lean", "lean_rate", "head_yaw",
+                    "head_yaw_rate"))  # fmt: skip
 V_YPR, V_D_YPR, V_OMEGA, V_NECK, V_IMU, V_GAMP, V_GAMP_RATE, V_GPHASE = map(VECTORS.index, (
     "head_ypr", "d_head_ypr", "omega", "neck", "imu_pos", "gesture_amp", "gesture_amp_rate",
     "g_phase"))  # fmt: skip
@@ -157,13 +161,13 @@ def _set3(out, x, y, z):
     out[2] = z
 
 
-def _evaluate(state, cadence, turn_rate, gesture_amplitude, gesture_frequency, lean, prm, tau,
-              t_boundary, scalars, vectors, quat):  # fmt: skip
+def _evaluate(state, cadence, turn_rate, gesture_amplitude, gesture_frequency, lean, head_yaw,
+              prm, tau, t_boundary, scalars, vectors, quat):  # fmt: skip
     """Head and body of B users at the times ``tau`` (T,) s after the control step's start.
 
     Args:
         state: (B,) records :data:`STATE` at the step start (read only).
-        cadence, turn_rate, lean: the intent (steps/s, rad/s, rad), (B,) each.
+        cadence, turn_rate, lean, head_yaw: the intent (steps/s, rad/s, rad, rad), (B,) each.
         gesture_amplitude, gesture_frequency: the intent's gestures (rad, Hz), (B, 3) each.
         prm: (1,) parameter record (:func:`vrloco_env.user.motion._kernel_params`).
         tau: evaluation times (s), (T,).
@@ -188,10 +192,17 @@ def _evaluate(state, cadence, turn_rate, gesture_amplitude, gesture_frequency, l
             row = vectors[:, b, t]
             _gestures(s, gesture_amplitude[b], gesture_frequency[b], lag, tt, row)
             ln, d_ln = _critically_damped(s["lean"], s["lean_rate"], lean[b], lag, tt)
-            # Head angles and their rates: body yaw, lean and sway roll plus the gestures.
+            hy, d_hy = _critically_damped(s["head_yaw"], s["head_yaw_rate"], head_yaw[b],
+                                          p["head_turn_lag_s"], tt)  # fmt: skip
+            # Head angles and their rates: body yaw, lean and sway roll plus the gestures, and
+            # the head-on-torso yaw (added only where it moves, so a straight head leaves the
+            # sums bit for bit as they were without it).
             ypr, d_ypr = row[V_YPR], row[V_D_YPR]
             y, pt, r = yaw + ypr[0], ln + ypr[1], sway_roll + ypr[2]
             dy, dp, dr = d_yaw + d_ypr[0], d_ln + d_ypr[1], d_sway_roll + d_ypr[2]
+            if hy != 0.0 or d_hy != 0.0:
+                y += hy
+                dy += d_hy
             _set3(ypr, y, pt, r)
             _set3(d_ypr, dy, dp, dr)
             wx, wy, wz = _body_rate(pt, r, dy, dp, dr)
@@ -209,6 +220,8 @@ def _evaluate(state, cadence, turn_rate, gesture_amplitude, gesture_frequency, l
             scalars[S_YAW_RATE, b, t] = d_yaw
             scalars[S_LEAN, b, t] = ln
             scalars[S_LEAN_RATE, b, t] = d_ln
+            scalars[S_HEAD, b, t] = hy
+            scalars[S_HEAD_RATE, b, t] = d_hy
 
 
 evaluate_kernel = BatchKernel(_evaluate)

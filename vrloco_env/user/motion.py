@@ -33,8 +33,11 @@ Stepping in place (the walking-in-place metaphor of seed 000):
 
 The head turns with the body (yaw rate with a 0.1 s first-order lag, so angular acceleration stays
 finite) and may add gesture oscillations about each axis (serpentine, nod, shake) and a lean, as in
-seed 000's five head motions. The IMU sits on the forehead, 9 cm in front of and 12 cm above the
-head's pivot at the neck, so head rotations also accelerate it (centripetal and tangential terms).
+seed 000's five head motions, and turn on the torso toward the intent's ``head_yaw`` (critically
+damped, ``MotionParams.head_turn_lag_s``: where a user looks, set by
+:class:`vrloco_env.user.behaviour.GazeBehaviour` for a user population). The IMU sits on the
+forehead, 9 cm in front of and 12 cm above the head's pivot at the neck, so head rotations also
+accelerate it (centripetal and tangential terms).
 
 The right hand is held in front of the body; its orientation relative to the torso heading is an
 intrinsic ZYX [yaw, pitch, roll] integrated from the intent's hand rates and held within joint
@@ -58,6 +61,7 @@ from vrloco_env.user._motion_numba import SCALARS, STATE, VECTORS, evaluate_kern
 from vrloco_env.user.skeleton import NUM_JOINTS, Joint
 
 __all__ = [
+    "MAX_HEAD_YAW",
     "SCRIPTS",
     "Intent",
     "KinectChunk",
@@ -123,6 +127,13 @@ class MotionParams:
     """Head roll (deg) accompanying the lateral sway."""
     gesture_lag_s: float = 0.4
     """Time constant (s) of the critically damped response of gesture amplitudes and lean."""
+    head_turn_lag_s: float = 0.1
+    """Time constant (s) of the critically damped response of the head-on-torso yaw to its target
+    (:attr:`Intent.head_yaw`), in [0.02, 1]. A linear response has a peak speed proportional to
+    the amplitude, the "main sequence" of head movements (Zangemeister, Jones & Stark, Exp.
+    Neurol. 1981; Freedman, Biol. Cybern. 2008): with 0.1 s a 40 deg turn peaks at
+    40 / (e * 0.1) ~ 150 deg/s and settles (95 %) in ~0.47 s, inside the 0.3-0.6 s and
+    100-300 deg/s those studies report for 20-60 deg head movements."""
     neck_height_m: float = 1.55
     """Height (m) of the head's pivot (upper neck) when standing."""
     imu_offset_m: tuple[float, float, float] = (0.09, 0.0, 0.12)
@@ -163,6 +174,7 @@ class MotionParams:
         check("sway_m", 0.0 <= self.sway_m <= 0.1, "in [0, 0.1] m")
         check("sway_roll_deg", 0.0 <= self.sway_roll_deg <= 10.0, "in [0, 10] deg")
         check("gesture_lag_s", 0.0 < self.gesture_lag_s <= 5.0, "in (0, 5] s")
+        check("head_turn_lag_s", 0.02 <= self.head_turn_lag_s <= 1.0, "in [0.02, 1] s")
         check("neck_height_m", 0.8 <= self.neck_height_m <= 2.2, "in [0.8, 2.2] m")
         check("style_spread", 0.0 <= self.style_spread <= 0.5, "in [0, 0.5]")
         check("overground", isinstance(self.overground, bool | np.bool_), "True or False")
@@ -188,6 +200,10 @@ class Intent:
             heading: serpentine, nod and shake of seed 000. (B, 3)
         gesture_frequency: frequencies (Hz) of those oscillations. (B, 3)
         lean: head pitch offset (rad; negative leans back / looks up). (B,)
+        head_yaw: head-on-torso yaw target (rad, counter-clockwise positive, |.| <= 80 deg):
+            where the user turns the head relative to the body, followed with the critically
+            damped lag ``MotionParams.head_turn_lag_s``. 0 keeps the head straight on the torso
+            (apart from the gestures). (B,)
     """
 
     cadence: ArrayLike = 0.0
@@ -196,7 +212,12 @@ class Intent:
     gesture_amplitude: ArrayLike = (0.0, 0.0, 0.0)
     gesture_frequency: ArrayLike = (0.5, 0.5, 0.5)
     lean: ArrayLike = 0.0
+    head_yaw: ArrayLike = 0.0
 
+
+#: Largest head-on-torso yaw target (rad): the active range of cervical axial rotation of
+#: adults, about 70-80 deg each way (Ferrario et al., J. Orthop. Res. 20(1), 2002).
+MAX_HEAD_YAW = float(np.deg2rad(80.0))
 
 _INTENT_FIELDS = tuple(f.name for f in fields(Intent))
 
@@ -213,7 +234,8 @@ class MotionChunk:
         acc: IMU linear acceleration in the world (m/s^2, gravity excluded), (B, N, 3).
         ypr: head [yaw, pitch, roll] (rad; yaw unwrapped), (B, N, 3).
         body_yaw: the body's (torso's) yaw (rad, unwrapped), (B, N): the head's yaw is this plus
-            the head-on-torso yaw of the gestures (looking around), :attr:`head_on_torso_yaw`.
+            the head-on-torso yaw (the intent's ``head_yaw`` and yaw gestures: looking around),
+            :attr:`head_on_torso_yaw`.
         step: a heel strike happened in this sample's interval, (B, N) bool.
         step_time: time (s) of that heel strike, NaN where none, (B, N).
         step_offset: the same heel strikes as time (s) after the start of this control step,
@@ -371,6 +393,17 @@ class UserMotion:
             return
         self._state.rec[rows] = fresh.rec
 
+    def scale_style(self, rows: ArrayLike, impact: ArrayLike) -> None:
+        """Multiply the step-impact style of users ``rows`` (drawn at :meth:`reset`) by
+        ``impact`` (> 0, broadcast to the rows): a population's heavier or lighter steppers.
+        The vertical head acceleration of every step scales with it."""
+        if self._state is None:
+            raise RuntimeError("UserMotion.reset() must be called before scale_style()")
+        r = stream_rows(rows, self.batch_size)
+        f = _batch(impact, (r.size,), "impact")
+        _check_range(f, 0.05, 5.0, "UserMotion.scale_style impact", "(a factor)")
+        self._state.impact_scale[r] *= f
+
     # ------------------------------------------------------------------ intent validation
     def _check_intent(self, intent: Intent) -> dict[str, NDArray[np.float64]]:
         p, b = self.params, self.batch_size
@@ -381,6 +414,7 @@ class UserMotion:
             "gesture_amplitude": _batch(intent.gesture_amplitude, (b, 3), "gesture_amplitude"),
             "gesture_frequency": _batch(intent.gesture_frequency, (b, 3), "gesture_frequency"),
             "lean": _batch(intent.lean, (b,), "lean"),
+            "head_yaw": _batch(intent.head_yaw, (b,), "head_yaw"),
         }
         lo, hi = p.cadence_range_hz
         c = out["cadence"]
@@ -397,6 +431,7 @@ class UserMotion:
                      "rad")  # fmt: skip
         _check_range(out["gesture_frequency"], 0.0, 3.0, "Intent.gesture_frequency", "Hz")
         _check_range(out["lean"], -np.deg2rad(45.0), np.deg2rad(45.0), "Intent.lean", "rad")
+        _check_range(out["head_yaw"], -MAX_HEAD_YAW, MAX_HEAD_YAW, "Intent.head_yaw", "rad")
         return out
 
     # ------------------------------------------------------------------ the time functions
@@ -413,7 +448,8 @@ class UserMotion:
         t_boundary = np.empty(b)
         evaluate_kernel(b)(
             s.rec, cmd["cadence"], cmd["turn_rate"], cmd["gesture_amplitude"],
-            cmd["gesture_frequency"], cmd["lean"], self._kernel_params, tau, t_boundary, scalars,
+            cmd["gesture_frequency"], cmd["lean"], cmd["head_yaw"], self._kernel_params, tau,
+            t_boundary, scalars,
             vectors, quat,
         )  # fmt: skip
         out = dict(zip(SCALARS, scalars, strict=True))
@@ -435,6 +471,8 @@ class UserMotion:
             raise RuntimeError("UserMotion.reset() must be called before advance()")
         s, p = self._state, self.params
         cmd = self._check_intent(intent) if validate else _intent_arrays(intent)
+        if cmd["head_yaw"].ndim == 0:  # an unchecked intent may leave the head straight
+            cmd["head_yaw"] = np.full(self.batch_size, float(cmd["head_yaw"]))
         n = p.samples_per_step
         t0 = s.time(p.control_rate_hz)
         tau_k, t_k, times = self._time_grid(s.steps_done)
@@ -482,6 +520,8 @@ class UserMotion:
         s.lean_rate[:] = ev_all["lean_rate"][:, end]
         s.gesture_phase[:] = np.mod(ev_all["g_phase"][:, end, :], 2.0 * np.pi)
         s.lean[:] = ev_all["lean"][:, end]
+        s.head_yaw[:] = ev_all["head_yaw"][:, end]
+        s.head_yaw_rate[:] = ev_all["head_yaw_rate"][:, end]
         s.hand_ypr[:] = self._hand_ypr(s, cmd, self._control_dt)[:, -1]
         if p.overground:
             s.base += walked
