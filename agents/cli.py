@@ -237,22 +237,40 @@ def _cmd_techniques(args: argparse.Namespace) -> int:
 
 
 def _cmd_train(args: argparse.Namespace) -> int:
-    from agents.learned import train_seeds
+    from agents.backends import BackendError
 
-    paths = train_seeds(
-        args.task,
-        args.seeds if args.seeds is not None else [args.seed],
-        Path(args.out),
-        steps=args.steps,
-        num_envs=args.num_envs,
-        sensor_preset=args.sensors,
-        eval_every=args.eval_every,
-    )
+    seeds = args.seeds if args.seeds is not None else [args.seed]
+    common = dict(steps=args.steps, sensor_preset=args.sensors, eval_every=args.eval_every)
+    if args.address is not None and args.backend == "local":
+        print("vrloco train: --address needs --backend ray or rllib", file=sys.stderr)
+        return 2
+    if args.env_runners is not None and args.backend != "rllib":
+        print("vrloco train: --env-runners needs --backend rllib", file=sys.stderr)
+        return 2
+    try:
+        if args.backend == "rllib":
+            from agents.rllib import train_rllib_seeds
+
+            runners = 2 if args.env_runners is None else args.env_runners
+            paths = train_rllib_seeds(args.task, seeds, Path(args.out), address=args.address,
+                                      num_env_runners=runners,
+                                      num_envs_per_env_runner=args.num_envs,
+                                      **common)  # fmt: skip
+        else:
+            from agents.learned import train_seeds
+
+            paths = train_seeds(args.task, seeds, Path(args.out), backend=args.backend,
+                                address=args.address, num_envs=args.num_envs,
+                                **common)  # fmt: skip
+    except BackendError as err:  # no Ray cluster, or runs lost: what and where, no traceback
+        print(f"vrloco train: {err}", file=sys.stderr)
+        return 1
     curve = Path(args.out) / "learning_curve.json"
     if len(paths) == 1:
         print(f"wrote {paths[0]}; learning curve in {curve}")
     else:
-        print(f"wrote {len(paths)} models in {Path(args.out)}/seed_*; learning curves (each "
+        where = "checkpoints" if args.backend == "rllib" else "models"
+        print(f"wrote {len(paths)} {where} in {Path(args.out)}/seed_*; learning curves (each "
               f"seed, mean and std) in {curve} and {curve.with_suffix('.png')}")  # fmt: skip
     return 0
 
@@ -422,13 +440,14 @@ def build_parser() -> argparse.ArgumentParser:
     )
     techniques.set_defaults(func=_cmd_techniques)
 
-    train = sub.add_parser("train", help="train a PPO user (stable-baselines3) on a task")
+    train = sub.add_parser("train", help="train a PPO user (stable-baselines3 or RLlib) on a task")
     train.add_argument("--task", default="approach", type=_task,
                        help=f"one of {', '.join(TASKS)}")  # fmt: skip
     train.add_argument("--steps", type=_int_at_least(1), default=2_000_000,
-                       help="environment steps, rounded up to whole PPO rollouts")  # fmt: skip
+                       help="environment steps, rounded up to whole PPO rollouts (rllib: "
+                       "whole training iterations)")  # fmt: skip
     train.add_argument("--num-envs", type=_int_at_least(1), default=32,
-                       help="users stepped together")  # fmt: skip
+                       help="users stepped together (rllib: in each env runner)")  # fmt: skip
     train.add_argument("--sensors", default="ig500n", type=_preset, help="IMU preset")
     train.add_argument("--eval-every", type=_int_at_least(1), default=100_000,
                        help="steps between evals")  # fmt: skip
@@ -436,10 +455,28 @@ def build_parser() -> argparse.ArgumentParser:
     seeding.add_argument("--seed", type=_int_at_least(0), default=0, help="random seed")
     seeding.add_argument(
         "--seeds", type=_seed_list, metavar="S,S,...",
-        help="comma-separated distinct seeds >= 0: one run per seed in parallel worker "
-        "processes (one per seed, at most one per core), each in OUT/seed_<s>/, and their "
-        "curves with the mean and std in OUT/learning_curve.json and .png (default: one "
-        "run, --seed)",
+        help="comma-separated distinct seeds >= 0: one run per seed, each in OUT/seed_<s>/, "
+        "in parallel worker processes (one per seed, at most one per core; --backend ray: "
+        "Ray tasks; rllib: one after the other), and their curves with the mean and std in "
+        "OUT/learning_curve.json and .png (default: one run, --seed)",
+    )  # fmt: skip
+    train.add_argument(
+        "--backend", choices=("local", "ray", "rllib"), default="local",
+        help="local: stable-baselines3 PPO, several seeds in local worker processes; ray: "
+        "the same, each seed a Ray task on a Ray cluster (pip install 'vrloco[ray]'); rllib: "
+        "RLlib's PPO on --env-runners env runners of --num-envs users each, seeds one after "
+        "the other (pip install 'vrloco[rllib]')",
+    )  # fmt: skip
+    train.add_argument(
+        "--address",
+        help="with --backend ray or rllib: the cluster, 'auto' (one started with `ray start` "
+        "here) or HOST:PORT of its head; default: such a cluster where one runs, else a local "
+        "Ray instance on this machine's cores",
+    )
+    train.add_argument(
+        "--env-runners", type=_int_at_least(0), default=None,
+        help="with --backend rllib: RLlib env runners (processes sampling in parallel; 0: "
+        "sample in this process) (default: 2)",
     )  # fmt: skip
     train.add_argument("--out", default="runs/ppo", type=_out_dir,
                        help="folder for logs and models")  # fmt: skip

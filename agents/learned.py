@@ -5,7 +5,8 @@
 bar, TensorBoard logs, periodic checkpoints and an evaluation callback on separately seeded
 episodes; ``vrloco evaluate MODEL`` runs a trained policy through the benchmark's metrics.
 ``vrloco train --seeds 0,1,2`` (:func:`train_seeds`) trains one run per seed in parallel worker
-processes and draws their curves together, with the mean and the spread over the seeds.
+processes (``--backend ray``: as Ray tasks on a Ray cluster) and draws their curves together,
+with the mean and the spread over the seeds. RLlib's PPO is in :mod:`agents.rllib`.
 
 :class:`SB3VecEnv` adapts the Gymnasium vector env to stable-baselines3's ``VecEnv`` interface.
 Both autoreset in the same step, so the adapter only reshapes: the finished episode's last
@@ -228,6 +229,8 @@ def train_seeds(
     seeds: list[int],
     out_dir: Path,
     workers: int | None = None,
+    backend: str = "local",
+    address: str | None = None,
     **train_kwargs: Any,
 ) -> list[Path]:
     """:func:`train_ppo` once per seed; returns the final models' paths, in the order of ``seeds``.
@@ -248,6 +251,11 @@ def train_seeds(
     Ctrl-C stops the workers at once and re-raises ``KeyboardInterrupt``; what each seed saved
     stays (its checkpoints, best model and learning curve up to its last evaluation; not a final
     model), the combined curve is written from those, and one line says so.
+
+    ``backend="ray"`` trains every seed (one too) as a Ray task of one CPU on the cluster at
+    ``address`` (as ``vrloco benchmark --backend ray`` connects: ``"auto"``, ``"HOST:PORT"``,
+    or None: a running cluster, else a local instance; ``workers`` is not used):
+    :func:`_train_seeds_ray`.
     """
     from concurrent.futures import ProcessPoolExecutor
     from multiprocessing import get_context
@@ -262,6 +270,12 @@ def train_seeds(
     if repeated:
         raise ValueError(f"seeds: {', '.join(map(str, repeated))} given more than once")
     out_dir = Path(out_dir)
+    if backend not in ("local", "ray"):
+        raise ValueError(f"backend must be 'local' or 'ray', got {backend!r}")
+    if address is not None and backend != "ray":
+        raise ValueError(f"address={address!r} needs backend 'ray'")
+    if backend == "ray":
+        return _train_seeds_ray(task, seeds, out_dir, address, train_kwargs)
     if len(seeds) == 1:
         return [train_ppo(task, seed=seeds[0], out_dir=out_dir, **train_kwargs)]
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
@@ -269,11 +283,7 @@ def train_seeds(
     workers = min(len(seeds), cores) if workers is None else workers
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise ValueError(f"workers={workers!r}: must be an integer >= 1")
-    # Round (and check) the steps once here, not in every worker.
-    n_steps = train_kwargs.get("n_steps", defaults_ppo()["n_steps"])
-    kwargs = dict(train_kwargs, progress=False)
-    kwargs["steps"] = rollout_steps(kwargs.get("steps", 2_000_000), n_steps,
-                                    kwargs.get("num_envs", 32))  # fmt: skip
+    kwargs = _worker_kwargs(train_kwargs)
     out_dir.mkdir(parents=True, exist_ok=True)
     folders = {s: out_dir / f"seed_{s}" for s in seeds}
     pool = ProcessPoolExecutor(
@@ -299,6 +309,117 @@ def train_seeds(
     pool.shutdown()
     write_seed_curves(task, _read_curves(folders), out_dir)
     return paths
+
+
+def _worker_kwargs(train_kwargs: dict[str, Any]) -> dict[str, Any]:
+    """:func:`train_ppo`'s keywords for a worker: no progress bar, and the steps rounded (and
+    checked) once here rather than in every worker."""
+    n_steps = train_kwargs.get("n_steps", defaults_ppo()["n_steps"])
+    kwargs = dict(train_kwargs, progress=False)
+    kwargs["steps"] = rollout_steps(kwargs.get("steps", 2_000_000), n_steps,
+                                    kwargs.get("num_envs", 32))  # fmt: skip
+    return kwargs
+
+
+def _train_seeds_ray(
+    task: str, seeds: list[int], out_dir: Path, address: str | None, train_kwargs: dict
+) -> list[Path]:
+    """:func:`train_seeds` on the Ray backend: one Ray task of one CPU per seed
+    (:func:`_train_seed_task`), which trains in a temporary folder on its node and returns the
+    folder's files; each seed's files are written here, in ``out_dir/seed_<s>/`` (one seed:
+    in ``out_dir``), as its task finishes, so the cluster's nodes need no shared disk. The
+    tasks set torch's thread count to this machine's default (at most their node's cores), so
+    that on one machine a seed's curve and model are bit-identical to the local backend's.
+
+    Failures (:mod:`agents.backends`): a worker or node lost mid-run is retried up to
+    :data:`~agents.backends.MAX_RETRIES` times; a seed whose own code raised is not (it would
+    raise again). After every other seed has finished and been written, a
+    :class:`~agents.backends.BackendError` names each failed seed and why; the combined curve
+    holds the finished seeds. Ctrl-C cancels the tasks: the finished seeds' files stay (an
+    unfinished seed's were on its node and are lost), the combined curve is written from them.
+    """
+    import torch
+
+    from agents.backends import (
+        MAX_RETRIES,
+        BackendError,
+        _cause,
+        _connect,
+        _first_line,
+        import_ray,
+    )
+
+    ray = import_ray()
+    kwargs = _worker_kwargs(train_kwargs)
+    env_settings(task, sensor_preset=kwargs.get("sensor_preset", "ig500n"))  # fail here, not there
+    out_dir.mkdir(parents=True, exist_ok=True)
+    folders = {s: out_dir if len(seeds) == 1 else out_dir / f"seed_{s}" for s in seeds}
+    started = _connect(ray, address)
+    remote = ray.remote(num_cpus=1, max_retries=MAX_RETRIES)(_train_seed_task)
+    threads = torch.get_num_threads()
+    pending = {remote.remote(task, s, kwargs, threads): s for s in seeds}
+    paths: dict[int, Path] = {}
+    failed: list[tuple[int, BaseException]] = []
+    try:
+        while pending:
+            try:
+                ready, _ = ray.wait(list(pending), num_returns=1)
+            except ray.exceptions.RaySystemError as err:
+                raise BackendError(f"lost the Ray cluster mid-run ({_first_line(err)}); seeds "
+                                   f"{', '.join(map(str, sorted(pending.values())))} "
+                                   "unfinished", partial=True) from err  # fmt: skip
+            for ref in ready:
+                s = pending.pop(ref)
+                try:
+                    name, files = ray.get(ref)
+                except ray.exceptions.RayError as err:  # retries spent, or the code raised
+                    failed.append((s, err))
+                    continue
+                for rel, data in files.items():
+                    (folders[s] / rel).parent.mkdir(parents=True, exist_ok=True)
+                    (folders[s] / rel).write_bytes(data)
+                paths[s] = folders[s] / name
+                print(f"seed {s}: trained ({len(paths)} of {len(seeds)}), in {folders[s]}")
+    except BaseException as err:
+        for ref in pending:
+            try:
+                ray.cancel(ref, force=True)
+            except Exception:  # the cluster may be gone already
+                pass
+        if isinstance(err, KeyboardInterrupt):
+            print(f"interrupted: cancelled {len(pending)} seed runs on Ray; kept the "
+                  f"{len(paths)} finished seeds' files in {out_dir}")  # fmt: skip
+        raise
+    finally:
+        if len(seeds) > 1 and paths:
+            write_seed_curves(task, _read_curves({s: folders[s] for s in paths}), out_dir)
+        if started:
+            ray.shutdown()
+    if failed:
+        lines = [f"  seed {s}: {_cause(err)}" for s, err in sorted(failed, key=lambda f: f[0])]
+        raise BackendError(f"{len(failed)} of {len(seeds)} seed runs failed on Ray (the other "
+                           f"{len(seeds) - len(failed)} finished, in {out_dir}):\n"
+                           + "\n".join(lines), partial=True)  # fmt: skip
+    return [paths[s] for s in seeds]
+
+
+def _train_seed_task(
+    task: str, seed: int, kwargs: dict[str, Any], threads: int
+) -> tuple[str, dict[str, bytes]]:
+    """One seed's :func:`train_ppo` in a temporary folder, with ``threads`` torch threads (at
+    most this node's cores); returns the final model's file name and every file written
+    (relative path: bytes)."""
+    import tempfile
+
+    import torch
+
+    torch.set_num_threads(max(1, min(threads, os.cpu_count() or 1)))
+    with tempfile.TemporaryDirectory(prefix=f"vrloco_seed{seed}_") as tmp:
+        root = Path(tmp)
+        path = train_ppo(task, seed=seed, out_dir=root, **kwargs)
+        files = {str(p.relative_to(root)): p.read_bytes() for p in sorted(root.rglob("*"))
+                 if p.is_file()}  # fmt: skip
+    return path.name, files
 
 
 def _ignore_sigint() -> None:

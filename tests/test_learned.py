@@ -1,6 +1,7 @@
 """The stable-baselines3 adapter and a tiny PPO run (the learning curve itself is a benchmark)."""
 
 import json
+import sys
 
 import numpy as np
 import pytest
@@ -132,3 +133,121 @@ def test_tiny_runs_over_two_seeds_write_each_seed_and_their_mean(tmp_path):
     assert policy(alone) == policy(paths[0])
     with pytest.raises(ValueError, match="given more than once"):
         train_seeds("avoid", [1, 1], tmp_path / "bad", **kw)
+
+
+NEEDS_RAY = "the Ray backend needs Ray: pip install 'vrloco[ray]'"
+TINY = dict(steps=512, num_envs=4, eval_every=256, eval_episodes=2, n_steps=64, batch_size=128)
+
+
+def _policy(path):
+    import zipfile
+
+    with zipfile.ZipFile(path) as z:
+        return z.read("policy.pth")
+
+
+def _without_wall_time(curve):
+    return [{k: v for k, v in row.items() if k != "wall_s"} for row in curve]
+
+
+@pytest.mark.slow
+def test_seeds_on_ray_train_as_the_local_backend_and_a_failed_seed_is_named(tmp_path):
+    import logging
+
+    ray = pytest.importorskip("ray", reason=NEEDS_RAY)
+    from agents.backends import BackendError
+    from agents.learned import train_seeds
+
+    out = tmp_path / "ray"
+    bad = 2**32  # numpy's seeding refuses it inside the worker, after the run has started
+    ray.init(num_cpus=2, include_dashboard=False, logging_level=logging.WARNING)
+    try:
+        with pytest.raises(BackendError, match=r"1 of 3 seed runs failed on Ray") as err:
+            train_seeds("avoid", [0, 1, bad], out, backend="ray", **TINY)
+    finally:
+        ray.shutdown()
+    assert err.value.partial
+    assert (f"  seed {bad}: ValueError: Seed must be between 0 and 2**32 - 1"
+            in str(err.value).splitlines())  # fmt: skip
+    assert not (out / f"seed_{bad}").exists()
+    for s in (0, 1):  # the finished seeds' files came back from the workers
+        folder = out / f"seed_{s}"
+        assert (folder / "ppo_avoid_final.zip").is_file() and (folder / "best_model.zip").is_file()
+        assert any((folder / "checkpoints").glob("*.zip")) and any((folder / "tb").rglob("*"))
+    data = json.loads((out / "learning_curve.json").read_text())
+    assert data["seeds"] == [0, 1] and (out / "learning_curve.png").is_file()
+    assert _policy(out / "seed_0" / "ppo_avoid_final.zip") != _policy(
+        out / "seed_1" / "ppo_avoid_final.zip")
+    # A Ray task trains seed 0 exactly as this process does: torch's thread count is kept.
+    (alone,) = train_seeds("avoid", [0], tmp_path / "one", progress=False, **TINY)
+    assert _policy(alone) == _policy(out / "seed_0" / "ppo_avoid_final.zip")
+    curve = json.loads((tmp_path / "one" / "learning_curve.json").read_text())
+    assert _without_wall_time(curve) == _without_wall_time(data["per_seed"]["0"])
+
+
+def test_seeds_on_an_unreachable_ray_address_are_named_at_once(tmp_path, capsys):
+    import time
+
+    pytest.importorskip("ray", reason=NEEDS_RAY)
+    from agents.backends import BackendError
+    from agents.cli import main
+    from agents.learned import train_seeds
+
+    t0 = time.perf_counter()
+    with pytest.raises(BackendError, match=r"cannot reach a Ray cluster at 127\.0\.0\.1:1"):
+        train_seeds("avoid", [0, 1], tmp_path, backend="ray", address="127.0.0.1:1", **TINY)
+    assert time.perf_counter() - t0 < 10.0
+    assert not list(tmp_path.glob("seed_*"))
+    assert main(["train", "--seeds", "0,1", "--backend", "ray", "--address", "127.0.0.1:1",
+                 "--steps", "1024", "--num-envs", "4", "--out", str(tmp_path)]) == 1  # fmt: skip
+    err = capsys.readouterr().err
+    assert err.startswith("vrloco train: cannot reach a Ray cluster at 127.0.0.1:1")
+    assert "Traceback" not in err
+    with pytest.raises(ValueError, match="backend must be 'local' or 'ray', got 'dask'"):
+        train_seeds("avoid", [0, 1], tmp_path, backend="dask", **TINY)
+    with pytest.raises(ValueError, match="needs backend 'ray'"):
+        train_seeds("avoid", [0, 1], tmp_path, address="auto", **TINY)
+
+
+def _kill_one_seed_task(stop, killed):
+    """Kill (SIGKILL) the first Ray worker process found running a seed's training (its title
+    is ``ray::_train_seed_task``), once; Linux's /proc."""
+    import os
+    import signal
+    from pathlib import Path
+
+    while not stop.is_set() and not killed:
+        for proc in Path("/proc").glob("[0-9]*"):
+            try:
+                title = (proc / "cmdline").read_bytes()
+            except OSError:
+                continue
+            if title.startswith(b"ray::_train_seed_task"):
+                os.kill(int(proc.name), signal.SIGKILL)
+                killed.append(int(proc.name))
+                return
+        stop.wait(0.2)
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="finds the worker in /proc")
+def test_a_seed_whose_ray_worker_is_lost_is_trained_again(tmp_path):
+    import logging
+    import threading
+
+    ray = pytest.importorskip("ray", reason=NEEDS_RAY)
+    from agents.learned import train_seeds
+
+    stop, killed = threading.Event(), []
+    killer = threading.Thread(target=_kill_one_seed_task, args=(stop, killed))
+    ray.init(num_cpus=2, include_dashboard=False, logging_level=logging.WARNING)
+    try:
+        killer.start()
+        (path,) = train_seeds("avoid", [0], tmp_path / "ray", backend="ray", **TINY)
+    finally:
+        stop.set()
+        killer.join()
+        ray.shutdown()
+    assert killed  # a worker did die mid-run, and the task ran again to the end
+    (alone,) = train_seeds("avoid", [0], tmp_path / "one", progress=False, **TINY)
+    assert _policy(path) == _policy(alone)
