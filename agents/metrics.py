@@ -250,6 +250,8 @@ STEP_KEYS = (
     "true_ypr",
     "elapsed_time",
     "collision",
+    "walk_yaw_deg",
+    "true_body_yaw_deg",
 )
 #: The ``info`` keys kept per control step for the figures.
 TRACE_KEYS = (

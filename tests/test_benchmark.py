@@ -160,7 +160,7 @@ def test_cells_sharing_an_env_mix_in_one_batch():
     batched = run_batched(episodes, batch_size=2)
     for (cell, seed, _), (stats, _) in zip(episodes, batched, strict=True):
         _same_episode(stats, run_cell_episode(cell, seed)[0])
-    with pytest.raises(ValueError, match="share one task and technique"):
+    with pytest.raises(ValueError, match="share one task, technique and population"):
         run_batched([(cells[0], 1, False), (Cell("approach", "goal_seeker"), 1, False)])
 
 

@@ -344,6 +344,8 @@ class LocoCore:
             "est_ypr": np.rad2deg(us.ypr_est),
             "attitude_error_deg": np.rad2deg(att_err),
             "heading_error_deg": np.rad2deg(rot.angle_diff(us.virtual_yaw, us.true_virtual_yaw)),
+            "walk_yaw_deg": np.rad2deg(rot.wrap_angle(us.walk_yaw)),
+            "true_body_yaw_deg": np.rad2deg(rot.wrap_angle(us.true_body_yaw)),
             "true_steps": us.true_steps.astype(np.int64),
             "detected_steps": us.steps.astype(np.int64),
             "true_step_times": true_times,

@@ -68,6 +68,11 @@ class UserStep:
         ypr_true: true head [yaw, pitch, roll] at the step's end (rad).
         virtual_yaw: estimated yaw + the episode's heading offset (rad, in the virtual room).
         true_virtual_yaw: true yaw + the true offset: the heading perfect sensing would give.
+        walk_yaw: the direction the locomotion moves the body in the virtual room (rad): the
+            steering stage's yaw (the estimated head's, or the torso's), the virtual heading with
+            the visual-inertial pose source.
+        true_body_yaw: the true torso yaw in the virtual room (rad): the direction the body
+            faces, ``true_virtual_yaw`` less the head's yaw on the torso.
         steps: steps detected (confirmed) in this control step, (B,).
         step_peak_time: estimated heel-strike times (s, the detector's clock) of those steps,
             NaN-padded, (B, 2N).
@@ -90,6 +95,8 @@ class UserStep:
     ypr_true: NDArray[np.float64]
     virtual_yaw: NDArray[np.float64]
     true_virtual_yaw: NDArray[np.float64]
+    walk_yaw: NDArray[np.float64]
+    true_body_yaw: NDArray[np.float64]
     steps: NDArray[np.float64]
     step_peak_time: NDArray[np.float64]
     true_steps: NDArray[np.float64]
@@ -329,8 +336,8 @@ class SimulatedUsers:
             frames.hand_quat,
         )
         hand = self._filtered_hand(hand_frames)
+        walk_yaw = virtual_yaw
         if self.tracker is None:
-            walk_yaw = virtual_yaw
             if self._steer_with_torso:
                 walk_yaw = self._steering_yaw(hand, virtual_yaw)
             if self.stages.trusted["locomotion"]:
@@ -354,6 +361,8 @@ class SimulatedUsers:
             ypr_true=ypr_true,
             virtual_yaw=virtual_yaw,
             true_virtual_yaw=true_virtual_yaw,
+            walk_yaw=walk_yaw,
+            true_body_yaw=true_virtual_yaw - (ypr_true[:, 0] - chunk.body_yaw[:, -1]),
             steps=steps,
             step_peak_time=gait.peak_time.reshape(self.batch_size, -1),
             true_steps=true_steps,
