@@ -45,7 +45,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, fields
 
-from estimators.validation import check_bool, check_in_range, check_numbers
+from estimators.validation import check_bool, check_in_range, check_numbers, value_repr
 
 __all__ = ["POPULATIONS", "RANGE_FIELDS", "Population", "get_population", "population_names"]
 
@@ -208,5 +208,5 @@ def get_population(name: str | Population, field: str = "population") -> Populat
     if isinstance(name, str) and name in POPULATIONS:
         return POPULATIONS[name]
     raise ValueError(
-        f"{field}={name!r}: must be one of {', '.join(POPULATIONS)} (or a Population)"
+        f"{field}={value_repr(name)}: must be one of {', '.join(POPULATIONS)} (or a Population)"
     )
