@@ -13,7 +13,6 @@ from estimators.rotations import (
     rotation_angle,
 )
 from vrloco_env.batch_rng import BatchRng
-from vrloco_env.sensors import _kinect_numba
 from vrloco_env.sensors.kinect import (
     MAX_BODIES,
     TORSO_JOINTS,
@@ -29,6 +28,7 @@ from vrloco_env.sensors.kinect import (
     standing_skeleton,
     world_to_camera,
 )
+from vrloco_env.sensors.kinect import _kernel as _kinect_numba
 from vrloco_env.user import INFERRED, NOT_TRACKED, TRACKED, Joint
 
 FPS = 30.0

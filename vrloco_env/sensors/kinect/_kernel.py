@@ -70,7 +70,7 @@ WRIST_RIGHT = int(Joint.WRIST_RIGHT)
 MAX_BODIES = 6
 #: Most joints in one burst limb (an arm: elbow, wrist, hand, hand tip, thumb).
 MAX_LIMB_JOINTS = 5
-#: Limbs a jitter burst can hit (``kinect.LIMB_GROUPS``) and torso joints (``kinect.TORSO_JOINTS``).
+#: Limbs a jitter burst can hit (``spec.LIMB_GROUPS``) and torso joints (``spec.TORSO_JOINTS``).
 N_LIMB_GROUPS, N_TORSO_JOINTS = 4, 8
 
 #: The sensor's pose and the per-joint tables (one record per sensor; SI units). Camera -> world
@@ -597,7 +597,7 @@ capture_frames = BatchKernel(_capture_frames)
 @numba.njit(cache=True)
 def _unique_ids(ids: np.ndarray, fresh: np.ndarray) -> None:
     """Move a fresh id that equals another body's (not fresh, or fresh and earlier) to the next
-    value, until the user's ids differ (as ``kinect._unique_ids`` does for a batch)."""
+    value, until the user's ids differ (as ``model._unique_ids`` does for a batch)."""
     n = ids.size
     if not fresh.any():  # the common case: no body (re)acquired in this frame
         return
@@ -618,3 +618,13 @@ def _unique_ids(ids: np.ndarray, fresh: np.ndarray) -> None:
         for j in range(n):
             if clash[j]:
                 ids[j] = ids[j] % (2**53) + 1
+
+
+def _unique_rows(ids, fresh) -> None:
+    """:func:`_unique_ids` on every row (user) of ``ids`` (B, N) in place; ``fresh`` (B, N)."""
+    for b in numba.prange(ids.shape[0]):
+        _unique_ids(ids[b], fresh[b])
+
+
+#: The ids of a reset: ``unique_ids(B)(ids, fresh)``, :func:`_unique_ids` per user, in place.
+unique_ids = BatchKernel(_unique_rows, parallel=False)
