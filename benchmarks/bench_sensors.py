@@ -10,8 +10,8 @@ frames of B users, default :class:`~vrloco_env.sensors.kinect.KinectSpec` (two b
 standing 2.5-3.3 m in front of the sensor with the right forearm held forward and the hand moving.
 Each figure is the best, over ``--repeat`` rounds, of the mean time per call in a round of
 ``--calls`` calls (after a warm-up call, so numba compilation is excluded). The reference
-revision's ``vrloco_env/sensors/kinect.py`` is loaded from git (``git show REV:path``) into a
-private module and timed on the same input; its numbers are different random draws, only the
+revision's tree is exported from git (``git archive REV``) and its Kinect timed there on the same
+input, in a subprocess (:func:`time_revision`); its numbers are different random draws, only the
 time is compared.
 
 Targets (with the whole env step at 0.5 ms for B = 1 and ~11 ms for B = 256):
@@ -26,13 +26,14 @@ under. Targets: ``sample`` <= 0.04 ms at B = 1 and <= 0.5 ms at B = 256.
 from __future__ import annotations
 
 import argparse
-import importlib.util
+import inspect
+import os
 import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
-from types import ModuleType
+from typing import Any
 
 import numpy as np
 
@@ -61,25 +62,31 @@ def users(b: int, m: int, seed: int = 42) -> tuple[np.ndarray, np.ndarray, np.nd
     return np.arange(m) / 30.0, joints, quat
 
 
-def load_revision(rev: str) -> ModuleType:
-    """``vrloco_env/sensors/kinect.py`` at git revision ``rev``, imported as a private module."""
-    source = subprocess.run(
-        ["git", "show", f"{rev}:vrloco_env/sensors/kinect.py"],
-        cwd=ROOT,
-        check=True,
-        capture_output=True,
-        text=True,
-    ).stdout
-    path = Path(tempfile.mkdtemp()) / "kinect_ref.py"
-    path.write_text(source)
-    spec = importlib.util.spec_from_file_location("kinect_ref", path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses look their module up there
-    spec.loader.exec_module(module)  # type: ignore[union-attr]
-    return module
+def time_revision(rev: str, runs: list[tuple[int, int, int]]) -> list[float]:
+    """:func:`time_capture` of the Kinect at git revision ``rev`` for each ``(B, calls, repeat)``:
+    the revision's tree is exported (``git archive``) to a temporary folder and timed there in a
+    subprocess, so its own modules, whatever their layout, are the ones imported."""
+    tree = Path(tempfile.mkdtemp(prefix="bench_sensors_"))
+    archive = subprocess.run(["git", "archive", rev], cwd=ROOT, check=True, capture_output=True)
+    subprocess.run(["tar", "-x", "-C", str(tree)], input=archive.stdout, check=True)
+    code = "\n".join([
+        "import time",
+        "from typing import Any",
+        "import numpy as np",
+        "from estimators.rotations import quat_from_ypr",
+        "from vrloco_env.batch_rng import BatchRng",
+        "from vrloco_env.sensors import kinect",
+        f"FRAMES = {FRAMES}",
+        inspect.getsource(users),
+        inspect.getsource(time_capture),
+        f"print([time_capture(kinect, b, c, r) for b, c, r in {runs!r}])",
+    ])  # fmt: skip
+    out = subprocess.run([sys.executable, "-c", code], cwd=tree, check=True, capture_output=True,
+                         text=True, env={**os.environ, "PYTHONPATH": str(tree)})  # fmt: skip
+    return [float(x) for x in out.stdout.strip().splitlines()[-1].strip("[]").split(",")]
 
 
-def time_capture(module: ModuleType, b: int, calls: int, repeat: int) -> float:
+def time_capture(module: Any, b: int, calls: int, repeat: int) -> float:
     """Best mean seconds per ``capture`` call of B users (M = 3 frames) with ``module``."""
     sensor = module.KinectV2(module.KinectSpec(), BatchRng.from_seeds(range(b)))
     sensor.reset()
@@ -152,21 +159,24 @@ def imu_section(batches: list[int], repeat: int, seconds: float) -> None:
 
 def kinect_section(args: argparse.Namespace) -> None:
     """Print the Kinect table: this tree against the revision ``args.ref``."""
-    ref = None if args.ref.lower() == "none" else load_revision(args.ref)
+    ref = None if args.ref.lower() == "none" else args.ref
     print(f"KinectV2.capture, M = {FRAMES} frames per call, default spec (2 bystanders)")
     header = f"{'B':>5} {'this tree ms':>13} {'per user-frame us':>18}"
     if ref is not None:
         header += f" {args.ref + ' ms':>12} {'speed-up':>9}"
     print(header + f" {'target ms':>10}")
+    rows = []
     for b in args.batch:
         # About `--seconds` per round: a first rough timing sets the number of calls.
         rough = time_capture(kinect, b, 3, 1)
         calls = max(5, int(args.seconds / max(rough, 1e-6)))
-        now = time_capture(kinect, b, calls, args.repeat)
+        rows.append((b, calls, time_capture(kinect, b, calls, args.repeat)))
+    before = [None] * len(rows) if ref is None else time_revision(
+        ref, [(b, calls, args.repeat) for b, calls, _ in rows])  # fmt: skip
+    for (b, _, now), then in zip(rows, before, strict=True):
         row = f"{b:>5} {now * 1e3:>13.4f} {now / (b * FRAMES) * 1e6:>18.3f}"
-        if ref is not None:
-            before = time_capture(ref, b, max(5, calls // 10), args.repeat)
-            row += f" {before * 1e3:>12.4f} {before / now:>8.1f}x"
+        if then is not None:
+            row += f" {then * 1e3:>12.4f} {then / now:>8.1f}x"
         target = TARGETS_MS.get(b)
         print(row + (f" {target:>10.2f}" if target else f" {'':>10}"))
 
