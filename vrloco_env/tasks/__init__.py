@@ -4,11 +4,16 @@ choices and the command line's help.
 * ``approach`` (:mod:`vrloco_env.tasks.approach`) — reach the goal in a room with obstacles.
 * ``avoid`` (:mod:`vrloco_env.tasks.avoid`) — seed 000's Fig. 5 corridor, collision-free.
 * ``interact`` (:mod:`vrloco_env.tasks.interact`) — reach a pedestal, hold a hand orientation.
+* ``doorway`` (:mod:`vrloco_env.tasks.doorway`) — pass a sequence of doorways 0.8-1.2 m wide,
+  collision-free.
+* ``reach`` (:mod:`vrloco_env.tasks.reach`) — stop 0.3-0.8 m from a pedestal without touching it
+  and hold a hand orientation there.
 
 A new task is a :class:`~vrloco_env.tasks.base.Task` subclass in a file of its own plus one
-:func:`register_task` line (``register_task("doorway", "mypkg.doorway:Doorway")``), which makes
-``gym.make("VRLoco-Doorway-v0")``, ``gym.make_vec`` and ``vrloco benchmark --tasks doorway``
-work. Registered targets are imported when first used, so ``import vrloco_env`` stays light.
+:func:`register_task` line (``register_task("dual_goal", "mypkg.dual_goal:DualGoal")``), which
+makes ``gym.make("VRLoco-DualGoal-v0")``, ``gym.make_vec`` and ``vrloco benchmark --tasks
+dual_goal`` work. Registered targets are imported when first used, so ``import vrloco_env``
+stays light.
 """
 
 from __future__ import annotations
@@ -94,3 +99,5 @@ def make_layout(task: str, room: Any, rng: Any, task_config: Any = None) -> Any:
 register_task("approach", "vrloco_env.tasks.approach:Approach")
 register_task("avoid", "vrloco_env.tasks.avoid:Avoid")
 register_task("interact", "vrloco_env.tasks.interact:Interact")
+register_task("doorway", "vrloco_env.tasks.doorway:Doorway")
+register_task("reach", "vrloco_env.tasks.reach:Reach")
