@@ -105,7 +105,7 @@ class GoalSeeker(ScriptedPolicy):
         """
         p = self.params
         ang = v.heading + v.bearing
-        goal_vec = v.distance[:, None] * np.stack([np.cos(ang), np.sin(ang)], -1)
+        goal_vec = v.waypoint[:, None] * np.stack([np.cos(ang), np.sin(ang)], -1)
         walk = v.heading - self.walk_offset(v)  # where the steps carry the body
         u = np.stack([np.cos(walk), np.sin(walk)], -1)
         # a step with a fair component toward (or away from) the goal changes the distance to a
@@ -142,7 +142,7 @@ class GoalSeeker(ScriptedPolicy):
         offset = self.walk_offset(v)
         walk = v.heading - offset  # the plan is relative to the walking direction
         ang = v.heading + v.bearing
-        depth = v.distance + p.goal_depth_m
+        depth = v.waypoint + p.goal_depth_m  # the next waypoint (Doorway), else the goal
         target = state["pos"] + depth[:, None] * np.stack([np.cos(ang), np.sin(ang)], -1)
         # a bout's first two steps land together: until they have, the next move is 2 SL
         state["landed"] = state["walking"] & (state["landed"] | (v.steps > 0))

@@ -85,6 +85,8 @@ class ObsView:
         steps: steps detected in the last control step (the entry saturates at 3).
         bearing: goal bearing relative to the heading (rad, counter-clockwise positive).
         distance: distance to the goal region (m); 0 inside it.
+        waypoint: straight distance (m) to the point the bearing points at: the task's
+            ``waypoint_distance`` where it has one (Doorway: the next doorway), else ``distance``.
         rays: ray ranges (m), (B, R).
         hand_error: target minus estimated hand [yaw, pitch, roll] (rad), (B, 3).
         hand_valid: a hand estimate exists.
@@ -98,6 +100,7 @@ class ObsView:
     steps: NDArray[np.float64]
     bearing: NDArray[np.float64]
     distance: NDArray[np.float64]
+    waypoint: NDArray[np.float64]
     rays: NDArray[np.float64]
     hand_error: NDArray[np.float64]
     hand_valid: NDArray[np.bool_]
@@ -116,6 +119,7 @@ class ObsView:
             steps=np.rint(d["steps"][:, 0]),
             bearing=np.arctan2(d["goal_bearing"][:, 0], d["goal_bearing"][:, 1]),
             distance=d["goal_distance"][:, 0],
+            waypoint=d.get("waypoint_distance", d["goal_distance"])[:, 0],
             rays=d["rays"],
             hand_error=d["hand_error"] if "hand_error" in d else np.zeros((b, 3)),
             hand_valid=d["hand_valid"][:, 0] > 0.5,
