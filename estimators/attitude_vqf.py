@@ -12,7 +12,8 @@ Frames: ``vqf.VQF`` returns ``quat9D`` ``[w, x, y, z]`` (Hamilton) rotating sens
 into its earth frame, whose heading correction drives the horizontal field onto +y (it takes the
 disagreement angle ``atan2(m_E,x, m_E,y)``): x east, y (magnetic) north, z up, i.e. ENU with
 zero declination, the frame of this project. No conversion is needed;
-``tests/test_attitude_stages.py`` checks it on static samples of known attitude (heading 30 deg)
+``tests/estimators/test_attitude_stages.py`` checks it on static samples of known attitude (heading
+30 deg)
 and on an analytic trajectory.
 
 Start and missing data: VQF's own start matches the convention of the other reference stages

@@ -28,7 +28,8 @@ ratio is below 1 on every development seed; grid ``accel_psd`` in {0.3, 1, 3, 10
 ``max_accel_psd`` in {30, 100, 1000}, ``adapt_time`` in {1/30, 0.05, 0.1} s. Chosen: 1, 1000,
 1/30 s (development mean ratio 0.919; the runner-up settings differ by less than 0.001;
 ``python -m agents.experiments.hand_variance --only adaptive_kalman``). The
-held-out figures are those of ``vrloco experiment hand-variance``; ``tests/test_hand_stages.py``
+held-out figures are those of ``vrloco experiment hand-variance``;
+``tests/estimators/test_hand_stages.py``
 checks on other held-out seeds that the filter beats raw at rest and in motion on every axis.
 """
 
