@@ -584,6 +584,20 @@ def _sorted_at(win, c, k):
 
 
 @numba.njit(cache=True, inline="always")
+def _write_angles(s, r, o_raw, o_kalman, o_ypr) -> bool:
+    """Row ``r`` of the outputs from the stream's state ``s``: the raw, Kalman and median-filtered
+    angles (rad); whether the Kalman estimate is finite (the row is valid)."""
+    valid = True
+    for c in range(3):
+        o_raw[r, c] = s["ypr_raw"][c]
+        o_kalman[r, c] = s["ypr_kalman"][c]
+        o_ypr[r, c] = wrap_angle(s["median"][c])
+        if not math.isfinite(s["ypr_kalman"][c]):
+            valid = False
+    return valid
+
+
+@numba.njit(cache=True, inline="always")
 def _median_step(s, win, init, active):
     """Median over the window of Kalman angles: emptied on (re)initialisation, fed while the
     filter is active (its median then in ``s["median"]``, NaN without a finite sample)."""
@@ -688,14 +702,7 @@ def _hand_frames(frames, m_count, prm, axes, center, weights, head0, state, out)
             ok, singular = _orientation(quat, jstate, r, slot, s, win, axes, p)
             o_quat_valid[r] = ok
             o_singular[r] = singular and ok
-            valid = True
-            for c in range(3):
-                o_raw[r, c] = s["ypr_raw"][c]
-                o_kalman[r, c] = s["ypr_kalman"][c]
-                o_ypr[r, c] = wrap_angle(s["median"][c])
-                if not math.isfinite(s["ypr_kalman"][c]):
-                    valid = False
-            o_valid[r] = valid
+            o_valid[r] = _write_angles(s, r, o_raw, o_kalman, o_ypr)
 
 
 #: ``hand_kernel(B)(frames, m_count, prm, axes, center, weights, head0, state, out)``.
@@ -766,14 +773,7 @@ def _filter_angles(z, usable, restart, m_count, prm, axes, state, out):
                 s["ypr_raw"][2] = z2
             init, active = _kalman_step(s, axes, p, ok, z0, z1, z2)
             _median_step(s, win, init, active)
-            valid = True
-            for c in range(3):
-                o_raw[r, c] = s["ypr_raw"][c]
-                o_kalman[r, c] = s["ypr_kalman"][c]
-                o_ypr[r, c] = wrap_angle(s["median"][c])
-                if not math.isfinite(s["ypr_kalman"][c]):
-                    valid = False
-            o_valid[r] = valid
+            o_valid[r] = _write_angles(s, r, o_raw, o_kalman, o_ypr)
 
 
 #: ``filter_kernel(B)(z, usable, restart, m_count, prm, axes, state, out)``.

@@ -28,7 +28,7 @@ from vrloco_env.world import (
     solid_distance,
 )
 
-__all__ = ["Interact", "InteractConfig", "hand_error", "interact_layout"]
+__all__ = ["Interact", "InteractConfig", "check_hand_hold", "hand_error", "interact_layout"]
 
 
 @dataclass(frozen=True)
@@ -55,12 +55,19 @@ class InteractConfig:
     standoff: float = 0.3
 
     def __post_init__(self) -> None:
-        check_in_range(self, "hand_tolerance_deg", 1.0, 90.0, "deg")
-        check_in_range(self, "dwell_s", 0.0, 30.0, "s", lo_open=True)
-        check_numbers(self, "target_range_deg", 0.0, 90.0, "deg", length=3)
-        check_in_range(self, "pedestal_half_size", 0.0, 100.0, "m", lo_open=True)
-        check_in_range(self, "pedestal_height", 0.0, 100.0, "m", lo_open=True)
+        check_hand_hold(self)
         check_in_range(self, "standoff", 0.0, 1000.0, "m")
+
+
+def check_hand_hold(config: Any) -> None:
+    """Check the hand-hold and pedestal fields a task config shares with :class:`InteractConfig`
+    (``hand_tolerance_deg``, ``dwell_s``, ``target_range_deg``, ``pedestal_half_size``,
+    ``pedestal_height``): an error names the field and its range."""
+    check_in_range(config, "hand_tolerance_deg", 1.0, 90.0, "deg")
+    check_in_range(config, "dwell_s", 0.0, 30.0, "s", lo_open=True)
+    check_numbers(config, "target_range_deg", 0.0, 90.0, "deg", length=3)
+    check_in_range(config, "pedestal_half_size", 0.0, 100.0, "m", lo_open=True)
+    check_in_range(config, "pedestal_height", 0.0, 100.0, "m", lo_open=True)
 
 
 class Interact(Task):

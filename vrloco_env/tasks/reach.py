@@ -12,7 +12,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from estimators.validation import check_in_range, check_numbers
-from vrloco_env.tasks.interact import Interact, InteractConfig, interact_layout
+from vrloco_env.tasks.interact import Interact, InteractConfig, check_hand_hold, interact_layout
 from vrloco_env.world import Layout, RoomConfig
 
 __all__ = ["Reach", "ReachConfig", "reach_layout"]
@@ -47,11 +47,7 @@ class ReachConfig:
     band_half_width: float = 0.5
 
     def __post_init__(self) -> None:
-        check_in_range(self, "hand_tolerance_deg", 1.0, 90.0, "deg")
-        check_in_range(self, "dwell_s", 0.0, 30.0, "s", lo_open=True)
-        check_numbers(self, "target_range_deg", 0.0, 90.0, "deg", length=3)
-        check_in_range(self, "pedestal_half_size", 0.0, 100.0, "m", lo_open=True)
-        check_in_range(self, "pedestal_height", 0.0, 100.0, "m", lo_open=True)
+        check_hand_hold(self)
         check_numbers(self, "standoff_range", 0.0, 10.0, "m", length=2, ordered=True)
         if self.standoff_range[1] - self.standoff_range[0] < 0.05:
             raise ValueError(
