@@ -124,7 +124,7 @@ def time_imu(b: int, calls: int, repeat: int, what: str) -> float:
     sl = [slice(IMU_SAMPLES * i, IMU_SAMPLES * (i + 1)) for i in range(calls + 1)]
     chunks = [tuple(x[:, s] for x in motion) for s in sl]
     if what == "draw":
-        draws = (IMU_SAMPLES, imu._DRAWS_PER_SAMPLE)
+        draws = (IMU_SAMPLES, imu._kernel.DRAWS_PER_SAMPLE)
 
         def call(*_: np.ndarray) -> object:
             return sensor.rng.normal(draws)

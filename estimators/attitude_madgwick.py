@@ -27,7 +27,8 @@ exactly the same filter: Madgwick's objective function uses ``1 - 2 y^2 - 2 z^2`
 terms, equal to the rotation matrix only on unit quaternions, so its gradient is not equivariant
 under a change of world heading (on random noisy samples the two versions differ by 1e-5
 after ten samples and by 1e-2 after 2000).
-``tests/estimators/test_attitude_stages.py`` checks this filter against ``ahrs.filters.Madgwick``
+``tests/test_estimators/test_attitude_stages.py`` checks this filter against
+``ahrs.filters.Madgwick``
 (which
 uses the NWU world) to 1e-9.
 

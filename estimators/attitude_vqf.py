@@ -12,7 +12,8 @@ Frames: ``vqf.VQF`` returns ``quat9D`` ``[w, x, y, z]`` (Hamilton) rotating sens
 into its earth frame, whose heading correction drives the horizontal field onto +y (it takes the
 disagreement angle ``atan2(m_E,x, m_E,y)``): x east, y (magnetic) north, z up, i.e. ENU with
 zero declination, the frame of this project. No conversion is needed;
-``tests/estimators/test_attitude_stages.py`` checks it on static samples of known attitude (heading
+``tests/test_estimators/test_attitude_stages.py`` checks it on static samples of known attitude
+(heading
 30 deg)
 and on an analytic trajectory.
 

@@ -29,7 +29,7 @@ ratio is below 1 on every development seed; grid ``accel_psd`` in {0.3, 1, 3, 10
 1/30 s (development mean ratio 0.919; the runner-up settings differ by less than 0.001;
 ``python -m agents.experiments.hand_variance --only adaptive_kalman``). The
 held-out figures are those of ``vrloco experiment hand-variance``;
-``tests/estimators/test_hand_stages.py``
+``tests/test_estimators/test_hand_stages.py``
 checks on other held-out seeds that the filter beats raw at rest and in motion on every axis.
 """
 

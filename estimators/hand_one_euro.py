@@ -39,7 +39,8 @@ the variance goes.
 
 Held-out figures (rest and motion, beside seed 003's filters and the motion-adaptive Kalman
 filter of :mod:`estimators.hand_adaptive`) are those of ``vrloco experiment hand-variance``
-(seeds 0 and 1); ``tests/estimators/test_hand_stages.py`` checks on other held-out seeds that the
+(seeds 0 and 1); ``tests/test_estimators/test_hand_stages.py`` checks on other held-out seeds that
+the
 filter beats
 raw at rest and in motion.
 """

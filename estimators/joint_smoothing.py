@@ -139,7 +139,8 @@ class HoltSmoother:
     The outputs of the last ``len(average_weights)`` frames are then averaged with the weights
     (seed 003, section 1.2), over the frames where the joint was valid.
 
-    Lag, with the defaults (measured in tests/estimators/test_hand.py): after a step of 0.1-0.5 m
+    Lag, with the defaults (measured in tests/test_estimators/test_hand.py): after a step of
+    0.1-0.5 m
     the output
     is within the max deviation radius (4 cm) of the new position from the 5th frame on and within
     1 cm after at most 17 frames (0.57 s); the trend overshoots by up to about 4 cm first (the SDK

@@ -44,7 +44,8 @@ room, at F1 1.000 and leaves no phantom step in the seven standing gestures; 0.1
 true lever arm, so the bound no longer holds) keeps about half the phantom steps of the plain
 world-vertical detector (``lever_arm=0``), and 0.6 m starts to veto light steps (F1
 0.986-0.995). The benchmark's default run (seeds 1000-1002) and
-``tests/estimators/test_step_stages.py`` (seeds 2000 and up) report on seeds never used to choose
+``tests/test_estimators/test_step_stages.py`` (seeds 2000 and up) report on seeds never used to
+choose
 anything.
 
 Limits: the bound assumes the IMU turns about a pivot within ``lever_arm`` of it (a rigid head on

@@ -1,7 +1,7 @@
 """Compiled hand-frame arithmetic of the env: the hand relative to the torso, and hand errors.
 
 Both are per-user kernels (:class:`~estimators.kernels.batch.BatchKernel`, serial builds: their
-work per user is a few quaternion products). ``tests/vrloco_env/test_users.py`` checks the hand
+work per user is a few quaternion products). ``tests/test_vrloco_env/test_users.py`` checks the hand
 relative to
 the torso against the simulated user's true hand, and :func:`hand_error` against rotation angles
 computed with :mod:`estimators.rotations`.

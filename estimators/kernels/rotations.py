@@ -2,7 +2,7 @@
 
 One home for the small per-sample rotation arithmetic that kernels share (same conventions as the
 numpy module: Hamilton ``[w, x, y, z]``, sensor -> world, intrinsic ZYX ``[yaw, pitch, roll]``);
-``tests/estimators/test_rotations.py`` checks each against its numpy counterpart. Quaternions
+``tests/test_estimators/test_rotations.py`` checks each against its numpy counterpart. Quaternions
 travel as
 components and come back as tuples, so a kernel keeps them in registers.
 """

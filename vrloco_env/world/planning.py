@@ -141,7 +141,7 @@ def _relax(
     then 15 finer ones), and drops vertices whose neighbours see each other. No move lengthens the
     path (the leg-length sum is convex along the move), and passes stop once they gain < 1 mm.
     The result hugs the solids at a clearance of ``radius + h / 8`` with polygonal arcs: about
-    1 % longer than the true shortest path (``tests/vrloco_env/world/test_rooms.py``, the
+    1 % longer than the true shortest path (``tests/test_vrloco_env/world/test_rooms.py``, the
     taut-string case).
     """
     coarse = np.linspace(1.0, 0.0, 17)

@@ -125,7 +125,7 @@ class KinectSpec:
     #: seed 003 Tables 1-3, which give no spectrum: a static hand gives raw eq (1) variances of
     #: 0.5-14 deg^2 whose means over the 11 angles are "roll" 4.7 (about the forearm), "pitch" 3.5
     #: (about the thumb axis), "yaw" 6.5 deg^2 (about the back-of-hand normal);
-    #: tests/vrloco_env/sensors/test_kinect.py
+    #: tests/test_vrloco_env/sensors/test_kinect.py
     #: checks it at the paper's 11 angles. Totals (4.32, 3.22, 6.17) deg^2.
     #:
     #: Split (which share is white, frame to frame): measured on the real Kinect v2 recording
@@ -140,7 +140,7 @@ class KinectSpec:
     #: spread); about the two bending axes no white part at all (fitted nugget 0: the variogram
     #: starts near zero and rises steadily), as slow as the trunk joints, whose 5 % white share
     #: (``joint_noise_white_fraction``) we take. On simulated series of the recording's 154 frames
-    #: the fit's white share spreads by about +-0.15 (tests/estimators/test_hand.py checks the
+    #: the fit's white share spreads by about +-0.15 (tests/test_estimators/test_hand.py checks the
     #: estimator on
     #: known noise). So the split is 80 % white about the forearm and 5 % about y and z: std
     #: sqrt(share x total).
