@@ -34,6 +34,7 @@ def test_adapter_reports_terminal_observations_and_time_limits():
     )
 
 
+@pytest.mark.slow  # about 10 s: a real PPO run
 def test_tiny_ppo_run_writes_a_model_and_a_learning_curve(tmp_path):
     from vrloco_env.config import EnvConfig
 
@@ -91,6 +92,7 @@ def test_tiny_ppo_run_writes_a_model_and_a_learning_curve(tmp_path):
     assert result["episodes"] == 2
 
 
+@pytest.mark.slow  # about 10 s: a real PPO run
 def test_tiny_runs_over_two_seeds_write_each_seed_and_their_mean(tmp_path):
     import zipfile
 
