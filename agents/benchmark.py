@@ -13,10 +13,11 @@ episode alone in a single env, :func:`run_cell_episode`). They run in a
 ``concurrent.futures.ProcessPoolExecutor`` of ``workers`` processes (1: in this process) or, with
 ``backend="ray"``, as Ray tasks (:mod:`agents.backends`), under one progress bar. Finished
 episodes are kept in ``<out>/.resume`` (:mod:`agents.resume`) until the grid is complete, so an
-interrupted run resumes. :func:`agents.metrics.summarize` turns each cell into a row: a table on
-the terminal, a CSV and a JSON file, and for the first episode of each cell three figures
-(:mod:`agents.benchmark_figures`: the true and virtual paths over the room, the head attitude,
-the gait).
+interrupted run resumes. :func:`agents.metrics.summarize` turns each cell into a row, compared
+with the baseline technique's (:mod:`agents.paired`): a table on the terminal, a CSV and a JSON
+file (:mod:`agents.benchmark_outputs`), and the figures (:mod:`agents.benchmark_figures`: for the
+first episode of each cell the true and virtual paths over the room, the head attitude, the gait;
+for the grid every metric, the collision causes and the latencies).
 
 Policies: ``goal_seeker``, ``avoid_manoeuvre``, ``reactive_avoider`` (:mod:`agents.scripted`),
 ``+human`` for the :class:`agents.variability.HumanVariability` wrapper, a stable-baselines3
@@ -27,10 +28,7 @@ episodes; ``reactive_avoider`` is left out of it because its failures run to the
 
 from __future__ import annotations
 
-import csv
-import json
 import math
-import os
 import re
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -42,9 +40,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agents.benchmark_figures import draw_cell, draw_grid
+from agents.benchmark_outputs import (
+    BASELINE_TECHNIQUE,
+    ROW_KEYS,
+    show_table,
+    write_csv,
+    write_json,
+)
 from agents.metrics import (
-    COLLISION_CAUSES,
-    MOTION_KEYS,
     STEP_KEYS,
     TRACE_KEYS,
     EpisodeRecorder,
@@ -52,7 +55,7 @@ from agents.metrics import (
     episode_stats,
     summarize,
 )
-from agents.paired import ALPHA, BINARY_METRICS, MEAN_METRICS, paired_p_values
+from agents.paired import paired_p_values
 from agents.policies import build_policy, check_policy, env_population
 from agents.resume import EpisodeStore, episode_key, source_fingerprint
 from agents.scripted import is_batched
@@ -82,48 +85,9 @@ DEFAULT_POLICIES = ("goal_seeker", "goal_seeker+human", "avoid_manoeuvre")
 DEFAULT_SENSORS = ("ig500n", "consumer_mems")
 DEFAULT_TECHNIQUES = ("seed000", "seed000_consumer")
 DEFAULT_EPISODES = 40
-#: The technique every other one is compared with, episode by episode (:mod:`agents.paired`).
-BASELINE_TECHNIQUE = "seed000"
 #: Users per vector env in the batched runner (:func:`run_cell_batched`).
 DEFAULT_BATCH_SIZE = 20
 
-#: Keys of every row of the CSV/JSON output, in order.
-ROW_KEYS = (
-    "task",
-    "policy",
-    "technique",
-    "sensors",
-    "episodes",
-    "success_rate",
-    "collision_rate",
-    "collision_free_success_rate",
-    "spl",
-    "time_to_goal_s",
-    "path_length_ratio",
-    "step_precision",
-    "step_recall",
-    "step_f1",
-    "attitude_rmse_deg",
-    "heading_error_rmse_deg",
-    "hand_error_deg",
-    "hand_coverage",
-    "mean_collisions",
-    "hand_tracking_availability",
-    "start_latency_s",
-    "stop_latency_s",
-    "stop_overshoot_m",
-    "false_motion_m_per_min",
-    "phantom_steps_per_min",
-    "missed_steps_per_min",
-    "yaw_drift_deg_per_min",
-    "yaw_rate_mismatch_deg_s",
-    "virtual_jerk_m_s3",
-    "collision_causes",
-    "vs_baseline",
-    *(f"{k}_ci" for k in ("success_rate", "collision_rate", "spl", "time_to_goal_s",
-                          "hand_tracking_availability", "phantom_steps_per_min",
-                          "missed_steps_per_min", *MOTION_KEYS)),
-)
 
 
 
@@ -577,8 +541,8 @@ def run_benchmark(
     if out_dir is not None:
         out = Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)
-        written.append(_write_csv(out / "benchmark.csv", rows))
-        written.append(_write_json(out / "benchmark.json", rows, meta))
+        written.append(write_csv(out / "benchmark.csv", rows))
+        written.append(write_json(out / "benchmark.json", rows, meta))
         for c in cells:
             written += draw_cell(out, c, results[(c, 0)])
         if rows:
@@ -587,7 +551,7 @@ def run_benchmark(
                                                                  for i in range(episodes)]
                 for c in cells})  # fmt: skip
     if json_path is not None:
-        written.append(_write_json(Path(json_path), rows, meta))
+        written.append(write_json(Path(json_path), rows, meta))
     for p in written:
         print(f"wrote {p}")
     if interrupted:
@@ -691,126 +655,3 @@ def _round(v: Any) -> Any:
     if isinstance(v, float) and math.isfinite(v):
         return float(f"{v:.10g}")
     return v
-
-
-def _fmt(v: Any, digits: int = 3) -> str:
-    if isinstance(v, dict):  # collision causes, in COLLISION_CAUSES order
-        return "/".join(str(v[c]) for c in COLLISION_CAUSES)
-    if v is None:
-        return "–"
-    if isinstance(v, float):
-        return "–" if math.isnan(v) else f"{v:.{digits}f}"
-    return str(v)
-
-
-#: The table's columns (row key, heading); :data:`_COMPACT` those kept on a narrow terminal.
-_COLUMNS = (("task", "task"), ("policy", "policy"), ("technique", "technique"),
-            ("sensors", "sensors"), ("episodes", "n"),
-            ("success_rate", "success"), ("collision_rate", "collision"),
-            ("collision_free_success_rate", "coll.-free succ."), ("spl", "SPL"),
-            ("time_to_goal_s", "time to goal (s)"), ("path_length_ratio", "path ratio"),
-            ("step_f1", "step F1"), ("attitude_rmse_deg", "attitude RMSE (°)"),
-            ("hand_error_deg", "hand err (°)"),
-            ("collision_causes", "collision causes"))  # fmt: skip
-_COMPACT = ("task", "policy", "technique", "success_rate", "collision_rate", "spl", "step_f1",
-            "attitude_rmse_deg")  # fmt: skip
-_COMPACT_HEADS = {"success_rate": "succ.", "collision_rate": "coll.", "step_f1": "F1",
-                  "attitude_rmse_deg": "att. (°)"}  # fmt: skip
-#: Narrower terminals than this get the compact table (the files keep every column).
-_FULL_WIDTH = 180
-
-
-def show_table(rows: list[dict[str, Any]], seed: int, width: int | None = None,
-               baseline: str = BASELINE_TECHNIQUE) -> None:
-    """The rows as a table fitted to the terminal (``width``: its columns, None to ask it); a
-    value that differs from ``baseline``'s in the same task and policy at p < :data:`ALPHA`
-    (the row's ``vs_baseline``) is marked ``*``."""
-    from rich.console import Console
-    from rich.table import Table
-
-    console = Console(width=width) if width is not None else Console()
-    if width is None and not console.is_terminal:  # a pipe or a file: the full table
-        console = Console(width=200)
-    compact = console.width < _FULL_WIDTH
-    cols = [(k, _COMPACT_HEADS.get(k, h)) for k, h in _COLUMNS if k in _COMPACT] if compact else (
-        list(_COLUMNS))  # fmt: skip
-    title = f"vrloco benchmark (seeds {seed}..{seed + rows[0]['episodes'] - 1})"
-    table = Table(title=title, pad_edge=False, padding=(0, 1) if not compact else (0, 0))
-    for key, head in cols:
-        left = key in ("task", "policy", "technique", "sensors")
-        table.add_column(head, justify="left" if left else "right", overflow="fold")
-    marked = False
-    for r in rows:
-        cells = []
-        for k, _ in cols:
-            text = _fmt(r[k], 1 if k in ("time_to_goal_s",) else 3)
-            test = (r.get("vs_baseline") or {}).get(k)
-            if test is not None and test["p"] is not None and test["p"] < ALPHA:
-                text, marked = text + "*", True
-            cells.append(text)
-        table.add_row(*cells)
-    console.print(table)
-    if not compact:
-        console.print("collision causes: " + "/".join(c.replace("_", " ")
-                                                      for c in COLLISION_CAUSES))  # fmt: skip
-    if marked:
-        console.print(f"* differs from {baseline} (same task, policy and seeds) at p < {ALPHA}: "
-                      "exact McNemar test for rates, Wilcoxon signed-rank for means "
-                      "(agents.paired)")  # fmt: skip
-    if compact:
-        console.print(f"(a compact view for {console.width} columns: every column is in the "
-                      "CSV and JSON files)")  # fmt: skip
-
-
-def _clean(v: Any) -> Any:
-    """JSON-safe value: NaN becomes null, an interval a list."""
-    if isinstance(v, tuple | list):
-        return [_clean(x) for x in v]
-    if isinstance(v, dict):
-        return {k: _clean(x) for k, x in v.items()}
-    if isinstance(v, float) and not math.isfinite(v):
-        return None
-    if isinstance(v, np.generic):
-        return _clean(v.item())
-    return v
-
-
-def _write_json(path: Path, rows: list[dict[str, Any]], meta: dict[str, Any]) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    data = {"rows": [{k: _clean(v) for k, v in r.items()} for r in rows], "config": meta}
-    path.write_text(json.dumps(data, indent=2) + os.linesep)
-    return path
-
-
-def _write_csv(path: Path, rows: list[dict[str, Any]]) -> Path:
-    """One column per metric; an interval ``<key>_ci`` as ``<key>_ci_low`` and ``_ci_high``, the
-    collision causes as ``collision_causes_<cause>``, the paired test against the baseline as
-    ``p_vs_baseline_<metric>`` (its p-value)."""
-    def columns_of(k: str) -> tuple[str, ...]:
-        if k.endswith("_ci"):
-            return f"{k}_low", f"{k}_high"
-        if k == "collision_causes":
-            return tuple(f"{k}_{cause}" for cause in COLLISION_CAUSES)
-        if k == "vs_baseline":
-            return tuple(f"p_vs_baseline_{m}" for m in (*BINARY_METRICS, *MEAN_METRICS))
-        return (k,)
-
-    columns = [c for k in ROW_KEYS for c in columns_of(k)]
-    with path.open("w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=columns)
-        w.writeheader()
-        for r in rows:
-            flat: dict[str, Any] = {}
-            for k in ROW_KEYS:
-                if k.endswith("_ci"):
-                    flat[f"{k}_low"], flat[f"{k}_high"] = r[k]
-                elif k == "collision_causes":
-                    for cause in COLLISION_CAUSES:
-                        flat[f"{k}_{cause}"] = None if r[k] is None else r[k][cause]
-                elif k == "vs_baseline":
-                    for m in (*BINARY_METRICS, *MEAN_METRICS):
-                        flat[f"p_vs_baseline_{m}"] = None if r[k] is None else r[k][m]["p"]
-                else:
-                    flat[k] = r[k]
-            w.writerow({k: ("" if _clean(v) is None else v) for k, v in flat.items()})
-    return path

@@ -420,6 +420,19 @@ class OrientationFilter:
             raise ValueError(f"{name} must have shape ({self.batch_size}, {m}), got {v.shape}")
         return v
 
+    def _frames(self, name: str, x: ArrayLike, width: int) -> NDArray[np.float64]:
+        """``x`` as (B, M, width) float64 frames (M >= 1, no inf; NaN is a dropout), or a
+        ValueError naming ``name``."""
+        a = np.asarray(x, dtype=np.float64)
+        if a.ndim != 3 or a.shape[0] != self.batch_size or a.shape[2] != width or a.shape[1] < 1:
+            raise ValueError(
+                f"{name} must have shape ({self.batch_size}, M, {width}) with M >= 1, "
+                f"got {a.shape}"
+            )
+        if np.isinf(a).any():
+            raise ValueError(f"{name} contains infinite entries; use NaN for a dropout")
+        return a
+
     def update_angles(
         self, ypr: ArrayLike, usable: ArrayLike | None = None, restart: ArrayLike | None = None
     ) -> OrientationFrame:
@@ -434,13 +447,7 @@ class OrientationFilter:
             :class:`OrientationFrame` of (B, M, ...) arrays; ``singular`` is all False (the
             angles carry no quaternion).
         """
-        z = np.asarray(ypr, dtype=np.float64)
-        if z.ndim != 3 or z.shape[0] != self.batch_size or z.shape[2] != 3 or z.shape[1] < 1:
-            raise ValueError(
-                f"ypr must have shape ({self.batch_size}, M, 3) with M >= 1, got {z.shape}"
-            )
-        if np.isinf(z).any():
-            raise ValueError("ypr contains infinite entries; use NaN for a dropout")
+        z = self._frames("ypr", ypr, 3)
         m = z.shape[1]
         ok = self._flags("usable", usable, m, True) & np.isfinite(z).all(axis=-1)
         return self._run(z, ok, self._flags("restart", restart, m, False), np.zeros_like(ok))
@@ -458,13 +465,7 @@ class OrientationFilter:
         Returns:
             :class:`OrientationFrame` of (B, M, ...) arrays.
         """
-        qa = np.asarray(q, dtype=np.float64)
-        if qa.ndim != 3 or qa.shape[0] != self.batch_size or qa.shape[2] != 4 or qa.shape[1] < 1:
-            raise ValueError(
-                f"hand_quat must have shape ({self.batch_size}, M, 4) with M >= 1, got {qa.shape}"
-            )
-        if np.isinf(qa).any():
-            raise ValueError("hand_quat contains infinite entries; use NaN for a dropout")
+        qa = self._frames("hand_quat", q, 4)
         m = qa.shape[1]
         ypr, usable, singular = _angles_of(qa, self.params.singularity_threshold)
         ok = usable & self._flags("valid", valid, m, True)

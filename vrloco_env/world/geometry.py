@@ -88,6 +88,11 @@ class _Solids(NamedTuple):
     cyl_z: NDArray[np.float64]  # (N, C) heights
     cyl_ok: NDArray[np.bool_]  # (N, C)
 
+    @property
+    def kernel_args(self) -> tuple[NDArray, ...]:
+        """The arrays the compiled queries take, in their order (heights left out)."""
+        return self.box_c, self.box_h, self.box_cs, self.box_ok, self.cyl_c, self.cyl_r, self.cyl_ok
+
     def above(self, z: float | None) -> _Solids:
         """Only the solids taller than ``z`` (a horizontal slice at height z); all if None."""
         if z is None:
@@ -226,17 +231,7 @@ ray_fan_kernel = BatchKernel(_ray_fan_run, parallel=False)
 def _sdf_fast(s: _Solids, p: NDArray[np.float64]) -> NDArray[np.float64]:
     """Signed distance (N, P) from points (N, P, 2) to each room's solids (:func:`_sdf_run`)."""
     out = np.empty(p.shape[:2])
-    sdf_kernel(p.shape[0])(
-        s.box_c,
-        s.box_h,
-        s.box_cs,
-        s.box_ok,
-        s.cyl_c,
-        s.cyl_r,
-        s.cyl_ok,
-        np.ascontiguousarray(p),
-        out,
-    )
+    sdf_kernel(p.shape[0])(*s.kernel_args, np.ascontiguousarray(p), out)
     return out
 
 
@@ -251,17 +246,7 @@ def _ray_cast_fast(
     """Ray ranges (N, R) from origins ``o`` along unit directions ``u`` (:func:`_ray_run`)."""
     out = np.empty(o.shape[:2])
     ray_kernel(o.shape[0])(
-        s.box_c,
-        s.box_h,
-        s.box_cs,
-        s.box_ok,
-        s.cyl_c,
-        s.cyl_r,
-        s.cyl_ok,
-        np.ascontiguousarray(o),
-        np.ascontiguousarray(u),
-        float(max_range),
-        out,
+        *s.kernel_args, np.ascontiguousarray(o), np.ascontiguousarray(u), float(max_range), out
     )
     return out
 

@@ -102,7 +102,6 @@ class RoomBatch:
         s = self._solids
         out = np.empty((positions.shape[0], offsets.shape[0]))
         ray_fan_kernel(positions.shape[0])(
-            s.box_c, s.box_h, s.box_cs, s.box_ok, s.cyl_c, s.cyl_r, s.cyl_ok, positions,
-            headings, offsets, float(max_range), out,
-        )  # fmt: skip
+            *s.kernel_args, positions, headings, offsets, float(max_range), out
+        )
         return out
