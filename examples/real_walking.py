@@ -14,7 +14,7 @@ import numpy as np
 import vrloco_env  # noqa: F401  (registers the ids)
 from vrloco_env.config import EnvConfig, SensorConfig
 from vrloco_env.observation import env_spec
-from vrloco_env.sensors.head_camera import camera_spec
+from vrloco_env.sensors.camera import camera_spec
 
 NAMES = env_spec(EnvConfig().ray_count, EnvConfig().ray_range_m).names  # the common entries
 

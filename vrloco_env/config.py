@@ -14,7 +14,7 @@ from typing import Any
 from estimators.hand import HandParams
 from estimators.validation import check_bool, check_in_range, check_instance, value_repr
 from estimators.visual_inertial import VioConfig
-from vrloco_env.sensors.head_camera import CameraSpec, camera_spec
+from vrloco_env.sensors.camera import CameraSpec, camera_spec
 from vrloco_env.sensors.imu import EarthField, ImuSpec, MagneticDisturbance, get_imu_spec
 from vrloco_env.sensors.kinect import KinectSpec
 from vrloco_env.user import MotionParams, Population, get_population
@@ -43,7 +43,7 @@ class SensorConfig:
             space's frame where the user stands at the origin.
         kinect: Kinect v2 specification; the default stands 2.5 m in front of the user.
         head_camera: the helmet camera of seed 004, used with ``pose_source="visual_inertial"``
-            (:mod:`vrloco_env.sensors.head_camera`; ``camera_spec("low_light", rate_hz=30)``
+            (:mod:`vrloco_env.sensors.camera`; ``camera_spec("low_light", rate_hz=30)``
             etc.). The env's default runs it at 30 Hz, triggered by the IMU clock (seed 004's
             120 Hz beside a 1 kHz IMU is the experiment's setting, ``vrloco experiment vio``).
     """

@@ -30,7 +30,7 @@ from estimators.batching import stream_rows
 from estimators.visual_inertial import VioConfig, VisualInertialFilter
 from estimators.visual_pose import CameraIntrinsics, solve_poses
 from vrloco_env.batch_rng import BatchRng
-from vrloco_env.sensors.head_camera import CameraFrames, CameraSpec, HeadCamera
+from vrloco_env.sensors.camera import CameraFrames, CameraSpec, HeadCamera
 
 __all__ = [
     "PnpParams",

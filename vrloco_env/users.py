@@ -40,7 +40,7 @@ from vrloco_env.batch_rng import BatchRng
 from vrloco_env.config import POSE_SOURCES, EstimatorConfig, SensorConfig
 from vrloco_env.head_tracking import VisualInertialTracker
 from vrloco_env.pipeline import Stages
-from vrloco_env.sensors.head_camera import layout_landmarks
+from vrloco_env.sensors.camera import layout_landmarks
 from vrloco_env.sensors.imu import HeadImu, ImuSamples
 from vrloco_env.sensors.kinect import (
     HAND_FROM_SDK_WRIST,

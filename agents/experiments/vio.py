@@ -81,7 +81,7 @@ Every frame of the walk through :func:`estimators.visual_pose.solve_poses` (Open
 ``solvePnPRansac`` with EPnP + LM refinement, at least 6 landmarks, RANSAC threshold
 :func:`pnp_params`: 2.5 sigma of the camera's nominal pixel noise, at least 3 px). The errors are
 against the truth at each frame's *stamp*, so they include the time offset, the map and the
-intrinsics errors. Per condition of :data:`vrloco_env.sensors.head_camera.CONDITIONS` and
+intrinsics errors. Per condition of :data:`vrloco_env.sensors.camera.CONDITIONS` and
 ``complex``: ``pos_m`` / ``att_deg`` are the RMSE over the frames that have a pose (position
 error 3-D, m; attitude error angle, deg), with the 95th percentile and the largest;
 ``pos_clean_m`` / ``att_clean_deg`` the RMSE without the gross errors (poses off by more than
@@ -177,7 +177,7 @@ from estimators.visual_pose import (
 )
 from vrloco_env.batch_rng import BatchRng
 from vrloco_env.head_tracking import PnpParams, camera_intrinsics, frame_triggers, pnp_mount
-from vrloco_env.sensors.head_camera import (
+from vrloco_env.sensors.camera import (
     CameraSpec,
     HeadCamera,
     camera_spec,
@@ -276,7 +276,7 @@ def condition_spec(condition: str, pixel_noise_scale: float = PIXEL_NOISE_SCALE)
     """The nominal camera of a visual condition, its pixel noise scaled by ``pixel_noise_scale``.
 
     Args:
-        condition: a :data:`~vrloco_env.sensors.head_camera.CONDITIONS` preset, or ``"complex"``:
+        condition: a :data:`~vrloco_env.sensors.camera.CONDITIONS` preset, or ``"complex"``:
             low light and occlusion at once (the low-light detector, noise and exposure, the
             occlusion preset's occluder, both matching losses taken as independent).
         pixel_noise_scale: factor on the preset's ``pixel_noise_px``, in (0, 100].

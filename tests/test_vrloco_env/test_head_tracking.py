@@ -7,7 +7,7 @@ from estimators import rotations as rot
 from estimators.visual_inertial import VioConfig
 from vrloco_env.batch_rng import BatchRng
 from vrloco_env.head_tracking import VisualInertialTracker, frame_triggers
-from vrloco_env.sensors.head_camera import camera_spec, layout_landmarks
+from vrloco_env.sensors.camera import camera_spec, layout_landmarks
 from vrloco_env.sensors.imu import HeadImu
 from vrloco_env.tasks import make_layout
 from vrloco_env.user import Intent, MotionParams, UserMotion

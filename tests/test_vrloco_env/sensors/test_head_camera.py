@@ -15,7 +15,7 @@ from estimators.rotations import (
     rotation_angle,
 )
 from vrloco_env.batch_rng import BatchRng
-from vrloco_env.sensors.head_camera import (
+from vrloco_env.sensors.camera import (
     CONDITIONS,
     CameraFrames,
     CameraSpec,

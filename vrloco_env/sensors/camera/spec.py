@@ -1,0 +1,257 @@
+"""The head camera's specification (:class:`CameraSpec`) and its lighting presets
+(:data:`CONDITIONS`, :func:`camera_spec`); the sources of the values are given per field."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from estimators.rotations import matrix_to_quat, quat_from_rotvec, quat_multiply
+
+__all__ = ["CONDITIONS", "MAX_RATE_HZ", "CameraSpec", "camera_spec"]
+
+#: Highest frame rate the model accepts, Hz (high-speed tracking cameras; seed 004 uses 120).
+MAX_RATE_HZ = 240.0
+#: Rotation camera (OpenCV: x right, y down, z forward) -> head body (x forward, y left, z up),
+#: without mount tilt: its columns are the camera axes in body coordinates.
+BODY_FROM_CAMERA = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
+_Q_BODY_FROM_CAMERA = matrix_to_quat(BODY_FROM_CAMERA)
+_BELOW_ONE = 1.0 - 2.0**-53  # the largest double below 1 (as BatchRng.uniform)
+#: Normal draws per frame and user before the landmark slots (the occluder's step).
+_FRAME_DRAWS = 1
+#: Normal draws per landmark slot and frame: detection-and-match, pixel noise u, pixel noise v.
+_SLOT_DRAWS = 3
+
+
+
+
+def _check(cond: bool, msg: str) -> None:
+    if not cond:
+        raise ValueError(msg)
+
+
+def _real(value: object, name: str) -> float:
+    try:
+        v = float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a real number, got {value!r}") from None
+    _check(not math.isnan(v), f"{name} must not be NaN")
+    return v
+
+
+def _integer(value: object, name: str, lo: int, hi: int) -> None:
+    _check(
+        isinstance(value, int | np.integer) and not isinstance(value, bool) and lo <= value <= hi,
+        f"{name} must be an integer in [{lo}, {hi}], got {value!r}",
+    )
+
+
+@dataclass(frozen=True)
+class CameraSpec:
+    """Parameters of the simulated head camera (validated on construction; units in the names).
+
+    Use :func:`camera_spec` for a condition preset with overrides. Every value the paper does not
+    give is an engineering choice explained in the module docstring.
+
+    Attributes:
+        name: label of the condition ("ideal", "low_light", "occlusion", "motion_blur" or free).
+        fx: focal length along u, px, > 0.
+        fy: focal length along v, px, > 0.
+        cx: principal point u, px, in [0, width].
+        cy: principal point v, px, in [0, height].
+        width: image width, px, integer in [1, 10000].
+        height: image height, px, integer in [1, 10000].
+        rate_hz: frame rate, Hz, in (0, 240] (seed 004: 120).
+        exposure_s: exposure time, s, in [0, 1 / rate_hz].
+        min_range_m: nearest depth (along the optical axis) a landmark is seen at, m, > 0.
+        max_range_m: farthest distance a landmark is detectable at, m, > min_range_m (a 10 cm
+            marker is ~5 px wide at 10 m with f = 460 px).
+        max_view_angle_deg: largest angle between a wall's normal and the line of sight to its
+            landmark, deg, in (0, 90]; used only where normals are given.
+        mount_offset_m: camera position in the head body frame, m (3 finite numbers).
+        mount_tilt_deg: downward tilt of the optical axis, deg, in (-90, 90).
+        pixel_noise_px: std of the corner localisation noise per axis, px, >= 0.
+        extraction_prob: probability that a visible, unoccluded, unblurred landmark is detected,
+            in [0, 1].
+        match_prob: probability that an extracted feature is matched to its own landmark, in
+            [0, 1]; otherwise it gets a neighbour's index.
+        match_neighbors: how many nearest landmarks a wrong match picks from, integer in [1, 64].
+        occluder_fraction: width of the occluding vertical band as a fraction of the image width,
+            in [0, 1); 0 disables it.
+        occluder_drift_px_per_sqrt_s: random-walk intensity of the band's centre, px/sqrt(s), >= 0.
+        blur_free_px: blur length a detector tolerates without loss, px, >= 0.
+        blur_scale_px: decay length of the detection probability beyond ``blur_free_px``, px,
+            > 0 (``inf`` turns the blur's effect on detection off).
+        blur_noise_per_px: pixel-noise std per px of blur length, >= 0 (1/sqrt(12) for a uniform
+            streak).
+        max_landmarks: landmark slots drawn for per frame, integer in [1, 4096]; a capture may pass
+            at most this many landmarks. Fixed so that the random streams do not depend on how many
+            landmarks a room (or a batch's padding) has; 128 holds the default rooms (96 in the
+            8 m x 8 m room, ~102 in the Avoid corridor).
+    """
+
+    name: str = "ideal"
+    fx: float = 460.0
+    fy: float = 460.0
+    cx: float = 319.5
+    cy: float = 239.5
+    width: int = 640
+    height: int = 480
+    rate_hz: float = 120.0
+    exposure_s: float = 0.002
+    min_range_m: float = 0.1
+    max_range_m: float = 10.0
+    max_view_angle_deg: float = 80.0
+    mount_offset_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    mount_tilt_deg: float = 0.0
+    pixel_noise_px: float = 0.5
+    extraction_prob: float = 0.95
+    match_prob: float = 0.90
+    match_neighbors: int = 4
+    occluder_fraction: float = 0.0
+    occluder_drift_px_per_sqrt_s: float = 60.0
+    blur_free_px: float = 2.0
+    blur_scale_px: float = 8.0
+    blur_noise_per_px: float = 1.0 / math.sqrt(12.0)
+    max_landmarks: int = 128
+
+    def __post_init__(self) -> None:
+        _check(isinstance(self.name, str), f"name must be a string, got {self.name!r}")
+        _integer(self.width, "width", 1, 10000)
+        _integer(self.height, "height", 1, 10000)
+        for name in ("fx", "fy"):
+            v = _real(getattr(self, name), name)
+            _check(0.0 < v < math.inf, f"{name} must be a finite focal length > 0 px, got {v}")
+        cx, cy = _real(self.cx, "cx"), _real(self.cy, "cy")
+        _check(0.0 <= cx <= self.width, f"cx must lie in [0, width={self.width}] px, got {cx}")
+        _check(0.0 <= cy <= self.height, f"cy must lie in [0, height={self.height}] px, got {cy}")
+        rate = _real(self.rate_hz, "rate_hz")
+        _check(
+            0.0 < rate <= MAX_RATE_HZ, f"rate_hz must lie in (0, {MAX_RATE_HZ:g}] Hz, got {rate}"
+        )
+        exp_s = _real(self.exposure_s, "exposure_s")
+        _check(
+            0.0 <= exp_s <= 1.0 / rate,
+            f"exposure_s must lie in [0, 1/rate_hz = {1.0 / rate:.6g}] s, got {exp_s}",
+        )
+        near = _real(self.min_range_m, "min_range_m")
+        far = _real(self.max_range_m, "max_range_m")
+        _check(0.0 < near < math.inf, f"min_range_m must be a finite distance > 0 m, got {near}")
+        _check(
+            near < far < math.inf,
+            f"max_range_m must be finite and > min_range_m = {near} m, got {far}",
+        )
+        va = _real(self.max_view_angle_deg, "max_view_angle_deg")
+        _check(0.0 < va <= 90.0, f"max_view_angle_deg must lie in (0, 90] deg, got {va}")
+        off = np.asarray(self.mount_offset_m, dtype=np.float64)
+        _check(
+            off.shape == (3,) and bool(np.all(np.isfinite(off))),
+            f"mount_offset_m must be three finite numbers (m), got {self.mount_offset_m!r}",
+        )
+        tilt = _real(self.mount_tilt_deg, "mount_tilt_deg")
+        _check(-90.0 < tilt < 90.0, f"mount_tilt_deg must lie in (-90, 90) deg, got {tilt}")
+        for name in ("pixel_noise_px", "occluder_drift_px_per_sqrt_s", "blur_free_px"):
+            v = _real(getattr(self, name), name)
+            _check(0.0 <= v < math.inf, f"{name} must be finite and >= 0, got {v}")
+        bn = _real(self.blur_noise_per_px, "blur_noise_per_px")
+        _check(0.0 <= bn < math.inf, f"blur_noise_per_px must be finite and >= 0, got {bn}")
+        bs = _real(self.blur_scale_px, "blur_scale_px")
+        _check(bs > 0.0, f"blur_scale_px must be > 0 px (inf allowed), got {bs}")
+        for name in ("extraction_prob", "match_prob"):
+            v = _real(getattr(self, name), name)
+            _check(0.0 <= v <= 1.0, f"{name} must lie in [0, 1], got {v}")
+        occ = _real(self.occluder_fraction, "occluder_fraction")
+        _check(0.0 <= occ < 1.0, f"occluder_fraction must lie in [0, 1), got {occ}")
+        _integer(self.match_neighbors, "match_neighbors", 1, 64)
+        _integer(self.max_landmarks, "max_landmarks", 1, 4096)
+
+    @property
+    def camera_matrix(self) -> NDArray[np.float64]:
+        """OpenCV's intrinsic matrix K, (3, 3), px."""
+        return np.array([[self.fx, 0.0, self.cx], [0.0, self.fy, self.cy], [0.0, 0.0, 1.0]])
+
+    @property
+    def fov_deg(self) -> tuple[float, float]:
+        """Horizontal and vertical field of view, deg (edges of the image at -0.5 and size-0.5)."""
+        h = math.atan((self.cx + 0.5) / self.fx) + math.atan((self.width - 0.5 - self.cx) / self.fx)
+        v = math.atan((self.cy + 0.5) / self.fy) + math.atan(
+            (self.height - 0.5 - self.cy) / self.fy
+        )
+        return math.degrees(h), math.degrees(v)
+
+    @property
+    def body_from_camera(self) -> NDArray[np.float64]:
+        """Rotation camera -> head body frame including the mount tilt, (3, 3)."""
+        return _mount_matrix(self)
+
+    def noiseless(self) -> CameraSpec:
+        """The same camera that sees perfectly: no noise, no detection or match failure, no
+        occluder, blur without effect (geometry, mount and ranges kept)."""
+        return dataclasses.replace(
+            self,
+            name=f"{self.name}-noiseless",
+            pixel_noise_px=0.0,
+            extraction_prob=1.0,
+            match_prob=1.0,
+            occluder_fraction=0.0,
+            blur_scale_px=math.inf,
+            blur_noise_per_px=0.0,
+        )
+
+    def with_(self, **changes: object) -> CameraSpec:
+        """A copy with some fields changed (validated); unknown fields raise ValueError."""
+        names = {f.name for f in dataclasses.fields(self)}
+        bad = sorted(set(changes) - names)
+        if bad:
+            raise ValueError(f"CameraSpec has no field(s) {bad}; valid fields: {sorted(names)}")
+        return dataclasses.replace(self, **changes)  # type: ignore[arg-type]
+
+
+#: The four imaging conditions of seed 004, calibrated to its rates (module docstring table).
+CONDITIONS: dict[str, CameraSpec] = {
+    "ideal": CameraSpec(name="ideal"),
+    "low_light": CameraSpec(
+        name="low_light",
+        extraction_prob=0.70,
+        match_prob=0.85,
+        pixel_noise_px=1.5,
+        exposure_s=0.004,
+    ),
+    "occlusion": CameraSpec(name="occlusion", match_prob=0.60, occluder_fraction=0.30),
+    "motion_blur": CameraSpec(name="motion_blur", exposure_s=1.0 / 120.0),
+}
+
+
+def camera_spec(condition: str = "ideal", **overrides: object) -> CameraSpec:
+    """The preset of an imaging condition, with some fields changed.
+
+    Args:
+        condition: one of :data:`CONDITIONS` ("ideal", "low_light", "occlusion", "motion_blur").
+        **overrides: any :class:`CameraSpec` field (units as there), e.g. ``rate_hz=60.0``.
+
+    Returns:
+        The validated spec; its ``name`` stays the condition's unless overridden.
+
+    Raises:
+        ValueError: an unknown condition or field, or an override out of its range.
+    """
+    if not isinstance(condition, str) or condition not in CONDITIONS:
+        raise ValueError(f"condition must be one of {sorted(CONDITIONS)}, got {condition!r}")
+    return CONDITIONS[condition].with_(**overrides)
+
+
+def _mount_matrix(spec: CameraSpec) -> NDArray[np.float64]:
+    th = math.radians(spec.mount_tilt_deg)
+    c, s = math.cos(th), math.sin(th)
+    tilt = np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])  # about body +y: nose down
+    return tilt @ BODY_FROM_CAMERA
+
+
+def _mount_quat(spec: CameraSpec) -> NDArray[np.float64]:
+    """Quaternion camera -> body (mount tilt included), (4,)."""
+    tilt = quat_from_rotvec(np.array([0.0, math.radians(spec.mount_tilt_deg), 0.0]))
+    return quat_multiply(tilt, _Q_BODY_FROM_CAMERA)
