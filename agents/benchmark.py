@@ -39,7 +39,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from agents.benchmark_figures import draw_cell, draw_grid
+from agents.benchmark_figures import cell_name, draw_cell, draw_grid
 from agents.benchmark_outputs import (
     BASELINE_TECHNIQUE,
     ROW_KEYS,
@@ -47,6 +47,7 @@ from agents.benchmark_outputs import (
     write_csv,
     write_json,
 )
+from agents.conditions import DEFAULT_CONDITION, get_condition
 from agents.metrics import (
     STEP_KEYS,
     TRACE_KEYS,
@@ -93,12 +94,14 @@ DEFAULT_BATCH_SIZE = 20
 
 @dataclass(frozen=True)
 class Cell:
-    """One cell of the benchmark grid: a task, a policy and a technique (a registered name, a
-    ``"module:attr"`` naming a :class:`~vrloco_env.techniques.Technique`, or one)."""
+    """One cell of the benchmark grid: a task, a policy, a technique (a registered name, a
+    ``"module:attr"`` naming a :class:`~vrloco_env.techniques.Technique`, or one) and the
+    physical room's condition (:mod:`agents.conditions`)."""
 
     task: str
     policy: str
     technique: Any = "seed000"
+    condition: str = DEFAULT_CONDITION
 
     @property
     def technique_name(self) -> str:
@@ -121,13 +124,15 @@ class Cell:
 
     @property
     def label(self) -> str:
-        """A file-name-safe name: ``task_policy_technique`` (a policy or technique given as a
-        path keeps only its file name; other characters become ``-``)."""
+        """A file-name-safe name: ``task_policy_technique``, then ``_condition`` outside the
+        default condition (a policy or technique given as a path keeps only its file name; other
+        characters become ``-``)."""
 
         def safe(text: str) -> str:
             return re.sub(r"[^A-Za-z0-9_]+", "-", text.replace("\\", "/").split("/")[-1])
 
-        return f"{self.task}_{safe(self.policy)}_{safe(self.technique_name)}"
+        where = "" if self.condition == DEFAULT_CONDITION else f"_{safe(self.condition)}"
+        return f"{self.task}_{safe(self.policy)}_{safe(self.technique_name)}{where}"
 
 
 def technique_for_preset(preset: str) -> Any:
@@ -161,17 +166,19 @@ def step_window(reset_info: dict, dt: float) -> tuple[int, int]:
 
 # --------------------------------------------------------------------------- one episode
 
-_ENVS: dict[tuple, Any] = {}  # per process: one env per (task, technique, population)
+_ENVS: dict[tuple, Any] = {}  # per process: one env per (task, technique, population, condition)
 
 
-def _env(task: str, technique: Any, population: str | None = None) -> Any:
+def _env(task: str, technique: Any, population: str | None = None,
+         condition: str = DEFAULT_CONDITION) -> Any:  # fmt: skip
     import gymnasium as gym
 
     import vrloco_env  # noqa: F401  (registers the ids)
 
-    key = (task, technique, population)
+    key = (task, technique, population, condition)
     if key not in _ENVS:
-        _ENVS[key] = gym.make(env_id(task), technique=technique, population=population)
+        _ENVS[key] = gym.make(env_id(task), technique=technique, population=population,
+                              sensors=get_condition(condition).sensors())  # fmt: skip
     return _ENVS[key]
 
 
@@ -202,7 +209,7 @@ def run_episode(
 
 def run_cell_episode(cell: Cell, seed: int, trace: bool = False) -> tuple[EpisodeStats, dict]:
     """Episode ``seed`` of ``cell``: its task and technique's env, its policy."""
-    env = _env(cell.task, cell.technique, cell.population)
+    env = _env(cell.task, cell.technique, cell.population, cell.condition)
     return run_episode(env, build_policy(cell.policy, env), seed, trace)
 
 
@@ -261,15 +268,18 @@ def run_batched(
         return []
     first = jobs[0][0]
     task, tech, population = first.task, get_technique(first.technique), first.population
+    condition = first.condition
     for c, _, _ in jobs:
-        if c.task != task or get_technique(c.technique) != tech or c.population != population:
+        if (c.task != task or get_technique(c.technique) != tech or c.population != population
+                or c.condition != condition):  # fmt: skip
             raise ValueError(
-                "run_batched: every episode must share one task, technique and population, got "
-                f"{c.task!r}/{c.technique_name!r}/{c.population!r} beside "
-                f"{task!r}/{tech.name!r}/{population!r}"
+                "run_batched: every episode must share one task, technique, population and "
+                f"condition, got {c.task!r}/{c.technique_name!r}/{c.population!r}/"
+                f"{c.condition!r} beside {task!r}/{tech.name!r}/{population!r}/{condition!r}"
             )
     n = min(batch_size, len(jobs))
     env = VRLocoVectorEnv(n, task=task, technique=first.technique, population=population,
+                          sensors=get_condition(condition).sensors(),
                           autoreset_mode=AutoresetMode.DISABLED)  # fmt: skip
     done: dict[int, tuple[EpisodeStats, dict]] = {}
     try:
@@ -409,6 +419,7 @@ def run_benchmark(
     backend: str = "local",
     address: str | None = None,
     baseline: str = BASELINE_TECHNIQUE,
+    conditions: Sequence[str] = (DEFAULT_CONDITION,),
 ) -> list[dict[str, Any]]:
     """Run the grid and write the outputs.
 
@@ -435,8 +446,9 @@ def run_benchmark(
             The rows are the same either way.
         address: with ``"ray"``: the cluster, ``"auto"`` or ``"HOST:PORT"``; None: a running
             cluster of this machine where there is one, else a new local Ray instance.
+        conditions: physical-room conditions (:mod:`agents.conditions`), each a grid axis.
         baseline: the technique every other one is compared with, episode by episode, in the
-            same task and policy (:func:`agents.paired.paired_p_values`; the row's
+            same task, policy and condition (:func:`agents.paired.paired_p_values`; the row's
             ``vs_baseline``, None for the baseline itself or where it is not in the grid).
 
     Returns:
@@ -454,14 +466,19 @@ def run_benchmark(
     if sensors is None and techniques is None:
         techniques = DEFAULT_TECHNIQUES
     techs = [*(technique_for_preset(s) for s in sensors or ()), *(techniques or ())]
-    tasks, policies = list(tasks), list(policies)
-    for name, values in (("tasks", tasks), ("policies", policies), ("techniques", techs)):
+    tasks, policies, conditions = list(tasks), list(policies), list(conditions)
+    for name, values in (("tasks", tasks), ("policies", policies), ("techniques", techs),
+                         ("conditions", conditions)):  # fmt: skip
         if not values:
             raise ValueError(f"{name} must name at least one entry")
     for t in tasks:
         get_task(t)  # raises with the registered names
     for p in policies:
         check_policy_name(p)
+    for k in conditions:
+        get_condition(k, "conditions")  # raises with the registered names
+    if len(set(conditions)) != len(conditions):
+        raise ValueError(f"conditions must not repeat a name, got {', '.join(conditions)}")
     names = [get_technique(t).name for t in techs]  # raises with the valid names
     if len(set(names)) != len(names):
         raise ValueError(f"techniques must not repeat a name, got {', '.join(names)}")
@@ -483,7 +500,7 @@ def run_benchmark(
 
         import_ray()  # not installed: the install hint, before any work
 
-    cells = [Cell(t, p, k) for t in tasks for p in policies for k in techs]
+    cells = [Cell(t, p, k, w) for w in conditions for t in tasks for p in policies for k in techs]
     want_figures = out_dir is not None
     store = None if out_dir is None else EpisodeStore(Path(out_dir) / ".resume")
     results: dict[tuple[Cell, int], EpisodeStats] = {}
@@ -518,15 +535,16 @@ def run_benchmark(
     rows = []
     order = {name: k for k, name in enumerate(dict.fromkeys(c.technique_name for c in cells))}
     cells = sorted(cells, key=lambda c: order[c.technique_name])  # grouped by technique
-    base = {(c.task, c.policy): c for c in cells if c.technique_name == baseline}
+    base = {(c.task, c.policy, c.condition): c for c in cells if c.technique_name == baseline}
     for c in cells:
         eps = [results[(c, i)] for i in range(episodes)]
         late, early = windows[c]
-        ref = base.get((c.task, c.policy))
+        ref = base.get((c.task, c.policy, c.condition))
         row = {
             "task": c.task,
             "policy": c.policy,
             "technique": c.technique_name,
+            "condition": c.condition,
             "sensors": c.sensors,
             **summarize(eps, late, early),
             "vs_baseline": None if ref is None or ref is c else paired_p_values(
@@ -536,7 +554,8 @@ def run_benchmark(
     if print_table and rows:
         show_table(rows, seed, baseline=baseline)
     meta = {"seed": seed, "episodes": episodes, "workers": workers, "batch_size": batch_size,
-            "tasks": tasks, "policies": policies, "techniques": names}  # fmt: skip
+            "tasks": tasks, "policies": policies, "techniques": names,
+            "conditions": conditions}  # fmt: skip
     written = []
     if out_dir is not None:
         out = Path(out_dir)
@@ -547,9 +566,8 @@ def run_benchmark(
             written += draw_cell(out, c, results[(c, 0)])
         if rows:
             written += draw_grid(out, rows, {
-                f"{c.task} · {c.policy} · {c.technique_name}": [results[(c, i)]
-                                                                 for i in range(episodes)]
-                for c in cells})  # fmt: skip
+                cell_name(row): [results[(c, i)] for i in range(episodes)]
+                for c, row in zip(cells, rows, strict=True)})  # fmt: skip
     if json_path is not None:
         written.append(write_json(Path(json_path), rows, meta))
     for p in written:
@@ -569,7 +587,7 @@ def _episode_keys(
 
     fp = source_fingerprint()
     return {(c, i): episode_key(fp, c.task, c.policy, get_technique(c.technique), seed + i,
-                                figures and i == 0)
+                                figures and i == 0, c.condition)
             for c in cells for i in range(episodes)}  # fmt: skip
 
 
@@ -589,7 +607,8 @@ def _split_jobs(
     groups: dict[tuple, list[Cell]] = {}
     for c in cells:  # a user's own policy gets jobs of its own: it may not take batches
         own = c.policy if ":" in c.policy else ""
-        groups.setdefault((c.task, c.technique_name, c.population, own), []).append(c)
+        groups.setdefault((c.task, c.technique_name, c.population, c.condition, own),
+                          []).append(c)  # fmt: skip
     per_job = 4 * batch_size
     total = max(1, len(cells) * episodes - len(skip))
     per_job = max(1, min(per_job, math.ceil(total / workers)))

@@ -141,8 +141,11 @@ GRID_METRICS = (
 )
 
 
-def _cell_name(row: dict[str, Any]) -> str:
-    return f"{row['task']} · {row['policy']} · {row['technique']}"
+def cell_name(row: dict[str, Any]) -> str:
+    """A row's name in the figures: task · policy · technique (· condition outside the default)."""
+    where = row.get("condition", "lab")
+    return f"{row['task']} · {row['policy']} · {row['technique']}" + (
+        "" if where == "lab" else f" · {where}")
 
 
 def draw_grid(out_dir: Path, rows: list[dict[str, Any]],
@@ -155,7 +158,7 @@ def draw_grid(out_dir: Path, rows: list[dict[str, Any]],
     Args:
         out_dir: folder for the figures.
         rows: the benchmark rows.
-        episodes: each row's episodes, by :func:`_cell_name` of the row.
+        episodes: each row's episodes, by :func:`cell_name` of the row.
 
     Returns:
         The written files.
@@ -168,7 +171,7 @@ def draw_grid(out_dir: Path, rows: list[dict[str, Any]],
     from agents.metrics import COLLISION_CAUSES
 
     out_dir.mkdir(parents=True, exist_ok=True)
-    names = [_cell_name(r) for r in rows]
+    names = [cell_name(r) for r in rows]
     y = np.arange(len(rows))
     height = 0.6 + 0.22 * len(rows)
     written = []

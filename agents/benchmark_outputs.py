@@ -25,6 +25,7 @@ ROW_KEYS = (
     "task",
     "policy",
     "technique",
+    "condition",
     "sensors",
     "episodes",
     "success_rate",
@@ -89,8 +90,9 @@ _FULL_WIDTH = 180
 def show_table(rows: list[dict[str, Any]], seed: int, width: int | None = None,
                baseline: str = BASELINE_TECHNIQUE) -> None:
     """The rows as a table fitted to the terminal (``width``: its columns, None to ask it); a
-    value that differs from ``baseline``'s in the same task and policy at p < :data:`ALPHA`
-    (the row's ``vs_baseline``) is marked ``*``."""
+    value that differs from ``baseline``'s in the same task, policy and condition at p <
+    :data:`ALPHA` (the row's ``vs_baseline``) is marked ``*``. The condition gets a column
+    where some row is not in the default one."""
     from rich.console import Console
     from rich.table import Table
 
@@ -100,10 +102,13 @@ def show_table(rows: list[dict[str, Any]], seed: int, width: int | None = None,
     compact = console.width < _FULL_WIDTH
     cols = [(k, _COMPACT_HEADS.get(k, h)) for k, h in _COLUMNS if k in _COMPACT] if compact else (
         list(_COLUMNS))  # fmt: skip
+    if any(r.get("condition", "lab") != "lab" for r in rows):
+        at = [k for k, _ in cols].index("technique") + 1
+        cols.insert(at, ("condition", "condition"))
     title = f"vrloco benchmark (seeds {seed}..{seed + rows[0]['episodes'] - 1})"
     table = Table(title=title, pad_edge=False, padding=(0, 1) if not compact else (0, 0))
     for key, head in cols:
-        left = key in ("task", "policy", "technique", "sensors")
+        left = key in ("task", "policy", "technique", "condition", "sensors")
         table.add_column(head, justify="left" if left else "right", overflow="fold")
     marked = False
     for r in rows:
@@ -120,8 +125,8 @@ def show_table(rows: list[dict[str, Any]], seed: int, width: int | None = None,
         console.print("collision causes: " + "/".join(c.replace("_", " ")
                                                       for c in COLLISION_CAUSES))  # fmt: skip
     if marked:
-        console.print(f"* differs from {baseline} (same task, policy and seeds) at p < {ALPHA}: "
-                      "exact McNemar test for rates, Wilcoxon signed-rank for means "
+        console.print(f"* differs from {baseline} (same task, policy, condition and seeds) at "
+                      f"p < {ALPHA}: exact McNemar test for rates, Wilcoxon signed-rank for means "
                       "(agents.paired)")  # fmt: skip
     if compact:
         console.print(f"(a compact view for {console.width} columns: every column is in the "

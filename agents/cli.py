@@ -197,6 +197,7 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
             batch_size=args.batch_size,
             backend=args.backend,
             address=args.address,
+            conditions=names(args.conditions),
         )
     except ValueError as err:  # a bad option value: one clear line, no traceback
         print(f"vrloco benchmark: {err}", file=sys.stderr)
@@ -409,6 +410,11 @@ def build_parser() -> argparse.ArgumentParser:
         "--sensors",
         help="comma-separated IMU presets: shorthand for seed 000's chain on each "
         "(ig500n = seed000, consumer_mems = seed000_consumer), added to --techniques",
+    )
+    bench.add_argument(
+        "--conditions", default="lab",
+        help="comma-separated physical-room conditions (agents.conditions): lab (nothing near "
+        "the play area), beside_metal (a steel cabinet at its edge); each a grid axis",
     )
     bench.add_argument("--episodes", type=_int_at_least(1), default=40, help="episodes per cell")
     bench.add_argument("--seed", type=_int_at_least(0), default=0, help="episode i uses seed + i")

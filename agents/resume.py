@@ -40,9 +40,11 @@ def source_fingerprint() -> str:
 
 
 def episode_key(fingerprint: str, task: str, policy: str, technique: Any, seed: int,
-                trace: bool) -> str:  # fmt: skip
-    """The key of one episode (see the module docstring); ``technique`` a Technique object."""
-    text = repr((fingerprint, task, policy, repr(technique), int(seed), bool(trace)))
+                trace: bool, condition: str = "lab") -> str:  # fmt: skip
+    """The key of one episode (see the module docstring); ``technique`` a Technique object,
+    ``condition`` the physical room's (:mod:`agents.conditions`; the default adds nothing)."""
+    where = () if condition == "lab" else (condition,)
+    text = repr((fingerprint, task, policy, repr(technique), int(seed), bool(trace), *where))
     return hashlib.sha256(text.encode()).hexdigest()
 
 

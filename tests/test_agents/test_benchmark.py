@@ -133,6 +133,7 @@ def _same_episode(a, b) -> None:
     Cell("approach", "goal_seeker+human"),
     Cell("avoid", "avoid_manoeuvre", "seed000_consumer"),
     Cell("interact", "goal_seeker", "smooth"),
+    Cell("approach", "goal_seeker", "madgwick", "beside_metal"),
 ], ids=lambda c: c.label)  # fmt: skip
 def test_batched_episodes_are_the_single_env_episodes(cell):
     """Users of a batch end at their own step and take the cell's next seed: 5 episodes on 2
@@ -160,7 +161,7 @@ def test_cells_sharing_an_env_mix_in_one_batch():
     batched = run_batched(episodes, batch_size=2)
     for (cell, seed, _), (stats, _) in zip(episodes, batched, strict=True):
         _same_episode(stats, run_cell_episode(cell, seed)[0])
-    with pytest.raises(ValueError, match="share one task, technique and population"):
+    with pytest.raises(ValueError, match="share one task, technique, population and condition"):
         run_batched([(cells[0], 1, False), (Cell("approach", "goal_seeker"), 1, False)])
 
 
@@ -242,7 +243,8 @@ def test_the_table_fits_a_narrow_terminal(capsys):
 
     row = {k: 0.5 for k in ROW_KEYS}
     row.update(task="approach", policy="goal_seeker+human", technique="seed000_consumer",
-               sensors="consumer_mems", episodes=40, vs_baseline={"spl": {"p": 0.001}},
+               condition="lab", sensors="consumer_mems", episodes=40,
+               vs_baseline={"spl": {"p": 0.001}},
                collision_causes=dict.fromkeys(COLLISION_CAUSES, 2))  # fmt: skip
     show_table([row], 0, width=80)
     out = capsys.readouterr().out

@@ -1,0 +1,83 @@
+"""Physical-room conditions: the magnetometer reads the condition's dipole, the default changes
+nothing, and the benchmark compares techniques within a condition."""
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import vrloco_env  # noqa: F401  (registers the ids)
+from agents.benchmark import Cell, run_benchmark, run_cell_episode, step_window
+from agents.conditions import CONDITIONS, get_condition
+from agents.paired import episode_values, paired_p_values
+from agents.resume import episode_key
+from vrloco_env.sensors.imu import MU0_OVER_4PI
+from vrloco_env.techniques import get_technique
+
+
+def test_unknown_conditions_are_named():
+    with pytest.raises(ValueError, match=r"condition=.kitchen.*lab, beside_metal"):
+        get_condition("kitchen")
+    with pytest.raises(ValueError, match="conditions='kitchen'"):
+        run_benchmark(tasks=["approach"], policies=["goal_seeker"], techniques=["seed000"],
+                      episodes=1, conditions=["kitchen"], progress=False, print_table=False)
+    with pytest.raises(ValueError, match="conditions must not repeat"):
+        run_benchmark(tasks=["approach"], policies=["goal_seeker"], techniques=["seed000"],
+                      episodes=1, conditions=["lab", "lab"], progress=False, print_table=False)
+
+
+def test_the_default_condition_is_the_plain_env():
+    """``lab`` passes no sensors: the episode, its resume key and its file names are what they
+    are without a condition."""
+    assert get_condition("lab").sensors() is None
+    cell = Cell("approach", "goal_seeker")
+    assert cell.condition == "lab" and cell.label == "approach_goal_seeker_seed000"
+    tech = get_technique("seed000")
+    assert episode_key("fp", "approach", "goal_seeker", tech, 3, False) == episode_key(
+        "fp", "approach", "goal_seeker", tech, 3, False, "lab")
+    assert episode_key("fp", "approach", "goal_seeker", tech, 3, False) != episode_key(
+        "fp", "approach", "goal_seeker", tech, 3, False, "beside_metal")
+
+
+def test_beside_metal_adds_the_dipole_field_the_closed_form_gives():
+    """The cabinet's field at the start spot's head height, from the dipole formula
+    ``B = mu0/4pi (3 r (m.r)/|r|^5 - m/|r|^3)``, is what the env's magnetometer model adds."""
+    (dipole,) = CONDITIONS["beside_metal"].magnetic_disturbances
+    head = np.array([0.0, 0.0, 1.6])
+    r = head - np.asarray(dipole.position)
+    m = np.asarray(dipole.moment)
+    d = np.linalg.norm(r)
+    want = MU0_OVER_4PI * (3 * r * (m @ r) / d**5 - m / d**3) * 1e6  # T -> uT
+    np.testing.assert_allclose(dipole.field_at(head[None])[0], want, rtol=1e-12)
+    assert 2.0 < np.linalg.norm(want) < 10.0  # a few uT: a fifth of the horizontal field or less
+    env = gym.make("VRLoco-Approach-v0", sensors=get_condition("beside_metal").sensors())
+    assert env.unwrapped.sensors.magnetic_disturbances == (dipole,)
+    env.close()
+
+
+def test_rows_compare_techniques_within_their_condition():
+    kw = dict(tasks=["approach"], policies=["goal_seeker"], techniques=["seed000", "madgwick"],
+              episodes=3, seed=5, conditions=["lab", "beside_metal"], progress=False,
+              print_table=False, workers=1)  # fmt: skip
+    rows = run_benchmark(**kw)
+    assert [(r["technique"], r["condition"]) for r in rows] == [
+        ("seed000", "lab"), ("seed000", "beside_metal"),
+        ("madgwick", "lab"), ("madgwick", "beside_metal")]  # fmt: skip
+    ref = [run_cell_episode(Cell("approach", "goal_seeker", "seed000", "beside_metal"), s)
+           for s in (5, 6, 7)]  # fmt: skip
+    own = [run_cell_episode(Cell("approach", "goal_seeker", "madgwick", "beside_metal"), s)[0]
+           for s in (5, 6, 7)]  # fmt: skip
+    first = ref[0]
+    late, early = step_window(first[1], first[0].elapsed_s / first[0].steps)
+    ref = [stats for stats, _ in ref]
+    want = paired_p_values(ref, own, late, early)["yaw_rate_mismatch_deg_s"]
+    got = rows[3]["vs_baseline"]["yaw_rate_mismatch_deg_s"]
+    assert got["n"] == want["n"] == 3
+    assert got["p"] == pytest.approx(want["p"], rel=1e-6)
+    truth = [episode_values(b, late, early)["yaw_rate_mismatch_deg_s"]
+             - episode_values(a, late, early)["yaw_rate_mismatch_deg_s"]
+             for a, b in zip(ref, own, strict=True)]  # fmt: skip
+    assert got["diff"] == pytest.approx(np.mean(truth), rel=1e-6)
+    # the dipole changes the magnetometer, so the episodes differ between conditions
+    lab = [run_cell_episode(Cell("approach", "goal_seeker", "madgwick"), s)[0] for s in (5, 6, 7)]
+    assert any(not np.array_equal(a.heading_error_deg, b.heading_error_deg)
+               for a, b in zip(lab, own, strict=True))
