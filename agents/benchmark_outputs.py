@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from agents.metrics import COLLISION_CAUSES, MOTION_KEYS
+from agents.metrics import COLLISION_CAUSES, MOTION_KEYS, PLAY_AREA_KEYS
 from agents.paired import ALPHA, BINARY_METRICS, MEAN_METRICS
 
 __all__ = ["BASELINE_TECHNIQUE", "ROW_KEYS", "show_table", "write_csv", "write_json"]
@@ -52,11 +52,12 @@ ROW_KEYS = (
     "yaw_drift_deg_per_min",
     "yaw_rate_mismatch_deg_s",
     "virtual_jerk_m_s3",
+    *PLAY_AREA_KEYS,
     "collision_causes",
     "vs_baseline",
     *(f"{k}_ci" for k in ("success_rate", "collision_rate", "spl", "time_to_goal_s",
                           "hand_tracking_availability", "phantom_steps_per_min",
-                          "missed_steps_per_min", *MOTION_KEYS)),
+                          "missed_steps_per_min", *MOTION_KEYS, *PLAY_AREA_KEYS)),
 )
 
 

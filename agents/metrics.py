@@ -20,6 +20,12 @@ row of the benchmark table. The definitions:
   between true and estimated head attitude) over every control step of every episode.
 * **hand error** — mean of ``info["hand_error_deg"]`` over the control steps with a hand
   estimate, and the fraction of steps that had one.
+* **play area** — from ``info["play_area_outside"]`` and ``info["play_area_boundary_m"]`` (the
+  walking-in-place user's physical spot in the tracked space, :mod:`vrloco_env.user.play_area`):
+  ``boundary_violations``, the times per episode the user crosses from inside the area to outside
+  (the episode starts inside, at the centre), and ``min_boundary_m``, the episode's smallest
+  distance to the nearest edge (negative: it went outside); a row gives their means over the
+  episodes (:func:`play_area_measures`).
 
 Step F1. The env reports the true heel-strike times and the detector's estimated heel-strike
 times of each step (``info["true_step_times"]``, ``info["detected_step_times"]``, episode time,
@@ -48,6 +54,7 @@ __all__ = [
     "DEFAULT_LATE_STEPS",
     "HEADING_BOUND_DEG",
     "MOTION_KEYS",
+    "PLAY_AREA_KEYS",
     "STEERING_BOUND_DEG",
     "STEP_KEYS",
     "TRACE_KEYS",
@@ -59,6 +66,7 @@ __all__ = [
     "match_step_counts",
     "match_step_times",
     "motion_measures",
+    "play_area_measures",
     "spl",
     "summarize",
     "wilson_interval",
@@ -212,6 +220,7 @@ class EpisodeStats:
         motion: the episode's walking-in-place measures (:func:`motion_measures`), or None.
         causes: the cause of each of the episode's collisions, counted
             (:func:`collision_causes`), or None when the ``info`` lacks what it needs.
+        play_area: the episode's play-area measures (:func:`play_area_measures`), or None.
     """
 
     seed: int
@@ -231,6 +240,7 @@ class EpisodeStats:
     trace: dict[str, Any] | None = field(default=None)
     motion: dict[str, float] | None = field(default=None)
     causes: dict[str, int] | None = field(default=None)
+    play_area: dict[str, float] | None = field(default=None)
 
 
 #: The ``info`` keys an episode's stats are built from, per control step.
@@ -252,6 +262,8 @@ STEP_KEYS = (
     "collision",
     "walk_yaw_deg",
     "true_body_yaw_deg",
+    "play_area_boundary_m",
+    "play_area_outside",
 )
 #: The ``info`` keys kept per control step for the figures.
 TRACE_KEYS = (
@@ -350,7 +362,32 @@ def episode_stats(
         motion=motion_measures(steps, start_position) if "intent_walk" in steps else None,
         causes=collision_causes(steps) if "collision" in steps and "intent_walk" in steps
         else None,
+        play_area=play_area_measures(steps) if "play_area_outside" in steps else None,
     )
+
+
+#: The per-episode play-area measures a row averages (:func:`play_area_measures`).
+PLAY_AREA_KEYS = ("boundary_violations", "min_boundary_m")
+
+
+def play_area_measures(steps: dict[str, NDArray]) -> dict[str, float]:
+    """An episode's play-area measures from its per-step ``info`` arrays.
+
+    Args:
+        steps: ``play_area_outside`` (T,) bool and ``play_area_boundary_m`` (T,) (m).
+
+    Returns:
+        ``boundary_violations``: crossings from inside the area to outside (the episode
+        starts inside); ``min_boundary_m``: the smallest distance to the nearest edge (m,
+        negative outside; NaN for an empty episode).
+    """
+    outside = np.asarray(steps["play_area_outside"], dtype=bool).ravel()
+    margin = np.asarray(steps["play_area_boundary_m"], dtype=np.float64).ravel()
+    before = np.concatenate([[False], outside[:-1]])
+    return {
+        "boundary_violations": float(np.count_nonzero(outside & ~before)),
+        "min_boundary_m": float(margin.min()) if margin.size else math.nan,
+    }
 
 
 #: The causes a collision is put down to, in the order they are tested: the first that holds is
@@ -581,7 +618,8 @@ def summarize(
         ``episodes``, ``success_rate``, ``collision_rate``, ``collision_free_success_rate``,
         ``spl``, ``time_to_goal_s``, ``path_length_ratio``, ``step_precision``, ``step_recall``,
         ``step_f1``, ``attitude_rmse_deg``, ``heading_error_rmse_deg``, ``hand_error_deg``,
-        ``hand_coverage``, ``mean_collisions``, ``collision_causes`` (collisions per cause of
+        ``hand_coverage``, ``mean_collisions``, ``boundary_violations`` and ``min_boundary_m``
+        (means over the episodes that report them), ``collision_causes`` (collisions per cause of
         :data:`COLLISION_CAUSES`, summed over the episodes; None without the ``info`` it
         needs). Means over no values are NaN.
     """
@@ -614,6 +652,8 @@ def summarize(
     motion = {k: np.array([math.nan if e.motion is None else e.motion[k] for e in episodes])
               for k in MOTION_KEYS}  # fmt: skip
     times = np.array([e.elapsed_s for e in episodes])[succ]
+    area = {k: np.array([math.nan if e.play_area is None else e.play_area[k] for e in episodes])
+            for k in PLAY_AREA_KEYS}  # fmt: skip
     row: dict[str, Any] = {
         "episodes": n,
         "success_rate": _mean(succ),
@@ -633,6 +673,7 @@ def summarize(
         "mean_collisions": _mean(coll),
         **{k: _nanmean(v) for k, v in per_min.items()},
         **{k: _nanmean(v) for k, v in motion.items()},
+        **{k: _nanmean(v) for k, v in area.items()},
     }
     causes = [e.causes for e in episodes if e.causes is not None]
     row["collision_causes"] = ({c: sum(x[c] for x in causes) for c in COLLISION_CAUSES}
@@ -645,7 +686,7 @@ def summarize(
     hand_each = np.array([np.isfinite(e.hand_error_deg).mean() if e.hand_error_deg.size else
                           math.nan for e in episodes])  # fmt: skip
     row["hand_tracking_availability_ci"] = bootstrap_interval(hand_each)
-    for k, v in (*per_min.items(), *motion.items()):
+    for k, v in (*per_min.items(), *motion.items(), *area.items()):
         row[f"{k}_ci"] = bootstrap_interval(v)
     return row
 

@@ -18,6 +18,7 @@ from vrloco_env.sensors.camera import CameraSpec, camera_spec
 from vrloco_env.sensors.imu import EarthField, ImuSpec, MagneticDisturbance, get_imu_spec
 from vrloco_env.sensors.kinect import KinectSpec
 from vrloco_env.user import MotionParams, Population, get_population
+from vrloco_env.user.play_area import PlayArea
 
 __all__ = ["STAGE_FIELDS", "EnvConfig", "EstimatorConfig", "RewardConfig", "SensorConfig"]
 
@@ -203,6 +204,9 @@ class EnvConfig:
             or ``"idealised"``: the head stays straight on the torso, as the action alone moves
             it. A population whose head turns on the torso adds the observation field
             ``head_on_torso`` (what proprioception tells the user).
+        play_area: the walking-in-place user's physical tracked space (default 2 x 2 m centred
+            on the start spot) and the drift model (:mod:`vrloco_env.user.play_area`); info
+            reports the user's position in it. Unused with the visual-inertial pose source.
     """
 
     motion: MotionParams = field(default_factory=MotionParams)
@@ -213,9 +217,11 @@ class EnvConfig:
     ray_range_m: float = 5.0
     pose_source: str = "walk_in_place"
     population: str | Population | None = None
+    play_area: PlayArea = field(default_factory=PlayArea)
 
     def __post_init__(self) -> None:
         check_instance(self, "motion", MotionParams)
+        check_instance(self, "play_area", PlayArea)
         if self.population is not None:
             get_population(self.population, "EnvConfig.population")
         check_in_range(self, "max_episode_steps", 1, 100_000, integer=True)

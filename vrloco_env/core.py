@@ -23,7 +23,11 @@ head's own behaviour to each intent — gaze at the goal, glances at what is nea
 down at the hand while interacting (in the goal region of a task that observes a hand target),
 nods — from what the user perceived at the end of the last step: the goal's bearing and the rays
 in the view the headset showed, and the head's true yaw on the torso (proprioception), which the
-observation then carries as ``head_on_torso``.
+observation then carries as ``head_on_torso``. A population with a drift range
+(``Population.wip_drift_mps``) draws each user's drift rate with the behaviour's values and a
+lateral fraction next; walking in place, the user's standing spot then drifts while stepping
+(:mod:`vrloco_env.user.play_area`), and ``info`` reports it in the play area
+(``play_area_position_m``, ``play_area_boundary_m``, ``play_area_outside``).
 
 Randomness. User i owns one generator (the single env's ``np_random``; sub-env i's in the vector
 env). At each of its resets it draws the room and the task's targets from that generator, then
@@ -133,7 +137,7 @@ class LocoCore:
         )
         self.users = SimulatedUsers(
             b, self.rng, config.motion, sensors, estimators, self.stages,
-            pose_source=config.pose_source,
+            pose_source=config.pose_source, play_area=config.play_area,
         )  # fmt: skip
         self.dt = self.users.dt
         self.task: Task = task_class(b, self.dt, task_config)
@@ -146,7 +150,12 @@ class LocoCore:
         self.rooms: RoomBatch | None = None
         self.ep = _Episode.empty(b)
         self.ray_offsets = ray_offsets(config.ray_count, config.ray_fov_deg)
-        if self.population is not None and self.population.moves_head:
+        #: the population's users drift in the play area while stepping in place
+        self._drifts = (
+            self.population is not None and self.population.wip_drift_mps[1] > 0.0
+            and config.pose_source == "walk_in_place"
+        )  # fmt: skip
+        if self.population is not None and (self.population.moves_head or self._drifts):
             self.behaviour = GazeBehaviour(self.population, self.rng, self.dt, self.ray_offsets)
         self._head_on_torso = np.zeros(b)  # the head's true yaw on the torso (rad)
         self._hand_task = any(f.name == "hand_error" for f in self.task.fields())
@@ -205,6 +214,12 @@ class LocoCore:
         )
         if self.behaviour is not None:
             self.users.motion.scale_style(rows, self.behaviour.reset(rows))
+        if self._drifts:  # the drift rate was drawn with the behaviour; its lateral part next
+            assert self.behaviour is not None
+            forward = self.behaviour.values["wip_drift_mps"][rows]
+            side = 2.0 * self.rng.uniform((), rows=rows) - 1.0
+            self.users.set_drift(rows, forward, side * self.config.play_area.lateral_ratio
+                                 * forward)  # fmt: skip
         self._head_on_torso[rows] = 0.0
         ep = self.ep
         ep.position[rows] = start[:, :2]
@@ -339,6 +354,8 @@ class LocoCore:
         detected_times = us.step_peak_time + 1.0 / self.users.imu_rate_hz
         for times in (true_times, detected_times):
             np.copyto(times, np.inf, where=np.isnan(times))
+        area_xy = self.users.play_area_position()
+        area_margin = self.config.play_area.boundary_distance(area_xy)
         return {
             "true_ypr": np.rad2deg(us.ypr_true),
             "est_ypr": np.rad2deg(us.ypr_est),
@@ -365,5 +382,8 @@ class LocoCore:
             "walked": ep.walked.copy(),
             "shortest_path": ep.shortest.copy(),
             "elapsed_time": ep.elapsed * self.dt,
+            "play_area_position_m": area_xy,
+            "play_area_boundary_m": area_margin,
+            "play_area_outside": area_margin < 0.0,
             **self.task.info(),
         }

@@ -50,6 +50,7 @@ from vrloco_env.sensors.kinect import (
     camera_to_world,
 )
 from vrloco_env.user import Intent, Joint, MotionChunk, MotionParams, UserMotion
+from vrloco_env.user.play_area import PlayArea
 from vrloco_env.world import Layout
 
 __all__ = ["SimulatedUsers", "UserStep"]
@@ -148,6 +149,10 @@ class SimulatedUsers:
         stages: the built estimation stages (:func:`vrloco_env.pipeline.build_stages`).
         pose_source: ``"walk_in_place"`` or ``"visual_inertial"``
             (:attr:`vrloco_env.config.EnvConfig.pose_source`).
+        play_area: the physical tracked space and drift model
+            (:mod:`vrloco_env.user.play_area`; default: a 2 x 2 m area). Walking in place, a
+            user whose drift rate is set (:meth:`set_drift`) drifts while stepping; each
+            control step shifts the standing spots of all users at once.
     """
 
     def __init__(
@@ -159,6 +164,7 @@ class SimulatedUsers:
         estimators: EstimatorConfig,
         stages: Stages,
         pose_source: str = "walk_in_place",
+        play_area: PlayArea | None = None,
     ) -> None:
         if pose_source not in POSE_SOURCES:
             raise ValueError(f"pose_source={pose_source!r}: must be one of {POSE_SOURCES}")
@@ -213,6 +219,8 @@ class SimulatedUsers:
         self._last_true = np.zeros((b, 2))  # true head xy at the last step's end
         self.last_tracked = None  # the last step's TrackedChunk (visual-inertial source only)
         self._start_xy3 = np.zeros((b, 3))  # start marker in the room (m), z = 0
+        self.play_area = PlayArea() if play_area is None else play_area
+        self._drift = np.zeros((b, 2))  # drift rates (m/s): [forward, left] of the torso
         if self.overground:
             steps_per_frame = sensors.head_camera.rate_hz / motion.control_rate_hz
             if abs(steps_per_frame - round(steps_per_frame)) > 1e-9:
@@ -280,6 +288,28 @@ class SimulatedUsers:
         self.yaw_offset[rows] = 0.0
         self.true_yaw_offset[rows] = rot.wrap_angle(start_yaw - physical_yaw)
         self.cadence.reset(rows)
+        self._drift[rows] = 0.0
+
+    def set_drift(self, users: ArrayLike, forward: ArrayLike, lateral: ArrayLike) -> None:
+        """The drift rates (m/s) of ``users`` while stepping in place: ``forward`` along the
+        torso's facing, ``lateral`` to its left (broadcast to the users). Reset sets them to 0."""
+        rows = stream_rows(users, self.batch_size)
+        self._drift[rows, 0] = np.broadcast_to(np.asarray(forward, np.float64), (rows.size,))
+        self._drift[rows, 1] = np.broadcast_to(np.asarray(lateral, np.float64), (rows.size,))
+
+    def play_area_position(self) -> NDArray[np.float64]:
+        """Each user's physical standing spot in the play area (m), (B, 2): relative to the
+        start spot (the tracked space's origin walking in place; the start marker overground)."""
+        return self.motion.base - self._start_xy3[:, :2]
+
+    def _apply_drift(self, chunk: MotionChunk) -> None:
+        """Shift the standing spots by this step's drift: the drift rate times the time spent
+        mid-step, along the torso's facing at the step's end."""
+        stepping_s = chunk.walking.mean(axis=1) * self.dt
+        yaw = chunk.body_yaw[:, -1]
+        c, s = np.cos(yaw), np.sin(yaw)
+        f, left = self._drift[:, 0] * stepping_s, self._drift[:, 1] * stepping_s
+        self.motion.shift_base(np.stack([c * f - s * left, s * f + c * left], axis=-1))
 
     # ------------------------------------------------------------------------------ step
     def step(self, intent: Intent, validated: bool = False) -> UserStep:
@@ -289,6 +319,8 @@ class SimulatedUsers:
         the motion model's ranges (the env's actions are checked and mapped into them).
         """
         chunk = self.motion.advance(intent, validate=not validated)
+        if not self.overground and self._drift.any():
+            self._apply_drift(chunk)
         imu = self.imu.sample(chunk.quat, chunk.omega, chunk.acc, chunk.pos)
         kin = chunk.kinect
         joints, hand_quat = kin.joints, kin.hand_quat

@@ -393,6 +393,21 @@ class UserMotion:
             return
         self._state.rec[rows] = fresh.rec
 
+    def shift_base(self, delta: ArrayLike) -> None:
+        """Move every user's standing spot by ``delta`` (m, (B, 2)) in the world's xy: the head,
+        the IMU and the skeleton move with it from the next control step on (a walking-in-place
+        user's drift, :mod:`vrloco_env.user.play_area`)."""
+        if self._state is None:
+            raise RuntimeError("UserMotion.reset() must be called before shift_base()")
+        self._state.base += _batch(delta, (self.batch_size, 2), "delta")
+
+    @property
+    def base(self) -> NDArray[np.float64]:
+        """Each user's standing spot in the world's xy (m), (B, 2) (a copy)."""
+        if self._state is None:
+            raise RuntimeError("UserMotion.reset() must be called before base")
+        return np.array(self._state.base, dtype=np.float64)
+
     def scale_style(self, rows: ArrayLike, impact: ArrayLike) -> None:
         """Multiply the step-impact style of users ``rows`` (drawn at :meth:`reset`) by
         ``impact`` (> 0, broadcast to the rows): a population's heavier or lighter steppers.

@@ -95,6 +95,10 @@ class Population:
             (:class:`agents.variability.VariabilityParams`, whose docs give the evidence);
             ``variability`` False leaves the policy unwrapped.
         variability: the population carries agent-side variability.
+        wip_drift_mps: forward drift speed (m/s) of the user's standing spot while stepping in
+            place (:mod:`vrloco_env.user.play_area`; Nilsson, Serafin & Nordahl, IEEE 3DUI
+            2014, measure such unintended drift; the few-cm/s ranges here are engineering
+            choices). The last ``(lo, hi)`` field, so it is drawn last.
     """
 
     name: str
@@ -122,6 +126,7 @@ class Population:
     overshoot_sd: float = 0.05
     cadence_bias_sd: float = 0.1
     cadence_jitter_sd: float = 0.05
+    wip_drift_mps: tuple[float, float] = (0.0, 0.0)
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name:
@@ -136,6 +141,7 @@ class Population:
             "look_down_deg": (0.0, 45.0, "deg"), "nod_rate_hz": (0.0, 2.0, "Hz"),
             "nod_amplitude_deg": (0.0, 30.0, "deg"), "nod_frequency_hz": (0.2, 3.0, "Hz"),
             "nod_cycles": (0.5, 10.0, "cycles"), "bob_scale": (0.2, 3.0, ""),
+            "wip_drift_mps": (0.0, 0.5, "m/s"),
         }  # fmt: skip
         for name, (lo, hi, unit) in limits.items():
             check_numbers(self, name, lo, hi, unit, length=2, ordered=True)
@@ -173,6 +179,7 @@ _TYPICAL_HEAD = dict(
     nod_rate_hz=(0.0, 0.03),
     bob_scale=(0.8, 1.25),
     variability=True,
+    wip_drift_mps=(0.01, 0.05),
 )
 
 POPULATIONS: dict[str, Population] = {

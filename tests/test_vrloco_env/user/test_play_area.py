@@ -1,0 +1,200 @@
+"""The play area of a walking-in-place user: validation, drift against the motion model's truth,
+determinism, batch == single envs, and the boundary metrics."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from agents.metrics import play_area_measures
+from vrloco_env.config import EnvConfig
+from vrloco_env.env import VRLocoEnv
+from vrloco_env.user.play_area import PlayArea
+from vrloco_env.user.population import POPULATIONS, RANGE_FIELDS, Population
+from vrloco_env.vector import VRLocoVectorEnv
+
+AREA_KEYS = ("play_area_position_m", "play_area_boundary_m", "play_area_outside")
+
+
+def _action(env, walk: float, turn: float = 0.0) -> np.ndarray:
+    a = np.zeros(env.action_space.shape, np.float32)
+    a[0], a[1] = walk, turn
+    return a
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "field"),
+    [({"size_m": (0.5, 2.0)}, "size_m"), ({"size_m": (2.0, 11.0)}, "size_m"),
+     ({"size_m": (2.0,)}, "size_m"), ({"lateral_ratio": -0.1}, "lateral_ratio")],
+)  # fmt: skip
+def test_bad_play_area_names_the_field(kwargs, field):
+    with pytest.raises(ValueError, match=rf"^PlayArea\.{field}="):
+        PlayArea(**kwargs)
+
+
+def test_bad_drift_range_and_config_name_the_field():
+    with pytest.raises(ValueError, match=r"^Population\.wip_drift_mps="):
+        Population("x", "x", wip_drift_mps=(0.05, 0.01))
+    with pytest.raises(ValueError, match=r"^EnvConfig\.play_area="):
+        EnvConfig(play_area=(2.0, 2.0))  # type: ignore[arg-type]
+
+
+def test_drift_is_drawn_last_and_only_some_populations_drift():
+    assert RANGE_FIELDS[-1] == "wip_drift_mps"
+    assert POPULATIONS["idealised"].wip_drift_mps == (0.0, 0.0)
+    assert POPULATIONS["human"].wip_drift_mps == (0.0, 0.0)
+    for name in ("typical", "gaze_scanners", "nodders"):
+        lo, hi = POPULATIONS[name].wip_drift_mps
+        assert 0.0 < lo <= hi <= 0.1
+
+
+def test_boundary_distance_inside_on_the_edge_and_outside():
+    area = PlayArea(size_m=(2.0, 4.0))
+    xy = np.array([[0.0, 0.0], [0.5, 0.0], [1.0, 0.0], [1.5, 0.0], [2.0, 3.0], [0.0, -1.5]])
+    np.testing.assert_allclose(area.boundary_distance(xy), [1.0, 0.5, 0.0, -0.5, -np.hypot(1, 1),
+                                                            0.5])  # fmt: skip
+
+
+def test_drift_moves_the_spot_along_the_facing_while_stepping_only():
+    env = VRLocoEnv(population="typical")
+    env.reset(seed=5)
+    core = env.core
+    users = core.users
+    forward, lateral = users._drift[0]
+    lo, hi = POPULATIONS["typical"].wip_drift_mps
+    assert lo <= forward <= hi
+    assert abs(lateral) <= core.config.play_area.lateral_ratio * forward
+    assert forward == core.behaviour.values["wip_drift_mps"][0]
+    # Step while turning, then stand: each step's shift is the drift rate times the time mid-step,
+    # along the torso's facing at the step's end (the motion model's own state is the truth).
+    total_stepping = 0.0
+    for k in range(80):
+        walk = 1.0 if k < 50 else -1.0
+        before = users.motion.base
+        _, _, _, _, info = env.step(_action(env, walk, 0.3 if k < 50 else 0.0))
+        chunk = core.last.motion
+        moved = users.motion.base - before
+        stepping_s = chunk.walking[0].mean() * users.dt
+        yaw = chunk.body_yaw[0, -1]
+        facing = np.array([np.cos(yaw), np.sin(yaw)])
+        left = np.array([-np.sin(yaw), np.cos(yaw)])
+        np.testing.assert_allclose(moved[0], (forward * facing + lateral * left) * stepping_s,
+                                   atol=1e-12)  # fmt: skip
+        total_stepping += stepping_s
+        if not chunk.walking[0].any():
+            assert np.all(moved == 0.0)
+        np.testing.assert_array_equal(info["play_area_position_m"], users.motion.base[0])
+    assert total_stepping > 3.0  # it did step for seconds
+    assert not chunk.walking.any()  # and stood still at the end
+    dist = np.hypot(*users.motion.base[0])
+    assert dist == pytest.approx(total_stepping * np.hypot(forward, lateral), rel=0.5)
+    assert info["play_area_boundary_m"] == pytest.approx(core.config.play_area.boundary_distance(
+        users.motion.base[0]))  # fmt: skip
+
+
+def test_the_head_and_the_skeleton_move_with_the_spot():
+    env = VRLocoEnv(population="typical")
+    env.reset(seed=2)
+    for _ in range(40):
+        env.step(_action(env, 1.0))
+    for _ in range(10):  # stand: the spot has moved, the head and skeleton stand over it
+        env.step(_action(env, -1.0))
+    chunk = env.core.last.motion
+    base = env.core.users.motion.base[0]
+    assert np.hypot(*base) > 0.02
+    head = chunk.pos[0, -1, :2]
+    spine = chunk.kinect.joints[0, -1, 0, :2]
+    assert np.hypot(*(head - base)) < 0.25
+    assert np.hypot(*(spine - base)) < 0.1
+
+
+def test_an_idealised_user_does_not_drift():
+    env = VRLocoEnv(population="idealised")
+    env.reset(seed=4)
+    for _ in range(30):
+        _, _, _, _, info = env.step(_action(env, 1.0))
+        np.testing.assert_array_equal(info["play_area_position_m"], [0.0, 0.0])
+        assert info["play_area_boundary_m"] == 1.0 and not info["play_area_outside"]
+
+
+def test_a_small_area_is_left_and_reported_outside():
+    config = replace(EnvConfig(), population="typical", play_area=PlayArea(size_m=(0.8, 0.8)))
+    env = VRLocoEnv(config=config)
+    env.reset(seed=9)
+    outside = []
+    for _ in range(400):
+        _, _, te, tr, info = env.step(_action(env, 1.0))
+        outside.append(info["play_area_outside"])
+        assert info["play_area_outside"] == (info["play_area_boundary_m"] < 0.0)
+        if te or tr:
+            break
+    forward = env.core.users._drift[0, 0]
+    if forward * len(outside) * env.core.dt > 0.6:  # at 0.5+ of stepping time it must be out
+        assert any(outside)
+
+
+def test_same_seed_same_play_area_track():
+    tracks = []
+    for _ in range(2):
+        env = VRLocoEnv(population="nodders")
+        env.reset(seed=11)
+        tracks.append([env.step(_action(env, 1.0, 0.2))[4]["play_area_position_m"]
+                       for _ in range(30)])  # fmt: skip
+    np.testing.assert_array_equal(np.array(tracks[0]), np.array(tracks[1]))
+    assert np.hypot(*tracks[0][-1]) > 0.0
+
+
+def test_vector_env_equals_single_envs_for_the_play_area():
+    n, seed, steps = 3, 20, 25
+    envs = VRLocoVectorEnv(n, population="gaze_scanners")
+    envs.reset(seed=seed)
+    single = [VRLocoEnv(population="gaze_scanners") for _ in range(n)]
+    for i, e in enumerate(single):
+        e.reset(seed=seed + i)
+    rng = np.random.default_rng(0)
+    for _ in range(steps):
+        a = rng.uniform(-1, 1, (n, *single[0].action_space.shape)).astype(np.float32)
+        a[:, 0] = np.abs(a[:, 0])
+        _, _, _, _, info = envs.step(a)
+        for i, e in enumerate(single):
+            one = e.step(a[i])[4]
+            for k in AREA_KEYS:
+                np.testing.assert_array_equal(info[k][i], one[k], err_msg=k)
+    assert np.any(info["play_area_position_m"] != 0.0)
+
+
+def test_boundary_metrics_of_a_hand_built_episode():
+    margin = np.array([0.5, 0.1, -0.05, -0.2, 0.1, 0.0, -0.01, 0.3])
+    steps = {"play_area_boundary_m": margin, "play_area_outside": margin < 0.0}
+    m = play_area_measures(steps)
+    assert m == {"boundary_violations": 2.0, "min_boundary_m": -0.2}
+    inside = {"play_area_boundary_m": np.array([1.0, 0.9]),
+              "play_area_outside": np.array([False, False])}  # fmt: skip
+    assert play_area_measures(inside) == {"boundary_violations": 0.0, "min_boundary_m": 0.9}
+    starts_out = {"play_area_boundary_m": np.array([-0.1, -0.2]),
+                  "play_area_outside": np.array([True, True])}  # fmt: skip
+    assert play_area_measures(starts_out)["boundary_violations"] == 1.0
+
+
+def test_a_row_averages_the_episodes_play_area_measures():
+    from agents.metrics import episode_stats, summarize
+
+    def episode(margin):
+        margin = np.asarray(margin, dtype=np.float64)
+        t = margin.size
+        steps = {"true_steps": np.zeros(t), "detected_steps": np.zeros(t),
+                 "true_step_times": np.full((t, 2), np.inf),
+                 "detected_step_times": np.full((t, 2), np.inf),
+                 "attitude_error_deg": np.zeros(t), "hand_error_deg": np.full(t, np.nan),
+                 "heading_error_deg": np.zeros(t), "play_area_boundary_m": margin,
+                 "play_area_outside": margin < 0.0}  # fmt: skip
+        last = {"is_success": True, "collisions": 0, "elapsed_time": 0.1 * t, "walked": 1.0}
+        return episode_stats(0, 1.0, steps, last)
+
+    row = summarize([episode([0.5, -0.1, 0.2, -0.3]), episode([0.9, 0.8, 0.7, 0.6])])
+    assert row["boundary_violations"] == pytest.approx(1.0)  # (2 + 0) / 2
+    assert row["min_boundary_m"] == pytest.approx((-0.3 + 0.6) / 2)
+    lo, hi = row["min_boundary_m_ci"]
+    assert lo <= row["min_boundary_m"] <= hi
