@@ -1,8 +1,10 @@
-"""Same seed, same episode, bit for bit: every recorded case replays exactly."""
+"""Same seed, same episode, bit for bit: every recorded case replays exactly (the cases that run
+OpenCV's pose solver exactly under the OpenCV release they were recorded with)."""
 
+import cv2
 import numpy as np
 import pytest
-from golden_episodes import GOLDEN, cases
+from golden_episodes import GOLDEN, OPENCV_ATOL, OPENCV_CASES, OPENCV_KEY, cases
 
 CASES = cases()
 
@@ -16,7 +18,7 @@ def recorded():
 
 
 def test_every_case_is_recorded(recorded):
-    assert sorted(recorded) == sorted(CASES)
+    assert sorted(k for k in recorded if k != OPENCV_KEY) == sorted(CASES)
 
 
 @pytest.mark.parametrize("name", sorted(CASES))
@@ -24,6 +26,12 @@ def test_case_replays_bit_for_bit(name, recorded):
     got = CASES[name]()
     want = recorded[name]
     assert got.shape == want.shape, f"{name}: {got.size} numbers, recorded {want.size}"
+    same_solver = OPENCV_KEY in recorded and str(recorded[OPENCV_KEY]) == cv2.__version__
+    if name in OPENCV_CASES and not same_solver:
+        np.testing.assert_allclose(got, want, rtol=0.0, atol=OPENCV_ATOL, err_msg=(
+            f"{name}: recorded under OpenCV {recorded.get(OPENCV_KEY, 'unknown')}, replayed "
+            f"under {cv2.__version__}"))  # fmt: skip
+        return
     differ = np.flatnonzero(got.view(np.uint64) != want.view(np.uint64))
     assert differ.size == 0, (
         f"{name}: {differ.size} of {got.size} numbers differ, first at {differ[0]}: "
