@@ -6,7 +6,7 @@ obstacles), scores the candidate headings by marching along each through the map
 walk (whether the current heading is clear to start walking, or to keep walking).
 
 * ``_march`` — one heading through the map: clear for a given length, or into the goal.
-* ``_heap_push``, ``_heap_pop`` — the binary min-heap of the search.
+* ``_bucket_push`` — the bucket (Dial) queue of the search.
 * ``_plan_run`` — the per-user planner; :data:`plan_kernel` is its :class:`BatchKernel`.
 """
 
@@ -52,44 +52,14 @@ def _march(clear, cost, i0, j0, x, y, ang, length, thr, land, geom):
 
 
 @numba.njit(cache=True, inline="always")
-def _heap_push(heap_cost, heap_key, size, c, k):
-    """Push ``(c, k)`` onto the binary min-heap held in the first ``size`` entries; new size.
-
-    Ties in ``c`` go by ``k``; the order among equal costs does not change a Dijkstra search's
-    settled costs, only which of equal entries comes out first."""
-    i = size
-    while i > 0:
-        parent = (i - 1) >> 1
-        if heap_cost[parent] < c or (heap_cost[parent] == c and heap_key[parent] <= k):
-            break
-        heap_cost[i], heap_key[i] = heap_cost[parent], heap_key[parent]
-        i = parent
-    heap_cost[i], heap_key[i] = c, k
-    return size + 1
-
-
-@numba.njit(cache=True, inline="always")
-def _heap_pop(heap_cost, heap_key, size):
-    """Pop the smallest ``(c, k)`` of the heap of ``size`` entries; ``(c, k, new size)``."""
-    c, k = heap_cost[0], heap_key[0]
-    size -= 1
-    lc, lk = heap_cost[size], heap_key[size]
-    i = 0
-    while True:
-        child = 2 * i + 1
-        if child >= size:
-            break
-        if child + 1 < size and (
-            heap_cost[child + 1] < heap_cost[child]
-            or (heap_cost[child + 1] == heap_cost[child] and heap_key[child + 1] < heap_key[child])
-        ):
-            child += 1
-        if lc < heap_cost[child] or (lc == heap_cost[child] and lk <= heap_key[child]):
-            break
-        heap_cost[i], heap_key[i] = heap_cost[child], heap_key[child]
-        i = child
-    heap_cost[i], heap_key[i] = lc, lk
-    return c, k, size
+def _bucket_push(head, nxt, node_cost, node_key, used, nbk, width, c, k):
+    """File ``(c, k)`` in bucket ``int(c / width)`` (slot mod ``nbk``) of the bucket queue; new
+    number of nodes used. Every bucket is a singly linked list of nodes, pushed at its head."""
+    s = int(c / width) % nbk
+    node_cost[used], node_key[used] = c, k
+    nxt[used] = head[s]
+    head[s] = used
+    return used + 1
 
 
 def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cands, prm, out):
@@ -120,8 +90,23 @@ def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cand
     cap = w * cell
     pad = w + math.ceil((look + 1.0) / cell)
     band = max(r_comfort - r_block, 1e-9)
-    heap_cost = np.empty(0)  # the search's binary heap, reused by every user
-    heap_key = np.empty(0, np.int64)
+    # distance to a marked cell at offset (di, dj), less half a cell, floored at 0
+    nw = 2 * w + 1
+    ring = np.empty(nw * nw)
+    for di in range(-w, w + 1):
+        for dj in range(-w, w + 1):
+            d = max(math.sqrt(di * di + dj * dj) * cell - 0.5 * cell, 0.0)
+            ring[(di + w) * nw + dj + w] = d
+    # The search's bucket queue: buckets of width half the cheapest step (one straight cell at
+    # the plain cost), so that a step out of the bucket being emptied always lands in a later
+    # one; entries of one bucket are then settled in any order. ``nbk`` slots cover the dearest
+    # step, so the buckets in use never wrap onto each other.
+    width = 0.5 * cell
+    nbk = int(cell * 1.4142135623730951 * (1.0 + comfort_cost + tight_cost) / width) + 3
+    head = np.empty(nbk, np.int64)
+    nxt = np.empty(0, np.int64)  # the queue's nodes, reused by every user
+    node_cost = np.empty(0)
+    node_key = np.empty(0, np.int64)
     for b in range(nb):
         if not active[b]:
             continue
@@ -137,18 +122,17 @@ def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cand
         # clearance: distance to the nearest marked cell (less half a cell), capped
         clear = np.full((ni, nj), cap)
         for oi in range(max(i0 - w, 0), min(i1 + w, n - 1) + 1):
+            di0, di1 = max(-w, i0 - oi), min(w, i1 - oi)
             for oj in range(max(j0 - w, 0), min(j1 + w, n - 1) + 1):
                 if not occ[b, oi, oj]:
                     continue
-                for di in range(-w, w + 1):
+                dj0, dj1 = max(-w, j0 - oj), min(w, j1 - oj)
+                for di in range(di0, di1 + 1):
                     ii = oi + di - i0
-                    if ii < 0 or ii >= ni:
-                        continue
-                    for dj in range(-w, w + 1):
+                    row = (di + w) * nw
+                    for dj in range(dj0, dj1 + 1):
                         jj = oj + dj - j0
-                        if jj < 0 or jj >= nj:
-                            continue
-                        d = max(math.sqrt(di * di + dj * dj) * cell - 0.5 * cell, 0.0)
+                        d = ring[row + dj + w]
                         if d < clear[ii, jj]:
                             clear[ii, jj] = d
         # cost to go from the target (Dijkstra, 8-connected), dearer close to obstacles. Only
@@ -163,25 +147,38 @@ def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cand
         for i in range(ri0, ri1 + 1):
             for j in range(rj0, rj1 + 1):
                 need += clear[i, j] > r_tight
-        if heap_cost.size < 8 * ni * nj + 1:  # each cell is pushed at most once per neighbour
-            heap_cost = np.empty(8 * ni * nj + 1)
-            heap_key = np.empty(8 * ni * nj + 1, np.int64)
+        if nxt.size < 8 * ni * nj + 1:  # each cell is pushed at most once per neighbour
+            nxt = np.empty(8 * ni * nj + 1, np.int64)
+            node_cost = np.empty(8 * ni * nj + 1)
+            node_key = np.empty(8 * ni * nj + 1, np.int64)
+        head[:] = -1
         cost[ti - i0, tj - j0] = 0.0
-        heap_cost[0], heap_key[0] = 0.0, (ti - i0) * nj + (tj - j0)
+        used = _bucket_push(head, nxt, node_cost, node_key, 0, nbk, width, 0.0,
+                            (ti - i0) * nj + (tj - j0))  # fmt: skip
         size = 1
+        cur = 0
         while size > 0 and need > 0:
-            c, k, size = _heap_pop(heap_cost, heap_key, size)
+            node = head[cur]
+            if node < 0:
+                cur = cur + 1 if cur + 1 < nbk else 0
+                continue
+            head[cur] = nxt[node]
+            size -= 1
+            c, k = node_cost[node], node_key[node]
             i, j = k // nj, k % nj
             if c > cost[i, j]:
                 continue
             if ri0 <= i <= ri1 and rj0 <= j <= rj1 and clear[i, j] > r_tight:
                 need -= 1
             for di in range(-1, 2):
+                ii = i + di
+                if ii < 0 or ii >= ni:
+                    continue
                 for dj in range(-1, 2):
                     if di == 0 and dj == 0:
                         continue
-                    ii, jj = i + di, j + dj
-                    if ii < 0 or ii >= ni or jj < 0 or jj >= nj:
+                    jj = j + dj
+                    if jj < 0 or jj >= nj:
                         continue
                     cl = clear[ii, jj]
                     if cl <= r_tight:
@@ -193,7 +190,9 @@ def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cand
                     nc = c + step * mult
                     if nc < cost[ii, jj]:
                         cost[ii, jj] = nc
-                        size = _heap_push(heap_cost, heap_key, size, nc, ii * nj + jj)
+                        used = _bucket_push(head, nxt, node_cost, node_key, used, nbk, width, nc,
+                                            ii * nj + jj)  # fmt: skip
+                        size += 1
         # every heading with the full margin, and with the tight one at a penalty; the aim of
         # the last step gets a bonus (hysteresis). The user may always move away from, or
         # along, what it already stands closer to.
