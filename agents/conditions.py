@@ -27,6 +27,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from estimators.validation import check_instance, value_repr
 from vrloco_env.sensors.imu import MagneticDisturbance
 
 __all__ = ["CONDITIONS", "DEFAULT_CONDITION", "Condition", "get_condition", "register"]
@@ -48,12 +49,14 @@ class Condition:
     magnetic_disturbances: tuple[MagneticDisturbance, ...] = ()
 
     def __post_init__(self) -> None:
-        if not isinstance(self.name, str) or not self.name or "_" == self.name[0]:
-            raise ValueError(f"Condition.name={self.name!r}: must be a non-empty name")
+        check_instance(self, "name", str)
+        if not self.name:
+            raise ValueError("Condition.name='': must be a non-empty string")
+        check_instance(self, "magnetic_disturbances", tuple)
         if not all(isinstance(d, MagneticDisturbance) for d in self.magnetic_disturbances):
             raise ValueError(
-                f"Condition.magnetic_disturbances of {self.name!r}: must be a tuple of "
-                "MagneticDisturbance"
+                f"Condition.magnetic_disturbances={value_repr(self.magnetic_disturbances)}: "
+                "must be a tuple of MagneticDisturbance"
             )
 
     def sensors(self) -> object | None:

@@ -7,7 +7,7 @@ import pytest
 
 import vrloco_env  # noqa: F401  (registers the ids)
 from agents.benchmark import Cell, run_benchmark, run_cell_episode, step_window
-from agents.conditions import CONDITIONS, get_condition
+from agents.conditions import CONDITIONS, Condition, get_condition
 from agents.paired import episode_values, paired_p_values
 from agents.resume import episode_key
 from vrloco_env.sensors.imu import MU0_OVER_4PI
@@ -20,6 +20,8 @@ def test_unknown_conditions_are_named():
     with pytest.raises(ValueError, match="conditions='kitchen'"):
         run_benchmark(tasks=["approach"], policies=["goal_seeker"], techniques=["seed000"],
                       episodes=1, conditions=["kitchen"], progress=False, print_table=False)
+    with pytest.raises(ValueError, match=r"Condition.magnetic_disturbances=.*MagneticDisturbance"):
+        Condition("odd", "not a dipole", (1.0,))  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="conditions must not repeat"):
         run_benchmark(tasks=["approach"], policies=["goal_seeker"], techniques=["seed000"],
                       episodes=1, conditions=["lab", "lab"], progress=False, print_table=False)
