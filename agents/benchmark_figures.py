@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from agents.conditions import DEFAULT_CONDITION
 from agents.metrics import EpisodeStats
 
 if TYPE_CHECKING:
@@ -143,9 +144,9 @@ GRID_METRICS = (
 
 def cell_name(row: dict[str, Any]) -> str:
     """A row's name in the figures: task · policy · technique (· condition outside the default)."""
-    where = row.get("condition", "lab")
+    where = row.get("condition", DEFAULT_CONDITION)
     return f"{row['task']} · {row['policy']} · {row['technique']}" + (
-        "" if where == "lab" else f" · {where}")
+        "" if where == DEFAULT_CONDITION else f" · {where}")
 
 
 def draw_grid(out_dir: Path, rows: list[dict[str, Any]],

@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from agents.conditions import DEFAULT_CONDITION
 from agents.metrics import COLLISION_CAUSES, MOTION_KEYS, PLAY_AREA_KEYS
 from agents.paired import ALPHA, BINARY_METRICS, MEAN_METRICS
 
@@ -103,7 +104,7 @@ def show_table(rows: list[dict[str, Any]], seed: int, width: int | None = None,
     compact = console.width < _FULL_WIDTH
     cols = [(k, _COMPACT_HEADS.get(k, h)) for k, h in _COLUMNS if k in _COMPACT] if compact else (
         list(_COLUMNS))  # fmt: skip
-    if any(r.get("condition", "lab") != "lab" for r in rows):
+    if any(r.get("condition", DEFAULT_CONDITION) != DEFAULT_CONDITION for r in rows):
         at = [k for k, _ in cols].index("technique") + 1
         cols.insert(at, ("condition", "condition"))
     title = f"vrloco benchmark (seeds {seed}..{seed + rows[0]['episodes'] - 1})"

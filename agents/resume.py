@@ -23,6 +23,8 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
+from agents.conditions import DEFAULT_CONDITION
+
 __all__ = ["EpisodeStore", "episode_key", "source_fingerprint"]
 
 _PACKAGES = ("estimators", "vrloco_env", "agents")
@@ -40,10 +42,10 @@ def source_fingerprint() -> str:
 
 
 def episode_key(fingerprint: str, task: str, policy: str, technique: Any, seed: int,
-                trace: bool, condition: str = "lab") -> str:  # fmt: skip
+                trace: bool, condition: str = DEFAULT_CONDITION) -> str:  # fmt: skip
     """The key of one episode (see the module docstring); ``technique`` a Technique object,
     ``condition`` the physical room's (:mod:`agents.conditions`; the default adds nothing)."""
-    where = () if condition == "lab" else (condition,)
+    where = () if condition == DEFAULT_CONDITION else (condition,)
     text = repr((fingerprint, task, policy, repr(technique), int(seed), bool(trace), *where))
     return hashlib.sha256(text.encode()).hexdigest()
 
