@@ -86,20 +86,17 @@ class VariabilityParams:
     dt_s: float = 0.1
 
     def __post_init__(self) -> None:
-        def check(name: str, lo: float, hi: float, unit: str = "") -> None:
-            check_in_range(self, name, lo, hi, unit)
-
-        check("max_delay_s", 0.0, 10.0, "s")
-        check("reaction_delay_s", 0.0, self.max_delay_s, "s (<= max_delay_s)")
-        check("reaction_delay_sd_s", 0.0, 10.0, "s")
-        check("overshoot", 0.0, 2.0)
-        check("overshoot_sd", 0.0, 2.0)
-        check("overshoot_rate", 0.01, 1.0)
-        check("turn_threshold", 0.0, 1.0)
-        check("min_bout", 0.0, 100.0)
-        check("cadence_bias_sd", 0.0, 1.0)
-        check("cadence_jitter_sd", 0.0, 1.0)
-        check("dt_s", 1e-3, 10.0, "s")
+        check_in_range(self, "max_delay_s", 0.0, 10.0, "s")
+        check_in_range(self, "reaction_delay_s", 0.0, self.max_delay_s, "s (<= max_delay_s)")
+        check_in_range(self, "reaction_delay_sd_s", 0.0, 10.0, "s")
+        check_in_range(self, "overshoot", 0.0, 2.0)
+        check_in_range(self, "overshoot_sd", 0.0, 2.0)
+        check_in_range(self, "overshoot_rate", 0.01, 1.0)
+        check_in_range(self, "turn_threshold", 0.0, 1.0)
+        check_in_range(self, "min_bout", 0.0, 100.0)
+        check_in_range(self, "cadence_bias_sd", 0.0, 1.0)
+        check_in_range(self, "cadence_jitter_sd", 0.0, 1.0)
+        check_in_range(self, "dt_s", 1e-3, 10.0, "s")
 
     @classmethod
     def from_population(cls, population: Any, **overrides: Any) -> VariabilityParams:

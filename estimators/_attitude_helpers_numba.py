@@ -24,6 +24,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from estimators.kernels.rotations import quat_mul, quat_rotate
+from estimators.validation import check_value
 
 __all__ = [
     "check_batch_size",
@@ -74,22 +75,14 @@ def quat_from_acc_mag(ax, ay, az, mx, my, mz):
 
 def check_batch_size(batch_size: object, who: str) -> int:
     """``batch_size`` as an int >= 1, or a ValueError naming ``who``."""
-    if isinstance(batch_size, bool) or not isinstance(batch_size, int | np.integer):
-        raise ValueError(f"{who}: batch_size must be an int >= 1, got {batch_size!r}")
-    if batch_size < 1:
-        raise ValueError(f"{who}: batch_size must be >= 1, got {batch_size}")
-    return int(batch_size)
+    check_value(f"{who}: batch_size", batch_size, 1, math.inf, integer=True)
+    return int(batch_size)  # type: ignore[call-overload]
 
 
 def check_fs(fs: object, who: str) -> float:
     """``fs`` as a float in (0, 100000] Hz, or a ValueError naming ``who``."""
-    try:
-        value = float(fs)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        raise ValueError(f"{who}: fs must be a sampling rate in Hz, got {fs!r}") from None
-    if not (math.isfinite(value) and 0.0 < value <= 100_000.0):
-        raise ValueError(f"{who}: fs must be a sampling rate in (0, 100000] Hz, got {fs!r}")
-    return value
+    check_value(f"{who}: fs", fs, 0.0, 100_000.0, "Hz", lo_open=True)
+    return float(fs)  # type: ignore[arg-type]
 
 
 def check_samples(

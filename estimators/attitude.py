@@ -174,7 +174,7 @@ from estimators.attitude_offline import smooth_attitude
 from estimators.batching import stream_rows
 from estimators.kernels import param_record, state_records
 from estimators.rotations import GRAVITY, quat_to_ypr
-from estimators.validation import check_in_range, value_repr
+from estimators.validation import check_choice, check_condition, check_in_range, check_value
 
 __all__ = [
     "AttitudeEKF",
@@ -298,30 +298,24 @@ class AttitudeParams:
     rest_time: float = 1.5
 
     def __post_init__(self) -> None:
-        if not isinstance(self.model, str) or self.model not in _MODELS:
-            raise ValueError(
-                f"AttitudeParams.model={value_repr(self.model)}: must be one of {_MODELS}"
-            )
+        check_choice(self, "model", _MODELS)
         positive = (
             "gyr_noise", "bias_walk", "att_init_std", "bias_init_std", "acc_noise",
             "acc_motion_ref", "motion_tau", "mag_noise", "mag_norm_tol", "mag_dip_tol",
             "gyr_gap_rate", "rest_gyr", "rest_acc", "rest_time",
         )  # fmt: skip
         for name in positive:
-            check_in_range(self, name, 0.0, math.inf, lo_open=True,
-                           allowed="a finite number > 0")  # fmt: skip
+            check_in_range(self, name, 0.0, math.inf, lo_open=True)
         for name in ("mag_learn_time", "mag_ok_time"):
-            check_in_range(self, name, 0.0, math.inf, allowed="a finite number >= 0 (s)")
-        if not (isinstance(self.mag_new_time, float) and self.mag_new_time == math.inf):
-            check_in_range(self, "mag_new_time", 0.0, math.inf, lo_open=True,
-                           allowed="> 0 s (inf allowed)")  # fmt: skip
+            check_in_range(self, name, 0.0, math.inf, "s")
+        check_in_range(self, "mag_new_time", 0.0, math.inf, "s", lo_open=True, allow_inf=True)
         check_in_range(self, "gravity", 9.0, 10.5, "m/s^2")
         check_in_range(self, "declination", -math.pi, math.pi, allowed="in [-pi, pi] rad")
-        if (self.mag_ref_norm is None) != (self.mag_ref_dip is None):
-            raise ValueError("mag_ref_norm and mag_ref_dip must be given together (or neither)")
+        together = (self.mag_ref_norm is None) == (self.mag_ref_dip is None)
+        check_condition(self, "mag_ref_norm", together,
+                        "given together with mag_ref_dip (or neither)")  # fmt: skip
         if self.mag_ref_norm is not None:
-            check_in_range(self, "mag_ref_norm", 0.0, math.inf, lo_open=True,
-                           allowed="finite and > 0")  # fmt: skip
+            check_in_range(self, "mag_ref_norm", 0.0, math.inf, lo_open=True)
             check_in_range(self, "mag_ref_dip", -math.pi / 2, math.pi / 2,
                            allowed="in [-pi/2, pi/2] rad")  # fmt: skip
 
@@ -401,13 +395,9 @@ def _as_samples(a: ArrayLike, name: str, shape: tuple[int, ...] | None) -> NDArr
 
 
 def _check_fs(fs: float) -> float:
-    try:
-        fs = float(fs)
-    except (TypeError, ValueError):
-        raise ValueError(f"fs must be a number (Hz), got {fs!r}") from None
-    if not (math.isfinite(fs) and 0.0 < fs <= 100_000.0):
-        raise ValueError(f"fs must be a sampling rate in (0, 100000] Hz, got {fs}")
-    return fs
+    """``fs`` as a float, a ValueError unless a sampling rate in (0, 100000] Hz."""
+    check_value("fs", fs, 0.0, 100_000.0, "Hz", lo_open=True)
+    return float(fs)
 
 
 def _raise_units(flag: int, state: NDArray) -> None:

@@ -35,6 +35,7 @@ from estimators._attitude_helpers_numba import (
 from estimators._quaternion_stage import QuaternionStage
 from estimators.kernels.batch import BatchKernel
 from estimators.kernels.rotations import quat_from_rotvec, quat_mul
+from estimators.validation import check_bool
 
 __all__ = ["GyroOnly", "GyroOnlyParams", "gyro_kernel"]
 
@@ -52,10 +53,7 @@ class GyroOnlyParams:
     only integrate. Default True."""
 
     def __post_init__(self) -> None:
-        if not isinstance(self.init_from_acc, bool | np.bool_):
-            raise ValueError(
-                f"GyroOnlyParams.init_from_acc={self.init_from_acc!r}: must be True or False"
-            )
+        check_bool(self, "init_from_acc")
 
     def build(self, batch_size: int, fs: float) -> GyroOnly:
         """The :class:`GyroOnly` stage with these parameters."""

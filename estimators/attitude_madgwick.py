@@ -68,6 +68,7 @@ from estimators._quaternion_stage import QuaternionStage
 from estimators.kernels.batch import BatchKernel
 from estimators.kernels.rotations import quat_mul, quat_rotate
 from estimators.rotations import quat_multiply
+from estimators.validation import check_in_range
 
 __all__ = ["Madgwick", "MadgwickParams", "madgwick_kernel"]
 
@@ -93,10 +94,7 @@ class MadgwickParams:
 
     def __post_init__(self) -> None:
         for name in ("beta_imu", "beta_marg"):
-            value = getattr(self, name)
-            ok = isinstance(value, int | float) and not isinstance(value, bool)
-            if not (ok and math.isfinite(value) and 0.0 <= value <= 10.0):
-                raise ValueError(f"MadgwickParams.{name}={value!r}: must be in [0, 10] rad/s")
+            check_in_range(self, name, 0.0, 10.0, "rad/s")
 
     def build(self, batch_size: int, fs: float) -> Madgwick:
         """The :class:`Madgwick` stage with these parameters."""

@@ -50,6 +50,7 @@ from estimators._attitude_helpers_numba import (
 from estimators._quaternion_stage import QuaternionStage
 from estimators.kernels.batch import BatchKernel
 from estimators.kernels.rotations import quat_mul, quat_rotate
+from estimators.validation import check_in_range
 
 __all__ = ["Mahony", "MahonyParams", "mahony_kernel"]
 
@@ -70,11 +71,8 @@ class MahonyParams:
     2008)."""
 
     def __post_init__(self) -> None:
-        for name, unit in (("kp", "rad/s"), ("ki", "rad/s^2")):
-            value = getattr(self, name)
-            ok = isinstance(value, int | float) and not isinstance(value, bool)
-            if not (ok and math.isfinite(value) and 0.0 <= value <= 100.0):
-                raise ValueError(f"MahonyParams.{name}={value!r}: must be in [0, 100] {unit}")
+        check_in_range(self, "kp", 0.0, 100.0, "rad/s")
+        check_in_range(self, "ki", 0.0, 100.0, "rad/s^2")
 
     def build(self, batch_size: int, fs: float) -> Mahony:
         """The :class:`Mahony` stage with these parameters."""

@@ -33,7 +33,6 @@ The loop over the B streams is a Python loop over ``vqf.VQF.updateBatch`` calls 
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -42,6 +41,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from estimators._attitude_helpers_numba import check_batch_size, check_fs, check_samples
 from estimators.batching import stream_rows
+from estimators.validation import check_bool, check_in_range
 
 __all__ = ["VqfParams", "VqfStage"]
 
@@ -155,17 +155,9 @@ class VqfParams:
 
     def __post_init__(self) -> None:
         for name, _, lo, hi, lo_in, unit in _RANGES:
-            value = getattr(self, name)
-            ok = isinstance(value, int | float) and not isinstance(value, bool)
-            ok = ok and math.isfinite(value) and (lo <= value if lo_in else lo < value)
-            if not (ok and value <= hi):
-                interval = f"{'[' if lo_in else '('}{lo:g}, {hi:g}]"
-                msg = f"VqfParams.{name}={value!r}: must be in {interval} {unit}"
-                raise ValueError(msg.rstrip())
+            check_in_range(self, name, lo, hi, unit, lo_open=not lo_in)
         for name, _ in _FLAGS:
-            value = getattr(self, name)
-            if not isinstance(value, bool | np.bool_):
-                raise ValueError(f"VqfParams.{name}={value!r}: must be True or False")
+            check_bool(self, name)
 
     def vqf_kwargs(self) -> dict[str, Any]:
         """The keyword arguments of ``vqf.VQF`` (its camel-case parameter names)."""

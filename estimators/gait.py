@@ -141,19 +141,16 @@ class GaitParams:
     """Gravity (m/s^2), standard gravity by default (:data:`estimators.rotations.GRAVITY`)."""
 
     def __post_init__(self) -> None:
-        def check(name: str, lo: float, hi: float, allowed: str, lo_open: bool = False) -> None:
-            check_in_range(self, name, lo, hi, lo_open=lo_open, allowed=allowed)
-
-        check("gravity", 9.0, 10.5, "in [9, 10.5] m/s^2")
+        check_in_range(self, "gravity", 9.0, 10.5, "m/s^2")
         g = self.gravity
-        check("gamma", 0.0, 3.0 * g, "in (0, 3 g] m/s^2", lo_open=True)
-        check("min_step_interval", 0.0, 2.0, "in [0, 2] s")
-        check("gamma_t", self.min_step_interval, 10.0, "in (min_step_interval, 10] s",
-              lo_open=True)  # fmt: skip
-        check("mean_window", 0.0, 1.0, "in (0, 1] s", lo_open=True)
-        check("peak_half_window", 0.0, 1.0, "in (0, 1] s", lo_open=True)
-        check("baseline_tau", 0.0, 600.0, "in [0, 600] s (0: fixed g)")
-        check("baseline_limit", 0.0, 0.5 * g, "in [0, 0.5 g] m/s^2")
+        check_in_range(self, "gamma", 0.0, 3.0 * g, lo_open=True, allowed="in (0, 3 g] m/s^2")
+        check_in_range(self, "min_step_interval", 0.0, 2.0, "s")
+        check_in_range(self, "gamma_t", self.min_step_interval, 10.0, lo_open=True,
+                       allowed="in (min_step_interval, 10] s")  # fmt: skip
+        check_in_range(self, "mean_window", 0.0, 1.0, "s", lo_open=True)
+        check_in_range(self, "peak_half_window", 0.0, 1.0, "s", lo_open=True)
+        check_in_range(self, "baseline_tau", 0.0, 600.0, allowed="in [0, 600] s (0: fixed g)")
+        check_in_range(self, "baseline_limit", 0.0, 0.5 * g, allowed="in [0, 0.5 g] m/s^2")
 
     @classmethod
     def head(cls, **overrides: float) -> GaitParams:

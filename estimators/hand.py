@@ -48,6 +48,8 @@ combination is defined), as with any Euler conversion; ``singular`` flags those 
 
 from __future__ import annotations
 
+import math
+import numbers
 from collections.abc import Sequence
 from dataclasses import dataclass, field, fields
 
@@ -66,6 +68,14 @@ from estimators.joint_smoothing import (
     OneEuroParams,
 )
 from estimators.kernels.records import param_record, record_dtype
+from estimators.validation import (
+    check_condition,
+    check_in_range,
+    check_instance,
+    check_numbers,
+    check_value,
+    value_repr,
+)
 
 __all__ = [
     "PAPER_AXIS_NAMES",
@@ -122,11 +132,6 @@ def paper_to_ypr(euler: ArrayLike) -> NDArray[np.float64]:
     return np.asarray(euler, dtype=np.float64)[..., ::-1].copy()
 
 
-def _check_threshold(threshold: float) -> None:
-    if not (np.isfinite(threshold) and 0.0 < threshold <= 0.5):
-        raise ValueError(f"singularity threshold must be in (0, 0.5], got {threshold}")
-
-
 def quat_to_euler_paper(
     q: ArrayLike, threshold: float = PAPER_SINGULARITY_THRESHOLD
 ) -> NDArray[np.float64]:
@@ -155,7 +160,7 @@ def quat_to_euler_paper(
         raise ValueError("q contains NaN or infinite entries")
     if np.any(np.linalg.norm(qa, axis=-1) <= _MIN_QUAT_NORM):
         raise ValueError(f"q contains a zero-norm quaternion (|q| <= {_MIN_QUAT_NORM})")
-    _check_threshold(threshold)
+    check_value("threshold", threshold, 0.0, 0.5, lo_open=True)
     ypr, _, _ = _angles_of(qa, threshold)
     return ypr_to_paper(ypr)
 
@@ -177,11 +182,9 @@ def _angles_of(
 # Euler filtering (1.4)
 
 
-def _per_axis(name: str, value: float | Sequence[float]) -> NDArray[np.float64]:
-    v = np.broadcast_to(np.asarray(value, dtype=np.float64), (3,)).copy()
-    if not (np.all(np.isfinite(v)) and np.all(v > 0)):
-        raise ValueError(f"{name} must be > 0 (a number or one per axis), got {value}")
-    return v
+def _per_axis(value: float | Sequence[float]) -> NDArray[np.float64]:
+    """A validated field that is a number or one per axis, as a (3,) array."""
+    return np.broadcast_to(np.asarray(value, dtype=np.float64), (3,)).copy()
 
 
 @dataclass(frozen=True)
@@ -242,22 +245,20 @@ class KalmanParams:
     max_coast_frames: int = 5
 
     def __post_init__(self) -> None:
-        if not (np.isfinite(self.rate_hz) and self.rate_hz > 0):
-            raise ValueError(f"rate_hz must be > 0, got {self.rate_hz}")
-        _per_axis("measurement_std", self.measurement_std)
-        lo = _per_axis("accel_psd", self.accel_psd)
-        hi = _per_axis("max_accel_psd", self.max_accel_psd)
-        if np.any(hi < lo):
-            raise ValueError(
-                f"max_accel_psd must be >= accel_psd, got {self.max_accel_psd} < {self.accel_psd}"
-            )
-        if not (np.isfinite(self.adapt_time) and self.adapt_time > 0):
-            raise ValueError(f"adapt_time must be > 0 s, got {self.adapt_time}")
-        _per_axis("init_rate_std", self.init_rate_std)
-        if int(self.max_coast_frames) != self.max_coast_frames or self.max_coast_frames < 0:
-            raise ValueError(
-                f"max_coast_frames must be an integer >= 0, got {self.max_coast_frames}"
-            )
+        inf = math.inf
+        check_in_range(self, "rate_hz", 0.0, inf, "Hz", lo_open=True)
+        per_axis = (("measurement_std", "rad"), ("accel_psd", "rad^2/s^3"),
+                    ("max_accel_psd", "rad^2/s^3"), ("init_rate_std", "rad/s"))  # fmt: skip
+        for name, unit in per_axis:  # a number, or one per axis
+            if isinstance(getattr(self, name), numbers.Real):
+                check_in_range(self, name, 0.0, inf, unit, lo_open=True)
+            else:
+                check_numbers(self, name, 0.0, inf, unit, length=3, lo_open=True)
+        lo, hi = _per_axis(self.accel_psd), _per_axis(self.max_accel_psd)
+        check_condition(self, "max_accel_psd", bool(np.all(hi >= lo)),
+                        f">= accel_psd={value_repr(self.accel_psd)} on every axis")  # fmt: skip
+        check_in_range(self, "adapt_time", 0.0, inf, "s", lo_open=True)
+        check_in_range(self, "max_coast_frames", 0, inf, "frames", whole=True)
 
 
 def _kalman_constants(
@@ -270,10 +271,10 @@ def _kalman_constants(
     dt = 1.0 / p.rate_hz
     return (
         dt,
-        _per_axis("measurement_std", p.measurement_std) ** 2,
-        _per_axis("accel_psd", p.accel_psd),
-        _per_axis("max_accel_psd", p.max_accel_psd),
-        _per_axis("init_rate_std", p.init_rate_std) ** 2,
+        _per_axis(p.measurement_std) ** 2,
+        _per_axis(p.accel_psd),
+        _per_axis(p.max_accel_psd),
+        _per_axis(p.init_rate_std) ** 2,
         1.0 - np.exp(-dt / p.adapt_time),
     )
 
@@ -331,15 +332,14 @@ class HandParams:
     min_wrist_state: int = INFERRED
 
     def __post_init__(self) -> None:
-        if int(self.median_window) != self.median_window or self.median_window < 1:
-            raise ValueError(f"median_window must be an integer >= 1, got {self.median_window}")
-        _check_threshold(self.singularity_threshold)
-        if self.min_wrist_state not in (INFERRED, TRACKED):
-            raise ValueError(
-                f"min_wrist_state must be 1 (inferred) or 2 (tracked), got {self.min_wrist_state}"
-            )
-        if self.wrist_joint < 0 or not self.center_joints or min(self.center_joints) < 0:
-            raise ValueError("wrist_joint and center_joints must be joint indices >= 0")
+        check_instance(self, "holt", HoltParams)
+        check_instance(self, "kalman", KalmanParams)
+        check_in_range(self, "median_window", 1, math.inf, "frames", whole=True)
+        check_in_range(self, "singularity_threshold", 0.0, 0.5, lo_open=True)
+        check_in_range(self, "min_wrist_state", INFERRED, TRACKED, whole=True,
+                       allowed="1 (inferred) or 2 (tracked)")  # fmt: skip
+        check_in_range(self, "wrist_joint", 0, math.inf, "(a joint index)", whole=True)
+        check_numbers(self, "center_joints", 0, math.inf, "(joint indices)", whole=True)
 
 
 @dataclass

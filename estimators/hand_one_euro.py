@@ -47,7 +47,6 @@ raw at rest and in motion.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -57,6 +56,7 @@ from estimators._attitude_helpers_numba import check_batch_size, check_fs
 from estimators.batching import stream_rows
 from estimators.hand import HandFrame, check_hand_frames
 from estimators.joint_smoothing import OneEuroFilter, OneEuroParams
+from estimators.validation import check_in_range
 
 __all__ = ["OneEuroHand", "OneEuroHandParams"]
 
@@ -85,15 +85,7 @@ class OneEuroHandParams:
             ("beta", 0.0, 1000.0, False, "Hz per rad/s"),
             ("d_cutoff", 0.0, 30.0, True, "Hz"),
         ):
-            value = getattr(self, name)
-            ok = isinstance(value, int | float) and not isinstance(value, bool)
-            ok = ok and math.isfinite(value) and (value > lo if open_lo else value >= lo)
-            if not (ok and value <= hi):
-                bracket = "(" if open_lo else "["
-                raise ValueError(
-                    f"OneEuroHandParams.{name}={value!r}: must be in "
-                    f"{bracket}{lo:g}, {hi:g}] {unit}"
-                )
+            check_in_range(self, name, lo, hi, unit, lo_open=open_lo)
 
     def filter_params(self, fs: float) -> OneEuroParams:
         """The :class:`OneEuroParams` of these parameters at frame rate ``fs`` (Hz)."""

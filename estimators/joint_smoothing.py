@@ -14,6 +14,7 @@ no Python loop over the batch.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -21,6 +22,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from estimators.rotations import wrap_angle
+from estimators.validation import check_condition, check_in_range, check_numbers
 
 __all__ = [
     "HoltParams",
@@ -36,13 +38,6 @@ NOT_TRACKED, INFERRED, TRACKED = 0, 1, 2
 def _norm3(v: NDArray[np.float64]) -> NDArray[np.float64]:
     """Euclidean norm over the last axis (of size 3), keeping it: (..., 3) -> (..., 1)."""
     return np.sqrt(np.einsum("...c,...c->...", v, v))[..., None]
-
-
-def _check_positive(name: str, value: float, allow_zero: bool = False) -> None:
-    ok = value >= 0.0 if allow_zero else value > 0.0
-    if not (np.isfinite(value) and ok):
-        bound = ">= 0" if allow_zero else "> 0"
-        raise ValueError(f"{name} must be finite and {bound}, got {value}")
 
 
 @dataclass(frozen=True)
@@ -91,20 +86,15 @@ class HoltParams:
     inferred_radius_scale: float = 2.0
 
     def __post_init__(self) -> None:
-        if not (np.isfinite(self.smoothing) and 0.0 <= self.smoothing < 1.0):
-            raise ValueError(f"smoothing must be in [0, 1), got {self.smoothing}")
-        if not (np.isfinite(self.correction) and 0.0 <= self.correction <= 1.0):
-            raise ValueError(f"correction must be in [0, 1], got {self.correction}")
-        _check_positive("prediction", self.prediction, allow_zero=True)
-        _check_positive("jitter_radius", self.jitter_radius)
-        _check_positive("max_deviation_radius", self.max_deviation_radius)
-        _check_positive("inferred_radius_scale", self.inferred_radius_scale)
-        w = np.asarray(self.average_weights, dtype=np.float64)
-        if w.ndim != 1 or w.size == 0 or not np.all(np.isfinite(w)) or np.any(w < 0) or w[0] <= 0:
-            raise ValueError(
-                "average_weights must be a non-empty sequence of finite weights >= 0 with the "
-                f"newest (first) weight > 0, got {self.average_weights}"
-            )
+        check_in_range(self, "smoothing", 0.0, 1.0, hi_open=True)
+        check_in_range(self, "correction", 0.0, 1.0)
+        check_in_range(self, "prediction", 0.0, math.inf, "frames")
+        check_in_range(self, "jitter_radius", 0.0, math.inf, "m", lo_open=True)
+        check_in_range(self, "max_deviation_radius", 0.0, math.inf, "m", lo_open=True)
+        check_in_range(self, "inferred_radius_scale", 0.0, math.inf, lo_open=True)
+        check_numbers(self, "average_weights", 0.0, math.inf)
+        check_condition(self, "average_weights", self.average_weights[0] > 0,
+                        "weights whose newest (first) one is > 0")  # fmt: skip
 
     @classmethod
     def sdk_default(cls) -> HoltParams:
@@ -302,10 +292,10 @@ class OneEuroParams:
     d_cutoff: float = 1.0
 
     def __post_init__(self) -> None:
-        _check_positive("rate_hz", self.rate_hz)
-        _check_positive("min_cutoff", self.min_cutoff)
-        _check_positive("beta", self.beta, allow_zero=True)
-        _check_positive("d_cutoff", self.d_cutoff)
+        check_in_range(self, "rate_hz", 0.0, math.inf, "Hz", lo_open=True)
+        check_in_range(self, "min_cutoff", 0.0, math.inf, "Hz", lo_open=True)
+        check_in_range(self, "beta", 0.0, math.inf)
+        check_in_range(self, "d_cutoff", 0.0, math.inf, "Hz", lo_open=True)
 
 
 def _smoothing_factor(cutoff: ArrayLike, dt: float) -> NDArray[np.float64]:

@@ -74,6 +74,7 @@ from estimators.dead_reckoning import (
     check_update_inputs,
 )
 from estimators.rotations import wrap_angle
+from estimators.validation import check_in_range
 
 __all__ = [
     "Locomotion",
@@ -145,20 +146,16 @@ class SmoothParams:
     is made up over 1 / catch_up steps instead of by a burst of double speed."""
 
     def __post_init__(self) -> None:
-        def check(name: str, ok: bool, allowed: str) -> None:
-            value = getattr(self, name)
-            if not (isinstance(value, int | float) and math.isfinite(value) and ok):
-                raise ValueError(f"SmoothParams.{name}={value!r}: must be {allowed}")
-
-        check("distance_bandwidth_hz", 0.1 <= self.distance_bandwidth_hz <= 10.0, "in [0.1, 10] Hz")
-        check("heading_bandwidth_hz", 0.1 <= self.heading_bandwidth_hz <= 20.0, "in [0.1, 20] Hz")
-        check("min_step_interval", 0.05 <= self.min_step_interval <= 2.0, "in [0.05, 2] s")
-        check("max_step_interval", self.min_step_interval <= self.max_step_interval <= 10.0,
-              "in [min_step_interval, 10] s")  # fmt: skip
-        check("catch_up", 0.0 <= self.catch_up <= 2.0, "in [0, 2]")
-        check("default_step_interval",
-              self.min_step_interval <= self.default_step_interval <= self.max_step_interval,
-              "in [min_step_interval, max_step_interval] s")  # fmt: skip
+        check_in_range(self, "distance_bandwidth_hz", 0.1, 10.0, "Hz")
+        check_in_range(self, "heading_bandwidth_hz", 0.1, 20.0, "Hz")
+        check_in_range(self, "min_step_interval", 0.05, 2.0, "s")
+        lo = float(self.min_step_interval)
+        check_in_range(self, "max_step_interval", lo, 10.0,
+                       allowed=f"in [min_step_interval={lo:g}, 10] s")  # fmt: skip
+        hi = float(self.max_step_interval)
+        between = f"in [min_step_interval={lo:g}, max_step_interval={hi:g}] s"
+        check_in_range(self, "default_step_interval", lo, hi, allowed=between)
+        check_in_range(self, "catch_up", 0.0, 2.0)
 
     @property
     def stop_time_constant(self) -> float:

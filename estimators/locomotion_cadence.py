@@ -64,6 +64,7 @@ from estimators.dead_reckoning import (
 )
 from estimators.kernels import BatchKernel, param_record, state_records
 from estimators.rotations import wrap_angle
+from estimators.validation import check_in_range
 
 __all__ = ["CadenceSpeed", "CadenceSpeedParams", "cadence_kernel"]
 
@@ -98,29 +99,16 @@ class CadenceSpeedParams:
     is not walking."""
 
     def __post_init__(self) -> None:
-        def check(name: str, ok: bool, allowed: str, integer: bool = False) -> None:
-            value = getattr(self, name)
-            kinds = (int, np.integer) if integer else (int, float, np.integer, np.floating)
-            typed = isinstance(value, kinds) and not isinstance(value, bool)
-            if not (typed and math.isfinite(value) and ok):
-                raise ValueError(f"CadenceSpeedParams.{name}={value!r}: must be {allowed}")
-
-        def num(name: str) -> float:
-            value = getattr(self, name)
-            try:
-                return float(value)
-            except (TypeError, ValueError):
-                return math.nan
-
-        check("ramp_time", 0.05 <= num("ramp_time") <= 3.0, "in [0.05, 3] s")
-        check("stop_factor", 1.0 <= num("stop_factor") <= 5.0, "in [1, 5] step intervals")
-        check("cadence_window", 1 <= num("cadence_window") <= 16, "an integer in [1, 16]",
-              integer=True)  # fmt: skip
-        lo, hi = num("min_step_interval"), num("max_step_interval")
-        check("min_step_interval", 0.05 <= lo <= 2.0, "in [0.05, 2] s")
-        check("max_step_interval", lo <= hi <= 10.0, "in [min_step_interval, 10] s")
-        check("default_step_interval", lo <= num("default_step_interval") <= hi,
-              "in [min_step_interval, max_step_interval] s")  # fmt: skip
+        check_in_range(self, "ramp_time", 0.05, 3.0, "s")
+        check_in_range(self, "stop_factor", 1.0, 5.0, "step intervals")
+        check_in_range(self, "cadence_window", 1, 16, integer=True)
+        check_in_range(self, "min_step_interval", 0.05, 2.0, "s")
+        lo = float(self.min_step_interval)
+        check_in_range(self, "max_step_interval", lo, 10.0,
+                       allowed=f"in [min_step_interval={lo:g}, 10] s")  # fmt: skip
+        hi = float(self.max_step_interval)
+        between = f"in [min_step_interval={lo:g}, max_step_interval={hi:g}] s"
+        check_in_range(self, "default_step_interval", lo, hi, allowed=between)
 
     def stop_time(self, step_interval: float) -> float:
         """Seconds after the last step event by which the speed is exactly 0 (plus one update),

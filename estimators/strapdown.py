@@ -61,6 +61,7 @@ from estimators.rotations import (
     ensure_quaternion,
     matrix_to_quat,
 )
+from estimators.validation import check_value
 
 __all__ = [
     "Strapdown",
@@ -76,21 +77,15 @@ __all__ = [
 
 
 def _check_batch_size(batch_size: object) -> int:
-    if isinstance(batch_size, bool) or not isinstance(batch_size, (int, np.integer)):
-        raise ValueError(f"batch_size must be an int >= 1, got {batch_size!r}")
-    if batch_size < 1:
-        raise ValueError(f"batch_size must be >= 1, got {batch_size}")
-    return int(batch_size)
+    """``batch_size`` as an int, a ValueError unless an integer >= 1."""
+    check_value("batch_size", batch_size, 1, math.inf, integer=True)
+    return int(batch_size)  # type: ignore[call-overload]
 
 
 def _check_rate(rate_hz: object, name: str = "rate_hz") -> float:
-    try:
-        r = float(rate_hz)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number (Hz), got {rate_hz!r}") from None
-    if not (math.isfinite(r) and 0.0 < r <= 100_000.0):
-        raise ValueError(f"{name} must be a sampling rate in (0, 100000] Hz, got {rate_hz!r}")
-    return r
+    """``rate_hz`` as a float, a ValueError naming ``name`` unless a rate in (0, 100000] Hz."""
+    check_value(name, rate_hz, 0.0, 100_000.0, "Hz", lo_open=True)
+    return float(rate_hz)  # type: ignore[arg-type]
 
 
 def _as_array(a: ArrayLike, name: str, shape: tuple[int, ...], finite: bool = True) -> NDArray:
@@ -120,13 +115,9 @@ def _rows_arg(a: ArrayLike | None, name: str, b: int, n: int, default: NDArray) 
 
 
 def _check_gravity(gravity: object) -> float:
-    try:
-        g = float(gravity)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        raise ValueError(f"gravity must be a number (m/s^2), got {gravity!r}") from None
-    if not (9.0 <= g <= 10.5):
-        raise ValueError(f"gravity must be in [9.0, 10.5] m/s^2, got {gravity!r}")
-    return g
+    """``gravity`` as a float, a ValueError unless in [9, 10.5] m/s^2."""
+    check_value("gravity", gravity, 9.0, 10.5, "m/s^2")
+    return float(gravity)  # type: ignore[arg-type]
 
 
 # ------------------------------------------------------------------------------------------------

@@ -96,6 +96,13 @@ from estimators.batching import stream_rows
 from estimators.kernels.records import param_record
 from estimators.rotations import GRAVITY
 from estimators.strapdown import _as_array, _check_batch_size, _check_rate, set_nominal_state
+from estimators.validation import (
+    check_bool,
+    check_choice,
+    check_condition,
+    check_in_range,
+    check_numbers,
+)
 
 __all__ = [
     "STATUS_ACCEPTED",
@@ -204,36 +211,32 @@ class VioConfig:
             "init_position_sigma", "init_velocity_sigma", "init_attitude_sigma",
             "init_accel_bias_sigma", "init_gyro_bias_sigma", "position_sigma", "attitude_sigma",
         )  # fmt: skip
+        inf = math.inf
         for name in positive:
-            _check_float(self, name, 0.0, math.inf, open_low=True)
-        if self.adaptive not in _ADAPTIVE:
-            raise ValueError(f"adaptive must be one of {_ADAPTIVE}, got {self.adaptive!r}")
-        _check_float(self, "forgetting", 0.9, 0.9999)
-        _check_float(self, "q_forgetting", 0.9, 0.99999)
-        _check_float(self, "gravity", 9.0, 10.5)
-        for name in ("sage_husa_diagonal", "adapt_q"):
-            if not isinstance(getattr(self, name), (bool, np.bool_)):
-                raise ValueError(f"{name} must be a bool, got {getattr(self, name)!r}")
-        _check_int(self, "r_prior_frames", 0)
-        _check_int(self, "gate_max_consecutive", 1)
-        lo, hi = _pair(self, "q_scale_bounds")
-        if not (0.0 < lo <= 1.0 <= hi < math.inf):
-            raise ValueError(f"q_scale_bounds must satisfy 0 < low <= 1 <= high, got {(lo, hi)}")
-        f_pos, f_att = _pair(self, "r_floor")
-        c_pos, c_att = _pair(self, "r_ceiling")
-        if not (0.0 < f_pos <= self.position_sigma <= c_pos < math.inf):
-            raise ValueError(
-                "r_floor[0] <= position_sigma <= r_ceiling[0] (m, all > 0) is required, got "
-                f"{f_pos}, {self.position_sigma}, {c_pos}"
-            )
-        if not (0.0 < f_att <= self.attitude_sigma <= c_att < math.inf):
-            raise ValueError(
-                "r_floor[1] <= attitude_sigma <= r_ceiling[1] (rad, all > 0) is required, got "
-                f"{f_att}, {self.attitude_sigma}, {c_att}"
-            )
+            check_in_range(self, name, 0.0, inf, lo_open=True)
+        check_choice(self, "adaptive", _ADAPTIVE)
+        check_in_range(self, "forgetting", 0.9, 0.9999)
+        check_in_range(self, "q_forgetting", 0.9, 0.99999)
+        check_in_range(self, "gravity", 9.0, 10.5, "m/s^2")
+        check_bool(self, "sage_husa_diagonal")
+        check_bool(self, "adapt_q")
+        check_in_range(self, "r_prior_frames", 0, inf, integer=True)
+        check_in_range(self, "gate_max_consecutive", 1, inf, integer=True)
+        check_numbers(self, "q_scale_bounds", 0.0, inf, length=2, lo_open=True)
+        lo, hi = (float(x) for x in self.q_scale_bounds)
+        check_condition(self, "q_scale_bounds", lo <= 1.0 <= hi, "(low, high), low <= 1 <= high")
+        check_numbers(self, "r_floor", 0.0, inf, "(m, rad)", length=2, lo_open=True)
+        check_numbers(self, "r_ceiling", 0.0, inf, "(m, rad)", length=2, lo_open=True)
+        f_pos, f_att = (float(x) for x in self.r_floor)
+        c_pos, c_att = (float(x) for x in self.r_ceiling)
+        pos = f"in [r_floor[0]={f_pos:g}, r_ceiling[0]={c_pos:g}] m"
+        check_in_range(self, "position_sigma", f_pos, c_pos, allowed=pos)
+        att = f"in [r_floor[1]={f_att:g}, r_ceiling[1]={c_att:g}] rad"
+        check_in_range(self, "attitude_sigma", f_att, c_att, allowed=att)
         gp = self.gate_probability
-        if gp is not None and not (isinstance(gp, (int, float)) and 0.5 < gp < 1.0):
-            raise ValueError(f"gate_probability must be in (0.5, 1) or None, got {gp!r}")
+        if gp is not None:
+            check_in_range(self, "gate_probability", 0.5, 1.0, lo_open=True, hi_open=True,
+                           allowed="in (0.5, 1) or None")  # fmt: skip
         prm = param_record(
             self, exclude=_NOT_IN_KERNEL,
             sage_husa_diagonal=1.0 if self.sage_husa_diagonal else 0.0,
@@ -281,30 +284,6 @@ class VioConfig:
         d = asdict(self)
         d.pop("_record", None)
         return d
-
-
-def _check_float(cfg: object, name: str, lo: float, hi: float, open_low: bool = False) -> None:
-    v = getattr(cfg, name)
-    ok = isinstance(v, (int, float, np.floating)) and not isinstance(v, bool) and math.isfinite(v)
-    ok = ok and (v > lo if open_low else v >= lo) and v <= hi
-    if not ok:
-        rng = f"({lo}, {hi}]" if open_low else f"[{lo}, {hi}]"
-        raise ValueError(f"{name} must be a finite number in {rng}, got {v!r}")
-
-
-def _check_int(cfg: object, name: str, lo: int) -> None:
-    v = getattr(cfg, name)
-    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
-        raise ValueError(f"{name} must be an int >= {lo}, got {v!r}")
-
-
-def _pair(cfg: object, name: str) -> tuple[float, float]:
-    v = getattr(cfg, name)
-    try:
-        a, b = (float(x) for x in v)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a pair of numbers, got {v!r}") from None
-    return a, b
 
 
 # ------------------------------------------------------------------------------------------------

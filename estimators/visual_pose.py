@@ -37,6 +37,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from estimators.rotations import ensure_quaternion, matrix_to_quat, quat_to_matrix
+from estimators.validation import check_in_range, check_value
 
 __all__ = [
     "CAMERA_FROM_BODY",
@@ -97,18 +98,12 @@ class CameraIntrinsics:
     height: int
 
     def __post_init__(self) -> None:
-        for name in ("width", "height"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
-                raise ValueError(f"{name} must be a positive integer (pixels), got {v!r}")
-        for name in ("fx", "fy"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float, np.floating)) and math.isfinite(v) and v > 0):
-                raise ValueError(f"{name} must be a finite focal length > 0 (pixels), got {v!r}")
-        for name, size in (("cx", self.width), ("cy", self.height)):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float, np.floating)) and 0.0 <= v <= size):
-                raise ValueError(f"{name} must be a pixel coordinate in [0, {size}], got {v!r}")
+        check_in_range(self, "width", 1, math.inf, "px", integer=True)
+        check_in_range(self, "height", 1, math.inf, "px", integer=True)
+        check_in_range(self, "fx", 0.0, math.inf, "px", lo_open=True)
+        check_in_range(self, "fy", 0.0, math.inf, "px", lo_open=True)
+        check_in_range(self, "cx", 0.0, self.width, allowed=f"in [0, width={self.width}] px")
+        check_in_range(self, "cy", 0.0, self.height, allowed=f"in [0, height={self.height}] px")
 
     @property
     def matrix(self) -> NDArray[np.float64]:
@@ -303,14 +298,6 @@ def project_points(
 # ------------------------------------------------------------------------------------------------
 
 
-def _check_min(min_landmarks: object) -> int:
-    if isinstance(min_landmarks, bool) or not isinstance(min_landmarks, (int, np.integer)):
-        raise ValueError(f"min_landmarks must be an int >= 4, got {min_landmarks!r}")
-    if min_landmarks < 4:
-        raise ValueError(f"min_landmarks must be >= 4 (EPnP needs 4), got {min_landmarks}")
-    return int(min_landmarks)
-
-
 def _check_correspondences(
     landmarks_world: ArrayLike, pixels: ArrayLike
 ) -> tuple[NDArray, NDArray]:
@@ -387,11 +374,10 @@ def solve_pose(
         ValueError: malformed input (shapes, non-finite values, bad parameters).
     """
     x, u = _check_correspondences(landmarks_world, pixels)
-    n_min = _check_min(min_landmarks)
-    if not (isinstance(reprojection_px, (int, float)) and 0 < reprojection_px < math.inf):
-        raise ValueError(
-            f"reprojection_px must be a threshold > 0 (pixels), got {reprojection_px!r}"
-        )
+    check_value("min_landmarks", min_landmarks, 4, math.inf, integer=True,
+                allowed="an integer >= 4 (EPnP needs 4)")  # fmt: skip
+    n_min = int(min_landmarks)
+    check_value("reprojection_px", reprojection_px, 0.0, math.inf, "px", lo_open=True)
     _mount(mount_quat, mount_offset)  # validate before any work
     n = x.shape[0]
     if n < n_min:

@@ -12,7 +12,14 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from estimators.hand import HandParams
-from estimators.validation import check_bool, check_in_range, check_instance, value_repr
+from estimators.validation import (
+    check_bool,
+    check_choice,
+    check_condition,
+    check_in_range,
+    check_instance,
+    check_value,
+)
 from estimators.visual_inertial import VioConfig
 from vrloco_env.sensors.camera import CameraSpec, camera_spec
 from vrloco_env.sensors.imu import EarthField, ImuSpec, MagneticDisturbance, get_imu_spec
@@ -24,11 +31,6 @@ __all__ = ["STAGE_FIELDS", "EnvConfig", "EstimatorConfig", "RewardConfig", "Sens
 
 #: Where the virtual head pose comes from (:attr:`EnvConfig.pose_source`).
 POSE_SOURCES = ("walk_in_place", "visual_inertial")
-
-
-def _check(ok: bool, message: str) -> None:
-    if not ok:
-        raise ValueError(message)
 
 
 @dataclass(frozen=True)
@@ -62,18 +64,14 @@ class SensorConfig:
         check_in_range(self, "imu_rate_hz", 10.0, 1000.0, "Hz")
         check_instance(self, "earth_field", EarthField)
         d = self.magnetic_disturbances
-        _check(
-            isinstance(d, tuple) and all(isinstance(x, MagneticDisturbance) for x in d),
-            f"SensorConfig.magnetic_disturbances={value_repr(d)}: must be a tuple of "
-            "MagneticDisturbance",
-        )
+        ok = isinstance(d, tuple) and all(isinstance(x, MagneticDisturbance) for x in d)
+        check_condition(self, "magnetic_disturbances", ok, "a tuple of MagneticDisturbance")
         check_instance(self, "kinect", KinectSpec)
         check_instance(self, "head_camera", CameraSpec)
-        _check(
-            self.head_camera.rate_hz <= self.imu_rate_hz,
-            f"SensorConfig.head_camera.rate_hz={self.head_camera.rate_hz}: must be <= imu_rate_hz "
-            f"({self.imu_rate_hz} Hz); frames are triggered by IMU samples",
-        )
+        imu_hz = float(self.imu_rate_hz)
+        triggered = f"<= imu_rate_hz ({imu_hz:g} Hz); frames are triggered by IMU samples"
+        check_value("SensorConfig.head_camera.rate_hz", self.head_camera.rate_hz, 0.0, imu_hz,
+                    lo_open=True, allowed=triggered)  # fmt: skip
 
     @property
     def imu_spec(self) -> ImuSpec:
@@ -229,8 +227,4 @@ class EnvConfig:
         check_in_range(self, "ray_count", 1, 360, integer=True)
         check_in_range(self, "ray_fov_deg", 0.0, 360.0, "deg", lo_open=True)
         check_in_range(self, "ray_range_m", 0.5, 50.0, "m")
-        _check(
-            isinstance(self.pose_source, str) and self.pose_source in POSE_SOURCES,
-            f"EnvConfig.pose_source={value_repr(self.pose_source)}: must be one of "
-            f"{', '.join(POSE_SOURCES)}",
-        )
+        check_choice(self, "pose_source", POSE_SOURCES)

@@ -27,6 +27,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from estimators import rotations as rot
 from estimators.batching import stream_rows
+from estimators.validation import check_in_range
 from estimators.visual_inertial import VioConfig, VisualInertialFilter
 from estimators.visual_pose import CameraIntrinsics, solve_poses
 from vrloco_env.batch_rng import BatchRng
@@ -58,13 +59,8 @@ class PnpParams:
     reprojection_px: float = 3.0
 
     def __post_init__(self) -> None:
-        if not (isinstance(self.min_landmarks, int) and self.min_landmarks >= 4):
-            raise ValueError(f"PnpParams.min_landmarks must be an integer >= 4, got "
-                             f"{self.min_landmarks!r}")  # fmt: skip
-        if not (0.0 < float(self.reprojection_px) <= 50.0):
-            raise ValueError(
-                f"PnpParams.reprojection_px must be in (0, 50] px, got {self.reprojection_px!r}"
-            )
+        check_in_range(self, "min_landmarks", 4, math.inf, integer=True)
+        check_in_range(self, "reprojection_px", 0.0, 50.0, "px", lo_open=True)
 
 
 @dataclass(frozen=True)

@@ -22,6 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from estimators.validation import check_value
+
 __all__ = [
     "COMMON_FIELDS",
     "HEAD_ON_TORSO",
@@ -59,9 +61,7 @@ class Field:
     def __post_init__(self) -> None:
         if not self.entries:
             object.__setattr__(self, "entries", (self.name,))
-        if not (isinstance(self.scale, int | float) and math.isfinite(self.scale)
-                and self.scale > 0):  # fmt: skip
-            raise ValueError(f"Field({self.name!r}).scale={self.scale!r}: must be a number > 0")
+        check_value(f"Field({self.name!r}).scale", self.scale, 0.0, math.inf, lo_open=True)
 
     @property
     def size(self) -> int:

@@ -53,7 +53,7 @@ from agents.scripted.observation import (
     free_lengths,
     ray_points,
 )
-from estimators.validation import check_bool, check_in_range
+from estimators.validation import check_bool, check_condition, check_in_range
 from vrloco_env.actions import ACTION_SIZE
 
 __all__ = ["Policy", "PolicyParams", "ScriptedPolicy", "is_batched", "params_from_env"]
@@ -160,40 +160,34 @@ class PolicyParams:
     walks_with_torso: bool = False
 
     def __post_init__(self) -> None:
-        def check(name: str, lo: float, hi: float, unit: str = "") -> None:
-            check_in_range(self, name, lo, hi, unit)
-
-        check("step_length_m", 0.05, 2.0, "m")
-        check("avatar_radius_m", 0.0, 2.0, "m")
-        check("margin_m", 0.0, 2.0, "m")
-        check("tight_margin_m", 0.0, self.margin_m, "m (<= margin_m)")
-        check("tight_cost", 0.0, 1000.0)
-        check("tight_penalty_m", 0.0, 100.0, "m")
-        check("hold_m", 0.0, 100.0, "m")
-        check("comfort_m", 0.0, 2.0, "m")
-        check("comfort_cost", 0.0, 100.0)
-        check("walk", 0.0, 1.0)
-        check("turn_gain", 0.01, 100.0, "1/rad")
-        check("go_deg", 0.1, 90.0, "deg")
-        check("stop_deg", self.go_deg, 180.0, "deg (>= go_deg)")
-        check("stop_steps", 0.0, 20.0)
-        check("go_steps", self.stop_steps, 20.0, "(>= stop_steps)")
-        check("candidate_step_deg", 0.1, 45.0, "deg")
-        if isinstance(self.settle_steps, bool) or not isinstance(self.settle_steps, int):
-            raise ValueError(f"PolicyParams.settle_steps={self.settle_steps!r}: must be an int")
-        check("settle_steps", 0, 100, "control steps")
-        check("turn_cost_m", 0.0, 100.0, "m/rad")
-        check("goal_depth_m", 0.0, 10.0, "m")
-        check("map_cell_m", 0.02, 1.0, "m")
-        check("map_size_m", 4.0, 200.0, "m")
-        check("hand_gain", 0.0, 100.0, "1/rad")
-        check("hand_deadband_deg", 0.0, 45.0, "deg")
+        check_in_range(self, "step_length_m", 0.05, 2.0, "m")
+        check_in_range(self, "avatar_radius_m", 0.0, 2.0, "m")
+        check_in_range(self, "margin_m", 0.0, 2.0, "m")
+        check_in_range(self, "tight_margin_m", 0.0, self.margin_m, "m (<= margin_m)")
+        check_in_range(self, "tight_cost", 0.0, 1000.0)
+        check_in_range(self, "tight_penalty_m", 0.0, 100.0, "m")
+        check_in_range(self, "hold_m", 0.0, 100.0, "m")
+        check_in_range(self, "comfort_m", 0.0, 2.0, "m")
+        check_in_range(self, "comfort_cost", 0.0, 100.0)
+        check_in_range(self, "walk", 0.0, 1.0)
+        check_in_range(self, "turn_gain", 0.01, 100.0, "1/rad")
+        check_in_range(self, "go_deg", 0.1, 90.0, "deg")
+        check_in_range(self, "stop_deg", self.go_deg, 180.0, "deg (>= go_deg)")
+        check_in_range(self, "stop_steps", 0.0, 20.0)
+        check_in_range(self, "go_steps", self.stop_steps, 20.0, "(>= stop_steps)")
+        check_in_range(self, "candidate_step_deg", 0.1, 45.0, "deg")
+        check_in_range(self, "settle_steps", 0, 100, "control steps", integer=True)
+        check_in_range(self, "turn_cost_m", 0.0, 100.0, "m/rad")
+        check_in_range(self, "goal_depth_m", 0.0, 10.0, "m")
+        check_in_range(self, "map_cell_m", 0.02, 1.0, "m")
+        check_in_range(self, "map_size_m", 4.0, 200.0, "m")
+        check_in_range(self, "hand_gain", 0.0, 100.0, "1/rad")
+        check_in_range(self, "hand_deadband_deg", 0.0, 45.0, "deg")
         check_bool(self, "walks_with_torso")
-        if self.map_size_m / self.map_cell_m > 2000:
-            raise ValueError(
-                "PolicyParams.map_size_m / map_cell_m must be <= 2000 cells a side, got "
-                f"{self.map_size_m / self.map_cell_m:.0f}"
-            )
+        cells = self.map_size_m / self.map_cell_m
+        check_condition(self, "map_size_m", cells <= 2000,
+                        f"at most 2000 map cells a side (map_cell_m={float(self.map_cell_m):g} "
+                        f"gives {cells:.0f})")  # fmt: skip
 
 
 def params_from_env(env: Any, **overrides: Any) -> PolicyParams:

@@ -78,7 +78,7 @@ def test_bad_settings_are_named():
         make_rllib_env({"num_envs": 0})
     with pytest.raises(ValueError, match=r"base_seed=-1: must be an integer in \[0, 2147483647\]"):
         make_rllib_env({"num_envs": 1, "seed": -1})
-    with pytest.raises(ValueError, match=r"RLlibRun.num_env_runners=-1: must be in \[0, 10000\]"):
+    with pytest.raises(ValueError, match=r"num_env_runners=-1: must be an integer in \[0, 10000\]"):
         RLlibRun(num_env_runners=-1)
     with pytest.raises(ValueError, match=r"RLlibRun.seed=2.5: must be an integer in \[0, 214"):
         RLlibRun(seed=2.5)

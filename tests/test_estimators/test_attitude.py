@@ -429,13 +429,18 @@ def test_bad_input_raises_clearly(rng):
         AttitudeEKF(1, 0.0)
     with pytest.raises(ValueError, match="n_streams"):
         AttitudeEKF(0, FS)
-    with pytest.raises(ValueError, match="acc_noise"):
+    with pytest.raises(ValueError, match=r"Params\.acc_noise=-1\.0: must be in \(0, inf\)$"):
         AttitudeParams(acc_noise=-1.0)
-    with pytest.raises(ValueError, match="model"):
+    with pytest.raises(ValueError, match=r"AttitudeParams\.model='euler': must be one of trawny"):
         AttitudeParams(model="euler")
+    with pytest.raises(ValueError, match=r"mag_new_time=0\.0: must be in \(0, inf\] s$"):
+        AttitudeParams(mag_new_time=0.0)
+    assert AttitudeParams(mag_new_time=np.inf).mag_new_time == np.inf
     with pytest.raises(ValueError, match="unknown attitude parameter"):
         estimate_attitude(gyr, acc, mag, FS, acc_nosie=0.1)
-    with pytest.raises(ValueError, match="mag_ref_norm and mag_ref_dip"):
+    with pytest.raises(
+        ValueError, match=r"mag_ref_norm=50\.0: must be given together with mag_ref_dip"
+    ):
         AttitudeParams(mag_ref_norm=50.0)
     # Unit mix-ups: a gyro in deg/s during motion, an accelerometer in g.
     with pytest.raises(ValueError, match="rad/s"):

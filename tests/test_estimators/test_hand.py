@@ -328,8 +328,10 @@ def test_holt_invalid_joints_are_nan_and_restart():
     back = x.copy()
     back[0, 1] = [0.5, 0.1, 2.0]  # reappears elsewhere: restarts from the raw sample
     np.testing.assert_allclose(h.update(back)[0, 1], [0.5, 0.1, 2.0], atol=1e-15)
-    with pytest.raises(ValueError, match="smoothing"):
+    with pytest.raises(ValueError, match=r"HoltParams\.smoothing=1\.0: must be in \[0, 1\)$"):
         HoltParams(smoothing=1.0)
+    with pytest.raises(ValueError, match=r"HoltParams\.average_weights=\(0\.0, 1\.0\): must be"):
+        HoltParams(average_weights=(0.0, 1.0))
     with pytest.raises(ValueError, match="joint_state"):
         h.update(x, np.array([[2, 5]]))
 

@@ -248,8 +248,8 @@ def test_registry_build_and_protocol():
         ("cadence_window", 0, r"an integer in \[1, 16\]"),
         ("cadence_window", True, r"an integer in \[1, 16\]"),
         ("min_step_interval", 0.01, r"in \[0.05, 2\] s"),
-        ("max_step_interval", 0.2, r"in \[min_step_interval, 10\] s"),
-        ("default_step_interval", 2.0, r"in \[min_step_interval, max_step_interval\] s"),
+        ("max_step_interval", 0.2, r"in \[min_step_interval=0.285714, 10\] s"),
+        ("default_step_interval", 2.0, r"in \[min_step_interval=.*, max_step_interval=1.2\] s"),
         ("ramp_time", "fast", r"in \[0.05, 3\] s"),
     ],
 )

@@ -176,7 +176,7 @@ def test_human_render_without_a_display_says_so():
         ({"render_mode": "ascii"}, "render_mode='ascii'"),
         (
             {"config": EnvConfig(max_episode_steps=10), "max_episode_steps": 0},
-            r"max_episode_steps=0: must be in \[1, 100000\]",
+            r"max_episode_steps=0: must be an integer in \[1, 100000\]",
         ),
     ],
 )

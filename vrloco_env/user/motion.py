@@ -56,6 +56,12 @@ from numpy.typing import ArrayLike, NDArray
 from estimators import rotations as rot
 from estimators.batching import stream_rows
 from estimators.kernels import param_record, state_records
+from estimators.validation import (
+    check_bool,
+    check_condition,
+    check_in_range,
+    check_numbers,
+)
 from vrloco_env.batch_rng import BatchRng
 from vrloco_env.user._motion_numba import SCALARS, STATE, VECTORS, evaluate_kernel, skeleton_kernel
 from vrloco_env.user.skeleton import NUM_JOINTS, Joint
@@ -151,35 +157,29 @@ class MotionParams:
     """Time constant (s) of the overground walking speed following cadence * stride_m."""
 
     def __post_init__(self) -> None:
-        def check(name: str, ok: bool, allowed: str) -> None:
-            if not ok:
-                raise ValueError(f"MotionParams.{name}={getattr(self, name)!r}: must be {allowed}")
-
-        check("imu_rate_hz", 10.0 <= self.imu_rate_hz <= 1000.0, "in [10, 1000] Hz")
-        check("kinect_rate_hz", 1.0 <= self.kinect_rate_hz <= 120.0, "in [1, 120] Hz")
-        check("control_rate_hz", 0.5 <= self.control_rate_hz <= self.imu_rate_hz,
-              "in [0.5, imu_rate_hz] Hz")  # fmt: skip
+        check_in_range(self, "imu_rate_hz", 10.0, 1000.0, "Hz")
+        check_in_range(self, "kinect_rate_hz", 1.0, 120.0, "Hz")
+        check_in_range(self, "control_rate_hz", 0.5, self.imu_rate_hz,
+                       allowed=f"in [0.5, imu_rate_hz={float(self.imu_rate_hz):g}] Hz")  # fmt: skip
         ratio = self.imu_rate_hz / self.control_rate_hz
-        check("control_rate_hz", abs(ratio - round(ratio)) < 1e-9,
-              "a divisor of imu_rate_hz (whole IMU samples per control step)")  # fmt: skip
-        lo, hi = self.cadence_range_hz
-        check("cadence_range_hz", 0.3 <= lo < hi <= 4.0, "(lo, hi) with 0.3 <= lo < hi <= 4 Hz")
-        check("max_turn_rate", 0.0 < self.max_turn_rate <= 2 * np.pi, "in (0, 2 pi] rad/s")
-        check("turn_lag_s", 0.0 < self.turn_lag_s <= 2.0, "in (0, 2] s")
-        check("max_hand_rate", 0.0 < self.max_hand_rate <= 4 * np.pi, "in (0, 4 pi] rad/s")
-        check("hand_limits_deg", all(0 < a <= 180 for a in self.hand_limits_deg),
-              "three angles in (0, 180] deg")  # fmt: skip
-        check("peak_accel_g", 0 <= self.peak_accel_g[0] <= self.peak_accel_g[1] <= 2.0,
-              "(lo, hi) with 0 <= lo <= hi <= 2 g")  # fmt: skip
-        check("sway_m", 0.0 <= self.sway_m <= 0.1, "in [0, 0.1] m")
-        check("sway_roll_deg", 0.0 <= self.sway_roll_deg <= 10.0, "in [0, 10] deg")
-        check("gesture_lag_s", 0.0 < self.gesture_lag_s <= 5.0, "in (0, 5] s")
-        check("head_turn_lag_s", 0.02 <= self.head_turn_lag_s <= 1.0, "in [0.02, 1] s")
-        check("neck_height_m", 0.8 <= self.neck_height_m <= 2.2, "in [0.8, 2.2] m")
-        check("style_spread", 0.0 <= self.style_spread <= 0.5, "in [0, 0.5]")
-        check("overground", isinstance(self.overground, bool | np.bool_), "True or False")
-        check("stride_m", 0.2 <= self.stride_m <= 1.2, "in [0.2, 1.2] m")
-        check("speed_lag_s", 0.01 <= self.speed_lag_s <= 5.0, "in [0.01, 5] s")
+        whole_samples = abs(ratio - round(ratio)) < 1e-9
+        divisor = "a divisor of imu_rate_hz (whole IMU samples per control step)"
+        check_condition(self, "control_rate_hz", whole_samples, divisor)
+        check_numbers(self, "cadence_range_hz", 0.3, 4.0, "Hz", length=2, ordered=True, strict=True)
+        check_in_range(self, "max_turn_rate", 0.0, 2 * np.pi, "rad/s", lo_open=True)
+        check_in_range(self, "turn_lag_s", 0.0, 2.0, "s", lo_open=True)
+        check_in_range(self, "max_hand_rate", 0.0, 4 * np.pi, "rad/s", lo_open=True)
+        check_numbers(self, "hand_limits_deg", 0.0, 180.0, "deg", length=3, lo_open=True)
+        check_numbers(self, "peak_accel_g", 0.0, 2.0, "g", length=2, ordered=True)
+        check_in_range(self, "sway_m", 0.0, 0.1, "m")
+        check_in_range(self, "sway_roll_deg", 0.0, 10.0, "deg")
+        check_in_range(self, "gesture_lag_s", 0.0, 5.0, "s", lo_open=True)
+        check_in_range(self, "head_turn_lag_s", 0.02, 1.0, "s")
+        check_in_range(self, "neck_height_m", 0.8, 2.2, "m")
+        check_in_range(self, "style_spread", 0.0, 0.5)
+        check_bool(self, "overground")
+        check_in_range(self, "stride_m", 0.2, 1.2, "m")
+        check_in_range(self, "speed_lag_s", 0.01, 5.0, "s")
 
     @property
     def samples_per_step(self) -> int:

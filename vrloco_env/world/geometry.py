@@ -63,18 +63,6 @@ class Cylinder:
 Solid = Box | Cylinder
 
 
-def _check_range(name: str, value: object, lo: float, hi: float, lo_open: bool = False) -> float:
-    try:
-        v = float(value)  # type: ignore[arg-type]
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be a number, got {value!r}") from exc
-    ok = (v > lo if lo_open else v >= lo) and v <= hi and math.isfinite(v)
-    if not ok:
-        left = "(" if lo_open else "["
-        raise ValueError(f"{name} must lie in {left}{lo}, {hi}], got {value!r}")
-    return v
-
-
 class _Solids(NamedTuple):
     """The solids of N rooms packed as padded arrays; ``*_ok`` masks out the padding."""
 

@@ -31,12 +31,12 @@ from functools import cached_property
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from estimators.validation import check_value
 from vrloco_env.world.config import RoomConfig
 from vrloco_env.world.geometry import (
     Box,
     Cylinder,
     Solid,
-    _check_range,
     _pack,
     _points,
     _ray_cast_fast,
@@ -217,7 +217,8 @@ def ray_cast_2d(
     a = np.asarray(angles, dtype=np.float64)
     if a.shape != (o.shape[0],) or not np.all(np.isfinite(a)):
         raise ValueError(f"angles must be a finite ({o.shape[0]},) array in rad, got {a.shape}")
-    r = _check_range("max_range", max_range, 0.0, 1e6, lo_open=True)
+    check_value("max_range", max_range, 0.0, 1e6, "m", lo_open=True)
+    r = float(max_range)
     u = np.stack([np.cos(a), np.sin(a)], axis=-1)
     return _ray_cast_fast(layout._packed.above(z), o[None], u[None], r)[0]
 
@@ -235,7 +236,8 @@ def tile_origins(n: int, spacing: float = 30.0) -> NDArray[np.float64]:
     """
     if isinstance(n, bool) or not isinstance(n, int | np.integer) or n < 1:
         raise ValueError(f"n must be an integer >= 1, got {n!r}")
-    s = _check_range("spacing", spacing, 0.0, 1e5, lo_open=True)
+    check_value("spacing", spacing, 0.0, 1e5, "m", lo_open=True)
+    s = float(spacing)
     cols = math.ceil(math.sqrt(n))
     k = np.arange(n)
     return np.stack([(k % cols) * s, (k // cols) * s], axis=-1).astype(np.float64)

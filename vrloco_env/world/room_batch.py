@@ -7,8 +7,8 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from estimators.validation import check_value
 from vrloco_env.world.geometry import (
-    _check_range,
     _pack,
     _pack_many,
     _ray_cast_fast,
@@ -85,7 +85,8 @@ class RoomBatch:
             raise ValueError(f"angles must have shape {o.shape[:2]}, got {a.shape}")
         if not (np.all(np.isfinite(o)) and np.all(np.isfinite(a))):
             raise ValueError("origins and angles must be finite")
-        r = _check_range("max_range", max_range, 0.0, 1e6, lo_open=True)
+        check_value("max_range", max_range, 0.0, 1e6, "m", lo_open=True)
+        r = float(max_range)
         u = np.stack([np.cos(a), np.sin(a)], axis=-1)
         return _ray_cast_fast(self._solids.above(z), o, u, r)
 

@@ -392,8 +392,18 @@ def test_spec_presets_and_validation():
         "mount_offset_m": (0.0, 0.0),
     }
     for field, value in bad.items():
-        with pytest.raises(ValueError, match=field):
+        with pytest.raises(ValueError, match=rf"^CameraSpec\.{field}=.*: must be "):
             CameraSpec(**{field: value})
+    with pytest.raises(ValueError, match=r"mount_tilt_deg=-90\.0: must be in \(-90, 90\) deg$"):
+        CameraSpec(mount_tilt_deg=-90.0)
+    with pytest.raises(ValueError, match=r"occluder_fraction=1\.0: must be in \[0, 1\)$"):
+        CameraSpec(occluder_fraction=1.0)
+    with pytest.raises(ValueError, match=r"width=640\.0: must be an integer in \[1, 10000\] px$"):
+        CameraSpec(width=640.0)
+    with pytest.raises(ValueError, match=r"fx=True: must be in \(0, inf\) px$"):
+        CameraSpec(fx=True)
+    # the blur's effect on detection can be switched off; a float tilt just inside is accepted
+    assert CameraSpec(blur_scale_px=math.inf, mount_tilt_deg=89.9).blur_scale_px == math.inf
     with pytest.raises(ValueError, match="spec"):
         HeadCamera(42, BatchRng.from_seeds([0]))  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="rng"):

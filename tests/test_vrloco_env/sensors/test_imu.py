@@ -476,26 +476,36 @@ def test_bad_sample_input_raises_clear_value_error():
 
 def test_bad_spec_fields_raise_clear_value_error():
     ig = get_imu_spec("ig500n")
-    with pytest.raises(ValueError, match=r"gyro\.noise_density"):
-        dataclasses.replace(ig.gyro, noise_density=-1.0)
-    with pytest.raises(ValueError, match=r"accel\.bias_tau"):
-        dataclasses.replace(ig.accel, bias_tau=0.0)
-    with pytest.raises(ValueError, match=r"mag\.resolution"):
-        dataclasses.replace(ig.mag, resolution=500.0)
-    with pytest.raises(ValueError, match=r"accel\.range"):
-        SensorSpec(
-            "accel", "m/s^2", range=float("nan"), noise_density=0, bias_stability=0, bias_tau=1
-        )
-    with pytest.raises(ValueError, match="hard_iron"):
-        dataclasses.replace(ig, hard_iron=-1.0)
-    with pytest.raises(ValueError, match=r"ImuSpec\.gyro"):
-        dataclasses.replace(ig, gyro=ig.accel)
-    with pytest.raises(ValueError, match=r"EarthField\.inclination"):
-        EarthField(inclination=100.0)
-    with pytest.raises(ValueError, match=r"EarthField\.intensity"):
-        EarthField(intensity=0.0)
-    with pytest.raises(ValueError, match=r"MagneticDisturbance\.moment"):
-        MagneticDisturbance((0, 0, 0), (0, np.nan, 0))
+    rep = dataclasses.replace
+    cases = [
+        (lambda: rep(ig.gyro, noise_density=-1.0),
+         r"SensorSpec\(gyro\)\.noise_density=-1\.0: must be in \[0, inf\) rad/s/sqrt\(Hz\)$"),
+        (lambda: rep(ig.accel, bias_tau=0.0),
+         r"SensorSpec\(accel\)\.bias_tau=0\.0: must be in \(0, inf\] s$"),
+        (lambda: rep(ig.mag, resolution=500.0),
+         r"SensorSpec\(mag\)\.resolution=500\.0: must be in \[0, range=.*\) uT$"),
+        (lambda: SensorSpec("accel", "m/s^2", range=float("nan"), noise_density=0,
+                            bias_stability=0, bias_tau=1),
+         r"SensorSpec\(accel\)\.range=nan: must be in \(0, inf\) m/s\^2$"),
+        (lambda: rep(ig, hard_iron=-1.0), r"ImuSpec\.hard_iron=-1\.0: must be in \[0, inf\) uT$"),
+        (lambda: rep(ig, soft_iron_cross=0.2),
+         r"ImuSpec\.soft_iron_cross=0\.2: must be in \[0, 0\.2\)"),
+        (lambda: rep(ig, gyro=ig.accel), r"ImuSpec\.gyro\.label='accel': must be 'gyro'$"),
+        (lambda: EarthField(inclination=100.0),
+         r"EarthField\.inclination=100\.0: must be in \[-90, 90\] deg$"),
+        (lambda: EarthField(intensity=0.0),
+         r"EarthField\.intensity=0\.0: must be in \(0, inf\) uT$"),
+        (lambda: MagneticDisturbance((0, 0, 0), (0, np.nan, 0)),
+         r"MagneticDisturbance\.moment=\(0, nan, 0\): must be a tuple of 3 finite numbers A m\^2$"),
+        (lambda: MagneticDisturbance.with_field_at((0, 0, 0), field_ut=10.0, distance_m=0.0),
+         r"^distance_m=0\.0: must be in \(0, inf\) m$"),
+    ]  # fmt: skip
+    for make, message in cases:
+        with pytest.raises(ValueError, match=message):
+            make()
+    # bias_tau = inf is a constant bias (accepted); an array position is stored as floats
+    assert rep(ig.accel, bias_tau=math.inf).bias_tau == math.inf
+    assert MagneticDisturbance(np.array([1, 2, 3]), (0.0, 0.0, 1.0)).position == (1.0, 2.0, 3.0)
 
 
 # --- input layouts and the converter ----------------------------------------------------------

@@ -8,8 +8,6 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from vrloco_env.sensors.camera.spec import _check
-
 __all__ = ["CameraFrames", "extraction_rate", "matching_rate"]
 
 
@@ -57,7 +55,8 @@ class CameraFrames(NamedTuple):
     @staticmethod
     def concatenate(chunks: Sequence[CameraFrames]) -> CameraFrames:
         """Join captures along the frame axis (axis 1)."""
-        _check(len(chunks) > 0, "chunks must hold at least one CameraFrames")
+        if len(chunks) == 0:
+            raise ValueError("chunks must hold at least one CameraFrames")
         return CameraFrames(
             *(
                 np.concatenate([c[i] for c in chunks], axis=1)
@@ -73,7 +72,8 @@ def extraction_rate(frames: CameraFrames) -> float:
         ValueError: no landmark was visible (the rate is undefined).
     """
     n = int(np.count_nonzero(frames.visible))
-    _check(n > 0, "frames.visible holds no visible landmark: extraction_rate is undefined")
+    if n == 0:
+        raise ValueError("frames.visible holds no visible landmark: extraction_rate is undefined")
     return int(np.count_nonzero(frames.extracted)) / n
 
 
@@ -84,5 +84,6 @@ def matching_rate(frames: CameraFrames) -> float:
         ValueError: no feature was extracted (the rate is undefined).
     """
     n = int(np.count_nonzero(frames.extracted))
-    _check(n > 0, "frames.extracted holds no extracted feature: matching_rate is undefined")
+    if n == 0:
+        raise ValueError("frames.extracted holds no extracted feature: matching_rate is undefined")
     return int(np.count_nonzero(frames.correct)) / n

@@ -12,10 +12,8 @@ from numpy.typing import ArrayLike, NDArray
 if TYPE_CHECKING:
     from vrloco_env.world import Layout
 
-from vrloco_env.sensors.camera.spec import _check
 
 __all__ = ["layout_landmarks", "pad_landmarks"]
-
 
 
 def layout_landmarks(layout: Layout) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -56,26 +54,29 @@ def pad_landmarks(
         with mask False (at the end of each row, so a batch reproduces single runs).
     """
     pts = [np.asarray(p, dtype=np.float64) for p in points]
-    _check(len(pts) > 0, "points must hold at least one (K_i, 3) array")
+    if len(pts) == 0:
+        raise ValueError("points must hold at least one (K_i, 3) array")
     for i, p in enumerate(pts):
-        _check(p.ndim == 2 and p.shape[1] == 3, f"points[{i}] must be (K_i, 3) m, got {p.shape}")
-    k = max(p.shape[0] for p in pts) if width is None else int(width)
-    _check(
-        k >= max(p.shape[0] for p in pts),
-        f"width must be >= the largest K_i = {max(p.shape[0] for p in pts)}, got {width}",
-    )
+        if p.ndim != 2 or p.shape[1] != 3:
+            raise ValueError(f"points[{i}] must be (K_i, 3) m, got {p.shape}")
+    k_max = max(p.shape[0] for p in pts)
+    k = k_max if width is None else int(width)
+    if k < k_max:
+        raise ValueError(f"width must be >= the largest K_i = {k_max}, got {width}")
     b = len(pts)
     out = np.zeros((b, k, 3))
     mask = np.zeros((b, k), dtype=bool)
     nrm = None
     if normals is not None:
-        _check(len(normals) == b, f"normals must hold B={b} arrays, got {len(normals)}")
+        if len(normals) != b:
+            raise ValueError(f"normals must hold B={b} arrays, got {len(normals)}")
         nrm = np.zeros((b, k, 3))
     for i, p in enumerate(pts):  # once per room change, not on the hot path
         out[i, : p.shape[0]] = p
         mask[i, : p.shape[0]] = True
         if nrm is not None:
             n = np.asarray(normals[i], dtype=np.float64)  # type: ignore[index]
-            _check(n.shape == p.shape, f"normals[{i}] must have shape {p.shape}, got {n.shape}")
+            if n.shape != p.shape:
+                raise ValueError(f"normals[{i}] must have shape {p.shape}, got {n.shape}")
             nrm[i, : p.shape[0]] = n
     return out, nrm, mask

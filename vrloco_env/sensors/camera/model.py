@@ -23,12 +23,17 @@ from vrloco_env.sensors.camera.spec import (
     _FRAME_DRAWS,
     _SLOT_DRAWS,
     CameraSpec,
-    _check,
     _mount_quat,
     camera_spec,
 )
 
 __all__ = ["HeadCamera"]
+
+
+def _check(cond: bool, msg: str) -> None:
+    """Raise ``ValueError(msg)`` unless ``cond`` (the capture arrays' shape and value checks)."""
+    if not cond:
+        raise ValueError(msg)
 
 
 def _fold(x: NDArray[np.float64], lo: float, hi: float) -> NDArray[np.float64]:

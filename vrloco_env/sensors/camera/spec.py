@@ -11,6 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from estimators.rotations import matrix_to_quat, quat_from_rotvec, quat_multiply
+from estimators.validation import check_in_range, check_instance, check_numbers
 
 __all__ = ["CONDITIONS", "MAX_RATE_HZ", "CameraSpec", "camera_spec"]
 
@@ -25,29 +26,6 @@ _BELOW_ONE = 1.0 - 2.0**-53  # the largest double below 1 (as BatchRng.uniform)
 _FRAME_DRAWS = 1
 #: Normal draws per landmark slot and frame: detection-and-match, pixel noise u, pixel noise v.
 _SLOT_DRAWS = 3
-
-
-
-
-def _check(cond: bool, msg: str) -> None:
-    if not cond:
-        raise ValueError(msg)
-
-
-def _real(value: object, name: str) -> float:
-    try:
-        v = float(value)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a real number, got {value!r}") from None
-    _check(not math.isnan(v), f"{name} must not be NaN")
-    return v
-
-
-def _integer(value: object, name: str, lo: int, hi: int) -> None:
-    _check(
-        isinstance(value, int | np.integer) and not isinstance(value, bool) and lo <= value <= hi,
-        f"{name} must be an integer in [{lo}, {hi}], got {value!r}",
-    )
 
 
 @dataclass(frozen=True)
@@ -120,54 +98,33 @@ class CameraSpec:
     max_landmarks: int = 128
 
     def __post_init__(self) -> None:
-        _check(isinstance(self.name, str), f"name must be a string, got {self.name!r}")
-        _integer(self.width, "width", 1, 10000)
-        _integer(self.height, "height", 1, 10000)
-        for name in ("fx", "fy"):
-            v = _real(getattr(self, name), name)
-            _check(0.0 < v < math.inf, f"{name} must be a finite focal length > 0 px, got {v}")
-        cx, cy = _real(self.cx, "cx"), _real(self.cy, "cy")
-        _check(0.0 <= cx <= self.width, f"cx must lie in [0, width={self.width}] px, got {cx}")
-        _check(0.0 <= cy <= self.height, f"cy must lie in [0, height={self.height}] px, got {cy}")
-        rate = _real(self.rate_hz, "rate_hz")
-        _check(
-            0.0 < rate <= MAX_RATE_HZ, f"rate_hz must lie in (0, {MAX_RATE_HZ:g}] Hz, got {rate}"
-        )
-        exp_s = _real(self.exposure_s, "exposure_s")
-        _check(
-            0.0 <= exp_s <= 1.0 / rate,
-            f"exposure_s must lie in [0, 1/rate_hz = {1.0 / rate:.6g}] s, got {exp_s}",
-        )
-        near = _real(self.min_range_m, "min_range_m")
-        far = _real(self.max_range_m, "max_range_m")
-        _check(0.0 < near < math.inf, f"min_range_m must be a finite distance > 0 m, got {near}")
-        _check(
-            near < far < math.inf,
-            f"max_range_m must be finite and > min_range_m = {near} m, got {far}",
-        )
-        va = _real(self.max_view_angle_deg, "max_view_angle_deg")
-        _check(0.0 < va <= 90.0, f"max_view_angle_deg must lie in (0, 90] deg, got {va}")
-        off = np.asarray(self.mount_offset_m, dtype=np.float64)
-        _check(
-            off.shape == (3,) and bool(np.all(np.isfinite(off))),
-            f"mount_offset_m must be three finite numbers (m), got {self.mount_offset_m!r}",
-        )
-        tilt = _real(self.mount_tilt_deg, "mount_tilt_deg")
-        _check(-90.0 < tilt < 90.0, f"mount_tilt_deg must lie in (-90, 90) deg, got {tilt}")
-        for name in ("pixel_noise_px", "occluder_drift_px_per_sqrt_s", "blur_free_px"):
-            v = _real(getattr(self, name), name)
-            _check(0.0 <= v < math.inf, f"{name} must be finite and >= 0, got {v}")
-        bn = _real(self.blur_noise_per_px, "blur_noise_per_px")
-        _check(0.0 <= bn < math.inf, f"blur_noise_per_px must be finite and >= 0, got {bn}")
-        bs = _real(self.blur_scale_px, "blur_scale_px")
-        _check(bs > 0.0, f"blur_scale_px must be > 0 px (inf allowed), got {bs}")
-        for name in ("extraction_prob", "match_prob"):
-            v = _real(getattr(self, name), name)
-            _check(0.0 <= v <= 1.0, f"{name} must lie in [0, 1], got {v}")
-        occ = _real(self.occluder_fraction, "occluder_fraction")
-        _check(0.0 <= occ < 1.0, f"occluder_fraction must lie in [0, 1), got {occ}")
-        _integer(self.match_neighbors, "match_neighbors", 1, 64)
-        _integer(self.max_landmarks, "max_landmarks", 1, 4096)
+        inf = math.inf
+        check_instance(self, "name", str)
+        check_in_range(self, "width", 1, 10000, "px", integer=True)
+        check_in_range(self, "height", 1, 10000, "px", integer=True)
+        check_in_range(self, "fx", 0.0, inf, "px", lo_open=True)
+        check_in_range(self, "fy", 0.0, inf, "px", lo_open=True)
+        check_in_range(self, "cx", 0.0, self.width, allowed=f"in [0, width={self.width}] px")
+        check_in_range(self, "cy", 0.0, self.height, allowed=f"in [0, height={self.height}] px")
+        check_in_range(self, "rate_hz", 0.0, MAX_RATE_HZ, "Hz", lo_open=True)
+        check_in_range(self, "exposure_s", 0.0, 1.0 / self.rate_hz,
+                       allowed=f"in [0, 1/rate_hz={1.0 / self.rate_hz:.6g}] s")  # fmt: skip
+        check_in_range(self, "min_range_m", 0.0, inf, "m", lo_open=True)
+        check_in_range(self, "max_range_m", self.min_range_m, inf, lo_open=True,
+                       allowed=f"in (min_range_m={float(self.min_range_m):g}, inf) m")  # fmt: skip
+        check_in_range(self, "max_view_angle_deg", 0.0, 90.0, "deg", lo_open=True)
+        check_numbers(self, "mount_offset_m", -inf, inf, "m", length=3)
+        check_in_range(self, "mount_tilt_deg", -90.0, 90.0, "deg", lo_open=True, hi_open=True)
+        check_in_range(self, "pixel_noise_px", 0.0, inf, "px")
+        check_in_range(self, "occluder_drift_px_per_sqrt_s", 0.0, inf, "px/sqrt(s)")
+        check_in_range(self, "blur_free_px", 0.0, inf, "px")
+        check_in_range(self, "blur_noise_per_px", 0.0, inf)
+        check_in_range(self, "blur_scale_px", 0.0, inf, "px", lo_open=True, allow_inf=True)
+        check_in_range(self, "extraction_prob", 0.0, 1.0)
+        check_in_range(self, "match_prob", 0.0, 1.0)
+        check_in_range(self, "occluder_fraction", 0.0, 1.0, hi_open=True)
+        check_in_range(self, "match_neighbors", 1, 64, integer=True)
+        check_in_range(self, "max_landmarks", 1, 4096, integer=True)
 
     @property
     def camera_matrix(self) -> NDArray[np.float64]:

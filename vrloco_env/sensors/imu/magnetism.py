@@ -13,8 +13,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from estimators.kernels import record_dtype
+from estimators.validation import check_in_range, check_numbers, check_value
 from vrloco_env.sensors.imu import _kernel
-from vrloco_env.sensors.imu.spec import _check_number
 
 __all__ = ["MU0_OVER_4PI", "EarthField", "MagneticDisturbance"]
 
@@ -41,15 +41,9 @@ class EarthField:
     declination: float = 0.0
 
     def __post_init__(self) -> None:
-        _check_number(self.intensity, "EarthField.intensity", "uT", positive=True)
-        for name, lim in (("inclination", 90.0), ("declination", 180.0)):
-            v = getattr(self, name)
-            try:
-                v = float(v)
-            except (TypeError, ValueError):
-                raise ValueError(f"EarthField.{name} must be a real number (deg)") from None
-            if not (-lim <= v <= lim):  # also rejects NaN
-                raise ValueError(f"EarthField.{name} must be in [-{lim}, {lim}] deg, got {v}")
+        check_in_range(self, "intensity", 0.0, math.inf, "uT", lo_open=True)
+        check_in_range(self, "inclination", -90.0, 90.0, "deg")
+        check_in_range(self, "declination", -180.0, 180.0, "deg")
 
     def vector_enu(self) -> NDArray[np.float64]:
         """The field vector in the world ENU frame (uT), shape (3,).
@@ -125,15 +119,11 @@ class MagneticDisturbance:
     min_distance: float = 0.1
 
     def __post_init__(self) -> None:
+        check_numbers(self, "position", -math.inf, math.inf, "m", length=3)
+        check_numbers(self, "moment", -math.inf, math.inf, "A m^2", length=3)
         for name in ("position", "moment"):
-            v = np.asarray(getattr(self, name), dtype=np.float64)
-            if v.shape != (3,) or not np.all(np.isfinite(v)):
-                got = getattr(self, name)
-                raise ValueError(
-                    f"MagneticDisturbance.{name} must be 3 finite numbers, got {got!r}"
-                )
-            object.__setattr__(self, name, tuple(float(x) for x in v))
-        _check_number(self.min_distance, "MagneticDisturbance.min_distance", "m", positive=True)
+            object.__setattr__(self, name, tuple(float(x) for x in getattr(self, name)))
+        check_in_range(self, "min_distance", 0.0, math.inf, "m", lo_open=True)
 
     @classmethod
     def with_field_at(
@@ -159,8 +149,8 @@ class MagneticDisturbance:
         Returns:
             The disturbance.
         """
-        _check_number(field_ut, "field_ut", "uT", positive=True)
-        _check_number(distance_m, "distance_m", "m", positive=True)
+        check_value("field_ut", field_ut, 0.0, math.inf, "uT", lo_open=True)
+        check_value("distance_m", distance_m, 0.0, math.inf, "m", lo_open=True)
         axis = np.asarray(axis, dtype=np.float64)
         if axis.shape != (3,) or not np.all(np.isfinite(axis)) or np.linalg.norm(axis) < 1e-12:
             raise ValueError(f"axis must be a finite, non-zero 3-vector, got {axis!r}")
@@ -191,5 +181,3 @@ def _dipole_records(disturbances: Sequence[MagneticDisturbance]) -> NDArray:
         dip["direction"][i] = moment / max(np.linalg.norm(moment), 1e-300)  # used at the dipole
         dip["min_distance"][i] = d.min_distance
     return dip
-
-

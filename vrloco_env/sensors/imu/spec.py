@@ -9,6 +9,7 @@ import math
 from dataclasses import dataclass
 
 from estimators.rotations import GRAVITY
+from estimators.validation import check_in_range, check_instance, check_value
 
 __all__ = ["MAX_RATE_HZ", "PRESETS", "ImuSpec", "SensorSpec", "get_imu_spec"]
 
@@ -20,22 +21,6 @@ _DEG = math.pi / 180.0
 _MGAUSS = 0.1
 #: Largest sample rate the model accepts, Hz.
 MAX_RATE_HZ = 1000.0
-
-
-def _check_number(
-    value: float, name: str, unit: str, *, positive: bool, allow_inf: bool = False
-) -> None:
-    """Raise a ValueError naming ``name`` unless ``value`` is a real number in the allowed range."""
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a real number ({unit}), got {value!r}") from None
-    if math.isnan(v) or (math.isinf(v) and not allow_inf):
-        raise ValueError(f"{name} must be finite ({unit}), got {value!r}")
-    if positive and not v > 0.0:
-        raise ValueError(f"{name} must be > 0 {unit}, got {value!r}")
-    if not positive and v < 0.0:
-        raise ValueError(f"{name} must be >= 0 {unit}, got {value!r}")
 
 
 @dataclass(frozen=True)
@@ -68,20 +53,17 @@ class SensorSpec:
     resolution: float = 0.0
 
     def __post_init__(self) -> None:
-        p = f"{self.label}."
+        p = f"SensorSpec({self.label})."
         u = self.unit
-        _check_number(self.range, p + "range", u, positive=True)
-        _check_number(self.noise_density, p + "noise_density", u + "/sqrt(Hz)", positive=False)
-        _check_number(self.bias_stability, p + "bias_stability", u, positive=False)
-        _check_number(self.bias_tau, p + "bias_tau", "s", positive=True, allow_inf=True)
-        _check_number(self.bias_walk, p + "bias_walk", u + "/sqrt(s)", positive=False)
-        _check_number(self.turn_on_bias, p + "turn_on_bias", u, positive=False)
-        _check_number(self.resolution, p + "resolution", u, positive=False)
-        if self.resolution >= self.range:
-            raise ValueError(
-                f"{p}resolution must be smaller than {p}range ({self.range} {u}), "
-                f"got {self.resolution}"
-            )
+        inf = math.inf
+        check_value(p + "range", self.range, 0.0, inf, u, lo_open=True)
+        check_value(p + "noise_density", self.noise_density, 0.0, inf, u + "/sqrt(Hz)")
+        check_value(p + "bias_stability", self.bias_stability, 0.0, inf, u)
+        check_value(p + "bias_tau", self.bias_tau, 0.0, inf, "s", lo_open=True, allow_inf=True)
+        check_value(p + "bias_walk", self.bias_walk, 0.0, inf, u + "/sqrt(s)")
+        check_value(p + "turn_on_bias", self.turn_on_bias, 0.0, inf, u)
+        check_value(p + "resolution", self.resolution, 0.0, self.range, hi_open=True,
+                    allowed=f"in [0, range={float(self.range):g}) {u}")  # fmt: skip
 
     def noise_std(self, rate_hz: float) -> float:
         """Per-sample white-noise standard deviation (unit) at ``rate_hz`` (Hz)."""
@@ -125,21 +107,16 @@ class ImuSpec:
     soft_iron_cross: float = 0.0
 
     def __post_init__(self) -> None:
-        for attr, label in (("accel", "accel"), ("gyro", "gyro"), ("mag", "mag")):
+        for attr in ("accel", "gyro", "mag"):
+            check_instance(self, attr, SensorSpec)
             s = getattr(self, attr)
-            if not isinstance(s, SensorSpec):
-                raise ValueError(f"ImuSpec.{attr} must be a SensorSpec, got {type(s).__name__}")
-            if s.label != label:
-                raise ValueError(f"ImuSpec.{attr}.label must be {label!r}, got {s.label!r}")
-        _check_number(self.hard_iron, "hard_iron", "uT", positive=False)
-        _check_number(self.soft_iron_scale, "soft_iron_scale", "(dimensionless)", positive=False)
-        _check_number(self.soft_iron_cross, "soft_iron_cross", "(dimensionless)", positive=False)
-        if self.soft_iron_scale >= 0.2 or self.soft_iron_cross >= 0.2:
-            raise ValueError(
-                "soft_iron_scale and soft_iron_cross must be < 0.2 (a 1-sigma above 20 % can "
-                f"make the soft-iron matrix singular), got {self.soft_iron_scale}, "
-                f"{self.soft_iron_cross}"
-            )
+            if s.label != attr:
+                raise ValueError(f"ImuSpec.{attr}.label={s.label!r}: must be {attr!r}")
+        check_in_range(self, "hard_iron", 0.0, math.inf, "uT")
+        for name in ("soft_iron_scale", "soft_iron_cross"):
+            check_in_range(self, name, 0.0, 0.2, hi_open=True,
+                           allowed="in [0, 0.2) (dimensionless; a 1-sigma of 20 % or more can make "
+                           "the soft-iron matrix singular)")  # fmt: skip
 
     def noiseless(self, keep_resolution: bool = False) -> ImuSpec:
         """The same IMU with every noise, bias and iron term zero (ranges kept).
@@ -285,5 +262,3 @@ def get_imu_spec(name_or_spec: str | ImuSpec) -> ImuSpec:
     raise ValueError(
         f"imu spec must be an ImuSpec or one of {sorted(PRESETS)}, got {name_or_spec!r}"
     )
-
-
