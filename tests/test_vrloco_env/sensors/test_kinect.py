@@ -475,6 +475,139 @@ def test_a_lost_target_comes_back_with_a_new_id_after_acquisition():
     assert ids[0] != 0 and ids[-1] != 0 and ids[0] != ids[-1]
 
 
+# ------------------------------------------------------------------------------------- facing
+
+LEFT_LIMBS = [Joint.ELBOW_LEFT, Joint.WRIST_LEFT, Joint.HAND_LEFT, Joint.HAND_TIP_LEFT,
+              Joint.THUMB_LEFT, Joint.KNEE_LEFT, Joint.ANKLE_LEFT, Joint.FOOT_LEFT]  # fmt: skip
+RIGHT_LIMBS = [Joint.ELBOW_RIGHT, Joint.WRIST_RIGHT, Joint.HAND_RIGHT, Joint.HAND_TIP_RIGHT,
+               Joint.THUMB_RIGHT, Joint.KNEE_RIGHT, Joint.ANKLE_RIGHT,
+               Joint.FOOT_RIGHT]  # fmt: skip
+NO_FACING = {"facing_inferred_deg": 179.0, "facing_lost_deg": 180.0}  # the rule off
+
+
+def wrap_deg(a):
+    return (np.asarray(a) + 180.0) % 360.0 - 180.0
+
+
+@pytest.mark.parametrize("tilt_deg", [0.0, 20.0])
+def test_facing_is_the_torso_angle_to_the_line_of_sight(tilt_deg):
+    """Closed form: a standing body at floor point P turned to yaw psi, with the sensor at C, faces
+    |wrap(psi - atan2(C - P))| away from the sensor (horizontal angles, whatever the tilt), and
+    its left side is the nearer when the sensor lies to its left."""
+    spec = KinectSpec(camera_tilt_deg=tilt_deg, camera_position_m=(2.5, 0.3, 1.1))
+    rng = np.random.default_rng(3)
+    n = 200
+    pos = np.zeros((n, 3))
+    pos[:, :2] = rng.uniform(-1.0, 1.0, (n, 2))
+    yaw = rng.uniform(-np.pi, np.pi, n)
+    joints, _ = standing_skeleton(pos, yaw, height_m=rng.uniform(1.5, 1.9, n), right_arm="raised")
+    cam = world_to_camera(spec, joints)
+    geo = KinectV2(spec, BatchRng.from_seeds([0]))._geo[0]
+    facing, near = np.empty(n), np.empty(n)
+    _kinect_numba._facing(n, geo, cam, (facing, near))
+    cx, cy, _ = spec.camera_position_m
+    to_sensor = np.arctan2(cy - pos[:, 1], cx - pos[:, 0])
+    rel = wrap_deg(np.degrees(to_sensor - yaw))  # the sensor's bearing from the body's front
+    np.testing.assert_allclose(facing, np.abs(rel), atol=1e-9)
+    side = np.abs(rel) > 1e-6
+    np.testing.assert_array_equal(near[side], np.where(rel[side] > 0, 1.0, -1.0))
+    assert facing.min() < 5 and facing.max() > 175
+
+
+@pytest.mark.parametrize("yaw_deg", [-75.0, 75.0])
+def test_turned_past_facing_inferred_the_far_side_limbs_are_inferred(yaw_deg):
+    """Facing the sensor every joint is tracked; turned past ``facing_inferred_deg`` the far-side
+    arm and leg (the right hand too when the right side is away) are inferred, the near side and
+    the torso tracked; below the angle the rule leaves the states as they are without it."""
+    spec = KinectSpec(**QUIET)
+    assert spec.facing_inferred_deg < abs(yaw_deg) < spec.facing_lost_deg
+    pos = np.zeros((3, 3))
+    yaws = np.radians([0.0, yaw_deg, np.sign(yaw_deg) * (spec.facing_inferred_deg - 10.0)])
+    joints, q = standing_skeleton(pos, yaws, right_arm="forward")
+    t, jw, qw = static(joints, q, 30)
+    state = target(make(spec, [1, 2, 3]).capture(t, jw, qw), "joint_state")
+    off = target(make(spec.with_(**NO_FACING), [1, 2, 3]).capture(t, jw, qw), "joint_state")
+    assert np.all(state[0] == TRACKED)  # facing the sensor: hand and all tracked
+    # yaw > 0 turns the body to its left: its right side comes toward the sensor.
+    far, near = (LEFT_LIMBS, RIGHT_LIMBS) if yaw_deg > 0 else (RIGHT_LIMBS, LEFT_LIMBS)
+    assert np.all(state[1][:, far] == INFERRED)
+    assert np.all(state[1][:, near] == TRACKED)
+    assert np.all(state[1][:, list(TORSO_JOINTS)] == TRACKED)
+    assert np.any(off[1][:, far] == TRACKED), "the far limbs are inferred by the facing rule"
+    np.testing.assert_array_equal(state[2], off[2])  # below the angle: no change
+    assert target(make(spec, [1, 2, 3]).capture(t, jw, qw), "body_tracked").all()
+
+
+def test_turned_past_facing_lost_the_body_is_lost_and_comes_back_with_a_new_id():
+    spec = KinectSpec(**QUIET)
+    start, back = 40, 70
+    yaw = np.zeros(120)
+    yaw[start:back] = np.radians(spec.facing_lost_deg + 15.0)  # turned away for 30 frames
+    joints, q = standing_skeleton(np.zeros((120, 3)), yaw, right_arm="forward")
+    t = np.arange(120) / FPS
+    frames = make(spec, [9]).capture(t, joints[None], q[None])
+    trk = target(frames, "body_tracked")[0]
+    ids = target(frames, "body_id")[0]
+    acq = spec.acquire_frames
+    assert trk[:start].all() and not trk[start : back + acq - 1].any()
+    assert trk[back + acq - 1 :].all()
+    assert ids[0] != 0 and ids[-1] != 0 and ids[0] != ids[-1]
+    assert np.all(target(frames, "joint_state")[0, start : back + acq - 1] == NOT_TRACKED)
+    # Just short of the angle the body stays tracked with one id.
+    yaw[start:back] = np.radians(spec.facing_lost_deg - 5.0)
+    joints, q = standing_skeleton(np.zeros((120, 3)), yaw, right_arm="forward")
+    frames = make(spec, [9]).capture(t, joints[None], q[None])
+    assert target(frames, "body_tracked").all()
+    assert np.unique(target(frames, "body_id")).size == 1
+
+
+def test_bystanders_follow_the_facing_rule():
+    """A bystander walking across the room turns side-on or away: the same rule infers its far
+    limbs and loses it, so with the rule there are fewer tracked bystander frames and more
+    inferred limb joints than without."""
+    spec = KinectSpec(n_bystanders=5, bystander_dwell_s=0.5, burst_prob=0.0,
+                      random_inferred_prob=0.0)  # fmt: skip
+    joints, q = user_at(2.5, b=4)
+    args = static(joints, q, 300)
+    on = make(spec, range(4)).capture(*args)
+    off = make(spec.with_(**NO_FACING), range(4)).capture(*args)
+    others = np.ones(on.body_tracked.shape, dtype=bool)
+    np.put_along_axis(others, on.truth.slot[..., None], False, axis=-1)
+    assert on.body_tracked[others].sum() < off.body_tracked[others].sum()
+    limbs = LEFT_LIMBS + RIGHT_LIMBS
+    both = on.body_tracked & off.body_tracked & others
+    inferred_on = (on.joint_state[both][:, limbs] == INFERRED).sum()
+    assert inferred_on > (off.joint_state[both][:, limbs] == INFERRED).sum()
+
+
+def test_a_user_turning_away_in_the_env_loses_the_hand():
+    """Env level: a walking-in-place user who turns on the spot (a full turn in 3 s) faces away
+    from the Kinect for part of the turn, so the hand is missing from some steps
+    (``hand_tracking_availability`` below 1); standing facing it, the hand is always there. No
+    bystanders: with them the hand pipeline, its target lost, selects the nearest bystander and
+    reports that body's hand (its documented target rule), which is not missing but wrong."""
+    import gymnasium as gym
+
+    from agents.metrics import EpisodeRecorder, summarize
+    from vrloco_env.config import SensorConfig
+
+    alone = SensorConfig(kinect=KinectSpec(n_bystanders=0))
+    availability = {}
+    for turn in (0.0, 1.0):
+        env = gym.make("VRLoco-Approach-v0", sensors=alone)
+        try:
+            _, info = env.reset(seed=0)
+            rec = EpisodeRecorder(0, info)
+            for _ in range(30):
+                _, _, _, _, info = env.step(np.array([-1.0, turn, 0.0, 0.0, 0.0], np.float32))
+                rec.add(info)
+        finally:
+            env.close()
+        availability[turn] = summarize([rec.finish()])["hand_tracking_availability"]
+    assert availability[0.0] == 1.0
+    assert 0.3 < availability[1.0] < 0.9
+
+
 # ------------------------------------------------------------------------------ reproducibility
 
 
@@ -509,10 +642,16 @@ def test_same_seeds_same_frames_and_batch_equals_single_runs():
 def test_the_kernel_case_takes_every_branch():
     """The compiled-vs-source case of the frame kernel (``kernel_cases/kinect.py``) has bursts,
     random inferred episodes, occlusion, walking bystanders, a target lost and acquired again
-    with a new id, and several tracked bodies."""
+    with a new id (out of view, and turned away), a target turned side-on, and several tracked
+    bodies."""
     frames = KinectFrames.concatenate(capture())
     ids = target(frames, "body_id")[1]
     assert ids[1] != 0 and ids[-1] != 0 and ids[1] != ids[-1], "user 1 must be re-acquired"
+    ids = target(frames, "body_id")[0]  # latency 1: frame k delivers frame k - 1's capture
+    assert ids[1] != 0 and ids[-1] != 0 and ids[1] != ids[-1], "user 0 must be re-acquired"
+    assert not target(frames, "body_tracked")[0, 27:33].any(), "user 0 turned away is lost"
+    side_on = target(frames, "joint_state")[0, 5:11]
+    assert np.all(side_on[:, [Joint.KNEE_LEFT, Joint.FOOT_LEFT, Joint.ELBOW_LEFT]] == INFERRED)
     assert (frames.joint_state == INFERRED).any()
     assert np.isnan(frames.joints).any() and frames.body_tracked.sum(axis=-1).max() >= 3
 
@@ -664,6 +803,15 @@ def test_bad_spec_raises_clear_errors():
         KinectSpec(frame_rate_hz=0.0)
     with pytest.raises(ValueError, match="hand_rot_white_std_deg"):
         KinectSpec(hand_rot_white_std_deg=(1.0, float("nan"), 1.0))
+    for bad in (-1.0, 181.0, float("nan"), "60"):
+        with pytest.raises(ValueError, match=r"KinectSpec\.facing_inferred_deg=.*\[0, 180\] deg"):
+            KinectSpec(facing_inferred_deg=bad)
+    with pytest.raises(ValueError, match=r"KinectSpec\.facing_lost_deg=.*\(facing_inferred_deg"):
+        KinectSpec(facing_inferred_deg=90.0, facing_lost_deg=90.0)  # lost must exceed inferred
+    with pytest.raises(ValueError, match=r"KinectSpec\.facing_lost_deg=.*180\] deg"):
+        KinectSpec(facing_lost_deg=190.0)
+    spec = KinectSpec(facing_inferred_deg=0.0, facing_lost_deg=180.0)  # the extremes are allowed
+    assert (spec.facing_inferred_deg, spec.facing_lost_deg) == (0.0, 180.0)
 
 
 def test_bad_capture_input_raises_clear_errors():

@@ -14,6 +14,11 @@ orientation quaternion. It adds what makes the real sensor hard to use (seed 003
   hidden behind a torso (the user's own or another body's), or in a short random episode, are
   *inferred* and noisier; a body with most of its joints out of view or hidden is lost, and gets a
   new id when it is acquired again;
+* facing: the tracker expects people to face the sensor. A body turned side-on past
+  ``KinectSpec.facing_inferred_deg`` (its torso's facing, from its shoulder and hip lines, against
+  its line of sight to the sensor) has the arm and leg on its far side inferred (the right hand,
+  when the right side is the far one); turned past ``facing_lost_deg`` it is not detected: it is
+  lost, and acquired again with a new id once it turns back (the same rule for every body);
 * bystanders: other people standing and swaying farther away, now and then walking in or out of
   view, in random slots, so the target user must be chosen (nearest tracked body). Their noise has
   the same per-joint std, white fraction and time constants as the target's, but one noise vector

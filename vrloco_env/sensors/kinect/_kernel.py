@@ -4,7 +4,8 @@
 standard normals per frame from the users' :class:`~vrloco_env.batch_rng.BatchRng` and hands
 everything to :func:`capture_frames`, which runs the whole model in one call, per user and frame
 in stages: the bystanders (:func:`_bystanders`), camera transform and field of view
-(:func:`_camera_space`), occlusion (:func:`_occlusion`), tracking and ids (:func:`_track`), jitter
+(:func:`_camera_space`), each body's facing relative to the sensor (:func:`_facing`), occlusion
+(:func:`_occlusion`), tracking and ids (:func:`_track`), jitter
 bursts and random inferred episodes (:func:`_episodes`), the noise states
 (:func:`_noise_states`), and each body's slot with its noisy joints and wrist orientation
 (:func:`_body_out`).
@@ -66,6 +67,8 @@ from estimators.kernels.rotations import quat_from_rotvec, quat_mul
 from vrloco_env.user import INFERRED, NOT_TRACKED, NUM_JOINTS, TRACKED, Joint
 
 WRIST_RIGHT = int(Joint.WRIST_RIGHT)
+SHOULDER_LEFT, SHOULDER_RIGHT = int(Joint.SHOULDER_LEFT), int(Joint.SHOULDER_RIGHT)
+HIP_LEFT, HIP_RIGHT = int(Joint.HIP_LEFT), int(Joint.HIP_RIGHT)
 #: Bodies the Kinect v2 tracks at once (Microsoft Kinect for Windows v2 specification: six).
 MAX_BODIES = 6
 #: Most joints in one burst limb (an arm: elbow, wrist, hand, hand tip, thumb).
@@ -81,13 +84,14 @@ N_LIMB_GROUPS, N_TORSO_JOINTS = 4, 8
 #: ``hand_ar_sd``: wrist rotation noise (rad) about the hand axes; ``inferred_z[k]``:
 #: ndtri(1 - (1 - p)^k), below which at least one of k joints starts a random inferred episode;
 #: ``limb_index[g, j]``: joint j's place in burst limb g (-1: not in it); ``is_torso`` (0 / 1) and
-#: ``torso_joints`` (indices): the torso silhouette.
+#: ``torso_joints`` (indices): the torso silhouette; ``limb_side``: +1 for the joints of the
+#: left arm and leg, -1 for the right ones, 0 for the others.
 GEOMETRY_FIELDS = {
     "cam_rot": (3, 3), "cam_pos": (3,), "cam_quat": (4,), "sdk_from_hand": (4,),
     "by_template": (NUM_JOINTS, 3), "by_hand_quat": (4,), "joint_scale": (NUM_JOINTS,),
     "hand_white_sd": (3,), "hand_ar_sd": (3,), "inferred_z": (NUM_JOINTS + 1,),
     "limb_index": (N_LIMB_GROUPS, NUM_JOINTS), "is_torso": (NUM_JOINTS,),
-    "torso_joints": (N_TORSO_JOINTS,),
+    "torso_joints": (N_TORSO_JOINTS,), "limb_side": (NUM_JOINTS,),
 }  # fmt: skip
 
 #: A user's session (``KinectV2``), per body (the target first, then the bystanders; rows past
@@ -274,15 +278,52 @@ def _camera_space(n_bodies, p, src, aff, view) -> None:
 
 
 @numba.njit(cache=True)
-def _occlusion(n_bodies, p, g, view, occluded, n_visible, torso) -> None:
-    """Stage 3, occlusion: each torso is an image rectangle over its shoulder and hip joints,
+def _facing(n_bodies, g, cam, pose) -> None:
+    """Stage 3, facing: each body's torso facing relative to its line of sight to the sensor, and
+    the side it turns toward the sensor. The torso's lateral direction is its shoulder line plus
+    its hip line (right to left), its forward direction that lateral line turned a quarter turn
+    about the world's vertical; the line of sight runs from the mean of those four joints to the
+    sensor (the camera origin), and all three are taken horizontal. ``cam`` (N, J, 3) m: the
+    bodies' joints in camera space; fills ``pose`` = (facing (N,) deg in [0, 180], 0 facing the
+    sensor and 90 side-on; near_side (N,), +1 when the body's left side is the nearer, -1 its
+    right)."""
+    facing, near_side = pose
+    up = g["cam_rot"][2]  # the world's vertical in camera space (camera = R^T world)
+    ux, uy, uz = up[0], up[1], up[2]
+    sl, sr = cam[:, SHOULDER_LEFT], cam[:, SHOULDER_RIGHT]
+    hl, hr = cam[:, HIP_LEFT], cam[:, HIP_RIGHT]
+    for n in range(n_bodies):
+        # Lateral (right to left) and line of sight (torso to sensor), then their horizontal parts.
+        lx = sl[n, 0] - sr[n, 0] + hl[n, 0] - hr[n, 0]
+        ly = sl[n, 1] - sr[n, 1] + hl[n, 1] - hr[n, 1]
+        lz = sl[n, 2] - sr[n, 2] + hl[n, 2] - hr[n, 2]
+        sx = -0.25 * (sl[n, 0] + sr[n, 0] + hl[n, 0] + hr[n, 0])
+        sy = -0.25 * (sl[n, 1] + sr[n, 1] + hl[n, 1] + hr[n, 1])
+        sz = -0.25 * (sl[n, 2] + sr[n, 2] + hl[n, 2] + hr[n, 2])
+        l_up, s_up = lx * ux + ly * uy + lz * uz, sx * ux + sy * uy + sz * uz
+        lx, ly, lz = lx - l_up * ux, ly - l_up * uy, lz - l_up * uz
+        sx, sy, sz = sx - s_up * ux, sy - s_up * uy, sz - s_up * uz
+        # forward = lateral x up (body frame: x forward = y left x z up), as long as lateral
+        fx, fy, fz = ly * uz - lz * uy, lz * ux - lx * uz, lx * uy - ly * ux
+        ahead = fx * sx + fy * sy + fz * sz
+        aside = lx * sx + ly * sy + lz * sz
+        facing[n] = math.degrees(math.atan2(abs(aside), ahead))
+        near_side[n] = 1.0 if aside >= 0.0 else -1.0
+
+
+@numba.njit(cache=True)
+def _occlusion(n_bodies, p, g, view, pose, occluded, n_visible, torso) -> None:
+    """Stage 4, occlusion: each torso is an image rectangle over its shoulder and hip joints,
     widened by the margin, at the mean depth of its torso joints (``torso`` = (depth, u_lo, u_hi,
     v_lo, v_hi), (N,)); a joint deeper than that by ``occlusion_depth_m`` whose image falls
     inside is hidden (own torso: inferred, never for the torso's own joints; another body's:
-    inferred and not "visible"). Fills ``occluded`` (N, J) and ``n_visible`` (N,)."""
+    inferred and not "visible"). A body turned beyond ``facing_inferred_deg`` (``pose``, from
+    :func:`_facing`) has the joints of its far-side arm and leg inferred. Fills ``occluded``
+    (N, J) and ``n_visible`` (N,)."""
     cam, img_u, img_v, in_view = view
+    facing, near_side = pose
     zt, u_lo, u_hi, v_lo, v_hi = torso
-    is_torso, torso_joints = g["is_torso"], g["torso_joints"]
+    is_torso, torso_joints, limb_side = g["is_torso"], g["torso_joints"], g["limb_side"]
     margin_m, occlusion_depth = p["torso_margin_m"], p["occlusion_depth_m"]
     for n in range(n_bodies):
         acc = 0.0
@@ -297,6 +338,7 @@ def _occlusion(n_bodies, p, g, view, occluded, n_visible, torso) -> None:
         u_lo[n], u_hi[n], v_lo[n], v_hi[n] = ulo - margin, uhi + margin, vlo, vhi
     for n in range(n_bodies):
         n_visible[n] = 0
+        turned = facing[n] > p["facing_inferred_deg"]
         for j in range(NUM_JOINTS):
             occluded[n, j] = False
             if not in_view[n, j]:  # not tracked whatever hides it
@@ -314,21 +356,25 @@ def _occlusion(n_bodies, p, g, view, occluded, n_visible, torso) -> None:
                         own = True
                     else:
                         other = True
-            occluded[n, j] = other or (own and is_torso[j] == 0.0)
+            far = turned and limb_side[j] == -near_side[n]  # a far-side limb joint
+            occluded[n, j] = other or (own and is_torso[j] == 0.0) or far
             if not other:
                 n_visible[n] += 1
 
 
 @numba.njit(cache=True)
-def _track(n_bodies, p, n_visible, session, new_ids, tracked, fresh) -> None:
-    """Stage 4, tracking: a body is tracked after ``acquire_frames`` consecutive detectable
-    frames; one tracked again gets a fresh id (``new_ids`` (N,)), unique among the user's
-    bodies. ``session`` = (acquired, prev_tracked, body_id), (N,) each, updated in place; fills
-    ``tracked`` and ``fresh`` (N,)."""
+def _track(n_bodies, p, n_visible, facing, session, new_ids, tracked, fresh) -> None:
+    """Stage 5, tracking: a body is detectable while at least ``min_visible_fraction`` of its
+    joints are visible and it is turned no further than ``facing_lost_deg`` from the sensor
+    (``facing`` (N,) deg, :func:`_facing`); it is tracked after ``acquire_frames`` consecutive
+    detectable frames; one tracked again gets a fresh id (``new_ids`` (N,)), unique among the
+    user's bodies. ``session`` = (acquired, prev_tracked, body_id), (N,) each, updated in place;
+    fills ``tracked`` and ``fresh`` (N,)."""
     acquired, prev_tracked, body_id = session
     acq = int(p["acquire_frames"])
     for n in range(n_bodies):
-        if n_visible[n] / NUM_JOINTS >= p["min_visible_fraction"]:
+        seen = n_visible[n] / NUM_JOINTS >= p["min_visible_fraction"]
+        if seen and facing[n] <= p["facing_lost_deg"]:
             acquired[n] = min(acquired[n] + 1, acq)
         else:
             acquired[n] = 0
@@ -342,7 +388,7 @@ def _track(n_bodies, p, n_visible, session, new_ids, tracked, fresh) -> None:
 
 @numba.njit(cache=True)
 def _episodes(n_bodies, zf, p, g, episodes, b_active, occluded) -> None:
-    """Stage 5, jitter bursts (one limb, a few frames) and random inferred episodes.
+    """Stage 6, jitter bursts (one limb, a few frames) and random inferred episodes.
     ``episodes`` = (burst_left, burst_group (N,), inferred_left (N, J)), the session's, updated
     in place; fills ``b_active`` (N,) and marks the joints of inferred episodes in ``occluded``."""
     burst_left, burst_group, inferred_left = episodes
@@ -380,7 +426,7 @@ def _episodes(n_bodies, zf, p, g, episodes, b_active, occluded) -> None:
 
 @numba.njit(cache=True)
 def _noise_states(zf, z_by, nb, p, noise) -> None:
-    """Stage 6, noise states: the target's ARMA(1, 1) joint noise (unit variance); unit AR(1)
+    """Stage 7, noise states: the target's ARMA(1, 1) joint noise (unit variance); unit AR(1)
     states of every wrist and of the bystanders' joint noise (a bystander's wrist and joints
     share their innovations). ``noise`` = the session's (joint_noise, joint_innov, ar_hand,
     ar_by), updated in place."""
@@ -406,7 +452,7 @@ def _noise_states(zf, z_by, nb, p, noise) -> None:
 
 @numba.njit(cache=True)
 def _body_out(n, zf, z_by, p, g, frame, noise, row) -> None:
-    """Stage 7, one body's slot: tracking states, noisy joints, wrist orientation. ``frame`` =
+    """Stage 8, one body's slot: tracking states, noisy joints, wrist orientation. ``frame`` =
     (view, occluded, hand_cam, tracked, b_active, burst_group, bias) of this frame and session,
     ``noise`` the session's noise states (:func:`_noise_states`), ``row`` = the slot's (joints
     (J, 3), joint_state (J,), hand_quat (4,)) of this frame, and the target's truth hand (4,)."""
@@ -488,7 +534,8 @@ def _capture_frames(joints_world, hand_world, z, new_ids, prm, geo, state, out) 
     """Run M frames for B users, updating the session state in place and filling the outputs.
 
     Per user and frame, in stages: the bystanders move (:func:`_bystanders`), every body into
-    camera space and the field of view (:func:`_camera_space`), occlusion by the torsos
+    camera space and the field of view (:func:`_camera_space`), each body's facing
+    (:func:`_facing`), occlusion by the torsos and of turned bodies' far-side limbs
     (:func:`_occlusion`), tracking and ids (:func:`_track`), jitter bursts and random inferred
     episodes (:func:`_episodes`), the noise states (:func:`_noise_states`), then each body's
     slot (:func:`_body_out`).
@@ -542,6 +589,7 @@ def _capture_frames(joints_world, hand_world, z, new_ids, prm, geo, state, out) 
         hand_cam = np.empty((N, 4))
         occluded = np.empty((N, J), dtype=np.bool_)  # by a torso or a random inferred episode
         torso = (np.empty(N), np.empty(N), np.empty(N), np.empty(N), np.empty(N))
+        pose = (np.empty(N), np.empty(N))  # facing (deg), near side (+1 left, -1 right)
         n_visible = np.empty(N, dtype=np.int64)
         tracked = np.empty(N, dtype=np.bool_)
         fresh = np.empty(N, dtype=np.bool_)
@@ -568,9 +616,10 @@ def _capture_frames(joints_world, hand_world, z, new_ids, prm, geo, state, out) 
             _bystanders(zf, z_by, nb, (s["frame"] + m) * p["dt"], p, g, by, aff, hand_cam,
                         cq_inv)  # fmt: skip
             _camera_space(N, p, src, aff, view)
-            _occlusion(N, p, g, view, occluded, n_visible, torso)
-            _track(N, p, n_visible, (acquired, prev_tracked, body_id), new_ids[b, m], tracked,
-                   fresh)  # fmt: skip
+            _facing(N, g, view[0], pose)
+            _occlusion(N, p, g, view, pose, occluded, n_visible, torso)
+            _track(N, p, n_visible, pose[0], (acquired, prev_tracked, body_id), new_ids[b, m],
+                   tracked, fresh)  # fmt: skip
             _episodes(N, zf, p, g, episodes, b_active, occluded)
             _noise_states(zf, z_by, nb, p, noise)
             for k in range(K):

@@ -33,6 +33,10 @@ __all__ = ["KinectV2"]
 _LIMB_INDEX = np.full((len(LIMB_GROUPS), NUM_JOINTS), -1.0)
 for _g, _members in enumerate(LIMB_GROUPS):
     _LIMB_INDEX[_g, list(_members)] = np.arange(len(_members))
+# Each limb joint's side, +1 left and -1 right (0: torso and head): a turned body's far limbs.
+_LIMB_SIDE = np.zeros(NUM_JOINTS)
+for _members in LIMB_GROUPS:
+    _LIMB_SIDE[list(_members)] = [1.0 if j.name.endswith("_LEFT") else -1.0 for j in _members]
 _ID_SCALE = float(2**53)
 _BELOW_ONE = np.nextafter(1.0, 0.0)  # ndtr(z) rounds to 1.0 for z > 8.3; keep uniforms < 1
 # A bystander: the standing skeleton of height 1 m facing +x with its pelvis over the origin, and
@@ -136,6 +140,7 @@ class KinectV2:
         g["limb_index"] = _LIMB_INDEX
         g["is_torso"][list(TORSO_JOINTS)] = 1.0
         g["torso_joints"] = TORSO_JOINTS
+        g["limb_side"] = _LIMB_SIDE
         return geo
 
     # ----------------------------------------------------------------------------------- session

@@ -9,6 +9,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from estimators.validation import check_in_range
 from vrloco_env.sensors.kinect import _kernel as _k
 from vrloco_env.user import NUM_JOINTS, Joint
 
@@ -191,6 +192,30 @@ class KinectSpec:
     #: Consecutive detectable frames before a (re)appearing body is tracked and given an id
     #: (engineering choice: 5 frames, 170 ms).
     acquire_frames: int = 5
+    #: Torso facing, deg, beyond which the far-side limbs are inferred. A body's facing is the
+    #: horizontal angle between its torso's forward direction (normal to the shoulder and hip
+    #: lines) and its line of sight to the sensor, 0-180 deg (0: facing the sensor, 90: side-on).
+    #: Beyond this angle the joints of the arm and leg on the side away from the sensor (elbow to
+    #: hand tip and thumb, knee to foot) are reported inferred: the SDK's tracker is trained on
+    #: people facing the sensor, and a turned body hides its far side behind itself. Evidence,
+    #: thin and qualitative: a Kinect v2 tracks an arm best with the sensor 30-45 deg off the
+    #: front on the side away from that arm (Cai, Liu & Ma 2021, "Placement recommendations for
+    #: single Kinect-based motion capture system in unilateral dynamic motion analysis",
+    #: Healthcare 9(8) 1076, seven orientations tested), so the far arm is still tracked at 45
+    #: deg; a person standing sideways (90 deg) shows 72 % of the skeleton, with the hands out
+    #: of proportion and a shoulder misplaced, against 100 % facing the sensor (Table 2 of
+    #: "Multiple Kinect based system to monitor and analyze key performance indicators of
+    #: physical training", Human-centric Computing and Information Sciences 10, 2020). The 60 deg
+    #: between the two is an engineering choice.
+    facing_inferred_deg: float = 60.0
+    #: Torso facing, deg, beyond which the body is not detected (it counts as not visible: the
+    #: tracked body is lost, and it is acquired again, with a new id, after ``acquire_frames``
+    #: detectable frames once it turns back). Beyond side-on the sensor sees the back; the Kinect
+    #: v2 tracker, trained on frontal poses, then fits a frontal skeleton to it with left and
+    #: right swapped or loses the body (the Kinect SDK's guidance that users face the sensor, and
+    #: the side-view failures above). No measurement gives the angle: 120 deg, 30 deg past
+    #: side-on, is an engineering choice.
+    facing_lost_deg: float = 120.0
 
     #: Other people in the room, 0-5 (Kinect tracks six bodies).
     n_bystanders: int = 2
@@ -292,6 +317,11 @@ class KinectSpec:
             isinstance(self.acquire_frames, (int, np.integer)) and self.acquire_frames >= 1,
             f"acquire_frames must be an integer >= 1, got {self.acquire_frames!r}",
         )
+        check_in_range(self, "facing_inferred_deg", 0.0, 180.0, "deg")
+        check_in_range(
+            self, "facing_lost_deg", self.facing_inferred_deg, 180.0, lo_open=True,
+            allowed=f"in (facing_inferred_deg = {self.facing_inferred_deg:g}, 180] deg",
+        )  # fmt: skip
         _check(
             isinstance(self.n_bystanders, (int, np.integer))
             and 0 <= self.n_bystanders <= MAX_BODIES - 1,
