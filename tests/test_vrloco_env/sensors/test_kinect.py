@@ -814,6 +814,25 @@ def test_bad_spec_raises_clear_errors():
     assert (spec.facing_inferred_deg, spec.facing_lost_deg) == (0.0, 180.0)
 
 
+def test_spec_bounds_are_exact_and_the_messages_name_field_and_range():
+    """Open bounds stay open, counts may be whole floats, and a bool is not a count."""
+    for tilt in (-45.0, 45.0):
+        with pytest.raises(ValueError, match=r"KinectSpec\.camera_tilt_deg=.*\(-45, 45\) deg"):
+            KinectSpec(camera_tilt_deg=tilt)
+    assert KinectSpec(camera_tilt_deg=44.9).camera_tilt_deg == 44.9
+    with pytest.raises(ValueError, match=r"KinectSpec\.depth_range_m=.*low < high"):
+        KinectSpec(depth_range_m=(2.0, 2.0))  # near must be below far
+    assert KinectSpec(burst_frames=(2.0, 8.0)).burst_frames == (2.0, 8.0)
+    with pytest.raises(ValueError, match=r"KinectSpec\.burst_frames=.*whole numbers"):
+        KinectSpec(burst_frames=(2.5, 8))
+    with pytest.raises(ValueError, match=r"KinectSpec\.n_bystanders=True: .*integer"):
+        KinectSpec(n_bystanders=True)
+    with pytest.raises(ValueError, match=r"KinectSpec\.min_visible_fraction=0\.0: .*\(0, 1\]"):
+        KinectSpec(min_visible_fraction=0.0)
+    spec = KinectSpec(bystander_speed_mps=np.array([0.9, 1.2]))  # a 1-D array is a pair too
+    assert tuple(spec.bystander_speed_mps) == (0.9, 1.2)
+
+
 def test_bad_capture_input_raises_clear_errors():
     kinect = KinectV2(KinectSpec(), BatchRng.from_seeds([0, 1]))
     joints, q = user_at(2.5, b=2)

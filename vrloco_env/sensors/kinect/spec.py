@@ -9,7 +9,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from estimators.validation import check_in_range
+from estimators.validation import check_in_range, check_numbers
 from vrloco_env.sensors.kinect import _kernel as _k
 from vrloco_env.user import NUM_JOINTS, Joint
 
@@ -55,18 +55,6 @@ _DEFAULT_JOINT_SCALE = (
 
 # --------------------------------------------------------------------------------------------------
 # Specification
-
-
-def _pair(value: object, name: str) -> tuple[float, float]:
-    arr = np.asarray(value, dtype=np.float64)
-    if arr.shape != (2,) or not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} must be two finite numbers, got {value!r}")
-    return float(arr[0]), float(arr[1])
-
-
-def _check(cond: bool, msg: str) -> None:
-    if not cond:
-        raise ValueError(msg)
 
 
 @dataclass(frozen=True)
@@ -234,112 +222,42 @@ class KinectSpec:
     bystander_height_m: tuple[float, float] = (1.55, 1.90)
 
     def __post_init__(self) -> None:
-        _check(
-            math.isfinite(self.frame_rate_hz) and self.frame_rate_hz > 0,
-            f"frame_rate_hz must be > 0 Hz, got {self.frame_rate_hz}",
-        )
-        h, v = _pair(self.fov_deg, "fov_deg")
-        _check(
-            0 < h < 180 and 0 < v < 180,
-            f"fov_deg must be two angles in (0, 180) deg, got {self.fov_deg}",
-        )
-        near, far = _pair(self.depth_range_m, "depth_range_m")
-        _check(0 < near < far, f"depth_range_m must satisfy 0 < near < far (m), got {(near, far)}")
-        pos = np.asarray(self.camera_position_m, dtype=np.float64)
-        _check(
-            pos.shape == (3,) and bool(np.all(np.isfinite(pos))),
-            f"camera_position_m must be three finite numbers (m), got {self.camera_position_m!r}",
-        )
-        _check(
-            math.isfinite(self.camera_yaw_rad),
-            f"camera_yaw_rad must be finite, got {self.camera_yaw_rad}",
-        )
-        _check(
-            -45 < self.camera_tilt_deg < 45,
-            f"camera_tilt_deg must lie in (-45, 45) deg, got {self.camera_tilt_deg}",
-        )
-        for name in (
-            "joint_noise_a_mm", "joint_noise_b_mm_per_m2", "joint_bias_std_m",
-            "burst_position_std_m", "burst_rotation_std_deg", "torso_margin_m",
-            "occlusion_depth_m",
-        ):  # fmt: skip
-            val = getattr(self, name)
-            _check(math.isfinite(val) and val >= 0, f"{name} must be >= 0, got {val}")
-        _check(
-            0 <= self.joint_noise_white_fraction <= 1,
-            f"joint_noise_white_fraction must lie in [0, 1], got {self.joint_noise_white_fraction}",
-        )
-        for name in (
-            "joint_noise_tau_s",
-            "hand_rot_tau_s",
-            "noise_ref_depth_m",
-            "bystander_dwell_s",
-        ):
-            val = getattr(self, name)
-            _check(math.isfinite(val) and val > 0, f"{name} must be > 0, got {val}")
-        scale = np.asarray(self.joint_noise_scale, dtype=np.float64)
-        _check(
-            scale.shape == (NUM_JOINTS,) and bool(np.all(np.isfinite(scale) & (scale > 0))),
-            f"joint_noise_scale must be {NUM_JOINTS} positive numbers, "
-            f"got {self.joint_noise_scale!r}",
-        )
+        inf = math.inf
+        check_in_range(self, "frame_rate_hz", 0.0, inf, "Hz", lo_open=True)
+        check_numbers(self, "fov_deg", 0.0, 180.0, "deg", length=2, lo_open=True, hi_open=True)
+        check_numbers(self, "depth_range_m", 0.0, inf, "m", length=2, ordered=True, strict=True,
+                      lo_open=True)  # fmt: skip
+        check_numbers(self, "camera_position_m", -inf, inf, "m", length=3)
+        check_in_range(self, "camera_yaw_rad", -inf, inf, "rad")
+        check_in_range(self, "camera_tilt_deg", -45.0, 45.0, "deg", lo_open=True, hi_open=True)
+        for name in ("joint_noise_a_mm", "joint_noise_b_mm_per_m2", "joint_bias_std_m",
+                     "burst_position_std_m", "burst_rotation_std_deg", "torso_margin_m",
+                     "occlusion_depth_m", "bystander_lateral_m"):  # fmt: skip
+            check_in_range(self, name, 0.0, inf)
+        for name in ("joint_noise_white_fraction", "burst_prob", "random_inferred_prob"):
+            check_in_range(self, name, 0.0, 1.0)
+        for name in ("joint_noise_tau_s", "hand_rot_tau_s", "noise_ref_depth_m",
+                     "bystander_dwell_s"):  # fmt: skip
+            check_in_range(self, name, 0.0, inf, lo_open=True)
+        check_numbers(self, "joint_noise_scale", 0.0, inf, length=NUM_JOINTS, lo_open=True)
         for name in ("hand_rot_white_std_deg", "hand_rot_ar_std_deg"):
-            val = np.asarray(getattr(self, name), dtype=np.float64)
-            _check(
-                val.shape == (3,) and bool(np.all(np.isfinite(val) & (val >= 0))),
-                f"{name} must be three numbers >= 0 (deg), got {getattr(self, name)!r}",
-            )
-        _check(
-            math.isfinite(self.inferred_noise_factor) and self.inferred_noise_factor >= 1,
-            f"inferred_noise_factor must be >= 1, got {self.inferred_noise_factor}",
-        )
-        for name in ("burst_prob", "random_inferred_prob"):
-            val = getattr(self, name)
-            _check(0 <= val <= 1, f"{name} must lie in [0, 1], got {val}")
-        lo, hi = _pair(self.burst_frames, "burst_frames")
-        _check(
-            lo == int(lo) and hi == int(hi) and 1 <= lo <= hi,
-            f"burst_frames must be whole numbers 1 <= min <= max, got {self.burst_frames}",
-        )
-        _check(
-            isinstance(self.latency_frames, (int, np.integer)) and self.latency_frames >= 0,
-            f"latency_frames must be an integer >= 0, got {self.latency_frames!r}",
-        )
-        _check(
-            math.isfinite(self.random_inferred_frames) and self.random_inferred_frames >= 1,
-            f"random_inferred_frames must be >= 1, got {self.random_inferred_frames}",
-        )
-        _check(
-            0 < self.min_visible_fraction <= 1,
-            f"min_visible_fraction must lie in (0, 1], got {self.min_visible_fraction}",
-        )
-        _check(
-            isinstance(self.acquire_frames, (int, np.integer)) and self.acquire_frames >= 1,
-            f"acquire_frames must be an integer >= 1, got {self.acquire_frames!r}",
-        )
+            check_numbers(self, name, 0.0, inf, "deg", length=3)
+        check_in_range(self, "inferred_noise_factor", 1.0, inf)
+        check_numbers(self, "burst_frames", 1.0, inf, "frames", length=2, ordered=True,
+                      whole=True)  # fmt: skip
+        check_in_range(self, "latency_frames", 0, inf, "frames", integer=True)
+        check_in_range(self, "random_inferred_frames", 1.0, inf, "frames")
+        check_in_range(self, "min_visible_fraction", 0.0, 1.0, lo_open=True)
+        check_in_range(self, "acquire_frames", 1, inf, "frames", integer=True)
         check_in_range(self, "facing_inferred_deg", 0.0, 180.0, "deg")
         check_in_range(
             self, "facing_lost_deg", self.facing_inferred_deg, 180.0, lo_open=True,
             allowed=f"in (facing_inferred_deg = {self.facing_inferred_deg:g}, 180] deg",
         )  # fmt: skip
-        _check(
-            isinstance(self.n_bystanders, (int, np.integer))
-            and 0 <= self.n_bystanders <= MAX_BODIES - 1,
-            f"n_bystanders must be an integer in [0, {MAX_BODIES - 1}], got {self.n_bystanders!r}",
-        )
-        near_b, far_b = _pair(self.bystander_distance_m, "bystander_distance_m")
-        _check(
-            0 < near_b <= far_b,
-            f"bystander_distance_m must satisfy 0 < near <= far (m), got {(near_b, far_b)}",
-        )
-        _check(
-            math.isfinite(self.bystander_lateral_m) and self.bystander_lateral_m >= 0,
-            f"bystander_lateral_m must be >= 0, got {self.bystander_lateral_m}",
-        )
-        s0, s1 = _pair(self.bystander_speed_mps, "bystander_speed_mps")
-        _check(0 < s0 <= s1, f"bystander_speed_mps must satisfy 0 < min <= max, got {(s0, s1)}")
-        h0, h1 = _pair(self.bystander_height_m, "bystander_height_m")
-        _check(0 < h0 <= h1, f"bystander_height_m must satisfy 0 < min <= max, got {(h0, h1)}")
+        check_in_range(self, "n_bystanders", 0, MAX_BODIES - 1, integer=True)
+        for name, unit in (("bystander_distance_m", "m"), ("bystander_speed_mps", "m/s"),
+                           ("bystander_height_m", "m")):  # fmt: skip
+            check_numbers(self, name, 0.0, inf, unit, length=2, ordered=True, lo_open=True)
 
     @classmethod
     def facing(
