@@ -86,6 +86,8 @@ def cases() -> dict[str, callable]:
         "approach_vio_s7": lambda: _single("VRLoco-Approach-v0", 7, pose_source="visual_inertial"),
         "avoid_smooth_s8": lambda: _single("VRLoco-Avoid-v0", 8, technique="smooth"),
         "interact_one_euro_s9": lambda: _single("VRLoco-Interact-v0", 9, technique="one_euro_hand"),
+        "doorway_typical_s10": lambda: _single("VRLoco-Doorway-v0", 10, population="typical"),
+        "reach_nodders_s11": lambda: _single("VRLoco-Reach-v0", 11, population="nodders"),
     }
 
 

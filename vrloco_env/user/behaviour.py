@@ -10,7 +10,8 @@ whether the hand is being used), and it returns the intent with the head's part 
 
   - the goal, by default (walkers look where they are going: Hollands, Patla & Vickers, Exp.
     Brain Res. 143, 2002, find the head turning toward a new travel direction before the body);
-  - a *glance* at the nearest thing the rays see within ``glance_range_m``, started at
+  - a *glance* at the nearest thing the rays see within ``glance_range_m`` and within
+    +-``glance_cone_deg`` of the torso's direction (the travel path), started at
     ``glance_rate_hz`` (a Poisson process) and held ``glance_s`` or until nothing is near;
   - an idle *scan*: a direction drawn within +-``scan_amplitude_deg``, started at
     ``scan_rate_hz`` and held ``scan_s``;
@@ -87,6 +88,7 @@ class GazeBehaviour:
         self._nod_left = np.zeros(b)  # s left of the nod bout
         self._elapsed = np.zeros(b)  # s since the episode started
         self._max_head = min(np.deg2rad(p.max_head_yaw_deg), MAX_HEAD_YAW)
+        self._glance_cone = np.deg2rad(p.glance_cone_deg) + 1e-12
 
     def reset(self, rows: ArrayLike | None = None) -> NDArray[np.float64]:
         """Start new episodes for ``rows`` (None: all): draw their values, look at the goal.
@@ -128,8 +130,10 @@ class GazeBehaviour:
         u = self.rng.uniform((4,))  # glance onset, scan onset, scan direction, nod onset
         h = np.asarray(head_on_torso, dtype=np.float64)
         interacting = np.asarray(interacting, dtype=bool)
-        nearest = np.argmin(rays, axis=1)
-        near = rays[np.arange(b), nearest] < p.glance_range_m
+        on_path = np.abs(_wrap(self.ray_offsets[None, :] + h[:, None])) <= self._glance_cone
+        ahead = np.where(on_path, rays, np.inf)
+        nearest = np.argmin(ahead, axis=1)
+        near = ahead[np.arange(b), nearest] < p.glance_range_m
         obstacle_dir = _wrap(self.ray_offsets[nearest] + h)
         goal_dir = _wrap(np.asarray(goal_bearing, dtype=np.float64) + h)
 

@@ -74,6 +74,13 @@ class Population:
             ``glance_range_m`` (an engineering choice).
         glance_range_m: what is nearer than this (m) draws glances: about two steps ahead
             (Patla & Vickers 1997 find obstacles fixated one to two steps before crossing).
+        glance_cone_deg: only what lies within +- this (deg) of the torso's direction, the
+            travel path, draws glances. Walkers fixate obstacles in their travel path one to
+            two steps ahead (Patla & Vickers 1997) and avoid what is beside the path with
+            peripheral vision, without fixating it (Marigold, Weerdesteyn, Patla & Duysens,
+            Exp. Brain Res. 176, 2007); 30 deg is about half a body width (0.3 m) beside the
+            path one step (0.6 m) ahead, atan(0.3 / 0.6) = 27 deg (an engineering choice from
+            that geometry). Walls beside a corridor do not draw glances.
         glance_s: duration of a glance (s).
         scan_rate_hz: onsets per second of an idle look around (an engineering choice).
         scan_amplitude_deg: a scan looks at a direction drawn uniformly within +- this gaze
@@ -109,6 +116,7 @@ class Population:
     gaze_onset_s: tuple[float, float] = (0.2, 0.3)
     glance_rate_hz: tuple[float, float] = (0.0, 0.0)
     glance_range_m: float = 1.5
+    glance_cone_deg: float = 30.0
     glance_s: tuple[float, float] = (0.4, 0.8)
     scan_rate_hz: tuple[float, float] = (0.0, 0.0)
     scan_amplitude_deg: tuple[float, float] = (40.0, 70.0)
@@ -147,6 +155,7 @@ class Population:
             check_numbers(self, name, lo, hi, unit, length=2, ordered=True)
         check_in_range(self, "max_head_yaw_deg", 0.0, 80.0, "deg")
         check_in_range(self, "glance_range_m", 0.0, 10.0, "m")
+        check_in_range(self, "glance_cone_deg", 0.0, 180.0, "deg")
         check_in_range(self, "reaction_delay_s", 0.0, 1.0, "s")
         for name in ("reaction_delay_sd_s", "overshoot", "overshoot_sd"):
             check_in_range(self, name, 0.0, 2.0)

@@ -104,7 +104,7 @@ def test_the_head_stays_straight_until_the_user_has_seen_the_scene():
 def test_glances_look_at_the_nearest_thing_and_end_when_it_is_gone():
     pop = Population("glancers", "", gaze=True, eye_range_deg=(0.0, 0.0),
                      glance_rate_hz=(2.0, 2.0), glance_s=(5.0, 5.0),
-                     gaze_onset_s=(0.0, 0.0))  # fmt: skip
+                     gaze_onset_s=(0.0, 0.0), glance_cone_deg=90.0)  # fmt: skip
     g, offsets = _behaviour(pop, [1])
     rays = np.full((1, 15), 5.0)
     rays[0, 3] = 0.8  # something close, to the right
@@ -117,6 +117,41 @@ def test_glances_look_at_the_nearest_thing_and_end_when_it_is_gone():
     assert out.head_yaw[0] == pytest.approx(offsets[3]) and np.all(np.array(seen[k:]) == GLANCE)
     g.intent(_still(1), np.zeros(1), np.zeros(1), np.full((1, 15), 5.0), np.zeros(1, bool))
     assert g.mode[0] == GOAL  # nothing near any more
+
+
+def test_only_what_lies_on_the_travel_path_draws_glances():
+    """Things within glance_cone_deg of the torso's direction draw glances; a wall beside the
+    path does not, and the cone turns with the torso, not with the head."""
+    pop = Population("glancers", "", gaze=True, eye_range_deg=(0.0, 0.0),
+                     glance_rate_hz=(2.0, 2.0), glance_s=(5.0, 5.0),
+                     gaze_onset_s=(0.0, 0.0), glance_cone_deg=30.0)  # fmt: skip
+    g, offsets = _behaviour(pop, [1])
+    side = int(np.argmin(np.abs(offsets - np.deg2rad(-70.0))))  # 70 deg to the right
+    ahead = int(np.argmin(np.abs(offsets - np.deg2rad(20.0))))  # 20 deg to the left
+    assert abs(np.rad2deg(offsets[side]) + 70) < 7 and abs(np.rad2deg(offsets[ahead]) - 20) < 7
+    wall = np.full((1, 15), 5.0)
+    wall[0, side] = 0.5  # nearer than anything else, but beside the path
+    modes = []
+    for _ in range(60):
+        g.intent(_still(1), np.zeros(1), np.zeros(1), wall, np.zeros(1, bool))
+        modes.append(g.mode[0])
+    assert GLANCE not in modes  # 60 steps at 2 Hz: a glance would have started
+    both = wall.copy()
+    both[0, ahead] = 1.2  # farther than the wall, on the path
+    for _ in range(60):
+        out = g.intent(_still(1), np.zeros(1), np.zeros(1), both, np.zeros(1, bool))
+        if g.mode[0] == GLANCE:
+            break
+    assert g.mode[0] == GLANCE and out.head_yaw[0] == pytest.approx(offsets[ahead])
+    # the head turned 60 deg right on the torso: the wall's ray (70 deg right of the view) is
+    # now 130 deg off the torso, the ray 20 deg left of the view is 40 deg right of it: neither
+    g2, _ = _behaviour(pop, [1])
+    turned = np.full(1, np.deg2rad(-60.0))
+    modes = []
+    for _ in range(60):
+        g2.intent(_still(1), turned, np.zeros(1), both, np.zeros(1, bool))
+        modes.append(g2.mode[0])
+    assert GLANCE not in modes
 
 
 def test_scans_start_at_their_rate_and_stay_within_their_amplitude():
