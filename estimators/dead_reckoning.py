@@ -34,7 +34,22 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["DeadReckoning", "dead_reckon"]
+from estimators.validation import check_in_range
+
+__all__ = ["DeadReckoning", "check_step_intervals", "dead_reckon"]
+
+
+def check_step_intervals(params: object) -> None:
+    """The step-interval fields a step-driven locomotion filter's parameters share:
+    ``min_step_interval`` in [0.05, 2] s, ``max_step_interval`` from it to 10 s, and
+    ``default_step_interval`` between the two (a ValueError naming the field otherwise)."""
+    check_in_range(params, "min_step_interval", 0.05, 2.0, "s")
+    lo = float(params.min_step_interval)
+    check_in_range(params, "max_step_interval", lo, 10.0,
+                   allowed=f"in [min_step_interval={lo:g}, 10] s")  # fmt: skip
+    hi = float(params.max_step_interval)
+    between = f"in [min_step_interval={lo:g}, max_step_interval={hi:g}] s"
+    check_in_range(params, "default_step_interval", lo, hi, allowed=between)
 
 
 def _check_step_length(step_length: ArrayLike, shape: tuple[int, ...]) -> NDArray[np.float64]:

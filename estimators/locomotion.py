@@ -71,6 +71,7 @@ from estimators.dead_reckoning import (
     _check_step_length,
     _mask,
     _positions,
+    check_step_intervals,
     check_update_inputs,
 )
 from estimators.rotations import wrap_angle
@@ -148,13 +149,7 @@ class SmoothParams:
     def __post_init__(self) -> None:
         check_in_range(self, "distance_bandwidth_hz", 0.1, 10.0, "Hz")
         check_in_range(self, "heading_bandwidth_hz", 0.1, 20.0, "Hz")
-        check_in_range(self, "min_step_interval", 0.05, 2.0, "s")
-        lo = float(self.min_step_interval)
-        check_in_range(self, "max_step_interval", lo, 10.0,
-                       allowed=f"in [min_step_interval={lo:g}, 10] s")  # fmt: skip
-        hi = float(self.max_step_interval)
-        between = f"in [min_step_interval={lo:g}, max_step_interval={hi:g}] s"
-        check_in_range(self, "default_step_interval", lo, hi, allowed=between)
+        check_step_intervals(self)
         check_in_range(self, "catch_up", 0.0, 2.0)
 
     @property

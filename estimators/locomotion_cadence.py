@@ -60,6 +60,7 @@ from estimators.dead_reckoning import (
     _check_step_length,
     _mask,
     _positions,
+    check_step_intervals,
     check_update_inputs,
 )
 from estimators.kernels import BatchKernel, param_record, state_records
@@ -102,13 +103,7 @@ class CadenceSpeedParams:
         check_in_range(self, "ramp_time", 0.05, 3.0, "s")
         check_in_range(self, "stop_factor", 1.0, 5.0, "step intervals")
         check_in_range(self, "cadence_window", 1, 16, integer=True)
-        check_in_range(self, "min_step_interval", 0.05, 2.0, "s")
-        lo = float(self.min_step_interval)
-        check_in_range(self, "max_step_interval", lo, 10.0,
-                       allowed=f"in [min_step_interval={lo:g}, 10] s")  # fmt: skip
-        hi = float(self.max_step_interval)
-        between = f"in [min_step_interval={lo:g}, max_step_interval={hi:g}] s"
-        check_in_range(self, "default_step_interval", lo, hi, allowed=between)
+        check_step_intervals(self)
 
     def stop_time(self, step_interval: float) -> float:
         """Seconds after the last step event by which the speed is exactly 0 (plus one update),
