@@ -47,7 +47,10 @@ class GoalSeeker(ScriptedPolicy):
     its score is the cost to go at the end, plus ``turn_cost_m`` per radian of turning, less
     ``hold_m`` for last step's aim. It turns to the best, walks when aligned within ``go_deg``
     and that way is clear, and stops to re-align beyond ``stop_deg``. A heading into unseen
-    space is turned to first, and the rays then show what is there.
+    space is turned to first, and the rays then show what is there. The clearance map and the
+    cost to go are planned again only when the map, its box, the aim point's cell, the user's
+    cell or the length to check have changed since the last control step; otherwise the last
+    ones are reused (the same inputs, the same maps).
 
     Under the smooth locomotion filter (seed 001) the body moves between detected steps, so the
     dead-reckoned map is approximate (the filter's lag, well under a metre).
@@ -79,6 +82,9 @@ class GoalSeeker(ScriptedPolicy):
         n = int(np.floor(180.0 / p.candidate_step_deg))
         self.candidates = _wrap(np.deg2rad(p.candidate_step_deg) * np.arange(-n, n + 1))
         self.candidates = np.unique(np.round(self.candidates, 12))
+        # the planner's last clearance map and cost to go per user, (B, cells^2) each; which
+        # inputs they hold is ``plan_key`` of the state, so a reset row never reuses them
+        self._memo: tuple[NDArray, NDArray] | None = None
 
     def _init_state(self, b: int) -> dict[str, NDArray]:
         n = self._cells
@@ -93,10 +99,13 @@ class GoalSeeker(ScriptedPolicy):
             "occ": np.zeros((b, n, n), bool),
             "lo": np.full((b, 2), n, np.int64),
             "hi": np.full((b, 2), -1, np.int64),
+            "version": np.zeros(b, np.int64),  # changes of ``occ`` so far
+            "plan_key": np.full((b, 10), -1, np.int64),  # what the planner's memo is from
         }
 
-    def _remember(self, v: ObsView, state: dict[str, NDArray]) -> None:
-        """Dead-reckon the body and put the current ray hits into the map.
+    def _remember(self, v: ObsView, state: dict[str, NDArray]) -> tuple[NDArray, NDArray]:
+        """Dead-reckon the body and put the current ray hits into the map; the map's version
+        before (B,) and the cells marked now (K, 3) = (user, i, j).
 
         A detected step toward or away from the goal that left the goal where it was (the
         vector to the goal region, in the room frame, unchanged to 1 mm) was blocked by an
@@ -128,16 +137,23 @@ class GoalSeeker(ScriptedPolicy):
         iy = np.floor((wy + half) / p.map_cell_m).astype(np.int64)
         ok = ok & (ix >= 0) & (ix < self._cells) & (iy >= 0) & (iy < self._cells)
         rows = np.broadcast_to(np.arange(ok.shape[0])[:, None], ok.shape)
-        state["occ"][rows[ok], ix[ok], iy[ok]] = True
+        r, ix_ok, iy_ok = rows[ok], ix[ok], iy[ok]
+        new = ~state["occ"][r, ix_ok, iy_ok]
+        state["occ"][r, ix_ok, iy_ok] = True
+        changed = np.zeros(ok.shape[0], bool)
+        changed[r[new]] = True
+        prior = state["version"].copy()
+        state["version"] += changed
         big, small = self._cells, -1
         state["lo"][:, 0] = np.minimum(state["lo"][:, 0], np.where(ok, ix, big).min(1))
         state["lo"][:, 1] = np.minimum(state["lo"][:, 1], np.where(ok, iy, big).min(1))
         state["hi"][:, 0] = np.maximum(state["hi"][:, 0], np.where(ok, ix, small).max(1))
         state["hi"][:, 1] = np.maximum(state["hi"][:, 1], np.where(ok, iy, small).max(1))
+        return prior, np.stack([r[new], ix_ok[new], iy_ok[new]], axis=-1)
 
     def _steer(self, v, state):
         p = self.params
-        self._remember(v, state)
+        prior, news = self._remember(v, state)
         b = v.heading.size
         offset = self.walk_offset(v)
         walk = v.heading - offset  # the plan is relative to the walking direction
@@ -152,10 +168,13 @@ class GoalSeeker(ScriptedPolicy):
         aim, valid = np.zeros(b), np.zeros(b, bool)
         can_go, can_keep = np.zeros(b, bool), np.zeros(b, bool)
         active = np.ones(b, bool) if self._active is None else self._active
+        if self._memo is None or self._memo[0].shape[0] != b:
+            self._memo = (np.empty((b, self._cells**2)), np.empty((b, self._cells**2)))
         plan_kernel(b)(
-            (state["occ"], state["lo"], state["hi"]), state["pos"], walk, target, keep_len,
-            land, state["aim"], active, self.candidates, self._plan_prm,
-            (aim, valid, can_go, can_keep),
+            (state["occ"], state["lo"], state["hi"], state["version"], prior, news),
+            state["pos"], walk, target, keep_len, land, state["aim"], active, self.candidates,
+            self._plan_prm,
+            (state["plan_key"], *self._memo), (aim, valid, can_go, can_keep),
         )  # fmt: skip
         state["aim"] = np.where(valid, walk + aim, np.nan)
         return np.where(valid, aim, v.bearing + offset), valid, can_go, can_keep

@@ -1,0 +1,92 @@
+"""The goal seeker's route planner: its search against scipy's Dijkstra, its memo against
+planning afresh."""
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import dijkstra
+
+import vrloco_env  # noqa: F401  (registers the ids)
+from agents.policies import build_policy
+from agents.scripted.planner import _cost_to_go
+
+SQRT2 = 1.4142135623730951
+
+
+def _search(mult, start, box, cell):
+    ni, nj = mult.shape
+    cost = np.empty((ni, nj))
+    nodes = (np.empty(8 * ni * nj + 1, np.int64), np.empty(8 * ni * nj + 1),
+             np.empty(8 * ni * nj + 1, np.int64))  # fmt: skip
+    _cost_to_go(mult, cost, start[0], start[1], box, cell, nodes)
+    return cost
+
+
+def _scipy_costs(mult, start, cell):
+    """The same graph for scipy: an edge into every enterable cell from each of its 8
+    neighbours, weighing the step length times the cell's multiplier."""
+    ni, nj = mult.shape
+    rows, cols, weights = [], [], []
+    for i in range(ni):
+        for j in range(nj):
+            for di in (-1, 0, 1):
+                for dj in (-1, 0, 1):
+                    ii, jj = i + di, j + dj
+                    if (di, dj) == (0, 0) or not (0 <= ii < ni and 0 <= jj < nj):
+                        continue
+                    if np.isfinite(mult[ii, jj]):
+                        rows.append(i * nj + j)
+                        cols.append(ii * nj + jj)
+                        weights.append((cell * SQRT2 if di and dj else cell) * mult[ii, jj])
+    graph = coo_matrix((weights, (rows, cols)), shape=(ni * nj, ni * nj)).tocsr()
+    return dijkstra(graph, directed=True, indices=start[0] * nj + start[1]).reshape(ni, nj)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_the_bucket_queue_search_gives_scipys_dijkstra_costs(seed):
+    rng = np.random.default_rng(seed)
+    ni, nj = rng.integers(5, 40, size=2)
+    cell = (0.05, 0.1, 0.25)[seed % 3]
+    mult = 1.0 + rng.uniform(0.0, 4.0, (ni, nj)) * (rng.random((ni, nj)) < 0.5)
+    mult[rng.random((ni, nj)) < 0.25] = np.inf  # walls: never entered
+    start = (int(rng.integers(ni)), int(rng.integers(nj)))
+    mult[start] = 1.0
+    want = _scipy_costs(mult, start, cell)
+    assert np.isinf(want).any() and np.isfinite(want).sum() > 10  # walls cut some cells off
+    got = _search(mult, start, (0, ni - 1, 0, nj - 1), cell)
+    np.testing.assert_array_equal(got, want)
+    # stopping early, once a small square is settled: that square keeps the full costs
+    i, j = int(rng.integers(ni)), int(rng.integers(nj))
+    box = (max(i - 3, 0), min(i + 3, ni - 1), max(j - 3, 0), min(j + 3, nj - 1))
+    early = _search(mult, start, box, cell)
+    sq = (slice(box[0], box[1] + 1), slice(box[2], box[3] + 1))
+    np.testing.assert_array_equal(early[sq], want[sq])
+
+
+def _seeker_actions(seed, fresh):
+    """A goal seeker's actions over an Avoid episode; with ``fresh``, every plan is made anew
+    (the memo's key cleared before each step). Also the steps whose plan came from the memo."""
+    env = gym.make("VRLoco-Avoid-v0")
+    policy = build_policy("goal_seeker", env)
+    obs, _ = env.reset(seed=seed)
+    policy.reset(np.random.default_rng([seed, 1]))
+    actions, reused = [], 0
+    for _ in range(300):
+        state = policy._state
+        if state is not None and fresh:
+            state["plan_key"][:] = -1
+        before = None if state is None else state["plan_key"].copy()
+        actions.append(policy.act(obs))
+        reused += before is not None and np.array_equal(before, policy._state["plan_key"])
+        obs, _, terminated, truncated, _ = env.step(actions[-1])
+        if terminated or truncated:
+            break
+    return np.array(actions), reused
+
+
+def test_the_planners_memo_changes_no_action():
+    memo, reused = _seeker_actions(3, fresh=False)
+    again, none = _seeker_actions(3, fresh=True)
+    assert reused > len(memo) // 4 and none == 0  # the memo served many steps
+    np.testing.assert_array_equal(memo, again)
