@@ -169,7 +169,7 @@ def draw_grid(out_dir: Path, rows: list[dict[str, Any]],
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from agents.metrics import COLLISION_CAUSES
+    from agents.collision_causes import COLLISION_CAUSES
 
     out_dir.mkdir(parents=True, exist_ok=True)
     names = [cell_name(r) for r in rows]

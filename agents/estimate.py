@@ -94,8 +94,8 @@ def _compare_attitude(rec: Recording, q: NDArray[np.float64]) -> dict:
 
 def _compare_steps(rec: Recording, step_times: NDArray[np.float64], tol: float = 0.2) -> dict:
     """Detected steps against the foot-switch heel strikes, matched within +-tol s
-    (:func:`agents.metrics.match_step_times`, the benchmark's matching)."""
-    from agents.metrics import match_step_times
+    (:func:`agents.step_matching.match_step_times`, the benchmark's matching)."""
+    from agents.step_matching import match_step_times
 
     assert rec.ref_steps is not None
     truth = rec.ref_steps

@@ -8,7 +8,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from agents.metrics import play_area_measures
+from agents.wip_measures import play_area_measures
 from vrloco_env.config import EnvConfig
 from vrloco_env.env import VRLocoEnv
 from vrloco_env.user.play_area import PlayArea

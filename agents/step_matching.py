@@ -1,0 +1,99 @@
+"""Matching detected steps to true ones: by heel-strike times or by counts per control step.
+
+The env reports the true heel-strike times and the detector's estimated heel-strike times of each
+step (``info["true_step_times"]``, ``info["detected_step_times"]``, episode time, inf-padded);
+:func:`match_step_times` matches them one to one within +-0.2 s, seed 000's tolerance
+(:func:`estimators.gait.step_f1`). The detector is causal and reports a step 0.135 s after it,
+and the first step of a walking bout only with the second; matching the estimated heel-strike
+times, not the reporting times, judges where a step was detected, not when.
+:func:`match_step_counts` (counts per control step in a window) remains for recordings without
+times.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from estimators.gait import step_f1
+
+__all__ = [
+    "DEFAULT_LATE_STEPS",
+    "STEP_TOLERANCE_S",
+    "finite_times",
+    "match_step_counts",
+    "match_step_times",
+]
+
+#: Default lateness (control steps) allowed between a heel strike and its detection: 0.2 s.
+DEFAULT_LATE_STEPS = 2
+#: Step matching tolerance (s), seed 000's +-0.2 s.
+STEP_TOLERANCE_S = 0.2
+
+
+def match_step_times(
+    true_times: ArrayLike, detected_times: ArrayLike, tol: float = STEP_TOLERANCE_S
+) -> tuple[int, int, int]:
+    """(tp, fp, fn) of detected vs true heel-strike times matched one to one within ``tol`` s
+    (:func:`estimators.gait.step_f1`'s matching)."""
+    true = np.asarray(true_times, dtype=np.float64)
+    det = np.asarray(detected_times, dtype=np.float64)
+    _, recall, _ = step_f1(det, true, tol=tol)
+    tp = round(recall * true.size) if true.size else 0
+    return tp, int(det.size - tp), int(true.size - tp)
+
+
+def match_step_counts(
+    true_counts: ArrayLike,
+    detected_counts: ArrayLike,
+    late: int = DEFAULT_LATE_STEPS,
+    early: int = DEFAULT_LATE_STEPS,
+) -> tuple[int, int, int]:
+    """Match true and detected steps given as counts per control step.
+
+    A detection at control step ``k`` may match one true step at ``j`` with
+    ``k - late <= j <= k + early``; each step matches at most once (greedy in time order, a
+    maximum matching for this window).
+
+    Args:
+        true_counts: true heel strikes per control step, (T,) non-negative integers.
+        detected_counts: detected steps per control step, (T,) non-negative integers.
+        late: how many control steps a detection may come after its heel strike.
+        early: how many control steps a detection may come before it.
+
+    Returns:
+        ``(true_positives, false_positives, false_negatives)``.
+
+    Raises:
+        ValueError: different lengths, negative or non-integer counts, negative windows.
+    """
+    t = np.asarray(true_counts)
+    d = np.asarray(detected_counts)
+    if t.ndim != 1 or d.shape != t.shape:
+        raise ValueError(
+            f"true_counts and detected_counts must be (T,) arrays of one length, "
+            f"got {t.shape} and {d.shape}"
+        )
+    for name, a in (("true_counts", t), ("detected_counts", d)):
+        if a.size and (np.any(a < 0) or np.any(a != np.round(a)) or not np.all(np.isfinite(a))):
+            raise ValueError(f"{name} must hold non-negative integers")
+    if late < 0 or early < 0:
+        raise ValueError(f"late and early must be >= 0 control steps, got {late}, {early}")
+    idx = np.arange(t.size)
+    true_ev = np.repeat(idx, t.astype(np.int64))
+    det_ev = np.repeat(idx, d.astype(np.int64))
+    tp = 0
+    i = 0
+    for k in det_ev:  # both sorted: a two-pointer sweep
+        while i < true_ev.size and true_ev[i] < k - late:
+            i += 1
+        if i < true_ev.size and true_ev[i] <= k + early:
+            tp += 1
+            i += 1
+    return tp, int(det_ev.size - tp), int(true_ev.size - tp)
+
+
+def finite_times(per_step: ArrayLike) -> NDArray[np.float64]:
+    """The sorted finite times of per-step padded time arrays, (T, K)."""
+    t = np.ravel(np.asarray(per_step, dtype=np.float64))
+    return np.sort(t[np.isfinite(t)])
