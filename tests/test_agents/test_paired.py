@@ -6,7 +6,13 @@ import numpy as np
 import pytest
 
 from agents.metrics import EpisodeStats
-from agents.paired import BINARY_METRICS, MEAN_METRICS, episode_values, paired_p_values
+from agents.paired import (
+    BINARY_METRICS,
+    MEAN_METRICS,
+    episode_values,
+    paired_p_values,
+    wilcoxon_p,
+)
 
 
 def _episode(seed, success=True, walked=10.0, elapsed=20.0, detected=()):
@@ -53,3 +59,38 @@ def test_paired_tests_find_a_consistent_difference_and_not_noise():
 def test_paired_tests_refuse_cells_of_different_seeds():
     with pytest.raises(ValueError, match="same seeds"):
         paired_p_values([_episode(0)], [_episode(1)])
+
+
+def _differences(rng, n, kind):
+    if kind == "distinct":
+        return rng.normal(0.3, 1.0, n)
+    if kind == "ties":  # few distinct sizes, no zeros
+        return rng.choice([-2.0, -1.0, 1.0, 2.0, 3.0], n)
+    if kind == "zeros":  # distinct sizes and some zeros
+        return rng.normal(0.3, 1.0, n) * (rng.random(n) < 0.7)
+    return np.round(rng.normal(0.2, 1.0, n), 1)  # ties and zeros
+
+
+@pytest.mark.parametrize("kind", ["distinct", "ties", "zeros", "both"])
+def test_the_signed_rank_test_gives_scipys_p_values(kind):
+    from scipy.stats import wilcoxon
+
+    rng = np.random.default_rng(len(kind))
+    # every regime of scipy's choice: exact (n <= 50, no ties or zeros), all sign assignments
+    # (n <= 13 with ties or zeros), the normal approximation (the rest)
+    for n in [*range(1, 16), 20, 30, 49, 50, 51, 70, 120]:
+        for _ in range(6):
+            d = _differences(rng, n, kind)
+            if not np.any(d):
+                continue
+            want = wilcoxon(d, zero_method="wilcox").pvalue
+            assert abs(wilcoxon_p(d) - want) <= 1e-12, (kind, n, d)
+            assert abs(wilcoxon_p.py_func(d) - want) <= 1e-12, (kind, n, d)
+
+
+def test_the_signed_rank_test_against_hand_counted_cases():
+    # ranks 1..4, all positive: 1 of 16 sign assignments has R+ >= 10, two-sided 2/16
+    assert wilcoxon_p(np.array([1.0, 2.0, 3.0, 4.0])) == pytest.approx(2 / 16, abs=1e-15)
+    # the zero is dropped, |-1| and |1| share rank 1.5: R+ = 1.5 + 3 of the ranks (1.5, 1.5, 3);
+    # the 8 sign assignments give R+ 0, 1.5, 1.5, 3, 3, 4.5, 4.5, 6: 3 of them >= 4.5, p = 2 * 3/8
+    assert wilcoxon_p(np.array([0.0, -1.0, 1.0, 2.0])) == pytest.approx(0.75, abs=1e-15)
