@@ -20,19 +20,17 @@ first episode of each cell the true and virtual paths over the room, the head at
 for the grid every metric, the collision causes and the latencies).
 
 Policies: ``goal_seeker``, ``avoid_manoeuvre``, ``reactive_avoider`` (:mod:`agents.scripted`),
-``+human`` for the :class:`agents.variability.HumanVariability` wrapper, a stable-baselines3
-``.zip`` or ``module:attr`` (:mod:`agents.policies`). The default grid: approach and avoid x
-goal_seeker, goal_seeker+human and avoid_manoeuvre x seed 000's chain on both IMU presets x 40
-episodes; ``reactive_avoider`` is left out of it because its failures run to the time limit.
+``+<population>`` for a human population (:mod:`vrloco_env.user.population`), a stable-baselines3
+``.zip`` or ``module:attr`` (:mod:`agents.policies`). The default run is
+:data:`agents.grid.DEFAULT_GRIDS`; after its table comes the discriminating-power table of the
+technique pairs whose cells the run holds (:mod:`agents.discrimination`, also ``pairs.json``).
 """
 
 from __future__ import annotations
 
 import math
-import re
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -48,6 +46,16 @@ from agents.benchmark_outputs import (
     write_json,
 )
 from agents.conditions import DEFAULT_CONDITION, get_condition
+from agents.discrimination import pair_results, show_pairs, write_pairs
+from agents.grid import (
+    DEFAULT_EPISODES,
+    DEFAULT_GRIDS,
+    DEFAULT_POLICIES,
+    DEFAULT_TASKS,
+    DEFAULT_TECHNIQUES,
+    Cell,
+    Grid,
+)
 from agents.metrics import (
     STEP_KEYS,
     TRACE_KEYS,
@@ -57,7 +65,7 @@ from agents.metrics import (
     summarize,
 )
 from agents.paired import paired_p_values
-from agents.policies import build_policy, check_policy, env_population
+from agents.policies import build_policy, check_policy
 from agents.resume import EpisodeStore, episode_key, source_fingerprint
 from agents.scripted import is_batched
 from vrloco_env.tasks import env_id, get_task
@@ -65,13 +73,7 @@ from vrloco_env.tasks import env_id, get_task
 __all__ = [
     "BASELINE_TECHNIQUE",
     "DEFAULT_BATCH_SIZE",
-    "DEFAULT_EPISODES",
-    "DEFAULT_POLICIES",
-    "DEFAULT_SENSORS",
-    "DEFAULT_TASKS",
-    "DEFAULT_TECHNIQUES",
     "ROW_KEYS",
-    "Cell",
     "run_batched",
     "run_benchmark",
     "run_cell_batched",
@@ -81,58 +83,8 @@ __all__ = [
     "step_window",
 ]
 
-DEFAULT_TASKS = ("approach", "avoid")
-DEFAULT_POLICIES = ("goal_seeker", "goal_seeker+human", "avoid_manoeuvre")
-DEFAULT_SENSORS = ("ig500n", "consumer_mems")
-DEFAULT_TECHNIQUES = ("seed000", "seed000_consumer")
-DEFAULT_EPISODES = 40
 #: Users per vector env in the batched runner (:func:`run_cell_batched`).
 DEFAULT_BATCH_SIZE = 20
-
-
-
-
-@dataclass(frozen=True)
-class Cell:
-    """One cell of the benchmark grid: a task, a policy, a technique (a registered name, a
-    ``"module:attr"`` naming a :class:`~vrloco_env.techniques.Technique`, or one) and the
-    physical room's condition (:mod:`agents.conditions`)."""
-
-    task: str
-    policy: str
-    technique: Any = "seed000"
-    condition: str = DEFAULT_CONDITION
-
-    @property
-    def technique_name(self) -> str:
-        from vrloco_env.techniques import get_technique
-
-        return get_technique(self.technique).name
-
-    @property
-    def population(self) -> str | None:
-        """The env's user population: the policy's ``+<population>`` where it acts on the body
-        (:func:`agents.policies.env_population`), else None."""
-        return env_population(self.policy)
-
-    @property
-    def sensors(self) -> str:
-        """The technique's IMU preset."""
-        from vrloco_env.techniques import get_technique
-
-        return get_technique(self.technique).sensor_preset
-
-    @property
-    def label(self) -> str:
-        """A file-name-safe name: ``task_policy_technique``, then ``_condition`` outside the
-        default condition (a policy or technique given as a path keeps only its file name; other
-        characters become ``-``)."""
-
-        def safe(text: str) -> str:
-            return re.sub(r"[^A-Za-z0-9_]+", "-", text.replace("\\", "/").split("/")[-1])
-
-        where = "" if self.condition == DEFAULT_CONDITION else f"_{safe(self.condition)}"
-        return f"{self.task}_{safe(self.policy)}_{safe(self.technique_name)}{where}"
 
 
 def technique_for_preset(preset: str) -> Any:
@@ -404,8 +356,8 @@ def _job(args: tuple[list[tuple[Cell, int, int, bool]], int]) -> list[tuple]:
 
 
 def run_benchmark(
-    tasks: Sequence[str] = DEFAULT_TASKS,
-    policies: Sequence[str] = DEFAULT_POLICIES,
+    tasks: Sequence[str] | None = None,
+    policies: Sequence[str] | None = None,
     sensors: Sequence[str] | None = None,
     episodes: int = DEFAULT_EPISODES,
     seed: int = 0,
@@ -419,18 +371,25 @@ def run_benchmark(
     backend: str = "local",
     address: str | None = None,
     baseline: str = BASELINE_TECHNIQUE,
-    conditions: Sequence[str] = (DEFAULT_CONDITION,),
+    conditions: Sequence[str] | None = None,
+    grids: Sequence[Grid] | None = None,
 ) -> list[dict[str, Any]]:
-    """Run the grid and write the outputs.
+    """Run the grid (or grids) and write the outputs.
+
+    Without any of ``tasks``, ``policies``, ``sensors``, ``techniques``, ``conditions`` and
+    ``grids`` it runs the default run, :data:`DEFAULT_GRIDS`. Given some of the first five, it
+    runs their one grid, the axes not given taken from :data:`DEFAULT_TASKS`,
+    :data:`DEFAULT_POLICIES`, :data:`DEFAULT_TECHNIQUES` and the default condition.
 
     Args:
-        tasks: ``approach``, ``avoid``, ``interact``.
-        policies: scripted users, optionally with ``+human``.
+        tasks: registered task names (:mod:`vrloco_env.tasks`).
+        policies: scripted users, optionally with ``+<population>`` (:mod:`agents.policies`).
         sensors: IMU presets (``ig500n``, ``consumer_mems``): shorthand for seed 000's chain on
             each, added to ``techniques``.
         techniques: registered technique names, ``"module:attr"`` strings or
             :class:`~vrloco_env.techniques.Technique` objects. Without ``sensors`` and
             ``techniques``: :data:`DEFAULT_TECHNIQUES`.
+        grids: several grids run as one (each cell once), instead of the five arguments above.
         episodes: episodes per cell (>= 1).
         seed: episode ``i`` is seeded ``seed + i``.
         workers: worker processes (>= 1; 1 runs in this process).
@@ -463,25 +422,27 @@ def run_benchmark(
     """
     from vrloco_env.techniques import get_technique
 
-    if sensors is None and techniques is None:
-        techniques = DEFAULT_TECHNIQUES
-    techs = [*(technique_for_preset(s) for s in sensors or ()), *(techniques or ())]
-    tasks, policies, conditions = list(tasks), list(policies), list(conditions)
-    for name, values in (("tasks", tasks), ("policies", policies), ("techniques", techs),
-                         ("conditions", conditions)):  # fmt: skip
-        if not values:
-            raise ValueError(f"{name} must name at least one entry")
-    for t in tasks:
-        get_task(t)  # raises with the registered names
-    for p in policies:
-        check_policy_name(p)
-    for k in conditions:
-        get_condition(k, "conditions")  # raises with the registered names
-    if len(set(conditions)) != len(conditions):
-        raise ValueError(f"conditions must not repeat a name, got {', '.join(conditions)}")
-    names = [get_technique(t).name for t in techs]  # raises with the valid names
-    if len(set(names)) != len(names):
-        raise ValueError(f"techniques must not repeat a name, got {', '.join(names)}")
+    axes = (tasks, policies, sensors, techniques, conditions)
+    if grids is not None and any(a is not None for a in axes):
+        raise ValueError("grids replaces tasks, policies, sensors, techniques and conditions: "
+                         "give one or the other")  # fmt: skip
+    if grids is None:
+        if all(a is None for a in axes):
+            grids = DEFAULT_GRIDS
+        else:
+            if sensors is None and techniques is None:
+                techniques = DEFAULT_TECHNIQUES
+            grids = [Grid(tuple(DEFAULT_TASKS if tasks is None else tasks),
+                          tuple(DEFAULT_POLICIES if policies is None else policies),
+                          (*(technique_for_preset(s) for s in sensors or ()),
+                           *(techniques or ())),
+                          tuple((DEFAULT_CONDITION,) if conditions is None
+                                else conditions))]  # fmt: skip
+    grids = list(grids)
+    if not grids:
+        raise ValueError("grids must hold at least one Grid")
+    for g in grids:
+        _check_grid(g)
     if isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 1:
         raise ValueError(f"episodes must be an integer >= 1, got {episodes!r}")
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
@@ -500,7 +461,7 @@ def run_benchmark(
 
         import_ray()  # not installed: the install hint, before any work
 
-    cells = [Cell(t, p, k, w) for w in conditions for t in tasks for p in policies for k in techs]
+    cells = list(dict.fromkeys(c for g in grids for c in g.cells()))
     want_figures = out_dir is not None
     store = None if out_dir is None else EpisodeStore(Path(out_dir) / ".resume")
     results: dict[tuple[Cell, int], EpisodeStats] = {}
@@ -551,17 +512,22 @@ def run_benchmark(
                 [results[(ref, i)] for i in range(episodes)], eps, late, early),
         }  # fmt: skip
         rows.append({k: _round(row[k]) for k in ROW_KEYS})
+    pairs = pair_results(rows) if baseline == BASELINE_TECHNIQUE else []
     if print_table and rows:
         show_table(rows, seed, baseline=baseline)
+        show_pairs(pairs, baseline)
     meta = {"seed": seed, "episodes": episodes, "workers": workers, "batch_size": batch_size,
-            "tasks": tasks, "policies": policies, "techniques": names,
-            "conditions": conditions}  # fmt: skip
+            "grids": [{"tasks": list(g.tasks), "policies": list(g.policies),
+                       "techniques": [get_technique(t).name for t in g.techniques],
+                       "conditions": list(g.conditions)} for g in grids]}  # fmt: skip
     written = []
     if out_dir is not None:
         out = Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)
         written.append(write_csv(out / "benchmark.csv", rows))
         written.append(write_json(out / "benchmark.json", rows, meta))
+        if pairs:
+            written.append(write_pairs(out / "pairs.json", pairs))
         for c in cells:
             written += draw_cell(out, c, results[(c, 0)])
         if rows:
@@ -577,6 +543,26 @@ def run_benchmark(
     if store is not None:
         store.clear()  # the grid is complete: nothing to resume
     return rows
+
+
+def _check_grid(grid: Grid) -> None:
+    """A clear error for an empty axis, an unknown name or a repeated one."""
+    from vrloco_env.techniques import get_technique
+
+    for name in ("tasks", "policies", "techniques", "conditions"):
+        if not getattr(grid, name):
+            raise ValueError(f"{name} must name at least one entry")
+    for t in grid.tasks:
+        get_task(t)  # raises with the registered names
+    for p in grid.policies:
+        check_policy_name(p)
+    for k in grid.conditions:
+        get_condition(k, "conditions")  # raises with the registered names
+    if len(set(grid.conditions)) != len(grid.conditions):
+        raise ValueError(f"conditions must not repeat a name, got {', '.join(grid.conditions)}")
+    names = [get_technique(t).name for t in grid.techniques]  # raises with the valid names
+    if len(set(names)) != len(names):
+        raise ValueError(f"techniques must not repeat a name, got {', '.join(names)}")
 
 
 def _episode_keys(

@@ -12,11 +12,12 @@ from typing import Any
 
 import numpy as np
 
+from agents.collision_causes import COLLISION_CAUSES
 from agents.conditions import DEFAULT_CONDITION
-from agents.metrics import COLLISION_CAUSES, MOTION_KEYS, PLAY_AREA_KEYS
 from agents.paired import ALPHA, BINARY_METRICS, MEAN_METRICS
+from agents.wip_measures import MOTION_KEYS, PLAY_AREA_KEYS
 
-__all__ = ["BASELINE_TECHNIQUE", "ROW_KEYS", "show_table", "write_csv", "write_json"]
+__all__ = ["BASELINE_TECHNIQUE", "ROW_KEYS", "json_safe", "show_table", "write_csv", "write_json"]
 
 #: The technique every other one is compared with, episode by episode (:mod:`agents.paired`).
 BASELINE_TECHNIQUE = "seed000"
@@ -87,6 +88,21 @@ _COMPACT_HEADS = {"success_rate": "succ.", "collision_rate": "coll.", "step_f1":
                   "attitude_rmse_deg": "att. (°)"}  # fmt: skip
 #: Narrower terminals than this get the compact table (the files keep every column).
 _FULL_WIDTH = 180
+#: The second table's columns: how walking in place felt (row key, heading).
+_WIP_COLUMNS = (("task", "task"), ("policy", "policy"), ("technique", "technique"),
+                ("heading_error_rmse_deg", "heading err (°)"),
+                ("start_latency_s", "start lat. (s)"), ("stop_latency_s", "stop lat. (s)"),
+                ("stop_overshoot_m", "overshoot (m)"),
+                ("false_motion_m_per_min", "false motion (m/min)"),
+                ("phantom_steps_per_min", "phantom /min"), ("missed_steps_per_min", "missed /min"),
+                ("yaw_drift_deg_per_min", "yaw drift (°/min)"),
+                ("yaw_rate_mismatch_deg_s", "yaw-rate mism. (°/s)"),
+                ("virtual_jerk_m_s3", "jerk (m/s³)"),
+                ("hand_tracking_availability", "hand avail."),
+                ("boundary_violations", "boundary viol."))  # fmt: skip
+_WIP_COMPACT = ("task", "technique", "heading_error_rmse_deg", "stop_latency_s",
+                "false_motion_m_per_min", "phantom_steps_per_min", "yaw_drift_deg_per_min",
+                "virtual_jerk_m_s3")  # fmt: skip
 
 
 def show_table(rows: list[dict[str, Any]], seed: int, width: int | None = None,
@@ -96,7 +112,6 @@ def show_table(rows: list[dict[str, Any]], seed: int, width: int | None = None,
     :data:`ALPHA` (the row's ``vs_baseline``) is marked ``*``. The condition gets a column
     where some row is not in the default one."""
     from rich.console import Console
-    from rich.table import Table
 
     console = Console(width=width) if width is not None else Console()
     if width is None and not console.is_terminal:  # a pipe or a file: the full table
@@ -107,7 +122,29 @@ def show_table(rows: list[dict[str, Any]], seed: int, width: int | None = None,
     if any(r.get("condition", DEFAULT_CONDITION) != DEFAULT_CONDITION for r in rows):
         at = [k for k, _ in cols].index("technique") + 1
         cols.insert(at, ("condition", "condition"))
-    title = f"vrloco benchmark (seeds {seed}..{seed + rows[0]['episodes'] - 1})"
+    seeds = f"seeds {seed}..{seed + rows[0]['episodes'] - 1}"
+    marked = _print_table(console, rows, cols, f"vrloco benchmark: outcomes ({seeds})", compact)
+    wip = [c for c in _WIP_COLUMNS if not compact or c[0] in _WIP_COMPACT]
+    if any(k == "condition" for k, _ in cols):
+        wip.insert([k for k, _ in wip].index("technique") + 1, ("condition", "condition"))
+    marked |= _print_table(console, rows, wip, f"walking in place ({seeds})", compact)
+    if not compact:
+        console.print("collision causes: " + "/".join(c.replace("_", " ")
+                                                      for c in COLLISION_CAUSES))  # fmt: skip
+    if marked:
+        console.print(f"* differs from {baseline} (same task, policy, condition and seeds) at "
+                      f"p < {ALPHA}: exact McNemar test for rates, Wilcoxon signed-rank for means "
+                      "(agents.paired)")  # fmt: skip
+    if compact:
+        console.print(f"(a compact view for {console.width} columns: every column is in the "
+                      "CSV and JSON files)")  # fmt: skip
+
+
+def _print_table(console: Any, rows: list[dict[str, Any]], cols: list, title: str,
+                 compact: bool) -> bool:  # fmt: skip
+    """Print one table of ``rows``; True where some value is marked as differing."""
+    from rich.table import Table
+
     table = Table(title=title, pad_edge=False, padding=(0, 1) if not compact else (0, 0))
     for key, head in cols:
         left = key in ("task", "policy", "technique", "condition", "sensors")
@@ -123,34 +160,25 @@ def show_table(rows: list[dict[str, Any]], seed: int, width: int | None = None,
             cells.append(text)
         table.add_row(*cells)
     console.print(table)
-    if not compact:
-        console.print("collision causes: " + "/".join(c.replace("_", " ")
-                                                      for c in COLLISION_CAUSES))  # fmt: skip
-    if marked:
-        console.print(f"* differs from {baseline} (same task, policy, condition and seeds) at "
-                      f"p < {ALPHA}: exact McNemar test for rates, Wilcoxon signed-rank for means "
-                      "(agents.paired)")  # fmt: skip
-    if compact:
-        console.print(f"(a compact view for {console.width} columns: every column is in the "
-                      "CSV and JSON files)")  # fmt: skip
+    return marked
 
 
-def _clean(v: Any) -> Any:
+def json_safe(v: Any) -> Any:
     """JSON-safe value: NaN becomes null, an interval a list."""
     if isinstance(v, tuple | list):
-        return [_clean(x) for x in v]
+        return [json_safe(x) for x in v]
     if isinstance(v, dict):
-        return {k: _clean(x) for k, x in v.items()}
+        return {k: json_safe(x) for k, x in v.items()}
     if isinstance(v, float) and not math.isfinite(v):
         return None
     if isinstance(v, np.generic):
-        return _clean(v.item())
+        return json_safe(v.item())
     return v
 
 
 def write_json(path: Path, rows: list[dict[str, Any]], meta: dict[str, Any]) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
-    data = {"rows": [{k: _clean(v) for k, v in r.items()} for r in rows], "config": meta}
+    data = {"rows": [{k: json_safe(v) for k, v in r.items()} for r in rows], "config": meta}
     path.write_text(json.dumps(data, indent=2) + os.linesep)
     return path
 
@@ -185,5 +213,5 @@ def write_csv(path: Path, rows: list[dict[str, Any]]) -> Path:
                         flat[f"p_vs_baseline_{m}"] = None if r[k] is None else r[k][m]["p"]
                 else:
                     flat[k] = r[k]
-            w.writerow({k: ("" if _clean(v) is None else v) for k, v in flat.items()})
+            w.writerow({k: ("" if json_safe(v) is None else v) for k, v in flat.items()})
     return path

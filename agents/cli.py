@@ -185,8 +185,8 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
 
     try:
         run_benchmark(
-            tasks=names(args.tasks),
-            policies=names(args.policies),
+            tasks=names(args.tasks) if args.tasks else None,
+            policies=names(args.policies) if args.policies else None,
             sensors=names(args.sensors) if args.sensors else None,
             techniques=names(args.techniques) if args.techniques else None,
             episodes=args.episodes,
@@ -197,7 +197,7 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
             batch_size=args.batch_size,
             backend=args.backend,
             address=args.address,
-            conditions=names(args.conditions),
+            conditions=names(args.conditions) if args.conditions else None,
         )
     except ValueError as err:  # a bad option value: one clear line, no traceback
         print(f"vrloco benchmark: {err}", file=sys.stderr)
@@ -309,7 +309,9 @@ def _cmd_estimate(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from agents.grid import DEFAULT_EPISODES, DEFAULT_POLICIES, DEFAULT_TASKS, DEFAULT_TECHNIQUES
     from vrloco_env.tasks import TASKS
+    from vrloco_env.user.population import POPULATIONS
 
     parser = argparse.ArgumentParser(
         prog="vrloco",
@@ -390,21 +392,28 @@ def build_parser() -> argparse.ArgumentParser:
     loco.set_defaults(func=_cmd_locomotion)
     bench = sub.add_parser(
         "benchmark",
-        help="scripted users x tasks x IMU presets: success, collisions, SPL, steps, errors",
+        help="simulated users x tasks x techniques: outcomes, walking-in-place measures, "
+        "collision causes, paired tests",
+        description="Without --tasks, --policies, --techniques, --sensors and --conditions: the "
+        "default run (agents.benchmark.DEFAULT_GRIDS: the main grid and the scenarios where a "
+        "technique should differ from seed000), then the discriminating-power table "
+        "(agents.discrimination). Given some of them: their one grid, the others from the main "
+        "grid.",
     )
     bench.add_argument(
-        "--tasks", default="approach,avoid", help=f"comma-separated tasks: {', '.join(TASKS)}"
+        "--tasks", help=f"comma-separated tasks: {', '.join(TASKS)} "
+        f"(main grid: {','.join(DEFAULT_TASKS)})",
     )
     bench.add_argument(
         "--policies",
-        default="goal_seeker,goal_seeker+human,avoid_manoeuvre",
-        help="comma-separated users: goal_seeker, avoid_manoeuvre, reactive_avoider; "
-        "append +human for human variability",
+        help="comma-separated users: goal_seeker, avoid_manoeuvre, reactive_avoider; append "
+        f"+<population> ({', '.join(POPULATIONS)}) for a human population "
+        f"(main grid: {','.join(DEFAULT_POLICIES)})",
     )
     bench.add_argument(
         "--techniques",
         help="comma-separated techniques (vrloco techniques lists them; 'module:attr' names "
-        "your own); default: seed000,seed000_consumer unless --sensors is given",
+        f"your own); main grid: {','.join(DEFAULT_TECHNIQUES)} unless --sensors is given",
     )
     bench.add_argument(
         "--sensors",
@@ -412,11 +421,13 @@ def build_parser() -> argparse.ArgumentParser:
         "(ig500n = seed000, consumer_mems = seed000_consumer), added to --techniques",
     )
     bench.add_argument(
-        "--conditions", default="lab",
+        "--conditions",
         help="comma-separated physical-room conditions (agents.conditions): lab (nothing near "
-        "the play area), beside_metal (a steel cabinet at its edge); each a grid axis",
+        "the play area), beside_metal (a steel cabinet at its edge); each a grid axis "
+        "(main grid: lab)",
     )
-    bench.add_argument("--episodes", type=_int_at_least(1), default=40, help="episodes per cell")
+    bench.add_argument("--episodes", type=_int_at_least(1), default=DEFAULT_EPISODES,
+                       help="episodes per cell")  # fmt: skip
     bench.add_argument("--seed", type=_int_at_least(0), default=0, help="episode i uses seed + i")
     bench.add_argument("--workers", type=_int_at_least(1), default=2,
                        help="worker processes (--backend ray: the CPUs to cut jobs for)")

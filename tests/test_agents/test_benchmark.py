@@ -9,7 +9,6 @@ import pytest
 
 from agents.benchmark import (
     ROW_KEYS,
-    Cell,
     check_policy_name,
     run_batched,
     run_benchmark,
@@ -17,7 +16,9 @@ from agents.benchmark import (
     run_cell_episode,
 )
 from agents.cli import main
-from agents.metrics import EpisodeStats, match_step_counts, spl, summarize
+from agents.grid import Cell
+from agents.metrics import EpisodeStats, spl, summarize
+from agents.step_matching import match_step_counts
 
 
 def episode(success, collisions, walked, shortest, elapsed=10.0, true=(), det=(), att=(), hand=()):
@@ -191,7 +192,7 @@ def test_bad_benchmark_options_are_rejected_clearly(capsys):
 
 
 def test_step_times_are_matched_within_0_2_s():
-    from agents.metrics import match_step_times
+    from agents.step_matching import match_step_times
 
     true = [1.0, 1.6, 2.2, 2.8]
     detected = [1.05, 1.78, 2.41, 2.79, 3.5]  # 2.41 is 0.21 s late: a miss and a false step
@@ -239,7 +240,7 @@ def test_unknown_policies_and_techniques_are_named():
 
 def test_the_table_fits_a_narrow_terminal(capsys):
     from agents.benchmark import show_table
-    from agents.metrics import COLLISION_CAUSES
+    from agents.collision_causes import COLLISION_CAUSES
 
     row = {k: 0.5 for k in ROW_KEYS}
     row.update(task="approach", policy="goal_seeker+human", technique="seed000_consumer",
@@ -262,7 +263,8 @@ def test_walking_in_place_measures_against_a_hand_made_episode():
     """One bout (intent in steps 10-29, heel strikes at 1.2-3.0 s), the virtual body moving
     0.05 m a step from 1.5 s to 3.4 s, then 0.1 m of drift while standing, a heading error that
     grows 1 deg while standing and a true head turn of 10 deg the view does not follow."""
-    from agents.metrics import motion_measures, wilson_interval
+    from agents.cell_statistics import wilson_interval
+    from agents.wip_measures import motion_measures
 
     n, dt = 100, 0.1
     t_end = dt * np.arange(1, n + 1)
@@ -307,7 +309,7 @@ def test_each_collision_of_a_hand_made_episode_gets_its_cause():
     """Five collisions, one per cause: a detected step far from every heel strike, a collision
     after the user meant to stop, a 15 deg heading error, walking 20 deg off the torso's facing,
     and one with sensing as perfect sensing would be."""
-    from agents.metrics import COLLISION_CAUSES, collision_causes
+    from agents.collision_causes import COLLISION_CAUSES, collision_causes
 
     n, dt = 100, 0.1
     t_end = dt * np.arange(1, n + 1)
