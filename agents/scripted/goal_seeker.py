@@ -50,7 +50,9 @@ class GoalSeeker(ScriptedPolicy):
     space is turned to first, and the rays then show what is there. The clearance map and the
     cost to go are planned again only when the map, its box, the aim point's cell, the user's
     cell or the length to check have changed since the last control step; otherwise the last
-    ones are reused (the same inputs, the same maps).
+    ones are reused (the same inputs, the same maps). ``reuse_plans = False`` plans anew every
+    control step (the same actions, slower); ``plans_reused`` counts the user-steps whose plan
+    was reused.
 
     Under the smooth locomotion filter (seed 001) the body moves between detected steps, so the
     dead-reckoned map is approximate (the filter's lag, well under a metre).
@@ -85,6 +87,8 @@ class GoalSeeker(ScriptedPolicy):
         # the planner's last clearance map and cost to go per user, (B, cells^2) each; which
         # inputs they hold is ``plan_key`` of the state, so a reset row never reuses them
         self._memo: tuple[NDArray, NDArray] | None = None
+        self.reuse_plans = True
+        self.plans_reused = 0
 
     def _init_state(self, b: int) -> dict[str, NDArray]:
         n = self._cells
@@ -170,11 +174,16 @@ class GoalSeeker(ScriptedPolicy):
         active = np.ones(b, bool) if self._active is None else self._active
         if self._memo is None or self._memo[0].shape[0] != b:
             self._memo = (np.empty((b, self._cells**2)), np.empty((b, self._cells**2)))
+        if not self.reuse_plans:
+            state["plan_key"][:] = -1
+        key = state["plan_key"].copy()
         plan_kernel(b)(
             (state["occ"], state["lo"], state["hi"], state["version"], prior, news),
             state["pos"], walk, target, keep_len, land, state["aim"], active, self.candidates,
             self._plan_prm,
             (state["plan_key"], *self._memo), (aim, valid, can_go, can_keep),
         )  # fmt: skip
+        self.plans_reused += int(np.count_nonzero(np.all(key == state["plan_key"], axis=1)
+                                                  & active & (key[:, 0] >= 0)))
         state["aim"] = np.where(valid, walk + aim, np.nan)
         return np.where(valid, aim, v.bearing + offset), valid, can_go, can_keep

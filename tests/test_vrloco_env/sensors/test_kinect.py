@@ -502,7 +502,7 @@ def test_facing_is_the_torso_angle_to_the_line_of_sight(tilt_deg):
     yaw = rng.uniform(-np.pi, np.pi, n)
     joints, _ = standing_skeleton(pos, yaw, height_m=rng.uniform(1.5, 1.9, n), right_arm="raised")
     cam = world_to_camera(spec, joints)
-    geo = KinectV2(spec, BatchRng.from_seeds([0]))._geo[0]
+    geo = KinectV2(spec, BatchRng.from_seeds([0])).geometry[0]
     facing, near = np.empty(n), np.empty(n)
     _kinect_numba._facing(n, geo, cam, (facing, near))
     cx, cy, _ = spec.camera_position_m

@@ -119,6 +119,12 @@ class KinectV2:
             burst_min=burst_min, burst_max=burst_max,
         )  # fmt: skip
 
+    @property
+    def geometry(self) -> NDArray:
+        """The kernel's geometry record (the sensor's pose, the per-joint tables:
+        ``_kernel.GEOMETRY_FIELDS``), one row, read-only by convention."""
+        return self._geo
+
     def _geometry(self) -> NDArray:
         """The kernel's record of the sensor's pose and the per-joint tables
         (``_kernel.GEOMETRY_FIELDS``)."""
