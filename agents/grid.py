@@ -103,9 +103,8 @@ class Grid:
 #: The default run: the main grid, and the scenarios that put a technique where it is meant to
 #: differ (:mod:`agents.discrimination`): nodding users, also while they stand and hold the hand
 #: at a pedestal, for the nod-robust step detector; gaze-scanning users in Avoid's corridor for
-#: torso steering (in Doorway the goal seeker itself fails too often to tell steering apart:
-#: 1 and 2 of 40 successes, seeds 0-39); a metal cabinet beside the play area for the
-#: magnetometer's gate.
+#: torso steering (in Doorway the goal seeker itself fails too often to tell steering apart);
+#: a metal cabinet beside the play area for the magnetometer's gate.
 DEFAULT_GRIDS = (
     Grid(DEFAULT_TASKS, DEFAULT_POLICIES, DEFAULT_TECHNIQUES),
     Grid(("approach", "reach"), ("goal_seeker+nodders",), ("seed000", "nod_robust")),
