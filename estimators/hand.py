@@ -805,9 +805,10 @@ def _kernel_ids(ids: NDArray) -> NDArray[np.int64]:
 
 
 def _kernel_states(st: NDArray) -> NDArray:
-    """Tracking states as an integer array; float or bool states must be whole numbers."""
+    """Tracking states as int64 (one dtype, so the kernel is compiled once whatever the caller
+    passes); float or bool states must be whole numbers."""
     if st.dtype.kind in "iu":
-        return st
+        return st if st.dtype == np.int64 else st.astype(np.int64)
     with np.errstate(invalid="ignore"):
         whole = st.astype(np.int64)
     if not np.array_equal(whole, st):
