@@ -117,12 +117,12 @@ def pair_results(rows: list[dict[str, Any]], pairs: tuple[Pair, ...] = PAIRS) ->
         if not found:
             continue
         sign_better = 1 if pair.better else -1
+        expected = [*pair.signature, *((m, s * sign_better) for m, s in OUTCOMES.items())]
         tasks: dict[str, dict] = {}
         hits, outcome_hit = [], False
         for r in found:
             tests = r["vs_baseline"]
             per: dict[str, dict] = {}
-            expected = [*pair.signature, *((m, s * sign_better) for m, s in OUTCOMES.items())]
             for metric, sign in expected:
                 t = tests.get(metric)
                 verdict = _hit(t, sign)
@@ -148,7 +148,9 @@ def show_pairs(results: list[dict], baseline: str = "seed000") -> None:
 
     if not results:
         return
-    console = Console() if Console().is_terminal else Console(width=200)
+    console = Console()
+    if not console.is_terminal:  # a pipe or a file: the full table
+        console = Console(width=200)
     table = Table(title=f"discriminating power: each technique vs {baseline} (paired, p < "
                         f"{ALPHA}, expected direction)", pad_edge=False)  # fmt: skip
     for head in ("technique (users, room)", "separates", "on outcome", "differs on",
