@@ -116,11 +116,14 @@ def check_in_range(obj: object, name: str, lo: float, hi: float, unit: str = "",
 
 
 def check_bool(obj: object, name: str) -> None:
-    """Raise a ValueError naming ``Class.name`` unless the field is True or False (numpy's
-    ``bool_`` too)."""
+    """Raise a ValueError naming ``Class.name`` unless the field is True or False; numpy's
+    ``bool_`` is accepted and stored as the Python bool (a frozen dataclass too), so a config
+    never holds a numpy scalar."""
     v = getattr(obj, name)
     if not isinstance(v, bool | np.bool_):
         raise ValueError(f"{type(obj).__name__}.{name}={value_repr(v)}: must be True or False")
+    if not isinstance(v, bool):
+        object.__setattr__(obj, name, bool(v))
 
 
 def check_choice(obj: object, name: str, choices: tuple[object, ...]) -> None:

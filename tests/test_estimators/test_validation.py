@@ -74,6 +74,9 @@ def test_bools_and_numeric_strings_are_not_numbers():
     raises(r"^Cfg\.x=array\(\[ True, False\]\)", check_numbers, np.array([True, False]), 0, 10)
     raises(r"^Cfg\.x=1: must be True or False$", check_bool, 1)
     accepts(check_bool, np.bool_(True))
+    cfg = Cfg(np.False_)
+    check_bool(cfg, "x")
+    assert cfg.x is False  # stored as the Python bool: a config holds no numpy scalar
 
 
 def test_integers_and_whole_numbers():
