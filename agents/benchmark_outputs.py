@@ -54,6 +54,7 @@ ROW_KEYS = (
     "yaw_drift_deg_per_min",
     "yaw_rate_mismatch_deg_s",
     "virtual_jerk_m_s3",
+    "steering_error_deg",
     *PLAY_AREA_KEYS,
     "collision_causes",
     "vs_baseline",
@@ -98,6 +99,7 @@ _WIP_COLUMNS = (("task", "task"), ("policy", "policy"), ("technique", "technique
                 ("yaw_drift_deg_per_min", "yaw drift (°/min)"),
                 ("yaw_rate_mismatch_deg_s", "yaw-rate mism. (°/s)"),
                 ("virtual_jerk_m_s3", "jerk (m/s³)"),
+                ("steering_error_deg", "steering err (°)"),
                 ("hand_tracking_availability", "hand avail."),
                 ("boundary_violations", "boundary viol."))  # fmt: skip
 _WIP_COMPACT = ("task", "technique", "heading_error_rmse_deg", "stop_latency_s",

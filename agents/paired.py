@@ -42,6 +42,7 @@ __all__ = [
     "ALPHA",
     "BINARY_METRICS",
     "MEAN_METRICS",
+    "compare_values",
     "episode_values",
     "paired_p_values",
     "wilcoxon_p",
@@ -184,10 +185,25 @@ def paired_p_values(
         raise ValueError("paired comparison needs the same seeds in the same order in both cells")
     va = [episode_values(e, late, early) for e in baseline]
     vb = [episode_values(e, late, early) for e in other]
+    return compare_values(va, vb)
+
+
+def compare_values(
+    baseline: list[dict[str, float]], other: list[dict[str, float]]
+) -> dict[str, dict[str, Any]]:
+    """The tests of :func:`paired_p_values` on episodes' values (:func:`episode_values`, pair
+    ``i`` of the two lists being the same seed), e.g. on a resample of a run's pairs.
+
+    Raises:
+        ValueError: lists of different lengths.
+    """
+    if len(baseline) != len(other):
+        raise ValueError(f"paired comparison needs as many baseline episodes ({len(baseline)}) "
+                         f"as others ({len(other)})")  # fmt: skip
     out: dict[str, dict[str, Any]] = {}
     for key in (*BINARY_METRICS, *MEAN_METRICS):
-        a = np.array([v[key] for v in va], dtype=np.float64)
-        b = np.array([v[key] for v in vb], dtype=np.float64)
+        a = np.array([v[key] for v in baseline], dtype=np.float64)
+        b = np.array([v[key] for v in other], dtype=np.float64)
         ok = np.isfinite(a) & np.isfinite(b)
         p = _mcnemar(a, b) if key in BINARY_METRICS else _wilcoxon(a, b)
         out[key] = {"p": p, "diff": float(np.mean(b[ok] - a[ok])) if ok.any() else math.nan,

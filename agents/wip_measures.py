@@ -1,6 +1,7 @@
 """Walking-in-place measures of one episode, from its ``info`` alone: start and stop latency,
-stop overshoot, false motion, yaw drift while standing, yaw-rate mismatch, virtual jerk
-(:func:`motion_measures`), and the walking-in-place user's play area (:func:`play_area_measures`).
+stop overshoot, false motion, yaw drift while standing, yaw-rate mismatch, virtual jerk, steering
+error (:func:`motion_measures`), and the walking-in-place user's play area
+(:func:`play_area_measures`).
 
 The play area: from ``info["play_area_outside"]`` and ``info["play_area_boundary_m"]`` (the user's
 physical spot in the tracked space, :mod:`vrloco_env.user.play_area`): ``boundary_violations``,
@@ -31,7 +32,8 @@ __all__ = [
 
 #: The per-episode walking-in-place measures a row averages (:func:`motion_measures`).
 MOTION_KEYS = ("start_latency_s", "stop_latency_s", "stop_overshoot_m", "false_motion_m_per_min",
-               "yaw_drift_deg_per_min", "yaw_rate_mismatch_deg_s", "virtual_jerk_m_s3")  # fmt: skip
+               "yaw_drift_deg_per_min", "yaw_rate_mismatch_deg_s", "virtual_jerk_m_s3",
+               "steering_error_deg")  # fmt: skip
 
 
 #: A user counts as standing this long (s) after their last true heel strike: the stop itself
@@ -69,6 +71,10 @@ def motion_measures(
       head yaw rate (the visual-vestibular conflict).
     * ``virtual_jerk_m_s3``: RMS magnitude of the third difference of the virtual positions over
       the control step cubed.
+    * ``steering_error_deg``: RMS over the control steps that move the virtual body of the
+      direction it moves in (``walk_yaw_deg``) minus the true torso direction
+      (``true_body_yaw_deg``): how far the locomotion walks off where the body faces (head
+      steering while the user looks aside; NaN without those keys or without a moving step).
     * ``standing_min``: the minutes of standing the false-motion rate is over.
     """
     intent = np.asarray(steps["intent_walk"], dtype=bool).ravel()
@@ -77,7 +83,8 @@ def motion_measures(
     nan = math.nan
     out = dict.fromkeys(("start_latency_s", "stop_latency_s", "stop_overshoot_m",
                          "false_motion_m_per_min", "yaw_drift_deg_per_min",
-                         "yaw_rate_mismatch_deg_s", "virtual_jerk_m_s3"), nan)  # fmt: skip
+                         "yaw_rate_mismatch_deg_s", "virtual_jerk_m_s3", "steering_error_deg"),
+                        nan)  # fmt: skip
     out["standing_min"] = 0.0
     if n == 0:
         return out
@@ -141,6 +148,12 @@ def motion_measures(
     if path.shape[0] >= 4:
         jerk = np.diff(path, n=3, axis=0) / dt**3
         out["virtual_jerk_m_s3"] = math.sqrt(exact_mean((jerk**2).sum(axis=1)))
+    walking = moved > MOVING_M
+    if "walk_yaw_deg" in steps and "true_body_yaw_deg" in steps and walking.any():
+        walk = np.asarray(steps["walk_yaw_deg"], dtype=np.float64).ravel()
+        body = np.asarray(steps["true_body_yaw_deg"], dtype=np.float64).ravel()
+        off = np.rad2deg(wrap_angle(np.deg2rad(walk - body)))[walking]
+        out["steering_error_deg"] = math.sqrt(exact_mean(off**2))
     return out
 
 

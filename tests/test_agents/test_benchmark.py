@@ -3,6 +3,7 @@
 import csv
 import dataclasses
 import json
+import math
 
 import numpy as np
 import pytest
@@ -300,6 +301,15 @@ def test_walking_in_place_measures_against_a_hand_made_episode():
     assert m["yaw_drift_deg_per_min"] == pytest.approx(1.0 / (50 * dt / 60))
     assert m["yaw_rate_mismatch_deg_s"] == pytest.approx(np.sqrt(10 * 10.0**2 / 99))
     assert m["virtual_jerk_m_s3"] > 0
+    assert math.isnan(m["steering_error_deg"])  # no walking direction in the info
+    # walking 10 deg off the torso across the +-180 deg seam, then 30 deg off; 90 deg off while
+    # the body stands does not count
+    walk, body = np.full(n, 90.0), np.zeros(n)
+    walk[14:24], body[14:24] = 175.0, -175.0
+    walk[24:34] = 0.0
+    walk[70:80] = 30.0
+    m = motion_measures({**steps, "walk_yaw_deg": walk, "true_body_yaw_deg": body}, (0.0, 0.0))
+    assert m["steering_error_deg"] == pytest.approx(np.sqrt((10 * 10.0**2 + 10 * 30.0**2) / 30))
     lo, hi = wilson_interval(38, 40)
     assert lo == pytest.approx(0.8347, abs=1e-3) and hi == pytest.approx(0.9862, abs=1e-3)
     assert wilson_interval(0, 10)[0] == 0.0

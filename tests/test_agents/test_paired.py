@@ -9,6 +9,7 @@ from agents.metrics import EpisodeStats
 from agents.paired import (
     BINARY_METRICS,
     MEAN_METRICS,
+    compare_values,
     episode_values,
     paired_p_values,
     wilcoxon_p,
@@ -59,6 +60,24 @@ def test_paired_tests_find_a_consistent_difference_and_not_noise():
 def test_paired_tests_refuse_cells_of_different_seeds():
     with pytest.raises(ValueError, match="same seeds"):
         paired_p_values([_episode(0)], [_episode(1)])
+    with pytest.raises(ValueError, match=r"as many baseline episodes \(1\) as others \(2\)"):
+        compare_values([episode_values(_episode(0))], [episode_values(_episode(0))] * 2)
+
+
+def test_a_resample_of_the_values_counts_each_drawn_pair_once_per_draw():
+    """Values drawn with replacement (a bootstrap resample): every drawn pair counts, repeats
+    too. The other technique fails every third seed where the baseline succeeds, so the exact
+    McNemar p is 2 / 2^k over the k draws of those seeds."""
+    base = [_episode(s) for s in range(12)]
+    other = [_episode(s, success=s % 3 > 0) for s in range(12)]
+    idx = np.random.default_rng(1).integers(0, 12, 30)
+    got = compare_values([episode_values(base[i]) for i in idx],
+                         [episode_values(other[i]) for i in idx])  # fmt: skip
+    k = int(np.sum(idx % 3 == 0))
+    assert k >= 3
+    assert got["success_rate"]["p"] == pytest.approx(2 / 2**k)
+    assert got["success_rate"]["diff"] == pytest.approx(-k / 30)
+    assert got["time_to_goal_s"]["n"] == 30 - k  # both succeeded
 
 
 def _differences(rng, n, kind):

@@ -1,0 +1,109 @@
+"""How many episodes per cell the default run needs to tell each technique pair apart.
+
+Run from the repository root::
+
+    python benchmarks/pair_power.py                      # every pair, development seeds 1000..1079
+    python benchmarks/pair_power.py --pairs torso_steering madgwick --sizes 40 80 160
+
+For each pair of :data:`agents.discrimination.PAIRS` it plays the pair's cells of the default run
+(:data:`agents.grid.DEFAULT_GRIDS`: the technique and the baseline ``seed000`` on each task the
+run compares them on, the same users and room) on *development* seeds, ``--seed`` onwards (1000 by
+default, disjoint from the run's seeds 0, 1, ...), then estimates the power of the run's test at
+each cell size ``N`` of ``--sizes``: the share of ``--resamples`` bootstrap draws of ``N``
+paired episodes (the same seed indices in every task, drawn with replacement) in which the pair
+separates as :func:`agents.discrimination.pair_results` decides it (some signature or outcome
+metric at p < 0.01 in the expected direction, in some task), and the share in which it separates
+on an outcome. A pair whose power stays near 0 at every size is one the scenario does not tell
+apart (the techniques behave alike there), not one that needs more episodes.
+
+The episode count of the default run (:data:`agents.grid.DEFAULT_EPISODES`) is chosen from this
+output, never from the run's own seeds.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+import numpy as np
+
+from agents.benchmark import DEFAULT_BATCH_SIZE, run_cell_batched
+from agents.discrimination import PAIRS, Pair, pair_results
+from agents.grid import DEFAULT_GRIDS, Cell
+from agents.paired import compare_values, episode_values
+
+BASELINE = "seed000"
+
+
+def pair_tasks(pair: Pair) -> list[str]:
+    """The tasks on which the default run compares ``pair`` with the baseline."""
+    tasks: list[str] = []
+    for g in DEFAULT_GRIDS:
+        if (pair.technique in g.techniques and BASELINE in g.techniques
+                and pair.policy in g.policies and pair.condition in g.conditions):  # fmt: skip
+            tasks += [t for t in g.tasks if t not in tasks]
+    return tasks
+
+
+def _values(args: tuple[Cell, list[int]]) -> tuple[Cell, list[dict[str, float]]]:
+    cell, seeds = args
+    return cell, [episode_values(s) for s, _ in run_cell_batched(cell, seeds,
+                                                                 batch_size=DEFAULT_BATCH_SIZE)]
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--pairs", nargs="+", help="techniques of the pairs (default: every pair)")
+    ap.add_argument("--seed", type=int, default=1000, help="first development seed")
+    ap.add_argument("--episodes", type=int, default=80, help="development episodes per cell")
+    ap.add_argument("--sizes", type=int, nargs="+", default=[20, 40, 60, 80, 120],
+                    help="cell sizes N to estimate the power at")  # fmt: skip
+    ap.add_argument("--resamples", type=int, default=400)
+    ap.add_argument("--workers", type=int, default=2)
+    args = ap.parse_args()
+    pairs = [p for p in PAIRS if args.pairs is None or p.technique in args.pairs]
+    if not pairs:
+        ap.error(f"--pairs: none of {args.pairs} is a pair; pairs: "
+                 f"{', '.join(p.technique for p in PAIRS)}")  # fmt: skip
+    seeds = list(range(args.seed, args.seed + args.episodes))
+    cells = list(dict.fromkeys(Cell(t, p.policy, k, p.condition) for p in pairs
+                               for t in pair_tasks(p) for k in (BASELINE, p.technique)))
+    t0 = time.perf_counter()
+    with ProcessPoolExecutor(max_workers=args.workers) as pool:
+        values = dict(pool.map(_values, [(c, seeds) for c in cells]))
+    print(f"{len(cells)} cells x {args.episodes} development episodes (seeds {seeds[0]}.."
+          f"{seeds[-1]}) in {time.perf_counter() - t0:.0f} s; power = share of "
+          f"{args.resamples} resamples of N paired episodes in which the pair separates "
+          "(on an outcome)")  # fmt: skip
+    rng = np.random.default_rng(args.seed)
+    head = "".join(f"{'N=' + str(n):>14}" for n in args.sizes)
+    print(f"{'pair':<46}{head}")
+    for pair in pairs:
+        tasks = pair_tasks(pair)
+        cols = []
+        for n in args.sizes:
+            sep = out = 0
+            for _ in range(args.resamples):
+                idx = rng.integers(0, args.episodes, n)
+                rows = [{"task": t, "technique": pair.technique, "policy": pair.policy,
+                         "condition": pair.condition,
+                         "vs_baseline": compare_values(
+                             [values[Cell(t, pair.policy, BASELINE, pair.condition)][i]
+                              for i in idx],
+                             [values[Cell(t, pair.policy, pair.technique, pair.condition)][i]
+                              for i in idx])}
+                        for t in tasks]  # fmt: skip
+                res = pair_results(rows, (pair,))[0]
+                sep += res["separates"]
+                out += res["on_outcome"]
+            cols.append(f"{sep / args.resamples:.2f} ({out / args.resamples:.2f})")
+        print(f"{pair.name:<46}" + "".join(f"{c:>14}" for c in cols))
+
+
+if __name__ == "__main__":
+    main()
