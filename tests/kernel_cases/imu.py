@@ -1,5 +1,5 @@
-"""The head IMU on short streams: every bias recursion, dipoles (at and inside min_distance),
-saturation, quantisation, empty chunks and a reset of one user."""
+"""The head IMU on short streams: every bias recursion, dipoles (at and inside min_distance, one
+moving), saturation, quantisation, empty chunks and a reset of one user."""
 
 import dataclasses
 
@@ -12,6 +12,8 @@ from vrloco_env.sensors.imu import HeadImu, MagneticDisturbance, get_imu_spec
 _DIPOLES = (
     MagneticDisturbance.with_field_at((1.0, 0.5, 1.5), 20.0, 0.8),
     MagneticDisturbance((0.3, 0.0, 1.6), (0.0, 0.0, 5.0), min_distance=0.2),
+    MagneticDisturbance((-1.0, 0.5, 1.0), (0.0, 0.0, 40.0), velocity=(1.0, 0.2, 0.0),
+                        moving=(0.02, 0.05)),  # wheeled past during the stream
 )
 _CHUNKS = (6, 0, 1, 9)
 

@@ -119,6 +119,52 @@ def test_noiseless_outputs_equal_analytic_values_and_gyro_integrates_to_truth():
         assert np.all(rotation_angle(quat_multiply(q, q_true[:, k] * [1, -1, -1, -1])) < 1e-9)
 
 
+def test_a_moving_dipole_reads_as_a_still_one_where_it_is_at_each_sample():
+    """A dipole wheeled past at 1 m/s from 0.5 s to 1.5 s: each noiseless magnetometer sample
+    of a still head is the earth field plus a *still* dipole's field at the moving one's place
+    at that sample's time ((s + 1) / rate); it reads the same before the start as a dipole at
+    the start, and after the stop as one at the end; a reset user starts the motion over."""
+    rate, n = 100.0, 200
+    spec = get_imu_spec("ig500n").noiseless()
+    v, start, stop = np.array([1.0, 0.0, 0.0]), 0.5, 1.5
+    moving = MagneticDisturbance.with_field_at((-1.0, 0.8, 1.0), field_ut=20.0, distance_m=0.8,
+                                               velocity=v, moving=(start, stop))  # fmt: skip
+    imu = HeadImu(spec, BatchRng.from_seeds([1]), rate_hz=rate, disturbances=[moving])
+    q = np.tile([1.0, 0.0, 0.0, 0.0], (1, n, 1))
+    zero = np.zeros((1, n, 3))
+    head = np.tile([0.0, 0.0, 1.6], (1, n, 1))
+    mag = np.concatenate([imu.sample(q[:, :90], zero[:, :90], zero[:, :90], head[:, :90]).mag,
+                          imu.sample(q[:, 90:], zero[:, 90:], zero[:, 90:], head[:, 90:]).mag],
+                         axis=1)  # two calls: the clock carries over  # fmt: skip
+    t = np.arange(1, n + 1) / rate
+    for k in (0, 40, 49, 50, 99, 100, 149, 150, 199):
+        at = np.asarray(moving.position) + v * min(max(t[k] - start, 0.0), stop - start)
+        still = MagneticDisturbance(tuple(at), moving.moment)
+        want = EarthField().vector_enu() + still.field_at(head[0, k])
+        np.testing.assert_allclose(mag[0, k], want, rtol=0, atol=1e-12, err_msg=f"sample {k}")
+    assert np.linalg.norm(mag[0, 99] - mag[0, 0]) > 1.0  # it moved: the field changed
+    np.testing.assert_array_equal(moving.position_at(0.2), moving.position)
+    np.testing.assert_allclose(moving.position_at(9.0), np.add(moving.position, v * 1.0))
+    np.testing.assert_allclose(moving.field_at(head[0, :3], t[:3]), mag[0, :3]
+                               - EarthField().vector_enu(), atol=1e-12)  # fmt: skip
+    imu.reset()
+    again = imu.sample(q[:, :90], zero[:, :90], zero[:, :90], head[:, :90]).mag
+    np.testing.assert_array_equal(again, mag[:, :90])
+
+
+def test_a_moving_dipole_is_checked_field_by_field():
+    d = ((0.0, 0.0, 0.0), (0.0, 0.0, 1.0))
+    with pytest.raises(ValueError, match=r"^MagneticDisturbance\.moving=\(2\.0, 1\.0\): must "
+                                         r"be a tuple of 2 numbers in \[0, inf\) s, low <= high$"):
+        MagneticDisturbance(*d, velocity=(1.0, 0.0, 0.0), moving=(2.0, 1.0))
+    with pytest.raises(ValueError, match=r"^MagneticDisturbance\.velocity=\(1\.0, 0\.0\)"):
+        MagneticDisturbance(*d, velocity=(1.0, 0.0))
+    with pytest.raises(ValueError, match=r"t must be finite times >= 0 s"):
+        MagneticDisturbance(*d).field_at((1.0, 0.0, 0.0), t=-1.0)
+    with pytest.raises(ValueError, match=r"t of shape \(2,\) does not broadcast"):
+        MagneticDisturbance(*d).field_at(np.ones((3, 3)), t=(0.0, 1.0))
+
+
 @pytest.mark.parametrize("rate", [100.0, 1000.0])
 def test_white_noise_std_matches_density_times_sqrt_rate(rate):
     spec = _only(get_imu_spec("consumer_mems"), noise_density=0.0)

@@ -43,10 +43,12 @@ from estimators.kernels import BatchKernel
 from estimators.kernels.rotations import quat_rotate
 from estimators.rotations import GRAVITY
 
-#: Fields of one magnetic dipole record (world frame): position (m), moment (A m^2), the moment's
-#: unit direction (the offset used at the dipole itself) and the radius below which the field no
-#: longer grows (m).
-DIPOLE = {"position": (3,), "moment": (3,), "direction": (3,), "min_distance": ()}
+#: Fields of one magnetic dipole record (world frame): position (m) until ``t_start``, moment
+#: (A m^2), the moment's unit direction (the offset used at the dipole itself), the radius below
+#: which the field no longer grows (m), and its motion: ``velocity`` (m/s) from ``t_start`` to
+#: ``t_stop`` (s since the user's reset), where it stays.
+DIPOLE = {"position": (3,), "moment": (3,), "direction": (3,), "min_distance": (),
+          "velocity": (3,), "t_start": (), "t_stop": ()}  # fmt: skip
 
 #: Fields of one user's state record; rows of the (3, 3) fields are the sensors accel, gyro, mag,
 #: columns the axes: turn-on biases, Gauss-Markov and random-walk states (unit of each sensor),
@@ -212,27 +214,43 @@ def _dipole_field(dip, rx, ry, rz) -> tuple[float, float, float]:
 
 
 @numba.njit(cache=True, inline="always")
-def _world_field(earth, dipoles, pos, i, k) -> tuple[float, float, float]:
+def _dipole_offset(dip, px, py, pz, t) -> tuple[float, float, float]:
+    """The offset (m) of the point ``p`` from the dipole record ``dip`` at time ``t`` (s): from
+    its ``position``, moved by ``velocity`` for the part of ``[t_start, t_stop]`` before ``t``
+    (a still dipole, velocity 0, is exactly at its position)."""
+    at, v = dip["position"], dip["velocity"]
+    if v[0] == 0.0 and v[1] == 0.0 and v[2] == 0.0:
+        return px - at[0], py - at[1], pz - at[2]
+    moved = min(max(t - dip["t_start"], 0.0), dip["t_stop"] - dip["t_start"])
+    return (px - (at[0] + v[0] * moved), py - (at[1] + v[1] * moved),
+            pz - (at[2] + v[2] * moved))  # fmt: skip
+
+
+@numba.njit(cache=True, inline="always")
+def _world_field(earth, dipoles, pos, times, i, k) -> tuple[float, float, float]:
     """World field (uT) at user ``i``'s sample ``k``: the earth field plus each dipole's
-    (:func:`_dipole_field`); ``pos`` (B, N, 3) m is read only when there are dipoles."""
+    (:func:`_dipole_field`) where it is at that sample's time; ``pos`` (B, N, 3) m and ``times``
+    (B, N) s are read only when there are dipoles."""
     mx, my, mz = earth["east"], earth["north"], earth["up"]
     for d in range(dipoles.shape[0]):
-        at = dipoles[d]["position"]
-        bx, by, bz = _dipole_field(dipoles[d], pos[i, k, 0] - at[0], pos[i, k, 1] - at[1],
-                                   pos[i, k, 2] - at[2])  # fmt: skip
+        rx, ry, rz = _dipole_offset(dipoles[d], pos[i, k, 0], pos[i, k, 1], pos[i, k, 2],
+                                    times[i, k])  # fmt: skip
+        bx, by, bz = _dipole_field(dipoles[d], rx, ry, rz)
         mx = mx + bx
         my = my + by
         mz = mz + bz
     return mx, my, mz
 
 
-def _dipole_points(dipole, points, out) -> None:
-    """The field (uT) of the (1,) dipole record at each of the (P, 3) ``points`` (m) into
-    ``out`` (P, 3): :meth:`~vrloco_env.sensors.imu.MagneticDisturbance.field_at`."""
-    at = dipole[0]["position"]
+def _dipole_points(dipole, points, times, out) -> None:
+    """The field (uT) of the (1,) dipole record at each of the (P, 3) ``points`` (m), point
+    ``k`` at time ``times[k]`` (s), into ``out`` (P, 3):
+    :meth:`~vrloco_env.sensors.imu.MagneticDisturbance.field_at`."""
     for k in numba.prange(points.shape[0]):
+        rx, ry, rz = _dipole_offset(dipole[0], points[k, 0], points[k, 1], points[k, 2],
+                                    times[k])  # fmt: skip
         out[k, 0], out[k, 1], out[k, 2] = _dipole_field(
-            dipole[0], points[k, 0] - at[0], points[k, 1] - at[1], points[k, 2] - at[2]
+            dipole[0], rx, ry, rz
         )
 
 
@@ -257,7 +275,7 @@ def _quantise_clip(y: np.ndarray, res: float, rng: float) -> None:
             y[i] = min(max(y[i], lo), rng)
 
 
-def _sample(q, omega, acc, pos, z, sensors, earth, dipoles, state, out) -> None:
+def _sample(q, omega, acc, pos, times, z, sensors, earth, dipoles, state, out) -> None:
     """N samples of B users: fill ``out`` and advance the bias states in ``state`` in place.
 
     Args:
@@ -265,6 +283,8 @@ def _sample(q, omega, acc, pos, z, sensors, earth, dipoles, state, out) -> None:
         omega: true body rates (rad/s), (B, N, 3).
         acc: true world accelerations without gravity (m/s^2), (B, N, 3).
         pos: sensor positions (m), (B, N, 3); read only when ``dipoles`` has rows.
+        times: the samples' times (s) since each user's reset, (B, N); read only when
+            ``dipoles`` has rows.
         z: the call's standard normals (B, N, 27), layout Z_WHITE / Z_GM / Z_RW.
         sensors: (3,) parameter records of accel, gyro, mag (unit of each sensor): ``range``,
             ``resolution`` (0: none), the Gauss-Markov ``pole`` and drive std ``gm_std``, the
@@ -286,7 +306,7 @@ def _sample(q, omega, acc, pos, z, sensors, earth, dipoles, state, out) -> None:
         for k in range(n):
             qw, qx, qy, qz = _unit_quaternion(q[i, k])
             fx, fy, fz = _specific_force(qw, qx, qy, qz, acc[i, k])
-            mx, my, mz = _world_field(e, dipoles, pos, i, k)
+            mx, my, mz = _world_field(e, dipoles, pos, times, i, k)
             bx, by, bz = quat_rotate(qw, -qx, -qy, -qz, mx, my, mz)
             # Soft iron S m_body (hard iron is in the magnetometer's bias).
             sx = soft[0, 0] * bx + soft[0, 1] * by + soft[0, 2] * bz
@@ -306,6 +326,6 @@ def _sample(q, omega, acc, pos, z, sensors, earth, dipoles, state, out) -> None:
 
 sample_kernel = BatchKernel(_sample, parallel=False)
 
-#: The field of one dipole at P points: ``dipole_kernel(P)(dipole, points, out)``.
+#: The field of one dipole at P points: ``dipole_kernel(P)(dipole, points, times, out)``.
 dipole_kernel = BatchKernel(_dipole_points, parallel=False)
 """The measurement model for B users: ``sample_kernel(B)(...)`` (see :func:`_sample`)."""

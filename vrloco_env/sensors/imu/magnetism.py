@@ -101,29 +101,44 @@ class EarthField:
 
 @dataclass(frozen=True)
 class MagneticDisturbance:
-    """A magnetic dipole fixed in the world: a metal object near the user's path.
+    """A magnetic dipole in the world: a metal object near the user, still or moving.
 
     Field at offset ``r = p - position`` (SI, in tesla, returned in uT):
     ``B = mu0/(4 pi) * (3 r (m . r) / |r|^5 - m / |r|^3)``.
     Inside ``min_distance`` (the object's own size) the offset is stretched to ``min_distance`` so
-    the field stays finite.
+    the field stays finite. A moving object (a steel trolley wheeled past) keeps its moment and
+    moves in a straight line at ``velocity`` between the times of ``moving``, counted from the
+    user's reset (each user of a batch on its own clock): at ``position`` before, at
+    ``position + velocity * (stop - start)`` after (:meth:`position_at`).
 
     Attributes:
         position: dipole position in the world (m), shape (3,).
         moment: dipole moment in the world (A m^2), shape (3,).
         min_distance: radius below which the field no longer grows (m), > 0.
+        velocity: its velocity while it moves (m/s), (3,); 0: it stays at ``position``.
+        moving: ``(start, stop)``, the time it moves (s after the reset), 0 <= start <= stop.
     """
 
     position: tuple[float, float, float]
     moment: tuple[float, float, float]
     min_distance: float = 0.1
+    velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    moving: tuple[float, float] = (0.0, 0.0)
 
     def __post_init__(self) -> None:
         check_numbers(self, "position", -math.inf, math.inf, "m", length=3)
         check_numbers(self, "moment", -math.inf, math.inf, "A m^2", length=3)
-        for name in ("position", "moment"):
+        check_numbers(self, "velocity", -math.inf, math.inf, "m/s", length=3)
+        check_numbers(self, "moving", 0.0, math.inf, "s", length=2, ordered=True)
+        for name in ("position", "moment", "velocity", "moving"):
             object.__setattr__(self, name, tuple(float(x) for x in getattr(self, name)))
         check_in_range(self, "min_distance", 0.0, math.inf, "m", lo_open=True)
+
+    def position_at(self, t: float) -> NDArray[np.float64]:
+        """Where the dipole is (m), (3,), at time ``t`` (s after the reset)."""
+        start, stop = self.moving
+        moved = min(max(float(t) - start, 0.0), stop - start)
+        return np.asarray(self.position) + np.asarray(self.velocity) * moved
 
     @classmethod
     def with_field_at(
@@ -133,6 +148,8 @@ class MagneticDisturbance:
         distance_m: float,
         axis: ArrayLike = (0.0, 0.0, 1.0),
         min_distance: float = 0.1,
+        velocity: ArrayLike = (0.0, 0.0, 0.0),
+        moving: tuple[float, float] = (0.0, 0.0),
     ) -> MagneticDisturbance:
         """A dipole whose field magnitude is ``field_ut`` at ``distance_m`` on its axis.
 
@@ -144,7 +161,7 @@ class MagneticDisturbance:
             field_ut: field magnitude wanted (uT), > 0.
             distance_m: distance from the dipole (m), > 0.
             axis: direction of the moment (normalised here), (3,).
-            min_distance: see the class.
+            min_distance, velocity, moving: see the class.
 
         Returns:
             The disturbance.
@@ -156,17 +173,28 @@ class MagneticDisturbance:
             raise ValueError(f"axis must be a finite, non-zero 3-vector, got {axis!r}")
         moment_mag = field_ut * 1e-6 * distance_m**3 / (2.0 * MU0_OVER_4PI)  # A m^2
         moment = moment_mag * axis / np.linalg.norm(axis)
-        return cls(position=tuple(position), moment=tuple(moment), min_distance=min_distance)
+        return cls(position=tuple(position), moment=tuple(moment), min_distance=min_distance,
+                   velocity=tuple(velocity), moving=tuple(moving))  # fmt: skip
 
-    def field_at(self, points: ArrayLike) -> NDArray[np.float64]:
-        """Dipole field (uT) at world points (m), shape ``(..., 3)`` -> ``(..., 3)``: the IMU
-        kernel's own field (:func:`vrloco_env.sensors.imu._kernel._dipole_field`)."""
+    def field_at(self, points: ArrayLike, t: ArrayLike = 0.0) -> NDArray[np.float64]:
+        """Dipole field (uT) at world points (m), shape ``(..., 3)`` -> ``(..., 3)``, with the
+        dipole where it is at time ``t`` (s after the reset; a number, or one per point, any
+        shape that broadcasts to ``points.shape[:-1]``): the IMU kernel's own field
+        (:func:`vrloco_env.sensors.imu._kernel._dipole_field`)."""
         p = np.asarray(points, dtype=np.float64)
         if p.ndim == 0 or p.shape[-1] != 3:
             raise ValueError(f"points must have shape (..., 3), got {p.shape}")
+        t = np.asarray(t, dtype=np.float64)
+        try:
+            times = np.ascontiguousarray(np.broadcast_to(t, p.shape[:-1])).reshape(-1)
+        except ValueError:
+            raise ValueError(f"t of shape {t.shape} does not broadcast to the points' "
+                             f"{p.shape[:-1]}") from None  # fmt: skip
+        if not (np.isfinite(times).all() and (times >= 0.0).all()):
+            raise ValueError("t must be finite times >= 0 s (after the reset)")
         flat = np.ascontiguousarray(p.reshape(-1, 3))
         out = np.empty_like(flat)
-        _kernel.dipole_kernel(flat.shape[0])(_dipole_records((self,)), flat, out)
+        _kernel.dipole_kernel(flat.shape[0])(_dipole_records((self,)), flat, times, out)
         return out.reshape(p.shape)
 
 
@@ -180,4 +208,6 @@ def _dipole_records(disturbances: Sequence[MagneticDisturbance]) -> NDArray:
         dip["moment"][i] = moment
         dip["direction"][i] = moment / max(np.linalg.norm(moment), 1e-300)  # used at the dipole
         dip["min_distance"][i] = d.min_distance
+        dip["velocity"][i] = d.velocity
+        dip["t_start"][i], dip["t_stop"][i] = d.moving
     return dip

@@ -88,6 +88,7 @@ def _kernel_layout(a: NDArray[np.float64]) -> NDArray[np.float64]:
 #: Stand-in for ``pos`` when none is given (the kernel reads positions only with disturbances).
 #: Left writeable: numba types a read-only array apart, which would compile the kernel twice.
 _NO_POS = np.zeros((0, 0, 3))
+_NO_TIMES = np.zeros((0, 0))
 
 #: Messages of the kernel's input check, by its return code.
 _INVALID = {
@@ -252,10 +253,16 @@ class HeadImu:
         """Soft-iron matrix per user (dimensionless), (B, 3, 3), applied to the body-frame field."""
         return self._state["soft_iron"].copy()
 
+    def sample_times(self, n: int) -> NDArray[np.float64]:
+        """The times (s since each user's reset) of the next ``n`` samples, (B, n): sample ``s``
+        of an episode (from 0) is taken at ``(s + 1) / rate_hz``."""
+        return (self.samples_taken[:, None] + np.arange(1, n + 1)[None, :]) * self.dt
+
     def true_field_world(
         self, pos: ArrayLike | None, shape: tuple[int, int]
     ) -> NDArray[np.float64]:
-        """True world-frame field (uT) at the IMU: earth field plus every dipole's field.
+        """True world-frame field (uT) at the IMU for the next ``shape[1]`` samples
+        (:meth:`sample_times`): earth field plus every dipole's field where it is then.
 
         Args:
             pos: IMU positions in the world (m), (B, N, 3); may be None without disturbances.
@@ -265,8 +272,18 @@ class HeadImu:
             (B, N, 3) field in ENU (uT).
         """
         m = np.broadcast_to(self._field_world, (*shape, 3)).copy()
+        times = self.sample_times(shape[1])
         for d in self.disturbances:  # a handful of objects, not a batch or time loop
-            m = m + d.field_at(pos)
+            m = m + d.field_at(pos, times)
+        return m
+        p = _batch_shaped(pos, "pos", self.batch_size, 3, shape[1])
+        out = np.empty((1, 1, 3))
+        for i, k in np.ndindex(*shape):  # a check of the kernel's field, not a hot path
+            t = float(self.sample_times(shape[1])[i, k])
+            out[:] = 0.0
+            for d in self.disturbances:
+                out[0, 0] += d.field_at(p[i, k], t)
+            m[i, k] += out[0, 0]
         return m
 
     def sample(
@@ -312,6 +329,7 @@ class HeadImu:
             raise ValueError("pos (B, N, 3) in m is required when magnetic disturbances are set")
         else:
             p = _NO_POS
+        times = self.sample_times(n) if self.disturbances else _NO_TIMES
         code = _kernel.first_invalid(q, w, a, p)
         if code != _kernel.OK:
             raise ValueError(_INVALID[code])
@@ -319,7 +337,7 @@ class HeadImu:
         z = self.rng.normal((n, _DRAWS_PER_SAMPLE))  # (B, N, 27), time-major: streams chunk-safe
         out = np.empty((6, b, n, 3))
         _kernel.sample_kernel(b)(
-            q, w, a, p, z, self._sensors, self._earth, self._dipoles, self._state, out
+            q, w, a, p, times, z, self._sensors, self._earth, self._dipoles, self._state, out
         )
         self.samples_taken += n  # every user advances by the same N samples
         self.last_bias = ImuSamples(out[3], out[4], out[5])
