@@ -19,6 +19,13 @@ Registered (:data:`CONDITIONS`; :func:`get_condition` raises naming them):
   distortion in motion labs, implications for validating inertial magnetic sensors", Gait &
   Posture 29, 2009); the exact strength and place are an engineering choice, the same dipole
   the sensor benchmark uses, not set to make any technique win or lose.
+* ``trolley_passing`` — the same dipole wheeled past: a steel trolley pushed along the line of
+  that cabinet (1.3 m to the left of the start spot, 1.0 m high) at 1 m/s, a walking pace, along
+  the physical room's x axis from x = -3 m to x = +3 m (the start spot at 0), 2 s to 8 s into the
+  episode (most of an Approach walk). Unlike a still object, whose constant bend of north the
+  start-of-episode recentring absorbs, it changes the field at the head while the user walks, by
+  up to a few uT; the path, speed and timing are an engineering choice made before any run, not
+  set to make a technique win or lose.
 
 Adding one is one :func:`register` call.
 """
@@ -86,6 +93,14 @@ register(Condition(
     "beside_metal",
     "a steel cabinet at the play area's left edge (a magnetic dipole, 20 uT at 0.8 m)",
     (MagneticDisturbance.with_field_at((0.0, 1.3, 1.0), field_ut=20.0, distance_m=0.8),),
+))  # fmt: skip
+
+
+register(Condition(
+    "trolley_passing",
+    "a steel trolley wheeled past the play area's left edge at 1 m/s, 2-8 s into the episode",
+    (MagneticDisturbance.with_field_at((-3.0, 1.3, 1.0), field_ut=20.0, distance_m=0.8,
+                                       velocity=(1.0, 0.0, 0.0), moving=(2.0, 8.0)),),
 ))  # fmt: skip
 
 

@@ -57,6 +57,22 @@ def test_beside_metal_adds_the_dipole_field_the_closed_form_gives():
     env.close()
 
 
+def test_the_trolley_passes_along_the_cabinets_line_while_the_user_walks():
+    """The trolley is the cabinet's dipole, 3 m to one side until 2 s, abreast of the start spot
+    at 5 s, 3 m to the other side from 8 s; its field at the head peaks abreast of it."""
+    (cabinet,) = CONDITIONS["beside_metal"].magnetic_disturbances
+    (trolley,) = CONDITIONS["trolley_passing"].magnetic_disturbances
+    assert trolley.moment == cabinet.moment
+    for t, x in ((0.0, -3.0), (2.0, -3.0), (5.0, 0.0), (8.0, 3.0), (30.0, 3.0)):
+        np.testing.assert_allclose(trolley.position_at(t), (x, 1.3, 1.0), atol=1e-12)
+    head = np.array([0.0, 0.0, 1.6])
+    times = np.linspace(0.0, 10.0, 101)
+    field = np.linalg.norm(trolley.field_at(np.tile(head, (101, 1)), times), axis=-1)
+    assert times[np.argmax(field)] == pytest.approx(5.0)
+    np.testing.assert_allclose(field.max(), np.linalg.norm(cabinet.field_at(head)), rtol=1e-12)
+    assert field[0] < 0.2 * field.max()
+
+
 def test_rows_compare_techniques_within_their_condition():
     kw = dict(tasks=["approach"], policies=["goal_seeker"], techniques=["seed000", "madgwick"],
               episodes=3, seed=5, conditions=["lab", "beside_metal"], progress=False,
