@@ -13,11 +13,13 @@ each cell size ``N`` of ``--sizes``: the share of ``--resamples`` bootstrap draw
 paired episodes (the same seed indices in every task, drawn with replacement) in which the pair
 separates as :func:`agents.discrimination.pair_results` decides it (some signature or outcome
 metric at p < 0.01 in the expected direction, in some task), and the share in which it separates
-on an outcome. A pair whose power stays near 0 at every size is one the scenario does not tell
-apart (the techniques behave alike there), not one that needs more episodes.
+on an outcome; and the share in which the run's claim holds: every pair the scenario tells apart
+(power >= 0.5 at the largest size) separates and at least three separate on an outcome. A pair
+whose power stays near 0 at every size is one the scenario does not tell apart (the techniques
+behave alike there), not one that needs more episodes.
 
-The episode count of the default run (:data:`agents.grid.DEFAULT_EPISODES`) is chosen from this
-output, never from the run's own seeds.
+The episode count of the default run (:data:`agents.grid.DEFAULT_EPISODES`) is the smallest size
+at which that claim holds in at least 99 % of the resamples on development seeds.
 """
 
 from __future__ import annotations
@@ -81,29 +83,44 @@ def main() -> None:
           f"{args.resamples} resamples of N paired episodes in which the pair separates "
           "(on an outcome)")  # fmt: skip
     rng = np.random.default_rng(args.seed)
+    # every resample draws one set of seed indices for every pair and task, as a run uses the
+    # same seeds in every cell: sep[n][pair] and out[n][pair] hold a flag per resample
+    sep = {n: {p.name: np.zeros(args.resamples, bool) for p in pairs} for n in args.sizes}
+    out = {n: {p.name: np.zeros(args.resamples, bool) for p in pairs} for n in args.sizes}
+    for n in args.sizes:
+        for r in range(args.resamples):
+            idx = rng.integers(0, args.episodes, n)
+            for pair in pairs:
+                res = pair_results([_resampled_row(values, pair, t, idx)
+                                    for t in pair_tasks(pair)], (pair,))[0]  # fmt: skip
+                sep[n][pair.name][r], out[n][pair.name][r] = res["separates"], res["on_outcome"]
     head = "".join(f"{'N=' + str(n):>14}" for n in args.sizes)
     print(f"{'pair':<46}{head}")
     for pair in pairs:
-        tasks = pair_tasks(pair)
-        cols = []
-        for n in args.sizes:
-            sep = out = 0
-            for _ in range(args.resamples):
-                idx = rng.integers(0, args.episodes, n)
-                rows = [{"task": t, "technique": pair.technique, "policy": pair.policy,
-                         "condition": pair.condition,
-                         "vs_baseline": compare_values(
-                             [values[Cell(t, pair.policy, BASELINE, pair.condition)][i]
-                              for i in idx],
-                             [values[Cell(t, pair.policy, pair.technique, pair.condition)][i]
-                              for i in idx])}
-                        for t in tasks]  # fmt: skip
-                res = pair_results(rows, (pair,))[0]
-                sep += res["separates"]
-                out += res["on_outcome"]
-            cols.append(f"{sep / args.resamples:.2f} ({out / args.resamples:.2f})")
+        cols = [f"{sep[n][pair.name].mean():.2f} ({out[n][pair.name].mean():.2f})"
+                for n in args.sizes]  # fmt: skip
         print(f"{pair.name:<46}" + "".join(f"{c:>14}" for c in cols))
+    # the run's claim: every pair the scenario tells apart separates, >= 3 on an outcome
+    largest = max(args.sizes)
+    apart = [p.name for p in pairs if sep[largest][p.name].mean() >= 0.5]
+    joint = []
+    for n in args.sizes:
+        every = np.all([sep[n][name] for name in apart], axis=0)
+        outcomes = np.sum([out[n][p.name] for p in pairs], axis=0)
+        joint.append(f"{np.mean(every & (outcomes >= 3)):.2f}")
+    print(f"{'all of ' + str(len(apart)) + ' told apart, >= 3 on an outcome':<46}"
+          + "".join(f"{c:>14}" for c in joint))
+    print(f"(told apart: the pairs with power >= 0.5 at N={largest}: {', '.join(apart)})")
 
+
+def _resampled_row(values: dict, pair: Pair, task: str, idx: np.ndarray) -> dict:
+    """A benchmark row of ``pair`` in ``task`` whose paired tests are those of the episodes
+    ``idx`` (repeats kept)."""
+    base = values[Cell(task, pair.policy, BASELINE, pair.condition)]
+    other = values[Cell(task, pair.policy, pair.technique, pair.condition)]
+    return {"task": task, "technique": pair.technique, "policy": pair.policy,
+            "condition": pair.condition,
+            "vs_baseline": compare_values([base[i] for i in idx], [other[i] for i in idx])}
 
 if __name__ == "__main__":
     main()
