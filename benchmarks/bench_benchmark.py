@@ -6,6 +6,7 @@ Run from the repository root::
     python benchmarks/bench_benchmark.py --episodes 10 --batch-size 10
     python benchmarks/bench_benchmark.py --policies avoid_manoeuvre   # no route planner
     python benchmarks/bench_benchmark.py --techniques seed000 madgwick --tasks avoid reach
+    python benchmarks/bench_benchmark.py --profile    # where the batched path's time goes
 
 Both paths run the same grid (``vrloco benchmark``'s main grid: its default tasks, policies and
 techniques, or those of ``--tasks``, ``--policies`` and ``--techniques``) with the same worker
@@ -14,6 +15,8 @@ processes, in this one run: ``batch_size=0`` plays every episode alone in a sing
 users of the native vector env (:func:`agents.benchmark.run_cell_batched`). It prints
 episodes/s of each, their ratio, and whether the two tables are identical (they must be).
 Each path runs once untimed first on a small grid, so that numba's compilation is not timed.
+``--profile`` instead plays the first technique's cells of each task batched in this process
+under cProfile and prints the functions that took the most time, with their share.
 """
 
 from __future__ import annotations
@@ -43,7 +46,11 @@ def main() -> None:
     ap.add_argument("--tasks", nargs="+", default=list(DEFAULT_TASKS))
     ap.add_argument("--policies", nargs="+", default=list(DEFAULT_POLICIES))
     ap.add_argument("--techniques", nargs="+", default=list(DEFAULT_TECHNIQUES))
+    ap.add_argument("--profile", action="store_true", help="profile the batched path instead")
     args = ap.parse_args()
+    if args.profile:
+        profile(args)
+        return
     grid = dict(tasks=args.tasks, policies=args.policies, techniques=args.techniques,
                 workers=args.workers, progress=False, print_table=False)  # fmt: skip
     n_cells = len(args.tasks) * len(args.policies) * len(args.techniques)
@@ -66,6 +73,42 @@ def main() -> None:
     print(f"  tables identical: {same}")
     if not same:
         sys.exit(1)
+
+
+def profile(args: argparse.Namespace) -> None:
+    """cProfile of the batched path on the first technique's cells, one group per task."""
+    import cProfile
+    import pstats
+
+    from agents.benchmark import run_batched
+    from agents.grid import Cell
+
+    cells = [Cell(t, p, args.techniques[0]) for t in args.tasks for p in args.policies]
+    for c in cells:  # compile outside the profile
+        run_batched([(c, s, False) for s in range(2)], 2)
+    prof = cProfile.Profile()
+    t = time.perf_counter()
+    prof.enable()
+    for c in cells:
+        run_batched([(c, s, False) for s in range(args.episodes)], args.batch_size)
+    prof.disable()
+    total = time.perf_counter() - t
+    print(f"{len(cells)} cells x {args.episodes} episodes batched ({args.batch_size}) in this "
+          f"process: {total:.1f} s under the profiler; by own time:")  # fmt: skip
+    stats = pstats.Stats(prof)
+    rows = sorted(stats.stats.items(), key=lambda kv: -kv[1][2])[:15]  # type: ignore[attr-defined]
+    for (file, line, name), (_, calls, own, _cum, _) in rows:
+        where = f"{Path(file).name}:{line}({name})"
+        print(f"  {100 * own / total:5.1f} %  {own:6.2f} s  {calls:7d} calls  {where}")
+    stages = {"the env's step (users, world, observation)": ("core.py", "step"),
+              "the env's reset (room generation included)": ("core.py", "reset"),
+              "room generation (layout and its path plan)": ("planning.py", "_plan"),
+              "the policy's act (route planning included)": ("base.py", "act")}  # fmt: skip
+    print("by time including callees:")
+    for label, (file, name) in stages.items():
+        cum = sum(v[3] for (f, _, n), v in stats.stats.items()  # type: ignore[attr-defined]
+                  if Path(f).name == file and n == name)  # fmt: skip
+        print(f"  {100 * cum / total:5.1f} %  {cum:6.2f} s  {label}")
 
 
 if __name__ == "__main__":

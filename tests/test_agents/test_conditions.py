@@ -11,7 +11,7 @@ from agents.conditions import CONDITIONS, Condition, get_condition
 from agents.grid import Cell
 from agents.paired import episode_values, paired_p_values
 from agents.resume import episode_key
-from vrloco_env.sensors.imu import MU0_OVER_4PI
+from vrloco_env.sensors.imu import MU0_OVER_4PI, EarthField
 from vrloco_env.techniques import get_technique
 
 
@@ -71,6 +71,16 @@ def test_the_trolley_passes_along_the_cabinets_line_while_the_user_walks():
     assert times[np.argmax(field)] == pytest.approx(5.0)
     np.testing.assert_allclose(field.max(), np.linalg.norm(cabinet.field_at(head)), rtol=1e-12)
     assert field[0] < 0.2 * field.max()
+    # at the head, the earth field plus the trolley's bends north by 3 deg over the pass, but
+    # its norm changes by 0.5 % and its dip by 2.4 deg: within seed 000's magnetometer gate
+    # (10 %, 10 deg), which therefore never rejects it
+    m = EarthField().vector_enu() + trolley.field_at(np.tile(head, (101, 1)), times)
+    norm = np.linalg.norm(m, axis=1)
+    dip = np.degrees(np.arcsin(-m[:, 2] / norm))
+    north = np.degrees(np.arctan2(m[:, 0], m[:, 1]))
+    assert np.ptp(north) == pytest.approx(3.0, abs=0.1)
+    assert np.max(np.abs(norm / np.linalg.norm(EarthField().vector_enu()) - 1)) < 0.006
+    assert np.max(np.abs(dip - dip[0])) == pytest.approx(2.4, abs=0.1)
 
 
 def test_rows_compare_techniques_within_their_condition():
