@@ -138,6 +138,8 @@ GRID_METRICS = (
     ("phantom_steps_per_min", "phantom steps (/min)"),
     ("yaw_drift_deg_per_min", "yaw drift standing (deg/min)"),
     ("yaw_rate_mismatch_deg_s", "yaw-rate mismatch (deg/s)"),
+    ("virtual_jerk_m_s3", "virtual jerk (m/s³)"),
+    ("steering_error_deg", "steering error (deg)"),
     ("hand_tracking_availability", "hand tracking availability"),
 )
 
