@@ -133,6 +133,7 @@ def test_a_moving_dipole_reads_as_a_still_one_where_it_is_at_each_sample():
     q = np.tile([1.0, 0.0, 0.0, 0.0], (1, n, 1))
     zero = np.zeros((1, n, 3))
     head = np.tile([0.0, 0.0, 1.6], (1, n, 1))
+    truth = imu.true_field_world(head, (1, n))  # the next n samples' field, before taking them
     mag = np.concatenate([imu.sample(q[:, :90], zero[:, :90], zero[:, :90], head[:, :90]).mag,
                           imu.sample(q[:, 90:], zero[:, 90:], zero[:, 90:], head[:, 90:]).mag],
                          axis=1)  # two calls: the clock carries over  # fmt: skip
@@ -143,6 +144,7 @@ def test_a_moving_dipole_reads_as_a_still_one_where_it_is_at_each_sample():
         want = EarthField().vector_enu() + still.field_at(head[0, k])
         np.testing.assert_allclose(mag[0, k], want, rtol=0, atol=1e-12, err_msg=f"sample {k}")
     assert np.linalg.norm(mag[0, 99] - mag[0, 0]) > 1.0  # it moved: the field changed
+    np.testing.assert_allclose(truth, mag, rtol=0, atol=1e-12)  # identity attitude: world = body
     np.testing.assert_array_equal(moving.position_at(0.2), moving.position)
     np.testing.assert_allclose(moving.position_at(9.0), np.add(moving.position, v * 1.0))
     np.testing.assert_allclose(moving.field_at(head[0, :3], t[:3]), mag[0, :3]

@@ -276,15 +276,6 @@ class HeadImu:
         for d in self.disturbances:  # a handful of objects, not a batch or time loop
             m = m + d.field_at(pos, times)
         return m
-        p = _batch_shaped(pos, "pos", self.batch_size, 3, shape[1])
-        out = np.empty((1, 1, 3))
-        for i, k in np.ndindex(*shape):  # a check of the kernel's field, not a hot path
-            t = float(self.sample_times(shape[1])[i, k])
-            out[:] = 0.0
-            for d in self.disturbances:
-                out[0, 0] += d.field_at(p[i, k], t)
-            m[i, k] += out[0, 0]
-        return m
 
     def sample(
         self,
