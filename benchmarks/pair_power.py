@@ -68,6 +68,10 @@ def main() -> None:
     ap.add_argument("--resamples", type=int, default=400)
     ap.add_argument("--workers", type=int, default=2)
     args = ap.parse_args()
+    for name, value, low in (("--episodes", args.episodes, 2), ("--resamples", args.resamples, 1),
+                             ("--workers", args.workers, 1), ("--sizes", min(args.sizes), 1)):
+        if value < low:
+            ap.error(f"{name} must be >= {low}, got {value}")
     pairs = [p for p in PAIRS if args.pairs is None or p.technique in args.pairs]
     if not pairs:
         ap.error(f"--pairs: none of {args.pairs} is a pair; pairs: "
@@ -121,6 +125,7 @@ def _resampled_row(values: dict, pair: Pair, task: str, idx: np.ndarray) -> dict
     return {"task": task, "technique": pair.technique, "policy": pair.policy,
             "condition": pair.condition,
             "vs_baseline": compare_values([base[i] for i in idx], [other[i] for i in idx])}
+
 
 if __name__ == "__main__":
     main()
