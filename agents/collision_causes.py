@@ -7,7 +7,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agents.step_matching import STEP_TOLERANCE_S, finite_times
-from estimators.rotations import wrap_angle
+from agents.wip_measures import steering_offsets_deg
 
 __all__ = [
     "CAUSE_WINDOW_S",
@@ -59,11 +59,9 @@ def collision_causes(steps: dict[str, NDArray]) -> dict[str, int]:
     heading = np.asarray(steps["heading_error_deg"], dtype=np.float64).ravel()
     strikes = finite_times(steps["true_step_times"])
     detected = np.asarray(steps["detected_step_times"], dtype=np.float64).reshape(n, -1)
-    steer = None
-    if "walk_yaw_deg" in steps and "true_body_yaw_deg" in steps:
-        walk = np.asarray(steps["walk_yaw_deg"], dtype=np.float64).ravel()
-        body = np.asarray(steps["true_body_yaw_deg"], dtype=np.float64).ravel()
-        steer = np.rad2deg(np.abs(wrap_angle(np.deg2rad(walk - body))))
+    steer = steering_offsets_deg(steps)
+    if steer is not None:
+        steer = np.abs(steer)
     for k in np.flatnonzero(hit):
         recent = detected[(t_end > t_end[k] - CAUSE_WINDOW_S - 1e-9) & (t_end <= t_end[k])]
         recent = recent[np.isfinite(recent)]

@@ -28,6 +28,7 @@ __all__ = [
     "STANDING_SETTLE_S",
     "motion_measures",
     "play_area_measures",
+    "steering_offsets_deg",
 ]
 
 #: The per-episode walking-in-place measures a row averages (:func:`motion_measures`).
@@ -41,6 +42,16 @@ MOTION_KEYS = ("start_latency_s", "stop_latency_s", "stop_overshoot_m", "false_m
 STANDING_SETTLE_S = 3.0
 #: The virtual body counts as moving in a control step that carries it farther than this (m).
 MOVING_M = 1e-6
+
+
+def steering_offsets_deg(steps: dict[str, NDArray]) -> NDArray[np.float64] | None:
+    """Per control step, the walking direction (``walk_yaw_deg``) minus the true torso direction
+    (``true_body_yaw_deg``), wrapped into (-180, 180] deg; None without those keys."""
+    if "walk_yaw_deg" not in steps or "true_body_yaw_deg" not in steps:
+        return None
+    walk = np.asarray(steps["walk_yaw_deg"], dtype=np.float64).ravel()
+    body = np.asarray(steps["true_body_yaw_deg"], dtype=np.float64).ravel()
+    return np.rad2deg(wrap_angle(np.deg2rad(walk - body)))
 
 
 def motion_measures(
@@ -149,11 +160,9 @@ def motion_measures(
         jerk = np.diff(path, n=3, axis=0) / dt**3
         out["virtual_jerk_m_s3"] = math.sqrt(exact_mean((jerk**2).sum(axis=1)))
     walking = moved > MOVING_M
-    if "walk_yaw_deg" in steps and "true_body_yaw_deg" in steps and walking.any():
-        walk = np.asarray(steps["walk_yaw_deg"], dtype=np.float64).ravel()
-        body = np.asarray(steps["true_body_yaw_deg"], dtype=np.float64).ravel()
-        off = np.rad2deg(wrap_angle(np.deg2rad(walk - body)))[walking]
-        out["steering_error_deg"] = math.sqrt(exact_mean(off**2))
+    off = steering_offsets_deg(steps)
+    if off is not None and walking.any():
+        out["steering_error_deg"] = math.sqrt(exact_mean(off[walking] ** 2))
     return out
 
 

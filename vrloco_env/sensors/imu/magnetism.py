@@ -135,10 +135,11 @@ class MagneticDisturbance:
         check_in_range(self, "min_distance", 0.0, math.inf, "m", lo_open=True)
 
     def position_at(self, t: float) -> NDArray[np.float64]:
-        """Where the dipole is (m), (3,), at time ``t`` (s after the reset)."""
-        start, stop = self.moving
-        moved = min(max(float(t) - start, 0.0), stop - start)
-        return np.asarray(self.position) + np.asarray(self.velocity) * moved
+        """Where the dipole is (m), (3,), at time ``t`` (s after the reset): the IMU kernel's
+        own motion (:func:`vrloco_env.sensors.imu._kernel._dipole_offset` of the origin)."""
+        check_value("t", t, 0.0, math.inf, "s")
+        offset = _kernel._dipole_offset(_dipole_records((self,))[0], 0.0, 0.0, 0.0, float(t))
+        return -np.array(offset)
 
     @classmethod
     def with_field_at(
