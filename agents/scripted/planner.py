@@ -6,11 +6,17 @@ obstacles), scores the candidate headings by marching along each through the map
 walk (whether the current heading is clear to start walking, or to keep walking). A user's
 clearance map and cost to go are kept from one call to the next and reused while nothing they
 are computed from has changed (most control steps of a user who stands, turns or sees nothing
-new).
+new). When only new cells were marked (a user turning on the spot sees more of an obstacle), the
+last search is repaired instead of run again: only the cells whose way to the aim point passes
+near the new marks are searched anew, and the costs come out bit for bit those of a new search.
 
 * ``_march`` — one heading through the map: clear for a given length, or into the goal.
-* ``_clearance`` — the clearance map: distance to the nearest marked cell.
-* ``_bucket_push``, ``_cost_to_go`` — the search for the cost to go, on a bucket (Dial) queue.
+* ``_clearance``, ``_stamp`` — the clearance map: distance to the nearest marked cell.
+* ``_multiplier`` — what a step into a cell costs, per metre, at its clearance.
+* ``_bucket_push``, ``_cost_to_go``, ``_settle`` — the search for the cost to go, on a bucket
+  (Dial) queue, and its level (up to which cost every cell holds its exact one).
+* ``_repair``, ``_known`` — the search brought up to date after multipliers went up, and whether
+  it covers the cells the marches read.
 * ``_plan_run`` — the per-user planner; :data:`plan_kernel` is its :class:`BatchKernel`.
 """
 
@@ -96,24 +102,37 @@ def _stamp(clear, oi, oj, i0, i1, j0, j1, w, ring):
                 clear[ii, jj] = d
 
 
+#: The level of a search that ran until its queue was empty: every reached cell is exact.
+_ALL = np.int64(2**62)
+
+
+@numba.njit(cache=True, inline="always")
+def _within(c, width, level):
+    """Whether cost ``c`` is in a bucket (of ``width``) up to ``level``."""
+    return c < np.inf and int(c / width) <= level
+
+
 @numba.njit(cache=True)
-def _cost_to_go(mult, cost, ti, tj, box, cell, nodes):
+def _cost_to_go(mult, cost, parent, ti, tj, box, cell, nodes):
     """Dijkstra's search for the cost to go from cell ``(ti, tj)`` over the 8-connected cells of
     ``mult`` (ni, nj): a step into a cell costs ``cell`` (straight) or ``cell * sqrt 2``
-    (diagonal) times that cell's ``mult`` (>= 1; inf: never entered). Fills ``cost`` (ni, nj).
+    (diagonal) times that cell's ``mult`` (>= 1; inf: never entered). Fills ``cost`` (ni, nj) and
+    ``parent`` (ni * nj,), each reached cell's step back toward ``(ti, tj)`` (:func:`_settle`).
 
     The queue is a bucket (Dial) queue: buckets of width half the cheapest step (one straight
     cell at a multiplier of 1), so that a step out of the bucket being emptied always lands in a
     later one, and the entries of one bucket are settled in any order; its slots cover the
     dearest step, so the buckets in use never wrap onto each other. ``nodes`` = ``(nxt, cost,
-    key)`` is its scratch memory, at least ``8 ni nj + 1`` each (a cell is pushed at most once
-    per neighbour). The search stops once every cell of ``box`` = ``(i0, i1, j0, j1)`` (inclusive)
-    that can be entered is settled, which leaves the costs of those cells exactly what the full
-    search gives; other cells may keep a larger cost or inf.
+    key)`` is its scratch memory, at least ``9 ni nj + 1`` each. The search stops once every cell
+    of ``box`` = ``(i0, i1, j0, j1)`` (inclusive) that can be entered is settled, which leaves
+    the costs of those cells exactly what the full search gives; other cells may keep a larger
+    cost or inf.
+
+    Returns the search's level: every cell whose cost is in a bucket up to it
+    (``int(cost / (cell / 2)) <= level``) holds its exact cost, and every other cell's exact cost
+    is in a later bucket (:data:`_ALL` when the queue ran empty: every reached cell is exact).
     """
-    nxt, node_cost, node_key = nodes
     ni, nj = mult.shape
-    diag = cell * 1.4142135623730951
     width = 0.5 * cell
     top = 1.0
     need = 0
@@ -122,19 +141,38 @@ def _cost_to_go(mult, cost, ti, tj, box, cell, nodes):
             if mult[i, j] < np.inf:
                 top = max(top, mult[i, j])
                 need += box[0] <= i <= box[1] and box[2] <= j <= box[3]
-    nbk = int(diag * top / width) + 3
+    nbk = int(cell * 1.4142135623730951 * top / width) + 3
     head = np.full(nbk, -1, np.int64)
     cost[:] = np.inf
     cost[ti, tj] = 0.0
-    used = _bucket_push(head, nxt, node_cost, node_key, 0, nbk, width, 0.0, ti * nj + tj)
-    size = 1
-    cur = 0
-    while size > 0 and need > 0:
-        node = head[cur]
+    parent[ti * nj + tj] = -1
+    used = _bucket_push(head, nodes[0], nodes[1], nodes[2], 0, nbk, width, 0.0, ti * nj + tj)
+    return _settle(mult, cost, parent, head, nodes, used, 1, 0, box, cell, need, _ALL, 0)
+
+
+@numba.njit(cache=True)
+def _settle(mult, cost, parent, head, nodes, used, size, cur, box, cell, need, last, floor):
+    """Empty the bucket queue ``head`` (``size`` entries, ``used`` nodes, see
+    :func:`_cost_to_go`) from bucket ``cur`` on, in order: settle each entry that still holds its
+    cell's cost and relax that cell's neighbours, storing in ``parent`` the step back to it
+    (``(1 - di) * 3 + (1 - dj)`` for a step ``(di, dj)``). Stops when the queue is empty, once
+    ``need`` (the enterable cells of ``box`` not yet settled; a negative count never stops)
+    reaches 0 at bucket ``floor`` or later, or past bucket ``last`` (no cost in a later bucket is
+    stored). Returns the level (see :func:`_cost_to_go`): the bucket it stopped in, or ``last``.
+    """
+    nxt, node_cost, node_key = nodes
+    ni, nj = mult.shape
+    nbk = head.size
+    diag = cell * 1.4142135623730951
+    width = 0.5 * cell
+    while size > 0 and (need != 0 or cur < floor):
+        if cur > last:
+            return last
+        node = head[cur % nbk]
         if node < 0:
-            cur = cur + 1 if cur + 1 < nbk else 0
+            cur += 1
             continue
-        head[cur] = nxt[node]
+        head[cur % nbk] = nxt[node]
         size -= 1
         c, k = node_cost[node], node_key[node]
         i, j = k // nj, k % nj
@@ -154,11 +192,130 @@ def _cost_to_go(mult, cost, ti, tj, box, cell, nodes):
                 if mk == np.inf:
                     continue
                 nc = c + (diag if di != 0 and dj != 0 else cell) * mk
-                if nc < cost[ii, jj]:
+                if nc < cost[ii, jj] and int(nc / width) <= last:
                     cost[ii, jj] = nc
+                    parent[ii * nj + jj] = (1 - di) * 3 + (1 - dj)
                     used = _bucket_push(head, nxt, node_cost, node_key, used, nbk, width, nc,
                                         ii * nj + jj)  # fmt: skip
                     size += 1
+    return cur if need == 0 and cur >= floor else last
+
+
+@numba.njit(cache=True)
+def _repair(mult, cost, parent, changed, n_changed, ti, tj, box, level, cell, nodes, scratch):
+    """Bring the costs of a search (:func:`_cost_to_go`, at ``level``) up to date after the
+    multipliers of the cells ``changed[:n_changed]`` (flat indices) went up.
+
+    The cells whose exact cost was known (in a bucket up to ``level``) and whose way back to the
+    target passes through a changed cell lose their cost; each gets the best step from a known
+    neighbour that kept its cost, and the search runs from those up to ``level`` again. Every cell
+    whose new exact cost is in a bucket up to ``level`` then holds it, and the others none: the
+    invariant of a search at ``level``, on the new multipliers. (Raising multipliers lowers no
+    cost, so a cell that kept its cost keeps the exact one.) ``scratch`` = ``(flag, cells,
+    seed)``, (ni * nj,) each, ``flag`` all 0 (and left so).
+    """
+    ni, nj = mult.shape
+    width = 0.5 * cell
+    diag = cell * 1.4142135623730951
+    flag, cells, seed = scratch
+    n = 0
+    for q in range(n_changed):  # the changed cells with a known cost, the target excepted
+        k = changed[q]
+        if k != ti * nj + tj and not flag[k] and _within(cost.flat[k], width, level):
+            flag[k] = 1
+            cells[n] = k
+            n += 1
+    q = 0
+    while q < n:  # and every cell whose way back passes through one
+        i, j = cells[q] // nj, cells[q] % nj
+        q += 1
+        for di in range(-1, 2):
+            for dj in range(-1, 2):
+                ii, jj = i + di, j + dj
+                if (di == 0 and dj == 0) or ii < 0 or ii >= ni or jj < 0 or jj >= nj:
+                    continue
+                k = ii * nj + jj
+                if (not flag[k] and parent[k] == (1 - di) * 3 + (1 - dj)
+                        and _within(cost[ii, jj], width, level)):  # fmt: skip
+                    flag[k] = 1
+                    cells[n] = k
+                    n += 1
+    need = 0  # the enterable cells of the box that lose their cost
+    for q in range(n):
+        k = cells[q]
+        cost.flat[k] = np.inf
+        i, j = k // nj, k % nj
+        need += box[0] <= i <= box[1] and box[2] <= j <= box[3] and mult[i, j] < np.inf
+    floor = np.int64(0)  # the last bucket of a box cell that keeps its cost
+    for i in range(box[0], box[1] + 1):
+        for j in range(box[2], box[3] + 1):
+            if not flag[i * nj + j] and _within(cost[i, j], width, level):
+                floor = max(floor, np.int64(int(cost[i, j] / width)))
+    lo, hi = _ALL, np.int64(0)
+    top = 1.0
+    for q in range(n):  # each such cell's best step from a neighbour that kept its cost
+        k = cells[q]
+        flag[k] = 0
+        i, j = k // nj, k % nj
+        mk = mult[i, j]
+        seed[q] = np.inf
+        if mk == np.inf:
+            continue
+        top = max(top, mk)
+        for di in range(-1, 2):
+            for dj in range(-1, 2):
+                ii, jj = i - di, j - dj  # the neighbour that a step (di, dj) comes from
+                if (di == 0 and dj == 0) or ii < 0 or ii >= ni or jj < 0 or jj >= nj:
+                    continue
+                c = cost[ii, jj]
+                if _within(c, width, level):
+                    nc = c + (diag if di != 0 and dj != 0 else cell) * mk
+                    if nc < seed[q]:
+                        seed[q] = nc
+                        parent[k] = (1 - di) * 3 + (1 - dj)
+        if _within(seed[q], width, level):
+            lo = min(lo, np.int64(int(seed[q] / width)))
+            hi = max(hi, np.int64(int(seed[q] / width)))
+    if lo == _ALL:  # none can be reached up to the level
+        return level
+    # the search only ever lowers cells that lost their cost (any other cell up to the level
+    # keeps its exact one, and a cell beyond it stays beyond), so their dearest multiplier
+    # bounds a step
+    head = np.full(int(hi - lo) + int(diag * top / width) + 3, -1, np.int64)
+    used = 0
+    for q in range(n):
+        if _within(seed[q], width, level):
+            cost.flat[cells[q]] = seed[q]
+            used = _bucket_push(head, nodes[0], nodes[1], nodes[2], used, head.size, width,
+                                seed[q], cells[q])  # fmt: skip
+    return _settle(mult, cost, parent, head, nodes, used, used, lo, box, cell, need, level,
+                   floor)  # fmt: skip
+
+
+@numba.njit(cache=True)
+def _known(mult, cost, box, level, cell):
+    """Whether every enterable cell of ``box`` holds its exact cost under a search at ``level``
+    (see :func:`_cost_to_go`)."""
+    if level == _ALL:
+        return True
+    width = 0.5 * cell
+    for i in range(box[0], box[1] + 1):
+        for j in range(box[2], box[3] + 1):
+            if mult[i, j] < np.inf and not _within(cost[i, j], width, level):
+                return False
+    return True
+
+
+@numba.njit(cache=True, inline="always")
+def _multiplier(cl, prm):
+    """The cost multiplier of a step into a cell at clearance ``cl`` (inf: not to be entered);
+    ``prm`` = (r_tight, r_block, r_comfort, comfort_cost, tight_cost)."""
+    r_tight, r_block, r_comfort, comfort_cost, tight_cost = prm
+    band = max(r_comfort - r_block, 1e-9)
+    m = 1.0 + comfort_cost * min(max(r_comfort - cl, 0.0) / band, 1.0)
+    if cl <= r_block:
+        m += tight_cost
+    return m if cl > r_tight else np.inf
 
 
 def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cands, prm, memo,
@@ -180,28 +337,31 @@ def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cand
     current heading is clear for ``look`` m or lands in the goal, and clear for ``keep_len`` (B,)
     m or into the goal.
 
-    ``memo`` = ``(key, clear, cost)``, ``key`` (B, 10) int64, ``clear`` and ``cost`` (B, N * N)
-    float64: each user's last clearance map and cost to go (row-major over its box) and what they
-    were computed from (the map's version, the box, the target's cell, the user's cell and the
-    reach of the rays). A user whose ``key`` matches the present call reuses them: the same
-    inputs give the same maps. One whose map was ``prior`` and whose box is the same only
-    lowers its clearance map where ``news`` are near (a minimum over the marked cells, in any
-    order) and searches again. A row of ``key`` that holds -1 (a new episode) matches nothing.
+    ``memo`` = ``(key, clear, cost, parent, level)``: ``key`` (B, 10) int64, ``clear`` and
+    ``cost`` (B, N * N) float64, ``parent`` (B, N * N) int8 and ``level`` (B,) int64: each user's
+    last clearance map, cost to go and its search's steps back and level (row-major over its
+    box; see :func:`_cost_to_go`) and what they were computed from (the map's version, the box,
+    the target's cell, the user's cell and the reach of the rays). A user whose ``key`` matches
+    the present call reuses them: the same inputs give the same maps. One whose map was
+    ``prior`` and whose box is the same only lowers its clearance map where ``news`` are near (a
+    minimum over the marked cells, in any order); if its target's cell is the same too, its
+    search is repaired where the multipliers went up (:func:`_repair`) and kept if it still
+    covers the square the marches read (:func:`_known`), else it searches again. A row of
+    ``key`` that holds -1 (a new episode) matches nothing.
     """
     occ, lo, hi, version, prior, news = seen
-    key, clear_memo, cost_memo = memo
+    key, clear_memo, cost_memo, parent_memo, level_memo = memo
     aim_out, valid_out, go_out, keep_out = out
     p = prm[0]
     cell, half, look, goal_tol = p["cell"], p["half"], p["look"], p["goal_tol"]
-    r_tight, r_block, r_comfort = p["r_tight"], p["r_block"], p["r_comfort"]
-    comfort_cost, tight_cost, turn_cost = p["comfort_cost"], p["tight_cost"], p["turn_cost"]
+    mult_prm = (p["r_tight"], p["r_block"], p["r_comfort"], p["comfort_cost"], p["tight_cost"])
+    r_tight, r_block, turn_cost = p["r_tight"], p["r_block"], p["turn_cost"]
     step_a, tight_penalty, hold = p["step_a"], p["tight_penalty"], p["hold"]
     geom = np.array([0.5 * cell, half, cell, goal_tol])
     nb, n, _ = occ.shape
-    w = math.ceil(r_comfort / cell) + 1
+    w = math.ceil(p["r_comfort"] / cell) + 1
     cap = w * cell
     pad = w + math.ceil((look + 1.0) / cell)
-    band = max(r_comfort - r_block, 1e-9)
     # distance to a marked cell at offset (di, dj), less half a cell, floored at 0
     nw = 2 * w + 1
     ring = np.empty(nw * nw)
@@ -209,10 +369,12 @@ def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cand
         for dj in range(-w, w + 1):
             d = max(math.sqrt(di * di + dj * dj) * cell - 0.5 * cell, 0.0)
             ring[(di + w) * nw + dj + w] = d
-    nxt = np.empty(0, np.int64)  # the search's queue nodes, reused by every user
-    node_cost = np.empty(0)
-    node_key = np.empty(0, np.int64)
-    mult = np.empty(0)  # the cost multiplier of a step into each cell (inf: not to be entered)
+    # scratch memory reused by every user: the search's queue nodes, the cost multiplier of a
+    # step into each cell (inf: not to be entered), the cells near news and their multipliers
+    # before, and the repair's flags, cells and seed costs
+    nxt, node_cost, node_key = np.empty(0, np.int64), np.empty(0), np.empty(0, np.int64)
+    mult, near, before = np.empty(0), np.empty(0, np.int64), np.empty(0)
+    flag, cells, seed = np.zeros(0, np.uint8), np.empty(0, np.int64), np.empty(0)
     for b in range(nb):
         if not active[b]:
             continue
@@ -228,40 +390,71 @@ def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cand
         reach = math.ceil(max(look, keep_len[b]) / cell) + 1
         clear = clear_memo[b, : ni * nj].reshape((ni, nj))
         cost = cost_memo[b, : ni * nj].reshape((ni, nj))
+        parent = parent_memo[b, : ni * nj]
         same_box = key[b, 1] == i0 and key[b, 2] == i1 and key[b, 3] == j0 and key[b, 4] == j1
         grown = same_box and key[b, 0] == prior[b] and prior[b] >= 0  # only ``news`` are new
+        same_target = grown and key[b, 5] == ti and key[b, 6] == tj
         same = same_box and key[b, 0] == version[b]
         for q, v in enumerate((i0, i1, j0, j1, ti, tj, pi, pj, reach)):
             same = same and key[b, q + 1] == v
             key[b, q + 1] = v
         key[b, 0] = version[b]
         if not same:
+            if nxt.size < 9 * ni * nj + 1:  # enough for a search and for a repair
+                nxt = np.empty(9 * ni * nj + 1, np.int64)
+                node_cost = np.empty(9 * ni * nj + 1)
+                node_key = np.empty(9 * ni * nj + 1, np.int64)
+                mult, before, seed = np.empty(ni * nj), np.empty(ni * nj), np.empty(ni * nj)
+                near, cells = np.empty(ni * nj, np.int64), np.empty(ni * nj, np.int64)
+                flag = np.zeros(ni * nj, np.uint8)
+            n_near = 0
             if grown and prior[b] != version[b]:
+                # the cells the news can lower, with their multipliers before them
+                for q in range(news.shape[0]):
+                    oi, oj = news[q, 1], news[q, 2]
+                    if news[q, 0] != b:
+                        continue
+                    for ii in range(max(oi - w, i0), min(oi + w, i1) + 1):
+                        for jj in range(max(oj - w, j0), min(oj + w, j1) + 1):
+                            k = (ii - i0) * nj + jj - j0
+                            if not flag[k]:
+                                flag[k] = 1
+                                near[n_near] = k
+                                before[n_near] = _multiplier(clear.flat[k], mult_prm)
+                                n_near += 1
                 for q in range(news.shape[0]):
                     oi, oj = news[q, 1], news[q, 2]
                     if (news[q, 0] == b and i0 - w <= oi <= i1 + w
                             and j0 - w <= oj <= j1 + w):  # fmt: skip
                         _stamp(clear, oi, oj, i0, i1, j0, j1, w, ring)
-            elif not (grown and prior[b] == version[b]):
+                m = 0
+                for q in range(n_near):  # keep those whose multiplier changed
+                    k = near[q]
+                    flag[k] = 0
+                    if _multiplier(clear.flat[k], mult_prm) != before[q]:
+                        near[m] = k
+                        m += 1
+                n_near = m
+            elif not grown:
                 _clearance(occ[b], clear, i0, i1, j0, j1, w, ring, cap)
             # the cost to go from the target, dearer close to obstacles. Only the cells the rays
-            # below can read are needed: a square of ``reach`` cells around the user.
-            if nxt.size < 8 * ni * nj + 1:  # each cell is pushed at most once per neighbour
-                nxt = np.empty(8 * ni * nj + 1, np.int64)
-                node_cost = np.empty(8 * ni * nj + 1)
-                node_key = np.empty(8 * ni * nj + 1, np.int64)
-                mult = np.empty(ni * nj)
-            for i in range(ni):
-                for j in range(nj):
-                    cl = clear[i, j]
-                    m = 1.0 + comfort_cost * min(max(r_comfort - cl, 0.0) / band, 1.0)
-                    if cl <= r_block:
-                        m += tight_cost
-                    mult[i * nj + j] = m if cl > r_tight else np.inf
+            # below can read are needed: a square of ``reach`` cells around the user. A search
+            # on the same box and target is brought up to date instead when it can be.
+            for k in range(ni * nj):
+                mult[k] = _multiplier(clear.flat[k], mult_prm)
+            mult2 = mult[: ni * nj].reshape((ni, nj))
             box = (max(pi - reach - i0, 0), min(pi + reach - i0, ni - 1),
                    max(pj - reach - j0, 0), min(pj + reach - j0, nj - 1))  # fmt: skip
-            _cost_to_go(mult[: ni * nj].reshape((ni, nj)), cost, ti - i0, tj - j0, box, cell,
-                        (nxt, node_cost, node_key))  # fmt: skip
+            nodes = (nxt, node_cost, node_key)
+            known = False
+            if same_target:
+                if n_near:
+                    level_memo[b] = _repair(mult2, cost, parent, near, n_near, ti - i0, tj - j0,
+                                            box, level_memo[b], cell, nodes, (flag, cells, seed))  # fmt: skip
+                known = _known(mult2, cost, box, level_memo[b], cell)
+            if not known:
+                level_memo[b] = _cost_to_go(mult2, cost, parent, ti - i0, tj - j0, box, cell,
+                                            nodes)  # fmt: skip
         # every heading with the full margin, and with the tight one at a penalty; the aim of
         # the last step gets a bonus (hysteresis). The user may always move away from, or
         # along, what it already stands closer to.

@@ -1,5 +1,5 @@
-"""The goal seeker's route planner: its search against scipy's Dijkstra, its memo against
-planning afresh."""
+"""The goal seeker's route planner: its search and its repair against scipy's Dijkstra, its memo
+against planning afresh."""
 
 import gymnasium as gym
 import numpy as np
@@ -9,18 +9,29 @@ from scipy.sparse.csgraph import dijkstra
 
 import vrloco_env  # noqa: F401  (registers the ids)
 from agents.policies import build_policy
-from agents.scripted.planner import _cost_to_go
+from agents.scripted.planner import _cost_to_go, _known, _repair
 
 SQRT2 = 1.4142135623730951
 
 
+def _nodes(ni, nj):
+    return (np.empty(9 * ni * nj + 1, np.int64), np.empty(9 * ni * nj + 1),
+            np.empty(9 * ni * nj + 1, np.int64))  # fmt: skip
+
+
 def _search(mult, start, box, cell):
+    """The search's costs, its parents and its level."""
     ni, nj = mult.shape
-    cost = np.empty((ni, nj))
-    nodes = (np.empty(8 * ni * nj + 1, np.int64), np.empty(8 * ni * nj + 1),
-             np.empty(8 * ni * nj + 1, np.int64))  # fmt: skip
-    _cost_to_go(mult, cost, start[0], start[1], box, cell, nodes)
-    return cost
+    cost, parent = np.empty((ni, nj)), np.empty(ni * nj, np.int8)
+    level = _cost_to_go(mult, cost, parent, start[0], start[1], box, cell, _nodes(ni, nj))
+    return cost, parent, level
+
+
+def _random_map(rng, cell):
+    ni, nj = rng.integers(5, 40, size=2)
+    mult = 1.0 + rng.uniform(0.0, 4.0, (ni, nj)) * (rng.random((ni, nj)) < 0.5)
+    mult[rng.random((ni, nj)) < 0.25] = np.inf  # walls: never entered
+    return mult
 
 
 def _scipy_costs(mult, start, cell):
@@ -46,22 +57,70 @@ def _scipy_costs(mult, start, cell):
 @pytest.mark.parametrize("seed", range(6))
 def test_the_bucket_queue_search_gives_scipys_dijkstra_costs(seed):
     rng = np.random.default_rng(seed)
-    ni, nj = rng.integers(5, 40, size=2)
     cell = (0.05, 0.1, 0.25)[seed % 3]
-    mult = 1.0 + rng.uniform(0.0, 4.0, (ni, nj)) * (rng.random((ni, nj)) < 0.5)
-    mult[rng.random((ni, nj)) < 0.25] = np.inf  # walls: never entered
+    mult = _random_map(rng, cell)
+    ni, nj = mult.shape
     start = (int(rng.integers(ni)), int(rng.integers(nj)))
     mult[start] = 1.0
     want = _scipy_costs(mult, start, cell)
     assert np.isinf(want).any() and np.isfinite(want).sum() > 10  # walls cut some cells off
-    got = _search(mult, start, (0, ni - 1, 0, nj - 1), cell)
+    got, _, level = _search(mult, start, (0, ni - 1, 0, nj - 1), cell)
     np.testing.assert_array_equal(got, want)
+    _assert_level(got, want, level, cell)
     # stopping early, once a small square is settled: that square keeps the full costs
     i, j = int(rng.integers(ni)), int(rng.integers(nj))
     box = (max(i - 3, 0), min(i + 3, ni - 1), max(j - 3, 0), min(j + 3, nj - 1))
-    early = _search(mult, start, box, cell)
+    early, _, level = _search(mult, start, box, cell)
     sq = (slice(box[0], box[1] + 1), slice(box[2], box[3] + 1))
     np.testing.assert_array_equal(early[sq], want[sq])
+    _assert_level(early, want, level, cell)
+
+
+def _assert_level(cost, want, level, cell):
+    """The invariant of a search at ``level``: a cell whose exact cost is in a bucket up to
+    the level holds it, and any other cell a cost in a later bucket or none."""
+    bucket = np.full(want.shape, np.inf)
+    reached = np.isfinite(want)
+    bucket[reached] = np.floor(want[reached] / (0.5 * cell))
+    upto = bucket <= level
+    np.testing.assert_array_equal(cost[upto], want[upto])
+    held = np.isfinite(cost[~upto])
+    assert np.all(np.floor(cost[~upto][held] / (0.5 * cell)) > level)
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_a_repaired_search_equals_a_search_on_the_raised_multipliers(seed):
+    """Raise the multipliers of a few cells (some to walls), repair the search: where it says
+    the box is known, the box's costs are bit for bit those of a search on the new map, and the
+    level's invariant holds on the whole map, repair after repair."""
+    rng = np.random.default_rng(100 + seed)
+    cell = (0.05, 0.1, 0.25)[seed % 3]
+    mult = _random_map(rng, cell)
+    ni, nj = mult.shape
+    start = (int(rng.integers(ni)), int(rng.integers(nj)))
+    mult[start] = 1.0
+    i, j = int(rng.integers(ni)), int(rng.integers(nj))
+    box = (max(i - 3, 0), min(i + 3, ni - 1), max(j - 3, 0), min(j + 3, nj - 1))
+    sq = (slice(box[0], box[1] + 1), slice(box[2], box[3] + 1))
+    cost, parent, level = _search(mult, start, box, cell)
+    scratch = (np.zeros(ni * nj, np.uint8), np.empty(ni * nj, np.int64), np.empty(ni * nj))
+    known = 0
+    for _ in range(6):
+        changed = np.unique(rng.integers(ni * nj, size=int(rng.integers(1, 8))))
+        raised = mult.ravel()[changed] * rng.uniform(1.0, 3.0, changed.size)
+        raised[rng.random(changed.size) < 0.3] = np.inf
+        mult.ravel()[changed] = raised
+        want = _scipy_costs(mult, start, cell)
+        level = _repair(mult, cost, parent, changed, changed.size, start[0], start[1], box,
+                        level, cell, _nodes(ni, nj), scratch)  # fmt: skip
+        _assert_level(cost, want, level, cell)
+        assert not scratch[0].any()
+        if _known(mult, cost, box, level, cell):
+            known += 1
+            np.testing.assert_array_equal(cost[sq], want[sq])
+        else:  # what the goal seeker does then: search again
+            cost, parent, level = _search(mult, start, box, cell)
+    assert known > 0
 
 
 def _seeker_actions(seed, reuse):
