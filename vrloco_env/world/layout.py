@@ -25,7 +25,8 @@ without a path is redrawn.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, fields, replace
+from collections import OrderedDict
+from dataclasses import astuple, dataclass, field, fields, replace
 from functools import cached_property
 
 import numpy as np
@@ -370,18 +371,38 @@ def finish_layout(
         avatar_height=cfg.avatar_height,
         wall_height=cfg.wall_height,
     )
-    path = _plan(
-        layout._packed,
-        bounds,
-        start,
-        layout.in_goal,
-        layout.nearest_goal_point,
-        cfg.avatar_radius,
-        cfg.grid_resolution,
-    )
+    key = (task, layout.bounds, tuple((type(s).__name__, astuple(s)) for s in layout.solids),
+           layout.start[:2], layout.goal, layout.goal_radius, goal_line, cfg.avatar_radius,
+           cfg.grid_resolution)  # fmt: skip
+    if key in _PATHS:
+        _PATHS.move_to_end(key)
+        path = _PATHS[key]
+    else:
+        path = _plan(
+            layout._packed,
+            bounds,
+            start,
+            layout.in_goal,
+            layout.nearest_goal_point,
+            cfg.avatar_radius,
+            cfg.grid_resolution,
+        )
+        if path is not None:
+            path.setflags(write=False)  # shared by every layout of this geometry
+        _PATHS[key] = path
+        if len(_PATHS) > _PATHS_KEPT:
+            _PATHS.popitem(last=False)
     if path is None:
         return None
     return replace(layout, path=path, shortest_path_length=_path_length(path))
+
+
+#: Planned paths (None: unreachable) by everything the plan depends on: the solids, bounds, start,
+#: goal region, avatar radius and grid. Planning is a pure function of these, and it is most of
+#: the cost of drawing a room; the benchmark draws each task's seeds once per technique, so each
+#: process plans a room once. The :data:`_PATHS_KEPT` most recently used are kept.
+_PATHS: OrderedDict[tuple, NDArray[np.float64] | None] = OrderedDict()
+_PATHS_KEPT = 2048
 
 
 def check_rng(rng: object) -> np.random.Generator:

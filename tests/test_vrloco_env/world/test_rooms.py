@@ -320,3 +320,19 @@ def test_layouts_that_once_broke_the_planner_are_feasible():
     assert layout.in_goal(layout.path[-1:])[0]
     straight = np.hypot(*np.subtract(layout.goal, layout.start[:2])) - layout.goal_radius
     assert layout.shortest_path_length >= straight - 1e-9
+
+
+def test_a_rooms_path_is_planned_once_and_equals_a_fresh_plan(monkeypatch):
+    """Drawing the same room again reuses its plan (the same read-only array); with the kept
+    plans cleared it plans again, to the same numbers, and another room gets its own plan."""
+    from vrloco_env.world import layout as layout_module
+
+    first = avoid_layout(CFG, np.random.default_rng(5))
+    again = avoid_layout(CFG, np.random.default_rng(5))
+    assert again.path is first.path and not first.path.flags.writeable
+    monkeypatch.setattr(layout_module, "_PATHS", type(layout_module._PATHS)())
+    fresh = avoid_layout(CFG, np.random.default_rng(5))
+    assert fresh.path is not first.path
+    np.testing.assert_array_equal(fresh.path, first.path)
+    other = avoid_layout(CFG, np.random.default_rng(6))
+    assert other.obstacles != first.obstacles and not np.array_equal(other.path, first.path)
