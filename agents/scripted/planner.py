@@ -450,7 +450,8 @@ def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cand
             if same_target:
                 if n_near:
                     level_memo[b] = _repair(mult2, cost, parent, near, n_near, ti - i0, tj - j0,
-                                            box, level_memo[b], cell, nodes, (flag, cells, seed))  # fmt: skip
+                                            box, level_memo[b], cell, nodes,
+                                            (flag, cells, seed))  # fmt: skip
                 known = _known(mult2, cost, box, level_memo[b], cell)
             if not known:
                 level_memo[b] = _cost_to_go(mult2, cost, parent, ti - i0, tj - j0, box, cell,
