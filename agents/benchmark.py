@@ -259,7 +259,7 @@ def _play_batch(env: Any, policies: dict, jobs: list, order: list[int]) -> dict[
     queue = list(order)
     done: dict[int, tuple[EpisodeStats, dict]] = {}
     keys = (*STEP_KEYS, *(k for k in TRACE_KEYS if k not in STEP_KEYS))
-    steps: list[dict[str, NDArray]] = []  # per control step: the info arrays of all users
+    steps = _StepLog(keys)  # per control step: the info arrays of all users
     first = np.zeros(n, np.intp)  # the step index each user's episode started at
     start_info: list[dict] = [{}] * n
 
@@ -300,13 +300,13 @@ def _play_batch(env: Any, policies: dict, jobs: list, order: list[int]) -> dict[
             if mine.any():
                 actions[mine] = np.asarray(policies[cell].act(obs), np.float32)[mine]
         obs, _, terminated, truncated, info = env.step(actions)
-        steps.append({k: np.array(info[k], copy=True) for k in keys})
+        steps.append(info)
         ended = np.flatnonzero((terminated | truncated) & (job >= 0))
         if ended.size == 0:
             continue
         for i in ended:  # once per episode: the user's rows of the stacked steps
             j = int(job[i])
-            per_step = {k: np.stack([st[k][i] for st in steps[first[i]:]]) for k in keys}
+            per_step = steps.user(i, first[i])
             last = {k: info[k][i] for k in ("is_success", "collisions", "elapsed_time", "walked")}
             tr = {k: per_step[k] for k in TRACE_KEYS} if jobs[j][2] else None
             stats = episode_stats(jobs[j][1], start_info[i]["shortest_path"], per_step, last, tr,
@@ -321,11 +321,50 @@ def _play_batch(env: Any, policies: dict, jobs: list, order: list[int]) -> dict[
         else:
             _set_active(policies, cells, owner)
         running = job >= 0
-        if running.any() and first[running].min() > 0:  # forget steps no episode needs
+        if running.any() and 2 * first[running].min() >= len(steps):  # forget old steps
             drop = int(first[running].min())
-            del steps[:drop]
+            steps.forget(drop)
             first -= drop
     return done
+
+
+class _StepLog:
+    """The info arrays ``keys`` of all users, control step after control step: one array per
+    key, (steps, users, ...), grown as needed; a user's episode is a slice of its column."""
+
+    def __init__(self, keys: tuple[str, ...]) -> None:
+        self.keys = keys
+        self.log: dict[str, NDArray] = {}
+        self.size = 0
+
+    def __len__(self) -> int:
+        return self.size
+
+    def append(self, info: dict) -> None:
+        """Log one control step's ``info`` (each key's array of the same shape and dtype at
+        every step)."""
+        if not self.log:
+            self.log = {k: np.empty((64, *np.shape(info[k])), np.asarray(info[k]).dtype)
+                        for k in self.keys}  # fmt: skip
+        for k, log in self.log.items():
+            value = np.asarray(info[k])
+            if value.dtype != log.dtype or value.shape != log.shape[1:]:
+                raise RuntimeError(f"internal error: info[{k!r}] changed from {log.dtype}"
+                                   f"{log.shape[1:]} to {value.dtype}{value.shape}")  # fmt: skip
+            if self.size == log.shape[0]:
+                log = self.log[k] = np.concatenate([log, np.empty_like(log)])
+            log[self.size] = value
+        self.size += 1
+
+    def user(self, i: int, start: int) -> dict[str, NDArray]:
+        """User ``i``'s values from step ``start`` to the last logged, (steps, ...) per key."""
+        return {k: log[start : self.size, i].copy() for k, log in self.log.items()}
+
+    def forget(self, n: int) -> None:
+        """Drop the first ``n`` steps (step ``n`` becomes step 0)."""
+        for log in self.log.values():
+            log[: self.size - n] = log[n : self.size]
+        self.size -= n
 
 
 def _set_active(policies: dict, cells: list, owner: NDArray) -> None:
