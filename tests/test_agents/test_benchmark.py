@@ -346,3 +346,27 @@ def test_each_collision_of_a_hand_made_episode_gets_its_cause():
     hit[[31, 75]] = True
     del steps["walk_yaw_deg"]
     assert collision_causes(steps) == {**dict.fromkeys(COLLISION_CAUSES, 0), "policy": 2}
+
+
+def test_the_step_log_gives_each_users_steps_across_growth_and_forgetting():
+    """The batched runner's log of info arrays: a user's rows from a step on are the arrays it
+    was given, past the log's growth (64 steps at first) and after its first steps are dropped;
+    an info array that changes shape is an error, not a silent cast."""
+    from agents.benchmark import _StepLog
+
+    rng = np.random.default_rng(0)
+    given = [{"a": rng.normal(size=3), "b": rng.integers(0, 9, size=(3, 2))} for _ in range(150)]
+    log = _StepLog(("a", "b"))
+    for info in given[:100]:
+        log.append(info)
+    got = log.user(1, 70)
+    np.testing.assert_array_equal(got["a"], [g["a"][1] for g in given[70:100]])
+    np.testing.assert_array_equal(got["b"], [g["b"][1] for g in given[70:100]])
+    assert got["b"].dtype == given[0]["b"].dtype
+    log.forget(60)
+    for info in given[100:]:
+        log.append(info)
+    assert len(log) == 90
+    np.testing.assert_array_equal(log.user(2, 10)["a"], [g["a"][2] for g in given[70:]])
+    with pytest.raises(RuntimeError, match="info\\['a'\\] changed"):
+        log.append({"a": np.zeros(4), "b": given[0]["b"]})
