@@ -50,7 +50,9 @@ class GoalSeeker(ScriptedPolicy):
     space is turned to first, and the rays then show what is there. The clearance map and the
     cost to go are planned again only when the map, its box, the aim point's cell, the user's
     cell or the length to check have changed since the last control step; otherwise the last
-    ones are reused (the same inputs, the same maps). ``reuse_plans = False`` plans anew every
+    ones are reused (the same inputs, the same maps). When only new hits were marked, the last
+    search is repaired where they raised the cost of a step rather than run again (the same
+    costs; :mod:`agents.scripted.planner`). ``reuse_plans = False`` plans anew every
     control step (the same actions, slower); ``plans_reused`` counts the user-steps whose plan
     was reused.
 
