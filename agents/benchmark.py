@@ -8,8 +8,8 @@ so the same episode index meets the same room in every cell, and an episode's nu
 nothing else: not on the worker processes, the batch it ran in, or the backend.
 
 Jobs (:func:`_split_jobs`): the cells that share a task and a technique run together as users of
-one native vector env (:func:`run_batched`, ``batch_size`` users; ``batch_size=0`` runs every
-episode alone in a single env, :func:`run_cell_episode`). They run in a
+one native vector env (:func:`agents.episodes.run_batched`, ``batch_size`` users; ``batch_size=0``
+runs every episode alone in a single env, :func:`agents.episodes.run_cell_episode`). They run in a
 ``concurrent.futures.ProcessPoolExecutor`` of ``workers`` processes (1: in this process) or, with
 ``backend="ray"``, as Ray tasks (:mod:`agents.backends`), under one progress bar. Finished
 episodes are kept in ``<out>/.resume`` (:mod:`agents.resume`) until the grid is complete, so an
@@ -34,9 +34,6 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-from numpy.typing import NDArray
-
 from agents.benchmark_figures import cell_name, draw_cell, draw_grid
 from agents.benchmark_outputs import (
     BASELINE_TECHNIQUE,
@@ -47,6 +44,7 @@ from agents.benchmark_outputs import (
 )
 from agents.conditions import DEFAULT_CONDITION, get_condition
 from agents.discrimination import pair_results, show_pairs, write_pairs
+from agents.episodes import DEFAULT_BATCH_SIZE, run_batched, run_cell_episode
 from agents.grid import (
     DEFAULT_EPISODES,
     DEFAULT_GRIDS,
@@ -57,35 +55,21 @@ from agents.grid import (
     Grid,
 )
 from agents.metrics import (
-    STEP_KEYS,
-    TRACE_KEYS,
-    EpisodeRecorder,
     EpisodeStats,
-    episode_stats,
     summarize,
 )
 from agents.paired import paired_p_values
-from agents.policies import build_policy, check_policy
+from agents.policies import check_policy
 from agents.resume import EpisodeStore, episode_key, source_fingerprint
-from agents.scripted import is_batched
-from vrloco_env.tasks import env_id, get_task
+from vrloco_env.tasks import get_task
 
 __all__ = [
     "BASELINE_TECHNIQUE",
-    "DEFAULT_BATCH_SIZE",
     "ROW_KEYS",
-    "run_batched",
     "run_benchmark",
-    "run_cell_batched",
-    "run_cell_episode",
-    "run_episode",
     "show_table",
     "step_window",
 ]
-
-#: Users per vector env in the batched runner (:func:`run_cell_batched`).
-DEFAULT_BATCH_SIZE = 20
-
 
 def technique_for_preset(preset: str) -> Any:
     """Seed 000's chain on the IMU ``preset`` (the ``--sensors`` shorthand): the registered
@@ -114,269 +98,6 @@ def step_window(reset_info: dict, dt: float) -> tuple[int, int]:
     :mod:`agents.metrics`."""
     late = math.ceil(float(reset_info["step_report_delay_s"]) / dt - 1e-9)
     return late, 1
-
-
-# --------------------------------------------------------------------------- one episode
-
-_ENVS: dict[tuple, Any] = {}  # per process: one env per (task, technique, population, condition)
-
-
-def _env(task: str, technique: Any, population: str | None = None,
-         condition: str = DEFAULT_CONDITION) -> Any:  # fmt: skip
-    import gymnasium as gym
-
-    import vrloco_env  # noqa: F401  (registers the ids)
-
-    key = (task, technique, population, condition)
-    if key not in _ENVS:
-        _ENVS[key] = gym.make(env_id(task), technique=technique, population=population,
-                              sensors=get_condition(condition).sensors())  # fmt: skip
-    return _ENVS[key]
-
-
-def run_episode(
-    env: Any, policy: Any, seed: int, trace: bool = False
-) -> tuple[EpisodeStats, dict]:
-    """Run one episode of ``policy`` (scripted, learned or a user's: ``reset(rng)``,
-    ``act(obs)``) in the single env ``env`` with ``reset(seed=seed)``; the policy's randomness
-    comes from ``default_rng([seed, 1])``. The stats come from ``info`` alone.
-
-    Returns:
-        The episode's :class:`~agents.metrics.EpisodeStats` (with ``trace``: per-step traces,
-        the room in ``trace["layout"]`` for figures) and the reset info.
-    """
-    obs, reset_info = env.reset(seed=seed)
-    policy.reset(np.random.default_rng([seed, 1]))
-    rec = EpisodeRecorder(seed, reset_info, trace=trace)
-    while True:
-        obs, _, terminated, truncated, info = env.step(policy.act(obs))
-        rec.add(info)
-        if terminated or truncated:
-            break
-    stats = rec.finish(start_position=reset_info["position"])
-    if stats.trace is not None:
-        stats.trace["layout"] = env.unwrapped.layout  # for the figures only
-    return stats, reset_info
-
-
-def run_cell_episode(cell: Cell, seed: int, trace: bool = False) -> tuple[EpisodeStats, dict]:
-    """Episode ``seed`` of ``cell``: its task and technique's env, its policy."""
-    env = _env(cell.task, cell.technique, cell.population, cell.condition)
-    return run_episode(env, build_policy(cell.policy, env), seed, trace)
-
-
-def run_cell_batched(
-    cell: Cell, seeds: Sequence[int], trace: Sequence[bool] | None = None, batch_size: int = 32
-) -> list[tuple[EpisodeStats, dict]]:
-    """Episodes ``seeds`` of ``cell`` as users of one vector env (:func:`run_batched`).
-
-    Returns:
-        ``(stats, reset_info)`` per episode, in the order of ``seeds``.
-    """
-    trace = [False] * len(seeds) if trace is None else list(trace)
-    if len(trace) != len(seeds):
-        raise ValueError(f"trace must hold one flag per seed ({len(seeds)}), got {len(trace)}")
-    return run_batched([(cell, s, t) for s, t in zip(seeds, trace, strict=True)], batch_size)
-
-
-def run_batched(
-    episodes: Sequence[tuple[Cell, int, bool]], batch_size: int = 32
-) -> list[tuple[EpisodeStats, dict]]:
-    """Episodes ``(cell, seed, trace)`` of cells that share a task and a technique, as users of
-    one native vector env.
-
-    ``min(batch_size, len(episodes))`` users start with the first episodes; a user whose episode
-    ends takes the next one in the list, whichever cell it belongs to, with that episode's seed
-    (autoreset is disabled, so no user ever starts an episode the grid did not ask for); when
-    none is left it idles until the batch is done. Each cell has one policy that acts for the
-    users playing its episodes (the others' rows are masked out with ``set_active`` where the
-    policy has it, and their actions discarded). Each episode gives exactly the numbers of
-    :func:`run_cell_episode` with its seed: the users of a batch are independent, the env and
-    the policy are seeded per user as the single env is, and the stats come from the same
-    ``info`` values. A policy that does not take batches (:func:`agents.scripted.is_batched`)
-    plays its episodes one at a time instead.
-
-    Args:
-        episodes: ``(cell, seed, trace)`` per episode; ``trace`` keeps its per-step traces for
-            the figures.
-        batch_size: users stepped together (>= 1).
-
-    Returns:
-        ``(stats, reset_info)`` per episode, in the order of ``episodes``.
-
-    Raises:
-        ValueError: cells of different tasks or techniques, a bad batch size.
-    """
-    from gymnasium.vector import AutoresetMode
-
-    import vrloco_env  # noqa: F401  (registers the tasks)
-    from vrloco_env.techniques import get_technique
-    from vrloco_env.vector import VRLocoVectorEnv
-
-    if isinstance(batch_size, bool) or not isinstance(batch_size, int) or batch_size < 1:
-        raise ValueError(f"batch_size must be an integer >= 1, got {batch_size!r}")
-    jobs = [(c, int(s), bool(t)) for c, s, t in episodes]
-    if not jobs:
-        return []
-    first = jobs[0][0]
-    task, tech, population = first.task, get_technique(first.technique), first.population
-    condition = first.condition
-    for c, _, _ in jobs:
-        if (c.task != task or get_technique(c.technique) != tech or c.population != population
-                or c.condition != condition):  # fmt: skip
-            raise ValueError(
-                "run_batched: every episode must share one task, technique, population and "
-                f"condition, got {c.task!r}/{c.technique_name!r}/{c.population!r}/"
-                f"{c.condition!r} beside {task!r}/{tech.name!r}/{population!r}/{condition!r}"
-            )
-    n = min(batch_size, len(jobs))
-    env = VRLocoVectorEnv(n, task=task, technique=first.technique, population=population,
-                          sensors=get_condition(condition).sensors(),
-                          autoreset_mode=AutoresetMode.DISABLED)  # fmt: skip
-    done: dict[int, tuple[EpisodeStats, dict]] = {}
-    try:
-        cells = list(dict.fromkeys(c for c, _, _ in jobs))
-        policies = {c: build_policy(c.policy, env) for c in cells}
-        alone = {c for c, pol in policies.items() if not is_batched(pol)}
-        batched = [j for j, (c, _, _) in enumerate(jobs) if c not in alone]
-        if batched:
-            done.update(_play_batch(env, policies, jobs, batched))
-    finally:
-        env.close()
-    for j, (c, s, t) in enumerate(jobs):  # policies written for the single env
-        if c in alone:
-            done[j] = run_cell_episode(c, s, t)
-    return [done[j] for j in range(len(jobs))]
-
-
-def _play_batch(env: Any, policies: dict, jobs: list, order: list[int]) -> dict[int, tuple]:
-    """The loop of :func:`run_batched` over the episodes ``order`` of ``jobs`` (``env`` with
-    autoreset disabled); returns ``{episode index: (stats, reset_info)}``."""
-    n = env.num_envs
-    cells = list(policies)
-    job = np.full(n, -1)  # the episode each user plays (-1: idle)
-    owner = np.full(n, -1)  # the index in ``cells`` of its cell
-    queue = list(order)
-    done: dict[int, tuple[EpisodeStats, dict]] = {}
-    keys = (*STEP_KEYS, *(k for k in TRACE_KEYS if k not in STEP_KEYS))
-    steps = _StepLog(keys)  # per control step: the info arrays of all users
-    first = np.zeros(n, np.intp)  # the step index each user's episode started at
-    start_info: list[dict] = [{}] * n
-
-    def start(rows: NDArray[np.intp], reset_all: bool) -> NDArray[np.float32]:
-        """Give ``rows`` the next episodes of the queue; their first observations."""
-        rows = rows[: len(queue)]  # more users than episodes: the rest idle from the start
-        for i in rows:
-            job[i] = queue.pop(0)
-            owner[i] = cells.index(jobs[job[i]][0])
-        # an idle user of the first reset plays seed 0, unused (every reset is seeded)
-        seeds = [jobs[job[i]][1] if i in rows else (0 if reset_all else None) for i in range(n)]
-        if reset_all:
-            obs, info = env.reset(seed=seeds)
-        else:
-            mask = np.zeros(n, bool)
-            mask[rows] = True
-            obs, info = env.reset(seed=seeds, options={"reset_mask": mask})
-        for k, cell in enumerate(cells):
-            mine = rows[owner[rows] == k]
-            if reset_all:  # every policy learns the batch size; rows not its own are idle
-                rngs = [np.random.default_rng([seeds[i] if owner[i] == k else 0, 1])
-                        for i in range(n)]  # fmt: skip
-                policies[cell].reset(rngs, None)
-            elif mine.size:
-                policies[cell].reset([np.random.default_rng([jobs[job[i]][1], 1]) for i in mine],
-                                     mine)  # fmt: skip
-        for i in rows:
-            first[i] = len(steps)
-            start_info[i] = _row_info(info, i)
-        _set_active(policies, cells, owner)
-        return obs
-
-    obs = start(np.arange(n), reset_all=True)
-    while (job >= 0).any():
-        actions = np.zeros((n, env.single_action_space.shape[0]), np.float32)
-        for k, cell in enumerate(cells):
-            mine = owner == k
-            if mine.any():
-                actions[mine] = np.asarray(policies[cell].act(obs), np.float32)[mine]
-        obs, _, terminated, truncated, info = env.step(actions)
-        steps.append(info)
-        ended = np.flatnonzero((terminated | truncated) & (job >= 0))
-        if ended.size == 0:
-            continue
-        for i in ended:  # once per episode: the user's rows of the stacked steps
-            j = int(job[i])
-            per_step = steps.user(i, first[i])
-            last = {k: info[k][i] for k in ("is_success", "collisions", "elapsed_time", "walked")}
-            tr = {k: per_step[k] for k in TRACE_KEYS} if jobs[j][2] else None
-            stats = episode_stats(jobs[j][1], start_info[i]["shortest_path"], per_step, last, tr,
-                                  start_info[i]["position"])  # fmt: skip
-            if stats.trace is not None:
-                stats.trace["layout"] = env.core.layouts[i]
-            done[j] = (stats, start_info[i])
-        job[ended], owner[ended] = -1, -1
-        refill = ended[: len(queue)]
-        if refill.size:
-            obs = start(refill, reset_all=False)
-        else:
-            _set_active(policies, cells, owner)
-        running = job >= 0
-        if running.any() and 2 * first[running].min() >= len(steps):  # forget old steps
-            drop = int(first[running].min())
-            steps.forget(drop)
-            first -= drop
-    return done
-
-
-class _StepLog:
-    """The info arrays ``keys`` of all users, control step after control step: one array per
-    key, (steps, users, ...), grown as needed; a user's episode is a slice of its column."""
-
-    def __init__(self, keys: tuple[str, ...]) -> None:
-        self.keys = keys
-        self.log: dict[str, NDArray] = {}
-        self.size = 0
-
-    def __len__(self) -> int:
-        return self.size
-
-    def append(self, info: dict) -> None:
-        """Log one control step's ``info`` (each key's array of the same shape and dtype at
-        every step)."""
-        if not self.log:
-            self.log = {k: np.empty((64, *np.shape(info[k])), np.asarray(info[k]).dtype)
-                        for k in self.keys}  # fmt: skip
-        for k, log in self.log.items():
-            value = np.asarray(info[k])
-            if value.dtype != log.dtype or value.shape != log.shape[1:]:
-                raise RuntimeError(f"internal error: info[{k!r}] changed from {log.dtype}"
-                                   f"{log.shape[1:]} to {value.dtype}{value.shape}")  # fmt: skip
-            if self.size == log.shape[0]:
-                log = self.log[k] = np.concatenate([log, np.empty_like(log)])
-            log[self.size] = value
-        self.size += 1
-
-    def user(self, i: int, start: int) -> dict[str, NDArray]:
-        """User ``i``'s values from step ``start`` to the last logged, (steps, ...) per key."""
-        return {k: log[start : self.size, i].copy() for k, log in self.log.items()}
-
-    def forget(self, n: int) -> None:
-        """Drop the first ``n`` steps (step ``n`` becomes step 0)."""
-        for log in self.log.values():
-            log[: self.size - n] = log[n : self.size]
-        self.size -= n
-
-
-def _set_active(policies: dict, cells: list, owner: NDArray) -> None:
-    """Tell each policy which rows are its own (where it can be told)."""
-    for k, cell in enumerate(cells):
-        if callable(getattr(policies[cell], "set_active", None)):
-            policies[cell].set_active(owner == k)
-
-
-def _row_info(reset_info: dict, i: int) -> dict:
-    """User ``i``'s reset info as the single env gives it (scalars and (3,) arrays)."""
-    return {k: (v[i] if np.ndim(v[i]) else v[i].item()) for k, v in reset_info.items()}
 
 
 def _job(args: tuple[list[tuple[Cell, int, int, bool]], int]) -> list[tuple]:
@@ -433,8 +154,9 @@ def run_benchmark(
         seed: episode ``i`` is seeded ``seed + i``.
         workers: worker processes (>= 1; 1 runs in this process).
         batch_size: users stepped together in the native vector env (>= 1), each job a cell's
-            batch of seeds (:func:`run_cell_batched`); 0 runs every episode alone in a single env
-            (:func:`run_cell_episode`). The results are the same either way.
+            batch of seeds (:func:`agents.episodes.run_batched`); 0 runs every episode alone in a
+            single env (:func:`agents.episodes.run_cell_episode`). The results are the same
+            either way.
         out_dir: folder for ``benchmark.csv``, ``benchmark.json`` and the figures (None: none).
         json_path: also write the JSON here.
         progress: show a progress bar.

@@ -599,7 +599,7 @@ def evaluate_model(
     import gymnasium as gym
     from stable_baselines3 import PPO
 
-    from agents.benchmark import run_episode
+    from agents.episodes import run_episode
     from agents.metrics import summarize
     from agents.policies import LearnedPolicy
     from vrloco_env.tasks import env_id

@@ -34,8 +34,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np
 
-from agents.benchmark import DEFAULT_BATCH_SIZE, run_cell_batched
 from agents.discrimination import PAIRS, Pair, pair_results
+from agents.episodes import DEFAULT_BATCH_SIZE, run_cell_batched
 from agents.grid import DEFAULT_GRIDS, Cell
 from agents.paired import compare_values, episode_values
 

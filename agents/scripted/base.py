@@ -64,7 +64,7 @@ class Policy(Protocol):
     """What the benchmark needs from a simulated user. A policy that plays batches of users
     (``act`` on (B, n), ``reset`` with one generator per reset row) says so with a class
     attribute ``batched = True``; the benchmark then runs its episodes as users of one vector
-    env (:func:`agents.benchmark.run_cell_batched`), else one at a time."""
+    env (:func:`agents.episodes.run_cell_batched`), else one at a time."""
 
     def reset(self, rng: Any = None, rows: ArrayLike | None = None) -> None:
         """Start new episodes (all rows, or only ``rows`` of a batch)."""

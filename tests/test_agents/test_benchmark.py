@@ -8,15 +8,9 @@ import math
 import numpy as np
 import pytest
 
-from agents.benchmark import (
-    ROW_KEYS,
-    check_policy_name,
-    run_batched,
-    run_benchmark,
-    run_cell_batched,
-    run_cell_episode,
-)
+from agents.benchmark import ROW_KEYS, check_policy_name, run_benchmark
 from agents.cli import main
+from agents.episodes import run_batched, run_cell_batched, run_cell_episode
 from agents.grid import Cell
 from agents.metrics import EpisodeStats, spl, summarize
 from agents.step_matching import match_step_counts
@@ -352,7 +346,7 @@ def test_the_step_log_gives_each_users_steps_across_growth_and_forgetting():
     """The batched runner's log of info arrays: a user's rows from a step on are the arrays it
     was given, past the log's growth (64 steps at first) and after its first steps are dropped;
     an info array that changes shape is an error, not a silent cast."""
-    from agents.benchmark import _StepLog
+    from agents.episodes import _StepLog
 
     rng = np.random.default_rng(0)
     given = [{"a": rng.normal(size=3), "b": rng.integers(0, 9, size=(3, 2))} for _ in range(150)]

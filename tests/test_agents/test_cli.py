@@ -49,7 +49,7 @@ def test_help_shows_the_defaults(capsys):
         main(["train", "--help"])
     out = capsys.readouterr().out
     assert "(default: 2000000)" in out and "(default: approach)" in out
-    from agents.benchmark import DEFAULT_BATCH_SIZE
+    from agents.episodes import DEFAULT_BATCH_SIZE
     from agents.grid import DEFAULT_EPISODES
 
     with pytest.raises(SystemExit):

@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 
 import vrloco_env  # noqa: F401  (registers the ids)
-from agents.benchmark import run_benchmark, run_cell_episode, step_window
+from agents.benchmark import run_benchmark, step_window
 from agents.conditions import CONDITIONS, Condition, get_condition
+from agents.episodes import run_cell_episode
 from agents.grid import Cell
 from agents.paired import episode_values, paired_p_values
 from agents.resume import episode_key
