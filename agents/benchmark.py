@@ -11,7 +11,9 @@ Jobs (:func:`_split_jobs`): the cells that share a task and a technique run toge
 one native vector env (:func:`agents.episodes.run_batched`, ``batch_size`` users; ``batch_size=0``
 runs every episode alone in a single env, :func:`agents.episodes.run_cell_episode`). They run in a
 ``concurrent.futures.ProcessPoolExecutor`` of ``workers`` processes (1: in this process) or, with
-``backend="ray"``, as Ray tasks (:mod:`agents.backends`), under one progress bar. Finished
+``backend="ray"``, as Ray tasks (:mod:`agents.backends`), under one progress bar. A local worker
+claims a job's episodes one by one from a counter the workers share, so that a worker with no job
+left to start joins one still running (:func:`_job`): the workers end together. Finished
 episodes are kept in ``<out>/.resume`` (:mod:`agents.resume`) until the grid is complete, so an
 interrupted run resumes. :func:`agents.metrics.summarize` turns each cell into a row, compared
 with the baseline technique's (:mod:`agents.paired`): a table on the terminal, a CSV and a JSON
@@ -44,7 +46,7 @@ from agents.benchmark_outputs import (
 )
 from agents.conditions import DEFAULT_CONDITION, get_condition
 from agents.discrimination import pair_results, show_pairs, write_pairs
-from agents.episodes import DEFAULT_BATCH_SIZE, run_batched, run_cell_episode
+from agents.episodes import DEFAULT_BATCH_SIZE, play_claimed, run_batched, run_cell_episode
 from agents.grid import (
     DEFAULT_EPISODES,
     DEFAULT_GRIDS,
@@ -100,16 +102,60 @@ def step_window(reset_info: dict, dt: float) -> tuple[int, int]:
     return late, 1
 
 
-def _job(args: tuple[list[tuple[Cell, int, int, bool]], int]) -> list[tuple]:
+def _job(args: tuple) -> list[tuple]:
     """Episodes ``(cell, index, seed, trace)``: batched in the vector env (cells sharing a task
-    and technique), or one at a time in the single env for ``batch_size`` 0. Returns
-    ``(cell, index, stats, reset_info)`` per episode."""
-    episodes, batch_size = args
+    and technique), or one at a time in the single env for ``batch_size`` 0. ``args`` is
+    ``(episodes, batch_size)``, or in a local worker process ``(episodes, batch_size, k)``: then
+    the episodes are claimed from job ``k``'s shared counter (:func:`_init_worker`), so that
+    the same job may run in several workers at once, each playing the episodes it claims.
+    Returns ``(cell, index, stats, reset_info)`` per episode played."""
+    episodes, batch_size, *shared = args
+    plays = [(c, s, t) for c, _, s, t in episodes]
     if batch_size == 0:
-        done = [run_cell_episode(c, s, t) for c, _, s, t in episodes]
+        done = dict(enumerate(run_cell_episode(*p) for p in plays))
+    elif not shared:
+        done = dict(enumerate(run_batched(plays, batch_size)))
     else:
-        done = run_batched([(c, s, t) for c, _, s, t in episodes], batch_size)
-    return [(c, i, *d) for (c, i, _, _), d in zip(episodes, done, strict=True)]
+        claim = _Claim(_CLAIMED, shared[0], len(plays))
+        if claim.left() == 0:  # a helper of a job already handed out
+            return []
+        done = play_claimed(plays, batch_size, claim)
+    return [(*episodes[j][:2], *d) for j, d in sorted(done.items())]
+
+
+#: In a local worker process: how many episodes of each job have been claimed (a shared
+#: ``multiprocessing.Array``, set by :func:`_init_worker`).
+_CLAIMED: Any = None
+
+
+def _init_worker(claimed: Any) -> None:
+    """A local worker process: the jobs' shared claim counters; Ctrl-C is left to the main
+    process, which stops the workers."""
+    import signal
+
+    global _CLAIMED
+    _CLAIMED = claimed
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+class _Claim:
+    """The claims on job ``k``'s ``total`` episodes through the shared counters ``claimed``:
+    ``claim(n)`` takes the next (up to) ``n`` indices, for this process alone."""
+
+    def __init__(self, claimed: Any, k: int, total: int) -> None:
+        self.claimed, self.k, self.total = claimed, k, total
+
+    def left(self) -> int:
+        """How many of the job's episodes nobody has claimed yet."""
+        with self.claimed.get_lock():
+            return self.total - self.claimed[self.k]
+
+    def __call__(self, n: int) -> list[int]:
+        with self.claimed.get_lock():
+            lo = self.claimed[self.k]
+            hi = min(lo + n, self.total)
+            self.claimed[self.k] = hi
+        return list(range(lo, hi))
 
 
 # --------------------------------------------------------------------------- the grid
@@ -391,9 +437,18 @@ def _run_jobs(jobs: list, workers: int, progress: bool, backend: str = "local",
                 yield done
                 bar.advance(task, len(done))
             return
-        pool = ProcessPoolExecutor(max_workers=min(workers, len(jobs)), initializer=_ignore_sigint)
+        import multiprocessing
+
+        n_workers = min(workers, len(jobs))
+        claimed = multiprocessing.Array("q", len(jobs))  # episodes claimed per job, all 0
+        pool = ProcessPoolExecutor(max_workers=n_workers, initializer=_init_worker,
+                                   initargs=(claimed,))  # fmt: skip
         try:
-            futures = [pool.submit(_job, job) for job in jobs]
+            # every batched job once, then helpers: a worker with nothing left to start joins
+            # the jobs still running, the last started first (a finished one returns at once)
+            shared = [(*job, k) if job[1] else job for k, job in enumerate(jobs)]
+            helpers = [job for job in shared[::-1] if job[1]] * (n_workers - 1)
+            futures = [pool.submit(_job, job) for job in shared + helpers]
             for f in as_completed(futures):
                 done = f.result()
                 yield done
@@ -404,13 +459,6 @@ def _run_jobs(jobs: list, workers: int, progress: bool, backend: str = "local",
             pool.shutdown(wait=False, cancel_futures=True)
             raise
         pool.shutdown()
-
-
-def _ignore_sigint() -> None:
-    """Worker processes leave Ctrl-C to the main process, which stops them."""
-    import signal
-
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def _round(v: Any) -> Any:

@@ -4,13 +4,14 @@
 for a grid cell (:class:`agents.grid.Cell`: its task, technique, population and condition's env,
 kept per process, and its policy). :func:`run_batched` plays episodes of cells that share a task,
 a technique, a population and a condition as the users of one native vector env, a user taking
-the next episode when its own ends; each episode gives exactly the numbers of
-:func:`run_cell_episode` with its seed. :mod:`agents.benchmark` runs a grid's jobs with these.
+the next episode when its own ends (:func:`play_claimed`: those that a claim hands out, which
+several processes may share); each episode gives exactly the numbers of :func:`run_cell_episode`
+with its seed. :mod:`agents.benchmark` runs a grid's jobs with these.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -23,8 +24,8 @@ from agents.policies import build_policy
 from agents.scripted import is_batched
 from vrloco_env.tasks import env_id
 
-__all__ = ["DEFAULT_BATCH_SIZE", "run_batched", "run_cell_batched", "run_cell_episode",
-           "run_episode"]  # fmt: skip
+__all__ = ["DEFAULT_BATCH_SIZE", "play_claimed", "run_batched", "run_cell_batched",
+           "run_cell_episode", "run_episode"]  # fmt: skip
 
 #: Users per vector env in the batched runner (:func:`run_cell_batched`).
 DEFAULT_BATCH_SIZE = 20
@@ -94,14 +95,36 @@ def run_batched(
     episodes: Sequence[tuple[Cell, int, bool]], batch_size: int = 32
 ) -> list[tuple[EpisodeStats, dict]]:
     """Episodes ``(cell, seed, trace)`` of cells that share a task and a technique, as users of
-    one native vector env.
+    one native vector env: :func:`play_claimed` taking them all, in order.
 
-    ``min(batch_size, len(episodes))`` users start with the first episodes; a user whose episode
-    ends takes the next one in the list, whichever cell it belongs to, with that episode's seed
-    (autoreset is disabled, so no user ever starts an episode the grid did not ask for); when
-    none is left it idles until the batch is done. Each cell has one policy that acts for the
-    users playing its episodes (the others' rows are masked out with ``set_active`` where the
-    policy has it, and their actions discarded). Each episode gives exactly the numbers of
+    Returns:
+        ``(stats, reset_info)`` per episode, in the order of ``episodes``.
+    """
+    taken = iter(range(len(episodes)))
+
+    def claim(n: int) -> list[int]:
+        return [j for _, j in zip(range(n), taken, strict=False)]
+
+    done = play_claimed(episodes, batch_size, claim)
+    return [done[j] for j in range(len(episodes))]
+
+
+def play_claimed(
+    episodes: Sequence[tuple[Cell, int, bool]], batch_size: int,
+    claim: Callable[[int], list[int]],
+) -> dict[int, tuple[EpisodeStats, dict]]:  # fmt: skip
+    """The episodes ``(cell, seed, trace)`` that ``claim`` hands out, of cells that share a task
+    and a technique, as users of one native vector env.
+
+    ``claim(n)`` gives the indices (into ``episodes``) of up to ``n`` episodes not taken yet,
+    none once every one is: other processes may play the rest (:mod:`agents.benchmark` lets an
+    idle worker help with a job that is still running). ``min(batch_size, len(episodes))`` users
+    start with the first episodes claimed; a user whose episode ends claims the next one,
+    whichever cell it belongs to, with that episode's seed (autoreset is disabled, so no user
+    ever starts an episode the grid did not ask for); when none is left it idles until the batch
+    is done. Each cell has one policy that acts for the users playing its episodes (the others'
+    rows are masked out with ``set_active`` where the policy has it, and their actions
+    discarded). Each episode gives exactly the numbers of
     :func:`run_cell_episode` with its seed: the users of a batch are independent, the env and
     the policy are seeded per user as the single env is, and the stats come from the same
     ``info`` values. A policy that does not take batches (:func:`agents.scripted.is_batched`)
@@ -113,7 +136,7 @@ def run_batched(
         batch_size: users stepped together (>= 1).
 
     Returns:
-        ``(stats, reset_info)`` per episode, in the order of ``episodes``.
+        ``{index: (stats, reset_info)}`` for every episode claimed.
 
     Raises:
         ValueError: cells of different tasks or techniques, a bad batch size.
@@ -145,41 +168,55 @@ def run_batched(
                           sensors=get_condition(condition).sensors(),
                           autoreset_mode=AutoresetMode.DISABLED)  # fmt: skip
     done: dict[int, tuple[EpisodeStats, dict]] = {}
+    alone_jobs: list[int] = []  # claimed episodes of policies written for the single env
     try:
         cells = list(dict.fromkeys(c for c, _, _ in jobs))
         policies = {c: build_policy(c.policy, env) for c in cells}
         alone = {c for c, pol in policies.items() if not is_batched(pol)}
-        batched = [j for j, (c, _, _) in enumerate(jobs) if c not in alone]
-        if batched:
-            done.update(_play_batch(env, policies, jobs, batched))
+
+        def take(k: int) -> list[int]:
+            """Up to ``k`` claimed episodes for the batch; the others' aside."""
+            got: list[int] = []
+            while len(got) < k and (new := claim(k - len(got))):
+                for j in new:
+                    (alone_jobs if jobs[j][0] in alone else got).append(j)
+            return got
+
+        if len(alone) < len(cells):
+            done.update(_play_batch(env, policies, jobs, take))
+        else:
+            while take(len(jobs)):
+                pass
     finally:
         env.close()
-    for j, (c, s, t) in enumerate(jobs):  # policies written for the single env
-        if c in alone:
-            done[j] = run_cell_episode(c, s, t)
-    return [done[j] for j in range(len(jobs))]
+    for j in alone_jobs:
+        c, s, t = jobs[j]
+        done[j] = run_cell_episode(c, s, t)
+    return done
 
 
-def _play_batch(env: Any, policies: dict, jobs: list, order: list[int]) -> dict[int, tuple]:
-    """The loop of :func:`run_batched` over the episodes ``order`` of ``jobs`` (``env`` with
-    autoreset disabled); returns ``{episode index: (stats, reset_info)}``."""
+def _play_batch(env: Any, policies: dict, jobs: list,
+                take: Callable[[int], list[int]]) -> dict[int, tuple]:  # fmt: skip
+    """The loop of :func:`play_claimed` over the episodes of ``jobs`` that ``take(n)`` hands out
+    (up to ``n``; ``env`` with autoreset disabled); returns ``{episode index: (stats,
+    reset_info)}``."""
     n = env.num_envs
     cells = list(policies)
     job = np.full(n, -1)  # the episode each user plays (-1: idle)
     owner = np.full(n, -1)  # the index in ``cells`` of its cell
-    queue = list(order)
     done: dict[int, tuple[EpisodeStats, dict]] = {}
     keys = (*STEP_KEYS, *(k for k in TRACE_KEYS if k not in STEP_KEYS))
     steps = _StepLog(keys)  # per control step: the info arrays of all users
     first = np.zeros(n, np.intp)  # the step index each user's episode started at
     start_info: list[dict] = [{}] * n
 
-    def start(rows: NDArray[np.intp], reset_all: bool) -> NDArray[np.float32]:
-        """Give ``rows`` the next episodes of the queue; their first observations."""
-        rows = rows[: len(queue)]  # more users than episodes: the rest idle from the start
-        for i in rows:
-            job[i] = queue.pop(0)
-            owner[i] = cells.index(jobs[job[i]][0])
+    def start(rows: NDArray[np.intp], got: list[int], reset_all: bool) -> NDArray[np.float32]:
+        """Give ``rows`` the episodes ``got`` (as many, or fewer: the other rows idle); their
+        first observations."""
+        rows = rows[: len(got)]
+        for i, j in zip(rows, got, strict=True):
+            job[i] = j
+            owner[i] = cells.index(jobs[j][0])
         # an idle user of the first reset plays seed 0, unused (every reset is seeded)
         seeds = [jobs[job[i]][1] if i in rows else (0 if reset_all else None) for i in range(n)]
         if reset_all:
@@ -203,7 +240,7 @@ def _play_batch(env: Any, policies: dict, jobs: list, order: list[int]) -> dict[
         _set_active(policies, cells, owner)
         return obs
 
-    obs = start(np.arange(n), reset_all=True)
+    obs = start(np.arange(n), take(n), reset_all=True)
     while (job >= 0).any():
         actions = np.zeros((n, env.single_action_space.shape[0]), np.float32)
         for k, cell in enumerate(cells):
@@ -226,9 +263,9 @@ def _play_batch(env: Any, policies: dict, jobs: list, order: list[int]) -> dict[
                 stats.trace["layout"] = env.core.layouts[i]
             done[j] = (stats, start_info[i])
         job[ended], owner[ended] = -1, -1
-        refill = ended[: len(queue)]
-        if refill.size:
-            obs = start(refill, reset_all=False)
+        got = take(ended.size)
+        if got:
+            obs = start(ended, got, reset_all=False)
         else:
             _set_active(policies, cells, owner)
         running = job >= 0

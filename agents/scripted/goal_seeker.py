@@ -86,9 +86,10 @@ class GoalSeeker(ScriptedPolicy):
         n = int(np.floor(180.0 / p.candidate_step_deg))
         self.candidates = _wrap(np.deg2rad(p.candidate_step_deg) * np.arange(-n, n + 1))
         self.candidates = np.unique(np.round(self.candidates, 12))
-        # the planner's last clearance map and cost to go per user, (B, cells^2) each; which
-        # inputs they hold is ``plan_key`` of the state, so a reset row never reuses them
-        self._memo: tuple[NDArray, NDArray] | None = None
+        # the planner's last clearance map, multipliers and cost to go per user, (B, cells^2)
+        # each, its search's steps back and level; which inputs they hold is ``plan_key`` of
+        # the state, so a reset row never reuses them
+        self._memo: tuple[NDArray, ...] | None = None
         self.reuse_plans = True
         self.plans_reused = 0
 
@@ -176,8 +177,8 @@ class GoalSeeker(ScriptedPolicy):
         active = np.ones(b, bool) if self._active is None else self._active
         if self._memo is None or self._memo[0].shape[0] != b:
             n = self._cells**2
-            self._memo = (np.empty((b, n)), np.empty((b, n)), np.empty((b, n), np.int8),
-                          np.zeros(b, np.int64))  # fmt: skip
+            self._memo = (np.empty((b, n)), np.empty((b, n)), np.empty((b, n)),
+                          np.empty((b, n), np.int8), np.zeros(b, np.int64))  # fmt: skip
         if not self.reuse_plans:
             state["plan_key"][:] = -1
         key = state["plan_key"].copy()

@@ -113,34 +113,32 @@ def _within(c, width, level):
 
 
 @numba.njit(cache=True)
-def _cost_to_go(mult, cost, parent, ti, tj, box, cell, nodes):
+def _cost_to_go(mult, top, cost, parent, ti, tj, box, cell, nodes):
     """Dijkstra's search for the cost to go from cell ``(ti, tj)`` over the 8-connected cells of
     ``mult`` (ni, nj): a step into a cell costs ``cell`` (straight) or ``cell * sqrt 2``
-    (diagonal) times that cell's ``mult`` (>= 1; inf: never entered). Fills ``cost`` (ni, nj) and
-    ``parent`` (ni * nj,), each reached cell's step back toward ``(ti, tj)`` (:func:`_settle`).
+    (diagonal) times that cell's ``mult`` (>= 1, at most ``top``; inf: never entered). Fills
+    ``cost`` (ni, nj) and ``parent`` (ni * nj,), each reached cell's step back toward ``(ti,
+    tj)`` (:func:`_settle`).
 
     The queue is a bucket (Dial) queue: buckets of width half the cheapest step (one straight
     cell at a multiplier of 1), so that a step out of the bucket being emptied always lands in a
     later one, and the entries of one bucket are settled in any order; its slots cover the
-    dearest step, so the buckets in use never wrap onto each other. ``nodes`` = ``(nxt, cost,
-    key)`` is its scratch memory, at least ``9 ni nj + 1`` each. The search stops once every cell
-    of ``box`` = ``(i0, i1, j0, j1)`` (inclusive) that can be entered is settled, which leaves
-    the costs of those cells exactly what the full search gives; other cells may keep a larger
-    cost or inf.
+    dearest step (at ``top``), so the buckets in use never wrap onto each other. ``nodes`` =
+    ``(nxt, cost, key)`` is its scratch memory, at least ``9 ni nj + 1`` each. The search stops
+    once every cell of ``box`` = ``(i0, i1, j0, j1)`` (inclusive) that can be entered is
+    settled, which leaves the costs of those cells exactly what the full search gives; other
+    cells may keep a larger cost or inf.
 
     Returns the search's level: every cell whose cost is in a bucket up to it
     (``int(cost / (cell / 2)) <= level``) holds its exact cost, and every other cell's exact cost
     is in a later bucket (:data:`_ALL` when the queue ran empty: every reached cell is exact).
     """
-    ni, nj = mult.shape
+    nj = mult.shape[1]
     width = 0.5 * cell
-    top = 1.0
     need = 0
-    for i in range(ni):
-        for j in range(nj):
-            if mult[i, j] < np.inf:
-                top = max(top, mult[i, j])
-                need += box[0] <= i <= box[1] and box[2] <= j <= box[3]
+    for i in range(box[0], box[1] + 1):
+        for j in range(box[2], box[3] + 1):
+            need += mult[i, j] < np.inf
     nbk = int(cell * 1.4142135623730951 * top / width) + 3
     head = np.full(nbk, -1, np.int64)
     cost[:] = np.inf
@@ -337,24 +335,27 @@ def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cand
     current heading is clear for ``look`` m or lands in the goal, and clear for ``keep_len`` (B,)
     m or into the goal.
 
-    ``memo`` = ``(key, clear, cost, parent, level)``: ``key`` (B, 10) int64, ``clear`` and
-    ``cost`` (B, N * N) float64, ``parent`` (B, N * N) int8 and ``level`` (B,) int64: each user's
-    last clearance map, cost to go and its search's steps back and level (row-major over its
-    box; see :func:`_cost_to_go`) and what they were computed from (the map's version, the box,
-    the target's cell, the user's cell and the reach of the rays). A user whose ``key`` matches
-    the present call reuses them: the same inputs give the same maps. One whose map was
-    ``prior`` and whose box is the same only lowers its clearance map where ``news`` are near (a
-    minimum over the marked cells, in any order); if its target's cell is the same too, its
+    ``memo`` = ``(key, clear, mult, cost, parent, level)``: ``key`` (B, 10) int64, ``clear``,
+    ``mult`` and ``cost`` (B, N * N) float64, ``parent`` (B, N * N) int8 and ``level`` (B,)
+    int64: each user's last clearance map, cost multipliers (:func:`_multiplier` of each cell's
+    clearance), cost to go and its search's steps back and level (row-major over its box; see
+    :func:`_cost_to_go`) and what they were computed from (the map's version, the box, the
+    target's cell, the user's cell and the reach of the rays). A user whose ``key`` matches the
+    present call reuses them: the same inputs give the same maps. One whose map was ``prior``
+    and whose box is the same only lowers its clearance map and updates its multipliers where
+    ``news`` are near (a minimum over the marked cells, in any order); if its target's cell is
+    the same too, its
     search is repaired where the multipliers went up (:func:`_repair`) and kept if it still
     covers the square the marches read (:func:`_known`), else it searches again. A row of
     ``key`` that holds -1 (a new episode) matches nothing.
     """
     occ, lo, hi, version, prior, news = seen
-    key, clear_memo, cost_memo, parent_memo, level_memo = memo
+    key, clear_memo, mult_memo, cost_memo, parent_memo, level_memo = memo
     aim_out, valid_out, go_out, keep_out = out
     p = prm[0]
     cell, half, look, goal_tol = p["cell"], p["half"], p["look"], p["goal_tol"]
     mult_prm = (p["r_tight"], p["r_block"], p["r_comfort"], p["comfort_cost"], p["tight_cost"])
+    top = 1.0 + p["comfort_cost"] + p["tight_cost"]  # the dearest multiplier
     r_tight, r_block, turn_cost = p["r_tight"], p["r_block"], p["turn_cost"]
     step_a, tight_penalty, hold = p["step_a"], p["tight_penalty"], p["hold"]
     geom = np.array([0.5 * cell, half, cell, goal_tol])
@@ -369,11 +370,10 @@ def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cand
         for dj in range(-w, w + 1):
             d = max(math.sqrt(di * di + dj * dj) * cell - 0.5 * cell, 0.0)
             ring[(di + w) * nw + dj + w] = d
-    # scratch memory reused by every user: the search's queue nodes, the cost multiplier of a
-    # step into each cell (inf: not to be entered), the cells near news and their multipliers
-    # before, and the repair's flags, cells and seed costs
+    # scratch memory reused by every user: the search's queue nodes, the cells near news, and
+    # the repair's flags, cells and seed costs
     nxt, node_cost, node_key = np.empty(0, np.int64), np.empty(0), np.empty(0, np.int64)
-    mult, near, before = np.empty(0), np.empty(0, np.int64), np.empty(0)
+    near = np.empty(0, np.int64)
     flag, cells, seed = np.zeros(0, np.uint8), np.empty(0, np.int64), np.empty(0)
     for b in range(nb):
         if not active[b]:
@@ -389,6 +389,7 @@ def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cand
         ni, nj = i1 - i0 + 1, j1 - j0 + 1
         reach = math.ceil(max(look, keep_len[b]) / cell) + 1
         clear = clear_memo[b, : ni * nj].reshape((ni, nj))
+        mult = mult_memo[b, : ni * nj].reshape((ni, nj))
         cost = cost_memo[b, : ni * nj].reshape((ni, nj))
         parent = parent_memo[b, : ni * nj]
         same_box = key[b, 1] == i0 and key[b, 2] == i1 and key[b, 3] == j0 and key[b, 4] == j1
@@ -404,12 +405,12 @@ def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cand
                 nxt = np.empty(9 * ni * nj + 1, np.int64)
                 node_cost = np.empty(9 * ni * nj + 1)
                 node_key = np.empty(9 * ni * nj + 1, np.int64)
-                mult, before, seed = np.empty(ni * nj), np.empty(ni * nj), np.empty(ni * nj)
+                seed = np.empty(ni * nj)
                 near, cells = np.empty(ni * nj, np.int64), np.empty(ni * nj, np.int64)
                 flag = np.zeros(ni * nj, np.uint8)
             n_near = 0
             if grown and prior[b] != version[b]:
-                # the cells the news can lower, with their multipliers before them
+                # the cells the news can lower
                 for q in range(news.shape[0]):
                     oi, oj = news[q, 1], news[q, 2]
                     if news[q, 0] != b:
@@ -420,7 +421,6 @@ def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cand
                             if not flag[k]:
                                 flag[k] = 1
                                 near[n_near] = k
-                                before[n_near] = _multiplier(clear.flat[k], mult_prm)
                                 n_near += 1
                 for q in range(news.shape[0]):
                     oi, oj = news[q, 1], news[q, 2]
@@ -428,34 +428,35 @@ def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cand
                             and j0 - w <= oj <= j1 + w):  # fmt: skip
                         _stamp(clear, oi, oj, i0, i1, j0, j1, w, ring)
                 m = 0
-                for q in range(n_near):  # keep those whose multiplier changed
+                for q in range(n_near):  # their new multipliers; keep those that changed
                     k = near[q]
                     flag[k] = 0
-                    if _multiplier(clear.flat[k], mult_prm) != before[q]:
+                    mk = _multiplier(clear.flat[k], mult_prm)
+                    if mk != mult.flat[k]:
+                        mult.flat[k] = mk
                         near[m] = k
                         m += 1
                 n_near = m
             elif not grown:
                 _clearance(occ[b], clear, i0, i1, j0, j1, w, ring, cap)
+                for k in range(ni * nj):
+                    mult.flat[k] = _multiplier(clear.flat[k], mult_prm)
             # the cost to go from the target, dearer close to obstacles. Only the cells the rays
             # below can read are needed: a square of ``reach`` cells around the user. A search
             # on the same box and target is brought up to date instead when it can be.
-            for k in range(ni * nj):
-                mult[k] = _multiplier(clear.flat[k], mult_prm)
-            mult2 = mult[: ni * nj].reshape((ni, nj))
             box = (max(pi - reach - i0, 0), min(pi + reach - i0, ni - 1),
                    max(pj - reach - j0, 0), min(pj + reach - j0, nj - 1))  # fmt: skip
             nodes = (nxt, node_cost, node_key)
             known = False
             if same_target:
                 if n_near:
-                    level_memo[b] = _repair(mult2, cost, parent, near, n_near, ti - i0, tj - j0,
+                    level_memo[b] = _repair(mult, cost, parent, near, n_near, ti - i0, tj - j0,
                                             box, level_memo[b], cell, nodes,
                                             (flag, cells, seed))  # fmt: skip
-                known = _known(mult2, cost, box, level_memo[b], cell)
+                known = _known(mult, cost, box, level_memo[b], cell)
             if not known:
-                level_memo[b] = _cost_to_go(mult2, cost, parent, ti - i0, tj - j0, box, cell,
-                                            nodes)  # fmt: skip
+                level_memo[b] = _cost_to_go(mult, top, cost, parent, ti - i0, tj - j0, box,
+                                            cell, nodes)  # fmt: skip
         # every heading with the full margin, and with the tight one at a penalty; the aim of
         # the last step gets a bonus (hysteresis). The user may always move away from, or
         # along, what it already stands closer to.

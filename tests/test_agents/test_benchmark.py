@@ -161,6 +161,35 @@ def test_cells_sharing_an_env_mix_in_one_batch():
         run_batched([(cells[0], 1, False), (Cell("approach", "goal_seeker"), 1, False)])
 
 
+def test_a_job_shared_by_workers_plays_each_claimed_episode_as_alone(monkeypatch):
+    """A worker that joins a running job plays only the episodes nobody has claimed, each with
+    the numbers it gives alone; once every episode is claimed, a helper returns at once."""
+    import multiprocessing
+
+    import agents.benchmark as bm
+
+    cell = Cell("avoid", "goal_seeker", "seed000")
+    episodes = [(cell, i, 20 + i, False) for i in range(5)]
+    claimed = multiprocessing.Array("q", 2)
+    claimed[1] = 2  # another worker took the job's first two episodes
+    monkeypatch.setattr(bm, "_CLAIMED", claimed)
+    done = bm._job((episodes, 2, 1))
+    assert [(c, i) for c, i, _, _ in done] == [(cell, 2), (cell, 3), (cell, 4)]
+    assert claimed[1] == 5 and claimed[0] == 0  # all claimed, the other job's untouched
+    for _, i, stats, _ in done:
+        _same_episode(stats, run_cell_episode(cell, 20 + i)[0])
+    assert bm._job((episodes, 2, 1)) == []
+
+
+def test_local_workers_with_helpers_play_every_episode_once():
+    from agents.benchmark import _run_jobs, _split_jobs
+
+    cells = [Cell("approach", "goal_seeker"), Cell("avoid", "goal_seeker")]
+    jobs = _split_jobs(cells, 3, 7, False, 2, 2)
+    played = [(c, i) for done in _run_jobs(jobs, 2, False) for c, i, _, _ in done]
+    assert sorted(played, key=str) == sorted(((c, i) for c in cells for i in range(3)), key=str)
+
+
 def test_the_batched_and_the_one_at_a_time_grid_give_one_table():
     kw = {"tasks": ["approach", "avoid"], "policies": ["goal_seeker", "avoid_manoeuvre+human"],
           "techniques": ["seed000"], "episodes": 3, "seed": 2, "progress": False,

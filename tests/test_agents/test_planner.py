@@ -23,7 +23,8 @@ def _search(mult, start, box, cell):
     """The search's costs, its parents and its level."""
     ni, nj = mult.shape
     cost, parent = np.empty((ni, nj)), np.empty(ni * nj, np.int8)
-    level = _cost_to_go(mult, cost, parent, start[0], start[1], box, cell, _nodes(ni, nj))
+    top = max(1.0, mult[np.isfinite(mult)].max(initial=1.0))  # the dearest multiplier
+    level = _cost_to_go(mult, top, cost, parent, start[0], start[1], box, cell, _nodes(ni, nj))
     return cost, parent, level
 
 
