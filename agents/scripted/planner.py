@@ -62,14 +62,24 @@ def _march(clear, cost, i0, j0, x, y, ang, length, thr, land, geom):
 
 
 @numba.njit(cache=True, inline="always")
-def _bucket_push(head, nxt, node_cost, node_key, used, nbk, width, c, k):
-    """File ``(c, k)`` in bucket ``int(c / width)`` (slot mod ``nbk``) of the bucket queue; new
-    number of nodes used. Every bucket is a singly linked list of nodes, pushed at its head."""
-    s = int(c / width) % nbk
-    node_cost[used], node_key[used] = c, k
+def _bucket_push(head, nxt, node_cost, node_key, used, bucket, c, i, j):
+    """File cost ``c`` of cell ``(i, j)`` (its key ``i * 2**20 + j``) in bucket ``bucket`` (slot
+    ``bucket`` mod ``head.size``, a power of two) of the bucket queue; new number of nodes used.
+    Every bucket is a singly linked list of nodes, pushed at its head."""
+    s = bucket & (head.size - 1)
+    node_cost[used], node_key[used] = c, (i << 20) | j
     nxt[used] = head[s]
     head[s] = used
     return used + 1
+
+
+@numba.njit(cache=True, inline="always")
+def _slots(n):
+    """The smallest power of two >= ``n``: a bucket queue's slots."""
+    s = 1
+    while s < n:
+        s *= 2
+    return s
 
 
 @numba.njit(cache=True)
@@ -139,12 +149,11 @@ def _cost_to_go(mult, top, cost, parent, ti, tj, box, cell, nodes):
     for i in range(box[0], box[1] + 1):
         for j in range(box[2], box[3] + 1):
             need += mult[i, j] < np.inf
-    nbk = int(cell * 1.4142135623730951 * top / width) + 3
-    head = np.full(nbk, -1, np.int64)
+    head = np.full(_slots(int(cell * 1.4142135623730951 * top / width) + 3), -1, np.int64)
     cost[:] = np.inf
     cost[ti, tj] = 0.0
     parent[ti * nj + tj] = -1
-    used = _bucket_push(head, nodes[0], nodes[1], nodes[2], 0, nbk, width, 0.0, ti * nj + tj)
+    used = _bucket_push(head, nodes[0], nodes[1], nodes[2], 0, 0, 0.0, ti, tj)
     return _settle(mult, cost, parent, head, nodes, used, 1, 0, box, cell, need, _ALL, 0)
 
 
@@ -160,20 +169,20 @@ def _settle(mult, cost, parent, head, nodes, used, size, cur, box, cell, need, l
     """
     nxt, node_cost, node_key = nodes
     ni, nj = mult.shape
-    nbk = head.size
+    slot = head.size - 1  # a power of two, less one: the slot of a bucket is bucket & slot
     diag = cell * 1.4142135623730951
     width = 0.5 * cell
     while size > 0 and (need != 0 or cur < floor):
         if cur > last:
             return last
-        node = head[cur % nbk]
+        node = head[cur & slot]
         if node < 0:
             cur += 1
             continue
-        head[cur % nbk] = nxt[node]
+        head[cur & slot] = nxt[node]
         size -= 1
         c, k = node_cost[node], node_key[node]
-        i, j = k // nj, k % nj
+        i, j = k >> 20, k & 0xFFFFF
         if c > cost[i, j]:
             continue
         if box[0] <= i <= box[1] and box[2] <= j <= box[3] and mult[i, j] < np.inf:
@@ -190,12 +199,14 @@ def _settle(mult, cost, parent, head, nodes, used, size, cur, box, cell, need, l
                 if mk == np.inf:
                     continue
                 nc = c + (diag if di != 0 and dj != 0 else cell) * mk
-                if nc < cost[ii, jj] and int(nc / width) <= last:
-                    cost[ii, jj] = nc
-                    parent[ii * nj + jj] = (1 - di) * 3 + (1 - dj)
-                    used = _bucket_push(head, nxt, node_cost, node_key, used, nbk, width, nc,
-                                        ii * nj + jj)  # fmt: skip
-                    size += 1
+                if nc < cost[ii, jj]:
+                    bucket = int(nc / width)
+                    if bucket <= last:
+                        cost[ii, jj] = nc
+                        parent[ii * nj + jj] = (1 - di) * 3 + (1 - dj)
+                        used = _bucket_push(head, nxt, node_cost, node_key, used, bucket, nc,
+                                            ii, jj)  # fmt: skip
+                        size += 1
     return cur if need == 0 and cur >= floor else last
 
 
@@ -279,13 +290,13 @@ def _repair(mult, cost, parent, changed, n_changed, ti, tj, box, level, cell, no
     # the search only ever lowers cells that lost their cost (any other cell up to the level
     # keeps its exact one, and a cell beyond it stays beyond), so their dearest multiplier
     # bounds a step
-    head = np.full(int(hi - lo) + int(diag * top / width) + 3, -1, np.int64)
+    head = np.full(_slots(int(hi - lo) + int(diag * top / width) + 3), -1, np.int64)
     used = 0
     for q in range(n):
         if _within(seed[q], width, level):
             cost.flat[cells[q]] = seed[q]
-            used = _bucket_push(head, nodes[0], nodes[1], nodes[2], used, head.size, width,
-                                seed[q], cells[q])  # fmt: skip
+            used = _bucket_push(head, nodes[0], nodes[1], nodes[2], used, int(seed[q] / width),
+                                seed[q], cells[q] // nj, cells[q] % nj)  # fmt: skip
     return _settle(mult, cost, parent, head, nodes, used, used, lo, box, cell, need, level,
                    floor)  # fmt: skip
 
@@ -375,6 +386,7 @@ def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cand
     nxt, node_cost, node_key = np.empty(0, np.int64), np.empty(0), np.empty(0, np.int64)
     near = np.empty(0, np.int64)
     flag, cells, seed = np.zeros(0, np.uint8), np.empty(0, np.int64), np.empty(0)
+    passed = np.zeros(cands.size, np.bool_)  # per candidate: clear with the full margin
     for b in range(nb):
         if not active[b]:
             continue
@@ -466,13 +478,20 @@ def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cand
         prev = (prev + math.pi) % (2.0 * math.pi) - math.pi
         best = np.inf
         best_a = 0.0
-        best_thr = min(r_block, c0)
+        best_thr = best_thr0 = min(r_block, c0)
         for tier in range(2):
             thr = min(r_block if tier == 0 else r_tight, c0)
-            for a in cands:
+            for q in range(cands.size):
+                # a heading clear with the full margin is clear with the tight one, to the same
+                # end, and scores no better with the penalty on top (>= 0): its march is skipped
+                if tier == 1 and (passed[q] or thr == best_thr0) and tight_penalty >= 0.0:
+                    continue
+                a = cands[q]
                 ok, end_cost = _march(
                     clear, cost, i0, j0, x, y, heading[b] + a, look, thr, land[b], geom
                 )
+                if tier == 0:
+                    passed[q] = ok
                 if ok and end_cost < np.inf:
                     score = end_cost + turn_cost * abs(a) + tier * tight_penalty
                     if abs(a - prev) <= step_a:
