@@ -124,29 +124,59 @@ def _pack(solids: tuple[Solid, ...]) -> _Solids:
     return _pack_many([solids])
 
 
+@numba.njit(cache=True, inline="always")
+def _sdf_point(box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, n, px, py):
+    """Signed distance from the point ``(px, py)`` to the union of room n's solids (inf if
+    none): negative inside a solid. A box's distance is that of the point in the box's frame to
+    the rectangle (outside: the norm of the positive parts of ``|x| - h``; inside: the largest
+    of them), a cylinder's the distance to its centre less its radius."""
+    best = np.inf
+    for j in range(box_c.shape[1]):
+        if box_ok[n, j]:
+            dx, dy = px - box_c[n, j, 0], py - box_c[n, j, 1]
+            c, s = box_cs[n, j, 0], box_cs[n, j, 1]
+            lx = abs(c * dx + s * dy) - box_h[n, j, 0]
+            ly = abs(-s * dx + c * dy) - box_h[n, j, 1]
+            ox, oy = max(lx, 0.0), max(ly, 0.0)
+            best = min(best, math.sqrt(ox * ox + oy * oy) + min(max(lx, ly), 0.0))
+    for j in range(cyl_c.shape[1]):
+        if cyl_ok[n, j]:
+            dx, dy = px - cyl_c[n, j, 0], py - cyl_c[n, j, 1]
+            best = min(best, math.sqrt(dx * dx + dy * dy) - cyl_r[n, j])
+    return best
+
+
 def _sdf_run(box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, p, out):
     """Signed distance ``out`` (N, P) from points ``p`` (N, P, 2) to the union of room n's
-    solids (inf if none): negative inside a solid. A box's distance is that of the point in the
-    box's frame to the rectangle (outside: the norm of the positive parts of ``|x| - h``;
-    inside: the largest of them), a cylinder's the distance to its centre less its radius."""
+    solids (:func:`_sdf_point`)."""
     n_rooms, n_pts = p.shape[0], p.shape[1]
     for n in numba.prange(n_rooms):
         for k in range(n_pts):
-            px, py = p[n, k, 0], p[n, k, 1]
-            best = np.inf
-            for j in range(box_c.shape[1]):
-                if box_ok[n, j]:
-                    dx, dy = px - box_c[n, j, 0], py - box_c[n, j, 1]
-                    c, s = box_cs[n, j, 0], box_cs[n, j, 1]
-                    lx = abs(c * dx + s * dy) - box_h[n, j, 0]
-                    ly = abs(-s * dx + c * dy) - box_h[n, j, 1]
-                    ox, oy = max(lx, 0.0), max(ly, 0.0)
-                    best = min(best, math.sqrt(ox * ox + oy * oy) + min(max(lx, ly), 0.0))
-            for j in range(cyl_c.shape[1]):
-                if cyl_ok[n, j]:
-                    dx, dy = px - cyl_c[n, j, 0], py - cyl_c[n, j, 1]
-                    best = min(best, math.sqrt(dx * dx + dy * dy) - cyl_r[n, j])
-            out[n, k] = best
+            out[n, k] = _sdf_point(box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, n,
+                                   p[n, k, 0], p[n, k, 1])  # fmt: skip
+
+
+def _segments_clear_run(box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, a, b, k, thr,
+                        out):  # fmt: skip
+    """Whether each segment ``a[n, i] -> b[n, i]`` ((N, S, 2) each) of room n keeps a signed
+    distance (:func:`_sdf_point`) of at least ``thr`` at its ``k`` (>= 2) evenly spaced samples,
+    ends included: ``out`` (N, S). Sample m is ``a + (b - a) * t`` at ``t = m * (1 / (k - 1))``
+    (1 for the last), as ``numpy.linspace(0, 1, k)`` gives it; a segment stops at its first
+    sample too close."""
+    step = 1.0 / (k - 1)
+    for n in numba.prange(a.shape[0]):
+        for i in range(a.shape[1]):
+            ax, ay = a[n, i, 0], a[n, i, 1]
+            sx, sy = b[n, i, 0] - ax, b[n, i, 1] - ay
+            ok = True
+            for m in range(k):
+                t = 1.0 if m == k - 1 else m * step
+                d = _sdf_point(box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, n,
+                               ax + sx * t, ay + sy * t)  # fmt: skip
+                if not d >= thr:
+                    ok = False
+                    break
+            out[n, i] = ok
 
 
 @numba.njit(cache=True)
@@ -212,6 +242,7 @@ def _ray_fan_run(
 
 #: The compiled queries: ``sdf_kernel(n_rooms)(...)`` etc. (their ``py_func`` is the reference).
 sdf_kernel = BatchKernel(_sdf_run, parallel=False)
+segments_clear_kernel = BatchKernel(_segments_clear_run, parallel=False)
 ray_kernel = BatchKernel(_ray_run, parallel=False)
 ray_fan_kernel = BatchKernel(_ray_fan_run, parallel=False)
 
@@ -226,6 +257,18 @@ def _sdf_fast(s: _Solids, p: NDArray[np.float64]) -> NDArray[np.float64]:
 def _sdf(s: _Solids, p: NDArray[np.float64]) -> NDArray[np.float64]:
     """Signed distance ``(P,)`` from points ``(P, 2)`` to one room's solids (inf if none)."""
     return _sdf_fast(s, p[None])[0]
+
+
+def _segments_clear(
+    s: _Solids, a: NDArray[np.float64], b: NDArray[np.float64], k: int, thr: float
+) -> NDArray[np.bool_]:
+    """Whether each segment ``a[i] -> b[i]`` ((S, 2) each) of one room keeps a signed distance
+    of at least ``thr`` at ``k`` evenly spaced samples (:func:`_segments_clear_run`)."""
+    out = np.empty((1, a.shape[0]), np.bool_)
+    segments_clear_kernel(1)(*s.kernel_args, np.ascontiguousarray(a, np.float64)[None],
+                             np.ascontiguousarray(b, np.float64)[None], int(k), float(thr),
+                             out)  # fmt: skip
+    return out[0]
 
 
 def _ray_cast_fast(

@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from vrloco_env.world.geometry import _sdf, _Solids
+from vrloco_env.world.geometry import _sdf, _segments_clear, _Solids
 
 __all__: list[str] = []
 
@@ -95,9 +95,7 @@ def _clear(
     """
     seg = b - a
     k = max(2, math.ceil(float(np.hypot(seg[:, 0], seg[:, 1]).max(initial=0.0)) / (h / 4)) + 1)
-    t = np.linspace(0.0, 1.0, k)
-    samples = a[:, None, :] + seg[:, None, :] * t[None, :, None]  # (S, k, 2)
-    return (_sdf(solids, samples.reshape(-1, 2)) >= radius + h / 8.0).reshape(-1, k).all(axis=1)
+    return _segments_clear(solids, a, b, k, radius + h / 8.0)
 
 
 def _string_pull(

@@ -161,6 +161,24 @@ def test_signed_distance_matches_hand_computed_values():
     np.testing.assert_allclose(signed_distance(lay, pts[:1], z=1.2), [4.0], atol=1e-12)
 
 
+def test_a_segment_is_clear_where_every_sample_keeps_the_margin():
+    """The planner's segment test against the signed distance of its samples: the cylinder of
+    radius 0.5 at (-2, 0) blocks a 0.3 m disc on the segments that pass within 0.8 m of its
+    axis, and only those (the walls are 4 m away)."""
+    from vrloco_env.world.geometry import _segments_clear
+
+    lay = replace(_empty_room(), obstacles=(Cylinder((-2.0, 0.0), 0.5, 1.0),))
+    y = np.linspace(-1.5, 1.5, 61)  # horizontal segments x = -3.5 .. -0.5 at height y
+    a, b = np.stack([np.full_like(y, -3.5), y], -1), np.stack([np.full_like(y, -0.5), y], -1)
+    got = _segments_clear(lay._packed, a, b, 121, 0.3)
+    t = np.linspace(0.0, 1.0, 121)
+    samples = a[:, None] + (b - a)[:, None] * t[None, :, None]
+    want = (signed_distance(lay, samples.reshape(-1, 2)) >= 0.3).reshape(61, 121).all(axis=1)
+    np.testing.assert_array_equal(got, want)
+    np.testing.assert_array_equal(got, np.abs(y) >= 0.8)  # the samples 2.5 cm apart cross x = -2
+    assert _segments_clear(lay._packed, a[:0], b[:0], 2, 0.3).shape == (0,)
+
+
 def test_ray_cast_2d_matches_hand_computed_values_and_sphere_tracing():
     lay = replace(
         _empty_room(),
