@@ -16,7 +16,9 @@ users of the native vector env (:func:`agents.episodes.run_cell_batched`). It pr
 episodes/s of each, their ratio, and whether the two tables are identical (they must be).
 Each path runs once untimed first on a small grid, so that numba's compilation is not timed.
 ``--profile`` instead plays the first technique's cells of each task batched in this process
-under cProfile and prints the functions that took the most time, with their share.
+under cProfile and prints the functions that took the most time, with their share, and how many
+of the user-steps simulated were users whose episode had ended (a batch steps all its users until
+its last episode ends).
 """
 
 from __future__ import annotations
@@ -77,16 +79,30 @@ def profile(args: argparse.Namespace) -> None:
 
     from agents.episodes import run_batched
     from agents.grid import Cell
+    from vrloco_env.vector import VRLocoVectorEnv
 
     cells = [Cell(t, p, args.techniques[0]) for t in args.tasks for p in args.policies]
     for c in cells:  # compile outside the profile
         run_batched([(c, s, False) for s in range(2)], 2)
+    stepped = [0]  # user-steps the vector envs simulated, idle users included
+    env_step = VRLocoVectorEnv.step
+
+    def counted(env, actions):
+        stepped[0] += env.num_envs
+        return env_step(env, actions)
+
     prof = cProfile.Profile()
+    played = 0  # user-steps of the episodes themselves
     t = time.perf_counter()
+    VRLocoVectorEnv.step = counted  # type: ignore[method-assign]
     prof.enable()
-    for c in cells:
-        run_batched([(c, s, False) for s in range(args.episodes)], args.batch_size)
-    prof.disable()
+    try:
+        for c in cells:
+            done = run_batched([(c, s, False) for s in range(args.episodes)], args.batch_size)
+            played += sum(stats.steps for stats, _ in done)
+    finally:
+        prof.disable()
+        VRLocoVectorEnv.step = env_step  # type: ignore[method-assign]
     total = time.perf_counter() - t
     print(f"{len(cells)} cells x {args.episodes} episodes batched ({args.batch_size}) in this "
           f"process: {total:.1f} s under the profiler; by own time:")  # fmt: skip
@@ -104,6 +120,9 @@ def profile(args: argparse.Namespace) -> None:
         cum = sum(v[3] for (f, _, n), v in stats.stats.items()  # type: ignore[attr-defined]
                   if Path(f).name == file and n == name)  # fmt: skip
         print(f"  {100 * cum / total:5.1f} %  {cum:6.2f} s  {label}")
+    idle = stepped[0] - played
+    print(f"user-steps simulated: {stepped[0]}, of them {idle} ({100 * idle / stepped[0]:.0f} %) "
+          "by users whose episode had ended, waiting for the batch's last one")  # fmt: skip
 
 
 if __name__ == "__main__":
