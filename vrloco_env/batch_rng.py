@@ -98,12 +98,16 @@ class BatchRng:
             self._buf = grown
             self._cols = np.arange(width)
         width = self._buf.shape[1]
-        short = rows[self._pos[rows] + n > width]
-        for i in short:  # once per block per user: move unread numbers forward, refill the rest
-            unread = width - self._pos[i]
-            self._buf[i, :unread] = self._buf[i, self._pos[i] :]
-            self._buf[i, unread:] = self.generators[i].standard_normal(width - unread)
-            self._pos[i] = 0
+        if (self._pos[rows] + n > width).any():
+            # a user's block runs out: every user moves its unread numbers forward and refills
+            # the rest (its stream goes on in order), so that all read from one position again
+            # and the draws that follow are plain slices (users who started a new episode in
+            # between fall in line here)
+            for i in range(self.batch_size):
+                unread = width - self._pos[i]
+                self._buf[i, :unread] = self._buf[i, self._pos[i] :]
+                self._buf[i, unread:] = self.generators[i].standard_normal(width - unread)
+                self._pos[i] = 0
         start = self._pos[rows]
         if rows.size and np.all(start == start[0]) and rows.size == self.batch_size:
             out = self._buf[:, start[0] : start[0] + n].copy()  # lock-step: a plain slice

@@ -70,6 +70,34 @@ def test_one_user_drawing_alone_keeps_every_stream_equal_to_its_single_run():
             np.testing.assert_array_equal(got[k], singles[i].normal(shape)[0])
 
 
+def test_streams_stay_single_runs_through_reseeds_and_refills_which_realign_every_user():
+    """Users draw alone, start new streams and run out of their blocks at different times; each
+    keeps drawing its own stream in order, and once a block runs out every user reads from one
+    position again (the draws of all users that follow are plain slices)."""
+    rng = np.random.default_rng(0)
+    seeds = [10, 11, 12, 13]
+    batch = BatchRng.from_seeds(seeds, block=40)
+    singles = [BatchRng.from_seeds([s], block=40) for s in seeds]
+    realigned = 0
+    for step in range(60):
+        if step % 7 == 3:  # a user starts a new episode
+            i, seed = int(rng.integers(4)), 100 + step
+            batch.reseed(i, np.random.default_rng(seed))
+            singles[i] = BatchRng.from_seeds([seed], block=40)
+        rows = None if rng.random() < 0.6 else sorted(rng.choice(4, 2, replace=False).tolist())
+        shape = (int(rng.integers(1, 30)),)
+        before = batch._pos.copy()
+        got = batch.normal(shape, rows=rows)
+        users = range(4) if rows is None else rows
+        for k, i in enumerate(users):
+            np.testing.assert_array_equal(got[k], singles[i].normal(shape)[0])
+        if np.any(before[list(users)] + shape[0] > 40):  # a block ran out in this draw
+            assert np.all(batch._pos[[i for i in range(4) if i not in users]] == 0)
+            assert np.all(batch._pos[list(users)] == shape[0])
+            realigned += 1
+    assert realigned > 5
+
+
 def test_rows_are_validated():
     r = BatchRng.from_seeds([0, 1])
     with pytest.raises(ValueError, match=r"rows must lie in \[0, 1\]"):
