@@ -28,6 +28,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from agents.scripted import POLICIES, ObservationLayout, make_policy, params_from_env
 from agents.variability import HumanVariability, VariabilityParams
+from estimators.batching import TakesUsers
 from vrloco_env.user.population import POPULATIONS
 
 __all__ = ["HUMAN_SUFFIX", "LearnedPolicy", "build_policy", "check_policy", "env_population"]
@@ -90,7 +91,7 @@ def check_policy(spec: str) -> str:
     )
 
 
-class LearnedPolicy:
+class LearnedPolicy(TakesUsers):
     """A saved stable-baselines3 PPO model as a policy (deterministic actions).
 
     Args:
@@ -100,6 +101,7 @@ class LearnedPolicy:
     """
 
     batched = True  # act() takes (B, n) rows, one at a time (see act)
+    per_user_fields = ()  # a feed-forward model keeps nothing per user: a batch may drop users
 
     def __init__(self, path: str | Path, env: Any) -> None:
         self.path = Path(path)

@@ -48,6 +48,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agents.scripted import Policy
+from estimators.batching import TakesUsers, takes_users
 from estimators.validation import check_in_range
 from vrloco_env.batch_rng import BatchRng
 
@@ -130,8 +131,12 @@ def _as_batch_rng(rng: Any) -> BatchRng:
     )
 
 
-class HumanVariability:
+class HumanVariability(TakesUsers):
     """Reaction delay, turn overshoot and cadence variation around any policy.
+
+    A batch drops users with ``take_users(rows)`` (:class:`~estimators.batching.TakesUsers`),
+    which the wrapped policy must have too: each kept user goes on with its own delay, history,
+    bout, cadence bias and random stream, as in the whole batch.
 
     Args:
         policy: the wrapped user (``reset(rng, rows)``, ``act(obs)``).
@@ -143,6 +148,11 @@ class HumanVariability:
         >>> user.reset(np.random.default_rng(7))            # doctest: +SKIP
         >>> action = user.act(obs)                          # doctest: +SKIP
     """
+
+    # each user's episode draws, history of observations and turn bout
+    per_user_fields = ("_bias", "_bout", "_delay", "_fresh", "_hist", "_over")
+    per_user_parts = ("_rng", "policy")
+    batch_size_field = "_b"
 
     @property
     def batched(self) -> bool:
@@ -204,6 +214,21 @@ class HumanVariability:
             self._rng.reseed(int(i), sub.generators[k])
         self._draw_episode(r)
         self.policy.reset(rng, r)
+
+    def take_users(self, rows: ArrayLike) -> None:
+        """Keep the users ``rows`` (distinct indices into the batch, in their new order), here
+        and in the wrapped policy.
+
+        Raises:
+            RuntimeError: ``reset`` has not been called.
+            TypeError: the wrapped policy has no ``take_users`` (nothing is changed).
+        """
+        if self._rng is None:
+            raise RuntimeError("reset(rng) must be called before take_users()")
+        if not takes_users(self.policy):
+            raise TypeError(f"the wrapped policy ({type(self.policy).__name__}) has no "
+                            "take_users(rows): its users cannot be dropped")  # fmt: skip
+        super().take_users(np.asarray(rows, dtype=np.intp))
 
     def _alloc(self, b: int) -> None:
         h = self.params.max_delay_steps + 1

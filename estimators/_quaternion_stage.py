@@ -14,19 +14,23 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from estimators._attitude_helpers_numba import check_batch_size, check_fs, check_samples
-from estimators.batching import stream_rows
+from estimators.batching import TakesUsers, stream_rows
 
 __all__ = ["QuaternionStage"]
 
 
-class QuaternionStage:
+class QuaternionStage(TakesUsers):
     """Base of an attitude stage whose state is a quaternion per user (``q`` (B, 4), in the
     filter's own earth frame) and a ``ready`` flag (initialised from a first sample).
 
     Subclasses set ``Params`` (the parameter dataclass), ``name``, optionally ``identity`` (the
     quaternion a reset stream holds) and implement :meth:`_run`; :meth:`_reset_rows` clears
-    any further state, which :meth:`_allocate` creates.
+    any further state, which :meth:`_allocate` creates (and lists in ``per_user_fields``, so
+    that a batch can drop users: :class:`~estimators.batching.TakesUsers`).
     """
+
+    per_user_fields: ClassVar[tuple[str, ...]] = ("q", "ready")
+    batch_size_field = "batch_size"
 
     Params: ClassVar[type]
     name: ClassVar[str] = ""

@@ -171,7 +171,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from estimators import _attitude_numba as _k
 from estimators.attitude_offline import smooth_attitude
-from estimators.batching import stream_rows
+from estimators.batching import TakesUsers, stream_rows
 from estimators.kernels import param_record, state_records
 from estimators.rotations import GRAVITY, quat_to_ypr
 from estimators.validation import check_choice, check_condition, check_in_range, check_value
@@ -422,7 +422,7 @@ def _raise_units(flag: int, state: NDArray) -> None:
 # ------------------------------------------------------------------------------------------------
 
 
-class AttitudeEKF:
+class AttitudeEKF(TakesUsers):
     """Streaming error-state attitude EKF for B independent IMU streams.
 
     Args:
@@ -437,6 +437,9 @@ class AttitudeEKF:
         >>> q.shape, ekf.ypr.shape
         ((2, 4), (2, 3))
     """
+
+    per_user_fields = ("_state", "_scratch", "_no_mag")  # filter state, kernel scratch, 6D input
+    batch_size_field = "n_streams"
 
     def __init__(
         self, n_streams: int, fs: float, params: AttitudeParams | None = None, **overrides: Any
@@ -608,7 +611,7 @@ class AttitudeEKF:
         return self._state["init"] != 0.0
 
 
-class EkfStage:
+class EkfStage(TakesUsers):
     """:class:`AttitudeEKF` as an attitude stage (:class:`estimators.stages.AttitudeStage`):
     ``update`` takes the (B, N, 3) samples of a control step (:meth:`AttitudeEKF.update_batch`).
 
@@ -617,6 +620,8 @@ class EkfStage:
         fs: IMU rate (Hz).
         params: :class:`AttitudeParams` (defaults if None).
     """
+
+    per_user_parts = ("ekf",)
 
     def __init__(self, batch_size: int, fs: float, params: AttitudeParams | None = None) -> None:
         self.ekf = AttitudeEKF(batch_size, fs, params)

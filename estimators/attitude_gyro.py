@@ -102,6 +102,7 @@ class GyroOnly(QuaternionStage):
 
     name = "gyro_only"
     Params = GyroOnlyParams
+    per_user_fields = QuaternionStage.per_user_fields
 
     def _run(self, gyr: NDArray, acc: NDArray, mag: NDArray, out: NDArray) -> None:
         gyro_kernel(self.batch_size)(

@@ -217,6 +217,7 @@ class Madgwick(QuaternionStage):
 
     name = "madgwick"
     Params = MadgwickParams
+    per_user_fields = QuaternionStage.per_user_fields
     identity = tuple(_ENU_IDENTITY_NWU)
 
     def _run(self, gyr: NDArray, acc: NDArray, mag: NDArray, out: NDArray) -> None:

@@ -151,6 +151,7 @@ class Mahony(QuaternionStage):
 
     name = "mahony"
     Params = MahonyParams
+    per_user_fields = (*QuaternionStage.per_user_fields, "b")
 
     def _allocate(self) -> None:
         self.b = np.zeros((self.batch_size, 3))  # gyro-bias estimates (rad/s)

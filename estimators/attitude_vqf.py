@@ -40,7 +40,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from estimators._attitude_helpers_numba import check_batch_size, check_fs, check_samples
-from estimators.batching import stream_rows
+from estimators.batching import TakesUsers, stream_rows
 from estimators.validation import check_bool, check_in_range
 
 __all__ = ["VqfParams", "VqfStage"]
@@ -181,7 +181,7 @@ def _import_vqf() -> Any:
     return vqf
 
 
-class VqfStage:
+class VqfStage(TakesUsers):
     """VQF (``vqf.VQF``, one filter per stream) as an attitude stage
     (:class:`estimators.stages.AttitudeStage`).
 
@@ -193,6 +193,8 @@ class VqfStage:
     """
 
     name = "vqf"
+    per_user_fields = ("filters",)  # one vqf.VQF per user
+    batch_size_field = "batch_size"
 
     def __init__(self, batch_size: int, fs: float, params: VqfParams | None = None) -> None:
         self.batch_size = check_batch_size(batch_size, "VqfStage")

@@ -18,7 +18,7 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from estimators.batching import stream_rows
+from estimators.batching import TakesUsers, stream_rows
 from estimators.kernels import BatchKernel, param_record, state_records
 
 __all__ = ["MAX_CADENCE", "CadenceEstimator", "cadence_kernel"]
@@ -52,7 +52,7 @@ def _cadence_run(steps, dt, prm, state):
 cadence_kernel = BatchKernel(_cadence_run, parallel=False)
 
 
-class CadenceEstimator:
+class CadenceEstimator(TakesUsers):
     """The cadence of B users from their detected steps per control step.
 
     Args:
@@ -61,6 +61,9 @@ class CadenceEstimator:
             of the slowest walking-in-place cadence (1.2 steps/s): the estimate halves within a
             second of the last step.
     """
+
+    per_user_fields = ("_state",)
+    batch_size_field = "batch_size"
 
     def __init__(self, batch_size: int, tau_s: float = 1.5) -> None:
         if not (isinstance(tau_s, int | float) and math.isfinite(tau_s) and 0.05 <= tau_s <= 30):

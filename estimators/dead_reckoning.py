@@ -34,6 +34,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from estimators.batching import TakesUsers
 from estimators.validation import check_in_range
 
 __all__ = ["DeadReckoning", "check_step_intervals", "dead_reckon"]
@@ -128,7 +129,7 @@ def check_update_inputs(
     return st, y, dtf, br
 
 
-class DeadReckoning:
+class DeadReckoning(TakesUsers):
     """Eq (17) for B users: the position jumps ``step_length`` along the heading at each step.
 
     Args:
@@ -141,6 +142,9 @@ class DeadReckoning:
     :class:`estimators.locomotion.Locomotion` protocol): :meth:`update`, :meth:`reset`,
     :attr:`position`, :attr:`heading`, :attr:`distance`.
     """
+
+    per_user_fields = ("step_length", "_pos", "_heading", "_distance")
+    batch_size_field = "batch_size"
 
     def __init__(
         self,

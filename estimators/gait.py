@@ -96,7 +96,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linear_sum_assignment
 
-from estimators.batching import stream_rows
+from estimators.batching import TakesUsers, stream_rows
 from estimators.kernels import BatchKernel, param_record, state_records
 from estimators.rotations import GRAVITY
 from estimators.validation import check_in_range
@@ -357,7 +357,7 @@ def _as_array(value: ArrayLike, name: str) -> NDArray[np.float64]:
         raise ValueError(f"{name} must be a numeric array") from None
 
 
-class StepDetector:
+class StepDetector(TakesUsers):
     """Streaming, batched still/walk and step detector (seed 000 eqs (15)-(16)).
 
     Args:
@@ -374,6 +374,9 @@ class StepDetector:
         >>> out = det.update(acc)        # acc (256, 10, 3) m/s^2
         >>> out.steps.sum(axis=1)        # steps confirmed in this chunk, per user
     """
+
+    per_user_fields = ("_clock", "_raw", "_sm", "_state")  # clocks, ring buffers, kernel state
+    batch_size_field = "batch_size"
 
     def __init__(self, batch_size: int, fs: float, params: GaitParams | None = None) -> None:
         if not isinstance(batch_size, int | np.integer) or batch_size < 1:
@@ -669,7 +672,7 @@ def step_f1(
     return float(precision), float(recall), float(f1)
 
 
-class Seed000Steps:
+class Seed000Steps(TakesUsers):
     """Seed 000's detector (:class:`StepDetector`, eqs (15)-(16) on ``|f|``) as a step stage of
     :data:`estimators.stages.STEPS`.
 
@@ -682,6 +685,9 @@ class Seed000Steps:
     :meth:`StepDetector.update`: the detector reads only the specific-force norm, so its output is
     that of :class:`StepDetector` bit for bit.
     """
+
+    per_user_parts = ("detector",)
+    batch_size_field = "batch_size"
 
     def __init__(self, batch_size: int, fs: float, params: GaitParams | None = None) -> None:
         self.detector = StepDetector(batch_size, fs, params)

@@ -58,7 +58,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from estimators import _hand_numba as _k
 from estimators._attitude_helpers_numba import check_batch_size, check_fs
-from estimators.batching import stream_rows
+from estimators.batching import TakesUsers, stream_rows
 from estimators.joint_smoothing import (
     INFERRED,
     TRACKED,
@@ -367,7 +367,7 @@ class OrientationFrame:
     valid: NDArray[np.bool_]
 
 
-class OrientationFilter:
+class OrientationFilter(TakesUsers):
     """Eq (1)/(2), then the Kalman filter, then the median, for B streams of wrist quaternions.
 
     Stage 3 of :class:`HandPipeline` without target selection and joint smoothing, run by the same
@@ -388,6 +388,9 @@ class OrientationFilter:
         params: :class:`HandParams` (only ``kalman``, ``median_window`` and
             ``singularity_threshold`` are used here).
     """
+
+    per_user_fields = ("_state", "_pending")  # the kernel's (user, window) state, resets due
+    batch_size_field = "batch_size"
 
     def __init__(self, batch_size: int, params: HandParams | None = None) -> None:
         self.batch_size = check_batch_size(batch_size, "OrientationFilter")
@@ -570,7 +573,7 @@ class HandFrame:
 _HAND_FRAME_FIELDS = tuple(f.name for f in fields(HandFrame))  # in the constructor's order
 
 
-class HandPipeline:
+class HandPipeline(TakesUsers):
     """Seed 003's hand-orientation pipeline, streaming, batched over B users.
 
     Per frame: select the target user (seed 003, 1.1), reset the filters of streams whose
@@ -614,6 +617,9 @@ class HandPipeline:
         num_bodies: body slots per frame K (6 for Kinect v2).
     """
 
+    per_user_fields = ("_state",)  # the kernel's (target, user, joint, ring, window) arrays
+    batch_size_field = "batch_size"
+
     def __init__(
         self,
         batch_size: int,
@@ -645,6 +651,12 @@ class HandPipeline:
         if m.shape != (self.batch_size,):
             raise ValueError(f"mask must have shape ({self.batch_size},), got {m.shape}")
         _k.forget_kernel(self.batch_size)(m, self._state)
+
+    def take_users(self, rows: NDArray[np.intp]) -> None:
+        """Keep the streams ``rows`` (:class:`~estimators.batching.TakesUsers`), and
+        :attr:`target_id` with them (a view of the kernel's target array)."""
+        super().take_users(rows)
+        self.target_id = self._state[0]
 
     def _inputs(
         self,
@@ -962,7 +974,7 @@ def check_hand_frames(frames: HandFrame, batch_size: int, who: str) -> int:
     return m
 
 
-class Seed003Hand:
+class Seed003Hand(TakesUsers):
     """Seed 003's Kalman + median output as a hand stage (:class:`estimators.stages.HandStage`).
 
     :class:`HandPipeline` already runs the filter (its state is the pipeline's); this stage
@@ -978,6 +990,8 @@ class Seed003Hand:
     """
 
     name = "seed003"
+    per_user_fields = ()  # stateless: dropping users changes only B
+    batch_size_field = "batch_size"
 
     def __init__(self, batch_size: int, fs: float = KINECT_RATE_HZ, params: None = None) -> None:
         self.batch_size = check_batch_size(batch_size, "Seed003Hand")
@@ -997,7 +1011,7 @@ class Seed003Hand:
         return np.array(frames.ypr, dtype=np.float64), np.array(frames.valid, dtype=bool)
 
 
-class RawHand:
+class RawHand(TakesUsers):
     """The unfiltered eq (1)/(2) angles as a hand stage: the floor any filter must beat.
 
     Returns the frames' ``ypr_raw``: this frame's angles where its quaternion was usable, the last
@@ -1013,6 +1027,8 @@ class RawHand:
     """
 
     name = "raw"
+    per_user_fields = ()  # stateless: dropping users changes only B
+    batch_size_field = "batch_size"
 
     def __init__(self, batch_size: int, fs: float = KINECT_RATE_HZ, params: None = None) -> None:
         self.batch_size = check_batch_size(batch_size, "RawHand")

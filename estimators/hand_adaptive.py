@@ -41,7 +41,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from estimators._attitude_helpers_numba import check_batch_size, check_fs
-from estimators.batching import stream_rows
+from estimators.batching import TakesUsers, stream_rows
 from estimators.hand import (
     HandFrame,
     HandParams,
@@ -96,7 +96,7 @@ class AdaptiveKalmanHandParams:
         return AdaptiveKalmanHand(batch_size, fs, self)
 
 
-class AdaptiveKalmanHand:
+class AdaptiveKalmanHand(TakesUsers):
     """Motion-adaptive Kalman filter on the raw wrist angles, a hand stage (module docstring).
 
     Args:
@@ -106,6 +106,9 @@ class AdaptiveKalmanHand:
     """
 
     name = "adaptive_kalman"
+    per_user_fields = ("_mask",)
+    per_user_parts = ("filter",)
+    batch_size_field = "batch_size"
 
     def __init__(
         self, batch_size: int, fs: float = 30.0, params: AdaptiveKalmanHandParams | None = None

@@ -53,7 +53,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from estimators._attitude_helpers_numba import check_batch_size, check_fs
-from estimators.batching import stream_rows
+from estimators.batching import TakesUsers, stream_rows
 from estimators.hand import HandFrame, check_hand_frames
 from estimators.joint_smoothing import OneEuroFilter, OneEuroParams
 from estimators.validation import check_in_range
@@ -101,7 +101,7 @@ class OneEuroHandParams:
         return OneEuroHand(batch_size, fs, self)
 
 
-class OneEuroHand:
+class OneEuroHand(TakesUsers):
     """One Euro filter on the raw wrist angles, a hand stage (see the module docstring).
 
     Args:
@@ -111,6 +111,9 @@ class OneEuroHand:
     """
 
     name = "one_euro"
+    per_user_fields = ("_mask",)
+    per_user_parts = ("filter",)
+    batch_size_field = "batch_size"
 
     def __init__(
         self, batch_size: int, fs: float = 30.0, params: OneEuroHandParams | None = None

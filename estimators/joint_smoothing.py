@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from estimators.batching import TakesUsers
 from estimators.rotations import wrap_angle
 from estimators.validation import check_condition, check_in_range, check_numbers
 
@@ -304,7 +305,7 @@ def _smoothing_factor(cutoff: ArrayLike, dt: float) -> NDArray[np.float64]:
     return r / (r + 1.0)
 
 
-class OneEuroFilter:
+class OneEuroFilter(TakesUsers):
     """Batched One Euro filter over signals of shape ``(B, *shape)``; each component filtered alone.
 
     Per sample (Casiez et al. 2012, with ``alpha(fc) = 1 / (1 + 1 / (2 pi fc dt))``):
@@ -324,6 +325,9 @@ class OneEuroFilter:
         params: filter parameters; :class:`OneEuroParams` defaults if None.
         angular: treat the signal as angles in radians.
     """
+
+    per_user_fields = ("_x", "_dx", "_init", "_out")
+    batch_size_field = "batch_size"
 
     def __init__(
         self,
@@ -350,6 +354,12 @@ class OneEuroFilter:
             raise ValueError(f"mask must have shape ({self.batch_size},), got {m.shape}")
         self._init[m] = False
         self._out[m] = np.nan
+
+    def take_users(self, rows: NDArray[np.intp]) -> None:
+        """Keep the streams ``rows`` (:class:`~estimators.batching.TakesUsers`); the signal's
+        shape follows the new B."""
+        super().take_users(rows)
+        self.shape = (self.batch_size, *self.shape[1:])
 
     def update(self, x: ArrayLike) -> NDArray[np.float64]:
         """Filter one sample per stream.

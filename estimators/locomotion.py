@@ -65,6 +65,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from estimators.batching import TakesUsers
 from estimators.dead_reckoning import (
     DeadReckoning,
     _check_batch,
@@ -193,7 +194,7 @@ def _cv_step(
     p[:, 2] = n11 - k1 * n01
 
 
-class SmoothLocomotion:
+class SmoothLocomotion(TakesUsers):
     """Continuous virtual motion from step events and yaw, for B users (see the module docstring).
 
     Args:
@@ -203,6 +204,12 @@ class SmoothLocomotion:
         position: initial positions (m), (B, 2) or (2,); zeros by default.
         heading: initial heading (rad), scalar or (B,); taken from the first yaw if None.
     """
+
+    per_user_fields = (
+        "step_length", "_time", "_pos", "_s", "_v", "_ps", "_psi", "_omega", "_ph", "_head_init",
+        "_travelled", "_target", "_ref", "_rate", "_last_event", "_bearing",
+    )  # fmt: skip
+    batch_size_field = "batch_size"
 
     def __init__(
         self,

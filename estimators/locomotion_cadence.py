@@ -55,6 +55,7 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from estimators.batching import TakesUsers
 from estimators.dead_reckoning import (
     _check_batch,
     _check_step_length,
@@ -240,7 +241,7 @@ def _cadence_speed_run(steps, yaw, bearing, step_length, dt, prm, state):
 cadence_kernel = BatchKernel(_cadence_speed_run, parallel=False)
 
 
-class CadenceSpeed:
+class CadenceSpeed(TakesUsers):
     """Continuous virtual motion at SL x the estimated cadence, for B users (module docstring).
 
     Args:
@@ -252,6 +253,8 @@ class CadenceSpeed:
     """
 
     name = "cadence_speed"
+    per_user_fields = ("step_length", "_state")
+    batch_size_field = "batch_size"
 
     def __init__(
         self,

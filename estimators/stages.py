@@ -34,6 +34,12 @@ Protocols (each a :class:`typing.Protocol`, checked structurally):
   the virtual room's frame); an optional attribute ``uses_torso = False`` says the torso yaw is
   never read.
 * :class:`estimators.locomotion.Locomotion` — ``update(steps, yaw, dt) -> position`` (B, 2).
+
+Optionally, any stage may drop users mid-run: ``take_users(rows)`` keeps the users ``rows``
+(distinct indices, in their new order) and forgets the others, each kept user going on as it
+would have (:mod:`estimators.batching`; :class:`~estimators.batching.TakesUsers` builds it from
+the names of the per-user attributes). The benchmark's batched runner then steps only the users
+still playing; with a stage that lacks it, the finished users idle to the batch's end instead.
 """
 
 from __future__ import annotations

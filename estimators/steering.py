@@ -19,6 +19,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from estimators.batching import TakesUsers
 from estimators.rotations import wrap_angle
 
 __all__ = ["HeadSteering", "TorsoSteering", "torso_yaw"]
@@ -51,8 +52,12 @@ def torso_yaw(
     return np.where(valid, wrap_angle(np.arctan2(d[:, 1], d[:, 0]) - np.pi / 2.0), 0.0), valid
 
 
-class _StatelessSteering:
-    """A steering rule with no state: built for B users, nothing to reset."""
+class _StatelessSteering(TakesUsers):
+    """A steering rule with no state: built for B users, nothing to reset (dropping users
+    changes only B)."""
+
+    per_user_fields = ()
+    batch_size_field = "batch_size"
 
     def __init__(self, batch_size: int) -> None:
         self.batch_size = int(batch_size)
@@ -66,6 +71,7 @@ class HeadSteering(_StatelessSteering):
 
     name = "head"
     uses_torso = False
+    per_user_fields = ()
 
     def update(
         self,
@@ -81,6 +87,7 @@ class TorsoSteering(_StatelessSteering):
 
     name = "torso"
     uses_torso = True
+    per_user_fields = ()
 
     def update(
         self,

@@ -72,7 +72,7 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike
 
-from estimators.batching import stream_rows
+from estimators.batching import TakesUsers, stream_rows
 from estimators.gait import (
     GAIT_STATE,
     GaitChunk,
@@ -254,7 +254,7 @@ def _nod_robust_run(acc, gyr, quat, k0, prm, state, v_buf, sm_buf, rot_buf, w_bu
 nod_robust_kernel = BatchKernel(_nod_robust_run, parallel=False)
 
 
-class NodRobustSteps:
+class NodRobustSteps(TakesUsers):
     """Streaming, batched step detector on the world-vertical specific force with a rotation
     veto (see the module docstring).
 
@@ -265,6 +265,9 @@ class NodRobustSteps:
 
     :meth:`update` consumes chunks of any length; chunking does not change the result.
     """
+
+    per_user_fields = ("_clock", "_v", "_sm", "_rot", "_w", "_state")  # clocks, rings, state
+    batch_size_field = "batch_size"
 
     def __init__(self, batch_size: int, fs: float, params: NodRobustParams | None = None) -> None:
         self.batch_size, self.fs = check_stage_args(batch_size, fs, "NodRobustSteps")

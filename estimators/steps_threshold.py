@@ -29,7 +29,7 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from estimators.batching import stream_rows
+from estimators.batching import TakesUsers, stream_rows
 from estimators.gait import GaitChunk
 from estimators.kernels import BatchKernel, param_record, state_records
 from estimators.rotations import GRAVITY
@@ -175,7 +175,7 @@ def empty_chunk(batch_size: int, n: int) -> tuple[NDArray[np.int8], ...]:
             np.full((batch_size, n, 2), np.nan))  # fmt: skip
 
 
-class ThresholdSteps:
+class ThresholdSteps(TakesUsers):
     """Streaming, batched naive peak picker on ``|f|`` (see the module docstring).
 
     Args:
@@ -186,6 +186,9 @@ class ThresholdSteps:
     :meth:`update` consumes chunks of any length (chunking does not change the result); ``gyr``
     and ``quat`` are not read.
     """
+
+    per_user_fields = ("_clock", "_state")
+    batch_size_field = "batch_size"
 
     def __init__(self, batch_size: int, fs: float, params: ThresholdParams | None = None) -> None:
         self.batch_size, self.fs = check_stage_args(batch_size, fs, "ThresholdSteps")

@@ -92,7 +92,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.stats import chi2
 
 from estimators import _visual_inertial_numba as _k
-from estimators.batching import stream_rows
+from estimators.batching import TakesUsers, stream_rows
 from estimators.kernels.records import param_record
 from estimators.rotations import GRAVITY
 from estimators.strapdown import _as_array, _check_batch_size, _check_rate, set_nominal_state
@@ -291,7 +291,7 @@ class VioConfig:
 # ------------------------------------------------------------------------------------------------
 
 
-class VisualInertialFilter:
+class VisualInertialFilter(TakesUsers):
     """Loosely coupled visual-inertial ESKF for B independent users (see the module docstring).
 
     Args:
@@ -314,6 +314,9 @@ class VisualInertialFilter:
         >>> p.shape, int(status[0]), int(f.updates[0])
         ((1, 8, 3), 1, 1)
     """
+
+    per_user_fields = ("state", "_work")  # filter state, kernel scratch
+    batch_size_field = "batch_size"
 
     def __init__(
         self, batch_size: int, imu_rate_hz: float, config: VioConfig | None = None
@@ -369,6 +372,12 @@ class VisualInertialFilter:
         s["q_scale"][rows] = 1.0
         for name in ("consec", "updates", "rejected", "forced", "nis"):
             s[name][rows] = 0.0
+
+    def take_users(self, rows: NDArray[np.intp]) -> None:
+        """Keep the users ``rows`` (:class:`~estimators.batching.TakesUsers`), re-binding the
+        view of their nominal states."""
+        super().take_users(rows)
+        self._x = self.state["x"]
 
     def predict(self, gyr: ArrayLike, acc: ArrayLike) -> tuple[NDArray, NDArray]:
         """Propagate every user through N IMU samples.

@@ -24,14 +24,14 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.special import ndtr
 
-from estimators.batching import stream_rows
+from estimators.batching import TakesUsers, stream_rows
 
 __all__ = ["BatchRng"]
 
 _BELOW_ONE = 1.0 - 2.0**-53  # the largest double below 1
 
 
-class BatchRng:
+class BatchRng(TakesUsers):
     """Random draws of shape ``(B, *shape)`` where row i comes from generator i alone.
 
     Args:
@@ -45,6 +45,8 @@ class BatchRng:
         >>> rngs.normal((4,), rows=[1]).shape   # only user 1 draws (e.g. its reset)
         (1, 4)
     """
+
+    per_user_fields = ("generators", "_buf", "_pos")  # each user's stream and unread numbers
 
     def __init__(self, generators: Sequence[np.random.Generator], block: int = 4096) -> None:
         gens = list(generators)

@@ -44,6 +44,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from estimators import rotations as rot
+from estimators.batching import TakesUsers, stream_rows, takes_users
 from vrloco_env._core_numba import attitude_error_kernel, observation_kernel, observation_offsets
 from vrloco_env._hand_frame_numba import hand_error
 from vrloco_env.actions import action_to_intent, check_actions
@@ -103,7 +104,7 @@ class _Episode:
         )
 
 
-class LocoCore:
+class LocoCore(TakesUsers):
     """B users, each in its own room, with their sensors, estimators and task.
 
     Args:
@@ -112,6 +113,13 @@ class LocoCore:
         config, sensors, estimators, room, reward: the configuration dataclasses.
         task_config: the task's own configuration (its ``Config``; defaults if None).
     """
+
+    per_user_fields = ("generators", "layouts", "ep", "last", "last_rays", "_head_on_torso",
+                       "_zeros", "_standing")  # fmt: skip
+    # the random streams, the users (motion, sensors, stages), the task, the head behaviour and
+    # the rooms
+    per_user_parts = ("rng", "users", "task", "behaviour", "rooms")
+    batch_size_field = "batch_size"
 
     def __init__(
         self,
@@ -233,6 +241,32 @@ class LocoCore:
         ep.distance[rows] = self.task.goal_distance(ep.position)[rows]
         self.last_rays[rows] = self._rays(rows)
         return self.observe(reset_rows=rows)
+
+    # ------------------------------------------------------------------------------ users
+    @property
+    def can_take_users(self) -> bool:
+        """Whether :meth:`take_users` works: every part holding per-user state (a plug-in stage,
+        a task, the tracker) can drop users."""
+        return takes_users(self)
+
+    def take_users(self, rows: ArrayLike) -> None:
+        """Keep the users ``rows`` (distinct indices, in their new order) and drop the others:
+        the batch becomes ``len(rows)`` users, each going on exactly as it would have in the
+        whole batch (a runner whose remaining users are few steps only those).
+
+        Raises:
+            ValueError: bad or repeated indices, or none.
+            TypeError: a part that cannot drop users (see :attr:`can_take_users`).
+        """
+        if self.rooms is None:
+            raise RuntimeError("reset() must be called before take_users()")
+        r = stream_rows(rows, self.batch_size, "rows")
+        if r.size == 0:
+            raise ValueError("take_users: rows must keep at least one user")
+        if not self.can_take_users:
+            raise TypeError("take_users: a part of this batch (a plug-in stage, the task or the "
+                            "tracker) cannot drop users (it has no take_users)")  # fmt: skip
+        super().take_users(r)
 
     # ------------------------------------------------------------------------------ step
     def step(

@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from estimators import rotations as rot
-from estimators.batching import stream_rows
+from estimators.batching import TakesUsers, stream_rows
 from estimators.cadence import CadenceEstimator
 from estimators.hand import HandFrame, HandPipeline
 from estimators.kernels import param_record
@@ -136,7 +136,7 @@ def _derived_motion(motion: MotionParams, sensors: SensorConfig, overground: boo
     return replace(motion, **{k: v for k, (_, v) in derived.items()})
 
 
-class SimulatedUsers:
+class SimulatedUsers(TakesUsers):
     """B simulated users with their sensors and estimators, advanced one control step at a time.
 
     Args:
@@ -154,6 +154,15 @@ class SimulatedUsers:
             user whose drift rate is set (:meth:`set_drift`) drifts while stepping; each
             control step shifts the standing spots of all users at once.
     """
+
+    # each user's offsets and start; the random streams (``rng``) belong to the caller
+    per_user_fields = ("yaw_offset", "true_yaw_offset", "_last_loco", "_start_yaw", "_recentre",
+                       "_track_start", "_track_origin", "_tracked_xy", "_last_true",
+                       "last_tracked", "_start_xy3", "_drift")  # fmt: skip
+    # the motion, the sensors and every stage (each once, also where two names share one)
+    per_user_parts = ("motion", "imu", "kinect", "hand_pipeline", "cadence", "attitude", "gait",
+                      "hand_filter", "steering", "locomotion", "tracker")  # fmt: skip
+    batch_size_field = "batch_size"
 
     def __init__(
         self,

@@ -150,5 +150,20 @@ class VRLocoVectorEnv(VectorEnv):
             obs = self.core.reset(rows)
         return obs, reward, terminated, truncated, infos
 
+    @property
+    def can_take_users(self) -> bool:
+        """Whether :meth:`take_users` works (every part of the users' pipeline can drop users)."""
+        return self.core.can_take_users
+
+    def take_users(self, rows: Any) -> None:
+        """Keep the sub-envs ``rows`` (distinct indices, in their new order) and drop the others
+        (:meth:`~vrloco_env.core.LocoCore.take_users`): ``num_envs`` becomes ``len(rows)``, and
+        each kept sub-env goes on exactly as it would have. Meant for a runner with autoreset
+        disabled whose remaining users are fewer than the batch."""
+        self.core.take_users(rows)
+        self.num_envs = self.core.batch_size
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+
     def close_extras(self, **kwargs: Any) -> None:
         pass

@@ -40,6 +40,7 @@ class AvoidManoeuvre(ScriptedPolicy):
 
     name = "avoid_manoeuvre"
     CRUISE, AWAY, SIDESTEP, BACK = 0, 1, 2, 3
+    per_user_fields = ScriptedPolicy.per_user_fields  # all its per-row state is in ``_state``
 
     def __init__(
         self,

@@ -53,6 +53,7 @@ from agents.scripted.observation import (
     free_lengths,
     ray_points,
 )
+from estimators.batching import TakesUsers
 from estimators.validation import check_bool, check_condition, check_in_range
 from vrloco_env.actions import ACTION_SIZE
 
@@ -208,8 +209,13 @@ def params_from_env(env: Any, **overrides: Any) -> PolicyParams:
 # --------------------------------------------------------------------------- shared machinery
 
 
-class ScriptedPolicy:
+class ScriptedPolicy(TakesUsers):
     """Shared machinery: observation decoding, per-row state, the walk gate and the hand.
+
+    A batch drops users with ``take_users(rows)`` (:class:`~estimators.batching.TakesUsers`):
+    the per-row state and the active mask keep the rows ``rows``, and each kept user acts on as
+    in the whole batch. Every subclass declares its own :attr:`per_user_fields`: these, plus
+    any per-row attributes it keeps outside the state of :meth:`_init_state`.
 
     Args:
         layout: the observation layout (default: that of the default :class:`EnvConfig`).
@@ -220,6 +226,7 @@ class ScriptedPolicy:
     batched = True  # act() takes (B, n) rows: the benchmark may batch its episodes
     #: ``_steer``'s target is relative to the walking direction (``walk_offset``), not the view.
     plans_along_walk = False
+    per_user_fields = ("_state", "_active")  # rows of the batch: state, which rows act
 
     def __init__(
         self, layout: ObservationLayout | None = None, params: PolicyParams | None = None

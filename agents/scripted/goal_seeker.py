@@ -24,6 +24,7 @@ from numpy.typing import NDArray
 from agents.scripted.base import PolicyParams, ScriptedPolicy
 from agents.scripted.observation import ObservationLayout, ObsView, _wrap, ray_points
 from agents.scripted.planner import plan_kernel
+from estimators.batching import take_rows_in_place
 from estimators.kernels import param_record
 
 __all__ = ["GoalSeeker"]
@@ -66,6 +67,7 @@ class GoalSeeker(ScriptedPolicy):
 
     name = "goal_seeker"
     plans_along_walk = True  # its map, way-ahead checks and plans follow the walking direction
+    per_user_fields = ScriptedPolicy.per_user_fields
 
     def __init__(
         self, layout: ObservationLayout | None = None, params: PolicyParams | None = None
@@ -92,6 +94,20 @@ class GoalSeeker(ScriptedPolicy):
         self._memo: tuple[NDArray, ...] | None = None
         self.reuse_plans = True
         self.plans_reused = 0
+
+    def take_users(self, rows: NDArray[np.intp]) -> None:
+        """Keep the users ``rows``, with the planner's memo of each (its ``plan_key`` holds no
+        row index, so a kept user goes on reusing its plans). The maps (the memo's, megabytes
+        per user, and the occupancy grid) move in place: only the rows that change place are
+        copied."""
+        r = np.asarray(rows, dtype=np.intp)
+        memo, self._memo = self._memo, None
+        occ = None if self._state is None else self._state.pop("occ")
+        super().take_users(r)
+        if occ is not None:
+            self._state["occ"] = take_rows_in_place(occ, r)
+        if memo is not None:
+            self._memo = tuple(take_rows_in_place(m, r) for m in memo)
 
     def _init_state(self, b: int) -> dict[str, NDArray]:
         n = self._cells

@@ -40,6 +40,7 @@ class ReactiveAvoider(ScriptedPolicy):
     """
 
     name = "reactive_avoider"
+    per_user_fields = ScriptedPolicy.per_user_fields  # all its per-row state is in ``_state``
 
     def __init__(
         self,

@@ -257,3 +257,42 @@ def test_the_wrapper_needs_a_generator():
         user.act(np.zeros(29))
     with pytest.raises(ValueError, match="reaction_delay_s"):
         VariabilityParams(reaction_delay_s=-1.0)
+
+
+@pytest.mark.parametrize(("task", "spec"), [
+    ("approach", "goal_seeker+typical"), ("avoid", "goal_seeker"),
+    ("avoid", "avoid_manoeuvre+human"), ("approach", "reactive_avoider"),
+])  # fmt: skip
+def test_a_policy_that_drops_users_acts_for_the_kept_ones_as_before(task, spec):
+    """After 30 steps of 7 users a copy of the policy keeps users 5, 0, 3, 6: on their rows of
+    the next observations it gives their rows of the whole batch's actions, to the bit; nothing
+    in it is 7 long any more, and its reset and active mask take the new size."""
+    import copy
+
+    from _batch_walk import sized
+    from gymnasium.vector import AutoresetMode
+
+    from agents.policies import build_policy
+    from vrloco_env.vector import VRLocoVectorEnv
+
+    b, rows = 7, np.array([5, 0, 3, 6])
+    env = VRLocoVectorEnv(b, task=task, technique="seed000", population="typical",
+                          autoreset_mode=AutoresetMode.DISABLED)  # fmt: skip
+    whole = build_policy(spec, env)
+    obs, _ = env.reset(seed=list(range(b)))
+    whole.reset([np.random.default_rng([s, 1]) for s in range(b)], None)
+    for _ in range(30):
+        obs, *_ = env.step(whole.act(obs))
+    kept = copy.deepcopy(whole)
+    kept.take_users(rows)
+    assert not sized(kept, b, "policy"), sized(kept, b, "policy")
+    for t in range(80):
+        if t == 40:  # whole rows 0 and 6 start anew: kept rows 1 and 3; kept row 2 idles
+            whole.reset([np.random.default_rng([s, 2]) for s in (0, 6)], np.array([0, 6]))
+            kept.reset([np.random.default_rng([s, 2]) for s in (0, 6)], np.array([1, 3]))
+            kept.set_active(np.array([True, True, False, True]))
+        a = whole.act(obs)
+        live = [0, 1, 3] if t >= 40 else slice(None)
+        np.testing.assert_array_equal(kept.act(obs[rows])[live], a[rows][live], err_msg=f"{t}")
+        obs, *_ = env.step(a)
+    env.close()

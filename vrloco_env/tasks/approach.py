@@ -24,6 +24,7 @@ class Approach(Task):
 
     name = "approach"
     description = "reach the goal in a room with obstacles"
+    per_user_fields = Task.per_user_fields
 
     def draw_layout(self, room: RoomConfig, rng: np.random.Generator) -> Layout:
         return approach_layout(room, rng)

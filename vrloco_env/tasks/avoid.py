@@ -104,6 +104,7 @@ class Avoid(Task):
     description = "pass the corridor's obstacle and reach the end line, collision-free"
     collision_free_success = True
     Config = AvoidConfig
+    per_user_fields = (*Task.per_user_fields, "line_x")
 
     def __init__(self, batch_size: int, dt: float, config=None) -> None:
         super().__init__(batch_size, dt, config)

@@ -22,6 +22,7 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from estimators.batching import TakesUsers
 from vrloco_env.observation import Field
 from vrloco_env.world import Layout, RoomConfig
 
@@ -33,7 +34,7 @@ class NoConfig:
     """The configuration of a task that has none."""
 
 
-class Task:
+class Task(TakesUsers):
     """Base of every task: a goal disc taken from the layout, finished on entering it.
 
     Args:
@@ -46,12 +47,16 @@ class Task:
         description: one line for listings.
         Config: the task's frozen configuration dataclass.
         collision_free_success: success needs an episode without collisions.
+        per_user_fields: the attributes with one row per user (a subclass lists its own too, so
+            that a batch can drop users: :class:`~estimators.batching.TakesUsers`).
     """
 
     name: ClassVar[str] = ""
     description: ClassVar[str] = ""
     Config: ClassVar[type] = NoConfig
     collision_free_success: ClassVar[bool] = False
+    per_user_fields: ClassVar[tuple[str, ...]] = ("goal", "goal_radius")
+    batch_size_field: ClassVar[str | None] = "batch_size"
 
     def __init__(self, batch_size: int, dt: float, config: Any = None) -> None:
         if config is None:

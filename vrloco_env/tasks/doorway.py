@@ -131,6 +131,8 @@ class Doorway(Task):
     description = "pass a sequence of doorways 0.8-1.2 m wide, collision-free"
     collision_free_success = True
     Config = DoorwayConfig
+    per_user_fields = (*Task.per_user_fields, "door_x", "door_y", "door_w", "through_x", "aim",
+                       "rest", "avatar_radius", "passed", "position")  # fmt: skip
 
     def __init__(self, batch_size: int, dt: float, config: Any = None) -> None:
         super().__init__(batch_size, dt, config)

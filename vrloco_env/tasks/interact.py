@@ -76,6 +76,7 @@ class Interact(Task):
     name = "interact"
     description = "reach the pedestal and hold the hand at a target orientation"
     Config = InteractConfig
+    per_user_fields = (*Task.per_user_fields, "hand_target", "dwell")
 
     def __init__(self, batch_size: int, dt: float, config: Any = None) -> None:
         super().__init__(batch_size, dt, config)

@@ -38,7 +38,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from estimators.batching import stream_rows
+from estimators.batching import TakesUsers, stream_rows
 from vrloco_env.batch_rng import BatchRng
 from vrloco_env.user.motion import MAX_HEAD_YAW, Intent
 from vrloco_env.user.population import RANGE_FIELDS, Population, get_population
@@ -54,7 +54,7 @@ def _wrap(a: NDArray[np.float64]) -> NDArray[np.float64]:
     return (a + np.pi) % (2.0 * np.pi) - np.pi
 
 
-class GazeBehaviour:
+class GazeBehaviour(TakesUsers):
     """Gaze and nods of B simulated users drawn from one population (see the module docstring).
 
     Args:
@@ -65,6 +65,10 @@ class GazeBehaviour:
 
     Call :meth:`reset` for new episodes, then :meth:`intent` once per control step.
     """
+
+    # each user's drawn behaviour and gaze state (the random streams belong to the core)
+    per_user_fields = ("values", "mode", "_timer", "_scan_dir", "_nod_left", "_elapsed")
+    batch_size_field = "batch_size"
 
     def __init__(
         self, population: str | Population, rng: BatchRng, dt: float, ray_offsets: ArrayLike

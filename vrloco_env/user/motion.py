@@ -49,12 +49,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, fields
+from typing import ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from estimators import rotations as rot
-from estimators.batching import stream_rows
+from estimators.batching import TakesUsers, stream_rows
 from estimators.kernels import param_record, state_records
 from estimators.validation import (
     check_bool,
@@ -244,6 +245,8 @@ class MotionChunk:
         kinect: skeleton frames that fall in this control step.
     """
 
+    shared_fields: ClassVar[tuple[str, ...]] = ("t",)  # one clock for the batch: not per user
+
     t: NDArray[np.float64]
     quat: NDArray[np.float64]
     omega: NDArray[np.float64]
@@ -273,6 +276,8 @@ class KinectChunk:
         hand_quat: right-hand orientation, hand frame -> world, (B, M, 4).
         hand_ypr: right-hand [yaw, pitch, roll] relative to the torso heading (rad), (B, M, 3).
     """
+
+    shared_fields: ClassVar[tuple[str, ...]] = ("t",)  # one clock for the batch: not per user
 
     t: NDArray[np.float64]
     joints: NDArray[np.float64]
@@ -321,12 +326,19 @@ class _State:
             setattr(self, name, self.rec[name])
         self.steps_done = 0
 
+    def take(self, rows: NDArray[np.intp]) -> _State:
+        """The state of users ``rows`` alone (the same clock)."""
+        kept = _State(rows.size)
+        kept.rec[:] = self.rec[rows]
+        kept.steps_done = self.steps_done
+        return kept
+
     def time(self, rate: float) -> float:
         return self.steps_done / rate
 
 
 @dataclass
-class UserMotion:
+class UserMotion(TakesUsers):
     """Batched motion model of B simulated users.
 
     Args:
@@ -351,6 +363,12 @@ class UserMotion:
     @property
     def batch_size(self) -> int:
         return self.rng.batch_size
+
+    def take_users(self, rows: NDArray[np.intp]) -> None:
+        """Keep the users ``rows`` (their state; the random streams belong to the caller's
+        :class:`~vrloco_env.batch_rng.BatchRng`, which takes them itself)."""
+        if self._state is not None:
+            self._state = self._state.take(np.asarray(rows, dtype=np.intp))
 
     @property
     def time(self) -> float:

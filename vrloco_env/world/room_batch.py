@@ -7,6 +7,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from estimators.batching import TakesUsers
 from estimators.validation import check_value
 from vrloco_env.world.geometry import (
     _pack,
@@ -21,7 +22,7 @@ from vrloco_env.world.layout import Layout
 __all__ = ["RoomBatch"]
 
 
-class RoomBatch:
+class RoomBatch(TakesUsers):
     """The solids of N layouts packed once, for 2-D queries of N users in one compiled call.
 
     The batched twin of :func:`signed_distance` and :func:`ray_cast_2d` (same kernels: those are
@@ -35,6 +36,8 @@ class RoomBatch:
     Args:
         layouts: one layout per user.
     """
+
+    per_user_fields = ("layouts", "_solids")  # each user's room, and its packed solids
 
     def __init__(self, layouts: Sequence[Layout]) -> None:
         self.layouts = list(layouts)

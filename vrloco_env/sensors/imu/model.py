@@ -11,7 +11,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from estimators.batching import stream_rows
+from estimators.batching import TakesUsers, stream_rows
 from estimators.kernels import param_record, state_records
 from estimators.rotations import GRAVITY
 from vrloco_env.batch_rng import BatchRng
@@ -100,7 +100,7 @@ _INVALID = {
 }
 
 
-class HeadImu:
+class HeadImu(TakesUsers):
     """A head-worn 9-axis IMU for B users, streaming: biases carry over between calls.
 
     Args:
@@ -124,6 +124,9 @@ class HeadImu:
     users, from their own streams, so one user of a batch can start a new episode while the others
     carry on.
     """
+
+    # each user's bias states and clock (the random streams belong to the caller's BatchRng)
+    per_user_fields = ("_state", "samples_taken", "last_bias")
 
     def __init__(
         self,

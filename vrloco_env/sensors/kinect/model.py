@@ -9,7 +9,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.special import ndtr, ndtri
 
-from estimators.batching import stream_rows
+from estimators.batching import TakesUsers, stream_rows
 from estimators.kernels import param_record, state_records
 from estimators.rotations import (
     ensure_quaternion,
@@ -53,7 +53,7 @@ def _z_threshold(p: float) -> float:
     return float(ndtri(p)) if 0.0 < p < 1.0 else (-math.inf if p <= 0.0 else math.inf)
 
 
-class KinectV2:
+class KinectV2(TakesUsers):
     """Stateful, batched Kinect v2 body tracker for B simulated users (one sensor per user).
 
     Args:
@@ -67,6 +67,11 @@ class KinectV2:
     The frame loop runs in one compiled kernel, :func:`vrloco_env.sensors.kinect._kernel.
     capture_frames` (its uncompiled ``py_func`` is the readable reference the tests compare with).
     """
+
+    # each user's session state and delay line (the random streams belong to the caller's
+    # BatchRng)
+    per_user_fields = ("_ready", "_state", "_target_slot", "_delay")
+    batch_size_field = "batch_size"
 
     def __init__(self, spec: KinectSpec, rng: BatchRng) -> None:
         if not isinstance(spec, KinectSpec):
