@@ -309,7 +309,13 @@ def _cmd_estimate(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from agents.grid import DEFAULT_EPISODES, DEFAULT_POLICIES, DEFAULT_TASKS, DEFAULT_TECHNIQUES
+    from agents.grid import (
+        DEFAULT_BATCH_SIZE,
+        DEFAULT_EPISODES,
+        DEFAULT_POLICIES,
+        DEFAULT_TASKS,
+        DEFAULT_TECHNIQUES,
+    )
     from vrloco_env.tasks import TASKS
     from vrloco_env.user.population import POPULATIONS
 
@@ -432,7 +438,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--workers", type=_int_at_least(1), default=2,
                        help="worker processes (--backend ray: the CPUs to cut jobs for)")
     bench.add_argument(
-        "--batch-size", type=_int_at_least(0), default=20,
+        "--batch-size", type=_int_at_least(0), default=DEFAULT_BATCH_SIZE,
         help="users stepped together in one vector env (cells sharing a task and technique "
         "mix); 0: every episode alone in a single env (the same results)",
     )  # fmt: skip

@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agents.conditions import DEFAULT_CONDITION, get_condition
-from agents.grid import Cell
+from agents.grid import DEFAULT_BATCH_SIZE, Cell
 from agents.metrics import STEP_KEYS, TRACE_KEYS, EpisodeRecorder, EpisodeStats, episode_stats
 from agents.policies import build_policy
 from agents.scripted import is_batched
@@ -27,8 +27,6 @@ from vrloco_env.tasks import env_id
 __all__ = ["DEFAULT_BATCH_SIZE", "play_claimed", "run_batched", "run_cell_batched",
            "run_cell_episode", "run_episode"]  # fmt: skip
 
-#: Users per vector env in the batched runner (:func:`run_cell_batched`).
-DEFAULT_BATCH_SIZE = 20
 
 _ENVS: dict[tuple, Any] = {}  # per process: one env per (task, technique, population, condition)
 
@@ -78,7 +76,8 @@ def run_cell_episode(cell: Cell, seed: int, trace: bool = False) -> tuple[Episod
 
 
 def run_cell_batched(
-    cell: Cell, seeds: Sequence[int], trace: Sequence[bool] | None = None, batch_size: int = 32
+    cell: Cell, seeds: Sequence[int], trace: Sequence[bool] | None = None,
+    batch_size: int = DEFAULT_BATCH_SIZE,
 ) -> list[tuple[EpisodeStats, dict]]:
     """Episodes ``seeds`` of ``cell`` as users of one vector env (:func:`run_batched`).
 
@@ -92,7 +91,7 @@ def run_cell_batched(
 
 
 def run_batched(
-    episodes: Sequence[tuple[Cell, int, bool]], batch_size: int = 32
+    episodes: Sequence[tuple[Cell, int, bool]], batch_size: int = DEFAULT_BATCH_SIZE
 ) -> list[tuple[EpisodeStats, dict]]:
     """Episodes ``(cell, seed, trace)`` of cells that share a task and a technique, as users of
     one native vector env: :func:`play_claimed` taking them all, in order.
@@ -121,10 +120,12 @@ def play_claimed(
     idle worker help with a job that is still running). ``min(batch_size, len(episodes))`` users
     start with the first episodes claimed; a user whose episode ends claims the next one,
     whichever cell it belongs to, with that episode's seed (autoreset is disabled, so no user
-    ever starts an episode the grid did not ask for); when none is left it idles until the batch
-    is done. Each cell has one policy that acts for the users playing its episodes (the others'
-    rows are masked out with ``set_active`` where the policy has it, and their actions
-    discarded). Each episode gives exactly the numbers of
+    ever starts an episode the grid did not ask for); once none is left, the users whose episode
+    has ended leave the batch (``take_users`` of the env and of every policy: the batch shrinks
+    to the users still playing) or, where a part cannot drop users (a plug-in stage or policy
+    without ``take_users``), idle until the batch is done. Each cell has one policy that acts
+    for the users playing its episodes (the others' rows are masked out with ``set_active``
+    where the policy has it, and their actions discarded). Each episode gives exactly the numbers of
     :func:`run_cell_episode` with its seed: the users of a batch are independent, the env and
     the policy are seeded per user as the single env is, and the stats come from the same
     ``info`` values. A policy that does not take batches (:func:`agents.scripted.is_batched`)
@@ -200,8 +201,13 @@ def _play_batch(env: Any, policies: dict, jobs: list,
     """The loop of :func:`play_claimed` over the episodes of ``jobs`` that ``take(n)`` hands out
     (up to ``n``; ``env`` with autoreset disabled); returns ``{episode index: (stats,
     reset_info)}``."""
+    from estimators.batching import takes_users
+
     n = env.num_envs
     cells = list(policies)
+    # once no episode is left to claim, finished users leave the batch if every part can drop
+    # them; otherwise they idle
+    shrinks = env.can_take_users and all(takes_users(p) for p in policies.values())
     job = np.full(n, -1)  # the episode each user plays (-1: idle)
     owner = np.full(n, -1)  # the index in ``cells`` of its cell
     done: dict[int, tuple[EpisodeStats, dict]] = {}
@@ -266,6 +272,18 @@ def _play_batch(env: Any, policies: dict, jobs: list,
         got = take(ended.size)
         if got:
             obs = start(ended, got, reset_all=False)
+        elif shrinks and (job >= 0).any():  # the batch keeps only the users still playing
+            live = np.flatnonzero(job >= 0)
+            keep = np.arange(live.size)  # the last users move into the places left free
+            keep[job[: live.size] < 0] = live[live >= live.size]
+            env.take_users(keep)
+            for pol in dict.fromkeys(policies.values()):
+                pol.take_users(keep)
+            n = keep.size
+            job, owner, first, obs = job[keep], owner[keep], first[keep], obs[keep]
+            start_info = [start_info[i] for i in keep]
+            steps.take(keep)
+            _set_active(policies, cells, owner)
         else:
             _set_active(policies, cells, owner)
         running = job >= 0
@@ -284,6 +302,7 @@ class _StepLog:
         self.keys = keys
         self.log: dict[str, NDArray] = {}
         self.size = 0
+        self.columns: NDArray[np.intp] | None = None  # each user's column (None: its index)
 
     def __len__(self) -> int:
         return self.size
@@ -294,19 +313,32 @@ class _StepLog:
         if not self.log:
             self.log = {k: np.empty((64, *np.shape(info[k])), np.asarray(info[k]).dtype)
                         for k in self.keys}  # fmt: skip
+        cols = self.columns
         for k, log in self.log.items():
             value = np.asarray(info[k])
-            if value.dtype != log.dtype or value.shape != log.shape[1:]:
+            shape = log.shape[1:] if cols is None else (cols.size, *log.shape[2:])
+            if value.dtype != log.dtype or value.shape != shape:
                 raise RuntimeError(f"internal error: info[{k!r}] changed from {log.dtype}"
-                                   f"{log.shape[1:]} to {value.dtype}{value.shape}")  # fmt: skip
+                                   f"{shape} to {value.dtype}{value.shape}")  # fmt: skip
             if self.size == log.shape[0]:
                 log = self.log[k] = np.concatenate([log, np.empty_like(log)])
-            log[self.size] = value
+            if cols is None:
+                log[self.size] = value
+            else:
+                log[self.size, cols] = value
         self.size += 1
+
+    def take(self, rows: NDArray[np.intp]) -> None:
+        """Keep the users ``rows`` (in their new order): user ``k`` is the old user
+        ``rows[k]``, whose column it goes on writing (the others' columns are left unread)."""
+        base = np.arange(next(iter(self.log.values())).shape[1]) if self.columns is None \
+            else self.columns  # fmt: skip
+        self.columns = base[rows]
 
     def user(self, i: int, start: int) -> dict[str, NDArray]:
         """User ``i``'s values from step ``start`` to the last logged, (steps, ...) per key."""
-        return {k: log[start : self.size, i].copy() for k, log in self.log.items()}
+        c = i if self.columns is None else int(self.columns[i])
+        return {k: log[start : self.size, c].copy() for k, log in self.log.items()}
 
     def forget(self, n: int) -> None:
         """Drop the first ``n`` steps (step ``n`` becomes step 0)."""

@@ -39,6 +39,14 @@ DEFAULT_SENSORS = ("ig500n", "consumer_mems")
 #: of bootstrap resamples (``python benchmarks/pair_power.py --episodes 160 --sizes 40 60 80``).
 DEFAULT_EPISODES = 60
 
+#: Users per vector env in the batched runner (:func:`agents.episodes.run_cell_batched`).
+#: Batches shed their finished users once a job has none left to hand out, so a larger batch
+#: costs no idle users. Chosen on development seeds 1000-1059 of the main grid (``python
+#: benchmarks/bench_benchmark.py --seed 1000 --batch-size N``), where 30 users ran as fast as
+#: 45 or 60 and faster than 20, with a third of 60's memory (the planner's maps take megabytes
+#: per user).
+DEFAULT_BATCH_SIZE = 30
+
 
 @dataclass(frozen=True)
 class Cell:

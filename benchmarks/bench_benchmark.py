@@ -4,6 +4,7 @@ Run from the repository root::
 
     python benchmarks/bench_benchmark.py              # the main grid, its episodes per cell
     python benchmarks/bench_benchmark.py --episodes 10 --batch-size 10
+    python benchmarks/bench_benchmark.py --seed 1000  # other seeds (episode i uses 1000 + i)
     python benchmarks/bench_benchmark.py --policies avoid_manoeuvre   # no route planner
     python benchmarks/bench_benchmark.py --techniques seed000 madgwick --tasks avoid reach
     python benchmarks/bench_benchmark.py --profile    # where the batched path's time goes
@@ -17,8 +18,9 @@ episodes/s of each, their ratio, and whether the two tables are identical (they 
 Each path runs once untimed first on a small grid, so that numba's compilation is not timed.
 ``--profile`` instead plays the first technique's cells of each task batched in this process
 under cProfile and prints the functions that took the most time, with their share, and how many
-of the user-steps simulated were users whose episode had ended (a batch steps all its users until
-its last episode ends).
+of the user-steps simulated were users whose episode had ended (none where every part of the env
+and the policy can drop users; otherwise a batch steps all its users until its last episode
+ends).
 """
 
 from __future__ import annotations
@@ -39,6 +41,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--episodes", type=int, default=DEFAULT_EPISODES, help="episodes per cell")
     ap.add_argument("--batch-size", type=int, default=DEFAULT_BATCH_SIZE)
+    ap.add_argument("--seed", type=int, default=0, help="episode i uses seed + i")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--tasks", nargs="+", default=list(DEFAULT_TASKS))
     ap.add_argument("--policies", nargs="+", default=list(DEFAULT_POLICIES))
@@ -49,7 +52,8 @@ def main() -> None:
         profile(args)
         return
     grid = dict(tasks=args.tasks, policies=args.policies, techniques=args.techniques,
-                workers=args.workers, progress=False, print_table=False)  # fmt: skip
+                workers=args.workers, seed=args.seed, progress=False,
+                print_table=False)  # fmt: skip
     n_cells = len(args.tasks) * len(args.policies) * len(args.techniques)
     total = n_cells * args.episodes
     print(f"grid: {', '.join(args.tasks)} x {', '.join(args.policies)} x "

@@ -148,6 +148,48 @@ def test_batched_episodes_are_the_single_env_episodes(cell):
             assert stats.trace["layout"] == alone.trace["layout"]
 
 
+def test_a_batch_sheds_its_finished_users_and_still_gives_the_single_env_episodes(monkeypatch,
+                                                                                tmp_path):
+    """Once no episode is left to claim, the users whose episode ended leave the batch (the env
+    and the policy drop them) and the rest go on as alone; a user's batched policy that cannot
+    drop users (no ``take_users``) keeps the whole batch, idle users and all."""
+    from vrloco_env.vector import VRLocoVectorEnv
+
+    sizes = []
+    take = VRLocoVectorEnv.take_users
+
+    def counted(env, rows):
+        take(env, rows)
+        sizes.append(env.num_envs)
+
+    monkeypatch.setattr(VRLocoVectorEnv, "take_users", counted)
+    cell = Cell("avoid", "goal_seeker+human", "smooth")
+    seeds, trace = [3, 4, 5, 6, 7, 8], [False, True, False, False, False, True]
+    batched = run_cell_batched(cell, seeds, trace, batch_size=4)
+    assert sizes and sizes == sorted(sizes, reverse=True) and sizes[-1] >= 1
+    for (stats, _), seed, tr in zip(batched, seeds, trace, strict=True):
+        _same_episode(stats, run_cell_episode(cell, seed, trace=tr)[0])
+
+    plugin = tmp_path / "my_batched_user.py"
+    plugin.write_text(
+        "from agents.policies import build_policy\n"
+        "class Seeker:  # batched, but it cannot drop users\n"
+        "    batched = True\n"
+        "    def __init__(self, env):\n"
+        "        self.inner = build_policy('goal_seeker', env)\n"
+        "    def reset(self, rng=None, rows=None):\n"
+        "        self.inner.reset(rng, rows)\n"
+        "    def act(self, obs):\n"
+        "        return self.inner.act(obs)\n"
+    )
+    sizes.clear()
+    mine = Cell("avoid", f"{plugin}:Seeker")
+    batched = run_cell_batched(mine, seeds[:4], batch_size=2)
+    assert sizes == []
+    for (stats, _), seed in zip(batched, seeds, strict=False):
+        _same_episode(stats, run_cell_episode(mine, seed)[0])
+
+
 def test_cells_sharing_an_env_mix_in_one_batch():
     """Users move from one cell's episodes to another's (a scripted user, the same with human
     variability, a second scripted user) and each episode is still the single env's."""
