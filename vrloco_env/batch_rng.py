@@ -118,14 +118,28 @@ class BatchRng(TakesUsers):
         self._pos[rows] += n
         return out
 
+    def _realign(self) -> None:
+        """Bring every user's read position back to the lowest one: a user ahead (it drew
+        alone, at a reset) moves its unread numbers back to that position and tops its block up
+        from its generator (its stream goes on in order). Only the users ahead are touched."""
+        p, width = self._pos, self._buf.shape[1]
+        low = int(p.min())
+        for i in np.flatnonzero(p != low):
+            ahead = int(p[i]) - low
+            self._buf[i, low : width - ahead] = self._buf[i, p[i] :]
+            self._buf[i, width - ahead :] = self.generators[i].standard_normal(ahead)
+            p[i] = low
+
     def normal(self, shape: tuple[int, ...] = (), rows: ArrayLike | None = None) -> NDArray:
         """Standard normal numbers of shape ``(B, *shape)``, or ``(len(rows), *shape)`` drawn by
         the users ``rows`` only (indices or a (B,) boolean mask)."""
         n = math.prod(shape)
         if rows is None:  # the hot path: every user draws, usually from a common position
             p = self._pos
+            if p.size > 1 and not (p == p[0]).all():
+                self._realign()
             start = int(p[0])
-            if start + n <= self._buf.shape[1] and (p.size == 1 or (p == start).all()):
+            if start + n <= self._buf.shape[1]:
                 p += n
                 return self._buf[:, start : start + n].reshape(self.batch_size, *shape).copy()
         r = self._rows(rows)

@@ -72,13 +72,14 @@ def test_one_user_drawing_alone_keeps_every_stream_equal_to_its_single_run():
 
 def test_streams_stay_single_runs_through_reseeds_and_refills_which_realign_every_user():
     """Users draw alone, start new streams and run out of their blocks at different times; each
-    keeps drawing its own stream in order, and once a block runs out every user reads from one
-    position again (the draws of all users that follow are plain slices)."""
+    keeps drawing its own stream in order. A draw of every user first brings those ahead back
+    to the others' position (so that it is a plain slice), and once a drawing user's block runs
+    out every user refills and reads from one position again."""
     rng = np.random.default_rng(0)
     seeds = [10, 11, 12, 13]
     batch = BatchRng.from_seeds(seeds, block=40)
     singles = [BatchRng.from_seeds([s], block=40) for s in seeds]
-    realigned = 0
+    realigned = refilled = 0
     for step in range(60):
         if step % 7 == 3:  # a user starts a new episode
             i, seed = int(rng.integers(4)), 100 + step
@@ -91,11 +92,14 @@ def test_streams_stay_single_runs_through_reseeds_and_refills_which_realign_ever
         users = range(4) if rows is None else rows
         for k, i in enumerate(users):
             np.testing.assert_array_equal(got[k], singles[i].normal(shape)[0])
-        if np.any(before[list(users)] + shape[0] > 40):  # a block ran out in this draw
+        if rows is None:
+            assert np.all(batch._pos == batch._pos[0])
+            realigned += bool(np.any(before != before[0]))
+        elif np.any(before[list(users)] + shape[0] > 40):  # a block ran out in this draw
             assert np.all(batch._pos[[i for i in range(4) if i not in users]] == 0)
             assert np.all(batch._pos[list(users)] == shape[0])
-            realigned += 1
-    assert realigned > 5
+            refilled += 1
+    assert realigned > 5 and refilled > 2
 
 
 def test_rows_are_validated():
