@@ -125,10 +125,10 @@ def play_claimed(
     to the users still playing) or, where a part cannot drop users (a plug-in stage or policy
     without ``take_users``), idle until the batch is done. Each cell has one policy that acts
     for the users playing its episodes (the others' rows are masked out with ``set_active``
-    where the policy has it, and their actions discarded). Each episode gives exactly the numbers of
-    :func:`run_cell_episode` with its seed: the users of a batch are independent, the env and
-    the policy are seeded per user as the single env is, and the stats come from the same
-    ``info`` values. A policy that does not take batches (:func:`agents.scripted.is_batched`)
+    where the policy has it, and their actions discarded). Each episode gives exactly the
+    numbers of :func:`run_cell_episode` with its seed: the users of a batch are independent, the
+    env and the policy are seeded per user as the single env is, and the stats come from the
+    same ``info`` values. A policy that does not take batches (:func:`agents.scripted.is_batched`)
     plays its episodes one at a time instead.
 
     Args:
@@ -205,9 +205,10 @@ def _play_batch(env: Any, policies: dict, jobs: list,
 
     n = env.num_envs
     cells = list(policies)
-    # once no episode is left to claim, finished users leave the batch if every part can drop
-    # them; otherwise they idle
-    shrinks = env.can_take_users and all(takes_users(p) for p in policies.values())
+    # once no episode is left to claim, finished users leave the batch if the env and every
+    # policy acting in it can drop them; otherwise they idle
+    acting = [p for p in policies.values() if is_batched(p)]
+    shrinks = env.can_take_users and all(takes_users(p) for p in acting)
     job = np.full(n, -1)  # the episode each user plays (-1: idle)
     owner = np.full(n, -1)  # the index in ``cells`` of its cell
     done: dict[int, tuple[EpisodeStats, dict]] = {}
@@ -277,7 +278,7 @@ def _play_batch(env: Any, policies: dict, jobs: list,
             keep = np.arange(live.size)  # the last users move into the places left free
             keep[job[: live.size] < 0] = live[live >= live.size]
             env.take_users(keep)
-            for pol in dict.fromkeys(policies.values()):
+            for pol in acting:
                 pol.take_users(keep)
             n = keep.size
             job, owner, first, obs = job[keep], owner[keep], first[keep], obs[keep]

@@ -255,8 +255,10 @@ class LocoCore(TakesUsers):
         whole batch (a runner whose remaining users are few steps only those).
 
         Raises:
+            RuntimeError: before the first :meth:`reset`.
             ValueError: bad or repeated indices, or none.
-            TypeError: a part that cannot drop users (see :attr:`can_take_users`).
+            TypeError: a part that cannot drop users (see :attr:`can_take_users`); nothing is
+                changed.
         """
         if self.rooms is None:
             raise RuntimeError("reset() must be called before take_users()")
