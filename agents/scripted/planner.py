@@ -387,6 +387,13 @@ def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cand
     near = np.empty(0, np.int64)
     flag, cells, seed = np.zeros(0, np.uint8), np.empty(0, np.int64), np.empty(0)
     passed = np.zeros(cands.size, np.bool_)  # per candidate: clear with the full margin
+    order = np.empty(cands.size, np.int64)  # per user: the candidates in the order tried
+    by_turn = np.argsort(np.abs(cands), kind="mergesort")  # the candidates by size of turn
+    # the cells a march reads: their centres lie within its last sample's distance and half a
+    # cell's diagonal of the user, which is within ``around`` cells of the user's
+    far = math.ceil(look / geom[0] - 1e-9) * geom[0] + 0.7072 * cell
+    reach2 = far * far
+    around = math.ceil(far / cell) + 1
     for b in range(nb):
         if not active[b]:
             continue
@@ -471,22 +478,51 @@ def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cand
                                             cell, nodes)  # fmt: skip
         # every heading with the full margin, and with the tight one at a penalty; the aim of
         # the last step gets a bonus (hysteresis). The user may always move away from, or
-        # along, what it already stands closer to.
+        # along, what it already stands closer to. The best is the least score, the first
+        # heading in (tier, candidate) order on a tie. A march ends in a cell whose centre lies
+        # within ``far`` of the user, so the least cost kept there bounds its end cost from
+        # below, and with it the heading's score: a heading whose bound cannot beat the
+        # best so far is not marched. The headings are tried near the last aim first, then by
+        # the size of the turn, so that a good best comes early.
         x, y = pos[b, 0], pos[b, 1]
         c0 = clear[pi - i0, pj - j0] - 0.02
         prev = prev_aim[b] - heading[b]
         prev = (prev + math.pi) % (2.0 * math.pi) - math.pi
+        low = np.inf
+        for ii in range(max(pi - around - i0, 0), min(pi + around - i0, ni - 1) + 1):
+            dx = (ii + i0 + 0.5) * cell - half - x
+            for jj in range(max(pj - around - j0, 0), min(pj + around - j0, nj - 1) + 1):
+                dy = (jj + j0 + 0.5) * cell - half - y
+                if dx * dx + dy * dy <= reach2:
+                    low = min(low, cost[ii, jj])
+        m = 0
+        for q in range(cands.size):
+            passed[q] = False
+            if abs(cands[q] - prev) <= step_a:
+                order[m] = q
+                m += 1
+        for q in by_turn:
+            if not abs(cands[q] - prev) <= step_a:
+                order[m] = q
+                m += 1
         best = np.inf
+        best_tier, best_q = 2, cands.size
         best_a = 0.0
         best_thr = best_thr0 = min(r_block, c0)
         for tier in range(2):
             thr = min(r_block if tier == 0 else r_tight, c0)
-            for q in range(cands.size):
+            for q in order:
                 # a heading clear with the full margin is clear with the tight one, to the same
                 # end, and scores no better with the penalty on top (>= 0): its march is skipped
                 if tier == 1 and (passed[q] or thr == best_thr0) and tight_penalty >= 0.0:
                     continue
                 a = cands[q]
+                bound = low + turn_cost * abs(a) + tier * tight_penalty
+                if abs(a - prev) <= step_a:
+                    bound -= hold
+                if not bound < np.inf or bound > best or (
+                        bound == best and (tier, q) > (best_tier, best_q)):  # fmt: skip
+                    continue
                 ok, end_cost = _march(
                     clear, cost, i0, j0, x, y, heading[b] + a, look, thr, land[b], geom
                 )
@@ -496,8 +532,9 @@ def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cand
                     score = end_cost + turn_cost * abs(a) + tier * tight_penalty
                     if abs(a - prev) <= step_a:
                         score -= hold
-                    if score < best:
+                    if score < best or (score == best and (tier, q) < (best_tier, best_q)):
                         best, best_a, best_thr = score, a, thr
+                        best_tier, best_q = tier, q
         thr = best_thr
         valid_out[b] = best < np.inf
         aim_out[b] = best_a
