@@ -60,7 +60,7 @@ from agents.metrics import (
     EpisodeStats,
     summarize,
 )
-from agents.paired import paired_p_values
+from agents.paired import compare_values, episode_values
 from agents.policies import check_policy
 from agents.resume import EpisodeStore, episode_key, source_fingerprint
 from vrloco_env.tasks import get_task
@@ -282,17 +282,19 @@ def run_benchmark(
         if results:
             print(f"resuming: {len(results)} of {len(keys)} episodes found in {store.folder}")
     jobs = _split_jobs(cells, episodes, seed, want_figures, batch_size, workers, set(results))
+    base = {(c.task, c.policy, c.condition): c for c in cells if c.technique_name == baseline}
+    rows_of = _CellRows(episodes, results, infos, base)
     interrupted = False
     try:
+        rows_of.add(list(results))  # resumed episodes
         for done in _run_jobs(jobs, workers, progress, backend, address):
             for cell, index, stats, reset_info in done:
                 results[(cell, index)], infos[(cell, index)] = stats, reset_info
             if store is not None:
                 store.save({keys[(c, i)]: (st, ri) for c, i, st, ri in done})
+            rows_of.add([(c, i) for c, i, _, _ in done])  # while the other jobs run
     except KeyboardInterrupt:  # Ctrl-C: keep the cells that finished
         interrupted = True
-    windows = {c: step_window(infos[(c, i)], st.elapsed_s / max(st.steps, 1))
-               for (c, i), st in results.items()}  # fmt: skip
     all_cells = cells
     cells = [c for c in cells if all((c, i) in results for i in range(episodes))]
     if interrupted:
@@ -303,20 +305,15 @@ def run_benchmark(
     rows = []
     order = {name: k for k, name in enumerate(dict.fromkeys(c.technique_name for c in cells))}
     cells = sorted(cells, key=lambda c: order[c.technique_name])  # grouped by technique
-    base = {(c.task, c.policy, c.condition): c for c in cells if c.technique_name == baseline}
     for c in cells:
-        eps = [results[(c, i)] for i in range(episodes)]
-        late, early = windows[c]
-        ref = base.get((c.task, c.policy, c.condition))
         row = {
             "task": c.task,
             "policy": c.policy,
             "technique": c.technique_name,
             "condition": c.condition,
             "sensors": c.sensors,
-            **summarize(eps, late, early),
-            "vs_baseline": None if ref is None or ref is c else paired_p_values(
-                [results[(ref, i)] for i in range(episodes)], eps, late, early),
+            **rows_of.summary(c),
+            "vs_baseline": rows_of.versus(c),
         }  # fmt: skip
         rows.append({k: _round(row[k]) for k in ROW_KEYS})
     pairs = pair_results(rows) if baseline == BASELINE_TECHNIQUE else []
@@ -350,6 +347,75 @@ def run_benchmark(
     if store is not None:
         store.clear()  # the grid is complete: nothing to resume
     return rows
+
+
+class _CellRows:
+    """The statistics of each cell's row, worked out as soon as the cell's episodes (and its
+    baseline's, for the paired comparison) are all in, so that the main process does them while
+    the workers play the other cells (or when asked for, if not yet).
+
+    Args:
+        episodes: episodes per cell.
+        results, infos: the grid's ``(cell, index)`` -> stats and reset info, as they come in.
+        base: ``(task, policy, condition)`` -> the baseline technique's cell.
+    """
+
+    def __init__(self, episodes: int, results: dict, infos: dict, base: dict) -> None:
+        self.episodes, self.results, self.infos, self.base = episodes, results, infos, base
+        self.count: dict[Cell, int] = {}  # episodes in, per cell
+        self._summary: dict[Cell, dict] = {}
+        self._versus: dict[Cell, dict] = {}
+        self._values: dict[tuple, list] = {}  # (cell, late, early) -> its episodes' values
+        self.waiting: list[Cell] = []  # finished cells whose baseline is not
+
+    def add(self, played: list[tuple[Cell, int]]) -> None:
+        """Count the episodes ``played`` in; work out the rows they complete."""
+        for c, _ in played:
+            self.count[c] = self.count.get(c, 0) + 1
+            if self.count[c] == self.episodes:
+                self.summary(c)
+                self.waiting.append(c)
+        for c in [c for c in self.waiting if self._ready(c)]:
+            self.waiting.remove(c)
+            self.versus(c)
+
+    def window(self, c: Cell) -> tuple[int, int]:
+        """The cell's step-matching window (:func:`step_window`)."""
+        st = self.results[(c, 0)]
+        return step_window(self.infos[(c, 0)], st.elapsed_s / max(st.steps, 1))
+
+    def summary(self, c: Cell) -> dict:
+        """The cell's :func:`summarize` (all its episodes must be in)."""
+        if c not in self._summary:
+            self._summary[c] = summarize(self._episodes(c), *self.window(c))
+        return self._summary[c]
+
+    def versus(self, c: Cell) -> dict | None:
+        """The paired comparison with the cell's baseline (:func:`agents.paired.paired_p_values`;
+        None for the baseline itself, or where it is not in the grid or not finished)."""
+        ref = self.base.get((c.task, c.policy, c.condition))
+        if ref is None or ref is c or not self._ready(c):
+            return None
+        if c not in self._versus:
+            self._versus[c] = compare_values(self._values_of(ref, c), self._values_of(c, c))
+        return self._versus[c]
+
+    def _episodes(self, c: Cell) -> list[EpisodeStats]:
+        return [self.results[(c, i)] for i in range(self.episodes)]
+
+    def _ready(self, c: Cell) -> bool:
+        ref = self.base.get((c.task, c.policy, c.condition))
+        return ref is None or self.count.get(ref, 0) == self.episodes
+
+    def _values_of(self, c: Cell, window_of: Cell) -> list:
+        """``c``'s episodes' values (:func:`agents.paired.episode_values`) in the step-matching
+        window of ``window_of`` (:func:`agents.paired.paired_p_values` uses the compared cell's
+        for both), each worked out once."""
+        late, early = self.window(window_of)
+        key = (c, late, early)
+        if key not in self._values:
+            self._values[key] = [episode_values(e, late, early) for e in self._episodes(c)]
+        return self._values[key]
 
 
 def _check_grid(grid: Grid) -> None:
