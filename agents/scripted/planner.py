@@ -307,10 +307,13 @@ def _known(mult, cost, box, level, cell):
     (see :func:`_cost_to_go`)."""
     if level == _ALL:
         return True
-    width = 0.5 * cell
+    # ``_within`` without a division per cell: a cost below ``limit`` is in a bucket up to the
+    # level (``limit`` sits a hair under the next bucket's start, so that rounding cannot put a
+    # cost that is not into the level; a cost within that hair only makes the box unknown)
+    limit = (level + 1) * (0.5 * cell) * (1.0 - 1e-12)
     for i in range(box[0], box[1] + 1):
         for j in range(box[2], box[3] + 1):
-            if mult[i, j] < np.inf and not _within(cost[i, j], width, level):
+            if mult[i, j] < np.inf and not cost[i, j] < limit:
                 return False
     return True
 
