@@ -8,7 +8,8 @@ The cases cover every kernel on the default path: the single env of every task (
 attitude EKF, step detector, Kinect and hand pipeline, locomotion, world), a vector env large
 enough to take the multi-threaded builds, the consumer IMU beside a magnet (magnetometer gating),
 the visual-inertial pose source (seed 004's camera and filter), and techniques whose stages differ
-from the default.
+from the default. Two cases play the goal seeker instead of a fixed action sequence, which pins
+its route planner's choices too.
 """
 
 from __future__ import annotations
@@ -59,6 +60,28 @@ def _single(env_id: str, seed: int, **kwargs) -> np.ndarray:
         env.close()
 
 
+def _seeker(env_id: str, seed: int, policy: str, **kwargs) -> np.ndarray:
+    """An episode of the scripted ``policy`` (its actions and the env's numbers), seeded as the
+    benchmark seeds it."""
+    from agents.policies import build_policy
+
+    env = gym.make(env_id, **kwargs)
+    try:
+        user = build_policy(policy, env)
+        obs, _ = env.reset(seed=seed)
+        user.reset(np.random.default_rng([seed, 1]))
+        rows = [obs]
+        for _ in range(4 * STEPS):
+            a = user.act(obs)
+            obs, reward, terminated, truncated, info = env.step(a)
+            rows.append(np.concatenate([a, obs, [reward], np.ravel(info["position"])]))
+            if terminated or truncated:
+                break
+        return np.concatenate([np.ravel(r) for r in rows])
+    finally:
+        env.close()
+
+
 def _vector(env_id: str, seed: int, num_envs: int) -> np.ndarray:
     env = gym.make_vec(env_id, num_envs=num_envs, vectorization_mode="vector_entry_point")
     try:
@@ -89,6 +112,10 @@ def cases() -> dict[str, callable]:
         "interact_one_euro_s9": lambda: _single("VRLoco-Interact-v0", 9, technique="one_euro_hand"),
         "doorway_typical_s10": lambda: _single("VRLoco-Doorway-v0", 10, population="typical"),
         "reach_nodders_s11": lambda: _single("VRLoco-Reach-v0", 11, population="nodders"),
+        "approach_seeker_s12": lambda: _seeker("VRLoco-Approach-v0", 12, "goal_seeker+typical",
+                                               population="typical"),
+        "avoid_smooth_seeker_s13": lambda: _seeker("VRLoco-Avoid-v0", 13, "goal_seeker",
+                                                   technique="smooth"),
     }
 
 

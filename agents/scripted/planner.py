@@ -482,9 +482,9 @@ def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cand
         # every heading with the full margin, and with the tight one at a penalty; the aim of
         # the last step gets a bonus (hysteresis). The user may always move away from, or
         # along, what it already stands closer to. The best is the least score, the first
-        # heading in (tier, candidate) order on a tie. A march ends in a cell whose centre lies
-        # within ``far`` of the user, so the least cost kept there bounds its end cost from
-        # below, and with it the heading's score: a heading whose bound cannot beat the
+        # heading in (tier, candidate) order on a tie. A march on the map ends in a cell whose
+        # centre lies within ``far`` of the user, so the least cost kept there bounds its end
+        # cost from below, and with it the heading's score: a heading whose bound cannot beat the
         # best so far is not marched. The headings are tried near the last aim first, then by
         # the size of the turn, so that a good best comes early.
         x, y = pos[b, 0], pos[b, 1]
@@ -492,6 +492,8 @@ def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cand
         prev = prev_aim[b] - heading[b]
         prev = (prev + math.pi) % (2.0 * math.pi) - math.pi
         low = np.inf
+        if not (-half <= x - far and x + far < half and -half <= y - far and y + far < half):
+            low = -np.inf  # the marches may leave the map: no bound
         for ii in range(max(pi - around - i0, 0), min(pi + around - i0, ni - 1) + 1):
             dx = (ii + i0 + 0.5) * cell - half - x
             for jj in range(max(pj - around - j0, 0), min(pj + around - j0, nj - 1) + 1):
