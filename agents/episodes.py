@@ -284,8 +284,7 @@ def _play_batch(env: Any, policies: dict, jobs: list,
             job, owner, first, obs = job[keep], owner[keep], first[keep], obs[keep]
             start_info = [start_info[i] for i in keep]
             steps.take(keep)
-            _set_active(policies, cells, owner)
-        else:
+        if not got:  # the rows each policy acts for have changed
             _set_active(policies, cells, owner)
         running = job >= 0
         if running.any() and 2 * first[running].min() >= len(steps):  # forget old steps

@@ -72,8 +72,8 @@ def take_rows(value: Any, rows: NDArray[np.intp]) -> Any:
     if isinstance(value, list):
         return [value[i] for i in rows]
     if isinstance(value, tuple):
-        return type(value)(*(take_rows(v, rows) for v in value)) if hasattr(value, "_fields") \
-            else tuple(take_rows(v, rows) for v in value)  # fmt: skip
+        taken = [take_rows(v, rows) for v in value]
+        return type(value)(*taken) if hasattr(value, "_fields") else tuple(taken)
     if isinstance(value, dict):
         return {k: take_rows(v, rows) for k, v in value.items()}
     if isinstance(value, SimpleNamespace):

@@ -106,10 +106,7 @@ class BatchRng(TakesUsers):
             # and the draws that follow are plain slices (users who started a new episode in
             # between fall in line here)
             for i in range(self.batch_size):
-                unread = width - self._pos[i]
-                self._buf[i, :unread] = self._buf[i, self._pos[i] :]
-                self._buf[i, unread:] = self.generators[i].standard_normal(width - unread)
-                self._pos[i] = 0
+                self._move_unread(i, 0)
         start = self._pos[rows]
         if rows.size and np.all(start == start[0]) and rows.size == self.batch_size:
             out = self._buf[:, start[0] : start[0] + n].copy()  # lock-step: a plain slice
@@ -118,17 +115,22 @@ class BatchRng(TakesUsers):
         self._pos[rows] += n
         return out
 
+    def _move_unread(self, i: int, to: int) -> None:
+        """Move user ``i``'s unread numbers back to column ``to`` (at most its read position)
+        and top its block up from its generator: its stream goes on in order, read from
+        ``to``."""
+        width, at = self._buf.shape[1], int(self._pos[i])
+        self._buf[i, to : width - (at - to)] = self._buf[i, at:]
+        self._buf[i, width - (at - to) :] = self.generators[i].standard_normal(at - to)
+        self._pos[i] = to
+
     def _realign(self) -> None:
         """Bring every user's read position back to the lowest one: a user ahead (it drew
-        alone, at a reset) moves its unread numbers back to that position and tops its block up
-        from its generator (its stream goes on in order). Only the users ahead are touched."""
-        p, width = self._pos, self._buf.shape[1]
-        low = int(p.min())
-        for i in np.flatnonzero(p != low):
-            ahead = int(p[i]) - low
-            self._buf[i, low : width - ahead] = self._buf[i, p[i] :]
-            self._buf[i, width - ahead :] = self.generators[i].standard_normal(ahead)
-            p[i] = low
+        alone, at a reset) moves its unread numbers there (:meth:`_move_unread`). Only the
+        users ahead are touched."""
+        low = int(self._pos.min())
+        for i in np.flatnonzero(self._pos != low):
+            self._move_unread(int(i), low)
 
     def normal(self, shape: tuple[int, ...] = (), rows: ArrayLike | None = None) -> NDArray:
         """Standard normal numbers of shape ``(B, *shape)``, or ``(len(rows), *shape)`` drawn by
