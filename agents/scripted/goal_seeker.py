@@ -192,7 +192,7 @@ class GoalSeeker(ScriptedPolicy):
         can_go, can_keep = np.zeros(b, bool), np.zeros(b, bool)
         active = np.ones(b, bool) if self._active is None else self._active
         if self._memo is None or self._memo[0].shape[0] != b:
-            n = self._cells**2
+            n = (self._cells + 2) ** 2  # the planner's box, padded all round
             self._memo = (np.empty((b, n)), np.empty((b, n)), np.empty((b, n)),
                           np.empty((b, n), np.int8), np.zeros(b, np.int64))  # fmt: skip
         if not self.reuse_plans:

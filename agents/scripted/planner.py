@@ -33,44 +33,38 @@ __all__ = ["plan_kernel"]
 
 
 @numba.njit(cache=True)
-def _march(clear, cost, i0, j0, x, y, ang, length, thr, land, geom):
+def _march(clear, cost, i0, j0, x, y, ang, length, thr, land, geom, goal):
     """Walk a ray through the planning box from ``(x, y)`` along ``ang`` up to ``length`` (m).
 
-    ``geom`` = (sample spacing, map half side, cell size, goal tolerance) (m). Returns ``(ok,
-    end_cost)``: ok when every sample up to ``length`` keeps a clearance of at least ``thr``,
-    or when the ray reaches the goal (cost to go <= the goal tolerance) first — at any sample if
-    ``land`` is 0, else at the first sample at or beyond ``land`` (m), where a bout that starts
-    now puts the body down; and the cost to go at the last sample.
+    ``clear`` and ``cost`` are the box's clearance map and cost to go in the padded layout
+    (:func:`_cost_to_go`), ``(i0, j0)`` the map cell of the box's first cell. ``geom`` = (sample
+    spacing, map half side, cell size, goal tolerance) (m). Returns ``(ok, end_cost)``: ok when
+    every sample up to ``length`` keeps a clearance of at least ``thr``, or when the ray reaches
+    the goal (cost to go <= the goal tolerance) first — at any sample if ``land`` is 0, else at
+    the first sample at or beyond ``land`` (m), where a bout that starts now puts the body down;
+    and the cost to go at the last sample (inf if there is none).
+
+    ``goal`` = ``(ti, tj, r)``: a cell whose cost to go is within the goal tolerance lies within
+    ``r`` cells (in i and in j) of the target's cell ``(ti, tj)`` (box indices), because every
+    step costs at least one cell. Only there is the cost read along the way.
     """
     ds, half, cell, goal_tol = geom[0], geom[1], geom[2], geom[3]
-    ni, nj = clear.shape
+    ti, tj, r = goal
+    ni, nj = clear.shape[0] - 2, clear.shape[1] - 2
     ux, uy = math.cos(ang), math.sin(ang)
-    end_cost = np.inf
+    ii = jj = -1
     for m in range(1, math.ceil(length / ds - 1e-9) + 1):
         s = m * ds
         ii = int((x + s * ux + half) / cell) - i0
         jj = int((y + s * uy + half) / cell) - j0
-        if ii < 0 or ii >= ni or jj < 0 or jj >= nj or clear[ii, jj] < thr:
-            return False, end_cost
-        end_cost = cost[ii, jj]
+        if ii < 0 or ii >= ni or jj < 0 or jj >= nj or clear[ii + 1, jj + 1] < thr:
+            return False, np.inf
         if s >= land - 1e-9:
-            if end_cost <= goal_tol:
-                return True, end_cost
+            if abs(ii - ti) <= r and abs(jj - tj) <= r and cost[ii + 1, jj + 1] <= goal_tol:
+                return True, cost[ii + 1, jj + 1]
             if land > 0.0:
                 land = np.inf  # the landing point missed the goal: only a clear way counts
-    return True, end_cost
-
-
-@numba.njit(cache=True, inline="always")
-def _bucket_push(head, nxt, node_cost, node_key, used, bucket, c, i, j):
-    """File cost ``c`` of cell ``(i, j)`` (its key ``i * 2**20 + j``) in bucket ``bucket`` (slot
-    ``bucket`` mod ``head.size``, a power of two) of the bucket queue; new number of nodes used.
-    Every bucket is a singly linked list of nodes, pushed at its head."""
-    s = bucket & (head.size - 1)
-    node_cost[used], node_key[used] = c, (i << 20) | j
-    nxt[used] = head[s]
-    head[s] = used
-    return used + 1
+    return True, (np.inf if ii < 0 else cost[ii + 1, jj + 1])
 
 
 @numba.njit(cache=True, inline="always")
@@ -84,9 +78,10 @@ def _slots(n):
 
 @numba.njit(cache=True)
 def _clearance(occ, clear, i0, i1, j0, j1, w, ring, cap):
-    """Fill ``clear`` (the box ``i0..i1`` x ``j0..j1`` of the (N, N) map ``occ``) with the
-    distance to the nearest marked cell less half a cell, capped at ``cap``; ``ring`` holds that
-    distance for every offset up to ``w`` cells, row-major over (2 w + 1)^2."""
+    """Fill ``clear`` (the box ``i0..i1`` x ``j0..j1`` of the (N, N) map ``occ``, padded: map
+    cell ``(i, j)`` at ``[i - i0 + 1, j - j0 + 1]``) with the distance to the nearest marked
+    cell less half a cell, capped at ``cap``; ``ring`` holds that distance for every offset up
+    to ``w`` cells, row-major over (2 w + 1)^2."""
     n = occ.shape[0]
     clear[:] = cap
     for oi in range(max(i0 - w, 0), min(i1 + w, n - 1) + 1):
@@ -97,16 +92,17 @@ def _clearance(occ, clear, i0, i1, j0, j1, w, ring, cap):
 
 @numba.njit(cache=True, inline="always")
 def _stamp(clear, oi, oj, i0, i1, j0, j1, w, ring):
-    """Lower ``clear`` (the box ``i0..i1`` x ``j0..j1``) to the distance from the marked cell
-    ``(oi, oj)`` wherever that is smaller (cells up to ``w`` away; see :func:`_clearance`)."""
+    """Lower ``clear`` (the box ``i0..i1`` x ``j0..j1``, padded) to the distance from the marked
+    cell ``(oi, oj)`` wherever that is smaller (cells up to ``w`` away; see
+    :func:`_clearance`)."""
     nw = 2 * w + 1
     di0, di1 = max(-w, i0 - oi), min(w, i1 - oi)
     dj0, dj1 = max(-w, j0 - oj), min(w, j1 - oj)
     for di in range(di0, di1 + 1):
-        ii = oi + di - i0
+        ii = oi + di - i0 + 1
         row = (di + w) * nw
         for dj in range(dj0, dj1 + 1):
-            jj = oj + dj - j0
+            jj = oj + dj - j0 + 1
             d = ring[row + dj + w]
             if d < clear[ii, jj]:
                 clear[ii, jj] = d
@@ -122,19 +118,45 @@ def _within(c, width, level):
     return c < np.inf and int(c / width) <= level
 
 
+@numba.njit(cache=True, inline="always")
+def _steps(nj):
+    """The 8 steps between neighbouring cells of a padded map of ``nj`` columns: their flat
+    offsets, and the code of each step (``(1 - di) * 3 + (1 - dj)`` for a step ``(di, dj)``), in
+    the order di = -1, 0, 1, then dj = -1, 0, 1."""
+    offs = np.array([-nj - 1, -nj, -nj + 1, -1, 1, nj - 1, nj, nj + 1])
+    codes = np.array([8, 7, 6, 5, 3, 2, 1, 0], np.int8)
+    return offs, codes
+
+
+@numba.njit(cache=True, inline="always")
+def _box_mask(mult, box):
+    """Per cell (flat): 1 for an enterable cell of ``box`` = ``(i0, i1, j0, j1)`` (inclusive),
+    else 0; and how many such cells there are."""
+    mask = np.zeros(mult.size, np.uint8)
+    need = 0
+    for i in range(box[0], box[1] + 1):
+        for j in range(box[2], box[3] + 1):
+            if mult[i, j] < np.inf:
+                mask[i * mult.shape[1] + j] = 1
+                need += 1
+    return mask, need
+
+
 @numba.njit(cache=True)
-def _cost_to_go(mult, top, cost, parent, ti, tj, box, cell, nodes):
+def _cost_to_go(mult, cost, parent, ti, tj, box, cell, nodes):
     """Dijkstra's search for the cost to go from cell ``(ti, tj)`` over the 8-connected cells of
     ``mult`` (ni, nj): a step into a cell costs ``cell`` (straight) or ``cell * sqrt 2``
-    (diagonal) times that cell's ``mult`` (>= 1, at most ``top``; inf: never entered). Fills
+    (diagonal) times that cell's ``mult`` (>= 1; inf: never entered). The map is padded: its
+    first and last rows and columns are inf all round, so a step never leaves it. Fills
     ``cost`` (ni, nj) and ``parent`` (ni * nj,), each reached cell's step back toward ``(ti,
     tj)`` (:func:`_settle`).
 
     The queue is a bucket (Dial) queue: buckets of width half the cheapest step (one straight
     cell at a multiplier of 1), so that a step out of the bucket being emptied always lands in a
-    later one, and the entries of one bucket are settled in any order; its slots cover the
-    dearest step (at ``top``), so the buckets in use never wrap onto each other. ``nodes`` =
-    ``(nxt, cost, key)`` is its scratch memory, at least ``9 ni nj + 1`` each. The search stops
+    later one, and every cell of that bucket already holds its exact cost; its slots cover the
+    dearest step (at the map's largest multiplier), so the buckets in use never wrap onto each
+    other. ``nodes`` (int32, at least ``2 (9 ni nj + 1)``) is its scratch memory: node ``q`` is a
+    cell's flat index at ``2 q`` and the next node of its bucket at ``2 q + 1``. The search stops
     once every cell of ``box`` = ``(i0, i1, j0, j1)`` (inclusive) that can be entered is
     settled, which leaves the costs of those cells exactly what the full search gives; other
     cells may keep a larger cost or inf.
@@ -145,33 +167,42 @@ def _cost_to_go(mult, top, cost, parent, ti, tj, box, cell, nodes):
     """
     nj = mult.shape[1]
     width = 0.5 * cell
-    need = 0
-    for i in range(box[0], box[1] + 1):
-        for j in range(box[2], box[3] + 1):
-            need += mult[i, j] < np.inf
-    head = np.full(_slots(int(cell * 1.4142135623730951 * top / width) + 3), -1, np.int64)
+    # the dearest multiplier; reading the map in order also brings it into the cache before the
+    # search reads it cell by cell in the order they settle (the map of a user planned a few
+    # users ago in the batch is no longer there)
+    top = 1.0
+    for mk in mult.reshape(-1):
+        if mk > top and mk < np.inf:
+            top = mk
+    mask, need = _box_mask(mult, box)
+    head = np.full(_slots(int(cell * 1.4142135623730951 * top / width) + 3), -1, np.int32)
     cost[:] = np.inf
+    k = ti * nj + tj
     cost[ti, tj] = 0.0
-    parent[ti * nj + tj] = -1
-    used = _bucket_push(head, nodes[0], nodes[1], nodes[2], 0, 0, 0.0, ti, tj)
-    return _settle(mult, cost, parent, head, nodes, used, 1, 0, box, cell, need, _ALL, 0)
+    parent[k] = -1
+    nodes[0], nodes[1] = k, -1
+    head[0] = 0
+    return _settle(mult, cost, parent, head, nodes, 1, 1, 0, mask, cell, need, _ALL, 0)
 
 
 @numba.njit(cache=True)
-def _settle(mult, cost, parent, head, nodes, used, size, cur, box, cell, need, last, floor):
+def _settle(mult, cost, parent, head, nodes, used, size, cur, mask, cell, need, last, floor):
     """Empty the bucket queue ``head`` (``size`` entries, ``used`` nodes, see
-    :func:`_cost_to_go`) from bucket ``cur`` on, in order: settle each entry that still holds its
-    cell's cost and relax that cell's neighbours, storing in ``parent`` the step back to it
-    (``(1 - di) * 3 + (1 - dj)`` for a step ``(di, dj)``). Stops when the queue is empty, once
-    ``need`` (the enterable cells of ``box`` not yet settled; a negative count never stops)
-    reaches 0 at bucket ``floor`` or later, or past bucket ``last`` (no cost in a later bucket is
-    stored). Returns the level (see :func:`_cost_to_go`): the bucket it stopped in, or ``last``.
+    :func:`_cost_to_go`) from bucket ``cur`` on, in order: settle
+    each cell the first time it comes out (it then holds its exact cost; a later entry of the same
+    cell is an older, dearer one) and relax its neighbours, storing in ``parent`` the step back to
+    it (see :func:`_steps`). Stops when the queue is empty, once ``need`` (the cells flagged in
+    ``mask`` not yet settled; a negative count never stops) reaches 0 at bucket ``floor`` or
+    later, or past bucket ``last`` (no cost in a later bucket is stored). Returns the level (see
+    :func:`_cost_to_go`): the bucket it stopped in, or ``last``.
     """
-    nxt, node_cost, node_key = nodes
-    ni, nj = mult.shape
+    flat_mult, flat_cost = mult.reshape(-1), cost.reshape(-1)
+    offs, codes = _steps(mult.shape[1])
     slot = head.size - 1  # a power of two, less one: the slot of a bucket is bucket & slot
     diag = cell * 1.4142135623730951
+    lengths = np.array([diag, cell, diag, cell, cell, diag, cell, diag])
     width = 0.5 * cell
+    done = np.zeros(flat_mult.size, np.uint8)
     while size > 0 and (need != 0 or cur < floor):
         if cur > last:
             return last
@@ -179,41 +210,38 @@ def _settle(mult, cost, parent, head, nodes, used, size, cur, box, cell, need, l
         if node < 0:
             cur += 1
             continue
-        head[cur & slot] = nxt[node]
+        head[cur & slot] = nodes[2 * node + 1]
         size -= 1
-        c, k = node_cost[node], node_key[node]
-        i, j = k >> 20, k & 0xFFFFF
-        if c > cost[i, j]:
+        k = nodes[2 * node]
+        if done[k]:
             continue
-        if box[0] <= i <= box[1] and box[2] <= j <= box[3] and mult[i, j] < np.inf:
-            need -= 1
-        for di in range(-1, 2):
-            ii = i + di
-            if ii < 0 or ii >= ni:
+        done[k] = 1
+        need -= mask[k]
+        c = flat_cost[k]
+        for q in range(8):
+            kk = k + offs[q]
+            mk = flat_mult[kk]
+            if mk == np.inf:
                 continue
-            for dj in range(-1, 2):
-                jj = j + dj
-                if (di == 0 and dj == 0) or jj < 0 or jj >= nj:
-                    continue
-                mk = mult[ii, jj]
-                if mk == np.inf:
-                    continue
-                nc = c + (diag if di != 0 and dj != 0 else cell) * mk
-                if nc < cost[ii, jj]:
-                    bucket = int(nc / width)
-                    if bucket <= last:
-                        cost[ii, jj] = nc
-                        parent[ii * nj + jj] = (1 - di) * 3 + (1 - dj)
-                        used = _bucket_push(head, nxt, node_cost, node_key, used, bucket, nc,
-                                            ii, jj)  # fmt: skip
-                        size += 1
+            nc = c + lengths[q] * mk
+            if nc < flat_cost[kk]:
+                bucket = int(nc / width)
+                if bucket <= last:
+                    flat_cost[kk] = nc
+                    parent[kk] = codes[q]
+                    s = bucket & slot
+                    nodes[2 * used], nodes[2 * used + 1] = kk, head[s]
+                    head[s] = used
+                    used += 1
+                    size += 1
     return cur if need == 0 and cur >= floor else last
 
 
 @numba.njit(cache=True)
 def _repair(mult, cost, parent, changed, n_changed, ti, tj, box, level, cell, nodes, scratch):
-    """Bring the costs of a search (:func:`_cost_to_go`, at ``level``) up to date after the
-    multipliers of the cells ``changed[:n_changed]`` (flat indices) went up.
+    """Bring the costs of a search (:func:`_cost_to_go`, at ``level``; the same padded map)
+    up to date after the multipliers of the cells ``changed[:n_changed]`` (flat indices) went
+    up.
 
     The cells whose exact cost was known (in a bucket up to ``level``) and whose way back to the
     target passes through a changed cell lose their cost; each gets the best step from a known
@@ -223,38 +251,34 @@ def _repair(mult, cost, parent, changed, n_changed, ti, tj, box, level, cell, no
     cost, so a cell that kept its cost keeps the exact one.) ``scratch`` = ``(flag, cells,
     seed)``, (ni * nj,) each, ``flag`` all 0 (and left so).
     """
-    ni, nj = mult.shape
+    nj = mult.shape[1]
+    flat_mult, flat_cost = mult.reshape(-1), cost.reshape(-1)
+    offs, codes = _steps(nj)
     width = 0.5 * cell
     diag = cell * 1.4142135623730951
     flag, cells, seed = scratch
     n = 0
     for q in range(n_changed):  # the changed cells with a known cost, the target excepted
         k = changed[q]
-        if k != ti * nj + tj and not flag[k] and _within(cost.flat[k], width, level):
+        if k != ti * nj + tj and not flag[k] and _within(flat_cost[k], width, level):
             flag[k] = 1
             cells[n] = k
             n += 1
     q = 0
-    while q < n:  # and every cell whose way back passes through one
-        i, j = cells[q] // nj, cells[q] % nj
+    while q < n:  # and every cell whose way back passes through one (a padding cell has none)
+        k = cells[q]
         q += 1
-        for di in range(-1, 2):
-            for dj in range(-1, 2):
-                ii, jj = i + di, j + dj
-                if (di == 0 and dj == 0) or ii < 0 or ii >= ni or jj < 0 or jj >= nj:
-                    continue
-                k = ii * nj + jj
-                if (not flag[k] and parent[k] == (1 - di) * 3 + (1 - dj)
-                        and _within(cost[ii, jj], width, level)):  # fmt: skip
-                    flag[k] = 1
-                    cells[n] = k
-                    n += 1
+        for s in range(8):
+            kk = k + offs[s]
+            if not flag[kk] and parent[kk] == codes[s] and _within(flat_cost[kk], width, level):
+                flag[kk] = 1
+                cells[n] = kk
+                n += 1
+    mask, _ = _box_mask(mult, box)
     need = 0  # the enterable cells of the box that lose their cost
     for q in range(n):
-        k = cells[q]
-        cost.flat[k] = np.inf
-        i, j = k // nj, k % nj
-        need += box[0] <= i <= box[1] and box[2] <= j <= box[3] and mult[i, j] < np.inf
+        need += mask[cells[q]]
+        flat_cost[cells[q]] = np.inf
     floor = np.int64(0)  # the last bucket of a box cell that keeps its cost
     for i in range(box[0], box[1] + 1):
         for j in range(box[2], box[3] + 1):
@@ -265,23 +289,18 @@ def _repair(mult, cost, parent, changed, n_changed, ti, tj, box, level, cell, no
     for q in range(n):  # each such cell's best step from a neighbour that kept its cost
         k = cells[q]
         flag[k] = 0
-        i, j = k // nj, k % nj
-        mk = mult[i, j]
+        mk = flat_mult[k]
         seed[q] = np.inf
         if mk == np.inf:
             continue
         top = max(top, mk)
-        for di in range(-1, 2):
-            for dj in range(-1, 2):
-                ii, jj = i - di, j - dj  # the neighbour that a step (di, dj) comes from
-                if (di == 0 and dj == 0) or ii < 0 or ii >= ni or jj < 0 or jj >= nj:
-                    continue
-                c = cost[ii, jj]
-                if _within(c, width, level):
-                    nc = c + (diag if di != 0 and dj != 0 else cell) * mk
-                    if nc < seed[q]:
-                        seed[q] = nc
-                        parent[k] = (1 - di) * 3 + (1 - dj)
+        for s in range(8):
+            c = flat_cost[k - offs[s]]  # the neighbour that step ``s`` comes from
+            if _within(c, width, level):
+                nc = c + (diag if s in (0, 2, 5, 7) else cell) * mk
+                if nc < seed[q]:
+                    seed[q] = nc
+                    parent[k] = codes[s]
         if _within(seed[q], width, level):
             lo = min(lo, np.int64(int(seed[q] / width)))
             hi = max(hi, np.int64(int(seed[q] / width)))
@@ -290,14 +309,16 @@ def _repair(mult, cost, parent, changed, n_changed, ti, tj, box, level, cell, no
     # the search only ever lowers cells that lost their cost (any other cell up to the level
     # keeps its exact one, and a cell beyond it stays beyond), so their dearest multiplier
     # bounds a step
-    head = np.full(_slots(int(hi - lo) + int(diag * top / width) + 3), -1, np.int64)
+    head = np.full(_slots(int(hi - lo) + int(diag * top / width) + 3), -1, np.int32)
     used = 0
     for q in range(n):
         if _within(seed[q], width, level):
-            cost.flat[cells[q]] = seed[q]
-            used = _bucket_push(head, nodes[0], nodes[1], nodes[2], used, int(seed[q] / width),
-                                seed[q], cells[q] // nj, cells[q] % nj)  # fmt: skip
-    return _settle(mult, cost, parent, head, nodes, used, used, lo, box, cell, need, level,
+            flat_cost[cells[q]] = seed[q]
+            s = int(seed[q] / width) & (head.size - 1)
+            nodes[2 * used], nodes[2 * used + 1] = cells[q], head[s]
+            head[s] = used
+            used += 1
+    return _settle(mult, cost, parent, head, nodes, used, used, lo, mask, cell, need, level,
                    floor)  # fmt: skip
 
 
@@ -350,10 +371,11 @@ def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cand
     m or into the goal.
 
     ``memo`` = ``(key, clear, mult, cost, parent, level)``: ``key`` (B, 10) int64, ``clear``,
-    ``mult`` and ``cost`` (B, N * N) float64, ``parent`` (B, N * N) int8 and ``level`` (B,)
-    int64: each user's last clearance map, cost multipliers (:func:`_multiplier` of each cell's
-    clearance), cost to go and its search's steps back and level (row-major over its box; see
-    :func:`_cost_to_go`) and what they were computed from (the map's version, the box, the
+    ``mult`` and ``cost`` (B, (N + 2)^2) float64, ``parent`` (B, (N + 2)^2) int8 and ``level``
+    (B,) int64: each user's last clearance map, cost multipliers (:func:`_multiplier` of each
+    cell's clearance), cost to go and its search's steps back and level (row-major over its box
+    with a padding row and column on each side, never entered; see :func:`_cost_to_go`) and what
+    they were computed from (the map's version, the box, the
     target's cell, the user's cell and the reach of the rays). A user whose ``key`` matches the
     present call reuses them: the same inputs give the same maps. One whose map was ``prior``
     and whose box is the same only lowers its clearance map and updates its multipliers where
@@ -369,7 +391,6 @@ def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cand
     p = prm[0]
     cell, half, look, goal_tol = p["cell"], p["half"], p["look"], p["goal_tol"]
     mult_prm = (p["r_tight"], p["r_block"], p["r_comfort"], p["comfort_cost"], p["tight_cost"])
-    top = 1.0 + p["comfort_cost"] + p["tight_cost"]  # the dearest multiplier
     r_tight, r_block, turn_cost = p["r_tight"], p["r_block"], p["turn_cost"]
     step_a, tight_penalty, hold = p["step_a"], p["tight_penalty"], p["hold"]
     geom = np.array([0.5 * cell, half, cell, goal_tol])
@@ -386,7 +407,7 @@ def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cand
             ring[(di + w) * nw + dj + w] = d
     # scratch memory reused by every user: the search's queue nodes, the cells near news, and
     # the repair's flags, cells and seed costs
-    nxt, node_cost, node_key = np.empty(0, np.int64), np.empty(0), np.empty(0, np.int64)
+    nodes = np.empty(0, np.int32)
     near = np.empty(0, np.int64)
     flag, cells, seed = np.zeros(0, np.uint8), np.empty(0, np.int64), np.empty(0)
     passed = np.zeros(cands.size, np.bool_)  # per candidate: clear with the full margin
@@ -409,11 +430,12 @@ def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cand
         j0 = max(min(lo[b, 1], pj, tj) - pad, 0)
         j1 = min(max(hi[b, 1], pj, tj) + pad, n - 1)
         ni, nj = i1 - i0 + 1, j1 - j0 + 1
+        size = (ni + 2) * (nj + 2)  # map cell (i, j) is at [i - i0 + 1, j - j0 + 1]
         reach = math.ceil(max(look, keep_len[b]) / cell) + 1
-        clear = clear_memo[b, : ni * nj].reshape((ni, nj))
-        mult = mult_memo[b, : ni * nj].reshape((ni, nj))
-        cost = cost_memo[b, : ni * nj].reshape((ni, nj))
-        parent = parent_memo[b, : ni * nj]
+        clear = clear_memo[b, :size].reshape((ni + 2, nj + 2))
+        mult = mult_memo[b, :size].reshape((ni + 2, nj + 2))
+        cost = cost_memo[b, :size].reshape((ni + 2, nj + 2))
+        parent = parent_memo[b, :size]
         same_box = key[b, 1] == i0 and key[b, 2] == i1 and key[b, 3] == j0 and key[b, 4] == j1
         grown = same_box and key[b, 0] == prior[b] and prior[b] >= 0  # only ``news`` are new
         same_target = grown and key[b, 5] == ti and key[b, 6] == tj
@@ -423,13 +445,11 @@ def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cand
             key[b, q + 1] = v
         key[b, 0] = version[b]
         if not same:
-            if nxt.size < 9 * ni * nj + 1:  # enough for a search and for a repair
-                nxt = np.empty(9 * ni * nj + 1, np.int64)
-                node_cost = np.empty(9 * ni * nj + 1)
-                node_key = np.empty(9 * ni * nj + 1, np.int64)
-                seed = np.empty(ni * nj)
-                near, cells = np.empty(ni * nj, np.int64), np.empty(ni * nj, np.int64)
-                flag = np.zeros(ni * nj, np.uint8)
+            if nodes.size < 2 * (9 * size + 1):  # enough for a search and for a repair
+                nodes = np.empty(2 * (9 * size + 1), np.int32)
+                seed = np.empty(size)
+                near, cells = np.empty(size, np.int64), np.empty(size, np.int64)
+                flag = np.zeros(size, np.uint8)
             n_near = 0
             if grown and prior[b] != version[b]:
                 # the cells the news can lower
@@ -439,7 +459,7 @@ def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cand
                         continue
                     for ii in range(max(oi - w, i0), min(oi + w, i1) + 1):
                         for jj in range(max(oj - w, j0), min(oj + w, j1) + 1):
-                            k = (ii - i0) * nj + jj - j0
+                            k = (ii - i0 + 1) * (nj + 2) + jj - j0 + 1
                             if not flag[k]:
                                 flag[k] = 1
                                 near[n_near] = k
@@ -461,23 +481,26 @@ def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cand
                 n_near = m
             elif not grown:
                 _clearance(occ[b], clear, i0, i1, j0, j1, w, ring, cap)
-                for k in range(ni * nj):
-                    mult.flat[k] = _multiplier(clear.flat[k], mult_prm)
+                mult[:] = np.inf  # the padding, never entered
+                far_off = _multiplier(cap, mult_prm)  # no marked cell within ``w``
+                for i in range(1, ni + 1):
+                    for j in range(1, nj + 1):
+                        cl = clear[i, j]
+                        mult[i, j] = far_off if cl == cap else _multiplier(cl, mult_prm)
             # the cost to go from the target, dearer close to obstacles. Only the cells the rays
             # below can read are needed: a square of ``reach`` cells around the user. A search
             # on the same box and target is brought up to date instead when it can be.
-            box = (max(pi - reach - i0, 0), min(pi + reach - i0, ni - 1),
-                   max(pj - reach - j0, 0), min(pj + reach - j0, nj - 1))  # fmt: skip
-            nodes = (nxt, node_cost, node_key)
+            box = (max(pi - reach - i0, 0) + 1, min(pi + reach - i0, ni - 1) + 1,
+                   max(pj - reach - j0, 0) + 1, min(pj + reach - j0, nj - 1) + 1)  # fmt: skip
             known = False
             if same_target:
                 if n_near:
-                    level_memo[b] = _repair(mult, cost, parent, near, n_near, ti - i0, tj - j0,
-                                            box, level_memo[b], cell, nodes,
+                    level_memo[b] = _repair(mult, cost, parent, near, n_near, ti - i0 + 1,
+                                            tj - j0 + 1, box, level_memo[b], cell, nodes,
                                             (flag, cells, seed))  # fmt: skip
                 known = _known(mult, cost, box, level_memo[b], cell)
             if not known:
-                level_memo[b] = _cost_to_go(mult, top, cost, parent, ti - i0, tj - j0, box,
+                level_memo[b] = _cost_to_go(mult, cost, parent, ti - i0 + 1, tj - j0 + 1, box,
                                             cell, nodes)  # fmt: skip
         # every heading with the full margin, and with the tight one at a penalty; the aim of
         # the last step gets a bonus (hysteresis). The user may always move away from, or
@@ -488,7 +511,8 @@ def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cand
         # best so far is not marched. The headings are tried near the last aim first, then by
         # the size of the turn, so that a good best comes early.
         x, y = pos[b, 0], pos[b, 1]
-        c0 = clear[pi - i0, pj - j0] - 0.02
+        goal = (ti - i0, tj - j0, int(goal_tol / cell) + 1)
+        c0 = clear[pi - i0 + 1, pj - j0 + 1] - 0.02
         prev = prev_aim[b] - heading[b]
         prev = (prev + math.pi) % (2.0 * math.pi) - math.pi
         low = np.inf
@@ -499,7 +523,7 @@ def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cand
             for jj in range(max(pj - around - j0, 0), min(pj + around - j0, nj - 1) + 1):
                 dy = (jj + j0 + 0.5) * cell - half - y
                 if dx * dx + dy * dy <= reach2:
-                    low = min(low, cost[ii, jj])
+                    low = min(low, cost[ii + 1, jj + 1])
         m = 0
         for q in range(cands.size):
             passed[q] = False
@@ -529,7 +553,7 @@ def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cand
                         bound == best and (tier, q) > (best_tier, best_q)):  # fmt: skip
                     continue
                 ok, end_cost = _march(
-                    clear, cost, i0, j0, x, y, heading[b] + a, look, thr, land[b], geom
+                    clear, cost, i0, j0, x, y, heading[b] + a, look, thr, land[b], geom, goal
                 )
                 if tier == 0:
                     passed[q] = ok
@@ -544,8 +568,9 @@ def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cand
         valid_out[b] = best < np.inf
         aim_out[b] = best_a
         h = heading[b]
-        go_out[b] = _march(clear, cost, i0, j0, x, y, h, look, thr, land[b], geom)[0]
-        keep_out[b] = _march(clear, cost, i0, j0, x, y, h, keep_len[b], thr, land[b], geom)[0]
+        go_out[b] = _march(clear, cost, i0, j0, x, y, h, look, thr, land[b], geom, goal)[0]
+        keep_out[b] = _march(clear, cost, i0, j0, x, y, h, keep_len[b], thr, land[b], geom,
+                             goal)[0]  # fmt: skip
 
 
 #: The goal seeker's planner: ``plan_kernel(batch_size)(...)`` (see ``_plan_run``).

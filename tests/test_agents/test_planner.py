@@ -15,24 +15,39 @@ SQRT2 = 1.4142135623730951
 
 
 def _nodes(ni, nj):
-    return (np.empty(9 * ni * nj + 1, np.int64), np.empty(9 * ni * nj + 1),
-            np.empty(9 * ni * nj + 1, np.int64))  # fmt: skip
+    return np.empty(2 * (9 * ni * nj + 1), np.int32)
+
+
+def _padded(mult):
+    """``mult`` with a row and a column of walls on each side, as the planner keeps its maps."""
+    return np.pad(mult, 1, constant_values=np.inf)
 
 
 def _search(mult, start, box, cell):
-    """The search's costs, its parents and its level."""
+    """The search's costs, its parents and its level on the padded map ``mult`` (``start`` and
+    ``box`` in its indices)."""
     ni, nj = mult.shape
     cost, parent = np.empty((ni, nj)), np.empty(ni * nj, np.int8)
-    top = max(1.0, mult[np.isfinite(mult)].max(initial=1.0))  # the dearest multiplier
-    level = _cost_to_go(mult, top, cost, parent, start[0], start[1], box, cell, _nodes(ni, nj))
+    level = _cost_to_go(mult, cost, parent, start[0], start[1], box, cell, _nodes(ni, nj))
     return cost, parent, level
 
 
 def _random_map(rng, cell):
+    """A padded map; then a random cell of it inside the padding."""
     ni, nj = rng.integers(5, 40, size=2)
     mult = 1.0 + rng.uniform(0.0, 4.0, (ni, nj)) * (rng.random((ni, nj)) < 0.5)
     mult[rng.random((ni, nj)) < 0.25] = np.inf  # walls: never entered
-    return mult
+    return _padded(mult)
+
+
+def _inner_cell(rng, mult):
+    return int(rng.integers(1, mult.shape[0] - 1)), int(rng.integers(1, mult.shape[1] - 1))
+
+
+def _square(i, j, mult, half=3):
+    """The square of ``half`` cells around ``(i, j)``, inside the padding."""
+    ni, nj = mult.shape
+    return (max(i - half, 1), min(i + half, ni - 2), max(j - half, 1), min(j + half, nj - 2))
 
 
 def _scipy_costs(mult, start, cell):
@@ -61,16 +76,15 @@ def test_the_bucket_queue_search_gives_scipys_dijkstra_costs(seed):
     cell = (0.05, 0.1, 0.25)[seed % 3]
     mult = _random_map(rng, cell)
     ni, nj = mult.shape
-    start = (int(rng.integers(ni)), int(rng.integers(nj)))
+    start = _inner_cell(rng, mult)
     mult[start] = 1.0
     want = _scipy_costs(mult, start, cell)
-    assert np.isinf(want).any() and np.isfinite(want).sum() > 10  # walls cut some cells off
-    got, _, level = _search(mult, start, (0, ni - 1, 0, nj - 1), cell)
+    assert np.isinf(want[1:-1, 1:-1]).any() and np.isfinite(want).sum() > 10  # walls cut some off
+    got, _, level = _search(mult, start, (1, ni - 2, 1, nj - 2), cell)
     np.testing.assert_array_equal(got, want)
     _assert_level(got, want, level, cell)
     # stopping early, once a small square is settled: that square keeps the full costs
-    i, j = int(rng.integers(ni)), int(rng.integers(nj))
-    box = (max(i - 3, 0), min(i + 3, ni - 1), max(j - 3, 0), min(j + 3, nj - 1))
+    box = _square(*_inner_cell(rng, mult), mult)
     early, _, level = _search(mult, start, box, cell)
     sq = (slice(box[0], box[1] + 1), slice(box[2], box[3] + 1))
     np.testing.assert_array_equal(early[sq], want[sq])
@@ -98,16 +112,16 @@ def test_a_repaired_search_equals_a_search_on_the_raised_multipliers(seed):
     cell = (0.05, 0.1, 0.25)[seed % 3]
     mult = _random_map(rng, cell)
     ni, nj = mult.shape
-    start = (int(rng.integers(ni)), int(rng.integers(nj)))
+    start = _inner_cell(rng, mult)
     mult[start] = 1.0
-    i, j = int(rng.integers(ni)), int(rng.integers(nj))
-    box = (max(i - 3, 0), min(i + 3, ni - 1), max(j - 3, 0), min(j + 3, nj - 1))
+    box = _square(*_inner_cell(rng, mult), mult)
     sq = (slice(box[0], box[1] + 1), slice(box[2], box[3] + 1))
     cost, parent, level = _search(mult, start, box, cell)
     scratch = (np.zeros(ni * nj, np.uint8), np.empty(ni * nj, np.int64), np.empty(ni * nj))
     known = 0
     for _ in range(6):
-        changed = np.unique(rng.integers(ni * nj, size=int(rng.integers(1, 8))))
+        inner = rng.integers(1, (ni - 1, nj - 1), size=(int(rng.integers(1, 8)), 2))
+        changed = np.unique(inner[:, 0] * nj + inner[:, 1])  # flat indices, inside the padding
         raised = mult.ravel()[changed] * rng.uniform(1.0, 3.0, changed.size)
         raised[rng.random(changed.size) < 0.3] = np.inf
         mult.ravel()[changed] = raised
