@@ -99,13 +99,10 @@ def _stamp(clear, oi, oj, i0, i1, j0, j1, w, ring):
     di0, di1 = max(-w, i0 - oi), min(w, i1 - oi)
     dj0, dj1 = max(-w, j0 - oj), min(w, j1 - oj)
     for di in range(di0, di1 + 1):
-        ii = oi + di - i0 + 1
-        row = (di + w) * nw
-        for dj in range(dj0, dj1 + 1):
-            jj = oj + dj - j0 + 1
-            d = ring[row + dj + w]
-            if d < clear[ii, jj]:
-                clear[ii, jj] = d
+        line = clear[oi + di - i0 + 1, oj + dj0 - j0 + 1 : oj + dj1 - j0 + 2]
+        near = ring[(di + w) * nw + dj0 + w : (di + w) * nw + dj1 + w + 1]
+        for q in range(line.size):  # a minimum run along the row (vectorised)
+            line[q] = min(line[q], near[q])
 
 
 #: The level of a search that ran until its queue was empty: every reached cell is exact.
@@ -346,8 +343,7 @@ def _multiplier(cl, prm):
     r_tight, r_block, r_comfort, comfort_cost, tight_cost = prm
     band = max(r_comfort - r_block, 1e-9)
     m = 1.0 + comfort_cost * min(max(r_comfort - cl, 0.0) / band, 1.0)
-    if cl <= r_block:
-        m += tight_cost
+    m = m + tight_cost if cl <= r_block else m
     return m if cl > r_tight else np.inf
 
 
@@ -482,11 +478,10 @@ def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cand
             elif not grown:
                 _clearance(occ[b], clear, i0, i1, j0, j1, w, ring, cap)
                 mult[:] = np.inf  # the padding, never entered
-                far_off = _multiplier(cap, mult_prm)  # no marked cell within ``w``
                 for i in range(1, ni + 1):
-                    for j in range(1, nj + 1):
-                        cl = clear[i, j]
-                        mult[i, j] = far_off if cl == cap else _multiplier(cl, mult_prm)
+                    inner, line = mult[i, 1 : nj + 1], clear[i, 1 : nj + 1]
+                    for j in range(nj):  # vectorised along the row
+                        inner[j] = _multiplier(line[j], mult_prm)
             # the cost to go from the target, dearer close to obstacles. Only the cells the rays
             # below can read are needed: a square of ``reach`` cells around the user. A search
             # on the same box and target is brought up to date instead when it can be.
