@@ -138,6 +138,22 @@ def _init_worker(claimed: Any) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
+def _pool_context() -> Any:
+    """How to start the local workers: the platform's default (``fork`` on Linux: the workers
+    start at once, with this process's compiled kernels), unless this process has started
+    numba's threads (a vector env of many users did): forking a process that runs OpenMP threads
+    is unsafe (GNU OpenMP kills the child), so the workers are spawned instead."""
+    import multiprocessing
+
+    import numba
+
+    try:
+        numba.threading_layer()
+    except ValueError:  # no thread started yet
+        return multiprocessing.get_context()
+    return multiprocessing.get_context("spawn")
+
+
 class _Claim:
     """The claims on job ``k``'s ``total`` episodes through the shared counters ``claimed``:
     ``claim(n)`` takes the next (up to) ``n`` indices, for this process alone."""
@@ -503,12 +519,11 @@ def _run_jobs(jobs: list, workers: int, progress: bool, backend: str = "local",
                 yield done
                 bar.advance(task, len(done))
             return
-        import multiprocessing
-
         n_workers = min(workers, len(jobs))
-        claimed = multiprocessing.Array("q", len(jobs))  # episodes claimed per job, all 0
-        pool = ProcessPoolExecutor(max_workers=n_workers, initializer=_init_worker,
-                                   initargs=(claimed,))  # fmt: skip
+        context = _pool_context()
+        claimed = context.Array("q", len(jobs))  # episodes claimed per job, all 0
+        pool = ProcessPoolExecutor(max_workers=n_workers, mp_context=context,
+                                   initializer=_init_worker, initargs=(claimed,))  # fmt: skip
         try:
             # every batched job once, then helpers: a worker with nothing left to start joins
             # the jobs still running, the last started first (a finished one returns at once)

@@ -232,6 +232,38 @@ def test_local_workers_with_helpers_play_every_episode_once():
     assert sorted(played, key=str) == sorted(((c, i) for c in cells for i in range(3)), key=str)
 
 
+_AFTER_THREADS = """
+import numba
+import numpy as np
+
+import estimators.kernels.batch as batch
+from agents.benchmark import run_benchmark
+from vrloco_env.vector import VRLocoVectorEnv
+
+batch.PARALLEL_MIN_BATCH = 2  # even the grid's batches of 2 users run on numba's threads
+env = VRLocoVectorEnv(2, task="approach")
+env.reset(seed=[0, 1])
+env.step(np.zeros((2, env.single_action_space.shape[0]), np.float32))
+print("threads:", numba.threading_layer())
+kw = {"tasks": ["approach", "avoid"], "policies": ["goal_seeker"], "techniques": ["seed000"],
+      "episodes": 2, "seed": 5, "progress": False, "print_table": False}
+print("same table:", run_benchmark(**kw, workers=2) == run_benchmark(**kw, workers=1))
+"""
+
+
+def test_local_workers_start_in_a_process_whose_kernels_ran_threads():
+    """A child forked from a process whose kernels ran on OpenMP threads dies when its own
+    kernels do: after such a step, the grid's workers are spawned instead (they start afresh,
+    serial again below their batch threshold) and give the same table."""
+    import subprocess
+    import sys
+
+    run = subprocess.run([sys.executable, "-c", _AFTER_THREADS], capture_output=True, text=True,
+                         timeout=600)  # fmt: skip
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert "threads: omp" in run.stdout and "same table: True" in run.stdout, run.stdout
+
+
 def test_the_batched_and_the_one_at_a_time_grid_give_one_table():
     kw = {"tasks": ["approach", "avoid"], "policies": ["goal_seeker", "avoid_manoeuvre+human"],
           "techniques": ["seed000"], "episodes": 3, "seed": 2, "progress": False,
