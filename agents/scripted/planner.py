@@ -185,13 +185,14 @@ def _cost_to_go(mult, cost, parent, ti, tj, box, cell, nodes):
 @numba.njit(cache=True)
 def _settle(mult, cost, parent, head, nodes, used, size, cur, mask, cell, need, last, floor):
     """Empty the bucket queue ``head`` (``size`` entries, ``used`` nodes, see
-    :func:`_cost_to_go`) from bucket ``cur`` on, in order: settle
-    each cell the first time it comes out (it then holds its exact cost; a later entry of the same
-    cell is an older, dearer one) and relax its neighbours, storing in ``parent`` the step back to
-    it (see :func:`_steps`). Stops when the queue is empty, once ``need`` (the cells flagged in
-    ``mask`` not yet settled; a negative count never stops) reaches 0 at bucket ``floor`` or
-    later, or past bucket ``last`` (no cost in a later bucket is stored). Returns the level (see
-    :func:`_cost_to_go`): the bucket it stopped in, or ``last``.
+    :func:`_cost_to_go`) from bucket ``cur`` on, in order: settle each cell the first time it
+    comes out (it then holds its exact cost; a later entry of the same cell is an older, dearer
+    one) and relax its neighbours, storing in ``parent`` the step back to it (see
+    :func:`_steps`). ``mask`` (flat, uint8) holds the cells ``need`` counts in bit 0, and this
+    marks each cell it settles in bit 1. Stops when the queue is empty, once ``need`` (the
+    counted cells not yet settled; a negative count never stops) reaches 0 at bucket ``floor``
+    or later, or past bucket ``last`` (no cost in a later bucket is stored). Returns the level
+    (see :func:`_cost_to_go`): the bucket it stopped in, or ``last``.
     """
     flat_mult, flat_cost = mult.reshape(-1), cost.reshape(-1)
     offs, codes = _steps(mult.shape[1])
@@ -199,7 +200,6 @@ def _settle(mult, cost, parent, head, nodes, used, size, cur, mask, cell, need, 
     diag = cell * 1.4142135623730951
     lengths = np.array([diag, cell, diag, cell, cell, diag, cell, diag])
     width = 0.5 * cell
-    done = np.zeros(flat_mult.size, np.uint8)
     while size > 0 and (need != 0 or cur < floor):
         if cur > last:
             return last
@@ -210,10 +210,11 @@ def _settle(mult, cost, parent, head, nodes, used, size, cur, mask, cell, need, 
         head[cur & slot] = nodes[2 * node + 1]
         size -= 1
         k = nodes[2 * node]
-        if done[k]:
+        flags = mask[k]
+        if flags & 2:  # settled already
             continue
-        done[k] = 1
-        need -= mask[k]
+        mask[k] = flags | 2
+        need -= flags & 1
         c = flat_cost[k]
         for q in range(8):
             kk = k + offs[q]
