@@ -31,6 +31,7 @@ technique pairs whose cells the run holds (:mod:`agents.discrimination`, also ``
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
@@ -128,14 +129,27 @@ def _job(args: tuple) -> list[tuple]:
 _CLAIMED: Any = None
 
 
-def _init_worker(claimed: Any) -> None:
-    """A local worker process: the jobs' shared claim counters; Ctrl-C is left to the main
-    process, which stops the workers."""
+def _init_worker(claimed: Any, threads: int) -> None:
+    """A local worker process: the jobs' shared claim counters, and ``threads`` for its compiled
+    kernels (its share of the cores, :func:`estimators.kernels.use_threads`: 1 where there are
+    as many workers as cores). Ctrl-C is left to the main process, which stops the workers."""
     import signal
+
+    from estimators.kernels import use_threads
 
     global _CLAIMED
     _CLAIMED = claimed
+    use_threads(threads)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _worker_threads(n_workers: int) -> int:
+    """Each of ``n_workers`` local workers' share of this process's cores (at least 1, at most
+    numba's thread count)."""
+    import numba
+
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    return max(1, min((cores or 1) // n_workers, numba.config.NUMBA_NUM_THREADS))
 
 
 def _pool_context() -> Any:
@@ -523,7 +537,8 @@ def _run_jobs(jobs: list, workers: int, progress: bool, backend: str = "local",
         context = _pool_context()
         claimed = context.Array("q", len(jobs))  # episodes claimed per job, all 0
         pool = ProcessPoolExecutor(max_workers=n_workers, mp_context=context,
-                                   initializer=_init_worker, initargs=(claimed,))  # fmt: skip
+                                   initializer=_init_worker,
+                                   initargs=(claimed, _worker_threads(n_workers)))  # fmt: skip
         try:
             # every batched job once, then helpers: a worker with nothing left to start joins
             # the jobs still running, the last started first (a finished one returns at once)

@@ -1,7 +1,7 @@
 """What every compiled kernel shares: the batch driver, scalar rotations and named records.
 
 - :mod:`estimators.kernels.batch`: :class:`BatchKernel`, the serial and multi-threaded builds of
-  one per-user kernel, chosen by batch size (the one loop over users).
+  one per-user kernel, chosen by batch size (the one loop over users); :func:`use_threads`.
 - :mod:`estimators.kernels.rotations`: scalar quaternion and angle helpers.
 - :mod:`estimators.kernels.records`: parameters and per-user state as named record arrays.
 
@@ -10,7 +10,12 @@ uncompiled ``py_func`` is the readable reference: inside ``with python_reference
 kernel runs uncompiled, which is how the tests check each compiled build against its source.
 """
 
-from estimators.kernels.batch import PARALLEL_MIN_BATCH, BatchKernel, python_reference
+from estimators.kernels.batch import (
+    PARALLEL_MIN_BATCH,
+    BatchKernel,
+    python_reference,
+    use_threads,
+)
 from estimators.kernels.records import param_record, record_dtype, state_records
 
 __all__ = [
@@ -20,4 +25,5 @@ __all__ = [
     "python_reference",
     "record_dtype",
     "state_records",
+    "use_threads",
 ]

@@ -18,6 +18,10 @@ run gave 11,000 and 9,900: no loss with idle cores, graceful under load. This mo
 policy unless the environment already chooses one; it must be set before the OpenMP runtime
 starts, which happens at the first parallel call, after this import.
 (``python benchmarks/bench_env.py --contention`` measures both cases.)
+
+Worker processes. A process that runs beside as many busy workers as there are cores has no
+core for a kernel's second thread; :func:`use_threads` (``1``) keeps its kernels on their serial
+builds (no parallel region to start and join, and no second build to load).
 """
 
 from __future__ import annotations
@@ -31,7 +35,7 @@ os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 import numba  # after the OpenMP policy: see the module docstring
 
-__all__ = ["PARALLEL_MIN_BATCH", "BatchKernel", "python_reference"]
+__all__ = ["PARALLEL_MIN_BATCH", "BatchKernel", "python_reference", "use_threads"]
 
 #: Batches at least this large take the multi-threaded build (measured on 2 cores: below ~16
 #: users the thread start-up outweighs the work of the motion and Kinect kernels).
@@ -39,6 +43,20 @@ PARALLEL_MIN_BATCH = 16
 
 
 _python_reference = False
+_serial_only = False  # set by use_threads(1)
+
+
+def use_threads(n: int) -> None:
+    """Let the kernels of this process use at most ``n`` threads (``numba.set_num_threads``);
+    ``n = 1`` keeps every kernel on its serial build. For a worker process among others that
+    share the cores (:mod:`agents.benchmark` gives each of its local workers its share)."""
+    global _serial_only
+    most = numba.config.NUMBA_NUM_THREADS
+    if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= most:
+        raise ValueError(f"n must be an integer in [1, {most}], got {n!r}")
+    _serial_only = n == 1
+    if not _serial_only:
+        numba.set_num_threads(n)
 
 
 @contextlib.contextmanager
@@ -87,4 +105,6 @@ class BatchKernel:
         :func:`python_reference`)."""
         if _python_reference:
             return self.py_func
-        return self.parallel if batch_size >= PARALLEL_MIN_BATCH else self.serial
+        if batch_size >= PARALLEL_MIN_BATCH and not _serial_only:
+            return self.parallel
+        return self.serial

@@ -251,6 +251,19 @@ print("same table:", run_benchmark(**kw, workers=2) == run_benchmark(**kw, worke
 """
 
 
+def test_each_local_worker_gets_its_share_of_the_cores():
+    import os
+
+    import numba
+
+    from agents.benchmark import _worker_threads
+
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    assert _worker_threads(1) == min(cores, numba.config.NUMBA_NUM_THREADS)
+    assert _worker_threads(cores) == 1  # as many workers as cores: serial kernels
+    assert _worker_threads(4 * cores) == 1
+
+
 def test_local_workers_start_in_a_process_whose_kernels_ran_threads():
     """A child forked from a process whose kernels ran on OpenMP threads dies when its own
     kernels do: after such a step, the grid's workers are spawned instead (they start afresh,

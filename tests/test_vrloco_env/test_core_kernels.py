@@ -109,6 +109,24 @@ def test_cadence_is_the_step_rate_and_decays_at_rest():
 
 
 
+def test_one_thread_keeps_every_batch_on_the_serial_build(monkeypatch):
+    """``use_threads(1)`` (a worker with one core of its own) takes the serial build however
+    large the batch; a thread count out of range is refused by name."""
+    from estimators.kernels import batch
+    from vrloco_env.user._motion_numba import evaluate_kernel
+
+    n = batch.PARALLEL_MIN_BATCH
+    assert evaluate_kernel(n) is evaluate_kernel.parallel
+    assert evaluate_kernel.parallel is not evaluate_kernel.serial
+    monkeypatch.setattr(batch, "_serial_only", False)  # restored after the test
+    batch.use_threads(1)
+    assert evaluate_kernel(n) is evaluate_kernel.serial
+    assert evaluate_kernel(10 * n) is evaluate_kernel.serial
+    for bad in (0, -1, 1.0, True, batch.numba.config.NUMBA_NUM_THREADS + 1):
+        with pytest.raises(ValueError, match=r"n must be an integer in \[1, "):
+            batch.use_threads(bad)
+
+
 @pytest.mark.slow
 def test_parallel_builds_give_the_serial_builds_bits(monkeypatch):
     """Vector envs of >= PARALLEL_MIN_BATCH users run the motion and Kinect kernels on all
