@@ -15,7 +15,9 @@ processes, in this one run: ``batch_size=0`` plays every episode alone in a sing
 (:func:`agents.episodes.run_cell_episode`), the batched path plays each cell's episodes as
 users of the native vector env (:func:`agents.episodes.run_cell_batched`). It prints
 episodes/s of each, their ratio, and whether the two tables are identical (they must be).
-Each path runs once untimed first on a small grid, so that numba's compilation is not timed.
+Each path runs once untimed first on a small grid in this process, so that neither numba's
+compilation nor the loading of the compiled code into a process is timed: the workers, forked
+from this process, start with the kernels loaded, as those of a long run soon have them.
 ``--profile`` instead plays the first technique's cells of each task batched in this process
 under cProfile and prints the functions that took the most time, with their share, and how many
 of the user-steps simulated were users whose episode had ended (none where every part of the env
@@ -62,7 +64,8 @@ def main() -> None:
     rates, tables = {}, {}
     for label, batch in (("one episode at a time", 0), (f"batched ({args.batch_size})",
                                                         args.batch_size)):  # fmt: skip
-        run_benchmark(**{**grid, "episodes": 2}, batch_size=batch)  # compile, warm the workers
+        # compile and load the kernels here, for the forked workers (batches of 2: serial builds)
+        run_benchmark(**{**grid, "episodes": 2, "workers": 1}, batch_size=batch)
         t = time.perf_counter()
         tables[label] = run_benchmark(**grid, episodes=args.episodes, batch_size=batch)
         dt = time.perf_counter() - t
