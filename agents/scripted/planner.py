@@ -116,13 +116,15 @@ def _within(c, width, level):
 
 
 @numba.njit(cache=True, inline="always")
-def _steps(nj):
-    """The 8 steps between neighbouring cells of a padded map of ``nj`` columns: their flat
-    offsets, and the code of each step (``(1 - di) * 3 + (1 - dj)`` for a step ``(di, dj)``), in
-    the order di = -1, 0, 1, then dj = -1, 0, 1."""
+def _steps(nj, cell):
+    """The 8 steps between neighbouring cells of a padded map of ``nj`` columns and cells of
+    ``cell`` (m), in the order di = -1, 0, 1, then dj = -1, 0, 1: their flat offsets, the code of
+    each (``(1 - di) * 3 + (1 - dj)`` for a step ``(di, dj)``) and its length (m)."""
     offs = np.array([-nj - 1, -nj, -nj + 1, -1, 1, nj - 1, nj, nj + 1])
     codes = np.array([8, 7, 6, 5, 3, 2, 1, 0], np.int8)
-    return offs, codes
+    diag = cell * 1.4142135623730951
+    lengths = np.array([diag, cell, diag, cell, cell, diag, cell, diag])
+    return offs, codes, lengths
 
 
 @numba.njit(cache=True, inline="always")
@@ -164,10 +166,7 @@ def _cost_to_go(mult, cost, parent, ti, tj, box, cell, nodes):
     """
     nj = mult.shape[1]
     width = 0.5 * cell
-    # the dearest multiplier; reading the map in order also brings it into the cache before the
-    # search reads it cell by cell in the order they settle (the map of a user planned a few
-    # users ago in the batch is no longer there)
-    top = 1.0
+    top = 1.0  # the dearest multiplier on the map
     for mk in mult.reshape(-1):
         if mk > top and mk < np.inf:
             top = mk
@@ -195,10 +194,8 @@ def _settle(mult, cost, parent, head, nodes, used, size, cur, mask, cell, need, 
     (see :func:`_cost_to_go`): the bucket it stopped in, or ``last``.
     """
     flat_mult, flat_cost = mult.reshape(-1), cost.reshape(-1)
-    offs, codes = _steps(mult.shape[1])
+    offs, codes, lengths = _steps(mult.shape[1], cell)
     slot = head.size - 1  # a power of two, less one: the slot of a bucket is bucket & slot
-    diag = cell * 1.4142135623730951
-    lengths = np.array([diag, cell, diag, cell, cell, diag, cell, diag])
     width = 0.5 * cell
     while size > 0 and (need != 0 or cur < floor):
         if cur > last:
@@ -251,9 +248,8 @@ def _repair(mult, cost, parent, changed, n_changed, ti, tj, box, level, cell, no
     """
     nj = mult.shape[1]
     flat_mult, flat_cost = mult.reshape(-1), cost.reshape(-1)
-    offs, codes = _steps(nj)
+    offs, codes, lengths = _steps(nj, cell)
     width = 0.5 * cell
-    diag = cell * 1.4142135623730951
     flag, cells, seed = scratch
     n = 0
     for q in range(n_changed):  # the changed cells with a known cost, the target excepted
@@ -295,7 +291,7 @@ def _repair(mult, cost, parent, changed, n_changed, ti, tj, box, level, cell, no
         for s in range(8):
             c = flat_cost[k - offs[s]]  # the neighbour that step ``s`` comes from
             if _within(c, width, level):
-                nc = c + (diag if s in (0, 2, 5, 7) else cell) * mk
+                nc = c + lengths[s] * mk
                 if nc < seed[q]:
                     seed[q] = nc
                     parent[k] = codes[s]
@@ -307,7 +303,7 @@ def _repair(mult, cost, parent, changed, n_changed, ti, tj, box, level, cell, no
     # the search only ever lowers cells that lost their cost (any other cell up to the level
     # keeps its exact one, and a cell beyond it stays beyond), so their dearest multiplier
     # bounds a step
-    head = np.full(_slots(int(hi - lo) + int(diag * top / width) + 3), -1, np.int32)
+    head = np.full(_slots(int(hi - lo) + int(lengths[0] * top / width) + 3), -1, np.int32)
     used = 0
     for q in range(n):
         if _within(seed[q], width, level):
