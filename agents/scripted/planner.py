@@ -42,7 +42,7 @@ def _march(clear, cost, i0, j0, x, y, ang, length, thr, land, geom, goal):
     every sample up to ``length`` keeps a clearance of at least ``thr``, or when the ray reaches
     the goal (cost to go <= the goal tolerance) first — at any sample if ``land`` is 0, else at
     the first sample at or beyond ``land`` (m), where a bout that starts now puts the body down;
-    and the cost to go at the last sample (inf if there is none).
+    and, when ok, the cost to go at the last sample read (inf if there is none, or when not ok).
 
     ``goal`` = ``(ti, tj, r)``: a cell whose cost to go is within the goal tolerance lies within
     ``r`` cells (in i and in j) of the target's cell ``(ti, tj)`` (box indices), because every
