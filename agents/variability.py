@@ -48,7 +48,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agents.scripted import Policy
-from estimators.batching import TakesUsers, takes_users
+from estimators.batching import TakesUsers
 from estimators.validation import check_in_range
 from vrloco_env.batch_rng import BatchRng
 
@@ -225,9 +225,6 @@ class HumanVariability(TakesUsers):
         """
         if self._rng is None:
             raise RuntimeError("reset(rng) must be called before take_users()")
-        if not takes_users(self.policy):
-            raise TypeError(f"the wrapped policy ({type(self.policy).__name__}) has no "
-                            "take_users(rows): its users cannot be dropped")  # fmt: skip
         super().take_users(np.asarray(rows, dtype=np.intp))
 
     def _alloc(self, b: int) -> None:

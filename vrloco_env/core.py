@@ -257,17 +257,14 @@ class LocoCore(TakesUsers):
         Raises:
             RuntimeError: before the first :meth:`reset`.
             ValueError: bad or repeated indices, or none.
-            TypeError: a part that cannot drop users (see :attr:`can_take_users`); nothing is
-                changed.
+            TypeError: a part that cannot drop users (a plug-in stage, the task or the tracker;
+                see :attr:`can_take_users`); nothing is changed.
         """
         if self.rooms is None:
             raise RuntimeError("reset() must be called before take_users()")
         r = stream_rows(rows, self.batch_size, "rows")
         if r.size == 0:
             raise ValueError("take_users: rows must keep at least one user")
-        if not self.can_take_users:
-            raise TypeError("take_users: a part of this batch (a plug-in stage, the task or the "
-                            "tracker) cannot drop users (it has no take_users)")  # fmt: skip
         super().take_users(r)
 
     # ------------------------------------------------------------------------------ step
