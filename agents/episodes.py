@@ -331,9 +331,9 @@ class _StepLog:
     def take(self, rows: NDArray[np.intp]) -> None:
         """Keep the users ``rows`` (in their new order): user ``k`` is the old user
         ``rows[k]``, whose column it goes on writing (the others' columns are left unread)."""
-        base = np.arange(next(iter(self.log.values())).shape[1]) if self.columns is None \
-            else self.columns  # fmt: skip
-        self.columns = base[rows]
+        if self.columns is None:  # every user still writes its own index's column
+            self.columns = np.arange(next(iter(self.log.values())).shape[1])
+        self.columns = self.columns[rows]
 
     def user(self, i: int, start: int) -> dict[str, NDArray]:
         """User ``i``'s values from step ``start`` to the last logged, (steps, ...) per key."""
