@@ -31,7 +31,6 @@ technique pairs whose cells the run holds (:mod:`agents.discrimination`, also ``
 from __future__ import annotations
 
 import math
-import os
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
@@ -148,8 +147,9 @@ def _worker_threads(n_workers: int) -> int:
     numba's thread count)."""
     import numba
 
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    return max(1, min((cores or 1) // n_workers, numba.config.NUMBA_NUM_THREADS))
+    from estimators.kernels import usable_cores
+
+    return max(1, min(usable_cores() // n_workers, numba.config.NUMBA_NUM_THREADS))
 
 
 def _pool_context() -> Any:

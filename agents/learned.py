@@ -278,9 +278,9 @@ def train_seeds(
         return _train_seeds_ray(task, seeds, out_dir, address, train_kwargs)
     if len(seeds) == 1:
         return [train_ppo(task, seed=seeds[0], out_dir=out_dir, **train_kwargs)]
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    cores = cores or 1
-    workers = min(len(seeds), cores) if workers is None else workers
+    from estimators.kernels import usable_cores
+
+    workers = min(len(seeds), usable_cores()) if workers is None else workers
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise ValueError(f"workers={workers!r}: must be an integer >= 1")
     kwargs = _worker_kwargs(train_kwargs)

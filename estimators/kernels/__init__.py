@@ -14,6 +14,7 @@ from estimators.kernels.batch import (
     PARALLEL_MIN_BATCH,
     BatchKernel,
     python_reference,
+    usable_cores,
     use_threads,
 )
 from estimators.kernels.records import param_record, record_dtype, state_records
@@ -25,5 +26,6 @@ __all__ = [
     "python_reference",
     "record_dtype",
     "state_records",
+    "usable_cores",
     "use_threads",
 ]

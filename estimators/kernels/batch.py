@@ -35,7 +35,7 @@ os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 import numba  # after the OpenMP policy: see the module docstring
 
-__all__ = ["PARALLEL_MIN_BATCH", "BatchKernel", "python_reference", "use_threads"]
+__all__ = ["PARALLEL_MIN_BATCH", "BatchKernel", "python_reference", "usable_cores", "use_threads"]
 
 #: Batches at least this large take the multi-threaded build (measured on 2 cores: below ~16
 #: users the thread start-up outweighs the work of the motion and Kinect kernels).
@@ -44,6 +44,12 @@ PARALLEL_MIN_BATCH = 16
 
 _python_reference = False
 _serial_only = False  # set by use_threads(1)
+
+
+def usable_cores() -> int:
+    """The cores this process may run on (its CPU affinity where the platform has one)."""
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    return cores or 1
 
 
 def use_threads(n: int) -> None:
