@@ -340,12 +340,17 @@ class OneEuroFilter(TakesUsers):
             raise ValueError(f"batch_size must be >= 1, got {batch_size}")
         self.params = params if params is not None else OneEuroParams()
         self.batch_size = int(batch_size)
-        self.shape = (self.batch_size, *tuple(int(n) for n in shape))
+        full = (self.batch_size, *tuple(int(n) for n in shape))
         self.angular = bool(angular)
-        self._x = np.zeros(self.shape)
-        self._dx = np.zeros(self.shape)
+        self._x = np.zeros(full)
+        self._dx = np.zeros(full)
         self._init = np.zeros(self.batch_size, dtype=bool)
-        self._out = np.full(self.shape, np.nan)
+        self._out = np.full(full, np.nan)
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        """The signal's shape ``(B, *shape)`` (that of the filter's state)."""
+        return self._x.shape
 
     def reset(self, mask: ArrayLike | None = None) -> None:
         """Forget the streams where ``mask`` (B,) is True (all if None)."""
@@ -354,12 +359,6 @@ class OneEuroFilter(TakesUsers):
             raise ValueError(f"mask must have shape ({self.batch_size},), got {m.shape}")
         self._init[m] = False
         self._out[m] = np.nan
-
-    def take_users(self, rows: NDArray[np.intp]) -> None:
-        """Keep the streams ``rows`` (:class:`~estimators.batching.TakesUsers`); the signal's
-        shape follows the new B."""
-        super().take_users(rows)
-        self.shape = (self.batch_size, *self.shape[1:])
 
     def update(self, x: ArrayLike) -> NDArray[np.float64]:
         """Filter one sample per stream.
