@@ -212,6 +212,24 @@ class VqfStage(TakesUsers):
     def _new(self) -> Any:
         return self._vqf(self.dt, **self._kwargs)
 
+    def __getstate__(self) -> dict[str, Any]:
+        """The stage with each ``vqf.VQF`` as its state dict (``vqf.VQF`` itself, a C++ object,
+        can be neither copied nor pickled): ``copy.deepcopy`` and ``pickle`` go through it."""
+        state = self.__dict__.copy()
+        state["filters"] = [f.state for f in self.filters]
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        """A new ``vqf.VQF`` per stream (same ``dt`` and parameters, so the same coefficients)
+        given the stored state: it goes on exactly as the stream it was taken from."""
+        self.__dict__.update(state)
+        filters = []
+        for saved in state["filters"]:
+            f = self._new()
+            f.state = saved
+            filters.append(f)
+        self.filters = filters
+
     def reset(self, rows: ArrayLike | None = None) -> None:
         """Forget the streams ``rows`` (indices, a (B,) mask, or None for all): each gets a new
         ``vqf.VQF``. Other streams are untouched."""

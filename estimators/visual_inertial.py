@@ -332,7 +332,6 @@ class VisualInertialFilter(TakesUsers):
         self._prm = config.packed()
         b = self.batch_size
         self.state = _k.records(_k.STATE_FIELDS, b)
-        self._x = self.state["x"]  # (B, N_X) view of the nominal states
         self._work = _k.records(_k.WORK_FIELDS, b)
         self.reset(np.zeros(3), np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0]))
 
@@ -373,11 +372,11 @@ class VisualInertialFilter(TakesUsers):
         for name in ("consec", "updates", "rejected", "forced", "nis"):
             s[name][rows] = 0.0
 
-    def take_users(self, rows: NDArray[np.intp]) -> None:
-        """Keep the users ``rows`` (:class:`~estimators.batching.TakesUsers`), re-binding the
-        view of their nominal states."""
-        super().take_users(rows)
-        self._x = self.state["x"]
+    @property
+    def _x(self) -> NDArray[np.float64]:
+        """(B, N_X) the nominal states: a view of :attr:`state`, taken at each use (a view kept
+        as an attribute would become an array of its own in a copy or after ``take_users``)."""
+        return self.state["x"]
 
     def predict(self, gyr: ArrayLike, acc: ArrayLike) -> tuple[NDArray, NDArray]:
         """Propagate every user through N IMU samples.

@@ -15,10 +15,19 @@ Spaces:
 true and estimated head attitude, true and detected steps, true and estimated hand orientation,
 ``collision``, ``collisions``, ``cost`` (1 for a blocked step, Safety-Gymnasium style),
 ``distance_to_goal``, ``is_success``, the virtual and true positions.
+
+Copies. ``copy.deepcopy(env)``, ``pickle`` and ``copy.copy(env)`` (a deep copy too: a shallow one
+would share the users, rooms and random streams, so that stepping either env moved both) give an
+env that goes on exactly as the original, bit for bit, from wherever it is in its episode. The
+PyBullet world a render mode builds is not copied: the copy builds its own from the room at its
+first render. An env with ``render_mode="human"`` cannot be copied (PyBullet opens one GUI window
+per process): a TypeError says so. ``copy.copy`` of ``gym.make``'s wrappers copies the wrappers
+only, which then share this env; use ``copy.deepcopy`` for a wrapped env.
 """
 
 from __future__ import annotations
 
+import copy
 from dataclasses import replace
 from typing import Any, ClassVar
 
@@ -320,3 +329,28 @@ class VRLocoEnv(gym.Env):
             self._sim.close()
             self._sim = None
         self._closed = True
+
+    # ------------------------------------------------------------------------------ copies
+    def __getstate__(self) -> dict[str, Any]:
+        """The env's state for ``copy.deepcopy`` and ``pickle``, without its PyBullet world
+        (a connection to a physics server; the copy builds its own from the room when it first
+        renders).
+
+        Raises:
+            TypeError: with ``render_mode="human"`` (one PyBullet GUI window per process).
+        """
+        if self.render_mode == "human":
+            raise TypeError(
+                "a VRLocoEnv with render_mode='human' cannot be copied or pickled: its PyBullet "
+                "GUI window cannot be duplicated (PyBullet opens one per process); copy an env "
+                "made with render_mode=None or 'rgb_array'"
+            )
+        state = self.__dict__.copy()
+        state["_sim"] = state["_sim_layout"] = None
+        state.pop("_ids", None)
+        return state
+
+    def __copy__(self) -> VRLocoEnv:
+        """A deep copy (:func:`copy.deepcopy`): a shallow one would share the users, the rooms
+        and the random streams with this env, so that stepping either moved both."""
+        return copy.deepcopy(self)

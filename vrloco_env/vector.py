@@ -17,10 +17,15 @@ mean nothing until its next reset.
 Seeding: ``reset(seed=s)`` seeds sub-env i with ``s + i``, so sub-env i behaves exactly like a
 single env reset with ``seed=s + i`` and reset again after each of its episodes; ``seed=[...]``
 gives each sub-env its own seed (None: keep its generator).
+
+Copies. ``copy.deepcopy(envs)``, ``pickle`` and ``copy.copy(envs)`` (a deep copy too: a shallow
+one would share the users and their random streams) give a vector env that goes on exactly as the
+original, bit for bit, mid-episode as well.
 """
 
 from __future__ import annotations
 
+import copy
 from typing import Any, ClassVar
 
 import numpy as np
@@ -167,3 +172,8 @@ class VRLocoVectorEnv(VectorEnv):
 
     def close_extras(self, **kwargs: Any) -> None:
         pass
+
+    def __copy__(self) -> VRLocoVectorEnv:
+        """A deep copy (:func:`copy.deepcopy`): a shallow one would share the users and their
+        random streams with this env, so that stepping either moved both."""
+        return copy.deepcopy(self)

@@ -318,13 +318,28 @@ class _State:
     """Per-user state carried between control steps: the kernel's (B,) record array ``rec``
     (fields :data:`vrloco_env.user._motion_numba.STATE`), a view of each of its fields as the
     attribute of that name ((B,) or (B, k); ``s.phase[:] = x`` writes the record), and the
-    control steps done since every user was last reset (time is ``steps_done / rate``)."""
+    control steps done since every user was last reset (time is ``steps_done / rate``).
+
+    A copy (``copy.deepcopy``, ``pickle``) holds the copied record and views of *it*: the views
+    are made again from the record (:meth:`__setstate__`), never copied as arrays of their own.
+    """
 
     def __init__(self, batch_size: int) -> None:
-        self.rec = state_records(STATE, batch_size)
-        for name in STATE:
-            setattr(self, name, self.rec[name])
+        self._bind(state_records(STATE, batch_size))
         self.steps_done = 0
+
+    def _bind(self, rec: NDArray) -> None:
+        """Hold ``rec`` and a view of each of its fields under the field's name."""
+        self.rec = rec
+        for name in STATE:
+            setattr(self, name, rec[name])
+
+    def __getstate__(self) -> dict:
+        return {"rec": self.rec, "steps_done": self.steps_done}
+
+    def __setstate__(self, state: dict) -> None:
+        self._bind(state["rec"])
+        self.steps_done = state["steps_done"]
 
     def take(self, rows: NDArray[np.intp]) -> _State:
         """The state of users ``rows`` alone (the same clock)."""

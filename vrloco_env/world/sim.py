@@ -848,6 +848,15 @@ class Simulation:
         with contextlib.suppress(Exception):
             self.close()
 
+    def __reduce_ex__(self, protocol: object) -> Any:
+        """Refuse ``copy``, ``copy.deepcopy`` and ``pickle``: the world lives in a PyBullet
+        physics server this object is connected to, and a copy would share that connection
+        (closing either would close both)."""
+        raise TypeError(
+            "a Simulation (a connection to a PyBullet physics server) cannot be copied or "
+            "pickled; build a new Simulation and its bodies instead"
+        )
+
     def __enter__(self) -> Simulation:
         return self
 
