@@ -3,9 +3,12 @@
     python examples/custom_estimator.py             # one episode with it, beside seed 000's EKF
     vrloco benchmark --techniques seed000,examples/custom_estimator.py:TECHNIQUE --episodes 10
 
-The filter needs nothing from vrloco but the stage protocol (:mod:`estimators.stages`): a class
-built as ``Cls(batch_size, fs)`` with ``reset(rows=None)`` and ``update(gyr, acc, mag)`` taking
-(B, N, 3) samples and returning (B, N, 4) quaternions ``[w, x, y, z]`` (sensor -> ENU world).
+The filter needs nothing from vrloco but the stage protocol (:mod:`estimators.stages`,
+``docs/protocols.md``): a class built as ``Cls(batch_size, fs)`` with ``reset(rows)`` and
+``update(gyr, acc, mag)`` taking (B, N, 3) samples and returning (B, N, 4) unit quaternions
+``[w, x, y, z]`` (sensor -> ENU world; their norm within 1e-3 of 1, or the step is an error).
+The other stages have an example each: ``custom_steps.py``, ``custom_hand.py``,
+``custom_steering.py``, ``custom_locomotion.py``.
 ``EstimatorConfig(attitude="examples/custom_estimator.py:ComplementaryFilter")`` (or
 ``"package.module:ComplementaryFilter"`` once it lives in a package) selects it; the benchmark
 takes a :class:`~vrloco_env.techniques.Technique` the same way.

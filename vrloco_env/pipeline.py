@@ -2,10 +2,13 @@
 
 :func:`build_stages` resolves each stage of the configuration in its registry
 (:mod:`estimators.stages`) and builds it for the batch; :class:`SimulatedUsers
-<vrloco_env.users.SimulatedUsers>` receives the result and only composes the stages. Stages
-that come from outside the package (a ``"module:attr"`` string, a class or an object with a
-``build`` method that is not one of ours) are marked untrusted: their outputs are checked every
-step (shape, finiteness) and a failure names the stage, the plug-in and what was expected.
+<vrloco_env.users.SimulatedUsers>` receives the result and only composes the stages. A stage
+that comes from outside the package (a ``"module:attr"`` string, a class or an object with a
+``build`` method that is not one of ours) is wrapped once in an
+:class:`estimators.stages.CheckedStage`, which checks every output against its stage's contract
+(shape and meaning: unit quaternions, step times on the stream's clock, hand angles in range,
+bounded positions; ``docs/protocols.md``) and names the stage, the plug-in, the offending value
+and the rule on a failure. The package's own stages are used as built.
 """
 
 from __future__ import annotations
@@ -28,7 +31,8 @@ class Stages:
 
     Attributes:
         labels: stage -> the short name of its choice.
-        trusted: stage -> whether it is one of the package's own (outputs not re-checked).
+        trusted: stage -> whether it is one of the package's own (used as built); the others
+            are :class:`~estimators.stages.CheckedStage` proxies of the plug-in.
     """
 
     attitude: st.AttitudeStage
@@ -51,7 +55,8 @@ def build_stages(
 ) -> Stages:
     """Build every stage of ``estimators`` for ``batch_size`` users: the attitude and step
     stages at the IMU rate, the hand stage at the Kinect's frame rate, steering, and locomotion
-    with the configuration's step length."""
+    with the configuration's step length. A plug-in that is not one of the package's own is
+    returned inside a :class:`~estimators.stages.CheckedStage`."""
     args = {
         "attitude": (batch_size, imu_rate_hz),
         "steps": (batch_size, imu_rate_hz),
@@ -65,7 +70,11 @@ def build_stages(
     for name in STAGE_FIELDS:
         registry: st.Registry = getattr(st, name.upper())
         spec = getattr(estimators, name)
-        built[name] = registry.build(spec, *args[name])
+        stage = registry.build(spec, *args[name])
         labels[name] = registry.label(spec)
         trusted[name] = _is_ours(spec, registry)
+        if not trusted[name]:
+            rate = args[name][1] if name in ("attitude", "steps", "hand") else None
+            stage = st.CheckedStage(stage, registry, labels[name], batch_size, rate)
+        built[name] = stage
     return Stages(**built, labels=labels, trusted=trusted)

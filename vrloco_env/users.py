@@ -32,7 +32,6 @@ from estimators.batching import TakesUsers, stream_rows
 from estimators.cadence import CadenceEstimator
 from estimators.hand import HandFrame, HandPipeline
 from estimators.kernels import param_record
-from estimators.stages import StageError, check_output
 from estimators.steering import torso_yaw
 from vrloco_env._core_numba import quat_to_ypr_rows, step_summary_kernel
 from vrloco_env._hand_frame_numba import hand_relative_to_torso
@@ -342,19 +341,10 @@ class SimulatedUsers(TakesUsers):
             hand_quat = rot.quat_multiply(q_start, hand_quat)
         frames = self.kinect.capture(kin.t, joints, hand_quat, validated=True)
         if self.tracker is None:
-            if self.stages.trusted["attitude"]:
-                q = self.attitude.update(imu.gyr, imu.acc, imu.mag)
-            else:
-                q = self._plugin("attitude", self.attitude.update, imu.gyr, imu.acc, imu.mag)
-                q = check_output("attitude", self.stages.labels["attitude"], "quat", q,
-                                 (*imu.gyr.shape[:2], 4))  # fmt: skip
+            q = self.attitude.update(imu.gyr, imu.acc, imu.mag)
         else:
             q = self._track(chunk, imu)
-        if self.stages.trusted["steps"]:
-            gait = self.gait.update(imu.acc, imu.gyr, q)
-        else:
-            gait = self._plugin("steps", self.gait.update, imu.acc, imu.gyr, q)
-            gait = self._checked_gait(gait, imu.acc.shape[1])
+        gait = self.gait.update(imu.acc, imu.gyr, q)
         ypr_est = np.empty((self.batch_size, 3))
         quat_to_ypr_rows(self.batch_size)(q[:, -1], ypr_est)  # rot.quat_to_ypr, compiled
         if self._recentre.any():  # first samples of an episode: align virtual and estimated yaw
@@ -381,12 +371,7 @@ class SimulatedUsers(TakesUsers):
         if self.tracker is None:
             if self._steer_with_torso:
                 walk_yaw = self._steering_yaw(hand, virtual_yaw)
-            if self.stages.trusted["locomotion"]:
-                pos = self.locomotion.update(steps, walk_yaw, self.dt)
-            else:
-                pos = self._plugin("locomotion", self.locomotion.update, steps, walk_yaw, self.dt)
-                pos = check_output("locomotion", self.stages.labels["locomotion"], "position",
-                                   pos, (self.batch_size, 2))  # fmt: skip
+            pos = self.locomotion.update(steps, walk_yaw, self.dt)
         else:  # the virtual head follows the estimated one; the truth is the real head
             pos = self._tracked_xy
             true_xy = chunk.pos[:, -1, :2]
@@ -419,23 +404,7 @@ class SimulatedUsers(TakesUsers):
     def _filtered_hand(self, frames: HandFrame) -> HandFrame:
         """The last frame of the step, its angles and validity from the hand stage."""
         last = frames.at(-1)
-        if self.stages.trusted["hand"]:
-            ypr, valid = self.hand_filter.update(frames)
-        else:
-            label = self.stages.labels["hand"]
-            out = self._plugin("hand", self.hand_filter.update, frames)
-            if not (isinstance(out, tuple) and len(out) == 2):
-                raise StageError(f"hand plug-in {label!r} returned {type(out).__name__}; "
-                                 "expected a tuple (ypr, valid)")  # fmt: skip
-            ypr, valid = out
-            m = frames.ypr_raw.shape[1]
-            valid = np.asarray(valid)
-            if valid.shape != (self.batch_size, m):
-                raise StageError(f"hand plug-in {label!r} returned valid of shape {valid.shape}; "
-                                 f"expected {(self.batch_size, m)}")  # fmt: skip
-            ypr = check_output("hand", label, "ypr", ypr, (self.batch_size, m, 3), finite=False)
-            if not np.isfinite(ypr[valid.astype(bool)]).all():
-                raise StageError(f"hand plug-in {label!r} returned non-finite ypr where valid")
+        ypr, valid = self.hand_filter.update(frames)
         last.ypr = ypr[:, -1]
         last.valid = np.asarray(valid[:, -1], dtype=bool)
         return last
@@ -448,39 +417,7 @@ class SimulatedUsers(TakesUsers):
         sh = camera_to_world(spec, hand.joints[:, [Joint.SHOULDER_LEFT, Joint.SHOULDER_RIGHT]])
         yaw, valid = torso_yaw(sh[:, 0], sh[:, 1])
         torso_virtual = rot.wrap_angle(yaw + self.true_yaw_offset)
-        args = (head_virtual_yaw, torso_virtual, valid & hand.has_target)
-        if self.stages.trusted["steering"]:
-            return self.steering.update(*args)
-        out = self._plugin("steering", self.steering.update, *args)
-        return check_output("steering", self.stages.labels["steering"], "yaw", out,
-                            (self.batch_size,))  # fmt: skip
-
-    def _plugin(self, stage: str, update, *args):
-        """Call a plug-in stage's update; an exception becomes a StageError naming it."""
-        try:
-            return update(*args)
-        except StageError:
-            raise
-        except Exception as err:
-            raise StageError(
-                f"{stage} plug-in {self.stages.labels[stage]!r} raised in update(): "
-                f"{type(err).__name__}: {err}"
-            ) from err
-
-    def _checked_gait(self, gait, n: int):
-        """A plug-in step detector's output, checked against the GaitChunk layout."""
-        label, b = self.stages.labels["steps"], self.batch_size
-        for name, shape in (("state", (b, n)), ("steps", (b, n)), ("peak_time", (b, n, 2))):
-            value = getattr(gait, name, None)
-            if value is None or np.shape(value) != shape:
-                raise StageError(
-                    f"steps plug-in {label!r} returned {name} of shape "
-                    f"{None if value is None else np.shape(value)}; expected {shape} "
-                    "(an estimators.gait.GaitChunk)"
-                )
-        if not np.isfinite(np.asarray(gait.steps, dtype=np.float64)).all():
-            raise StageError(f"steps plug-in {label!r} returned non-finite step counts")
-        return gait
+        return self.steering.update(head_virtual_yaw, torso_virtual, valid & hand.has_target)
 
     def _track(self, chunk: MotionChunk, imu: ImuSamples) -> NDArray[np.float64]:
         """Visual-inertial tracking of one step; returns the estimated attitudes (B, N, 4) and
