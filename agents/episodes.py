@@ -22,10 +22,11 @@ from agents.grid import DEFAULT_BATCH_SIZE, Cell
 from agents.metrics import STEP_KEYS, TRACE_KEYS, EpisodeRecorder, EpisodeStats, episode_stats
 from agents.policies import build_policy
 from agents.scripted import is_batched
+from vrloco_env.actions import ACTION_NAMES
 from vrloco_env.tasks import env_id
 
-__all__ = ["DEFAULT_BATCH_SIZE", "play_claimed", "run_batched", "run_cell_batched",
-           "run_cell_episode", "run_episode"]  # fmt: skip
+__all__ = ["DEFAULT_BATCH_SIZE", "play_claimed", "policy_actions", "policy_label", "run_batched",
+           "run_cell_batched", "run_cell_episode", "run_episode"]  # fmt: skip
 
 
 _ENVS: dict[tuple, Any] = {}  # per process: one env per (task, technique, population, condition)
@@ -44,12 +45,39 @@ def _env(task: str, technique: Any, population: str | None = None,
     return _ENVS[key]
 
 
+def policy_actions(policy: Any, obs: Any, shape: tuple[int, ...], name: str) -> Any:
+    """``policy.act(obs)``, checked to have ``shape`` (the env's actions, one row per user for a
+    batch); a ValueError naming the policy ``name`` and both shapes otherwise."""
+    actions = policy.act(obs)
+    try:
+        got: tuple[int, ...] | str = np.shape(actions)
+    except ValueError:  # a ragged sequence
+        got = "ragged (rows of different lengths)"
+    if got != shape:
+        rows = f" (one row of {shape[-1]} per user)" if len(shape) == 2 else ""
+        raise ValueError(
+            f"policy {name!r} returned actions of shape {got} from act(); expected "
+            f"{shape}{rows}: [{', '.join(ACTION_NAMES)}], each in [-1, 1]"
+        )
+    return actions
+
+
+def policy_label(policy: Any) -> str:
+    """A policy's name for messages: its ``name``, else its class's."""
+    name = getattr(policy, "name", None)
+    return name if isinstance(name, str) and name else type(policy).__name__
+
+
 def run_episode(
-    env: Any, policy: Any, seed: int, trace: bool = False
+    env: Any, policy: Any, seed: int, trace: bool = False, name: str | None = None
 ) -> tuple[EpisodeStats, dict]:
     """Run one episode of ``policy`` (scripted, learned or a user's: ``reset(rng)``,
     ``act(obs)``) in the single env ``env`` with ``reset(seed=seed)``; the policy's randomness
     comes from ``default_rng([seed, 1])``. The stats come from ``info`` alone.
+
+    Args:
+        name: the policy's name in the error raised where ``act`` returns an action of another
+            shape than the env's (default: :func:`policy_label`).
 
     Returns:
         The episode's :class:`~agents.metrics.EpisodeStats` (with ``trace``: per-step traces,
@@ -58,8 +86,10 @@ def run_episode(
     obs, reset_info = env.reset(seed=seed)
     policy.reset(np.random.default_rng([seed, 1]))
     rec = EpisodeRecorder(seed, reset_info, trace=trace)
+    shape = env.action_space.shape
+    label = policy_label(policy) if name is None else name
     while True:
-        obs, _, terminated, truncated, info = env.step(policy.act(obs))
+        obs, _, terminated, truncated, info = env.step(policy_actions(policy, obs, shape, label))
         rec.add(info)
         if terminated or truncated:
             break
@@ -72,7 +102,7 @@ def run_episode(
 def run_cell_episode(cell: Cell, seed: int, trace: bool = False) -> tuple[EpisodeStats, dict]:
     """Episode ``seed`` of ``cell``: its task and technique's env, its policy."""
     env = _env(cell.task, cell.technique, cell.population, cell.condition)
-    return run_episode(env, build_policy(cell.policy, env), seed, trace)
+    return run_episode(env, build_policy(cell.policy, env), seed, trace, name=cell.policy)
 
 
 def run_cell_batched(
@@ -253,7 +283,8 @@ def _play_batch(env: Any, policies: dict, jobs: list,
         for k, cell in enumerate(cells):
             mine = owner == k
             if mine.any():
-                actions[mine] = np.asarray(policies[cell].act(obs), np.float32)[mine]
+                act = policy_actions(policies[cell], obs, actions.shape, cell.policy)
+                actions[mine] = np.asarray(act, np.float32)[mine]
         obs, _, terminated, truncated, info = env.step(actions)
         steps.append(info)
         ended = np.flatnonzero((terminated | truncated) & (job >= 0))

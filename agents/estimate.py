@@ -1,7 +1,8 @@
 """``vrloco estimate``: run the head estimators on a recording — attitude, steps, virtual path.
 
 The recording is read and checked by :mod:`agents.recordings` (a CSV file, a BROAD trial or an
-Oxford step-counter folder; the formats and every check are described there).
+Oxford step-counter folder; the formats, the units a CSV may be in and how each is found from
+the data, and every check are described there).
 
 Irregular timestamps are resampled onto a uniform grid at the median rate (linear interpolation)
 for the attitude filter, which assumes a fixed rate; the step detector takes the timestamps as
@@ -23,6 +24,7 @@ from numpy.typing import NDArray
 from agents.recordings import (
     MAX_BRIDGE_S,
     Recording,
+    Units,
     gap_threshold,
     read_recording,
     warn,
@@ -115,16 +117,20 @@ def _compare_steps(rec: Recording, step_times: NDArray[np.float64], tol: float =
 
 
 def estimate_recording(
-    path: Path, out_dir: Path, step_length: float = 0.7, offline: bool = False
-) -> dict:
+    path: Path, out_dir: Path, step_length: float = 0.7, offline: bool = False,
+    units: Units | None = None,
+) -> dict:  # fmt: skip
     """Run the estimators on ``path``; write ``NAME_estimates.csv`` and ``.png`` in ``out_dir``.
 
     ``offline=True`` estimates the attitude with the forward-backward smoother of
     :func:`estimators.attitude.estimate_attitude` (the whole recording at every sample) instead
-    of the causal filter; the steps and the path are the same either way.
+    of the causal filter; the steps and the path are the same either way. ``units``: the
+    units of a CSV's columns (:class:`agents.recordings.Units`; default: each found from the
+    data).
 
     Returns:
-        A summary: name, samples, steps, has_attitude, offline (the attitude is the
+        A summary: name, samples, units (what the columns were read in: ``time``, ``acc``
+        and, with a gyro, ``gyro``), steps, has_attitude, offline (the attitude is the
         smoother's), the output paths, and where the recording carries ground truth
         ``attitude_vs_reference`` (BROAD: total, inclination and heading RMSE in deg against
         ``opt_quat`` over the ``movement`` samples; the heading offset is removed first for 6D
@@ -132,20 +138,22 @@ def estimate_recording(
         precision, recall and F1 within +-0.2 s, :func:`estimators.gait.step_f1`).
 
     Raises:
-        ValueError: a malformed recording, or ``step_length`` outside [0.2, 1.5] m (the range
-            of a person's step, as :class:`vrloco_env.config.EstimatorConfig` allows).
+        ValueError: a malformed recording, units that cannot be found or do not fit the data,
+            or ``step_length`` outside [0.2, 1.5] m (the range of a person's step, as
+            :class:`vrloco_env.config.EstimatorConfig` allows).
     """
     if isinstance(step_length, bool) or not isinstance(step_length, int | float) or not (
         0.2 <= step_length <= 1.5
     ):
         raise ValueError(f"step_length={step_length!r}: must be in [0.2, 1.5] m")
-    rec = read_recording(path)
+    rec = read_recording(path, units)
     gait = detect_steps(rec.t, rec.acc, params=rec.gait)
     n = rec.t.size
     steps = np.zeros(n)
     np.add.at(steps, gait.step_index, 1.0)
     walking = gait.state.astype(bool)
-    result: dict = {"name": rec.name, "samples": n, "steps": int(gait.step_times.size)}
+    result: dict = {"name": rec.name, "samples": n, "units": dict(rec.units or {}),
+                    "steps": int(gait.step_times.size)}  # fmt: skip
     if rec.gyr is not None:
         q = _attitude(rec, offline)
         ypr = quat_to_ypr(q)

@@ -539,8 +539,14 @@ def run_policy_episodes(model: Any, env: VRLocoVectorEnv, seed: int) -> dict[str
     success = np.zeros(n, bool)
     collided = np.zeros(n, bool)
     returns = np.zeros(n)
+    want = (n, *env.single_action_space.shape)
     while not done.all():
         action, _ = model.predict(obs, deterministic=True)
+        if np.shape(action) != want:
+            raise ValueError(
+                f"model {type(model).__name__} returned actions of shape {np.shape(action)} "
+                f"from predict(); expected {want} (one row of {want[1]} per user)"
+            )
         obs, reward, terminated, truncated, info = env.step(action)
         live = ~done
         returns += np.where(live, reward, 0.0)
@@ -586,25 +592,44 @@ def evaluate_model(
     episodes: int = 100,
     seed: int = 0,
     sensor_preset: str | None = None,
+    progress: bool = True,
 ) -> dict[str, Any]:
-    """The benchmark's metrics (:func:`agents.metrics.summarize`) for a saved PPO model.
+    """The benchmark's row (:func:`agents.metrics.summarize`) for a saved PPO model.
 
     The model is evaluated on the env it was trained on (task and every configuration, stored
     with it by :func:`train_ppo`). ``task`` and ``sensor_preset`` may repeat what the model
     carries; one that contradicts it is an error. A model saved elsewhere, without vrloco's
     settings, needs ``task``. Episode i is a single env reset with ``seed + i`` and run with the
-    deterministic policy, as ``vrloco benchmark`` runs a scripted user, so the rows compare
-    directly.
+    deterministic policy, as ``vrloco benchmark`` runs a scripted user, and steps are matched
+    in the benchmark's window (:func:`agents.benchmark.step_window`), so the row compares
+    directly with the benchmark's (:func:`agents.benchmark_outputs.show_table` prints it).
+    ``progress`` shows a progress bar over the episodes (rich, as the benchmark's).
+
+    Returns:
+        The row: ``task``, ``policy`` (``ppo:<file name>``), ``technique``, ``condition`` (the
+        registered physical-room condition whose magnetic disturbances the model's sensors
+        have, else ``"custom"``), ``sensors`` (the IMU preset), the metrics of
+        :func:`~agents.metrics.summarize` and ``vs_baseline`` (None: no baseline here).
+
+    Raises:
+        ValueError: one line naming the file or the argument: no such file, not a PPO model
+            (:func:`agents.policies.load_ppo`), a task or sensors contradicting the model's, a
+            model without vrloco's settings and no ``task``, or ``episodes`` below 1.
     """
     import gymnasium as gym
-    from stable_baselines3 import PPO
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeElapsedColumn
 
+    from agents.benchmark import step_window
+    from agents.conditions import CONDITIONS
     from agents.episodes import run_episode
     from agents.metrics import summarize
-    from agents.policies import LearnedPolicy
+    from agents.policies import LearnedPolicy, _load_ppo
     from vrloco_env.tasks import env_id
 
-    model = PPO.load(path)
+    if isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 1:
+        raise ValueError(f"episodes={episodes!r}: must be an integer >= 1")
+    path = Path(path)
+    model = _load_ppo(path)
     try:
         settings = dict(model_env_settings(model, path))
     except ValueError:
@@ -623,15 +648,32 @@ def evaluate_model(
             f"{trained_preset!r} ({path}); leave the sensors out to evaluate on the model's own"
         )
     task = settings.pop("task")
+    disturbances = tuple(getattr(settings["sensors"], "magnetic_disturbances", ()) or ())
+    condition = next((c.name for c in CONDITIONS.values()
+                      if tuple(c.magnetic_disturbances) == disturbances), "custom")  # fmt: skip
     env = gym.make(env_id(task), **settings)
-    policy = LearnedPolicy(path, env)
-    stats = [run_episode(env, policy, seed + i)[0] for i in range(episodes)]
-    technique = env.unwrapped.technique
-    env.close()
+    try:
+        policy = LearnedPolicy(path, env)
+        columns = ("[progress.description]{task.description}", BarColumn(),
+                   MofNCompleteColumn(), TimeElapsedColumn())  # fmt: skip
+        played = []
+        with Progress(*columns, disable=not progress, transient=False) as bar:
+            job = bar.add_task("episodes", total=episodes)
+            for i in range(episodes):
+                played.append(run_episode(env, policy, seed + i, name=policy.name))
+                bar.advance(job)
+        technique = env.unwrapped.technique
+    finally:
+        env.close()
+    stats = [st for st, _ in played]
+    first, info = played[0]
+    window = step_window(info, first.elapsed_s / max(first.steps, 1))
     return {
         "task": task,
-        "policy": f"ppo:{Path(path).name}",
+        "policy": policy.name,
         "technique": technique,
+        "condition": condition,
         "sensors": trained_preset,
-        **summarize(stats),
+        **summarize(stats, *window),
+        "vs_baseline": None,
     }

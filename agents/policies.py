@@ -19,7 +19,6 @@ for the whole population.
 
 from __future__ import annotations
 
-import functools
 from pathlib import Path
 from typing import Any
 
@@ -31,7 +30,8 @@ from agents.variability import HumanVariability, VariabilityParams
 from estimators.batching import TakesUsers
 from vrloco_env.user.population import POPULATIONS
 
-__all__ = ["HUMAN_SUFFIX", "LearnedPolicy", "build_policy", "check_policy", "env_population"]
+__all__ = ["HUMAN_SUFFIX", "LearnedPolicy", "build_policy", "check_policy", "env_population",
+           "load_ppo"]  # fmt: skip
 
 HUMAN_SUFFIX = "+human"
 
@@ -106,7 +106,7 @@ class LearnedPolicy(TakesUsers):
     def __init__(self, path: str | Path, env: Any) -> None:
         self.path = Path(path)
         self.name = f"ppo:{self.path.name}"
-        self.model = _load_ppo(str(self.path.resolve()))
+        self.model = _load_ppo(self.path)
         settings = getattr(self.model, "vrloco_env", None)
         task = getattr(env.unwrapped, "task_name", None)
         if isinstance(settings, dict) and task is not None and settings.get("task") != task:
@@ -120,6 +120,12 @@ class LearnedPolicy(TakesUsers):
             raise ValueError(
                 f"policy {str(self.path)!r} takes observations of shape {have}, the env gives "
                 f"{want}"
+            )
+        want = env.unwrapped.action_space.shape[-1:]
+        have = getattr(self.model.action_space, "shape", None)
+        if have != want:
+            raise ValueError(
+                f"policy {str(self.path)!r} gives actions of shape {have}, the env takes {want}"
             )
 
     def reset(self, rng: Any = None, rows: ArrayLike | None = None) -> None:
@@ -137,12 +143,58 @@ class LearnedPolicy(TakesUsers):
         return np.asarray(rows, dtype=np.float32).reshape(x.shape[0], -1)
 
 
-@functools.lru_cache(maxsize=8)
-def _load_ppo(path: str) -> Any:
-    """A PPO model, loaded once per process (the policy is stateless)."""
+def load_ppo(path: str | Path) -> Any:
+    """The stable-baselines3 PPO model saved at ``path`` (its ``.zip``).
+
+    Raises:
+        ValueError: one line naming the file: no such file, not a zip file, a zip that is no
+            stable-baselines3 model (no ``data`` and ``policy.pth`` in it), or one that PPO
+            cannot load (another algorithm's, or damaged).
+    """
+    import zipfile
+
     from stable_baselines3 import PPO
 
-    return PPO.load(path)
+    path = Path(path)
+    if not path.is_file():
+        hint = (f"; did you mean {str(path) + '.zip'!r}?"
+                if Path(str(path) + ".zip").is_file() else "")  # fmt: skip
+        raise ValueError(f"{str(path)!r}: no such model file{hint}")
+    try:
+        with zipfile.ZipFile(path) as z:
+            names = set(z.namelist())
+    except (zipfile.BadZipFile, OSError) as err:
+        raise ValueError(f"{str(path)!r} is not a saved model: not a zip file ({err})") from None
+    missing = [n for n in ("data", "policy.pth") if n not in names]
+    if missing:
+        raise ValueError(
+            f"{str(path)!r} is not a saved stable-baselines3 model: the zip holds no "
+            f"{' and no '.join(missing)} (a model saved by vrloco train or model.save() has both)"
+        )
+    try:
+        return PPO.load(path)
+    except Exception as err:  # another algorithm's model, or a damaged one: one line
+        cause = str(err).strip().splitlines()[0] if str(err).strip() else ""
+        raise ValueError(
+            f"{str(path)!r}: stable-baselines3 cannot load it as a PPO model "
+            f"({type(err).__name__}{': ' + cause if cause else ''})"
+        ) from err
+
+
+#: PPO models loaded in this process, by resolved path (:func:`_load_ppo`), at most 8.
+_MODELS: dict[str, Any] = {}
+
+
+def _load_ppo(path: Path) -> Any:
+    """A PPO model (:func:`load_ppo`, its errors naming ``path`` as given), loaded once per
+    process (the policy is stateless)."""
+    key = str(path.resolve())
+    if key not in _MODELS:
+        model = load_ppo(path)
+        if len(_MODELS) >= 8:
+            _MODELS.pop(next(iter(_MODELS)))
+        _MODELS[key] = model
+    return _MODELS[key]
 
 
 def build_policy(spec: str, env: Any) -> Any:

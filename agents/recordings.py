@@ -5,7 +5,9 @@ Inputs (chosen by what ``PATH`` is):
 * a CSV file with a header row and these columns (any order, extra columns ignored):
   ``t`` time (s, increasing), ``ax, ay, az`` specific force (m/s^2; a level sensor at rest reads
   ``az = +9.81``), optionally ``gx, gy, gz`` angular rate (rad/s; without them there is no
-  attitude) and ``mx, my, mz`` magnetic field (any fixed unit, e.g. uT). Sensor frame x forward,
+  attitude) and ``mx, my, mz`` magnetic field (any fixed unit, e.g. uT); other units of time,
+  specific force and rate are read as :class:`Units` says (each found from the data by
+  default). Sensor frame x forward,
   y left, z up for a head-worn unit. The file is UTF-8 text (a byte-order mark, as spreadsheets
   write, is skipped); UTF-16 text with a byte-order mark is decoded too; anything else (binary,
   UTF-16 without a mark, other encodings) is refused with an error naming the file. A missing
@@ -19,13 +21,32 @@ Inputs (chosen by what ``PATH`` is):
 Checks on every recording, each said in one line on stderr or raised as one ValueError naming
 the file (and, for a CSV, the line and the column):
 
-* units, the way the attitude filter guards them (:data:`estimators.attitude.MIN_ACC_NORM`,
-  :data:`~estimators.attitude.MAX_GYR_NORM`): an accelerometer in g, a gyro in deg/s and a time
-  in ms, us or ns are errors that say what was found and what to multiply by. A gyro is taken
-  for deg/s when at least 10 samples and 1 % of them exceed 35 rad/s, or when the magnetometer's
-  direction turns 35 to 95 times slower than the gyro says (57.3 for deg/s; fitted over the
-  whole recording, :func:`gyro_to_field_ratio`). A recording whose head hardly turns, and a 6D
-  one that never turns faster than 35 deg/s, cannot be told apart from rad/s data and pass.
+* units (:class:`Units`, ``vrloco estimate --time-unit/--acc-unit/--gyro-unit``), each
+  ``"auto"`` unless given; a unit read other than the documented one is said in one line, and
+  the values are converted:
+
+  - ``t``: ``auto`` takes the one of s, ms, us, ns in which the median interval is an IMU's
+    rate (:data:`RATE_RANGE_HZ`, 5 Hz to 10 kHz); none, or more than one (a median interval of
+    0.1-0.2, 100-200 or 1e5-2e5), is an error. A given unit must give such a rate.
+  - accelerometer: ``auto`` reads m/s^2 when the median norm of the specific force averaged
+    over 1 s (:data:`ACC_MEAN_S`) is 0.5 g to 2 g in m/s^2 (:data:`ACC_MEDIAN_RANGE_G`:
+    gravity), g when it is 0.5 to 2; anything else is an error (gravity removed?), and so is a
+    given unit that puts that norm outside 0.5 g to 2 g.
+  - gyro: ``auto`` goes by the first of three kinds of evidence that decides: (1) the
+    magnitude, deg/s when at least :data:`UNIT_MIN_COUNT` samples and 1 % of them exceed
+    35 rad/s (:data:`estimators.attitude.MAX_GYR_NORM`, 2000 deg/s: no head turns so fast);
+    (2) the magnetometer, whose direction turns 0.5-2 times (rad/s, :data:`RAD_RATIO_RANGE`) or
+    35-95 times (deg/s, :data:`DEG_RATIO_RANGE`) slower than the gyro's numbers say
+    (:func:`gyro_to_field_ratio`, over the whole recording, with at least
+    :data:`MIN_FIT_TURNING` RMS of turning seen); (3) the accelerometer's tilt: the gravity
+    direction, carried through 4 s windows by the gyro integrated in each unit, spreads at least
+    :data:`TILT_RATIO` times, and :data:`TILT_MARGIN_DEG` more, in one unit than in the other
+    (:func:`tilt_spreads`; the wrong unit spins gravity around wherever the head tilts). Where
+    none decides (no magnetometer, or one that sees too little turning, and a sensor that
+    hardly tilts, as in a level turn), ``auto`` reads rad/s only when the gyro, read as rad/s,
+    turns the sensor less than :data:`UNDECIDED_TURN_DEG` (10 deg) within every 4 s window
+    (both readings then give nearly the same attitude); otherwise it is an error asking for the
+    unit. Evidence against the unit read, given or found, is a warning (one line).
 * impossible samples: a gyro component beyond :data:`MAX_GYR_AXIS` (2000 deg/s), an accelerometer
   component beyond :data:`MAX_ACC_AXIS` (16 g), a field norm over :data:`MAX_MAG_RATIO` times the
   recording's median norm, or an infinite value, are treated as missing (a warning gives the
@@ -54,9 +75,15 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from estimators.attitude import MAX_GYR_NORM, MIN_ACC_NORM
+from estimators.attitude import MAX_GYR_NORM
 from estimators.gait import GaitParams
-from estimators.rotations import GRAVITY
+from estimators.rotations import (
+    GRAVITY,
+    quat_from_rotvec,
+    quat_multiply,
+    quat_normalize,
+    quat_rotate,
+)
 
 __all__ = [
     "GAP_INTERVALS",
@@ -67,11 +94,13 @@ __all__ = [
     "MAX_MAG_RATIO",
     "MAX_SPAN_S",
     "Recording",
+    "Units",
     "check_recording",
     "gap_threshold",
     "gyro_to_field_ratio",
     "read_csv_recording",
     "read_recording",
+    "tilt_spreads",
     "warn",
 ]
 
@@ -108,6 +137,66 @@ UNIT_MIN_COUNT = 10
 #: the simulator; rad/s data gives about 1, a magnetometer with an uncorrected hard-iron offset
 #: more (its direction turns less).
 DEG_RATIO_RANGE = (35.0, 95.0)
+#: Gyro/field turning ratios read as a gyro in rad/s: 0.92-1.03 measured on the nine BROAD trials
+#: (a magnet attached 2 cm away: 0.92), 0.99-1.0 on the simulator.
+RAD_RATIO_RANGE = (0.5, 2.0)
+#: Turning (RMS of ``|w x v|`` in the gyro's own numbers) the field fit needs to be evidence.
+MIN_FIT_TURNING = 0.05
+#: The tilt evidence (:func:`tilt_spreads`): windows (s) through which the gyro carries the
+#: gravity direction, and the smoothing (s) of the specific force against steps and bumps.
+TILT_WINDOW_S = 4.0
+TILT_SMOOTH_S = 0.5
+#: A unit is the tilt's choice when the other unit's spread is at least this many times its own
+#: and :data:`TILT_MARGIN_DEG` more. Measured spreads (deg), right unit against wrong: simulated
+#: head motions 0.9-1.7 against 5-90 (the wrong unit 3.5-48 times more), BROAD's rotation trials
+#: 0.9-17 against 12-76; a sensor that hardly tilts (a level turn, stepping in place, BROAD's
+#: translation and disturbance trials) gives nearly the same spread in both units: no choice.
+TILT_RATIO = 2.0
+TILT_MARGIN_DEG = 2.0
+#: At most this many samples go into the tilt evidence (windows spread over a long recording).
+MAX_TILT_SAMPLES = 1_000_000
+#: With no evidence for either unit, ``auto`` reads a gyro as rad/s only if, read so, it turns the
+#: sensor less than this (deg) within every :data:`TILT_WINDOW_S` window.
+UNDECIDED_TURN_DEG = 10.0
+#: The median norm (in g) of a head-worn recording's specific force averaged over
+#: :data:`ACC_MEAN_S`: gravity, which averaging keeps (steps, bumps and a phone's
+#: gravity-free "linear acceleration" average out).
+ACC_MEDIAN_RANGE_G = (0.5, 2.0)
+ACC_MEAN_S = 1.0
+
+#: Units of ``t`` (:class:`Units`), in seconds.
+TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
+#: Units of ``ax, ay, az``, in m/s^2.
+ACC_UNITS = {"m/s2": 1.0, "g": GRAVITY}
+#: Units of ``gx, gy, gz``, in rad/s.
+GYRO_UNITS = {"rad/s": 1.0, "deg/s": float(np.pi / 180.0)}
+
+
+@dataclass(frozen=True)
+class Units:
+    """The units of a recording's columns; ``"auto"`` finds each from the data (module doc).
+
+    Attributes:
+        time: ``t``: ``"auto"`` or one of :data:`TIME_UNITS` (``s``, ``ms``, ``us``, ``ns``).
+        acc: ``ax, ay, az``: ``"auto"`` or one of :data:`ACC_UNITS` (``m/s2``, ``g``).
+        gyro: ``gx, gy, gz``: ``"auto"`` or one of :data:`GYRO_UNITS` (``rad/s``, ``deg/s``).
+    """
+
+    time: str = "auto"
+    acc: str = "auto"
+    gyro: str = "auto"
+
+    def __post_init__(self) -> None:
+        for name, allowed in (("time", TIME_UNITS), ("acc", ACC_UNITS), ("gyro", GYRO_UNITS)):
+            value = getattr(self, name)
+            if value != "auto" and value not in allowed:
+                raise ValueError(
+                    f"Units.{name}={value!r}: must be 'auto' or one of {', '.join(allowed)}"
+                )
+
+    def given(self) -> dict[str, str]:
+        """The units given (not ``"auto"``), by field."""
+        return {k: v for k, v in vars(self).items() if v != "auto"}
 
 
 @dataclass
@@ -125,6 +214,8 @@ class Recording:
             ``opt_quat``, NaN where markers were lost), or None.
         ref_mask: (N,) samples the reference scores (BROAD's ``movement``), or None for all.
         ref_steps: true step times (s, the clock of ``t``) from foot switches, or None.
+        units: the units the file's columns were read in (``time``, ``acc``, ``gyro``), set by
+            :func:`check_recording`; ``t``, ``acc`` and ``gyr`` above are converted.
     """
 
     name: str
@@ -137,6 +228,7 @@ class Recording:
     ref_quat: NDArray[np.float64] | None = None
     ref_mask: NDArray[np.bool_] | None = None
     ref_steps: NDArray[np.float64] | None = None
+    units: dict[str, str] | None = None
 
 
 def gap_threshold(dt: float) -> float:
@@ -246,13 +338,15 @@ def _parse_csv(path: Path) -> tuple[list[str], NDArray[np.float64], NDArray[np.i
     return cols, data, line_no
 
 
-def read_csv_recording(path: Path) -> Recording:
-    """Read and check the documented CSV format (see the module doc).
+def read_csv_recording(path: Path, units: Units | None = None) -> Recording:
+    """Read and check the documented CSV format (see the module doc), its columns in ``units``
+    (default: each found from the data).
 
     Raises:
         ValueError: one line naming the file (and the line and column where there is one): not
-            a UTF-8/UTF-16 text file, a missing column, a malformed row, time not in seconds or
-            running backwards, units off, or a recording that is mostly impossible values.
+            a UTF-8/UTF-16 text file, a missing column, a malformed row, time running
+            backwards, units that cannot be found or do not fit the data, or a recording that is
+            mostly impossible values.
     """
     path = Path(path)
     cols, data, line = _parse_csv(path)
@@ -276,12 +370,31 @@ def read_csv_recording(path: Path) -> Recording:
         path.stem, data[:, 0], xyz(("ax", "ay", "az")), xyz(GYRO), xyz(MAGNETOMETER),
         GaitParams(), line=line,
     )  # fmt: skip
-    return check_recording(rec, path)
+    return check_recording(rec, path, units)
 
 
-def read_recording(path: Path) -> Recording:
-    """A recording from a CSV file, a BROAD trial or an Oxford folder (see the module doc)."""
+def _format_units(path: Path, units: Units | None, kind: str) -> Units:
+    """The fixed units of a BROAD trial or an Oxford recording (s, m/s^2, rad/s); a ValueError
+    where ``units`` gives another (those are for CSV files)."""
+    fixed = Units(time="s", acc="m/s2", gyro="rad/s")
+    for name, value in (units or Units()).given().items():
+        if value != getattr(fixed, name):
+            raise ValueError(
+                f"{path}: {kind} is in {getattr(fixed, name)} by its format; a {name} unit "
+                f"({value!r}, --{name}-unit) applies to CSV files only"
+            )
+    return fixed
+
+
+def read_recording(path: Path, units: Units | None = None) -> Recording:
+    """A recording from a CSV file, a BROAD trial or an Oxford folder (see the module doc).
+
+    ``units``: the CSV columns' units (default: each found from the data); a BROAD trial and an
+    Oxford recording have theirs by their format (a different unit given is an error).
+    """
     path = Path(path)
+    if units is not None and not isinstance(units, Units):
+        raise ValueError(f"units={units!r}: must be a Units (or None for 'auto' throughout)")
     if path.is_dir():
         from estimators.io_oxford import load_oxford, read_accelerometer
 
@@ -297,20 +410,22 @@ def read_recording(path: Path) -> Recording:
         else:
             t, acc, _ = read_accelerometer(path)
             ref_steps = None
+        fixed = _format_units(path, units, "an Oxford step-counter recording")
         rec = Recording(path.name, t, acc, None, None, GaitParams.neck_pouch(),
                         ref_steps=ref_steps)  # fmt: skip
-        return check_recording(rec, path)
+        return check_recording(rec, path, fixed)
     if not path.is_file():
         raise ValueError(f"{path}: no such file or folder")
     if path.suffix.lower() in (".hdf5", ".h5", ".mat"):
         from estimators.io_broad import load_broad
 
+        fixed = _format_units(path, units, "a BROAD trial")
         trial = load_broad(path)
         t = np.arange(trial.acc.shape[0]) / trial.fs
         rec = Recording(trial.name, t, trial.acc, trial.gyr, trial.mag, GaitParams(),
                         ref_quat=trial.quat, ref_mask=trial.movement)  # fmt: skip
-        return check_recording(rec, path)
-    return read_csv_recording(path)
+        return check_recording(rec, path, fixed)
+    return read_csv_recording(path, units)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -324,28 +439,54 @@ def _where(rec: Recording, i: int) -> str:
     return f"t = {rec.t[i]:.6g} s ({pos})"
 
 
-def _check_rate(rec: Recording, path: Path) -> float:
-    """The median interval (s); a ValueError when it is no IMU's rate (t not in seconds)."""
-    dt = float(np.median(np.diff(rec.t)))
+def _rate_units(dt: float) -> list[str]:
+    """The units of :data:`TIME_UNITS` in which a median interval ``dt`` is an IMU's rate."""
     lo, hi = RATE_RANGE_HZ
-    if dt <= 0.0 or not lo <= 1.0 / dt <= hi:
-        rate = f"{1.0 / dt:.3g} Hz" if dt > 0 else "no rate"
-        msg = (
-            f"{path}: t's median interval is {dt:.6g} ({rate} if t is in seconds), but an IMU "
-            f"samples at {lo:g} Hz to {hi:g} Hz"
+    return [u for u, scale in TIME_UNITS.items() if dt > 0 and lo <= 1.0 / (dt * scale) <= hi]
+
+
+def _time_unit(rec: Recording, path: Path, unit: str) -> float:
+    """Read ``t`` in ``unit`` (``"auto"``: the one unit giving an IMU's rate), converting it to
+    seconds in place; returns the median interval (s). A ValueError where no unit, or more than
+    one, fits, or where the given one does not."""
+    raw = float(np.median(np.diff(rec.t)))
+    fits = _rate_units(raw)
+    lo, hi = RATE_RANGE_HZ
+    rate = _hz(raw)
+    imu = f"an IMU samples at {lo:g} Hz to {hi:g} Hz"
+    if unit == "auto":
+        if not fits:
+            raise ValueError(
+                f"{path}: t's median interval is {raw:.6g} ({rate} if t is in seconds), and in "
+                f"no unit of {', '.join(TIME_UNITS)} is it an IMU's rate ({imu}): not "
+                "timestamps?"
+            )
+        if len(fits) > 1:
+            said = ", ".join(f"{1.0 / (raw * TIME_UNITS[u]):.4g} Hz in {u}" for u in fits)
+            raise ValueError(
+                f"{path}: t's median interval is {raw:.6g}: {said}; both are IMU rates, so the "
+                f"unit cannot be told: pass --time-unit {' or '.join(fits)}"
+            )
+        unit = fits[0]
+        if unit != "s":
+            warn(path, f"read t in {unit} (its median interval {raw:.6g} is "
+                        f"{1.0 / (raw * TIME_UNITS[unit]):.4g} Hz in {unit}, "
+                        f"{rate} in s); pass --time-unit {unit} to say so")  # fmt: skip
+    elif unit not in fits:
+        dt = raw * TIME_UNITS[unit]
+        hint = f": t looks like {' or '.join(fits)} (--time-unit {fits[0]})" if fits else ""
+        raise ValueError(
+            f"{path}: read in {unit} (--time-unit {unit}), t's median interval is {dt:.6g} s "
+            f"({_hz(dt)}), but {imu}{hint}"
         )
-        for unit, scale in (("milliseconds", 1e-3), ("microseconds", 1e-6),
-                            ("nanoseconds", 1e-9)):  # fmt: skip
-            if dt > 0 and lo <= 1.0 / (dt * scale) <= hi:
-                msg += (
-                    f": t looks like {unit} ({1.0 / (dt * scale):.4g} Hz); divide it by "
-                    f"{1.0 / scale:g} to get seconds"
-                )
-                break
-        else:
-            msg += "; t must be in seconds"
-        raise ValueError(msg)
-    return dt
+    if TIME_UNITS[unit] != 1.0:
+        rec.t = rec.t * TIME_UNITS[unit]
+    rec.units = {**(rec.units or {}), "time": unit}
+    return raw * TIME_UNITS[unit]
+
+
+def _hz(dt: float) -> str:
+    return f"{1.0 / dt:.4g} Hz" if dt > 0 else "no rate"
 
 
 def _smooth(x: NDArray[np.float64], n: int) -> NDArray[np.float64]:
@@ -392,37 +533,193 @@ def gyro_to_field_ratio(
     return (1.0 / k if k > 0 else float("inf")), float(np.sqrt(cc / c.shape[0]))
 
 
-def _check_units(rec: Recording, path: Path, possible_gyr: NDArray[np.bool_]) -> None:
-    """Accelerometer in g or gyro in deg/s: a ValueError saying what to multiply by."""
-    acc_norm = np.linalg.norm(rec.acc, axis=1)
-    fin = np.isfinite(acc_norm) & np.all(np.abs(rec.acc) <= MAX_ACC_AXIS, axis=1)
-    small = int(np.sum(acc_norm[fin] < MIN_ACC_NORM))
-    if small >= UNIT_MIN_COUNT and 2 * small > int(fin.sum()):
-        raise ValueError(
-            f"{path}: ax, ay, az must be in m/s^2, but the specific-force norm is below "
-            f"{MIN_ACC_NORM:g} m/s^2 in {small} of {int(fin.sum())} samples (about 1 means g "
-            f"units; a sensor at rest reads {GRAVITY} m/s^2): multiply them by {GRAVITY}"
-        )
-    if rec.gyr is None:
+def _acc_unit(rec: Recording, path: Path, unit: str) -> None:
+    """Read ``acc`` in ``unit`` (``"auto"``: by the median norm of its 1 s means, gravity's),
+    converting it to m/s^2 in place; a ValueError where that norm is no unit's gravity."""
+    ok = np.all(np.isfinite(rec.acc) & (np.abs(rec.acc) <= MAX_ACC_AXIS), axis=1)
+    t, acc = rec.t[ok], rec.acc[ok]
+    if t.size > 1:  # 1 s means: steps and bumps average out, gravity does not
+        n = int(np.clip(np.rint(ACC_MEAN_S / float(np.median(np.diff(t)))), 1, t.size))
+        acc = _smooth(acc, n)
+    norm = np.linalg.norm(acc, axis=1)
+    lo, hi = ACC_MEDIAN_RANGE_G
+    band = f"{lo:g} g to {hi:g} g (gravity)"
+    if norm.size == 0:  # nothing to go by: the count of readable rows is checked later
+        rec.units = {**(rec.units or {}), "acc": "m/s2" if unit == "auto" else unit}
+        if unit != "auto":
+            rec.acc = rec.acc * ACC_UNITS[unit]
         return
-    gyr_norm = np.linalg.norm(rec.gyr, axis=1)
-    big = int(np.sum(possible_gyr & (gyr_norm > MAX_GYR_NORM)))
-    if big >= UNIT_MIN_COUNT and 100 * big >= rec.t.size:
+    median = float(np.median(norm))
+    fits = [u for u, scale in ACC_UNITS.items() if lo <= median * scale / GRAVITY <= hi]
+    if unit == "auto":
+        if not fits:
+            raise ValueError(
+                f"{path}: the median norm of the specific force averaged over {ACC_MEAN_S:g} s "
+                f"is {median:.4g}, neither in m/s^2 nor in g within {band}: gravity removed "
+                f"(linear acceleration)? ax, ay, az must hold gravity: a sensor at rest reads "
+                f"{GRAVITY} m/s^2 (1 g)"
+            )
+        unit = fits[0]
+        if unit != "m/s2":
+            warn(path, f"read ax, ay, az in {unit} (the median norm of their {ACC_MEAN_S:g} s "
+                        f"means, {median:.4g}, is gravity in {unit}); pass --acc-unit {unit} to "
+                        "say so")  # fmt: skip
+    elif unit not in fits:
+        hint = f": ax, ay, az look like {fits[0]} (--acc-unit {fits[0]})" if fits else ""
         raise ValueError(
-            f"{path}: gx, gy, gz must be in rad/s, but {big} of {rec.t.size} samples exceed "
-            f"{MAX_GYR_NORM:g} rad/s (2000 deg/s, beyond any head's turn): deg/s data? Multiply "
-            f"them by pi/180 = {np.pi / 180:.6f} (np.radians)"
+            f"{path}: read in {unit} (--acc-unit {unit}), the median norm of the specific "
+            f"force averaged over {ACC_MEAN_S:g} s is {median * ACC_UNITS[unit]:.4g} m/s^2, not "
+            f"{band}{hint}"
         )
-    if rec.mag is not None:  # slow deg/s data: fitted on the samples possible in rad/s
+    if ACC_UNITS[unit] != 1.0:
+        rec.acc = rec.acc * ACC_UNITS[unit]
+    rec.units = {**(rec.units or {}), "acc": unit}
+
+
+def _integrate_windows(t: NDArray, gyr: NDArray, dt_gap: float) -> NDArray[np.float64]:
+    """The orientation of each window's sensor relative to its first sample, (W, M, 4), from the
+    gyro rates ``gyr`` (W, M, 3) at times ``t`` (W, M): a prefix product of the per-sample
+    rotations (log2 M batched products; intervals longer than ``dt_gap`` are not integrated)."""
+    dt = np.diff(t, axis=1, prepend=t[:, :1])
+    dt[dt > dt_gap] = 0.0
+    q = quat_from_rotvec(gyr * dt[..., None])
+    k = 1
+    while k < q.shape[1]:
+        q = np.concatenate([q[:, :k], quat_multiply(q[:, :-k], q[:, k:])], axis=1)
+        k *= 2
+    return quat_normalize(q)
+
+
+def tilt_spreads(
+    t: NDArray[np.float64], gyr: NDArray[np.float64], acc: NDArray[np.float64],
+) -> dict[str, float] | None:  # fmt: skip
+    """The accelerometer's tilt against the gyro read in each unit of :data:`GYRO_UNITS`.
+
+    The recording is cut into windows of :data:`TILT_WINDOW_S`; in each, the gyro (its numbers
+    read in a unit) is integrated from the window's first sample, the specific force is turned
+    into that first sample's frame and smoothed over :data:`TILT_SMOOTH_S` (steps and bumps
+    average out), and its direction's RMS angle from its mean is the window's spread. Gravity
+    stays put in the right unit; the wrong one spins it around wherever the sensor tilts (57.3
+    times too fast, or too slow). Rows with a non-finite value are dropped; a long recording
+    gives at most :data:`MAX_TILT_SAMPLES` samples, in windows spread over it.
+
+    Returns:
+        ``{unit: spread}`` (deg, the RMS over the windows; NaN with under two smoothing spans
+        of data) for each gyro unit, with ``"none"`` (the sensor frame: the tilt the
+        accelerometer sees) and ``"turn_deg"``: the largest turn (deg) of the gyro read as
+        rad/s within a window (the whole recording where it is shorter than one): the norm of
+        its rates integrated from the window's start, which back-and-forth motions cancel and
+        a turn past 180 deg does not. None with fewer than 2 rows.
+    """
+    ok = np.all(np.isfinite(gyr), axis=1) & np.all(np.isfinite(acc), axis=1)
+    t, gyr, acc = t[ok], gyr[ok], acc[ok]
+    if t.size < 2:
+        return None
+    dt = float(np.median(np.diff(t)))
+    n_smooth = max(1, int(np.rint(TILT_SMOOTH_S / dt)))
+    m = max(1, min(int(np.rint(TILT_WINDOW_S / dt)), t.size))
+    windows = np.arange(t.size // m)
+    every = -(-windows.size * m // MAX_TILT_SAMPLES)
+    pick = (windows[::every][:, None] * m + np.arange(m)).ravel()
+    shape = (-1, m)
+    tw, gw, aw = t[pick].reshape(shape), gyr[pick].reshape(*shape, 3), acc[pick].reshape(*shape, 3)
+
+    def spread(q: NDArray | None) -> float:
+        if m < 2 * n_smooth:
+            return float("nan")
+        f = aw if q is None else quat_rotate(q, aw)
+        c = np.cumsum(np.concatenate([np.zeros_like(f[:, :1]), f], axis=1), axis=1)
+        f = c[:, n_smooth:] - c[:, :-n_smooth]
+        u = f / np.maximum(np.linalg.norm(f, axis=-1, keepdims=True), 1e-12)
+        mean = u.mean(axis=1, keepdims=True)
+        mean /= np.maximum(np.linalg.norm(mean, axis=-1, keepdims=True), 1e-12)
+        ang = np.arccos(np.clip(np.sum(u * mean, axis=-1), -1.0, 1.0))
+        return float(np.degrees(np.sqrt(np.mean(ang**2))))
+
+    out = {"none": spread(None)}
+    gap = gap_threshold(dt)
+    for unit, scale in GYRO_UNITS.items():
+        out[unit] = spread(_integrate_windows(tw, gw * scale, gap))
+    dt_w = np.diff(tw, axis=1, prepend=tw[:, :1])
+    dt_w[dt_w > gap] = 0.0
+    turn = np.linalg.norm(np.cumsum(gw * dt_w[..., None], axis=1), axis=-1)
+    out["turn_deg"] = float(np.degrees(turn.max()))
+    return out
+
+
+def _gyro_evidence(
+    rec: Recording, possible: NDArray[np.bool_]
+) -> tuple[list[tuple[str, str, str]], dict | None, str]:
+    """What the data says about the gyro's unit: ``(source, unit, why)`` for each source that
+    decides (magnitude, magnetometer, tilt; module doc), the tilt spreads, and in words why the
+    magnetometer does not decide (where it does not)."""
+    assert rec.gyr is not None
+    found = []
+    mag_said = "no magnetometer"
+    gyr_norm = np.linalg.norm(rec.gyr, axis=1)
+    big = int(np.sum(possible & (gyr_norm > MAX_GYR_NORM)))
+    if big >= UNIT_MIN_COUNT and 100 * big >= rec.t.size:
+        found.append(("gyro's magnitude", "deg/s", f"{big} of {rec.t.size} samples exceed "
+                      f"{MAX_GYR_NORM:g} rad/s (2000 deg/s, beyond any head's turn)"))  # fmt: skip
+    if rec.mag is not None:  # fitted on the samples possible in rad/s
         ok = np.all(np.abs(rec.gyr) <= MAX_GYR_AXIS, axis=1)
         ratio, rms = gyro_to_field_ratio(rec.t, np.where(ok[:, None], rec.gyr, np.nan), rec.mag)
-        lo, hi = DEG_RATIO_RANGE
-        if rms > 0.1 and lo <= ratio <= hi:
+        why = (f"its field turns {ratio:.3g} times slower than the gyro's numbers say (1 for "
+               "rad/s, 57.3 for deg/s)")  # fmt: skip
+        mag_said = "the magnetometer's field turns too little to compare"
+        if rms > MIN_FIT_TURNING:
+            mag_said = f"the magnetometer fits neither unit ({why})"
+            for unit, (lo, hi) in (("deg/s", DEG_RATIO_RANGE), ("rad/s", RAD_RATIO_RANGE)):
+                if lo <= ratio <= hi:
+                    found.append(("magnetometer", unit, why))
+    acc = np.where(np.all(np.abs(rec.acc) <= MAX_ACC_AXIS, axis=1)[:, None], rec.acc, np.nan)
+    tilt = tilt_spreads(rec.t, np.where(possible[:, None], rec.gyr, np.nan), acc)
+    if tilt is not None:
+        for unit, other in (("rad/s", "deg/s"), ("deg/s", "rad/s")):
+            if (tilt[other] >= TILT_RATIO * tilt[unit]
+                    and tilt[other] - tilt[unit] >= TILT_MARGIN_DEG):  # fmt: skip
+                found.append(("accelerometer's tilt", unit, (
+                    f"gravity, carried {TILT_WINDOW_S:g} s at a time by the gyro, spreads "
+                    f"{tilt[unit]:.1f} deg read in {unit} but {tilt[other]:.1f} deg read in "
+                    f"{other}")))  # fmt: skip
+    return found, tilt, mag_said
+
+
+def _gyro_unit(rec: Recording, path: Path, unit: str, possible: NDArray[np.bool_]) -> None:
+    """Read ``gyr`` in ``unit`` (``"auto"``: by the evidence, module doc), converting it to rad/s
+    in place; a warning (one line) where evidence goes against the unit read, a ValueError where
+    ``auto`` has nothing to go by and the units would give different attitudes."""
+    assert rec.gyr is not None
+    found, tilt, mag_said = _gyro_evidence(rec, possible)
+    given = unit != "auto"
+    if not given:
+        if found:
+            source, unit, why = found[0]
+            if unit != "rad/s":
+                warn(path, f"read gx, gy, gz in {unit}, as the {source} says ({why}); pass "
+                            f"--gyro-unit {unit} to say so")  # fmt: skip
+        elif tilt is not None and tilt["turn_deg"] >= UNDECIDED_TURN_DEG:
+            fits = f"the recording is too short for the tilt ({2 * TILT_SMOOTH_S:g} s)"
+            if np.isfinite(tilt["rad/s"]):
+                fits = (f"the accelerometer's tilt fits both (gravity spreads "
+                        f"{tilt['rad/s']:.1f} deg read in rad/s, {tilt['deg/s']:.1f} deg in "
+                        "deg/s: the sensor hardly tilts)")  # fmt: skip
             raise ValueError(
-                f"{path}: gx, gy, gz must be in rad/s, but the gyro turns {ratio:.1f} times "
-                "faster than the magnetometer's field does (57.3 for deg/s): deg/s data? "
-                f"Multiply them by pi/180 = {np.pi / 180:.6f} (np.radians)"
+                f"{path}: cannot tell whether gx, gy, gz are in rad/s or deg/s: none exceeds "
+                f"{MAX_GYR_NORM:g} rad/s, {mag_said}, and {fits}, while read as rad/s the gyro "
+                f"turns the sensor {tilt['turn_deg']:.0f} deg within {TILT_WINDOW_S:g} s (over "
+                f"{UNDECIDED_TURN_DEG:g} deg): pass --gyro-unit rad/s or --gyro-unit deg/s"
             )
+        else:
+            unit = "rad/s"
+    against = [f"the {source} says {other} ({why})" for source, other, why in found
+               if other != unit]  # fmt: skip
+    if against:
+        warn(path, f"gx, gy, gz are read in {unit} ({'given' if given else 'found'}), but "
+                    f"{' and '.join(against)}; check --gyro-unit")  # fmt: skip
+    if GYRO_UNITS[unit] != 1.0:
+        rec.gyr = rec.gyr * GYRO_UNITS[unit]
+    rec.units = {**(rec.units or {}), "gyro": unit}
 
 
 def _runs(mask: NDArray[np.bool_]) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
@@ -431,24 +728,27 @@ def _runs(mask: NDArray[np.bool_]) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
     return np.flatnonzero(d == 1), np.flatnonzero(d == -1) - 1
 
 
-def check_recording(rec: Recording, path: Path) -> Recording:
-    """Check units, impossible and missing samples and gaps of a recording (see the module doc).
+def check_recording(rec: Recording, path: Path, units: Units | None = None) -> Recording:
+    """Read the units, check impossible and missing samples and gaps of a recording (see the
+    module doc); ``units``: the columns' units (default: each found from the data).
 
-    Impossible samples become NaN (in place); the warnings go to stderr, one line each.
+    ``t``, ``acc`` and ``gyr`` are converted to s, m/s^2 and rad/s and impossible samples become
+    NaN (in place; ``rec.units`` says what was read); the warnings go to stderr, one line each.
 
     Raises:
         ValueError: the errors listed in the module doc, naming ``path``.
     """
-    t = rec.t
-    n = t.size
-    if n < 2 or t[-1] <= t[0]:
+    units = Units() if units is None else units
+    n = rec.t.size
+    if n < 2 or rec.t[-1] <= rec.t[0]:
         raise ValueError(f"{path}: needs samples at 2 distinct times at least, found {n} rows")
-    dt = _check_rate(rec, path)
-    # Gyro samples some unit allows (|component| <= 2040, 2000 deg/s and 2 %): deg/s evidence.
-    possible_gyr = None
+    dt = _time_unit(rec, path, units.time)
+    t = rec.t
+    _acc_unit(rec, path, units.acc)
     if rec.gyr is not None:
+        # Samples some unit allows (|component| <= 2040, 2000 deg/s and 2 %): the evidence.
         possible_gyr = np.all(np.abs(rec.gyr) <= np.degrees(MAX_GYR_AXIS), axis=1)
-    _check_units(rec, path, possible_gyr if possible_gyr is not None else np.ones(n, bool))
+        _gyro_unit(rec, path, units.gyro, possible_gyr)
 
     # Impossible samples (in the documented units) -> NaN.
     bad = {"acc": np.any(np.isinf(rec.acc) | (np.abs(rec.acc) > MAX_ACC_AXIS), axis=1)}

@@ -108,6 +108,17 @@ class VRLocoVectorEnv(VectorEnv):
             seeds = list(seed)
             if len(seeds) != n:
                 raise ValueError(f"seed must be an int or a list of {n} seeds, got {len(seeds)}")
+        if options is not None and not isinstance(options, dict):
+            raise ValueError(
+                f"options={options!r}: must be None or a dict (key 'reset_mask': a boolean "
+                f"array of shape ({n},))"
+            )
+        unknown = sorted(map(repr, set(options or {}) - {"reset_mask"}))
+        if unknown:
+            raise ValueError(
+                f"options: unknown key(s) {', '.join(unknown)}; the one option is 'reset_mask' "
+                f"(a boolean array of shape ({n},))"
+            )
         mask = (options or {}).get("reset_mask")
         rows = None
         if mask is not None:

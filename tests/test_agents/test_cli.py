@@ -17,8 +17,6 @@ from agents.learned import rollout_steps
         (["train", "--seeds", "x"], "--seeds: 'x' is not an integer"),
         (["train", "--seeds", "0,-1"], "--seeds: -1 must be >= 0"),
         (["train", "--seeds", "0,1", "--seed", "2"], "not allowed with argument --seeds"),
-        (["evaluate", "nonexist.zip"], "no such model file 'nonexist.zip'"),
-        (["evaluate", "x.csv"], "'x.csv' is not a saved model"),
         (["evaluate", "--episodes", "0", "m.zip"], "--episodes: 0 must be >= 1"),
         (["demo", "--sensors", "nope"], "--sensors"),
         (["experiment", "head-motions", "--users", "0"], "--users: 0 must be >= 1"),

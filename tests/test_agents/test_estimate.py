@@ -1,12 +1,14 @@
 """`vrloco estimate` on a recording written from the simulator, and its errors."""
 
 import json
+import re
 
 import numpy as np
 import pytest
 
 from agents.cli import main
-from agents.recordings import read_csv_recording
+from agents.recordings import Units, read_csv_recording
+from estimators.rotations import GRAVITY
 from vrloco_env.batch_rng import BatchRng
 from vrloco_env.sensors.imu import HeadImu, get_imu_spec
 from vrloco_env.user import run_script
@@ -134,36 +136,209 @@ def test_a_file_of_mostly_impossible_values_is_an_error(walk, tmp_path):
         read_csv_recording(_write(tmp_path / "junk.csv", table))
 
 
-def test_a_gyro_in_deg_per_s_is_an_error_saying_what_to_do(walk, tmp_path):
+def test_a_gyro_in_deg_per_s_is_found_read_and_said(walk, tmp_path, capsys):
     table = walk[0].copy()
     table[:, 1:4] = np.degrees(table[:, 1:4])  # this walk never turns faster than 35 deg/s
     assert np.linalg.norm(table[:, 1:4], axis=1).max() < 35.0
-    with pytest.raises(ValueError, match=r"turns 5\d\.\d times faster than the magnetometer.*"
-                                         r"deg/s data\? Multiply them by pi/180"):  # fmt: skip
-        read_csv_recording(_write(tmp_path / "deg.csv", table))
+    rec = read_csv_recording(_write(tmp_path / "deg.csv", table))
+    np.testing.assert_allclose(rec.gyr, walk[0][:, 1:4], rtol=1e-8, atol=1e-12)
+    assert rec.units == {"time": "s", "acc": "m/s2", "gyro": "deg/s"}
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    assert re.search(r"read gx, gy, gz in deg/s, as the magnetometer says \(its field turns "
+                     r"5\d\.\d times slower .*pass --gyro-unit deg/s", err)  # fmt: skip
     # Without a magnetometer, fast turns give deg/s away: many samples beyond 2000 deg/s.
     rng = BatchRng.from_seeds([1])
     rec = run_script("shake", rng)
     s = HeadImu(get_imu_spec("ig500n"), rng).sample(rec.quat, rec.omega, rec.acc, rec.pos)
     six = np.column_stack([rec.t, np.degrees(s.gyr[0]), s.acc[0]])
-    path = _write(tmp_path / "deg6.csv", six, "t,gx,gy,gz,ax,ay,az")
-    with pytest.raises(ValueError, match=r"samples exceed 35 rad/s .*deg/s data\?"):
-        read_csv_recording(path)
+    got = read_csv_recording(_write(tmp_path / "deg6.csv", six, "t,gx,gy,gz,ax,ay,az"))
+    np.testing.assert_allclose(got.gyr, s.gyr[0], rtol=1e-8, atol=1e-12)
+    assert re.search(r"as the gyro's magnitude says \(\d+ of 2000 samples exceed 35 rad/s",
+                     capsys.readouterr().err)  # fmt: skip
 
 
-def test_time_in_ms_or_ns_and_acc_in_g_are_errors_saying_what_to_do(walk, tmp_path):
+def _turn(tmp_path, name, cadence=0.0, rate_deg_s=10.0):
+    """A simulated user standing 2 s, turning at ``rate_deg_s`` for 4 s (stepping at
+    ``cadence``), standing 2 s: a 6-axis CSV with the gyro in deg/s, and the true final yaw."""
+    from vrloco_env.user.motion import Intent, MotionParams, MotionRecord, UserMotion
+
+    rng = BatchRng.from_seeds([4])
+    params = MotionParams()
+    n = round(params.control_rate_hz)  # control steps per second
+    motion = UserMotion(params, rng)
+    motion.reset(yaw=0.0)
+    turn = Intent(cadence=cadence, turn_rate=np.radians(rate_deg_s))
+    rec = MotionRecord.concatenate(
+        [motion.advance(i) for i in [Intent()] * 2 * n + [turn] * 4 * n + [Intent()] * 2 * n]
+    )
+    s = HeadImu(get_imu_spec("ig500n"), rng).sample(rec.quat, rec.omega, rec.acc, rec.pos)
+    table = np.column_stack([rec.t, np.degrees(s.gyr[0]), s.acc[0]])
+    return _write(tmp_path / f"{name}.csv", table, "t,gx,gy,gz,ax,ay,az"), np.degrees(
+        rec.ypr[0, -1, 0])
+
+
+def _final_yaw(path, out, capsys, *options):
+    """``vrloco estimate PATH OPTIONS``: exit code, stderr and the last yaw (deg, None on error)."""
+    code = main(["estimate", str(path), "--out", str(out), *options])
+    std = capsys.readouterr()
+    if code != 0:
+        return code, std.err, None
+    summary = json.loads(std.out)
+    return code, std.err, np.genfromtxt(summary["csv"], delimiter=",", names=True)["yaw_deg"][-1]
+
+
+def test_a_slow_turn_in_deg_per_s_gives_the_true_yaw_given_or_found_by_the_tilt(tmp_path, capsys):
+    path, true_yaw = _turn(tmp_path, "slow")
+    assert true_yaw == pytest.approx(40.0, abs=0.5)
+    code, err, yaw = _final_yaw(path, tmp_path, capsys, "--gyro-unit", "deg/s")
+    assert code == 0 and err == ""
+    assert yaw == pytest.approx(true_yaw, abs=2.0)
+    # auto: the head's small tilts, carried by the gyro read in rad/s, spin gravity around.
+    code, err, yaw = _final_yaw(path, tmp_path, capsys)
+    assert code == 0 and yaw == pytest.approx(true_yaw, abs=2.0)
+    assert err.count("\n") == 1
+    assert "read gx, gy, gz in deg/s, as the accelerometer's tilt says (gravity" in err
+    # Told rad/s, it reads rad/s (the user's word) and says in one line that the tilt disagrees.
+    code, err, yaw = _final_yaw(path, tmp_path, capsys, "--gyro-unit", "rad/s")
+    assert code == 0 and abs(yaw - true_yaw) > 10.0
+    assert err.count("\n") == 1
+    assert ("gx, gy, gz are read in rad/s (given), but the accelerometer's tilt says deg/s "
+            "(gravity, carried 4 s at a time") in err and err.rstrip().endswith("check --gyro-unit")
+
+
+def test_a_level_turn_in_deg_per_s_with_nothing_to_tell_the_unit_is_an_error(tmp_path, capsys):
+    # A level sensor turning at 10 deg/s about the vertical: no magnetometer, no tilt, rates far
+    # below 35: rad/s and deg/s fit the data alike, and give 40 deg or 2292 deg of turn.
+    t = np.arange(800) / 100.0
+    noise = np.random.default_rng(0).normal(0.0, 0.02, (800, 3))
+    gyr = np.zeros((800, 3)) + noise * 0.1
+    gyr[(t >= 2.0) & (t < 6.0), 2] += 10.0
+    acc = np.array([0.0, 0.0, 9.81]) + noise
+    path = _write(tmp_path / "level.csv", np.column_stack([t, gyr, acc]), "t,gx,gy,gz,ax,ay,az")
+    code, err, _ = _final_yaw(path, tmp_path, capsys)
+    assert code == 2 and "Traceback" not in err and err.count("\n") == 1
+    assert err.startswith(f"vrloco estimate: {path}: cannot tell whether gx, gy, gz are in rad/s "
+                          "or deg/s: none exceeds 35 rad/s, no magnetometer, and the "
+                          "accelerometer's tilt fits both")  # fmt: skip
+    # 2 s of the turn in the first 4 s window: 20 rad
+    assert re.search(r"read as rad/s the gyro turns the sensor 114\d deg within 4 s \(over 10 "
+                     r"deg\)", err)  # fmt: skip
+    assert err.rstrip().endswith("pass --gyro-unit rad/s or --gyro-unit deg/s")
+    assert not (tmp_path / "level_estimates.csv").exists()
+    code, err, yaw = _final_yaw(path, tmp_path, capsys, "--gyro-unit", "deg/s")
+    assert code == 0 and err == "" and yaw == pytest.approx(40.0, abs=1.0)
+    rec = read_csv_recording(path, Units(gyro="deg/s"))
+    np.testing.assert_allclose(rec.gyr, np.radians(gyr), rtol=1e-8, atol=1e-12)
+    # Standing still, both units give the same attitude: no unit needed.
+    still = np.column_stack([t, noise * 0.1, acc])
+    assert read_csv_recording(_write(tmp_path / "still.csv", still, "t,gx,gy,gz,ax,ay,az")
+                              ).units["gyro"] == "rad/s"  # fmt: skip
+
+
+def test_a_magnetometer_against_the_gyro_unit_is_a_warning(walk, tmp_path, capsys):
+    table = walk[0]
+    path = _write(tmp_path / "rad.csv", table)
+    code, err, _ = _final_yaw(path, tmp_path, capsys, "--gyro-unit", "deg/s")
+    assert code == 0 and err.count("\n") == 1
+    assert re.search(r"rad.csv: gx, gy, gz are read in deg/s \(given\), but the magnetometer "
+                     r"says rad/s \(its field turns (0\.9\d*|1|1\.0\d*) times slower than the "
+                     r"gyro's numbers say \(1 for rad/s, 57.3 for deg/s\)\); check --gyro-unit",
+                     err)  # fmt: skip
+    # Found, not given: a few corrupt samples over 35 rad/s make the gyro look like deg/s, and
+    # the magnetometer says otherwise.
+    spiky = table.copy()
+    spiky[::50, 1] = 40.0  # 2 % of the samples: possible in deg/s only
+    code, err, _ = _final_yaw(_write(tmp_path / "spiky.csv", spiky), tmp_path, capsys)
+    assert code == 0 and err.count("\n") == 2  # what was read, and what disagrees
+    assert "read gx, gy, gz in deg/s, as the gyro's magnitude says (44 of 2200 samples" in err
+    assert re.search(r"gx, gy, gz are read in deg/s \(found\), but the magnetometer says rad/s "
+                     r"\(its field turns", err)  # fmt: skip
+    # In agreement: no line.
+    code, err, _ = _final_yaw(path, tmp_path, capsys, "--gyro-unit", "rad/s")
+    assert code == 0 and err == ""
+
+
+def test_time_and_accelerometer_units_are_found_read_and_said_or_given(walk, tmp_path, capsys):
     table = walk[0].copy()
     table[:, 0] *= 1000.0
-    with pytest.raises(ValueError, match=r"t looks like milliseconds \(100 Hz\); divide it by "
-                                         r"1000 to get seconds"):  # fmt: skip
-        read_csv_recording(_write(tmp_path / "ms.csv", table))
+    ms = _write(tmp_path / "ms.csv", table)
+    rec = read_csv_recording(ms)
+    np.testing.assert_allclose(rec.t, walk[0][:, 0], rtol=1e-12, atol=1e-12)
+    assert rec.units["time"] == "ms"
+    assert ("ms.csv: read t in ms (its median interval 10 is 100 Hz in ms, 0.1 Hz in s); pass "
+            "--time-unit ms to say so") in capsys.readouterr().err  # fmt: skip
+    assert read_csv_recording(ms, Units(time="ms")).units["time"] == "ms"
+    assert capsys.readouterr().err == ""
+    with pytest.raises(ValueError, match=r"ms.csv: read in s \(--time-unit s\), t's median "
+                                         r"interval is 10 s \(0.1 Hz\), but an IMU samples at 5 Hz "
+                                         r"to 10000 Hz: t looks like ms \(--time-unit ms\)"):
+        read_csv_recording(ms, Units(time="s"))
     table[:, 0] *= 1e6
-    with pytest.raises(ValueError, match=r"t looks like nanoseconds"):
-        read_csv_recording(_write(tmp_path / "ns.csv", table))
-    # An accelerometer in g is refused with or without a gyro.
-    table = walk[0][:, [0, 4, 5, 6]] / [1.0, 9.81, 9.81, 9.81]
-    with pytest.raises(ValueError, match=r"ax, ay, az must be in m/s\^2.*multiply them by 9.80665"):
-        read_csv_recording(_write(tmp_path / "g.csv", table, "t,ax,ay,az"))
+    assert read_csv_recording(_write(tmp_path / "ns.csv", table)).units["time"] == "ns"
+    assert "ns.csv: read t in ns" in capsys.readouterr().err
+    # A median interval of 0.15: 6.7 Hz in s, 6.7 kHz in ms: both IMU rates, so it is asked for.
+    slow = walk[0][:200].copy()
+    slow[:, 0] = 0.15 * np.arange(200)
+    with pytest.raises(ValueError, match=r"6.667 Hz in s, 6667 Hz in ms; both are IMU rates, so "
+                                         r"the unit cannot be told: pass --time-unit s or ms"):
+        read_csv_recording(_write(tmp_path / "slow.csv", slow))
+    # An accelerometer in g is read as g (said), with or without a gyro.
+    g = walk[0][:, [0, 4, 5, 6]] / [1.0, 9.81, 9.81, 9.81]
+    rec = read_csv_recording(_write(tmp_path / "g.csv", g, "t,ax,ay,az"))
+    np.testing.assert_allclose(rec.acc, walk[0][:, 4:7] * (GRAVITY / 9.81), rtol=1e-8)
+    assert re.search(r"g.csv: read ax, ay, az in g \(the median norm of their 1 s means, "
+                     r"1.00\d*, is gravity in g\); pass --acc-unit g to say so",
+                     capsys.readouterr().err)  # fmt: skip
+    assert read_csv_recording(_write(tmp_path / "g.csv", g, "t,ax,ay,az"),
+                              Units(acc="g")).units["acc"] == "g"  # fmt: skip
+    with pytest.raises(ValueError, match=r"read in m/s2 \(--acc-unit m/s2\), the median norm "
+                                         r"of the specific force averaged over 1 s is 1.00\d* "
+                                         r"m/s\^2, not 0.5 g to 2 g \(gravity\): ax, ay, az "
+                                         r"look like g \(--acc-unit g\)"):  # fmt: skip
+        read_csv_recording(tmp_path / "g.csv", Units(acc="m/s2"))
+    # Gravity removed (a phone's linear acceleration): in no unit.
+    linear = walk[0][:, [0, 4, 5, 6]] - [0.0, 0.0, 0.0, 9.81]
+    with pytest.raises(ValueError, match=r"the median norm of the specific force averaged over "
+                                         r"1 s is 0.\d+, neither in m/s\^2 nor in g within 0.5 g "
+                                         r"to 2 g \(gravity\): gravity removed"):  # fmt: skip
+        read_csv_recording(_write(tmp_path / "lin.csv", linear, "t,ax,ay,az"))
+
+
+def test_units_are_checked_by_name_and_fixed_by_the_broad_and_oxford_formats(walk, tmp_path,
+                                                                            capsys):  # fmt: skip
+    from agents.recordings import read_recording
+
+    with pytest.raises(ValueError, match=r"Units.gyro='rpm': must be 'auto' or one of rad/s, "
+                                         r"deg/s"):  # fmt: skip
+        Units(gyro="rpm")
+    table, rec = walk
+    trial = _broad_file(tmp_path / "sim.h5", table, rec.quat[0])
+    with pytest.raises(ValueError, match=r"sim.h5: a BROAD trial is in rad/s by its format; a "
+                                         r"gyro unit \('deg/s', --gyro-unit\) applies to CSV "
+                                         r"files only"):  # fmt: skip
+        read_recording(trial, Units(gyro="deg/s"))
+    assert read_recording(trial, Units(gyro="rad/s")).units["gyro"] == "rad/s"
+    assert main(["estimate", str(trial), "--out", str(tmp_path), "--time-unit", "ms"]) == 2
+    assert "a time unit ('ms', --time-unit) applies to CSV files only" in capsys.readouterr().err
+
+
+def test_the_help_states_the_unit_checks_limits():
+    from agents import recordings as r
+    from agents.cli import build_parser
+
+    sub = build_parser()._subparsers._group_actions[0].choices["estimate"]
+    text = " ".join(sub.format_help().split())
+    lo, hi = r.RATE_RANGE_HZ
+    assert f"{lo:g} Hz to {hi / 1000:g} kHz" in text
+    assert (f"median norm of the {r.ACC_MEAN_S:g} s means is {r.ACC_MEDIAN_RANGE_G[0]:g} g to "
+            f"{r.ACC_MEDIAN_RANGE_G[1]:g} g") in text
+    assert f"at least {r.UNIT_MIN_COUNT} samples and 1% exceed 35 rad/s" in text
+    assert f"{r.RAD_RATIO_RANGE[0]:g}-{r.RAD_RATIO_RANGE[1]:g} times (rad/s)" in text
+    assert f"{r.DEG_RATIO_RANGE[0]:g}-{r.DEG_RATIO_RANGE[1]:g} times (deg/s)" in text
+    assert f"through {r.TILT_WINDOW_S:g} s windows" in text
+    assert f"at least {r.TILT_RATIO:g} times and {r.TILT_MARGIN_DEG:g} deg less" in text
+    assert f"under {r.UNDECIDED_TURN_DEG:g} deg in every {r.TILT_WINDOW_S:g} s window" in text
 
 
 def test_missing_samples_are_bridged_and_counted(walk, tmp_path, capsys):

@@ -35,7 +35,7 @@ def test_adapter_reports_terminal_observations_and_time_limits():
 
 
 @pytest.mark.slow  # about 10 s: a real PPO run
-def test_tiny_ppo_run_writes_a_model_and_a_learning_curve(tmp_path):
+def test_tiny_ppo_run_writes_a_model_and_a_learning_curve(tmp_path, capsys):
     from vrloco_env.config import EnvConfig
 
     path = train_ppo(
@@ -60,7 +60,9 @@ def test_tiny_ppo_run_writes_a_model_and_a_learning_curve(tmp_path):
 
     (row,) = run_benchmark(tasks=["avoid"], policies=[str(path)], techniques=["seed000"],
                            episodes=2, workers=1, progress=False, print_table=False)  # fmt: skip
-    for key in ("success_rate", "spl", "attitude_rmse_deg", "mean_collisions"):
+    # The same row, steps matched in the benchmark's window (step F1 too).
+    for key in ("success_rate", "spl", "attitude_rmse_deg", "mean_collisions", "step_f1",
+                "heading_error_rmse_deg", "phantom_steps_per_min"):  # fmt: skip
         assert row[key] == pytest.approx(result[key], nan_ok=True), key
     # Batched users play the model row by row: the same table as one episode at a time.
     kw = dict(tasks=["avoid"], policies=[str(path)], techniques=["seed000"], episodes=3,
@@ -90,6 +92,21 @@ def test_tiny_ppo_run_writes_a_model_and_a_learning_curve(tmp_path):
     ):  # the benchmark's metrics
         assert key in result, key
     assert result["episodes"] == 2
+    # vrloco evaluate: a progress bar, the benchmark's table for the row, --json the whole row.
+    from agents.cli import main
+
+    capsys.readouterr()
+    out_json = tmp_path / "eval.json"
+    assert main(["evaluate", str(path), "--episodes", "2", "--json", str(out_json)]) == 0
+    out = capsys.readouterr().out
+    assert "episodes" in out and "2/2" in out  # the progress bar, done
+    assert "vrloco benchmark: outcomes (seeds 0..1)" in out and "walking in place" in out
+    assert f"ppo:{path.name}" in out and '"success_rate"' not in out  # a table, not raw JSON
+    assert f"wrote {out_json}" in out
+    (saved,) = json.loads(out_json.read_text())["rows"]
+    assert saved["policy"] == f"ppo:{path.name}" and saved["episodes"] == 2
+    for key in ("success_rate", "spl", "step_f1", "mean_collisions"):
+        assert saved[key] == pytest.approx(result[key]), key
 
 
 @pytest.mark.slow  # about 10 s: a real PPO run
@@ -253,3 +270,113 @@ def test_a_seed_whose_ray_worker_is_lost_is_trained_again(tmp_path):
     assert killed  # a worker did die mid-run, and the task ran again to the end
     (alone,) = train_seeds("avoid", [0], tmp_path / "one", progress=False, **TINY)
     assert _policy(path) == _policy(alone)
+
+
+def test_evaluate_names_a_file_that_is_not_a_model_in_one_line(tmp_path, capsys):
+    import zipfile
+
+    from agents.cli import main
+
+    (tmp_path / "junk.zip").write_bytes(b"not a zip file" * 8)
+    with zipfile.ZipFile(tmp_path / "notes.zip", "w") as z:
+        z.writestr("notes.txt", "not a model")
+    with zipfile.ZipFile(tmp_path / "broken.zip", "w") as z:
+        z.writestr("data", "{not json")
+        z.writestr("policy.pth", b"")
+    (tmp_path / "model.zip.zip").write_bytes(b"")
+    cases = {
+        "junk.zip": "is not a saved model: not a zip file",
+        "notes.zip": "is not a saved stable-baselines3 model: the zip holds no data and no "
+                     "policy.pth",
+        "broken.zip": "stable-baselines3 cannot load it as a PPO model (JSONDecodeError",
+        "missing.zip": "no such model file",
+        "model.zip": "no such model file; did you mean",
+    }
+    for name, says in cases.items():
+        path = tmp_path / name
+        assert main(["evaluate", str(path), "--episodes", "1"]) == 2, name
+        err = capsys.readouterr().err
+        assert err.startswith(f"vrloco evaluate: {str(path)!r}") and says in err, err
+        assert err.count("\n") == 1 and "Traceback" not in err
+        with pytest.raises(ValueError, match="model"):
+            evaluate_model(path, episodes=1, progress=False)
+
+
+_WRONG_WIDTH = '''
+import numpy as np
+
+
+class Narrow:
+    """A batched user whose act() gives 3 numbers per user instead of 5."""
+
+    batched = True
+
+    def __init__(self, env):
+        pass
+
+    def reset(self, rng=None, rows=None):
+        pass
+
+    def act(self, obs):
+        return np.zeros((np.shape(obs)[0], 3), np.float32)
+
+
+class Short:
+    """A single-env user whose act() gives one action too few."""
+
+    def __init__(self, env):
+        pass
+
+    def reset(self, rng=None, rows=None):
+        pass
+
+    def act(self, obs):
+        return np.zeros(4, np.float32)
+
+
+class OneRow:
+    """A batched user that answers a batch with one row."""
+
+    batched = True
+
+    def __init__(self, env):
+        pass
+
+    def reset(self, rng=None, rows=None):
+        pass
+
+    def act(self, obs):
+        return np.zeros((1, 5), np.float32)
+'''
+
+
+def test_a_policy_returning_actions_of_the_wrong_shape_is_named(tmp_path):
+    from agents.episodes import run_batched, run_cell_episode
+    from agents.grid import Cell
+
+    plugin = tmp_path / "bad_users.py"
+    plugin.write_text(_WRONG_WIDTH)
+    narrow = Cell("avoid", f"{plugin}:Narrow")
+    with pytest.raises(ValueError, match=rf"policy '{plugin}:Narrow' returned actions of shape "
+                                         r"\(2, 3\) from act\(\); expected \(2, 5\) \(one row of "
+                                         r"5 per user\): \[walk, turn, "):  # fmt: skip
+        run_batched([(narrow, 0, False), (narrow, 1, False)], batch_size=2)
+    with pytest.raises(ValueError, match=rf"policy '{plugin}:OneRow' returned actions of shape "
+                                         r"\(1, 5\) from act\(\); expected \(3, 5\)"):  # fmt: skip
+        one = Cell("avoid", f"{plugin}:OneRow")
+        run_batched([(one, s, False) for s in range(3)], batch_size=3)
+    with pytest.raises(ValueError, match=rf"policy '{plugin}:Short' returned actions of shape "
+                                         r"\(4,\) from act\(\); expected \(5,\)"):  # fmt: skip
+        run_cell_episode(Cell("avoid", f"{plugin}:Short"), 0)
+
+
+def test_a_model_predicting_the_wrong_shape_is_named():
+    from agents.learned import run_policy_episodes
+
+    class Wide:
+        def predict(self, obs, deterministic=True):
+            return np.zeros((len(obs), 6), np.float32), None
+
+    with pytest.raises(ValueError, match=r"model Wide returned actions of shape \(2, 6\) from "
+                                         r"predict\(\); expected \(2, 5\)"):  # fmt: skip
+        run_policy_episodes(Wide(), VRLocoVectorEnv(2, task="avoid"), seed=0)
