@@ -15,11 +15,13 @@ runs every episode alone in a single env, :func:`agents.episodes.run_cell_episod
 claims a job's episodes one by one from a counter the workers share, so that a worker with no job
 left to start joins one still running (:func:`_job`): the workers end together. Finished
 episodes are kept in ``<out>/.resume`` (:mod:`agents.resume`) until the grid is complete, so an
-interrupted run resumes. :func:`agents.metrics.summarize` turns each cell into a row, compared
-with the baseline technique's (:mod:`agents.paired`): a table on the terminal, a CSV and a JSON
-file (:mod:`agents.benchmark_outputs`), and the figures (:mod:`agents.benchmark_figures`: for the
-first episode of each cell the true and virtual paths over the room, the head attitude, the gait;
-for the grid every metric, the collision causes and the latencies).
+interrupted run resumes; an output folder holds one run at a time, and one run's files alone
+(:class:`agents.resume.RunFolder`). :func:`agents.metrics.summarize` turns each cell into a
+row, compared with the baseline technique's (:mod:`agents.paired`): a table on the terminal, a
+CSV and a JSON file (:mod:`agents.benchmark_outputs`), and the figures
+(:mod:`agents.benchmark_figures`: for the first episode of each cell the true and virtual paths
+over the room, the head attitude, the gait; for the grid every metric, the collision causes and
+the latencies).
 
 Policies: ``goal_seeker``, ``avoid_manoeuvre``, ``reactive_avoider`` (:mod:`agents.scripted`),
 ``+<population>`` for a human population (:mod:`vrloco_env.user.population`), a stable-baselines3
@@ -30,19 +32,24 @@ technique pairs whose cells the run holds (:mod:`agents.discrimination`, also ``
 
 from __future__ import annotations
 
+import hashlib
+import json
 import math
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any
 
+from agents import warm_start
 from agents.benchmark_figures import cell_name, draw_cell, draw_grid
 from agents.benchmark_outputs import (
     BASELINE_TECHNIQUE,
     ROW_KEYS,
+    atomic_path,
     show_table,
     write_csv,
     write_json,
+    written_summary,
 )
 from agents.conditions import DEFAULT_CONDITION, get_condition
 from agents.discrimination import pair_results, show_pairs, write_pairs
@@ -62,7 +69,7 @@ from agents.metrics import (
 )
 from agents.paired import compare_values, episode_values
 from agents.policies import check_policy
-from agents.resume import EpisodeStore, episode_key, source_fingerprint
+from agents.resume import EpisodeStore, RunFolder, cell_inputs, episode_key, source_fingerprint
 from vrloco_env.tasks import get_task
 
 __all__ = [
@@ -209,6 +216,7 @@ def run_benchmark(
     baseline: str = BASELINE_TECHNIQUE,
     conditions: Sequence[str] | None = None,
     grids: Sequence[Grid] | None = None,
+    force: bool = False,
 ) -> list[dict[str, Any]]:
     """Run the grid (or grids) and write the outputs.
 
@@ -233,7 +241,11 @@ def run_benchmark(
             batch of seeds (:func:`agents.episodes.run_batched`); 0 runs every episode alone in a
             single env (:func:`agents.episodes.run_cell_episode`). The results are the same
             either way.
-        out_dir: folder for ``benchmark.csv``, ``benchmark.json`` and the figures (None: none).
+        out_dir: folder for ``benchmark.csv``, ``benchmark.json``, ``pairs.json`` and the
+            figures, and for the finished episodes of an interrupted run (``.resume``), one run
+            at a time (:class:`agents.resume.RunFolder`): a folder holding another run's files
+            is refused (None: no files).
+        force: remove another run's files from ``out_dir`` first instead of refusing it.
         json_path: also write the JSON here.
         progress: show a progress bar.
         print_table: print the table.
@@ -256,6 +268,10 @@ def run_benchmark(
         agents.backends.BackendError: no Ray cluster at ``address``, or Ray jobs that failed
             (raised once the other jobs have finished; with ``out_dir`` their episodes are kept
             for a rerun to resume).
+        ValueError: ``out_dir`` holds another run's files and not ``force``.
+        agents.resume.FolderBusy: another run is writing to ``out_dir``.
+        agents.benchmark_outputs.WriteError: an output could not be written (a full disk),
+            naming the file; the folder keeps its earlier files.
     """
     from vrloco_env.techniques import get_technique
 
@@ -299,11 +315,30 @@ def run_benchmark(
         import_ray()  # not installed: the install hint, before any work
 
     cells = list(dict.fromkeys(c for g in grids for c in g.cells()))
-    want_figures = out_dir is not None
-    store = None if out_dir is None else EpisodeStore(Path(out_dir) / ".resume")
+    keys = {} if out_dir is None else _episode_keys(cells, episodes, seed, True)
+    meta = {"seed": seed, "episodes": episodes, "workers": workers, "batch_size": batch_size,
+            "grids": [{"tasks": list(g.tasks), "policies": list(g.policies),
+                       "techniques": [get_technique(t).name for t in g.techniques],
+                       "conditions": list(g.conditions)} for g in grids]}  # fmt: skip
+    how = {"workers": workers, "batch_size": batch_size, "progress": progress,
+           "print_table": print_table, "backend": backend, "address": address,
+           "baseline": baseline, "json_path": json_path}  # fmt: skip
+    if out_dir is None:
+        return _play(cells, keys, meta, None, **how)
+    with RunFolder(out_dir, *_run_identity(cells, episodes, seed), force=force) as folder:
+        return _play(cells, keys, meta, folder, **how)
+
+
+def _play(cells: list[Cell], keys: dict[tuple[Cell, int], str], meta: dict[str, Any],
+          folder: RunFolder | None, *, workers: int, batch_size: int, progress: bool,
+          print_table: bool, backend: str, address: str | None, baseline: str,
+          json_path: Path | str | None) -> list[dict[str, Any]]:  # fmt: skip
+    """Play the grid's episodes that ``folder``'s ``.resume`` lacks, keeping each job's there
+    as it finishes; then the rows, the tables and the outputs (see :func:`run_benchmark`)."""
+    episodes, seed = meta["episodes"], meta["seed"]
+    store = None if folder is None else EpisodeStore(folder.path / ".resume")
     results: dict[tuple[Cell, int], EpisodeStats] = {}
     infos: dict[tuple[Cell, int], dict] = {}
-    keys = _episode_keys(cells, episodes, seed, want_figures)
     if store is not None:
         found = store.load()
         for ci, key in keys.items():
@@ -311,12 +346,15 @@ def run_benchmark(
                 results[ci], infos[ci] = found[key]
         if results:
             print(f"resuming: {len(results)} of {len(keys)} episodes found in {store.folder}")
-    jobs = _split_jobs(cells, episodes, seed, want_figures, batch_size, workers, set(results))
+    jobs = _split_jobs(cells, episodes, seed, folder is not None, batch_size, workers,
+                       set(results))  # fmt: skip
     base = {(c.task, c.policy, c.condition): c for c in cells if c.technique_name == baseline}
     rows_of = _CellRows(episodes, results, infos, base)
     interrupted = False
     try:
         rows_of.add(list(results))  # resumed episodes
+        if jobs and warm_start.announce() and backend == "local" and workers > 1:
+            _compile_shared_kernels(jobs[0])
         for done in _run_jobs(jobs, workers, progress, backend, address):
             for cell, index, stats, reset_info in done:
                 results[(cell, index)], infos[(cell, index)] = stats, reset_info
@@ -350,33 +388,60 @@ def run_benchmark(
     if print_table and rows:
         show_table(rows, seed, baseline=baseline)
         show_pairs(pairs, baseline)
-    meta = {"seed": seed, "episodes": episodes, "workers": workers, "batch_size": batch_size,
-            "grids": [{"tasks": list(g.tasks), "policies": list(g.policies),
-                       "techniques": [get_technique(t).name for t in g.techniques],
-                       "conditions": list(g.conditions)} for g in grids]}  # fmt: skip
     written = []
-    if out_dir is not None:
-        out = Path(out_dir)
-        out.mkdir(parents=True, exist_ok=True)
-        written.append(write_csv(out / "benchmark.csv", rows))
-        written.append(write_json(out / "benchmark.json", rows, meta))
-        if pairs:
-            written.append(write_pairs(out / "pairs.json", pairs))
-        for c in cells:
-            written += draw_cell(out, c, results[(c, 0)])
-        if rows:
-            written += draw_grid(out, rows, {
-                cell_name(row): [results[(c, i)] for i in range(episodes)]
-                for c, row in zip(cells, rows, strict=True)})  # fmt: skip
+    if folder is not None:
+        written = folder.replace(lambda out: _write_outputs(out, rows, meta, pairs, cells,
+                                                            results))  # fmt: skip
     if json_path is not None:
         written.append(write_json(Path(json_path), rows, meta))
-    for p in written:
-        print(f"wrote {p}")
+    for line in written_summary(written):
+        print(line)
     if interrupted:
         raise KeyboardInterrupt
+    warm_start.mark_compiled()
     if store is not None:
         store.clear()  # the grid is complete: nothing to resume
     return rows
+
+
+def _compile_shared_kernels(job: tuple) -> None:
+    """Play ``job``'s first episode alone in this process, unrecorded, before the local workers
+    fork: that compiles the kernels every cell shares (the user's motion, the sensors, the world,
+    the scripted user's planner) once, so that each worker starts with them loaded and compiles
+    only the estimators of its own cells, beside the others (:mod:`agents.warm_start`). One user,
+    so the serial builds the workers use, and no thread pool that would make them spawn."""
+    cell, _, seed, _ = job[0][0]
+    run_cell_episode(cell, seed, False)
+
+
+def _write_outputs(out: Path, rows: list[dict[str, Any]], meta: dict[str, Any], pairs: list,
+                   cells: list[Cell], results: dict) -> list[Path]:  # fmt: skip
+    """The run's files in ``out``: the CSV, the JSON, ``pairs.json`` where there are pairs, the
+    figures of each cell's first episode and of the grid."""
+    written = [write_csv(out / "benchmark.csv", rows),
+               write_json(out / "benchmark.json", rows, meta)]  # fmt: skip
+    if pairs:
+        with atomic_path(out / "pairs.json") as tmp:
+            write_pairs(tmp, pairs)
+        written.append(out / "pairs.json")
+    for c in cells:
+        written += draw_cell(out, c, results[(c, 0)])
+    if rows:
+        written += draw_grid(out, rows, {
+            cell_name(row): [results[(c, i)] for i in range(meta["episodes"])]
+            for c, row in zip(cells, rows, strict=True)})  # fmt: skip
+    return written
+
+
+def _run_identity(cells: list[Cell], episodes: int, seed: int) -> tuple[str, str]:
+    """The run's identity in its output folder (its cells, episodes and first seed: the same
+    command gives the same one) and a few words on it (:class:`agents.resume.RunFolder`)."""
+    names = [[c.task, c.policy, c.technique_name, c.condition] for c in cells]
+    run = hashlib.sha256(json.dumps([names, episodes, seed]).encode()).hexdigest()[:16]
+    techniques = list(dict.fromkeys(c.technique_name for c in cells))
+    shown = ", ".join(techniques[:4]) + (", ..." if len(techniques) > 4 else "")
+    return run, (f"{len(cells)} cell{'s' if len(cells) > 1 else ''} of {shown}; {episodes} "
+                 f"episode{'s' if episodes > 1 else ''} from seed {seed}")
 
 
 class _CellRows:
@@ -471,12 +536,14 @@ def _check_grid(grid: Grid) -> None:
 def _episode_keys(
     cells: list[Cell], episodes: int, seed: int, figures: bool
 ) -> dict[tuple[Cell, int], str]:
-    """The resume key of every episode of the grid (:func:`agents.resume.episode_key`)."""
+    """The resume key of every episode of the grid (:func:`agents.resume.episode_key`, with each
+    cell's :func:`agents.resume.cell_inputs`)."""
     from vrloco_env.techniques import get_technique
 
     fp = source_fingerprint()
+    inputs = cell_inputs(cells)
     return {(c, i): episode_key(fp, c.task, c.policy, get_technique(c.technique), seed + i,
-                                figures and i == 0, c.condition)
+                                figures and i == 0, c.condition, inputs[c])
             for c in cells for i in range(episodes)}  # fmt: skip
 
 

@@ -1,7 +1,9 @@
 """The benchmark's figures: of one episode per cell (the analogues of seed 000's Figs. 2-5: the
 true and virtual paths over the room, the head attitude, truth vs estimate, and the gait, true
 heel strikes vs detected steps; :func:`draw_cell`) and of the whole grid (the metrics with their
-intervals, the collisions by cause, the latency distributions; :func:`draw_grid`)."""
+intervals, the collisions by cause, the latency distributions; :func:`draw_grid`), each written
+atomically: a file is whole or absent, and a full disk is a
+:class:`~agents.benchmark_outputs.WriteError` naming it."""
 
 from __future__ import annotations
 
@@ -18,6 +20,20 @@ if TYPE_CHECKING:
     from agents.benchmark import Cell
 
 __all__ = ["GRID_METRICS", "draw_cell", "draw_grid"]
+
+
+def _save(fig: Any, path: Path) -> None:
+    """Write ``fig`` as a PNG to ``path`` atomically (:func:`agents.benchmark_outputs.atomic_path`:
+    a full disk is a WriteError naming ``path``), and close it."""
+    import matplotlib.pyplot as plt
+
+    from agents.benchmark_outputs import atomic_path
+
+    try:
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=100, format="png")
+    finally:
+        plt.close(fig)
 
 
 def _draw_room(ax: Any, layout: Any) -> None:
@@ -66,7 +82,6 @@ def draw_cell(out_dir: Path, cell: Cell, stats: EpisodeStats) -> list[Path]:
     tr = stats.trace
     if tr is None:
         raise ValueError("stats has no trace: run the episode with trace=True")
-    out_dir.mkdir(parents=True, exist_ok=True)
     title = f"{cell.task}, {cell.policy}, {cell.technique_name}, seed {stats.seed}"
     outcome = "success" if stats.success else "failure"
     written = []
@@ -83,8 +98,7 @@ def draw_cell(out_dir: Path, cell: Cell, stats: EpisodeStats) -> list[Path]:
     ax.set_title(f"Paths: {title} ({outcome}, {stats.collisions} collisions)", fontsize=9)
     ax.legend(fontsize=7, loc="best")
     written.append(out_dir / f"trajectory_{cell.label}.png")
-    fig.savefig(written[-1], dpi=100)
-    plt.close(fig)
+    _save(fig, written[-1])
 
     t = tr["elapsed_time"]
     true = np.rad2deg(np.unwrap(np.deg2rad(tr["true_ypr"]), axis=0))
@@ -99,8 +113,7 @@ def draw_cell(out_dir: Path, cell: Cell, stats: EpisodeStats) -> list[Path]:
     axes[-1].set_xlabel("time (s)")
     axes[0].set_title(f"Head attitude: {title}", fontsize=9)
     written.append(out_dir / f"attitude_{cell.label}.png")
-    fig.savefig(written[-1], dpi=100)
-    plt.close(fig)
+    _save(fig, written[-1])
 
     fig, ax = plt.subplots(figsize=(9, 3.6), constrained_layout=True)
     times = tr["true_step_times"]
@@ -119,8 +132,7 @@ def draw_cell(out_dir: Path, cell: Cell, stats: EpisodeStats) -> list[Path]:
     ax.legend(fontsize=8, loc="upper left")
     ax.set_title(f"Gait: {title}", fontsize=9)
     written.append(out_dir / f"gait_{cell.label}.png")
-    fig.savefig(written[-1], dpi=100)
-    plt.close(fig)
+    _save(fig, written[-1])
     return written
 
 
@@ -173,7 +185,6 @@ def draw_grid(out_dir: Path, rows: list[dict[str, Any]],
 
     from agents.collision_causes import COLLISION_CAUSES
 
-    out_dir.mkdir(parents=True, exist_ok=True)
     names = [cell_name(r) for r in rows]
     y = np.arange(len(rows))
     height = 0.6 + 0.22 * len(rows)
@@ -204,8 +215,7 @@ def draw_grid(out_dir: Path, rows: list[dict[str, Any]],
     fig.suptitle("Benchmark metrics per cell (bars: mean or rate; whiskers: 95 % interval)",
                  fontsize=10)  # fmt: skip
     written.append(out_dir / "metrics.png")
-    fig.savefig(written[-1], dpi=100)
-    plt.close(fig)
+    _save(fig, written[-1])
 
     fig, ax = plt.subplots(figsize=(9, height + 0.8), constrained_layout=True)
     left = np.zeros(len(rows))
@@ -221,8 +231,7 @@ def draw_grid(out_dir: Path, rows: list[dict[str, Any]],
     ax.legend(fontsize=8, loc="lower right")
     ax.set_title("Collisions by cause", fontsize=10)
     written.append(out_dir / "collision_causes.png")
-    fig.savefig(written[-1], dpi=100)
-    plt.close(fig)
+    _save(fig, written[-1])
 
     fig, axes = plt.subplots(1, 2, figsize=(12, height + 0.8), sharey=True,
                              constrained_layout=True)  # fmt: skip
@@ -241,6 +250,5 @@ def draw_grid(out_dir: Path, rows: list[dict[str, Any]],
     axes[0].invert_yaxis()
     fig.suptitle("Start and stop latency distributions", fontsize=10)
     written.append(out_dir / "latency.png")
-    fig.savefig(written[-1], dpi=100)
-    plt.close(fig)
+    _save(fig, written[-1])
     return written

@@ -79,16 +79,6 @@ def _task(text: str) -> str:
     return text
 
 
-def _model(text: str) -> str:
-    """An argparse type: an existing stable-baselines3 model file (.zip)."""
-    path = Path(text)
-    if path.suffix != ".zip":
-        raise argparse.ArgumentTypeError(f"{text!r} is not a saved model (a .zip file)")
-    if not path.is_file():
-        raise argparse.ArgumentTypeError(f"no such model file {text!r}")
-    return text
-
-
 def _out_dir(text: str) -> str:
     """An argparse type: a folder that can be written (created if need be), checked before the
     work starts."""
@@ -176,9 +166,24 @@ def _cmd_step_envelope(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_head_behaviour(args: argparse.Namespace) -> int:
+    from agents.experiments.head_behaviour import run_head_behaviour
+
+    try:
+        run_head_behaviour(json_path=Path(args.json) if args.json else None,
+                           episodes=args.episodes, seed=args.seed,
+                           out_dir=Path(args.out) if args.out else None)  # fmt: skip
+    except (FileNotFoundError, ValueError) as err:  # no head traces, a bad file: one line
+        print(f"vrloco experiment head-behaviour: {err}", file=sys.stderr)
+        return 2
+    return 0
+
+
 def _cmd_benchmark(args: argparse.Namespace) -> int:
     from agents.backends import BackendError
     from agents.benchmark import run_benchmark
+    from agents.benchmark_outputs import WriteError
+    from agents.resume import FolderBusy
 
     def names(text: str) -> list[str]:
         return [s.strip() for s in text.split(",") if s.strip()]
@@ -198,10 +203,14 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
             backend=args.backend,
             address=args.address,
             conditions=names(args.conditions) if args.conditions else None,
+            force=args.force,
         )
     except ValueError as err:  # a bad option value: one clear line, no traceback
         print(f"vrloco benchmark: {err}", file=sys.stderr)
         return 2
+    except (WriteError, FolderBusy) as err:  # a full disk, another run in --out: one line
+        print(f"vrloco benchmark: {err}", file=sys.stderr)
+        return 1
     except BackendError as err:  # no Ray cluster, or Ray jobs lost: what and where, no traceback
         kept = (f"\nthe finished episodes are kept: rerun with --out {args.out} to resume"
                 if args.out and err.partial else "")  # fmt: skip
@@ -277,29 +286,40 @@ def _cmd_train(args: argparse.Namespace) -> int:
 
 
 def _cmd_evaluate(args: argparse.Namespace) -> int:
+    from agents.benchmark_outputs import WriteError, show_table, write_json
     from agents.learned import evaluate_model
 
     try:
-        result = evaluate_model(
+        row = evaluate_model(
             Path(args.model),
             task=args.task,
             episodes=args.episodes,
             seed=args.seed,
             sensor_preset=args.sensors,
+            progress=True,
         )
-    except ValueError as err:  # a contradiction with the model: one clear line, no traceback
+    except ValueError as err:  # not a model, or a contradiction with it: one line, no traceback
         print(f"vrloco evaluate: {err}", file=sys.stderr)
         return 2
-    print(json.dumps(result, indent=2))
+    show_table([row], args.seed)
+    if args.json:
+        meta = {"model": str(args.model), "seed": args.seed, "episodes": args.episodes}
+        try:
+            print(f"wrote {write_json(Path(args.json), [row], meta)}")
+        except WriteError as err:  # a full disk: one line
+            print(f"vrloco evaluate: {err}", file=sys.stderr)
+            return 1
     return 0
 
 
 def _cmd_estimate(args: argparse.Namespace) -> int:
     from agents.estimate import estimate_recording
+    from agents.recordings import Units
 
     try:
+        units = Units(time=args.time_unit, acc=args.acc_unit, gyro=args.gyro_unit)
         result = estimate_recording(
-            Path(args.path), Path(args.out), args.step_length, offline=args.offline
+            Path(args.path), Path(args.out), args.step_length, offline=args.offline, units=units
         )
     except ValueError as err:  # a malformed recording: one clear line, no traceback
         print(f"vrloco estimate: {err}", file=sys.stderr)
@@ -369,6 +389,18 @@ def build_parser() -> argparse.ArgumentParser:
     se.add_argument("--dev", action="store_true", help="development seeds 0-2 instead")
     se.add_argument("--users", type=_int_at_least(1), default=8, help="simulated users per case")
     se.set_defaults(func=_cmd_step_envelope)
+    hb = exp_sub.add_parser(
+        "head-behaviour",
+        help="head-motion statistics of every user population, standing and walking, beside "
+        "held-out real head traces of people viewing 360-degree video (not walking)",
+    )
+    hb.add_argument("--json", type=_out_file, help="write the results to this JSON file")
+    hb.add_argument("--episodes", type=_int_at_least(1), default=16,
+                    help="simulated users per population and condition")
+    hb.add_argument("--seed", type=_int_at_least(0), default=0, help="first episode's seed")
+    hb.add_argument("--out", type=_out_dir,
+                    help="folder for the figure (default: beside --json; neither: no figure)")
+    hb.set_defaults(func=_cmd_head_behaviour)
     hv = exp_sub.add_parser(
         "hand-variance",
         help="seed 003 Tables 1-4 on the synthetic Kinect, with lag and RMSE while moving",
@@ -454,8 +486,17 @@ def build_parser() -> argparse.ArgumentParser:
         "instance on this machine's cores",
     )
     bench.add_argument("--json", type=_out_file, help="also write the rows to this JSON file")
-    bench.add_argument("--out", default="out/benchmark", type=_out_dir,
-                       help="folder for CSV, JSON, figures")  # fmt: skip
+    bench.add_argument(
+        "--out", default="out/benchmark", type=_out_dir,
+        help="folder for CSV, JSON, figures, one run's alone: a folder holding another run's "
+        "results (another grid, episode count or seed) is refused, and so is a folder another "
+        "run is writing to; the same command again resumes its interrupted run from "
+        "OUT/.resume and replaces its own files",
+    )  # fmt: skip
+    bench.add_argument(
+        "--force", action="store_true",
+        help="remove another run's results from --out first, then write this run's",
+    )  # fmt: skip
     bench.set_defaults(func=_cmd_benchmark)
 
     techniques = sub.add_parser(
@@ -505,8 +546,14 @@ def build_parser() -> argparse.ArgumentParser:
                        help="folder for logs and models")  # fmt: skip
     train.set_defaults(func=_cmd_train)
 
-    evaluate = sub.add_parser("evaluate", help="the benchmark's metrics for a trained PPO model")
-    evaluate.add_argument("model", type=_model, help="path of a saved PPO model (.zip)")
+    evaluate = sub.add_parser(
+        "evaluate",
+        help="the benchmark's metrics for a trained PPO model",
+        description="Plays the model's seeded episodes (a progress bar) and prints the "
+        "benchmark's table for its row; --json writes the row (every metric) as the benchmark's "
+        "JSON does.",
+    )
+    evaluate.add_argument("model", help="path of a saved PPO model (.zip)")
     evaluate.add_argument(
         "--task", help=f"one of {', '.join(TASKS)} (default: the task the model was trained on)"
     )
@@ -514,14 +561,18 @@ def build_parser() -> argparse.ArgumentParser:
                           help="seeded episodes")  # fmt: skip
     evaluate.add_argument("--sensors", type=_preset, help="IMU preset (default: the model's own)")
     evaluate.add_argument("--seed", type=_int_at_least(0), default=0, help="random seed")
+    evaluate.add_argument("--json", type=_out_file,
+                          help="also write the row (every metric) to this JSON file")  # fmt: skip
     evaluate.set_defaults(func=_cmd_evaluate)
     est = sub.add_parser(
         "estimate",
         help="attitude, steps and the eq (17) path of a recording (CSV, BROAD or Oxford)",
         description=(
             "CSV columns: t (s), gx gy gz (rad/s), ax ay az (m/s^2), optional mx my mz "
-            "(any fixed unit). Also reads BROAD .hdf5/.mat trials and Oxford step-counter "
-            "folders. Writes NAME_estimates.csv and NAME_estimates.png."
+            "(any fixed unit); t, the gyro and the accelerometer in other units are found from "
+            "the data or given with --time-unit, --gyro-unit, --acc-unit (a unit read other "
+            "than these is said in one line). Also reads BROAD .hdf5/.mat trials and Oxford "
+            "step-counter folders. Writes NAME_estimates.csv and NAME_estimates.png."
         ),
     )
     est.add_argument("path", help="a CSV file, a BROAD trial or an Oxford folder")
@@ -529,6 +580,26 @@ def build_parser() -> argparse.ArgumentParser:
     est.add_argument("--step-length", type=float, default=0.7, help="eq (17) SL in m")
     est.add_argument("--offline", action="store_true",
                      help="attitude from the forward-backward smoother")  # fmt: skip
+    est.add_argument(
+        "--time-unit", choices=("auto", "s", "ms", "us", "ns"), default="auto",
+        help="unit of a CSV's t; auto: the one in which the median interval is 5 Hz to 10 kHz "
+        "(an error where none or two are)",
+    )  # fmt: skip
+    est.add_argument(
+        "--acc-unit", choices=("auto", "m/s2", "g"), default="auto",
+        help="unit of a CSV's ax ay az; auto: the one in which the median norm of the 1 s "
+        "means is 0.5 g to 2 g (gravity; an error where neither is)",
+    )  # fmt: skip
+    est.add_argument(
+        "--gyro-unit", choices=("auto", "rad/s", "deg/s"), default="auto",
+        help="unit of a CSV's gx gy gz. auto, in order: deg/s where at least 10 samples and "
+        "1%% exceed 35 rad/s (2000 deg/s); else the magnetometer's verdict (its field turns "
+        "0.5-2 times (rad/s) or 35-95 times (deg/s) slower than the gyro's numbers say); else "
+        "the accelerometer's (gravity, carried by the gyro through 4 s windows, spreads at "
+        "least 2 times and 2 deg less in one unit than in the other); with no verdict, rad/s "
+        "where the gyro read as rad/s turns the sensor under 10 deg in every 4 s window, else "
+        "an error asking for this option. Evidence against the unit read is a one-line warning",
+    )  # fmt: skip
     est.set_defaults(func=_cmd_estimate)
     return parser
 

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from agents.benchmark_outputs import json_safe
+from agents.benchmark_outputs import json_safe, terminal_console
 from agents.conditions import DEFAULT_CONDITION
 from agents.paired import ALPHA
 
@@ -141,33 +141,47 @@ def pair_results(rows: list[dict[str, Any]], pairs: tuple[Pair, ...] = PAIRS) ->
     return out
 
 
-def show_pairs(results: list[dict], baseline: str = "seed000") -> None:
-    """The pairs as a table: each pair's metrics that differ from ``baseline`` in the expected
-    direction, and a count of the pairs that separate (on an outcome)."""
-    from rich.console import Console
+def show_pairs(results: list[dict], baseline: str = "seed000", width: int | None = None) -> None:
+    """The pairs: each pair's metrics that differ from ``baseline`` in the expected direction,
+    and a count of the pairs that separate (on an outcome). ``width``: the console's columns
+    (None: :func:`agents.benchmark_outputs.terminal_console`'s choice). A console narrower than
+    :data:`_TABLE_WIDTH` gets one paragraph per pair, wrapped between words, never inside a
+    metric's name."""
     from rich.table import Table
 
     if not results:
         return
-    console = Console()
-    if not console.is_terminal:  # a pipe or a file: the full table
-        console = Console(width=200)
-    table = Table(title=f"discriminating power: each technique vs {baseline} (paired, p < "
-                        f"{ALPHA}, expected direction)", pad_edge=False)  # fmt: skip
-    for head in ("technique (users, room)", "separates", "on outcome", "differs on",
-                 "against expectation"):  # fmt: skip
-        table.add_column(head, overflow="fold")
+    console = terminal_console(width)
+    title = (f"discriminating power: each technique vs {baseline} (paired, p < {ALPHA}, "
+             "expected direction)")  # fmt: skip
+    rows = []
     for res in results:
         against = [f"{task}:{m}" for task, per in res["tasks"].items()
                    for m, v in per.items() if v["verdict"] == "against"]  # fmt: skip
-        table.add_row(res["pair"], "yes" if res["separates"] else "NO",
-                      "yes" if res["on_outcome"] else "no", ", ".join(res["metrics"]) or "–",
-                      ", ".join(against) or "–")  # fmt: skip
-    console.print(table)
+        rows.append((res["pair"], "yes" if res["separates"] else "NO",
+                     "yes" if res["on_outcome"] else "no", ", ".join(res["metrics"]) or "–",
+                     ", ".join(against) or "–"))  # fmt: skip
+    if console.width < _TABLE_WIDTH:
+        console.print(title, overflow="fold")
+        for pair, sep, out, differs, against in rows:
+            console.print(f"- {pair}: separates {sep}, on an outcome {out}; differs on: "
+                          f"{differs}; against expectation: {against}")  # fmt: skip
+    else:
+        table = Table(title=title)
+        for head in ("technique (users, room)", "separates", "on outcome", "differs on",
+                     "against expectation"):  # fmt: skip
+            table.add_column(head)
+        for r in rows:
+            table.add_row(*r)
+        console.print(table)
     n_sep = sum(r["separates"] for r in results)
     n_out = sum(r["on_outcome"] for r in results)
     console.print(f"{n_sep} of {len(results)} pairs separate, {n_out} on an outcome (success, "
                   "collisions, SPL or time to goal)")  # fmt: skip
+
+
+#: Consoles at least this wide get the pairs as a table (narrower: a paragraph per pair).
+_TABLE_WIDTH = 160
 
 
 def write_pairs(path: Path, results: list[dict]) -> Path:

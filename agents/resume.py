@@ -1,53 +1,442 @@
-"""Finished episodes of a benchmark grid, kept on disk so that an interrupted run resumes.
+"""The benchmark's output folder across runs: the finished episodes kept so that an interrupted
+run resumes (:class:`EpisodeStore`, under the keys of :func:`episode_key`), and one run at a
+time in the folder, each run's files alone (:class:`RunFolder`).
 
-While ``vrloco benchmark`` runs, every finished job (a batch of episodes) is written to
-``<out>/.resume/<job>.pkl``; a rerun with the same ``--out`` loads them and runs only the
+Resume. While ``vrloco benchmark`` runs, every finished job (a batch of episodes) is written to
+``<out>/.resume/<job>.npz``; a rerun with the same ``--out`` loads them and runs only the
 episodes that are missing, then removes the folder once the grid is complete. An episode is
 found again only under the same key: its task, policy, technique (the full definition),
-seed, whether it keeps a trace, and a fingerprint of the package's source files, so results of
-other code or other settings are never mixed in. The batch size and the worker count are not
-part of the key: they do not change an episode's numbers.
+condition, seed, whether it keeps a trace, a fingerprint of the package's source files
+(:func:`source_fingerprint`) and one of the cell's own inputs (:func:`cell_inputs`: the
+definitions of its condition and population, a ``.zip`` model's bytes, and the source of every
+plug-in module the cell names and of the modules they import from their own folder or package),
+so results of other code or other settings are never mixed in. The batch size and the worker
+count are not part of the key: they do not change an episode's numbers.
 
-A file that cannot be read (a run killed mid-write, a file from another version) is reported in
-one line and its episodes run again; writes go to a temporary file first and are renamed into
-place, so a crash never leaves a half-written result under a valid name.
+An entry holds its numbers as arrays and its structure as JSON in one ``.npz`` file, read with
+``allow_pickle=False`` and rebuilt from a fixed set of types, each field checked against its
+annotation (:func:`decode_episodes`), so a file in ``.resume`` never runs code. Anything else
+there (a truncated write, a crafted or foreign file, a right-size file of the wrong structure,
+a ``.pkl`` of an older vrloco, which is never opened) is reported in one line and its episodes
+run again; writes go to a temporary file first and are renamed into place.
+
+One run, one folder. :class:`RunFolder` holds ``<out>/.lock`` (an ``fcntl.flock``: a second run
+into the folder is refused, naming the holder's pid; a lock whose holder died is free again)
+and records in ``<out>/.run.json`` which run wrote the folder's files. A run refuses a folder
+holding another run's results unless forced, which removes those files first; a run writes its
+files into ``<out>/.writing`` and then renames them into place, removing what its own previous
+write left that this one does not, so the folder holds one write of one run.
 """
 
 from __future__ import annotations
 
+import dataclasses
+import errno
+import functools
 import hashlib
+import json
+import math
 import os
-import pickle
+import re
 import shutil
-from collections.abc import Iterable
+import sys
+import sysconfig
+import time
+import types
+import typing
+from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from agents.conditions import DEFAULT_CONDITION
 
-__all__ = ["EpisodeStore", "episode_key", "source_fingerprint"]
+__all__ = [
+    "EpisodeStore",
+    "FolderBusy",
+    "RunFolder",
+    "cell_inputs",
+    "decode_episodes",
+    "encode_episodes",
+    "episode_key",
+    "source_fingerprint",
+]
 
 _PACKAGES = ("estimators", "vrloco_env", "agents")
+_ROOT = Path(__file__).resolve().parents[1]
 
 
 def source_fingerprint() -> str:
     """SHA-256 (hex, 16 characters) of every ``.py`` file of the three packages, in path order."""
-    root = Path(__file__).resolve().parents[1]
     h = hashlib.sha256()
     for pkg in _PACKAGES:
-        for path in sorted((root / pkg).rglob("*.py")):
-            h.update(str(path.relative_to(root)).encode())
+        for path in sorted((_ROOT / pkg).rglob("*.py")):
+            h.update(str(path.relative_to(_ROOT)).encode())
             h.update(path.read_bytes())
     return h.hexdigest()[:16]
 
 
 def episode_key(fingerprint: str, task: str, policy: str, technique: Any, seed: int,
-                trace: bool, condition: str = DEFAULT_CONDITION) -> str:  # fmt: skip
+                trace: bool, condition: str = DEFAULT_CONDITION,
+                inputs: str = "") -> str:  # fmt: skip
     """The key of one episode (see the module docstring); ``technique`` a Technique object,
-    ``condition`` the physical room's (:mod:`agents.conditions`; the default adds nothing)."""
+    ``condition`` the physical room's (:mod:`agents.conditions`; the default adds nothing),
+    ``inputs`` the cell's :func:`cell_inputs` (empty adds nothing)."""
     where = () if condition == DEFAULT_CONDITION else (condition,)
-    text = repr((fingerprint, task, policy, repr(technique), int(seed), bool(trace), *where))
+    extra = (inputs,) if inputs else ()
+    what = re.sub(r" at 0x[0-9a-fA-F]+", "", repr(technique))  # an object's address varies
+    text = repr((fingerprint, task, policy, what, int(seed), bool(trace), *where, *extra))
     return hashlib.sha256(text.encode()).hexdigest()
+
+
+# --------------------------------------------------------------------------- plug-in inputs
+
+
+def cell_inputs(cells: Iterable[Any]) -> dict[Any, str]:
+    """Each cell's inputs beyond its names and the package's sources, as SHA-256 (hex): the
+    definitions of its condition and population, the bytes of a ``.zip`` policy, and the source
+    of the plug-ins it names (its task, a ``module:attr`` or ``path/file.py:attr`` policy or
+    technique, the technique's stages and parameter objects): every module imported in this
+    process whose file lies in a plug-in's package (its top-level package's folder) or, for a
+    plug-in module outside a package, in that module's folder, except installed packages (the
+    standard library, ``site-packages``) and this project's packages (:func:`source_fingerprint`
+    covers those). Importing a plug-in here is what the run does anyway: it is imported before
+    the keys are made, so that what it imports at import time is in its cell's inputs."""
+    cells = list(cells)
+    parts = {c: _cell_parts(c) for c in cells}  # imports every plug-in first
+    files = _module_files()
+    digests: dict[Path, str] = {}
+
+    def digest(path: Path) -> str:
+        if path not in digests:
+            try:
+                digests[path] = hashlib.sha256(path.read_bytes()).hexdigest()
+            except OSError as err:
+                digests[path] = f"unreadable ({err.strerror})"
+        return digests[path]
+
+    out = {}
+    for c, (texts, roots, blobs) in parts.items():
+        lines = list(texts)
+        for root in sorted(roots):
+            lines += [f"{f.relative_to(root)} {digest(f)}" for f in files
+                      if f.is_relative_to(root)]  # fmt: skip
+        lines += [f"{p} {digest(p)}" for p in sorted(blobs)]
+        out[c] = hashlib.sha256("\n".join(lines).encode()).hexdigest()
+    return out
+
+
+def _cell_parts(cell: Any) -> tuple[list[str], set[Path], set[Path]]:
+    """A cell's configuration texts, its plug-ins' root folders and its model files."""
+    from agents.conditions import get_condition
+    from estimators import stages
+    from vrloco_env.config import STAGE_FIELDS
+    from vrloco_env.tasks import get_task
+    from vrloco_env.techniques import TECHNIQUES, get_technique
+    from vrloco_env.user.population import POPULATIONS
+
+    texts = [repr(get_condition(cell.condition))]
+    origins: list[Any] = [get_task(cell.task)]
+    blobs: set[Path] = set()
+    base, sep, suffix = cell.policy.rpartition("+")
+    if sep and base and suffix in POPULATIONS:
+        texts.append(repr(POPULATIONS[suffix]))
+    else:
+        base = cell.policy
+    if base.endswith(".zip"):
+        blobs.add(Path(base).resolve())
+    elif ":" in base:
+        origins += [base, stages.load_attr(base, "policy")]
+    tech = get_technique(cell.technique)
+    if isinstance(cell.technique, str) and cell.technique not in TECHNIQUES:
+        origins.append(cell.technique)
+    origins.append(tech)
+    for f in dataclasses.fields(tech.estimators):
+        value = getattr(tech.estimators, f.name)
+        if f.name in STAGE_FIELDS:
+            value = getattr(stages, f.name.upper()).factory(value)  # imports a plug-in
+        origins.append(value)
+    roots = {r for o in origins for r in _roots(o)}
+    return texts, roots, blobs
+
+
+def _roots(origin: Any) -> list[Path]:
+    """The folders whose modules a plug-in stands for: for ``path/file.py:attr`` the file's
+    folder; for a module (named by ``package.module:attr``, or the module of an object) its
+    top-level package's folder, or a lone module's folder. Nothing for installed modules and
+    this project's packages."""
+    if isinstance(origin, str):
+        module = origin.rpartition(":")[0]
+        if module.endswith(".py"):
+            return _own([Path(module).expanduser().resolve().parent])
+    else:
+        module = getattr(origin, "__module__", None)
+        if not isinstance(module, str):
+            module = type(origin).__module__
+    top = sys.modules.get(module.partition(".")[0])
+    if top is None:
+        return []
+    paths = getattr(top, "__path__", None)
+    if paths is not None:
+        return _own([Path(p).resolve() for p in paths])
+    file = getattr(top, "__file__", None)
+    return _own([Path(file).resolve().parent]) if file else []
+
+
+def _own(folders: list[Path]) -> list[Path]:
+    """``folders`` less installed ones and this project's packages."""
+    project = [_ROOT / p for p in _PACKAGES]
+    return [f for f in folders if not _installed(f)
+            and not any(f.is_relative_to(p) for p in project)]  # fmt: skip
+
+
+def _installed(path: Path) -> bool:
+    """Whether ``path`` lies in an installed package's folder or the standard library."""
+    if {"site-packages", "dist-packages"} & set(path.parts):
+        return True
+    return any(path.is_relative_to(p) for p in _stdlib())
+
+
+@functools.cache
+def _stdlib() -> tuple[Path, ...]:
+    paths = sysconfig.get_paths()
+    return tuple(Path(paths[k]).resolve() for k in ("stdlib", "platstdlib") if k in paths)
+
+
+def _module_files() -> list[Path]:
+    """The files of the modules imported in this process (resolved), but those of installed
+    packages and this project's."""
+    files = {Path(f).resolve() for m in list(sys.modules.values())
+             if isinstance(f := getattr(m, "__file__", None), str)}  # fmt: skip
+    return sorted(f for f in files if _own([f]))
+
+
+# --------------------------------------------------------------------------- stored episodes
+
+
+class BadEntry(ValueError):
+    """A ``.resume`` file that is not a valid entry; the message says what is wrong."""
+
+
+def _classes() -> dict[str, type]:
+    """The only types an entry may hold besides numbers, strings, containers and arrays."""
+    from agents.metrics import EpisodeStats
+    from vrloco_env.world.geometry import Box, Cylinder
+    from vrloco_env.world.layout import Layout
+
+    return {c.__name__: c for c in (EpisodeStats, Layout, Box, Cylinder)}
+
+
+def encode_episodes(entries: dict[str, Any]) -> dict[str, np.ndarray]:
+    """A job's episodes (key -> ``(EpisodeStats, reset_info)``) as the members of an ``.npz``
+    file: ``tree``, UTF-8 JSON of their structure, and ``b0``, ``b1``, ... the arrays' contents,
+    one flat array per dtype. In the JSON, Python numbers stay numbers (``repr``: exact),
+    containers and the types of :func:`_classes` are tagged, and each NumPy array or scalar is
+    ``{"array": i}`` or ``{"scalar": i}``, ``arrays[i]`` giving its blob, offset and shape."""
+    classes = _classes()
+    blobs: dict[str, list[np.ndarray]] = {}
+    sizes: dict[str, int] = {}
+    table: list[list[Any]] = []
+
+    def enc(v: Any) -> Any:
+        if isinstance(v, np.ndarray | np.generic):
+            a = np.asarray(v)
+            if a.dtype.kind not in "biuf":
+                raise TypeError(f"cannot keep a {a.dtype} array in .resume")
+            dtype = a.dtype.str
+            blobs.setdefault(dtype, []).append(a.ravel())
+            table.append([list(blobs).index(dtype), sizes.get(dtype, 0), list(a.shape)])
+            sizes[dtype] = sizes.get(dtype, 0) + a.size
+            return {"array" if isinstance(v, np.ndarray) else "scalar": len(table) - 1}
+        if v is None or isinstance(v, bool | int | float | str):
+            return v
+        if isinstance(v, tuple | list):
+            return {type(v).__name__: [enc(x) for x in v]}
+        if isinstance(v, dict):
+            if not all(isinstance(k, str) for k in v):
+                raise TypeError("cannot keep a dict with keys other than strings in .resume")
+            return {"dict": {k: enc(x) for k, x in v.items()}}
+        name = type(v).__name__
+        if classes.get(name) is type(v):
+            return {"object": [name, {f.name: enc(getattr(v, f.name))
+                                      for f in dataclasses.fields(v)}]}  # fmt: skip
+        raise TypeError(f"cannot keep a {name} in .resume")
+
+    doc = {"episodes": enc(entries), "arrays": table}
+    members = {"tree": np.frombuffer(json.dumps(doc).encode(), np.uint8)}
+    for k, parts in enumerate(blobs.values()):
+        members[f"b{k}"] = np.concatenate(parts)
+    return members
+
+
+def decode_episodes(members: Any) -> dict[str, Any]:
+    """The inverse of :func:`encode_episodes` (``members``: name -> array, an open ``.npz``),
+    checked: every tag, array and object field against its annotation, then each episode
+    (:func:`_check_episode`). A BadEntry says what is wrong."""
+    classes = _classes()
+    hints = {name: typing.get_type_hints(cls) for name, cls in classes.items()}
+    names = set(getattr(members, "files", members))
+    if "tree" not in names:
+        raise BadEntry("no structure in it")
+    tree = members["tree"]
+    if tree.dtype != np.uint8 or tree.ndim != 1:
+        raise BadEntry(f"its structure is {_describe(tree)}")
+    try:
+        doc = json.loads(tree.tobytes().decode("utf-8"))
+    except ValueError as err:
+        raise BadEntry(f"its structure is not JSON ({err})") from None
+    if not (isinstance(doc, dict) and doc.keys() == {"episodes", "arrays"}
+            and isinstance(doc["arrays"], list)):  # fmt: skip
+        raise BadEntry("its structure is not that of an entry")
+    blobs: dict[int, np.ndarray] = {}
+
+    def array(i: Any, where: str) -> np.ndarray:
+        ok = isinstance(i, int) and not isinstance(i, bool) and 0 <= i < len(doc["arrays"])
+        spec = doc["arrays"][i] if ok else None
+        if not (isinstance(spec, list) and len(spec) == 3 and isinstance(spec[2], list)
+                and all(_natural(x) for x in (spec[0], spec[1], *spec[2]))):  # fmt: skip
+            raise BadEntry(f"{where}: array {str(i)[:20]} is not described")
+        b, offset, shape = spec
+        if b not in blobs:
+            if f"b{b}" not in names:
+                raise BadEntry(f"{where}: array {i}'s contents are missing")
+            blobs[b] = members[f"b{b}"]
+            if blobs[b].ndim != 1 or blobs[b].dtype.kind not in "biuf":
+                raise BadEntry(f"{where}: contents {_describe(blobs[b])}")
+        n = math.prod(shape)
+        if offset + n > blobs[b].size:
+            raise BadEntry(f"{where}: array {i} beyond its contents")
+        return blobs[b][offset : offset + n].reshape(shape).copy()
+
+    def dec(node: Any, where: str) -> Any:
+        if node is None or isinstance(node, bool | int | float | str):
+            return node
+        if not (isinstance(node, dict) and len(node) == 1):
+            raise BadEntry(f"{where}: an untagged {type(node).__name__}")
+        ((tag, body),) = node.items()
+        if tag == "array":
+            return array(body, where)
+        if tag == "scalar":
+            a = array(body, where)
+            if a.ndim != 0:
+                raise BadEntry(f"{where}: a scalar of shape {a.shape}")
+            return a[()]
+        if tag in ("tuple", "list") and isinstance(body, list):
+            items = [dec(x, f"{where}[{i}]") for i, x in enumerate(body)]
+            return tuple(items) if tag == "tuple" else items
+        if tag == "dict" and isinstance(body, dict):
+            return {k: dec(x, f"{where}[{k!r}]") for k, x in body.items()}
+        if tag == "object" and isinstance(body, list) and len(body) == 2:
+            name, fields = body
+            cls = classes.get(name) if isinstance(name, str) else None
+            if cls is None or not isinstance(fields, dict):
+                raise BadEntry(f"{where}: not a stored type ({str(name)[:40]!r})")
+            annotated = hints[name]
+            if fields.keys() != annotated.keys():
+                raise BadEntry(f"{where}: {name} with fields {sorted(fields)}")
+            values = {k: dec(x, f"{where}.{k}") for k, x in fields.items()}
+            for k, v in values.items():
+                if not _conforms(v, annotated[k]):
+                    raise BadEntry(f"{name}.{k}: {_describe(v)} is not {annotated[k]}")
+            return cls(**values)
+        raise BadEntry(f"{where}: unknown tag {str(tag)[:40]!r}")
+
+    entries = dec(doc["episodes"], "entry")
+    if not isinstance(entries, dict) or not entries:
+        raise BadEntry(f"entry: {_describe(entries)}, not a dict of episodes")
+    for key, value in entries.items():
+        if not re.fullmatch(r"[0-9a-f]{64}", key):
+            raise BadEntry(f"key {key[:70]!r} is not an episode key")
+        _check_episode(value)
+    return entries
+
+
+def _natural(x: Any) -> bool:
+    return isinstance(x, int) and not isinstance(x, bool) and x >= 0
+
+
+def _check_episode(value: Any) -> None:
+    """A BadEntry unless ``value`` is ``(EpisodeStats, reset_info)`` as the runners give them:
+    per-step arrays of one length, the trace's arrays and room, the measures the rows read."""
+    from agents.collision_causes import COLLISION_CAUSES
+    from agents.metrics import TRACE_KEYS, EpisodeStats
+    from agents.wip_measures import MOTION_KEYS, PLAY_AREA_KEYS
+    from vrloco_env.world.layout import Layout
+
+    if not (isinstance(value, tuple) and len(value) == 2):
+        raise BadEntry(f"an episode is {_describe(value)}, not (stats, reset info)")
+    st, info = value
+    if not isinstance(st, EpisodeStats) or not isinstance(info, dict):
+        raise BadEntry(f"an episode is ({_describe(st)}, {_describe(info)})")
+    for k in ("step_report_delay_s", "shortest_path"):
+        if not _conforms(info.get(k), float):
+            raise BadEntry(f"reset info {k}: {_describe(info.get(k))}")
+    if st.steps < 1 or st.collisions < 0:
+        raise BadEntry(f"EpisodeStats.steps={st.steps}, collisions={st.collisions}")
+    for k in ("true_counts", "detected_counts", "attitude_error_deg", "hand_error_deg",
+              "heading_error_deg"):  # fmt: skip
+        if getattr(st, k).shape != (st.steps,):
+            raise BadEntry(f"EpisodeStats.{k} of shape {getattr(st, k).shape}, not "
+                           f"({st.steps},)")  # fmt: skip
+    for k in ("true_step_times", "detected_step_times"):
+        if getattr(st, k) is not None and getattr(st, k).ndim != 1:
+            raise BadEntry(f"EpisodeStats.{k} of shape {getattr(st, k).shape}")
+    if st.trace is not None:
+        if set(st.trace) != {*TRACE_KEYS, "layout"} or not isinstance(st.trace["layout"], Layout):
+            raise BadEntry(f"EpisodeStats.trace with keys {sorted(st.trace)}")
+        tails = {"position": (2,), "true_position": (2,), "true_ypr": (3,), "est_ypr": (3,),
+                 "true_step_times": None, "elapsed_time": None}  # fmt: skip
+        for k, tail in tails.items():
+            a = st.trace[k]
+            ok = isinstance(a, np.ndarray) and a.dtype == np.float64 and (
+                a.shape[1:] == tail if tail else a.ndim == 1)  # fmt: skip
+            if not ok:
+                raise BadEntry(f"EpisodeStats.trace[{k!r}]: {_describe(a)}")
+    for k, need in (("motion", MOTION_KEYS), ("play_area", PLAY_AREA_KEYS),
+                    ("causes", COLLISION_CAUSES)):  # fmt: skip
+        d = getattr(st, k)
+        if d is not None and not set(need) <= set(d):
+            raise BadEntry(f"EpisodeStats.{k} without {sorted(set(need) - set(d))}")
+
+
+def _conforms(value: Any, hint: Any) -> bool:
+    """Whether ``value`` is of the annotated type ``hint`` (an int where a float is expected, as
+    in Python's numeric tower; an array of the annotated dtype)."""
+    origin, args = typing.get_origin(hint), typing.get_args(hint)
+    if hint is Any:
+        return True
+    if hint is type(None):
+        return value is None
+    if origin in (types.UnionType, typing.Union):
+        return any(_conforms(value, a) for a in args)
+    if origin is np.ndarray:
+        dtype = typing.get_args(args[1])[0] if len(args) == 2 else None
+        return isinstance(value, np.ndarray) and (dtype is None or value.dtype == dtype)
+    if origin is tuple:
+        if not isinstance(value, tuple):
+            return False
+        if len(args) == 2 and args[1] is Ellipsis:
+            return all(_conforms(v, args[0]) for v in value)
+        return len(value) == len(args) and all(map(_conforms, value, args))
+    if origin is dict:
+        return isinstance(value, dict) and all(
+            _conforms(k, args[0]) and _conforms(v, args[1]) for k, v in value.items())
+    if isinstance(value, bool | np.bool_):
+        return hint is bool
+    if hint is float:
+        return isinstance(value, int | float | np.integer | np.floating)
+    if hint is int:
+        return isinstance(value, int | np.integer)
+    return isinstance(hint, type) and isinstance(value, hint)
+
+
+def _describe(v: Any) -> str:
+    if isinstance(v, np.ndarray):
+        return f"a {v.dtype} array of shape {v.shape}"
+    if isinstance(v, tuple | list):
+        return f"a {type(v).__name__} of {len(v)}"
+    return f"a {type(v).__name__}"
 
 
 class EpisodeStore:
@@ -59,35 +448,50 @@ class EpisodeStore:
 
     def __init__(self, folder: Path | str) -> None:
         self.folder = Path(folder)
+        self._warned = False
 
     def load(self) -> dict[str, Any]:
-        """Every readable episode: key -> the job's stored value. Unreadable files are reported
-        and skipped."""
+        """Every valid episode: key -> ``(EpisodeStats, reset_info)``. Any other file is reported
+        in one line and skipped: only ``.npz`` files are opened, with ``allow_pickle=False``."""
         found: dict[str, Any] = {}
         if not self.folder.is_dir():
             return found
-        for path in sorted(self.folder.glob("*.pkl")):
+        for path in sorted(self.folder.iterdir()):
             try:
-                with path.open("rb") as f:
-                    entries = pickle.load(f)
-                if not isinstance(entries, dict) or not all(isinstance(k, str) for k in entries):
-                    raise ValueError("not a dict of episodes")
-            except Exception as err:  # a truncated, foreign or corrupt file: run those again
-                print(f"resume: skipping unreadable {path} ({type(err).__name__}: {err}); its "
-                      "episodes run again")  # fmt: skip
-                continue
-            found.update(entries)
+                found.update(self._read(path))
+            except Exception as err:  # nothing here runs code: whatever fails, those run again
+                why = str(err) if isinstance(err, BadEntry) else f"{type(err).__name__}: {err}"
+                print(f"resume: skipping unreadable {path} ({why[:300]}); its episodes run "
+                      "again")  # fmt: skip
         return found
 
-    def save(self, entries: dict[str, Any]) -> Path:
-        """Write one job's episodes (key -> value) atomically; the file's path."""
-        self.folder.mkdir(parents=True, exist_ok=True)
+    @staticmethod
+    def _read(path: Path) -> dict[str, Any]:
+        if path.suffix != ".npz" or not path.is_file():
+            raise BadEntry("not an .npz entry of this version of vrloco; left unopened")
+        with np.load(path, allow_pickle=False) as z:
+            return decode_episodes(z)
+
+    def save(self, entries: dict[str, Any]) -> Path | None:
+        """Write one job's episodes (key -> ``(EpisodeStats, reset_info)``) atomically; the
+        file's path, or None where it could not be written (said once, in one line: the run
+        goes on, but could not resume those episodes)."""
+        members = encode_episodes(entries)
         name = hashlib.sha256("".join(sorted(entries)).encode()).hexdigest()[:24]
-        path = self.folder / f"{name}.pkl"
-        tmp = path.with_suffix(".tmp")
-        with tmp.open("wb") as f:
-            pickle.dump(entries, f, protocol=pickle.HIGHEST_PROTOCOL)
-        os.replace(tmp, path)
+        path = self.folder / f"{name}.npz"
+        tmp = self.folder / f".{name}.{os.getpid()}.tmp"
+        try:
+            self.folder.mkdir(parents=True, exist_ok=True)
+            with tmp.open("wb") as f:
+                np.savez(f, **members)
+            os.replace(tmp, path)
+        except OSError as err:
+            tmp.unlink(missing_ok=True)
+            if not self._warned:
+                self._warned = True
+                print(f"resume: cannot keep finished episodes in {self.folder} "
+                      f"({err.strerror or err}); an interrupted run would run them again")
+            return None
         return path
 
     def clear(self) -> None:
@@ -98,3 +502,193 @@ class EpisodeStore:
 def missing(keys: Iterable[str], found: dict[str, Any]) -> list[str]:
     """The keys not in ``found``."""
     return [k for k in keys if k not in found]
+
+
+# --------------------------------------------------------------------------- the run's folder
+
+#: The names of the files a run writes into its folder: those that ``--force`` may remove.
+OUTPUT_NAME = re.compile(r"(benchmark\.csv|benchmark\.json|pairs\.json|metrics\.png|"
+                         r"collision_causes\.png|latency\.png|"
+                         r"(trajectory|attitude|gait)_[A-Za-z0-9_-]+\.png)\Z")  # fmt: skip
+
+
+class FolderBusy(RuntimeError):
+    """Another run holds the output folder; the message names the folder and its pid."""
+
+
+class RunFolder:
+    """One run's hold on its output folder, as a context manager.
+
+    Entering takes ``<folder>/.lock`` or raises :class:`FolderBusy`; then, where the folder
+    holds the files of another run (``.run.json`` names another run, or the benchmark's files
+    are there without a record), it raises a ValueError saying so, unless ``force``, which
+    removes those files first (only names of :data:`OUTPUT_NAME`; ``.resume`` stays: its
+    entries are keyed by everything that shapes them). :meth:`replace` writes the run's files.
+
+    Args:
+        folder: the output folder (created if need be).
+        run: the run's identity (the same command gives the same one).
+        about: a few words on the run, for the record and the refusal of another run.
+        force: replace another run's files.
+    """
+
+    LOCK, RECORD, STAGING = ".lock", ".run.json", ".writing"
+
+    def __init__(self, folder: Path | str, run: str, about: str, force: bool = False) -> None:
+        self.path = Path(folder)
+        self.run, self.about, self.force = run, about, force
+        self._fd: int | None = None
+        self._previous: set[str] = set()
+
+    def __enter__(self) -> RunFolder:
+        from agents.benchmark_outputs import WriteError
+
+        try:
+            self.path.mkdir(parents=True, exist_ok=True)
+        except OSError as err:
+            raise WriteError(self.path, err) from None
+        self._lock()
+        try:
+            self._claim()
+        except OSError as err:  # a file of the other run that cannot be removed
+            self._unlock()
+            raise WriteError(Path(err.filename or self.path), err) from None
+        except BaseException:
+            self._unlock()
+            raise
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._unlock()
+
+    def _lock(self) -> None:
+        from agents.benchmark_outputs import WriteError
+
+        lock = self.path / self.LOCK
+        try:
+            fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as err:
+            raise WriteError(lock, err) from None
+        try:
+            _try_lock(fd)
+        except OSError as err:
+            if err.errno not in (errno.EAGAIN, errno.EACCES, errno.EWOULDBLOCK):
+                os.close(fd)
+                raise WriteError(lock, err) from None
+            try:
+                os.lseek(fd, 0, os.SEEK_SET)
+                holder = os.read(fd, 32).decode(errors="replace").strip() or "unknown"
+            except OSError:  # Windows: a locked byte cannot be read
+                holder = "unknown"
+            os.close(fd)
+            raise FolderBusy(f"{self.path} is in use by another vrloco benchmark (pid "
+                             f"{holder}); wait for it to end, or give another --out") from None
+        os.ftruncate(fd, 0)
+        os.lseek(fd, 0, os.SEEK_SET)
+        os.write(fd, f"{os.getpid()}\n".encode())
+        self._fd = fd
+
+    def _unlock(self) -> None:
+        if self._fd is not None:
+            _unlock(self._fd)  # before closing: forked workers share the lock
+            os.close(self._fd)
+            self._fd = None
+
+    def _claim(self) -> None:
+        """Refuse (or, forced, remove) another run's files; forget a dead run's staging."""
+        shutil.rmtree(self.path / self.STAGING, ignore_errors=True)
+        record = self._record()
+        theirs = {p.name for p in self.path.iterdir()
+                  if OUTPUT_NAME.match(p.name) and not p.is_dir()}  # fmt: skip
+        if record is not None and record["run"] == self.run:
+            self._previous = set(record["files"]) | theirs
+            return
+        if record is not None:
+            theirs |= {n for n in record["files"] if (self.path / n).exists()}
+        if not theirs:
+            return
+        if not self.force:
+            whose = (f"another run's results ({record['about']}, written {record['written']})"
+                     if record is not None else "benchmark results with no record of their run")
+            raise ValueError(f"--out {self.path} holds {whose}; give another --out, or --force "
+                             "to remove them and write this run's")  # fmt: skip
+        for name in sorted(theirs):
+            (self.path / name).unlink(missing_ok=True)
+        (self.path / self.RECORD).unlink(missing_ok=True)
+
+    def _record(self) -> dict[str, Any] | None:
+        """The folder's record of its run, or None where there is none or it is malformed."""
+        try:
+            record = json.loads((self.path / self.RECORD).read_text())
+        except (OSError, ValueError):
+            return None
+        if not (isinstance(record, dict) and all(isinstance(record.get(k), str)
+                                                 for k in ("run", "about", "written"))
+                and isinstance(record.get("files"), list)
+                and all(isinstance(n, str) and OUTPUT_NAME.match(n) for n in record["files"])):
+            return None  # fmt: skip
+        return record
+
+    def replace(self, write: Callable[[Path], list[Path]]) -> list[Path]:
+        """The run's files: ``write(folder)`` writes them into a staging folder (an error there
+        leaves the folder as it was); they are then renamed into the folder, the files of this
+        run's previous write that this one lacks are removed, and the record is updated.
+
+        Returns:
+            The written files, in the folder.
+
+        Raises:
+            WriteError: a file could not be written (a full disk), naming it.
+        """
+        from agents.benchmark_outputs import WriteError, atomic_path
+
+        stage = self.path / self.STAGING
+        shutil.rmtree(stage, ignore_errors=True)
+        try:
+            stage.mkdir()
+            try:
+                staged = write(stage)
+            except WriteError as err:  # name the file as it would have been
+                raise WriteError(self.path / err.path.name, err.reason) from None
+            names = [p.name for p in staged]
+            record = {"run": self.run, "about": self.about, "files": sorted(names),
+                      "written": time.strftime("%Y-%m-%d %H:%M:%S")}  # fmt: skip
+            with atomic_path(stage / self.RECORD) as tmp:
+                tmp.write_text(json.dumps(record, indent=1) + "\n")
+            for p in staged:
+                os.replace(p, self.path / p.name)
+            for name in self._previous - set(names):
+                (self.path / name).unlink(missing_ok=True)
+            os.replace(stage / self.RECORD, self.path / self.RECORD)
+        except OSError as err:
+            where = Path(err.filename) if isinstance(err.filename, str) else self.path
+            raise WriteError(self.path / where.name if where.parent == stage else where,
+                             err) from None  # fmt: skip
+        finally:
+            shutil.rmtree(stage, ignore_errors=True)
+        self._previous = set(names)
+        return [self.path / n for n in names]
+
+
+def _try_lock(fd: int) -> None:
+    """An exclusive lock on ``fd``'s file, or an OSError (EAGAIN, EACCES) where it is held."""
+    try:
+        import fcntl
+    except ImportError:  # Windows
+        import msvcrt
+
+        msvcrt.locking(fd, msvcrt.LK_NBLCK, 1)
+        return
+    fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+
+
+def _unlock(fd: int) -> None:
+    try:
+        import fcntl
+    except ImportError:  # Windows
+        import msvcrt
+
+        os.lseek(fd, 0, os.SEEK_SET)
+        msvcrt.locking(fd, msvcrt.LK_UNLCK, 1)
+        return
+    fcntl.flock(fd, fcntl.LOCK_UN)

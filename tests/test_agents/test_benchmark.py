@@ -362,11 +362,15 @@ def test_the_table_fits_a_narrow_terminal(capsys):
     out = capsys.readouterr().out
     lines = out.splitlines()
     assert max(len(line) for line in lines) <= 80
-    assert "goal_seeker+human" in out and "seed000_consumer" in out  # names are not cut
+    assert "human" in out and "seed000_consumer" in out  # names are not cut
+    assert "users: goal_seeker with the population shown" in out
     assert "compact view" in out
     show_table([row], 0, width=200)
     out = capsys.readouterr().out
-    assert "time to goal" in out and "2/2/2/2/2" in out
+    assert "time to goal" in out and "not shown at this width: collision causes" in out
+    show_table([row], 0, width=260)
+    out = capsys.readouterr().out
+    assert "2/2/2/2/2" in out
     assert "0.500*" in out and "differs from seed000" in out  # the SPL marked, and why
 
 

@@ -1,0 +1,70 @@
+"""A first run says it compiles the kernels, compiles the shared ones once before its workers
+fork, and a later run says nothing."""
+
+from __future__ import annotations
+
+import pytest
+
+from agents import benchmark, warm_start
+from agents.benchmark import run_benchmark
+
+KW = dict(tasks=["approach"], policies=["goal_seeker"], techniques=["seed000"], episodes=2,
+          progress=False, print_table=False)  # fmt: skip
+
+
+@pytest.fixture
+def stamp(tmp_path, monkeypatch):
+    """The compiled-kernels stamp in a folder of its own (no run has marked it yet)."""
+    path = tmp_path / "cache" / "vrloco-compiled"
+    monkeypatch.setattr(warm_start, "_stamp", lambda: path)
+    return path
+
+
+def test_a_first_run_announces_compiling_before_it_plays_and_a_later_run_does_not(
+    stamp, capsys, monkeypatch
+):
+    played = []
+    real_job = benchmark._job
+    monkeypatch.setattr(benchmark, "_job", lambda job: played.append(capsys.readouterr().out)
+                        or real_job(job))  # fmt: skip
+    run_benchmark(**KW, workers=1)
+    assert "compiling kernels (first run only, about" in played[0]  # before any episode
+    assert stamp.exists()
+    played.clear()
+    run_benchmark(**KW, workers=1)
+    assert "compiling kernels" not in played[0] + capsys.readouterr().out
+
+
+def test_a_changed_kernel_source_announces_again(tmp_path, monkeypatch):
+    src = tmp_path / "estimators" / "k.py"
+    src.parent.mkdir()
+    src.write_text("@numba.njit(cache=True)\ndef f(x):\n    return x\n")
+    monkeypatch.setattr(warm_start, "_ROOT", tmp_path)
+    monkeypatch.setattr(warm_start, "_PACKAGES", ("estimators",))
+    before = warm_start.kernel_fingerprint()
+    src.write_text("@numba.njit(cache=True)\ndef f(x):\n    return x + 1\n")
+    assert warm_start.kernel_fingerprint() != before
+    (tmp_path / "estimators" / "plain.py").write_text("x = 1\n")  # no kernel: same stamp
+    after = warm_start.kernel_fingerprint()
+    (tmp_path / "estimators" / "plain.py").write_text("x = 2\n")
+    assert warm_start.kernel_fingerprint() == after
+
+
+def test_a_cold_run_with_workers_compiles_the_shared_kernels_here_before_forking(
+    stamp, monkeypatch
+):
+    order = []
+    monkeypatch.setattr(benchmark, "_compile_shared_kernels",
+                        lambda job: order.append(("here", job[0][0][0].task)))  # fmt: skip
+    real = benchmark._run_jobs
+
+    def run_jobs(*args, **kwargs):
+        order.append(("workers",))
+        yield from real(*args, **kwargs)
+
+    monkeypatch.setattr(benchmark, "_run_jobs", run_jobs)
+    run_benchmark(**KW, workers=2)
+    assert order[:2] == [("here", "approach"), ("workers",)]
+    order.clear()
+    run_benchmark(**KW, workers=2)  # compiled: straight to the workers
+    assert order == [("workers",)]
