@@ -31,7 +31,7 @@ __all__ = ["COLD_START_MINUTES", "announce", "is_compiled", "kernel_fingerprint"
 #: The default benchmark's compile time on a cold cache, in minutes, on a 2-core machine of the
 #: kind the project is developed on (``python benchmarks/bench_cold_start.py``); the
 #: announcement quotes it as an order of magnitude.
-COLD_START_MINUTES = 3
+COLD_START_MINUTES = 2
 
 _ROOT = Path(__file__).resolve().parents[1]
 _PACKAGES = ("estimators", "vrloco_env", "agents")
