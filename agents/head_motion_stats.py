@@ -5,7 +5,7 @@ compared with real people on the same numbers (:mod:`agents.experiments.head_beh
 :func:`head_motion_stats` takes one trace, B traces of one length ``(B, T)``, or a list of traces
 of any lengths, each with its sample times or one sampling rate; every trace is checked
 (:func:`prepare_traces`), resampled to a common rate (10 Hz by default, the rate of the real
-traces in ``../shared/data/head_traces``) and reduced to :class:`HeadMotionStats`. Statistics are
+traces in ``$VRLOCO_DATA/head_traces``) and reduced to :class:`HeadMotionStats`. Statistics are
 pooled over traces by concatenating their samples and events (never by averaging per-trace
 percentiles); rates are per minute of all traces together.
 

@@ -1,8 +1,9 @@
 """A reader for the real head traces of people watching 360-degree videos in a headset.
 
 The files are the aggregation "A large dataset of 360 video user behaviour" (github 360VidStr),
-kept beside the repository in ``../shared/data/head_traces`` (``../shared/data/README.md``; never
-copied into the repository). One file per video, named by its number:
+in ``$VRLOCO_DATA/head_traces`` (never copied into the repository, never downloaded by
+``vrloco data fetch``: the aggregation states no licence). One file per video, named by its
+number:
 
 * line 1: the sample times (s, 10 Hz from 0);
 * then two lines per viewing: head pitch, then head yaw (rad, yaw wrapped at +-pi; the
@@ -17,19 +18,19 @@ behaviors in VR spherical video streaming", ACM MMSys 2017 (33-41, no 38; HTC Vi
 sat or stood and explored freely; nobody walked: these are traces of looking around, not of
 walking (in place or otherwise). Credit the datasets wherever their figures are reported.
 
-The data folder is ``$VRLOCO_DATA`` where that is set, else ``../shared/data`` beside the
-repository (:func:`data_folder`).
+The folder is found by :func:`agents.data.data_path` (:func:`head_traces_folder`).
 """
 
 from __future__ import annotations
 
-import os
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
+
+from agents.data import data_folder, data_path
 
 __all__ = [
     "DATASETS",
@@ -50,18 +51,13 @@ DATASETS: dict[str, tuple[str, tuple[int, ...]]] = {
 }  # fmt: skip
 
 
-def data_folder() -> Path:
-    """The real recordings' folder: ``$VRLOCO_DATA`` if set, else ``../shared/data`` beside
-    the repository."""
-    env = os.environ.get("VRLOCO_DATA")
-    if env:
-        return Path(env)
-    return Path(__file__).resolve().parents[2] / "shared" / "data"
-
-
 def head_traces_folder() -> Path:
-    """``head_traces/`` in :func:`data_folder`."""
-    return data_folder() / "head_traces"
+    """``head_traces/`` in ``$VRLOCO_DATA`` (:func:`agents.data.data_path`).
+
+    Raises:
+        FileNotFoundError: it is not there, or VRLOCO_DATA is not set (one line saying so).
+    """
+    return data_path("head_traces")
 
 
 def dataset_of(path: str | Path) -> str:
@@ -92,7 +88,7 @@ def dataset_files(folder: str | Path | None = None) -> dict[str, list[Path]]:
     if not folder.is_dir():
         raise FileNotFoundError(
             f"head traces not found at {str(folder)!r} (set VRLOCO_DATA to the folder holding "
-            "head_traces/, see ../shared/data/README.md)"
+            "head_traces/)"
         )
     return {
         name: [folder / f"{n}.txt" for n in numbers if (folder / f"{n}.txt").is_file()]

@@ -12,7 +12,7 @@ Inputs (chosen by what ``PATH`` is):
   write, is skipped); UTF-16 text with a byte-order mark is decoded too; anything else (binary,
   UTF-16 without a mark, other encodings) is refused with an error naming the file. A missing
   value is written ``nan``.
-* a BROAD trial (``.hdf5`` or ``.mat``, ../shared/data/README.md): its optical reference attitude
+* a BROAD trial (``.hdf5`` or ``.mat``, ``vrloco data fetch broad``): its optical reference attitude
   ``opt_quat`` is compared with the estimate;
 * an Oxford step-counter folder (``accelerometer.csv``: steps and the still/walk state; with no
   gyroscope there is no attitude, and the path is drawn along +x). Its foot switches

@@ -13,7 +13,7 @@ Prints:
 * F1 (+-0.2 s) and phantom steps on the simulator's scripted motions (``vrloco_env.user.motion`` +
   ``vrloco_env.sensors.imu``), if the environment package is importable;
 * the Oxford neck-pouch walk (CC-BY-4.0, Oxford-step-counter/DataSet) with both presets, if
-  ``../shared/data`` is present;
+  ``$VRLOCO_DATA`` or the cache holds it (``vrloco data fetch oxford``);
 * :func:`estimators.locomotion.compare_locomotion`.
 """
 
@@ -29,12 +29,11 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from agents.data import DataMissing, data_path
 from estimators.gait import GaitParams, StepDetector, detect_steps, step_f1
 from estimators.kernels import python_reference
 from estimators.locomotion import compare_locomotion
 from estimators.rotations import GRAVITY
-
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 
 
 def bench_speed(b: int = 256, chunk: int = 10, seconds: float = 60.0) -> None:
@@ -121,9 +120,10 @@ def bench_simulator(users: int = 32) -> None:
 def bench_oxford() -> None:
     from estimators.io_oxford import DEFAULT_RECORDING, load_oxford
 
-    folder = DATA / "oxford_steps" / DEFAULT_RECORDING
-    if not folder.is_dir():
-        print(f"Oxford figures skipped ({folder} absent)")
+    try:
+        folder = data_path("oxford")
+    except DataMissing as err:
+        print(f"Oxford figures skipped ({err})")
         return
     rec = load_oxford(folder)
     n_true = rec.step_times.size

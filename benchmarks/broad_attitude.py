@@ -1,9 +1,9 @@
 """Every registered attitude stage on the BROAD trials, 9D, one metric: the table of record.
 
-    python benchmarks/broad_attitude.py [--data ../shared/data/broad]
+    python benchmarks/broad_attitude.py [--data FOLDER]
 
 Data: Laidig, Caruso, Cereatti, Seel, "BROAD - A Benchmark for Robust Inertial Orientation
-Estimation", Data 6(7):72, 2021, CC-BY-4.0 (nine of its 39 trials live in ``shared/data/broad``;
+Estimation", Data 6(7):72, 2021, CC-BY-4.0 (nine of its 39 trials, ``vrloco data fetch broad``;
 reader :mod:`estimators.io_broad`).
 
 Each name of :data:`estimators.stages.ATTITUDE` is built as the environment builds it,
@@ -36,11 +36,11 @@ from pathlib import Path
 
 import numpy as np
 
+from agents.data import DataMissing, data_path
 from estimators.attitude_errors import orientation_errors
 from estimators.io_broad import broad_trials, load_broad
 from estimators.stages import ATTITUDE, StageError
 
-DEFAULT_DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "broad"
 METRICS = (("total", "total_rmse_deg"), ("heading", "heading_rmse_deg"),
            ("inclination", "inclination_rmse_deg"))  # fmt: skip
 SOURCE = {
@@ -72,8 +72,14 @@ def buildable(names: list[str], fs: float) -> list[str]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--data", type=Path, default=DEFAULT_DATA, help="BROAD folder")
+    parser.add_argument("--data", type=Path, help="BROAD folder (default: the one $VRLOCO_DATA "
+                        "or `vrloco data fetch broad` provides)")  # fmt: skip
     args = parser.parse_args()
+    if args.data is None:
+        try:
+            args.data = data_path("broad")
+        except DataMissing as err:  # one line naming the command that fetches it
+            parser.error(str(err))
 
     files = broad_trials(args.data)
     trials = [load_broad(p) for p in files]

@@ -1,9 +1,9 @@
 """Leave-one-trial-out (LOTO) check of the attitude EKF's defaults on BROAD.
 
-    python benchmarks/broad_loto.py [--data ../shared/data/broad] [--out out/broad_loto.png]
+    python benchmarks/broad_loto.py [--data FOLDER] [--out out/broad_loto.png]
 
 The defaults of :class:`estimators.attitude.AttitudeParams` were chosen during development on the
-nine BROAD trials in ``shared/data/broad``: their mean RMSE there is an in-sample figure. This
+nine BROAD trials (``vrloco data fetch broad``): their mean RMSE there is an in-sample figure. This
 script asks how much of it survives on a trial the choice has not seen. For each trial in turn
 the three noise parameters that set the filter's time constants are chosen on the other eight
 (the grid point with the lowest mean total RMSE over them), and the held-out trial is scored
@@ -34,11 +34,11 @@ from pathlib import Path
 
 import numpy as np
 
+from agents.data import DataMissing, data_path
 from estimators.attitude import AttitudeParams, estimate_attitude
 from estimators.attitude_errors import orientation_errors
 from estimators.io_broad import BroadTrial, broad_trials, load_broad
 
-DEFAULT_DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "broad"
 ACC_NOISE = (0.005, 0.01, 0.02, 0.04, 0.08)
 MAG_NOISE = (0.0075, 0.015, 0.03, 0.06, 0.12)
 BIAS_WALK_DEG = (1e-4, 1e-3, 1e-2, 1e-1)  # deg/s/sqrt(s)
@@ -103,10 +103,16 @@ def plot(names: list[str], bars: dict[str, np.ndarray], path: Path) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--data", type=Path, default=DEFAULT_DATA, help="BROAD folder")
+    parser.add_argument("--data", type=Path, help="BROAD folder (default: the one $VRLOCO_DATA "
+                        "or `vrloco data fetch broad` provides)")  # fmt: skip
     parser.add_argument("--out", type=Path, default=Path("out/broad_loto.png"),
                         help="figure path (PNG)")  # fmt: skip
     args = parser.parse_args()
+    if args.data is None:
+        try:
+            args.data = data_path("broad")
+        except DataMissing as err:  # one line naming the command that fetches it
+            parser.error(str(err))
 
     trials = [load_broad(p) for p in broad_trials(args.data)]
     names = [t.name for t in trials]

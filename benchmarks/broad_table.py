@@ -1,9 +1,9 @@
 """Attitude EKF accuracy on real data (BROAD) beside reference filters, same run, same metric.
 
-    python benchmarks/broad_table.py [--data ../shared/data/broad] [--no-madgwick] [--ablations]
+    python benchmarks/broad_table.py [--data FOLDER] [--no-madgwick] [--ablations]
 
 Data: Laidig, Caruso, Cereatti, Seel, "BROAD - A Benchmark for Robust Inertial Orientation
-Estimation", Data 6(7):72, 2021, CC-BY-4.0 (nine of its 39 trials live in ``shared/data/broad``).
+Estimation", Data 6(7):72, 2021, CC-BY-4.0 (nine of its 39 trials: ``vrloco data fetch broad``).
 
 Metric (:func:`estimators.attitude_errors.orientation_errors`, BROAD's own definitions): RMSE in
 degrees over the ``movement`` samples of the earth-frame error ``q_est ⊗ conj(q_true)``: total
@@ -43,12 +43,12 @@ from pathlib import Path
 
 import numpy as np
 
+from agents.data import DataMissing, data_path
 from estimators.attitude import estimate_attitude
 from estimators.attitude_errors import orientation_errors
 from estimators.io_broad import BroadTrial, broad_trials, load_broad
 from estimators.rotations import GRAVITY, quat_from_rotvec, quat_multiply
 
-DEFAULT_DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "broad"
 NWU_TO_ENU = quat_from_rotvec([0.0, 0.0, np.pi / 2])
 METRICS = (("total", "total_rmse_deg"), ("heading", "heading_rmse_deg"),
            ("inclination", "inclination_rmse_deg"))  # fmt: skip
@@ -182,11 +182,17 @@ def head_to_head(err: dict, a: str, b: str) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--data", type=Path, default=DEFAULT_DATA, help="BROAD folder")
+    parser.add_argument("--data", type=Path, help="BROAD folder (default: the one $VRLOCO_DATA "
+                        "or `vrloco data fetch broad` provides)")  # fmt: skip
     parser.add_argument("--no-madgwick", action="store_true", help="skip ahrs Madgwick (slow)")
     parser.add_argument("--ablations", action="store_true",
                         help="add EKF 6D and EKF as printed (outside the win counts)")  # fmt: skip
     args = parser.parse_args()
+    if args.data is None:
+        try:
+            args.data = data_path("broad")
+        except DataMissing as err:  # one line naming the command that fetches it
+            parser.error(str(err))
 
     table = methods(not args.no_madgwick, args.ablations)
     files = broad_trials(args.data)

@@ -1,11 +1,17 @@
-"""Shared fixtures: a seeded generator and the path to the real recordings in ../shared/data."""
+"""Shared fixtures: a seeded generator, and the real recordings as :mod:`agents.data` finds them
+(``$VRLOCO_DATA``, which this session points at ../shared/data beside the repository unless it is
+set, else the download cache)."""
 
+import os
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from agents.data import DataMissing, data_path
+
 SHARED_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+os.environ.setdefault("VRLOCO_DATA", str(SHARED_DATA))
 
 
 @pytest.fixture
@@ -14,8 +20,14 @@ def rng():
 
 
 @pytest.fixture
-def shared_data() -> Path:
-    """The real recordings folder; tests that need it skip where it is absent (a user's clone)."""
-    if not SHARED_DATA.is_dir():
-        pytest.skip(f"real recordings not found at {SHARED_DATA} (they live beside the repo)")
-    return SHARED_DATA
+def real_data():
+    """``real_data(name)``: :func:`agents.data.data_path` of a set of real recordings; a test
+    that needs an absent set skips, saying how to fetch it."""
+
+    def find(name: str) -> Path:
+        try:
+            return data_path(name)
+        except DataMissing as err:
+            pytest.skip(f"real recordings: {err}")
+
+    return find

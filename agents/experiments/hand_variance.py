@@ -45,6 +45,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
 
+from agents.data import DataMissing, data_path
 from estimators.hand import (
     PAPER_AXIS_NAMES,
     HandFrame,
@@ -345,17 +346,26 @@ def moving_accuracy(repeats: int = 10, seconds: float = 10.0, rate_deg_s: float 
 # The real recording
 
 
-#: The real Kinect v2 recording beside the repository (see ../shared/data/README.md).
-LABAN_CSV = Path(__file__).resolve().parents[3] / "shared/data/kinect_laban/Ges01_wavehand.csv"
+def _laban_csv(path: Path | None) -> Path | None:
+    """``path``, else the kinect_laban recording (:func:`agents.data.data_path`), or None where
+    it is absent."""
+    if path is not None:
+        return path if path.is_file() else None
+    try:
+        return data_path("kinect")
+    except DataMissing:
+        return None
 
 
-def recording_jitter(path: Path = LABAN_CSV) -> dict | None:
-    """Holt smoothing (SDK defaults + 5-frame average) on a real Kinect v2 recording.
+def recording_jitter(path: Path | None = None) -> dict | None:
+    """Holt smoothing (SDK defaults + 5-frame average) on a real Kinect v2 recording (default
+    the kinect_laban recording, ``vrloco data fetch kinect``).
 
     Jitter is the RMS second difference of a joint's path (mm per frame^2); lag the delay of the
     smoothed path behind the raw one. Returns None when the recording is absent.
     """
-    if not path.is_file():
+    path = _laban_csv(path)
+    if path is None:
         return None
     rec = read_kinect_csv(path)
     holt = HoltSmoother(1, rec.joints.shape[1])
@@ -407,16 +417,18 @@ def variogram_split(x: ArrayLike, rate_hz: float, max_lag: int = 40) -> dict:
             "white_share": float(n / (n + s)) if n + s > 0 else float("nan")}  # fmt: skip
 
 
-def recording_orientation_noise(path: Path = LABAN_CSV) -> dict | None:
+def recording_orientation_noise(path: Path | None = None) -> dict | None:
     """The white share of a still forearm's orientation jitter in a real Kinect v2 recording.
 
     In kinect_laban's wave the left arm hangs still. A frame is built from its joints as the
     wrist's orientation would be: x along ElbowLeft -> WristLeft (the SDK's wrist bone), y toward
     ThumbLeft (made orthogonal to x), z = x cross y. Its rotation vector relative to the mean
     orientation (deg, about the frame's own axes: x the forearm, y the thumb side, z the normal)
-    is split per axis by :func:`variogram_split`. Returns None when the recording is absent.
+    is split per axis by :func:`variogram_split`. Returns None when the recording is absent
+    (default: the kinect_laban recording).
     """
-    if not path.is_file():
+    path = _laban_csv(path)
+    if path is None:
         return None
     rec = read_kinect_csv(path)
     j = rec.joints
@@ -495,7 +507,8 @@ def format_table(result: dict) -> str:
                      + f"   {r['lag_ms']:5.0f} ms")  # fmt: skip
     real = result.get("real_recording")
     if real is None:
-        lines.append("real Kinect v2 recording (kinect_laban): not found, skipped")
+        lines.append("real Kinect v2 recording (kinect_laban): not found, skipped (`vrloco data "
+                     "fetch kinect` downloads it)")  # fmt: skip
         return "\n".join(lines)
     lines.append(f"real Kinect v2 recording {real['file']} ({real['frames']} frames), Holt "
                  "smoothing: jitter = RMS 2nd difference")  # fmt: skip

@@ -24,8 +24,8 @@ physical room), once per control step (10 Hz). The world frame, not the head on 
 because the real traces are headset orientations in the tracking frame: they hold the body's
 turns (on a swivel chair or standing) as well as the neck's, and cannot be split.
 
-**Real heads** (:mod:`agents.head_traces`, in ``$VRLOCO_DATA/head_traces``, default
-``../shared/data/head_traces``): Corbillon et al. 2017, Lo et al. 2017 and Wu et al. 2017 (ACM
+**Real heads** (:mod:`agents.head_traces`, in ``$VRLOCO_DATA/head_traces`` only, never
+downloaded: no licence is stated): Corbillon et al. 2017, Lo et al. 2017 and Wu et al. 2017 (ACM
 MMSys 2017), people **seated or standing, freely viewing 360-degree videos: nobody walked**. They
 bound idle looking around from above and give a shape to gaze shifts (sizes, speeds, intervals);
 they are no truth for walking in place. Split per dataset by video number (:func:`is_held_out`):

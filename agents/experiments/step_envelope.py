@@ -71,10 +71,11 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from agents.data import DataMissing, data_path
 from agents.experiments.head_motions import PRESETS, Trial, sense_record
 from agents.step_matching import match_step_times
 from estimators.gait import GaitParams, bin_average, detect_steps
-from estimators.io_oxford import DEFAULT_RECORDING, load_oxford
+from estimators.io_oxford import load_oxford
 from estimators.rotations import GRAVITY, quat_from_rotvec
 from estimators.stages import STEPS
 from vrloco_env.batch_rng import BatchRng
@@ -106,10 +107,6 @@ DEV_SEEDS = (0, 1, 2)
 HELD_OUT_SEEDS = (1000, 1001, 1002)
 #: gamma values (g) searched by :func:`two_fold_gamma`; the preset's is 0.15 g.
 GAMMA_GRID_G = (0.07, 0.09, 0.11, 0.13, 0.15, 0.17, 0.19, 0.21)
-#: The neck-pouch walk, in the shared recordings folder beside the repository.
-OXFORD_FOLDER = Path(__file__).resolve().parents[3] / "shared" / "data" / "oxford_steps" / (
-    DEFAULT_RECORDING
-)
 
 
 @dataclass(frozen=True)
@@ -435,8 +432,15 @@ def two_fold_gamma(t: NDArray[np.float64], acc: NDArray[np.float64],
     return out
 
 
-def oxford_table(folder: Path = OXFORD_FOLDER) -> dict | None:
-    """Every detector on the Oxford neck-pouch walk, and the two-fold gamma; None if absent."""
+def oxford_table(folder: Path | None = None) -> dict | None:
+    """Every detector on the Oxford neck-pouch walk (default: the one
+    :func:`agents.data.data_path` finds, ``vrloco data fetch oxford``), and the two-fold gamma;
+    None if absent."""
+    if folder is None:
+        try:
+            folder = data_path("oxford")
+        except DataMissing:
+            return None
     if not folder.is_dir():
         return None
     rec = load_oxford(folder)
@@ -474,7 +478,8 @@ def format_tables(result: dict) -> str:
                              f"   {r['false_steps_per_min']:6.1f}/min")  # fmt: skip
     ox = result.get("oxford")
     if ox is None:
-        lines.append("Oxford recording absent: its figures skipped")
+        lines.append("Oxford recording absent: its figures skipped (`vrloco data fetch oxford` "
+                     "downloads it)")  # fmt: skip
         return "\n".join(lines)
     lines.append(f"Oxford {ox['recording']} (CC-BY-4.0), {ox['true_steps']} foot-switch steps in "
                  f"{ox['duration_s']:.0f} s; accelerometer only (tilt attitude, no gyro veto)")
@@ -500,8 +505,9 @@ def format_tables(result: dict) -> str:
 
 def run_step_envelope(json_path: Path | None = None, seed: int = HELD_OUT_SEEDS[0],
                       dev: bool = False, users: int = 8,
-                      oxford: Path | None = OXFORD_FOLDER) -> dict:  # fmt: skip
-    """The simulated cases and the Oxford tables; prints them, writes JSON if asked.
+                      oxford: Path | None = None) -> dict:  # fmt: skip
+    """The simulated cases and the Oxford tables (on ``oxford``, default the recording
+    :func:`oxford_table` finds); prints them, writes JSON if asked.
 
     Raises:
         ValueError: ``users`` not an integer >= 1, or ``seed`` not an integer >= 0.
@@ -513,7 +519,7 @@ def run_step_envelope(json_path: Path | None = None, seed: int = HELD_OUT_SEEDS[
     result: dict = {"seeds": list(seeds), "seed_label": seed_label(seeds), "users": users,
                     "stepping": {c.name: c.stepping for c in CASES},
                     "simulated": simulated_table(seeds, users)}  # fmt: skip
-    result["oxford"] = oxford_table(oxford) if oxford is not None else None
+    result["oxford"] = oxford_table(oxford)
     print(format_tables(result))
     if json_path is not None:
         json_path.parent.mkdir(parents=True, exist_ok=True)

@@ -489,16 +489,14 @@ def test_an_oxford_recording_is_compared_with_its_foot_switches(walk, tmp_path, 
     assert code == 0 and "steps_vs_foot_switches" not in out and out["steps"] == detected
 
 
-def test_the_real_recordings_are_compared_with_their_ground_truth(shared_data, tmp_path, capsys):
-    from estimators.io_oxford import DEFAULT_RECORDING
-
-    trial = shared_data / "broad" / "02_undisturbed_slow_rotation_B.hdf5"
+def test_the_real_recordings_are_compared_with_their_ground_truth(real_data, tmp_path, capsys):
+    trial = real_data("broad") / "02_undisturbed_slow_rotation_B.hdf5"
     code, err, _, out = _estimate(trial, tmp_path, capsys)
     assert code == 0 and err == ""
     ref = out["attitude_vs_reference"]
     assert ref["samples"] > 30_000
     assert 0.2 < ref["inclination_rmse_deg"] < 1.0 and ref["total_rmse_deg"] < 2.5
-    code, _, _, out = _estimate(shared_data / "oxford_steps" / DEFAULT_RECORDING, tmp_path, capsys)
+    code, _, _, out = _estimate(real_data("oxford"), tmp_path, capsys)
     assert code == 0
     ref = out["steps_vs_foot_switches"]
     assert ref["true_steps"] == 248  # the data README

@@ -14,7 +14,7 @@ from agents.experiments.head_behaviour import (
     simulate_heads,
 )
 from agents.head_motion_stats import STATS_KEYS, head_motion_samples, head_motion_stats
-from agents.head_traces import dataset_files, head_traces_folder, read_head_traces
+from agents.head_traces import dataset_files, read_head_traces
 from vrloco_env.user.population import population_names
 
 SEED = 4100  # seeds 4100 and up: used by this file only
@@ -55,11 +55,10 @@ def test_distances_of_a_sample_to_itself_are_zero_and_relative_differences_signe
     assert d["yaw_speed_ks"] == pytest.approx(15 / 600) and d["interval_ks"] == 0.0
 
 
-def test_a_tiny_run_writes_the_json_and_its_real_statistics_are_those_of_the_files(tmp_path):
-    folder = head_traces_folder()
-    if not folder.is_dir():
-        pytest.skip(f"real head traces not found at {folder} (set VRLOCO_DATA; see "
-                    "../shared/data/README.md)")  # fmt: skip
+def test_a_tiny_run_writes_the_json_and_its_real_statistics_are_those_of_the_files(
+    tmp_path, real_data
+):
+    folder = real_data("head_traces")
     out = tmp_path / "hb.json"
     run_head_behaviour(json_path=out, episodes=1, seed=SEED, max_steps=150)
     result = json.loads(out.read_text())

@@ -63,7 +63,10 @@ def test_missing_files_and_folders_and_unknown_names_are_named(tmp_path, monkeyp
     with pytest.raises(FileNotFoundError, match="no such head-trace file"):
         read_head_traces(tmp_path / "0.txt")
     monkeypatch.setenv("VRLOCO_DATA", str(tmp_path))
-    assert data_folder() == tmp_path and head_traces_folder() == tmp_path / "head_traces"
+    assert data_folder() == tmp_path
+    with pytest.raises(FileNotFoundError, match=r"head traces not found at .*head_traces'.* "
+                       r"VRLOCO_DATA"):  # fmt: skip
+        head_traces_folder()
     with pytest.raises(FileNotFoundError, match=r"head traces not found .* VRLOCO_DATA"):
         dataset_files()
     with pytest.raises(ValueError, match=r"'20.txt': not a head-trace file of a known dataset"):
@@ -73,11 +76,8 @@ def test_missing_files_and_folders_and_unknown_names_are_named(tmp_path, monkeyp
     assert dataset_of(Path("x") / "41.txt") == "wu2017"
 
 
-def test_the_real_folder_holds_the_three_datasets():
-    folder = head_traces_folder()
-    if not folder.is_dir():
-        pytest.skip(f"real head traces not found at {folder} (set VRLOCO_DATA; see "
-                    "../shared/data/README.md)")  # fmt: skip
+def test_the_real_folder_holds_the_three_datasets(real_data):
+    folder = real_data("head_traces")
     files = dataset_files(folder)
     assert {k: len(v) for k, v in files.items()} == {"corbillon2017": 7, "lo2017": 10,
                                                      "wu2017": 8}  # fmt: skip

@@ -18,7 +18,7 @@ from agents.experiments.step_envelope import (
     tilt_quaternions,
     two_fold_gamma,
 )
-from estimators.io_oxford import DEFAULT_RECORDING, load_oxford
+from estimators.io_oxford import load_oxford
 from estimators.rotations import GRAVITY, quat_from_ypr, quat_rotate, quat_rotate_inverse
 from estimators.stages import STEPS
 
@@ -120,8 +120,8 @@ def test_counts_of_a_standing_case_are_all_false_steps():
     assert (c.tp, c.fp, c.misses, c.f1, c.fp_per_min) == (0, 3, 0, None, 6.0)
 
 
-def test_the_two_fold_split_uses_disjoint_halves(shared_data):
-    rec = load_oxford(shared_data / "oxford_steps" / DEFAULT_RECORDING)
+def test_the_two_fold_split_uses_disjoint_halves(real_data):
+    rec = load_oxford(real_data("oxford"))
     split, _ = oxford_halves(rec.duration, rec.step_times)
     first, second = rec.t < split, rec.t >= split
     assert not np.any(first & second) and np.all(first | second)

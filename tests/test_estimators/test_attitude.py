@@ -396,8 +396,8 @@ def test_orientation_errors_separate_heading_and_inclination(rng):
 # ------------------------------------------------------------------------------------------------
 
 
-def test_broad_mean_total_rmse(shared_data):
-    files = broad_trials(shared_data / "broad")
+def test_broad_mean_total_rmse(real_data):
+    files = broad_trials(real_data("broad"))
     assert len(files) == 9
     totals = []
     for path in files:

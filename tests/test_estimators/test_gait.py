@@ -17,7 +17,7 @@ from scipy.sparse.csgraph import maximum_bipartite_matching
 
 from estimators.dead_reckoning import DeadReckoning
 from estimators.gait import GaitParams, StepDetector, detect_steps, step_f1
-from estimators.io_oxford import DEFAULT_RECORDING, foot_switch_steps, load_oxford
+from estimators.io_oxford import foot_switch_steps, load_oxford
 from estimators.rotations import GRAVITY, quat_from_ypr, quat_rotate, quat_rotate_inverse
 
 FS = 100.0
@@ -400,8 +400,8 @@ def test_step_f1_is_a_maximum_matching(det, tru):
 
 
 # ---------------------------------------------------------------------------- Oxford (real data)
-def test_oxford_reader(shared_data):
-    rec = load_oxford(shared_data / "oxford_steps" / DEFAULT_RECORDING)
+def test_oxford_reader(real_data):
+    rec = load_oxford(real_data("oxford"))
     assert rec.step_times.size == 248
     assert 132.0 < rec.duration < 134.0
     assert rec.acc.shape == (rec.t.size, 3)
@@ -409,7 +409,7 @@ def test_oxford_reader(shared_data):
     # A static moment: the norm is near gravity on average over the walk.
     assert abs(np.linalg.norm(rec.acc, axis=1).mean() - GRAVITY) < 0.5
     with pytest.raises(FileNotFoundError):
-        load_oxford(shared_data / "oxford_steps" / "no_such_recording")
+        load_oxford(real_data("oxford").parent / "no_such_recording")
 
 
 def test_foot_switch_debounce():
@@ -422,9 +422,9 @@ def test_foot_switch_debounce():
         foot_switch_steps(t, right * 2, left)
 
 
-def test_oxford_step_count_and_f1(shared_data):
+def test_oxford_step_count_and_f1(real_data):
     """Neck-pouch walk: the count within 3 % of 248 and F1 (+-0.2 s) with the named preset."""
-    rec = load_oxford(shared_data / "oxford_steps" / DEFAULT_RECORDING)
+    rec = load_oxford(real_data("oxford"))
     res = detect_steps(rec.t, rec.acc, params=GaitParams.neck_pouch())
     n_true = rec.step_times.size
     assert abs(res.step_times.size - n_true) <= 0.03 * n_true

@@ -25,7 +25,6 @@ K, J = 6, 25
 RATE = 30.0
 WRIST = 10
 DEG = np.pi / 180.0
-LABAN = "kinect_laban/Ges01_wavehand.csv"
 
 
 # ------------------------------------------------------------------------------------------------
@@ -777,8 +776,8 @@ def test_one_euro_smooths_rest_follows_motion_and_wraps(rng):
 # Kinect CSV reader, on the real recording
 
 
-def test_laban_csv_reader_and_holt_on_real_wrist(shared_data):
-    rec = read_kinect_csv(shared_data / LABAN)
+def test_laban_csv_reader_and_holt_on_real_wrist(real_data):
+    rec = read_kinect_csv(real_data("kinect"))
     assert rec.t.shape == (154,) and rec.joints.shape == (154, 25, 3)
     assert rec.state.shape == (154, 25) and rec.t[0] == 0.0
     assert 29.0 < rec.rate_hz < 31.0
@@ -814,11 +813,11 @@ def test_variogram_split_recovers_a_known_white_share(rng):
         variogram_split(np.zeros(60), RATE)
 
 
-def test_real_forearm_jitter_is_white_about_the_forearm_as_the_kinect_model(shared_data):
+def test_real_forearm_jitter_is_white_about_the_forearm_as_the_kinect_model(real_data):
     """The evidence of KinectSpec's wrist-noise split: on kinect_laban's still left forearm the
     turn about the forearm jitters mostly frame to frame, the bending axes slowly; the model's
     defaults carry that split."""
-    ev = recording_orientation_noise(shared_data / LABAN)
+    ev = recording_orientation_noise(real_data("kinect"))
     assert ev["about_forearm"]["white_share"] > 0.7, ev
     assert ev["about_thumb_axis"]["white_share"] < 0.1, ev
     assert ev["about_normal"]["white_share"] < 0.1, ev
@@ -830,8 +829,8 @@ def test_real_forearm_jitter_is_white_about_the_forearm_as_the_kinect_model(shar
     assert spec.hand_rot_tau_s == spec.joint_noise_tau_s
 
 
-def test_kinect_csv_reader_errors_name_line_and_column(tmp_path, shared_data):
-    lines = (shared_data / LABAN).read_text().splitlines()
+def test_kinect_csv_reader_errors_name_line_and_column(tmp_path, real_data):
+    lines = real_data("kinect").read_text().splitlines()
 
     def edit(line, col, value):  # replace the 1-based field ``col`` of a row
         f = line.split(",")
