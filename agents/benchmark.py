@@ -21,7 +21,8 @@ row, compared with the baseline technique's (:mod:`agents.paired`): a table on t
 CSV and a JSON file (:mod:`agents.benchmark_outputs`), and the figures
 (:mod:`agents.benchmark_figures`: for the first episode of each cell the true and virtual paths
 over the room, the head attitude, the gait; for the grid every metric, the collision causes and
-the latencies).
+the latencies), all in one page with each cell's first episodes replayed (:mod:`agents.report`,
+``report.html``).
 
 Policies: ``goal_seeker``, ``avoid_manoeuvre``, ``reactive_avoider`` (:mod:`agents.scripted`),
 ``+<population>`` for a human population (:mod:`vrloco_env.user.population`), a stable-baselines3
@@ -69,6 +70,7 @@ from agents.metrics import (
 )
 from agents.paired import compare_values, episode_values
 from agents.policies import check_policy
+from agents.report import REPLAY_EPISODES, write_report
 from agents.resume import EpisodeStore, RunFolder, cell_inputs, episode_key, source_fingerprint
 from vrloco_env.tasks import get_task
 
@@ -241,10 +243,10 @@ def run_benchmark(
             batch of seeds (:func:`agents.episodes.run_batched`); 0 runs every episode alone in a
             single env (:func:`agents.episodes.run_cell_episode`). The results are the same
             either way.
-        out_dir: folder for ``benchmark.csv``, ``benchmark.json``, ``pairs.json`` and the
-            figures, and for the finished episodes of an interrupted run (``.resume``), one run
-            at a time (:class:`agents.resume.RunFolder`): a folder holding another run's files
-            is refused (None: no files).
+        out_dir: folder for ``benchmark.csv``, ``benchmark.json``, ``pairs.json``, the
+            figures and ``report.html``, and for the finished episodes of an interrupted run
+            (``.resume``), one run at a time (:class:`agents.resume.RunFolder`): a folder
+            holding another run's files is refused (None: no files).
         force: remove another run's files from ``out_dir`` first instead of refusing it.
         json_path: also write the JSON here.
         progress: show a progress bar.
@@ -391,7 +393,7 @@ def _play(cells: list[Cell], keys: dict[tuple[Cell, int], str], meta: dict[str, 
     written = []
     if folder is not None:
         written = folder.replace(lambda out: _write_outputs(out, rows, meta, pairs, cells,
-                                                            results))  # fmt: skip
+                                                            results, baseline))  # fmt: skip
     if json_path is not None:
         written.append(write_json(Path(json_path), rows, meta))
     for line in written_summary(written):
@@ -415,9 +417,12 @@ def _compile_shared_kernels(job: tuple) -> None:
 
 
 def _write_outputs(out: Path, rows: list[dict[str, Any]], meta: dict[str, Any], pairs: list,
-                   cells: list[Cell], results: dict) -> list[Path]:  # fmt: skip
+                   cells: list[Cell], results: dict,
+                   baseline: str = BASELINE_TECHNIQUE) -> list[Path]:  # fmt: skip
     """The run's files in ``out``: the CSV, the JSON, ``pairs.json`` where there are pairs, the
-    figures of each cell's first episode and of the grid."""
+    figures of each cell's first episode and of the grid, and ``report.html``
+    (:func:`agents.report.write_report`: all of these in one page, with each cell's traced
+    episodes replayed)."""
     written = [write_csv(out / "benchmark.csv", rows),
                write_json(out / "benchmark.json", rows, meta)]  # fmt: skip
     if pairs:
@@ -430,6 +435,8 @@ def _write_outputs(out: Path, rows: list[dict[str, Any]], meta: dict[str, Any], 
         written += draw_grid(out, rows, {
             cell_name(row): [results[(c, i)] for i in range(meta["episodes"])]
             for c, row in zip(cells, rows, strict=True)})  # fmt: skip
+    written.append(write_report(out / "report.html", rows, meta, pairs, cells, results,
+                                written, baseline))  # fmt: skip
     return written
 
 
@@ -543,7 +550,7 @@ def _episode_keys(
     fp = source_fingerprint()
     inputs = cell_inputs(cells)
     return {(c, i): episode_key(fp, c.task, c.policy, get_technique(c.technique), seed + i,
-                                figures and i == 0, c.condition, inputs[c])
+                                figures and i < REPLAY_EPISODES, c.condition, inputs[c])
             for c in cells for i in range(episodes)}  # fmt: skip
 
 
@@ -554,9 +561,11 @@ def _split_jobs(
     """The grid's jobs. One episode per job for ``batch_size`` 0; else the episodes of the cells
     that share a task, a technique and a population (one vector env), taken episode index by
     episode index across those cells, in jobs of about four batches, cut smaller where there
-    would be fewer jobs than workers. A ``module:attr`` policy's cells form groups of their own."""
+    would be fewer jobs than workers. A ``module:attr`` policy's cells form groups of their own.
+    With ``figures`` the first :data:`agents.report.REPLAY_EPISODES` episodes of each cell keep
+    their trace (the figures draw the first, the report replays them all)."""
     def ep(c: Cell, i: int) -> tuple[Cell, int, int, bool]:
-        return (c, i, seed + i, figures and i == 0)
+        return (c, i, seed + i, figures and i < REPLAY_EPISODES)
 
     if batch_size == 0:
         return [([ep(c, i)], 0) for c in cells for i in range(episodes) if (c, i) not in skip]

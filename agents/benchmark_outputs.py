@@ -208,7 +208,7 @@ def show_table(rows: list[dict[str, Any]], seed: int, width: int | None = None,
         view = "a compact view" if compact else "a view"
         more = f"; not shown at this width: {', '.join(left_out)}" if left_out else ""
         console.print(f"({view} for {console.width} columns{more}: every column is in "
-                      "benchmark.csv and benchmark.json)")  # fmt: skip
+                      "benchmark.csv, benchmark.json and report.html)")  # fmt: skip
 
 
 def _print_table(console: Any, rows: list[dict[str, Any]], names: list, measures: list,

@@ -179,7 +179,9 @@ STEP_KEYS = (
     "play_area_boundary_m",
     "play_area_outside",
 )
-#: The ``info`` keys kept per control step for the figures.
+#: The ``info`` keys kept per control step for the figures and the report's replays (the
+#: headings, and what :func:`agents.collision_causes.collision_causes` reads to give each
+#: collision its cause).
 TRACE_KEYS = (
     "position",
     "true_position",
@@ -187,6 +189,13 @@ TRACE_KEYS = (
     "est_ypr",
     "true_step_times",
     "elapsed_time",
+    "virtual_yaw",
+    "heading_error_deg",
+    "collision",
+    "intent_walk",
+    "detected_step_times",
+    "walk_yaw_deg",
+    "true_body_yaw_deg",
 )
 
 
@@ -246,8 +255,8 @@ def episode_stats(
             :class:`EpisodeRecorder` keeps).
         last: the last step's ``info`` (``is_success``, ``collisions``, ``elapsed_time``,
             ``walked``), scalars.
-        trace: stacked trace arrays for figures (``position``, ``true_position``, ``true_ypr``,
-            ``est_ypr``, ``true_step_times``, ``elapsed_time``), or None.
+        trace: stacked trace arrays for figures and replays (the keys of :data:`TRACE_KEYS`),
+            or None.
         start_position: the virtual start, prepended to the traced paths.
     """
     if trace is not None:

@@ -393,6 +393,13 @@ def _check_episode(value: Any) -> None:
                 a.shape[1:] == tail if tail else a.ndim == 1)  # fmt: skip
             if not ok:
                 raise BadEntry(f"EpisodeStats.trace[{k!r}]: {_describe(a)}")
+        for k in ("virtual_yaw", "heading_error_deg", "collision", "intent_walk", "walk_yaw_deg",
+                  "true_body_yaw_deg", "detected_step_times"):  # one entry per control step
+            a = st.trace[k]
+            ok = isinstance(a, np.ndarray) and a.dtype == np.float64 and a.shape[:1] == (
+                st.steps,) and a.ndim == (2 if k == "detected_step_times" else 1)  # fmt: skip
+            if not ok:
+                raise BadEntry(f"EpisodeStats.trace[{k!r}]: {_describe(a)}")
     for k, need in (("motion", MOTION_KEYS), ("play_area", PLAY_AREA_KEYS),
                     ("causes", COLLISION_CAUSES)):  # fmt: skip
         d = getattr(st, k)
@@ -507,7 +514,7 @@ def missing(keys: Iterable[str], found: dict[str, Any]) -> list[str]:
 # --------------------------------------------------------------------------- the run's folder
 
 #: The names of the files a run writes into its folder: those that ``--force`` may remove.
-OUTPUT_NAME = re.compile(r"(benchmark\.csv|benchmark\.json|pairs\.json|metrics\.png|"
+OUTPUT_NAME = re.compile(r"(benchmark\.csv|benchmark\.json|pairs\.json|report\.html|metrics\.png|"
                          r"collision_causes\.png|latency\.png|"
                          r"(trajectory|attitude|gait)_[A-Za-z0-9_-]+\.png)\Z")  # fmt: skip
 
