@@ -250,12 +250,18 @@ def _cmd_train(args: argparse.Namespace) -> int:
     from agents.backends import BackendError
 
     seeds = args.seeds if args.seeds is not None else [args.seed]
-    common = dict(steps=args.steps, sensor_preset=args.sensors, eval_every=args.eval_every)
+    common = dict(steps=args.steps, sensor_preset=args.sensors, eval_every=args.eval_every,
+                  technique=args.technique, population=args.population,
+                  condition=args.condition)  # fmt: skip
     if args.address is not None and args.backend == "local":
         print("vrloco train: --address needs --backend ray or rllib", file=sys.stderr)
         return 2
     if args.env_runners is not None and args.backend != "rllib":
         print("vrloco train: --env-runners needs --backend rllib", file=sys.stderr)
+        return 2
+    if args.backend == "rllib" and (args.frame_stack != 1 or args.recurrent):
+        print("vrloco train: --frame-stack and --recurrent need --backend local or ray",
+              file=sys.stderr)  # fmt: skip
         return 2
     try:
         if args.backend == "rllib":
@@ -271,6 +277,7 @@ def _cmd_train(args: argparse.Namespace) -> int:
 
             paths = train_seeds(args.task, seeds, Path(args.out), backend=args.backend,
                                 address=args.address, num_envs=args.num_envs,
+                                frame_stack=args.frame_stack, recurrent=args.recurrent,
                                 **common)  # fmt: skip
     except BackendError as err:  # no Ray cluster, or runs lost: what and where, no traceback
         print(f"vrloco train: {err}", file=sys.stderr)
@@ -297,10 +304,21 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
             seed=args.seed,
             sensor_preset=args.sensors,
             progress=True,
+            technique=args.technique,
+            population=args.population,
+            condition=args.condition,
+            allow_mismatch=args.allow_mismatch,
         )
     except ValueError as err:  # not a model, or a contradiction with it: one line, no traceback
         print(f"vrloco evaluate: {err}", file=sys.stderr)
         return 2
+    cell = ", ".join(f"{k} {row[k]}" for k in ("task", "technique", "population", "condition"))
+    trained = row.get("trained_on")
+    if trained:
+        print(f"cell: {cell}; the model was trained on "
+              + ", ".join(f"{k} {v}" for k, v in trained.items()))  # fmt: skip
+    else:
+        print(f"cell: {cell} (the model's own)")
     show_table([row], args.seed)
     if args.json:
         meta = {"model": str(args.model), "seed": args.seed, "episodes": args.episodes}
@@ -309,6 +327,28 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         except WriteError as err:  # a full disk: one line
             print(f"vrloco evaluate: {err}", file=sys.stderr)
             return 1
+    return 0
+
+
+def _cmd_record(args: argparse.Namespace) -> int:
+    from agents.minari_datasets import MinariMissing, dataset_path, record_dataset
+
+    try:
+        dataset = record_dataset(
+            args.task, args.policy, args.minari, technique=args.technique,
+            episodes=args.episodes, seed=args.seed, max_episode_steps=args.max_episode_steps,
+            force=args.force, progress=True,
+        )  # fmt: skip
+    except ValueError as err:  # an unknown policy or technique, a bad id: one line
+        print(f"vrloco record: {err}", file=sys.stderr)
+        return 2
+    except (FileExistsError, MinariMissing) as err:  # the dataset exists; no Minari: one line
+        print(f"vrloco record: {err}", file=sys.stderr)
+        return 1
+    n = dataset.total_episodes
+    print(f"wrote {n} episode{'s' * (n != 1)} ({dataset.total_steps} steps) to Minari "
+          f"dataset {args.minari} at {dataset_path(args.minari)}; read it with "
+          f"minari.load_dataset({args.minari!r})")  # fmt: skip
     return 0
 
 
@@ -325,6 +365,51 @@ def _cmd_estimate(args: argparse.Namespace) -> int:
         print(f"vrloco estimate: {err}", file=sys.stderr)
         return 2
     print(json.dumps(result, indent=2))
+    return 0
+
+
+def _cmd_data(args: argparse.Namespace) -> int:
+    from agents import data
+
+    prog = f"vrloco data {args.data_command}"
+    try:
+        if args.data_command == "list":
+            env = data.data_folder()
+            print(f"cache (VRLOCO_CACHE): {data.cache_folder()}")
+            print(f"VRLOCO_DATA: {env if env is not None else 'not set'}")
+            for name, ds in data.DATASETS.items():
+                n = len(ds.files)
+                size = f", {n} file{'s' * (n > 1)}, {sum(f.size for f in ds.files) / 1e6:.1f} MB"
+                where = data.located(name)
+                if where is not None:
+                    state = f"in {where[0]}: {where[1] / ds.path}"
+                elif ds.fetchable:
+                    state = f"absent: `vrloco data fetch {name}`"
+                else:
+                    state = f"absent: {ds.why_not_fetched}"
+                print(f"{name:<12} {ds.title}{size if ds.files else ''}; licence {ds.licence}")
+                print(f"{'':<12} {state}")
+                print(f"{'':<12} cite: {ds.citation}")
+            return 0
+        if args.data_command == "where":
+            print(data.data_path(args.name) if args.name else data.cache_folder())
+            return 0
+        sets = [data.get_dataset(name) for name in args.names]  # every name checked first
+        for ds in sets:
+            if not ds.fetchable:
+                raise ValueError(f"{ds.name}: {ds.why_not_fetched}")
+        data.mirror_url(args.url, origin="--url")
+        for ds in sets:
+            path = data.fetch(ds.name, base_url=args.url, progressbar=sys.stderr.isatty(),
+                              report=lambda line: print(f"  {line}"))  # fmt: skip
+            print(f"{ds.name}: {path}")
+            print(f"  licence {ds.licence}; cite: {ds.citation}; source: {ds.source}")
+    except ValueError as err:  # an unknown name, a set that is not downloadable, a bad URL
+        print(f"{prog}: {err}", file=sys.stderr)
+        return 2
+    except (data.DataMissing, data.FetchError) as err:  # absent, or a failed download: one line
+        print(f"{prog}: {err}", file=sys.stderr)
+        return 1
     return 0
 
 
@@ -512,7 +597,20 @@ def build_parser() -> argparse.ArgumentParser:
                        "whole training iterations)")  # fmt: skip
     train.add_argument("--num-envs", type=_int_at_least(1), default=32,
                        help="users stepped together (rllib: in each env runner)")  # fmt: skip
-    train.add_argument("--sensors", default="ig500n", type=_preset, help="IMU preset")
+    train.add_argument("--sensors", type=_preset,
+                       help="IMU preset (default: the technique's; ig500n)")  # fmt: skip
+    train.add_argument("--technique",
+                       help="a registered technique (vrloco techniques) or 'module:attr' "
+                       "(default: seed 000's chain)")  # fmt: skip
+    train.add_argument("--population",
+                       help="the users' head behaviour in the env: a user population (default: "
+                       "none, the head straight on the torso)")  # fmt: skip
+    train.add_argument("--condition", help="the physical room's condition (default: lab)")
+    train.add_argument("--frame-stack", type=_int_at_least(1), default=1, metavar="K",
+                       help="the policy sees each user's last K observations side by side")
+    train.add_argument("--recurrent", action="store_true",
+                       help="an LSTM policy (sb3-contrib's RecurrentPPO) instead of PPO's "
+                       "feed-forward one")  # fmt: skip
     train.add_argument("--eval-every", type=_int_at_least(1), default=100_000,
                        help="steps between evals")  # fmt: skip
     seeding = train.add_mutually_exclusive_group()
@@ -560,10 +658,43 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--episodes", type=_int_at_least(1), default=100,
                           help="seeded episodes")  # fmt: skip
     evaluate.add_argument("--sensors", type=_preset, help="IMU preset (default: the model's own)")
+    for name in ("technique", "population", "condition"):
+        evaluate.add_argument(f"--{name}", help=f"the {name} (default: the model's own)")
+    evaluate.add_argument("--allow-mismatch", action="store_true",
+                          help="evaluate on a task, technique, population, condition or sensors "
+                          "other than the model's (else an error naming what differs)")
     evaluate.add_argument("--seed", type=_int_at_least(0), default=0, help="random seed")
     evaluate.add_argument("--json", type=_out_file,
                           help="also write the row (every metric) to this JSON file")  # fmt: skip
     evaluate.set_defaults(func=_cmd_evaluate)
+    rec = sub.add_parser(
+        "record",
+        help="an offline-RL dataset: a policy's seeded episodes as a Minari dataset",
+        description="Plays --episodes seeded episodes of --policy as the benchmark plays them "
+        "(episode i: seed + i) on gym.make('VRLoco-<Task>-v0', technique=..., population=...) "
+        "and writes them as the Minari dataset --minari (observations, actions, rewards, "
+        "terminations, truncations, the infos the benchmark's metrics read, each episode's "
+        "seed) in $MINARI_DATASETS_PATH, else ~/.minari/datasets; its recover_environment() "
+        "makes the same env (pip install 'vrloco[minari]').",
+    )
+    rec.add_argument("--task", required=True, type=_task, help=f"one of {', '.join(TASKS)}")
+    rec.add_argument(
+        "--policy", required=True,
+        help="goal_seeker, avoid_manoeuvre, reactive_avoider, a stable-baselines3 model (.zip) "
+        f"or 'module:attr'; append +<population> ({', '.join(POPULATIONS)}) for a human "
+        "population",
+    )  # fmt: skip
+    rec.add_argument("--technique", default="seed000",
+                     help="a technique (vrloco techniques lists them) or 'module:attr'")
+    rec.add_argument("--episodes", type=_int_at_least(1), default=100, help="seeded episodes")
+    rec.add_argument("--seed", type=_int_at_least(0), default=0, help="episode i uses seed + i")
+    rec.add_argument("--max-episode-steps", type=_int_at_least(1),
+                     help="the env's horizon in control steps (default: the env's own)")
+    rec.add_argument("--minari", required=True, metavar="DATASET_ID",
+                     help="the dataset's id, (namespace/)name-v<version>")
+    rec.add_argument("--force", action="store_true",
+                     help="replace an existing dataset of that id (once the episodes are played)")
+    rec.set_defaults(func=_cmd_record)
     est = sub.add_parser(
         "estimate",
         help="attitude, steps and the eq (17) path of a recording (CSV, BROAD or Oxford)",
@@ -601,6 +732,28 @@ def build_parser() -> argparse.ArgumentParser:
         "an error asking for this option. Evidence against the unit read is a one-line warning",
     )  # fmt: skip
     est.set_defaults(func=_cmd_estimate)
+    dat = sub.add_parser(
+        "data",
+        help="the real recordings: list them, fetch them into the cache, say where they are",
+        description=(
+            "Real recordings are found in $VRLOCO_DATA (a folder laid out as broad/, "
+            "oxford_steps/, kinect_laban/, head_traces/), else in the download cache "
+            "($VRLOCO_CACHE, default ~/.cache/vrloco). `fetch` downloads broad, oxford or kinect "
+            "from its canonical source (or $VRLOCO_DATA_URL) and checks each file's pinned "
+            "SHA-256; head_traces cannot be fetched (no licence is stated) and is found only in "
+            "$VRLOCO_DATA."
+        ),
+    )
+    dat_sub = dat.add_subparsers(dest="data_command", metavar="ACTION", required=True)
+    dat_sub.add_parser("list", help="each set: where it is found, its size and licence")
+    where = dat_sub.add_parser("where", help="the path the readers take for NAME (without "
+                               "NAME: the cache folder)")  # fmt: skip
+    where.add_argument("name", nargs="?", help="a set (broad, oxford, kinect, head_traces)")
+    fetch = dat_sub.add_parser("fetch", help="download sets into the cache, checking each hash")
+    fetch.add_argument("names", nargs="+", metavar="NAME", help="broad, oxford or kinect")
+    fetch.add_argument("--url", help="download BASE/RELPATH from this base URL instead of the "
+                       "canonical sources (default: $VRLOCO_DATA_URL)")  # fmt: skip
+    dat.set_defaults(func=_cmd_data)
     return parser
 
 

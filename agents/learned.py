@@ -8,6 +8,25 @@ episodes; ``vrloco evaluate MODEL`` runs a trained policy through the benchmark'
 processes (``--backend ray``: as Ray tasks on a Ray cluster) and draws their curves together,
 with the mean and the spread over the seeds. RLlib's PPO is in :mod:`agents.rllib`.
 
+A run trains on one benchmark cell: a task, a technique (:mod:`vrloco_env.techniques`), a user
+population (:mod:`vrloco_env.user.population`, its head behaviour in the env) and a physical-room
+condition (:mod:`agents.conditions`); the cell is saved with the model (``model.vrloco_cell``)
+beside the env's settings (``model.vrloco_env``), and so is how the policy sees the env
+(``model.vrloco_policy``: ``frame_stack``, the last k observations side by side through
+:class:`~vrloco_env.wrappers.FrameStack`, and ``recurrent``, sb3-contrib's ``RecurrentPPO`` with
+an LSTM policy), so that :func:`evaluate_model` and the benchmark
+(:class:`agents.policies.LearnedPolicy`) play it on its own cell, the way it was trained.
+
+Speed. The env's compiled kernels and torch both run OpenMP thread pools on the same cores.
+This module imports :mod:`estimators.kernels` before torch, so that torch's OpenMP runtime
+starts with the passive wait policy that module sets (``OMP_WAIT_POLICY=PASSIVE``: idle threads
+sleep instead of spinning on the cores the other pool needs), and PPO collects its rollouts
+with one torch thread (:class:`RolloutThreads`: the forward pass of one step's users is too
+small to share out), its update with torch's own count. Neither changes a number PPO computes:
+``benchmarks/bench_training.py`` times the loop against the default settings and checks that
+both train the same weights. A process that imported torch before this module (without
+``OMP_WAIT_POLICY`` set) keeps torch's spinning threads; :func:`train_ppo` warns.
+
 :class:`SB3VecEnv` adapts the Gymnasium vector env to stable-baselines3's ``VecEnv`` interface.
 Both autoreset in the same step, so the adapter only reshapes: the finished episode's last
 observation goes to ``infos[i]["terminal_observation"]`` and a time-limit end sets
@@ -18,17 +37,30 @@ from __future__ import annotations
 
 import json
 import os
+import sys
 import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from stable_baselines3.common.vec_env.base_vec_env import VecEnv
 
-from vrloco_env.vector import VRLocoVectorEnv
+#: torch's OpenMP runtime started before ``OMP_WAIT_POLICY`` was set (see the module docstring).
+_TORCH_SPINS = "torch" in sys.modules and "OMP_WAIT_POLICY" not in os.environ
 
-__all__ = ["SB3VecEnv", "env_settings", "evaluate_model", "model_env_settings", "train_ppo",
+import estimators.kernels  # noqa: E402, F401  (sets OMP_WAIT_POLICY before torch starts)
+
+# isort: split
+from stable_baselines3.common.callbacks import BaseCallback  # noqa: E402
+from stable_baselines3.common.vec_env.base_vec_env import VecEnv  # noqa: E402
+
+from vrloco_env.vector import VRLocoVectorEnv  # noqa: E402
+
+__all__ = ["CELL_KEYS", "RolloutThreads", "SB3VecEnv", "env_settings", "evaluate_model",
+           "make_model", "model_cell", "model_env_settings", "model_policy", "train_ppo",
            "train_seeds"]  # fmt: skip
+
+#: The names of a training cell, as :attr:`model.vrloco_cell <train_ppo>` stores them.
+CELL_KEYS = ("task", "technique", "population", "condition")
 
 #: Reported per-step keys kept in the SB3 infos (episode metrics for the callbacks).
 _INFO_KEYS = ("is_success", "collisions", "distance_to_goal")
@@ -135,10 +167,15 @@ def train_ppo(
     num_envs: int = 32,
     seed: int = 0,
     out_dir: Path = Path("runs"),
-    sensor_preset: str = "ig500n",
+    sensor_preset: str | None = None,
     eval_every: int = 100_000,
     eval_episodes: int = 32,
     progress: bool = True,
+    technique: Any = None,
+    population: Any = None,
+    condition: str | None = None,
+    frame_stack: int = 1,
+    recurrent: bool = False,
     **ppo_kwargs: Any,
 ) -> Path:
     """Train PPO on ``task``; returns the path of the final model (``.zip``).
@@ -146,20 +183,46 @@ def train_ppo(
     Writes TensorBoard logs (``out_dir/tb``), checkpoints (``out_dir/checkpoints``), the best
     model by evaluation success (``out_dir/best_model.zip``) and ``out_dir/learning_curve.json``
     (environment steps, wall time, evaluation success rate and mean return).
+
+    Args:
+        technique, population, condition: the cell trained on (:func:`env_settings`; None: the
+            env's default technique, no population, the ``lab``); saved with every model as
+            ``model.vrloco_cell`` (with ``task``), the env's settings as ``model.vrloco_env``.
+        sensor_preset: the IMU preset (None: the technique's, ``"ig500n"`` without one).
+        frame_stack: the policy sees each user's last ``frame_stack`` observations side by side
+            (:class:`~vrloco_env.wrappers.FrameStack`; 1: the observation alone).
+        recurrent: train sb3-contrib's ``RecurrentPPO`` with its LSTM policy
+            (``MlpLstmPolicy``) instead of PPO's feed-forward one.
+        ppo_kwargs: PPO's settings over :func:`defaults_ppo`.
+
+    Both ``frame_stack`` and ``recurrent`` are saved as ``model.vrloco_policy``.
+
+    Raises:
+        ValueError: an unknown task, technique, population or condition (listing the
+            registered names), a bad ``frame_stack``, too few ``steps`` for one rollout, or
+            ``recurrent`` without sb3-contrib installed.
     """
-    from stable_baselines3 import PPO
-    from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback
+    from stable_baselines3.common.callbacks import CheckpointCallback
     from stable_baselines3.common.vec_env import VecMonitor
 
+    if _TORCH_SPINS:
+        import warnings
+
+        warnings.warn("torch was imported before agents.learned set OMP_WAIT_POLICY=PASSIVE: "
+                      "its OpenMP threads spin on the cores the env's kernels need, and training "
+                      "runs slower (several times, on a machine whose cores are busy); import "
+                      "agents.learned first or set OMP_WAIT_POLICY=PASSIVE before starting "
+                      "Python", stacklevel=2)  # fmt: skip
     settings = {**defaults_ppo(), **ppo_kwargs}
+    env_kwargs = env_settings(task, sensor_preset, technique, population, condition)
+    policy_kwargs = _policy_settings(frame_stack, recurrent)
     steps = rollout_steps(steps, settings["n_steps"], num_envs)
     out_dir.mkdir(parents=True, exist_ok=True)
-    env_kwargs = env_settings(task, sensor_preset=sensor_preset)
     venv = VecMonitor(
-        SB3VecEnv(VRLocoVectorEnv(num_envs, **env_kwargs), seed=seed),
+        SB3VecEnv(_wrap(VRLocoVectorEnv(num_envs, **env_kwargs), frame_stack), seed=seed),
         info_keywords=("is_success",),
     )
-    eval_env = VRLocoVectorEnv(eval_episodes, **env_kwargs)
+    eval_env = _wrap(VRLocoVectorEnv(eval_episodes, **env_kwargs), frame_stack)
     curve: list[dict[str, float]] = []
     t_start = time.perf_counter()
 
@@ -185,22 +248,19 @@ def train_ppo(
             (out_dir / "learning_curve.json").write_text(json.dumps(curve, indent=2))
             return True
 
-    model = PPO(
-        "MlpPolicy",
-        venv,
-        seed=seed,
-        verbose=0,
-        tensorboard_log=str(out_dir / "tb"),
-        **settings,
-    )
+    model = make_model(venv, seed=seed, recurrent=recurrent,
+                       tensorboard_log=str(out_dir / "tb"), **settings)  # fmt: skip
     # Saved with every checkpoint, the best and the final model: what the policy was trained on.
     model.vrloco_env = env_kwargs
+    model.vrloco_cell = cell_of(env_kwargs, technique)
+    model.vrloco_policy = policy_kwargs
     checkpoints = CheckpointCallback(
         max(eval_every // num_envs, 1), str(out_dir / "checkpoints"), name_prefix=f"ppo_{task}"
     )
     final = out_dir / f"ppo_{task}_final"
+    callbacks = [RolloutThreads(), checkpoints, Evaluate()]
     try:
-        model.learn(steps, callback=[checkpoints, Evaluate()], progress_bar=progress)
+        model.learn(steps, callback=callbacks, progress_bar=progress)
     except KeyboardInterrupt:  # Ctrl-C: keep the model and the curve so far
         model.save(final)
         (out_dir / "learning_curve.json").write_text(json.dumps(curve, indent=2))
@@ -210,6 +270,8 @@ def train_ppo(
         print(f"interrupted after {model.num_timesteps:,} steps: saved {final}.zip and the "
               f"learning curve so far in {out_dir}")  # fmt: skip
         raise
+    finally:
+        callbacks[0].restore()
     model.save(final)
     result = run_policy_episodes(model, eval_env, seed=10_000 + seed)
     result.update(steps=model.num_timesteps, wall_s=time.perf_counter() - t_start)
@@ -218,6 +280,85 @@ def train_ppo(
     plot_learning_curve(curve, out_dir / "learning_curve.png", title=f"PPO on {task}")
     venv.close()
     return final.with_suffix(".zip")
+
+
+class RolloutThreads(BaseCallback):
+    """A callback that runs PPO's rollouts with one torch thread and its updates with the
+    thread count torch had when the callback was made.
+
+    A rollout step's forward pass (one row per user) is too small to share between threads:
+    splitting it costs more than it saves, and the second thread takes a core from the env's
+    kernels. The update's minibatches keep the threads. Neither changes the numbers:
+    ``benchmarks/bench_training.py`` checks that the trained weights are the same.
+    """
+
+    def __init__(self) -> None:
+        import torch
+
+        super().__init__()
+        self.threads = torch.get_num_threads()
+
+    def _on_rollout_start(self) -> None:
+        import torch
+
+        torch.set_num_threads(1)
+
+    def _on_rollout_end(self) -> None:
+        self.restore()
+
+    def _on_step(self) -> bool:
+        return True
+
+    def restore(self) -> None:
+        """Give torch its thread count back (after an interrupted rollout too)."""
+        import torch
+
+        torch.set_num_threads(self.threads)
+
+
+def make_model(
+    venv: Any, seed: int = 0, recurrent: bool = False, tensorboard_log: str | None = None,
+    **settings: Any,
+) -> Any:  # fmt: skip
+    """The untrained model :func:`train_ppo` trains on ``venv``: stable-baselines3's PPO with
+    its feed-forward ``MlpPolicy``, or with ``recurrent`` sb3-contrib's ``RecurrentPPO`` with
+    ``MlpLstmPolicy``; ``settings`` are PPO's keywords (:func:`defaults_ppo`)."""
+    if recurrent:
+        algorithm, policy = _recurrent_ppo(), "MlpLstmPolicy"
+    else:
+        from stable_baselines3 import PPO
+
+        algorithm, policy = PPO, "MlpPolicy"
+    return algorithm(policy, venv, seed=seed, verbose=0, tensorboard_log=tensorboard_log,
+                     **settings)  # fmt: skip
+
+
+def _recurrent_ppo() -> Any:
+    """sb3-contrib's ``RecurrentPPO``, or a ValueError saying how to install it."""
+    try:
+        from sb3_contrib import RecurrentPPO
+    except ImportError as err:
+        raise ValueError(f"recurrent=True (--recurrent) needs sb3-contrib: pip install "
+                         f"sb3-contrib ({err})") from None  # fmt: skip
+    return RecurrentPPO
+
+
+def _policy_settings(frame_stack: Any, recurrent: Any) -> dict[str, Any]:
+    """``model.vrloco_policy``: how the policy sees the env, checked."""
+    from vrloco_env.wrappers import check_frame_stack
+
+    if not isinstance(recurrent, bool | np.bool_):
+        raise ValueError(f"recurrent={recurrent!r}: must be True or False")
+    return {"frame_stack": check_frame_stack(frame_stack), "recurrent": bool(recurrent)}
+
+
+def _wrap(env: VRLocoVectorEnv, frame_stack: int) -> Any:
+    """``env`` with each user's last ``frame_stack`` observations side by side (1: as it is)."""
+    if frame_stack == 1:
+        return env
+    from vrloco_env.wrappers import FrameStack
+
+    return FrameStack(env, frame_stack)
 
 
 #: The evaluation metrics averaged over the seeds by :func:`train_seeds`.
@@ -274,6 +415,7 @@ def train_seeds(
         raise ValueError(f"backend must be 'local' or 'ray', got {backend!r}")
     if address is not None and backend != "ray":
         raise ValueError(f"address={address!r} needs backend 'ray'")
+    _check_run(task, train_kwargs)  # a bad cell is named here, before any worker starts
     if backend == "ray":
         return _train_seeds_ray(task, seeds, out_dir, address, train_kwargs)
     if len(seeds) == 1:
@@ -309,6 +451,13 @@ def train_seeds(
     pool.shutdown()
     write_seed_curves(task, _read_curves(folders), out_dir)
     return paths
+
+
+def _check_run(task: str, train_kwargs: dict[str, Any]) -> None:
+    """The cell and the policy settings of :func:`train_ppo`'s keywords, checked (its errors)."""
+    env_settings(task, *(train_kwargs.get(k) for k in
+                         ("sensor_preset", "technique", "population", "condition")))  # fmt: skip
+    _policy_settings(train_kwargs.get("frame_stack", 1), train_kwargs.get("recurrent", False))
 
 
 def _worker_kwargs(train_kwargs: dict[str, Any]) -> dict[str, Any]:
@@ -351,7 +500,6 @@ def _train_seeds_ray(
 
     ray = import_ray()
     kwargs = _worker_kwargs(train_kwargs)
-    env_settings(task, sensor_preset=kwargs.get("sensor_preset", "ig500n"))  # fail here, not there
     out_dir.mkdir(parents=True, exist_ok=True)
     folders = {s: out_dir if len(seeds) == 1 else out_dir / f"seed_{s}" for s in seeds}
     started = _connect(ray, address)
@@ -532,7 +680,9 @@ def plot_learning_curve(curve: list[dict[str, float]], path: Path, title: str = 
 
 
 def run_policy_episodes(model: Any, env: VRLocoVectorEnv, seed: int) -> dict[str, float]:
-    """One episode per sub-env with the deterministic policy; success, collision rate, return."""
+    """One episode per sub-env with the deterministic policy; success, collision rate, return.
+    A recurrent model (sb3-contrib's ``RecurrentPPO``) carries its LSTM state from step to step,
+    each user's started afresh with its episode."""
     obs, _ = env.reset(seed=seed)
     n = env.num_envs
     done = np.zeros(n, bool)
@@ -540,14 +690,21 @@ def run_policy_episodes(model: Any, env: VRLocoVectorEnv, seed: int) -> dict[str
     collided = np.zeros(n, bool)
     returns = np.zeros(n)
     want = (n, *env.single_action_space.shape)
+    recurrent = is_recurrent(model)
+    state, starts = None, np.ones(n, bool)
     while not done.all():
-        action, _ = model.predict(obs, deterministic=True)
+        if recurrent:
+            action, state = model.predict(obs, state=state, episode_start=starts,
+                                          deterministic=True)  # fmt: skip
+        else:
+            action, _ = model.predict(obs, deterministic=True)
         if np.shape(action) != want:
             raise ValueError(
                 f"model {type(model).__name__} returned actions of shape {np.shape(action)} "
                 f"from predict(); expected {want} (one row of {want[1]} per user)"
             )
         obs, reward, terminated, truncated, info = env.step(action)
+        starts = terminated | truncated
         live = ~done
         returns += np.where(live, reward, 0.0)
         collided |= live & info["collision"]
@@ -561,18 +718,90 @@ def run_policy_episodes(model: Any, env: VRLocoVectorEnv, seed: int) -> dict[str
     }
 
 
-def env_settings(task: str, sensor_preset: str = "ig500n", **configs: Any) -> dict[str, Any]:
+def is_recurrent(model: Any) -> bool:
+    """Whether ``model``'s policy keeps a state between steps (an LSTM policy of sb3-contrib's
+    ``RecurrentPPO``), so that ``predict`` takes ``state`` and ``episode_start``."""
+    return hasattr(getattr(model, "policy", None), "lstm_actor")
+
+
+def env_settings(
+    task: str,
+    sensor_preset: str | None = None,
+    technique: Any = None,
+    population: Any = None,
+    condition: str | None = None,
+    **configs: Any,
+) -> dict[str, Any]:
     """The env a policy is trained on, as the keywords of :class:`~vrloco_env.env.VRLocoEnv`:
-    the task and every configuration dataclass filled in (stored with the model)."""
+    the task and every configuration dataclass filled in (stored with the model).
+
+    Args:
+        task: a registered task.
+        sensor_preset: the IMU preset (None: the technique's, ``"ig500n"`` without one).
+        technique: a registered technique, ``"module:attr"`` or a
+            :class:`~vrloco_env.techniques.Technique` (None: the env's default chain).
+        population: a user population (:mod:`vrloco_env.user.population`) whose head behaviour
+            the env simulates (None: none; one whose head turns on the torso adds the
+            observation field ``head_on_torso``).
+        condition: a physical-room condition (:mod:`agents.conditions`; None: ``lab``).
+        configs: further keywords of :func:`~vrloco_env.env.make_configs`.
+
+    Raises:
+        ValueError: an unknown task, technique, population or condition (the registry's error,
+            listing the registered names), or settings that contradict each other.
+    """
+    from agents.conditions import get_condition
     from vrloco_env.env import make_configs
     from vrloco_env.tasks import get_task
+    from vrloco_env.techniques import get_technique
+    from vrloco_env.user.population import get_population
 
     get_task(task)  # raises with the registered names
-    config, sensors, estimators, room, reward = make_configs(sensor_preset=sensor_preset, **configs)
+    if technique is not None:
+        get_technique(technique)
+    if population is not None:
+        get_population(population)
+    if condition is not None:
+        room_sensors = get_condition(condition).sensors()
+        if room_sensors is not None:
+            if configs.get("sensors") is not None:
+                raise ValueError(f"condition={condition!r} sets the sensors' magnetic "
+                                 "disturbances; give the condition or sensors=, not both")
+            configs["sensors"] = room_sensors
+    config, sensors, estimators, room, reward = make_configs(
+        sensor_preset=sensor_preset, technique=technique, population=population, **configs
+    )
     return {
         "task": task, "config": config, "sensors": sensors, "estimators": estimators,
         "room": room, "reward": reward,
     }  # fmt: skip
+
+
+def cell_of(settings: dict[str, Any], technique: Any = None) -> dict[str, Any]:
+    """The cell of the env ``settings`` (:func:`env_settings`): its ``task``, ``technique``
+    (``technique``'s name where one was given, else the registered technique its sensors and
+    estimators make up, or ``"custom"``), ``population`` (the name, None without one) and
+    ``condition`` (the registered condition whose magnetic disturbances its sensors have, else
+    ``"custom"``)."""
+    from agents.conditions import CONDITIONS
+    from vrloco_env.env import technique_name
+    from vrloco_env.techniques import get_technique
+
+    sensors, config = settings["sensors"], settings["config"]
+    if technique is not None:
+        tech = get_technique(technique).name
+    else:
+        tech = technique_name(sensors, settings["estimators"])
+    disturbances = tuple(getattr(sensors, "magnetic_disturbances", ()) or ())
+    condition = next((c.name for c in CONDITIONS.values()
+                      if tuple(c.magnetic_disturbances) == disturbances), "custom")  # fmt: skip
+    population = config.population
+    return {
+        "task": settings["task"],
+        "technique": tech,
+        "population": getattr(population, "name", population),
+        "condition": condition,
+    }
 
 
 def model_env_settings(model: Any, path: Path) -> dict[str, Any]:
@@ -586,6 +815,92 @@ def model_env_settings(model: Any, path: Path) -> dict[str, Any]:
     return settings
 
 
+def model_cell(model: Any, settings: dict[str, Any]) -> dict[str, Any]:
+    """The cell a model was trained on: ``model.vrloco_cell`` as :func:`train_ppo` saved it, or
+    for a model saved without one, the cell its env ``settings`` make up (:func:`cell_of`)."""
+    cell = getattr(model, "vrloco_cell", None)
+    if isinstance(cell, dict) and all(k in cell for k in CELL_KEYS):
+        return {k: cell[k] for k in CELL_KEYS}
+    return cell_of(settings)
+
+
+def model_policy(model: Any) -> dict[str, Any]:
+    """How a model sees the env (``model.vrloco_policy``): ``frame_stack`` (frames side by side,
+    1 for a model saved without it) and ``recurrent`` (read from the model's policy)."""
+    saved = getattr(model, "vrloco_policy", None)
+    frames = saved.get("frame_stack", 1) if isinstance(saved, dict) else 1
+    return {"frame_stack": int(frames), "recurrent": is_recurrent(model)}
+
+
+def _cell_text(cell: dict[str, Any], sensors: str) -> str:
+    """A cell in words, for messages."""
+    return (f"task {cell['task']!r}, technique {cell['technique']!r}, population "
+            f"{cell['population']!r}, condition {cell['condition']!r}, sensors "
+            f"{sensors!r}")  # fmt: skip
+
+
+def _asked_cell(
+    cell: dict[str, Any], sensors: str, task: str | None, technique: Any, population: Any,
+    condition: str | None, sensor_preset: str | None,
+) -> dict[str, tuple[Any, Any]]:  # fmt: skip
+    """The parts of the cell asked for that differ from the model's: ``{name: (trained,
+    asked)}``; unknown names raise the registries' errors."""
+    from agents.conditions import get_condition
+    from vrloco_env.tasks import get_task
+    from vrloco_env.techniques import get_technique
+    from vrloco_env.user.population import get_population
+
+    asked: dict[str, Any] = {}
+    if task is not None:
+        get_task(task)
+        asked["task"] = task
+    if technique is not None:
+        asked["technique"] = get_technique(technique).name
+    if population is not None:
+        asked["population"] = get_population(population).name
+    if condition is not None:
+        asked["condition"] = get_condition(condition).name
+    if sensor_preset is not None:
+        asked["sensors"] = sensor_preset
+    trained = {**cell, "sensors": sensors}
+    none_is = {"population": "idealised"}  # no population: the idealised user's head
+    return {k: (trained[k], v) for k, v in asked.items()
+            if (trained[k] or none_is.get(k)) != v}  # fmt: skip
+
+
+def _settings_for(
+    settings: dict[str, Any], task: str | None, technique: Any, population: Any,
+    condition: str | None, sensor_preset: str | None,
+) -> dict[str, Any]:  # fmt: skip
+    """The model's env ``settings`` with the parts of the cell asked for replaced, the rest
+    (room, reward, rates, ...) as trained."""
+    from dataclasses import replace
+
+    from agents.conditions import get_condition
+    from vrloco_env.techniques import get_technique
+
+    out = dict(settings)
+    sensors = out["sensors"]
+    if technique is not None:
+        tech = get_technique(technique)
+        if sensor_preset is not None and sensor_preset != tech.sensor_preset:
+            raise ValueError(f"sensors={sensor_preset!r} contradicts technique={tech.name!r} "
+                             f"(sensor preset {tech.sensor_preset!r}); give one")  # fmt: skip
+        out["estimators"] = tech.estimators
+        sensors = replace(sensors, imu=tech.sensor_preset)
+    if sensor_preset is not None:
+        sensors = replace(sensors, imu=sensor_preset)
+    if condition is not None:
+        sensors = replace(sensors,
+                          magnetic_disturbances=get_condition(condition).magnetic_disturbances)
+    out["sensors"] = sensors
+    if population is not None:
+        out["config"] = replace(out["config"], population=population)
+    if task is not None:
+        out["task"] = task
+    return out
+
+
 def evaluate_model(
     path: Path,
     task: str | None = None,
@@ -593,34 +908,46 @@ def evaluate_model(
     seed: int = 0,
     sensor_preset: str | None = None,
     progress: bool = True,
+    technique: Any = None,
+    population: Any = None,
+    condition: str | None = None,
+    allow_mismatch: bool = False,
 ) -> dict[str, Any]:
     """The benchmark's row (:func:`agents.metrics.summarize`) for a saved PPO model.
 
-    The model is evaluated on the env it was trained on (task and every configuration, stored
-    with it by :func:`train_ppo`). ``task`` and ``sensor_preset`` may repeat what the model
-    carries; one that contradicts it is an error. A model saved elsewhere, without vrloco's
-    settings, needs ``task``. Episode i is a single env reset with ``seed + i`` and run with the
-    deterministic policy, as ``vrloco benchmark`` runs a scripted user, and steps are matched
-    in the benchmark's window (:func:`agents.benchmark.step_window`), so the row compares
-    directly with the benchmark's (:func:`agents.benchmark_outputs.show_table` prints it).
-    ``progress`` shows a progress bar over the episodes (rich, as the benchmark's).
+    The model is evaluated on the cell it was trained on (task, technique, population and
+    condition, and every configuration, stored with it by :func:`train_ppo`), seeing the env as
+    it was trained to (its frame stack, its recurrent state:
+    :class:`agents.policies.LearnedPolicy`). ``task``, ``technique``, ``population``,
+    ``condition`` and ``sensor_preset`` may repeat what the model carries; one that
+    contradicts it is an error naming every difference, unless ``allow_mismatch``: then the
+    model plays the cell asked for (the model's env with those parts replaced). A model saved
+    elsewhere, without vrloco's settings, needs ``task``. Episode i is a single env reset with
+    ``seed + i`` and run with the deterministic policy, as ``vrloco benchmark`` runs a scripted
+    user, and steps are matched in the benchmark's window
+    (:func:`agents.benchmark.step_window`), so the row compares directly with the benchmark's
+    (:func:`agents.benchmark_outputs.show_table` prints it). ``progress`` shows a progress bar
+    over the episodes (rich, as the benchmark's).
 
     Returns:
-        The row: ``task``, ``policy`` (``ppo:<file name>``), ``technique``, ``condition`` (the
-        registered physical-room condition whose magnetic disturbances the model's sensors
-        have, else ``"custom"``), ``sensors`` (the IMU preset), the metrics of
-        :func:`~agents.metrics.summarize` and ``vs_baseline`` (None: no baseline here).
+        The row: ``task``, ``policy`` (``ppo:<file name>``), ``technique``, ``population``
+        (None: no population), ``condition`` (the registered physical-room condition whose
+        magnetic disturbances the env's sensors have, else ``"custom"``), ``sensors`` (the IMU
+        preset), ``trained_on`` (the model's own cell where it was played on another, else
+        None), the metrics of :func:`~agents.metrics.summarize` and ``vs_baseline`` (None: no
+        baseline here).
 
     Raises:
         ValueError: one line naming the file or the argument: no such file, not a PPO model
-            (:func:`agents.policies.load_ppo`), a task or sensors contradicting the model's, a
-            model without vrloco's settings and no ``task``, or ``episodes`` below 1.
+            (:func:`agents.policies.load_ppo`), an unknown technique, population or condition
+            (listing the registered names), a cell contradicting the model's without
+            ``allow_mismatch``, a model without vrloco's settings and no ``task``, or
+            ``episodes`` below 1.
     """
     import gymnasium as gym
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeElapsedColumn
 
     from agents.benchmark import step_window
-    from agents.conditions import CONDITIONS
     from agents.episodes import run_episode
     from agents.metrics import summarize
     from agents.policies import LearnedPolicy, _load_ppo
@@ -630,30 +957,39 @@ def evaluate_model(
         raise ValueError(f"episodes={episodes!r}: must be an integer >= 1")
     path = Path(path)
     model = _load_ppo(path)
+    trained_on = None
     try:
         settings = dict(model_env_settings(model, path))
     except ValueError:
         if task is None:
             raise
-        settings = env_settings(task, sensor_preset=sensor_preset or "ig500n")
-    if task is not None and task != settings["task"]:
-        raise ValueError(
-            f"task={task!r} contradicts the model, which was trained on {settings['task']!r} "
-            f"({path}); leave the task out to evaluate on the model's own"
-        )
-    trained_preset = settings["sensors"].preset_name
-    if sensor_preset is not None and sensor_preset != trained_preset:
-        raise ValueError(
-            f"sensors={sensor_preset!r} contradicts the model, which was trained with "
-            f"{trained_preset!r} ({path}); leave the sensors out to evaluate on the model's own"
-        )
+        settings = env_settings(task, sensor_preset, technique, population, condition)
+        here = cell_of(settings, technique)
+    else:
+        here = model_cell(model, settings)
+        preset = settings["sensors"].preset_name
+        differs = _asked_cell(here, preset, task, technique, population, condition,
+                              sensor_preset)  # fmt: skip
+        if differs and not allow_mismatch:
+            what = ", ".join(f"{k}={v!r} (trained: {t!r})" for k, (t, v) in differs.items())
+            them = "it" if len(differs) == 1 else "them"
+            raise ValueError(
+                f"{what} contradicts the model, which was trained on {_cell_text(here, preset)} "
+                f"({path}); leave {them} out to evaluate on the model's own cell, or allow the "
+                "mismatch (--allow-mismatch) to evaluate it on the one asked for"
+            )
+        if differs:
+            trained_on = {**here, "sensors": preset}
+            settings = _settings_for(settings, task, technique, population, condition,
+                                     sensor_preset)  # fmt: skip
+            played = cell_of(settings, technique)
+            replaced = set(differs) | ({"technique"} if "sensors" in differs else set())
+            here = {k: played[k] if k in replaced else here[k] for k in CELL_KEYS}
+    played_preset = settings["sensors"].preset_name
     task = settings.pop("task")
-    disturbances = tuple(getattr(settings["sensors"], "magnetic_disturbances", ()) or ())
-    condition = next((c.name for c in CONDITIONS.values()
-                      if tuple(c.magnetic_disturbances) == disturbances), "custom")  # fmt: skip
     env = gym.make(env_id(task), **settings)
     try:
-        policy = LearnedPolicy(path, env)
+        policy = LearnedPolicy(path, env, allow_mismatch=trained_on is not None)
         columns = ("[progress.description]{task.description}", BarColumn(),
                    MofNCompleteColumn(), TimeElapsedColumn())  # fmt: skip
         played = []
@@ -662,7 +998,6 @@ def evaluate_model(
             for i in range(episodes):
                 played.append(run_episode(env, policy, seed + i, name=policy.name))
                 bar.advance(job)
-        technique = env.unwrapped.technique
     finally:
         env.close()
     stats = [st for st, _ in played]
@@ -671,9 +1006,11 @@ def evaluate_model(
     return {
         "task": task,
         "policy": policy.name,
-        "technique": technique,
-        "condition": condition,
-        "sensors": trained_preset,
+        "technique": here["technique"],
+        "population": here["population"],
+        "condition": here["condition"],
+        "sensors": played_preset,
+        "trained_on": trained_on,
         **summarize(stats, *window),
         "vs_baseline": None,
     }

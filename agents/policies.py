@@ -29,6 +29,7 @@ from agents.scripted import POLICIES, ObservationLayout, make_policy, params_fro
 from agents.variability import HumanVariability, VariabilityParams
 from estimators.batching import TakesUsers
 from vrloco_env.user.population import POPULATIONS
+from vrloco_env.wrappers import StackedFrames
 
 __all__ = ["HUMAN_SUFFIX", "LearnedPolicy", "build_policy", "check_policy", "env_population",
            "load_ppo"]  # fmt: skip
@@ -94,32 +95,49 @@ def check_policy(spec: str) -> str:
 class LearnedPolicy(TakesUsers):
     """A saved stable-baselines3 PPO model as a policy (deterministic actions).
 
+    The model sees the env as it was trained to (``model.vrloco_policy``,
+    :func:`agents.learned.model_policy`): with a frame stack, each user's last k observations
+    side by side (:class:`~vrloco_env.wrappers.StackedFrames`, started from the episode's first
+    observation at every ``reset``); a recurrent model (sb3-contrib's ``RecurrentPPO``) carries
+    each user's LSTM state from step to step, started afresh at ``reset``.
+
     Args:
         path: the model's ``.zip``.
         env: the env it will play; a model that ``vrloco train`` saved carries its task, which
-            must be the env's, and its observation size must be the env's.
+            must be the env's (unless ``allow_mismatch``), and its observation size must be the
+            env's (times its frame stack).
+        allow_mismatch: play a model on another task than its own (``vrloco evaluate
+            --allow-mismatch``); the observation and action sizes must still fit.
     """
 
     batched = True  # act() takes (B, n) rows, one at a time (see act)
-    per_user_fields = ()  # a feed-forward model keeps nothing per user: a batch may drop users
+    per_user_fields = ("_fresh", "_state")
+    per_user_parts = ("_frames",)
 
-    def __init__(self, path: str | Path, env: Any) -> None:
+    def __init__(self, path: str | Path, env: Any, allow_mismatch: bool = False) -> None:
+        from agents.learned import model_policy
+
         self.path = Path(path)
         self.name = f"ppo:{self.path.name}"
         self.model = _load_ppo(self.path)
         settings = getattr(self.model, "vrloco_env", None)
         task = getattr(env.unwrapped, "task_name", None)
-        if isinstance(settings, dict) and task is not None and settings.get("task") != task:
+        if (isinstance(settings, dict) and task is not None and settings.get("task") != task
+                and not allow_mismatch):  # fmt: skip
             raise ValueError(
                 f"policy {str(self.path)!r} was trained on task {settings.get('task')!r}, not "
                 f"{task!r}"
             )
-        want = env.unwrapped.observation_space.shape[-1:]
+        seen = model_policy(self.model)
+        self.frame_stack, self.recurrent = seen["frame_stack"], seen["recurrent"]
+        size = env.unwrapped.observation_space.shape[-1]
+        want = (size * self.frame_stack,)
         have = self.model.observation_space.shape
         if have != want:
+            stack = f" ({self.frame_stack} frames of {size})" if self.frame_stack > 1 else ""
             raise ValueError(
                 f"policy {str(self.path)!r} takes observations of shape {have}, the env gives "
-                f"{want}"
+                f"{want}{stack}{_trained_on(self.model)}"
             )
         want = env.unwrapped.action_space.shape[-1:]
         have = getattr(self.model.action_space, "shape", None)
@@ -127,24 +145,78 @@ class LearnedPolicy(TakesUsers):
             raise ValueError(
                 f"policy {str(self.path)!r} gives actions of shape {have}, the env takes {want}"
             )
+        self._size = size
+        self._frames: StackedFrames | None = None  # each user's last frames
+        self._fresh: NDArray[np.bool_] | None = None  # (B,): the user's episode starts now
+        self._state: NDArray[np.float32] | None = None  # (B, 2, layers, 1, hidden): h, c
 
     def reset(self, rng: Any = None, rows: ArrayLike | None = None) -> None:
-        """Stateless (a feed-forward policy): nothing to reset."""
+        """Start the episodes of ``rows`` (None: every user; the batch size is then that of
+        ``rng`` where it is a list, else of the next ``act``): their frames restart from the
+        next observation, their recurrent state from zero."""
+        if rows is None:
+            n = len(rng) if isinstance(rng, list | tuple) else None
+            self._frames = self._state = None
+            self._fresh = None if n is None else np.ones(n, bool)
+            return
+        if self._fresh is not None:
+            self._fresh[np.asarray(rows, dtype=np.intp)] = True
 
     def act(self, obs: ArrayLike) -> NDArray[np.float32]:
         """Deterministic actions for ``obs``, (obs,) or (B, obs). A batch is evaluated one row
         at a time: torch's matrix kernels round differently for different batch sizes, and an
         episode must not depend on how many users it was batched with."""
         x = np.asarray(obs, dtype=np.float32)
-        if x.ndim == 1:
-            action, _ = self.model.predict(x, deterministic=True)
-            return np.asarray(action, dtype=np.float32)
-        rows = [self.model.predict(row, deterministic=True)[0] for row in x]
-        return np.asarray(rows, dtype=np.float32).reshape(x.shape[0], -1)
+        rows = x.reshape(1, -1) if x.ndim == 1 else x
+        n = rows.shape[0]
+        if self._fresh is None or self._fresh.shape[0] != n:
+            self._fresh, self._frames, self._state = np.ones(n, bool), None, None
+        fresh = self._fresh
+        if self.frame_stack > 1:
+            if self._frames is None:
+                self._frames = StackedFrames(self.frame_stack, self._size)
+                self._frames.start(rows)
+            else:
+                self._frames.push(rows)
+                if fresh.any():  # an episode's first frame, repeated
+                    self._frames.start(rows, np.flatnonzero(fresh))
+            seen = self._frames.stacked()
+        else:
+            seen = rows
+        if self.recurrent:
+            actions = self._act_recurrent(seen, fresh)
+        else:
+            actions = [self.model.predict(row, deterministic=True)[0] for row in seen]
+        self._fresh = np.zeros(n, bool)
+        out = np.asarray(actions, dtype=np.float32).reshape(n, -1)
+        return out[0] if x.ndim == 1 else out
+
+    def _act_recurrent(self, seen: NDArray[np.float32], fresh: NDArray[np.bool_]) -> list:
+        """Each row's action and new LSTM state, from its own state (zero where ``fresh``)."""
+        actions = []
+        states = []
+        for i, row in enumerate(seen):
+            state = None if self._state is None else (self._state[i, 0], self._state[i, 1])
+            action, (h, c) = self.model.predict(row[None], state=state,
+                                                episode_start=fresh[i:i + 1],
+                                                deterministic=True)  # fmt: skip
+            actions.append(action[0])
+            states.append(np.stack([h, c]))
+        self._state = np.asarray(states, dtype=np.float32)
+        return actions
+
+
+def _trained_on(model: Any) -> str:
+    """``"; it was trained on <cell>"`` for a model that carries its cell, else ``""``."""
+    cell = getattr(model, "vrloco_cell", None)
+    if not isinstance(cell, dict):
+        return ""
+    return "; it was trained on " + ", ".join(f"{k} {v!r}" for k, v in cell.items())
 
 
 def load_ppo(path: str | Path) -> Any:
-    """The stable-baselines3 PPO model saved at ``path`` (its ``.zip``).
+    """The stable-baselines3 PPO model saved at ``path`` (its ``.zip``): sb3-contrib's
+    ``RecurrentPPO`` where its policy is a recurrent one (``vrloco train --recurrent``).
 
     Raises:
         ValueError: one line naming the file: no such file, not a zip file, a zip that is no
@@ -163,6 +235,7 @@ def load_ppo(path: str | Path) -> Any:
     try:
         with zipfile.ZipFile(path) as z:
             names = set(z.namelist())
+            data = z.read("data") if "data" in names else b""
     except (zipfile.BadZipFile, OSError) as err:
         raise ValueError(f"{str(path)!r} is not a saved model: not a zip file ({err})") from None
     missing = [n for n in ("data", "policy.pth") if n not in names]
@@ -171,14 +244,34 @@ def load_ppo(path: str | Path) -> Any:
             f"{str(path)!r} is not a saved stable-baselines3 model: the zip holds no "
             f"{' and no '.join(missing)} (a model saved by vrloco train or model.save() has both)"
         )
+    algorithm: Any = PPO
+    if _recurrent_policy(data):
+        try:
+            from sb3_contrib import RecurrentPPO
+        except ImportError:
+            raise ValueError(f"{str(path)!r} is a recurrent model (RecurrentPPO): loading it "
+                             "needs sb3-contrib (pip install sb3-contrib)") from None  # fmt: skip
+        algorithm = RecurrentPPO
     try:
-        return PPO.load(path)
+        return algorithm.load(path)
     except Exception as err:  # another algorithm's model, or a damaged one: one line
         cause = str(err).strip().splitlines()[0] if str(err).strip() else ""
         raise ValueError(
             f"{str(path)!r}: stable-baselines3 cannot load it as a PPO model "
             f"({type(err).__name__}{': ' + cause if cause else ''})"
         ) from err
+
+
+def _recurrent_policy(data: bytes) -> bool:
+    """Whether a saved model's ``data`` names a recurrent policy class (sb3-contrib's)."""
+    import json
+
+    try:
+        policy_class = json.loads(data).get("policy_class", {})
+    except (ValueError, AttributeError):  # not JSON: PPO.load says what is wrong
+        return False
+    module = policy_class.get("__module__", "") if isinstance(policy_class, dict) else ""
+    return isinstance(module, str) and module.startswith("sb3_contrib.common.recurrent")
 
 
 #: PPO models loaded in this process, by resolved path (:func:`_load_ppo`), at most 8.

@@ -48,7 +48,8 @@ ENV_NAME = "vrloco"
 RLLIB_HINT = ("--backend rllib needs RLlib: pip install 'vrloco[rllib]' in this environment "
               "(and on every machine of the cluster)")  # fmt: skip
 #: The env config keys :func:`make_rllib_env` reads (RLlib adds ``num_envs``).
-_ENV_KEYS = ("task", "sensor_preset", "seed", "num_envs", "max_episode_steps")
+_ENV_KEYS = ("task", "sensor_preset", "seed", "num_envs", "max_episode_steps", "technique",
+             "population", "condition")  # fmt: skip
 #: Training iterations in a row without a sampled step after which :func:`train_rllib` stops.
 MAX_IDLE_ITERATIONS = 3
 #: Seeds are below 2**31 (torch's and RLlib's seeding take them).
@@ -140,8 +141,9 @@ class RLlibVectorEnv(VectorWrapper):
 def make_rllib_env(env_config: dict[str, Any]) -> RLlibVectorEnv:
     """The env creator RLlib calls (``register_env``): an :class:`RLlibVectorEnv` of
     ``env_config["num_envs"]`` users (RLlib passes ``num_envs_per_env_runner`` there in
-    ``VECTOR_ENTRY_POINT`` mode) on ``task`` with the IMU preset ``sensor_preset``, seeded from
-    ``seed`` (the run's seed, default 0) and RLlib's reset seed.
+    ``VECTOR_ENTRY_POINT`` mode) on ``task`` with the IMU preset ``sensor_preset``, in the cell
+    of ``technique``, ``population`` and ``condition`` (:func:`agents.learned.env_settings`;
+    each optional), seeded from ``seed`` (the run's seed, default 0) and RLlib's reset seed.
 
     Raises:
         ValueError: an unknown key or a bad value (named), or no ``num_envs`` (the env runners
@@ -159,9 +161,12 @@ def make_rllib_env(env_config: dict[str, Any]) -> RLlibVectorEnv:
     num_envs = config["num_envs"]
     if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
         raise ValueError(f"env_config num_envs={num_envs!r}: must be an integer >= 1")
-    kwargs = {k: config[k] for k in ("sensor_preset", "max_episode_steps") if k in config}
-    env = VRLocoVectorEnv(num_envs, task=config.get("task", "approach"),
-                          autoreset_mode=AutoresetMode.DISABLED, **kwargs)  # fmt: skip
+    from agents.learned import env_settings
+
+    cell = {k: config.get(k) for k in ("sensor_preset", "technique", "population", "condition")}
+    settings = env_settings(config.get("task", "approach"), **cell,
+                            max_episode_steps=config.get("max_episode_steps"))  # fmt: skip
+    env = VRLocoVectorEnv(num_envs, autoreset_mode=AutoresetMode.DISABLED, **settings)
     return RLlibVectorEnv(env, seed=config.get("seed", 0))
 
 
@@ -202,25 +207,32 @@ def ppo_config(
     num_env_runners: int = 2,
     num_envs_per_env_runner: int = 16,
     seed: int = 0,
-    sensor_preset: str = "ig500n",
+    sensor_preset: str | None = None,
     env_name: str = ENV_NAME,
+    technique: str | None = None,
+    population: str | None = None,
+    condition: str | None = None,
     **ppo: Any,
 ) -> Any:
     """A ``PPOConfig`` on :func:`make_rllib_env` (registered as ``env_name`` by the caller or
     by :func:`train_rllib`): ``num_env_runners`` env runners (0: sample in this process) of
     ``num_envs_per_env_runner`` batched users each, a train batch of one rollout fragment per
-    user, seeded with ``seed``; ``ppo`` overrides :func:`defaults_rllib`. Every iteration
+    user, seeded with ``seed``, in the cell of ``technique``, ``population`` and ``condition``
+    (:func:`agents.learned.env_settings`; ``sensor_preset`` None: the technique's);
+    ``ppo`` overrides :func:`defaults_rllib`. Every iteration
     waits for every env runner's fragment (no ``sample_timeout_s``): RLlib's timeout would fill a
     batch from whichever runners answered in time, so a loaded machine would change the run.
 
     Raises:
-        ValueError: a bad count or seed (named), an unknown PPO setting, RLlib not installed.
+        ValueError: a bad count or seed (named), an unknown technique, population or condition
+            (listing the registered names), an unknown PPO setting, RLlib not installed.
     """
     import gymnasium as gym
 
     from agents.learned import env_settings
 
-    env_settings(task, sensor_preset=sensor_preset)  # raises with the registered names
+    cell = {"technique": technique, "population": population, "condition": condition}
+    env_settings(task, sensor_preset, **cell)  # raises with the registered names
     RLlibRun(num_env_runners=num_env_runners, num_envs_per_env_runner=num_envs_per_env_runner,
              seed=seed)  # fmt: skip
     settings = {**defaults_rllib(), **ppo}
@@ -233,7 +245,8 @@ def ppo_config(
         raise ValueError(f"rollout_fragment_length={fragment!r}: must be an integer >= 1")
     batch = max(num_env_runners, 1) * num_envs_per_env_runner * fragment
     settings["minibatch_size"] = min(settings["minibatch_size"], batch)
-    env_config = {"task": task, "sensor_preset": sensor_preset, "seed": seed}
+    env_config = {"task": task, "seed": seed, **{k: v for k, v in
+                  {"sensor_preset": sensor_preset, **cell}.items() if v is not None}}  # fmt: skip
     ppo_mod = _import_rllib("ray.rllib.algorithms.ppo")
     model = _import_rllib("ray.rllib.core.rl_module.default_model_config")
     return (
@@ -280,16 +293,20 @@ def train_rllib(
     num_envs_per_env_runner: int = 16,
     seed: int = 0,
     out_dir: Path = Path("runs/rllib"),
-    sensor_preset: str = "ig500n",
+    sensor_preset: str | None = None,
     eval_every: int = 100_000,
     eval_episodes: int = 32,
     address: str | None = None,
     progress: bool = True,
+    technique: str | None = None,
+    population: str | None = None,
+    condition: str | None = None,
     **ppo: Any,
 ) -> Path:
     """Train RLlib's PPO on ``task`` until ``steps`` environment steps are sampled (whole
     training iterations of ``num_env_runners x num_envs_per_env_runner x
-    rollout_fragment_length`` steps); returns the final checkpoint's folder.
+    rollout_fragment_length`` steps), in the cell of ``technique``, ``population`` and
+    ``condition`` (:func:`ppo_config`); returns the final checkpoint's folder.
 
     Ray runs where :func:`agents.backends.run_jobs_ray` would (``address``: ``"auto"``,
     ``"HOST:PORT"``, or None: a running cluster, else a local instance, shut down at the end),
@@ -313,12 +330,13 @@ def train_rllib(
     from agents.learned import env_settings, plot_learning_curve, run_policy_episodes
 
     RLlibRun(steps, num_env_runners, num_envs_per_env_runner, seed, eval_every, eval_episodes)
+    cell = {"technique": technique, "population": population, "condition": condition}
     config = ppo_config(task, num_env_runners, num_envs_per_env_runner, seed, sensor_preset,
-                        **ppo)  # fmt: skip
+                        **cell, **ppo)  # fmt: skip
     ray = _import_rllib("ray")
     out_dir = Path(out_dir).resolve()
     out_dir.mkdir(parents=True, exist_ok=True)
-    eval_env = VRLocoVectorEnv(eval_episodes, **env_settings(task, sensor_preset=sensor_preset))
+    eval_env = VRLocoVectorEnv(eval_episodes, **env_settings(task, sensor_preset, **cell))
     try:
         started = _connect(ray, address)
     except BaseException:

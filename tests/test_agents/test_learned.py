@@ -5,13 +5,14 @@ import sys
 
 import numpy as np
 import pytest
-from stable_baselines3.common.vec_env import VecEnv
 
-from agents.learned import SB3VecEnv, evaluate_model, train_ppo
+from agents.learned import SB3VecEnv, evaluate_model, train_ppo  # before torch: see its docs
 from vrloco_env.vector import VRLocoVectorEnv
 
 
 def test_adapter_reports_terminal_observations_and_time_limits():
+    from stable_baselines3.common.vec_env import VecEnv
+
     venv = SB3VecEnv(VRLocoVectorEnv(2, task="avoid", max_episode_steps=4), seed=3)
     assert isinstance(venv, VecEnv)
     obs = venv.reset()
@@ -380,3 +381,289 @@ def test_a_model_predicting_the_wrong_shape_is_named():
     with pytest.raises(ValueError, match=r"model Wide returned actions of shape \(2, 6\) from "
                                          r"predict\(\); expected \(2, 5\)"):  # fmt: skip
         run_policy_episodes(Wide(), VRLocoVectorEnv(2, task="avoid"), seed=0)
+
+
+def _stacked(history):
+    """Each user's frames side by side, oldest first (the reference stacking)."""
+    return np.stack([np.concatenate(frames) for frames in history])
+
+
+def test_frame_stack_gives_each_user_its_last_k_observations_in_the_batch_layout():
+    from vrloco_env.wrappers import FrameStack
+
+    k, n_users = 3, 2
+    raw = VRLocoVectorEnv(n_users, task="avoid", max_episode_steps=4)
+    env = FrameStack(VRLocoVectorEnv(n_users, task="avoid", max_episode_steps=4), k)
+    size = raw.single_observation_space.shape[0]
+    assert env.single_observation_space.shape == (k * size,)
+    assert env.observation_space.shape == (n_users, k * size)
+    first, _ = raw.reset(seed=3)
+    obs, _ = env.reset(seed=3)
+    history = [[first[i]] * k for i in range(n_users)]  # an episode starts repeated
+    np.testing.assert_array_equal(obs, _stacked(history))
+    rng = np.random.default_rng(0)
+    ended_seen = 0
+    for _ in range(10):  # two and a half episodes of 4 steps
+        action = rng.uniform(-1, 1, (n_users, 5)).astype(np.float32)
+        new, _, term, trunc, info_raw = raw.step(action)
+        obs, _, term2, trunc2, info = env.step(action)
+        np.testing.assert_array_equal(term | trunc, term2 | trunc2)
+        for i in range(n_users):
+            if term[i] or trunc[i]:  # the episode's last k frames, then the new one's first
+                last = [*history[i][1:], info_raw["final_obs"][i]]
+                np.testing.assert_array_equal(info["final_obs"][i], np.concatenate(last))
+                history[i] = [new[i]] * k
+                ended_seen += 1
+            else:
+                history[i] = [*history[i][1:], new[i]]
+        np.testing.assert_array_equal(obs, _stacked(history))
+    assert ended_seen == 2 * n_users
+
+
+def test_frame_stack_restarts_masked_users_and_drops_users_with_the_env():
+    from gymnasium.vector import AutoresetMode
+
+    from vrloco_env.wrappers import FrameStack
+
+    k = 2
+    kw = dict(task="avoid", autoreset_mode=AutoresetMode.DISABLED)
+    raw = VRLocoVectorEnv(3, **kw)
+    env = FrameStack(VRLocoVectorEnv(3, **kw), k)
+    first, _ = raw.reset(seed=0)
+    env.reset(seed=0)
+    history = [[first[i]] * k for i in range(3)]
+    zeros = np.zeros((3, 5), np.float32)
+    new, *_ = raw.step(zeros)
+    obs, *_ = env.step(zeros)
+    history = [[*h[1:], new[i]] for i, h in enumerate(history)]
+    np.testing.assert_array_equal(obs, _stacked(history))
+    mask = np.array([False, True, False])
+    seeds = [None, 7, None]
+    new, _ = raw.reset(seed=seeds, options={"reset_mask": mask})
+    obs, _ = env.reset(seed=seeds, options={"reset_mask": mask})
+    history[1] = [new[1]] * k  # only the masked user starts again
+    np.testing.assert_array_equal(obs, _stacked(history))
+    assert env.can_take_users
+    raw.take_users([2, 0])
+    env.take_users([2, 0])
+    history = [history[2], history[0]]
+    new, *_ = raw.step(zeros[:2])
+    obs, *_ = env.step(zeros[:2])
+    history = [[*h[1:], new[i]] for i, h in enumerate(history)]
+    assert env.observation_space.shape == (2, k * raw.single_observation_space.shape[0])
+    np.testing.assert_array_equal(obs, _stacked(history))
+
+
+def test_importing_the_trainer_starts_torch_after_the_passive_thread_policy():
+    """torch's OpenMP runtime reads OMP_WAIT_POLICY when torch loads: agents.learned imports
+    the kernels (which set it) first, else torch's threads spin on the env's cores."""
+    import os
+    import subprocess
+
+    code = ("import os, sys, agents.learned; m = list(sys.modules); "
+            "print(m.index('estimators.kernels.batch') < m.index('torch'), "
+            "os.environ['OMP_WAIT_POLICY'], agents.learned._TORCH_SPINS)")  # fmt: skip
+    env = {k: v for k, v in os.environ.items() if k != "OMP_WAIT_POLICY"}
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
+                         check=True)  # fmt: skip
+    assert out.stdout.split() == ["True", "PASSIVE", "False"]
+    # torch imported first (without the policy): the trainer knows, and warns.
+    code = "import torch, agents.learned; print(agents.learned._TORCH_SPINS)"
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
+                         check=True)  # fmt: skip
+    assert out.stdout.split() == ["True"]
+
+
+def test_an_unknown_technique_population_or_condition_is_one_error_naming_the_valid_ones(
+    tmp_path, capsys
+):
+    from agents.cli import main
+
+    cases = {
+        "technique": "technique='nope': unknown; valid names: seed000, seed000_consumer",
+        "population": "population='nope': must be one of idealised, human, typical",
+        "condition": "condition='nope': unknown; valid names: lab, beside_metal",
+    }
+    for name, says in cases.items():
+        out = tmp_path / name
+        with pytest.raises(ValueError, match=says.replace("(", r"\(")):
+            train_ppo("avoid", steps=512, num_envs=4, out_dir=out, **{name: "nope"})
+        assert not out.exists()  # refused before anything was written
+        assert main(["train", f"--{name}", "nope", "--steps", "1024", "--num-envs", "4",
+                     "--out", str(out)]) == 2  # fmt: skip
+        err = capsys.readouterr().err
+        assert err.startswith(f"vrloco train: {says}") and err.count("\n") == 1, err
+        assert not (out / "tb").exists()
+    with pytest.raises(ValueError, match=r"frame_stack=0: must be an integer in \[1, 64\]"):
+        train_ppo("avoid", steps=512, num_envs=4, out_dir=tmp_path / "fs", frame_stack=0)
+    assert main(["train", "--backend", "rllib", "--recurrent", "--out", str(tmp_path)]) == 2
+    assert "--frame-stack and --recurrent need --backend local or ray" in capsys.readouterr().err
+
+
+def test_train_passes_the_cell_and_the_policy_options_on(tmp_path, monkeypatch, capsys):
+    import agents.learned
+    from agents.cli import main
+
+    seen = {}
+
+    def fake(task, seeds, out_dir, **kwargs):
+        seen.update(kwargs, task=task, seeds=seeds)
+        return [out_dir / "ppo_final.zip"]
+
+    monkeypatch.setattr(agents.learned, "train_seeds", fake)
+    assert main(["train", "--task", "reach", "--technique", "madgwick", "--population",
+                 "nodders", "--condition", "beside_metal", "--frame-stack", "4", "--recurrent",
+                 "--out", str(tmp_path)]) == 0  # fmt: skip
+    assert seen["task"] == "reach" and seen["seeds"] == [0]
+    assert {k: seen[k] for k in ("technique", "population", "condition", "frame_stack",
+                                 "recurrent", "sensor_preset")} == {
+        "technique": "madgwick", "population": "nodders", "condition": "beside_metal",
+        "frame_stack": 4, "recurrent": True, "sensor_preset": None}  # fmt: skip
+
+
+@pytest.mark.slow  # about 10 s: a real PPO run
+def test_a_model_trained_on_a_cell_carries_it_and_is_evaluated_on_it(tmp_path, capsys):
+    import gymnasium as gym
+
+    from agents.cli import main
+    from agents.conditions import CONDITIONS, get_condition
+    from agents.episodes import run_episode
+    from agents.learned import env_settings
+    from agents.metrics import summarize
+    from agents.policies import LearnedPolicy, load_ppo
+    from vrloco_env.tasks import env_id
+    from vrloco_env.techniques import TECHNIQUES
+
+    cell = {"task": "approach", "technique": "madgwick", "population": "typical",
+            "condition": "beside_metal"}  # fmt: skip
+    path = train_ppo(steps=256, num_envs=4, out_dir=tmp_path, eval_every=256, eval_episodes=2,
+                     progress=False, n_steps=64, batch_size=128, **cell)  # fmt: skip
+    model = load_ppo(path)
+    assert model.vrloco_cell == cell
+    assert model.vrloco_policy == {"frame_stack": 1, "recurrent": False}
+    settings = model.vrloco_env
+    assert settings["estimators"] == TECHNIQUES["madgwick"].estimators
+    metal = CONDITIONS["beside_metal"].magnetic_disturbances
+    assert settings["sensors"].magnetic_disturbances == metal
+    assert settings["config"].population == "typical"
+    # The typical population's head turns on the torso: one observation field more; a
+    # population whose head does not turn leaves the observation as it is.
+    plain = VRLocoVectorEnv(1).single_observation_space.shape[0]
+    assert model.observation_space.shape == (plain + 1,)
+    for population, extra in (("idealised", 0), ("human", 0), ("nodders", 1)):
+        env = VRLocoVectorEnv(1, **env_settings("approach", population=population))
+        assert env.single_observation_space.shape == (plain + extra,), population
+
+    row = evaluate_model(path, episodes=2, progress=False)
+    assert {k: row[k] for k in cell} == cell and row["trained_on"] is None
+    # The episodes of the cell's own env, as the benchmark builds it.
+    env = gym.make(env_id("approach"), technique="madgwick", population="typical",
+                   sensors=get_condition("beside_metal").sensors())  # fmt: skip
+    policy = LearnedPolicy(path, env)
+    played = [run_episode(env, policy, s)[0] for s in (0, 1)]
+    ref = summarize(played)
+    for key in ("success_rate", "spl", "attitude_rmse_deg", "heading_error_rmse_deg"):
+        assert row[key] == pytest.approx(ref[key], nan_ok=True), key
+    # Repeating the model's own cell is no mismatch; another cell is refused, naming it.
+    assert evaluate_model(path, episodes=2, progress=False, **cell) == row
+    with pytest.raises(ValueError, match=r"technique='seed000' \(trained: 'madgwick'\), "
+                                         r"condition='lab' \(trained: 'beside_metal'\) "
+                                         r"contradicts the model"):  # fmt: skip
+        evaluate_model(path, episodes=1, technique="seed000", condition="lab")
+    with pytest.raises(ValueError, match="condition='nope': unknown; valid names: lab"):
+        evaluate_model(path, episodes=1, condition="nope")
+    capsys.readouterr()
+    assert main(["evaluate", str(path), "--episodes", "1", "--condition", "lab"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("vrloco evaluate: condition='lab' (trained: 'beside_metal') "
+                          "contradicts the model") and "--allow-mismatch" in err
+    assert err.count("\n") == 1
+    # --allow-mismatch plays the cell asked for: the model's env, the condition replaced.
+    assert main(["evaluate", str(path), "--episodes", "2", "--condition", "lab",
+                 "--allow-mismatch"]) == 0  # fmt: skip
+    out = capsys.readouterr().out
+    assert ("cell: task approach, technique madgwick, population typical, condition lab; the "
+            "model was trained on task approach, technique madgwick, population typical, "
+            "condition beside_metal, sensors ig500n") in out  # fmt: skip
+    moved = evaluate_model(path, episodes=2, progress=False, condition="lab", allow_mismatch=True)
+    assert moved["condition"] == "lab" and moved["trained_on"]["condition"] == "beside_metal"
+    env = gym.make(env_id("approach"), technique="madgwick", population="typical")
+    played = [run_episode(env, LearnedPolicy(path, env), s)[0] for s in (0, 1)]
+    assert moved["attitude_rmse_deg"] == pytest.approx(summarize(played)["attitude_rmse_deg"])
+    assert moved["attitude_rmse_deg"] != pytest.approx(row["attitude_rmse_deg"])
+
+
+def _trained_actions(model, task, seed, steps, frame_stack):
+    """The model's deterministic actions in the vector env it was trained in (one user, seeded
+    ``seed``, autoreset), as the training loop feeds it (the wrapper's frames, the LSTM state
+    carried and restarted at each episode)."""
+    from agents.learned import _wrap, is_recurrent
+
+    env = _wrap(VRLocoVectorEnv(1, task=task, max_episode_steps=6), frame_stack)
+    obs, _ = env.reset(seed=seed)
+    state, start, actions = None, np.ones(1, bool), []
+    for _ in range(steps):
+        if is_recurrent(model):
+            action, state = model.predict(obs, state=state, episode_start=start,
+                                          deterministic=True)  # fmt: skip
+        else:
+            action, _ = model.predict(obs, deterministic=True)
+        actions.append(action[0])
+        obs, _, term, trunc, _ = env.step(action)
+        start = term | trunc
+    return np.array(actions)
+
+
+def _played_actions(path, task, seed, steps):
+    """LearnedPolicy's actions in the single env seeded ``seed`` (reset again, unseeded, after
+    each episode, as a vector env's user is)."""
+    import gymnasium as gym
+
+    from agents.policies import LearnedPolicy
+    from vrloco_env.tasks import env_id
+
+    env = gym.make(env_id(task), max_episode_steps=6)
+    policy = LearnedPolicy(path, env)
+    obs, _ = env.reset(seed=seed)
+    policy.reset(np.random.default_rng(0))
+    actions = []
+    for _ in range(steps):
+        action = policy.act(obs)
+        actions.append(action)
+        obs, _, term, trunc, _ = env.step(action)
+        if term or trunc:
+            obs, _ = env.reset()
+            policy.reset(np.random.default_rng(0))
+    return np.array(actions)
+
+
+@pytest.mark.slow  # about 30 s: two real PPO runs
+def test_frame_stacked_and_recurrent_models_play_as_they_were_trained(tmp_path):
+    import gymnasium as gym
+
+    from agents.benchmark import run_benchmark
+    from agents.policies import LearnedPolicy, load_ppo
+    from vrloco_env.tasks import env_id
+
+    tiny = dict(steps=256, num_envs=4, eval_every=256, eval_episodes=2, progress=False,
+                n_steps=64, batch_size=128)  # fmt: skip
+    stacked = train_ppo("avoid", out_dir=tmp_path / "stack", frame_stack=3, **tiny)
+    recurrent = train_ppo("avoid", out_dir=tmp_path / "lstm", recurrent=True, **tiny)
+    for path, frames, lstm in ((stacked, 3, False), (recurrent, 1, True)):
+        model = load_ppo(path)
+        assert model.vrloco_policy == {"frame_stack": frames, "recurrent": lstm}
+        assert type(model).__name__ == ("RecurrentPPO" if lstm else "PPO")
+        # The benchmark's policy acts as the model did in training: 20 steps, 3 episodes.
+        want = _trained_actions(model, "avoid", 11, 20, frames)
+        np.testing.assert_array_equal(_played_actions(path, "avoid", 11, 20), want)
+        # Batched users keep their own frames and LSTM states: the same table as one at a time.
+        kw = dict(tasks=["avoid"], policies=[str(path)], techniques=["seed000"], episodes=3,
+                  workers=1, progress=False, print_table=False)  # fmt: skip
+        assert run_benchmark(**kw, batch_size=2) == run_benchmark(**kw, batch_size=0)
+        row = evaluate_model(path, episodes=1, progress=False)
+        assert row["task"] == "avoid" and 0.0 <= row["success_rate"] <= 1.0
+    # A stacked model in an env whose frames do not fit says how many it takes.
+    env = gym.make(env_id("avoid"), population="typical")
+    with pytest.raises(ValueError, match=r"takes observations of shape \(87,\), the env gives "
+                                         r"\(90,\) \(3 frames of 30\)"):  # fmt: skip
+        LearnedPolicy(stacked, env)

@@ -1,0 +1,181 @@
+"""Speed of the stable-baselines3 PPO training loop, the default settings against vrloco's.
+
+Run from the repository root::
+
+    python benchmarks/bench_training.py             # about a minute on 2 idle cores
+    python benchmarks/bench_training.py --busy 1    # beside a process that keeps a core busy
+    python benchmarks/bench_training.py --busy 2    # beside two (about three minutes)
+
+Each run trains PPO from scratch (seed 0, :func:`agents.learned.defaults_ppo`: 256 steps x 32
+users per rollout, minibatches of 2048, 5 epochs) on Approach for ``--iterations`` PPO
+iterations in a fresh Python process, in one of two configurations:
+
+* ``default``: the loop as stable-baselines3 runs it when torch is imported before vrloco's
+  kernels (what ``agents.learned`` did before it imported :mod:`estimators.kernels` first):
+  torch's OpenMP threads wait actively, and the rollouts' forward passes use torch's threads.
+* ``vrloco``: the loop of :func:`agents.learned.train_ppo`: ``agents.learned`` imported first
+  (torch's OpenMP threads wait passively), rollouts on one torch thread
+  (:class:`agents.learned.RolloutThreads`), the same PPO settings.
+
+The runs alternate (default, vrloco, default, vrloco, ...) so that other load on the machine
+hits both alike; the table gives each configuration's median environment steps per second of
+``model.learn`` and the median share of its time spent in the env (the vector env's ``reset``
+and ``step`` behind the SB3 adapter), in the policy's forward pass (``collect_rollouts`` minus
+the env), in the update (``train()``) and elsewhere. Both configurations must train the same
+weights: the script checks their SHA-256 and says whether they agree. No evaluation, no
+checkpoints, no TensorBoard: the loop alone.
+
+How much the vrloco configuration gains depends on the other load on the cores: actively
+waiting OpenMP threads cost little while every core is free and a great deal while another
+process holds one (each parallel region of the env's kernels then waits for a thread that has
+no core). ``--busy N`` runs N spinning Python processes beside the runs, for a contended
+machine that can be reproduced.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+CONFIGS = ("default", "vrloco")
+
+
+def child(config: str, task: str, num_envs: int, iterations: int) -> dict:
+    """One training run in this process (a fresh one): its timings and weights' hash."""
+    if config == "default":
+        import torch  # first, as stable-baselines3 pulled it in before vrloco's kernels
+    sys.path.insert(0, str(ROOT))
+    import agents.learned as learned  # in the vrloco configuration, before torch
+
+    # isort: split
+    import hashlib
+
+    import numpy as np
+    import torch
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import VecMonitor
+
+    from vrloco_env.vector import VRLocoVectorEnv
+
+    settings = learned.defaults_ppo()
+    steps = iterations * settings["n_steps"] * num_envs
+    env = VRLocoVectorEnv(num_envs, **learned.env_settings(task))
+    env.reset(seed=0)  # load the compiled kernels before the clock starts; learn() reseeds
+    env.step(np.zeros((num_envs, 5), np.float32))
+    inner = learned.SB3VecEnv(env, seed=0)
+    venv = VecMonitor(inner, info_keywords=("is_success",))
+    if config == "default":
+        model = PPO("MlpPolicy", venv, seed=0, verbose=0, **settings)
+        callback = None
+    else:
+        model = learned.make_model(venv, seed=0, **settings)
+        callback = learned.RolloutThreads()
+    spent = {"env": 0.0, "collect": 0.0, "update": 0.0}
+
+    def timed(obj: object, name: str, key: str) -> None:
+        call = getattr(obj, name)
+
+        def wrapper(*args, **kwargs):
+            t0 = time.perf_counter()
+            try:
+                return call(*args, **kwargs)
+            finally:
+                spent[key] += time.perf_counter() - t0
+
+        setattr(obj, name, wrapper)
+
+    timed(inner, "reset", "env")
+    timed(inner, "step_wait", "env")
+    timed(model, "collect_rollouts", "collect")
+    timed(model, "train", "update")
+    t0 = time.perf_counter()
+    model.learn(steps, callback=callback)
+    wall = time.perf_counter() - t0
+    digest = hashlib.sha256()
+    for p in model.policy.state_dict().values():
+        digest.update(p.detach().cpu().numpy().tobytes())
+    return {
+        "config": config, "steps": int(model.num_timesteps), "wall_s": wall,
+        "env_s": spent["env"], "forward_s": spent["collect"] - spent["env"],
+        "update_s": spent["update"],
+        "other_s": wall - spent["collect"] - spent["update"],
+        "torch_threads": torch.get_num_threads(), "weights": digest.hexdigest(),
+    }  # fmt: skip
+
+
+def run(config: str, args: argparse.Namespace) -> dict:
+    """:func:`child` in a fresh process, started without ``OMP_WAIT_POLICY`` (each
+    configuration sets what it sets itself)."""
+    env = {k: v for k, v in os.environ.items() if k != "OMP_WAIT_POLICY"}
+    cmd = [sys.executable, __file__, "--child", config, "--task", args.task,
+           "--num-envs", str(args.num_envs), "--iterations", str(args.iterations)]  # fmt: skip
+    out = subprocess.run(cmd, env=env, cwd=ROOT, capture_output=True, text=True, check=False)
+    if out.returncode != 0:
+        raise SystemExit(f"the {config} run failed:\n{out.stderr[-3000:]}")
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--task", default="approach")
+    parser.add_argument("--num-envs", type=int, default=32)
+    parser.add_argument("--iterations", type=int, default=3, help="PPO iterations per run")
+    parser.add_argument("--repeats", type=int, default=2, help="runs of each configuration")
+    parser.add_argument("--busy", type=int, default=0, metavar="N",
+                        help="keep N other processes busy during the runs")
+    parser.add_argument("--child", choices=CONFIGS, help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.child:
+        print(json.dumps(child(args.child, args.task, args.num_envs, args.iterations)))
+        return
+    busy = [subprocess.Popen([sys.executable, "-c", "while True: pass"])
+            for _ in range(args.busy)]  # fmt: skip
+    try:
+        measure(args)
+    finally:
+        for process in busy:
+            process.kill()
+            process.wait()
+
+
+def measure(args: argparse.Namespace) -> None:
+    """The alternated runs and their table."""
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    print(f"PPO on {args.task}: {args.num_envs} users, {args.iterations} iterations per run, "
+          f"{args.repeats} runs of each configuration alternated; {os.cpu_count()} cores, "
+          f"load average {load:.2f} at the start"
+          f"{f'; {args.busy} other processes kept busy' if args.busy else ''}")  # fmt: skip
+    runs: dict[str, list[dict]] = {c: [] for c in CONFIGS}
+    for i in range(args.repeats):
+        for config in CONFIGS:
+            r = run(config, args)
+            runs[config].append(r)
+            print(f"  run {i + 1} {config:<8} {r['steps'] / r['wall_s']:7.0f} steps/s  "
+                  f"({r['steps']:,} steps in {r['wall_s']:.1f} s)", flush=True)
+    print()
+    print(f"{'':8} {'steps/s':>8}  {'env':>6} {'forward':>8} {'update':>7} {'other':>6}   "
+          "(medians; shares of the loop's time)")
+    rate = {}
+    for config in CONFIGS:
+        rs = runs[config]
+        rate[config] = statistics.median(r["steps"] / r["wall_s"] for r in rs)
+        share = {k: statistics.median(r[f"{k}_s"] / r["wall_s"] for r in rs)
+                 for k in ("env", "forward", "update", "other")}  # fmt: skip
+        print(f"{config:<8} {rate[config]:8.0f}  {share['env']:6.0%} {share['forward']:8.0%} "
+              f"{share['update']:7.0%} {share['other']:6.0%}")
+    print(f"\nvrloco / default: {rate['vrloco'] / rate['default']:.2f}x the steps per second")
+    digests = {r["weights"] for rs in runs.values() for r in rs}
+    same = "the same weights in every run" if len(digests) == 1 else (
+        f"DIFFERENT weights ({len(digests)} distinct)")  # fmt: skip
+    print(f"trained policy: {same} (SHA-256 {sorted(digests)[0][:16]}...)")
+
+
+if __name__ == "__main__":
+    main()
