@@ -13,8 +13,8 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from estimators._attitude_helpers_numba import check_batch_size, check_fs, check_samples
 from estimators.batching import TakesUsers, stream_rows
+from estimators.validation import check_batch_size, check_rate, check_samples
 
 __all__ = ["QuaternionStage"]
 
@@ -39,7 +39,7 @@ class QuaternionStage(TakesUsers):
     def __init__(self, batch_size: int, fs: float, params: Any = None) -> None:
         who = type(self).__name__
         self.batch_size = check_batch_size(batch_size, who)
-        self.fs = check_fs(fs, who)
+        self.fs = check_rate(fs, who=who)
         if params is None:
             params = self.Params()
         if not isinstance(params, self.Params):

@@ -174,7 +174,13 @@ from estimators.attitude_offline import smooth_attitude
 from estimators.batching import TakesUsers, stream_rows
 from estimators.kernels import param_record, state_records
 from estimators.rotations import GRAVITY, quat_to_ypr
-from estimators.validation import check_choice, check_condition, check_in_range, check_value
+from estimators.validation import (
+    check_choice,
+    check_condition,
+    check_in_range,
+    check_rate,
+    check_xyz,
+)
 
 __all__ = [
     "AttitudeEKF",
@@ -377,29 +383,6 @@ def _kernel_params(params: AttitudeParams, dt: float) -> NDArray:
     )  # fmt: skip
 
 
-# ------------------------------------------------------------------------------------------------
-# Input validation.
-# ------------------------------------------------------------------------------------------------
-
-
-def _as_samples(a: ArrayLike, name: str, shape: tuple[int, ...] | None) -> NDArray[np.float64]:
-    try:
-        arr = np.asarray(a, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be a numeric array of 3-vectors: {exc}") from None
-    if arr.ndim < 1 or arr.shape[-1] != 3:
-        raise ValueError(f"{name} must have 3 columns (x, y, z), got shape {arr.shape}")
-    if shape is not None and arr.shape != shape:
-        raise ValueError(f"{name} must have shape {shape} like gyr, got {arr.shape}")
-    return arr
-
-
-def _check_fs(fs: float) -> float:
-    """``fs`` as a float, a ValueError unless a sampling rate in (0, 100000] Hz."""
-    check_value("fs", fs, 0.0, 100_000.0, "Hz", lo_open=True)
-    return float(fs)
-
-
 def _raise_units(flag: int, state: NDArray) -> None:
     """Turn the kernel's unit-guard flag into a clear error."""
     i, kind = divmod(flag, 2)
@@ -449,7 +432,7 @@ class AttitudeEKF(TakesUsers):
         if n_streams < 1:
             raise ValueError(f"n_streams must be >= 1, got {n_streams}")
         self.n_streams = int(n_streams)
-        self.fs = _check_fs(fs)
+        self.fs = check_rate(fs)
         self.dt = 1.0 / self.fs
         self.params = _make_params(params, overrides)
         self._prm = _kernel_params(self.params, self.dt)
@@ -491,9 +474,9 @@ class AttitudeEKF(TakesUsers):
             (B, 4) quaternions ``[w, x, y, z]``, sensor -> ENU, after the sample.
         """
         b = self.n_streams
-        g = _as_samples(gyr, "gyr", (b, 3)).reshape(b, 1, 3)
-        a = _as_samples(acc, "acc", (b, 3)).reshape(b, 1, 3)
-        m = self._no_mag if mag is None else _as_samples(mag, "mag", (b, 3)).reshape(b, 1, 3)
+        g = check_xyz(gyr, "gyr", (b, 3)).reshape(b, 1, 3)
+        a = check_xyz(acc, "acc", (b, 3)).reshape(b, 1, 3)
+        m = self._no_mag if mag is None else check_xyz(mag, "mag", (b, 3)).reshape(b, 1, 3)
         return self._run(g, a, m)[:, 0]
 
     def update_batch(
@@ -509,11 +492,11 @@ class AttitudeEKF(TakesUsers):
         Returns:
             (B, N, 4) quaternions, sensor -> ENU, after each sample.
         """
-        g = _as_samples(gyr, "gyr", None)
+        g = check_xyz(gyr, "gyr", None)
         if g.ndim != 3 or g.shape[0] != self.n_streams:
             raise ValueError(f"gyr must have shape ({self.n_streams}, N, 3), got {g.shape}")
-        a = _as_samples(acc, "acc", g.shape)
-        m = None if mag is None else _as_samples(mag, "mag", g.shape)
+        a = check_xyz(acc, "acc", g.shape)
+        m = None if mag is None else check_xyz(mag, "mag", g.shape)
         if m is None:
             m = np.broadcast_to(np.float64(np.nan), g.shape)
         return self._run(g, a, m)
@@ -543,11 +526,11 @@ class AttitudeEKF(TakesUsers):
             ValueError: the unit guard, as :meth:`update_batch` raises it (its counters are
                 cumulative, so the flag of the last call is that of a single call).
         """
-        g = _as_samples(gyr, "gyr", None)
+        g = check_xyz(gyr, "gyr", None)
         if g.ndim != 3 or g.shape[0] != self.n_streams:
             raise ValueError(f"gyr must have shape ({self.n_streams}, N, 3), got {g.shape}")
-        a = _as_samples(acc, "acc", g.shape)
-        m = np.full(g.shape, np.nan) if mag is None else _as_samples(mag, "mag", g.shape)
+        a = check_xyz(acc, "acc", g.shape)
+        m = np.full(g.shape, np.nan) if mag is None else check_xyz(mag, "mag", g.shape)
         b, n = g.shape[0], g.shape[1]
 
         def per_sample(x: NDArray) -> NDArray:  # (N, B, 1, 3): x_s[k] is the kernel's (B, 1, 3)
@@ -716,19 +699,19 @@ def estimate_attitude(
         Quaternions ``[w, x, y, z]`` rotating sensor to ENU, (N, 4) or (B, N, 4); bit-for-bit
         reproducible for the same input, parameters and machine, in both modes.
     """
-    g = _as_samples(gyr, "gyr", None)
+    g = check_xyz(gyr, "gyr", None)
     if g.ndim not in (2, 3):
         raise ValueError(f"gyr must have shape (N, 3) or (B, N, 3), got {g.shape}")
     single = g.ndim == 2
     if single:
         g = g[None]
-    a = _as_samples(acc, "acc", None)
+    a = check_xyz(acc, "acc", None)
     a = a[None] if single and a.ndim == 2 else a
     if a.shape != g.shape:
         raise ValueError(f"acc must have the shape of gyr {g.shape[single:]}, got {a.shape}")
     m = None
     if mag is not None:
-        m = _as_samples(mag, "mag", None)
+        m = check_xyz(mag, "mag", None)
         m = m[None] if single and m.ndim == 2 else m
         if m.shape != g.shape:
             raise ValueError(f"mag must have the shape of gyr {g.shape[single:]}, got {m.shape}")

@@ -39,9 +39,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from estimators._attitude_helpers_numba import check_batch_size, check_fs, check_samples
 from estimators.batching import TakesUsers, stream_rows
-from estimators.validation import check_bool, check_in_range
+from estimators.validation import (
+    check_batch_size,
+    check_bool,
+    check_in_range,
+    check_rate,
+    check_samples,
+)
 
 __all__ = ["VqfParams", "VqfStage"]
 
@@ -198,7 +203,7 @@ class VqfStage(TakesUsers):
 
     def __init__(self, batch_size: int, fs: float, params: VqfParams | None = None) -> None:
         self.batch_size = check_batch_size(batch_size, "VqfStage")
-        self.fs = check_fs(fs, "VqfStage")
+        self.fs = check_rate(fs, who="VqfStage")
         if params is None:
             params = VqfParams()
         if not isinstance(params, VqfParams):

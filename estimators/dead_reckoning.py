@@ -29,104 +29,19 @@ Decisions:
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from estimators.batching import TakesUsers
-from estimators.validation import check_in_range
+from estimators.validation import (
+    check_locomotion_update,
+    check_mask,
+    check_per_user,
+    check_positions,
+    check_step_length,
+)
 
-__all__ = ["DeadReckoning", "check_step_intervals", "dead_reckon"]
-
-
-def check_step_intervals(params: object) -> None:
-    """The step-interval fields a step-driven locomotion filter's parameters share:
-    ``min_step_interval`` in [0.05, 2] s, ``max_step_interval`` from it to 10 s, and
-    ``default_step_interval`` between the two (a ValueError naming the field otherwise)."""
-    check_in_range(params, "min_step_interval", 0.05, 2.0, "s")
-    lo = float(params.min_step_interval)
-    check_in_range(params, "max_step_interval", lo, 10.0,
-                   allowed=f"in [min_step_interval={lo:g}, 10] s")  # fmt: skip
-    hi = float(params.max_step_interval)
-    between = f"in [min_step_interval={lo:g}, max_step_interval={hi:g}] s"
-    check_in_range(params, "default_step_interval", lo, hi, allowed=between)
-
-
-def _check_step_length(step_length: ArrayLike, shape: tuple[int, ...]) -> NDArray[np.float64]:
-    try:
-        sl = np.asarray(step_length, dtype=np.float64)
-        sl = np.broadcast_to(sl, shape).copy()
-    except (TypeError, ValueError):
-        raise ValueError(
-            f"step_length must be a number or broadcast to shape {shape} (m)"
-        ) from None
-    if not np.all(np.isfinite(sl)) or np.any(sl < 0.0) or np.any(sl > 3.0):
-        raise ValueError("step_length must be finite and in [0, 3] m")
-    return sl
-
-
-def _check_batch(value: ArrayLike | None, b: int, name: str, default: float,
-                 unit: str) -> NDArray[np.float64]:  # fmt: skip
-    """A (B,) float array from a scalar or (B,) input; NaN/inf rejected."""
-    if value is None:
-        return np.full(b, default)
-    try:
-        a = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number or a ({b},) array ({unit})") from None
-    if a.shape not in ((), (b,)):
-        raise ValueError(f"{name} must have shape ({b},) or be a scalar, got {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"{name} contains NaN or infinite values ({unit})")
-    return np.broadcast_to(a, (b,)).astype(np.float64)
-
-
-def check_update_inputs(
-    steps: ArrayLike, yaw: ArrayLike, dt: float, bearing: ArrayLike | None, b: int
-) -> tuple[NDArray[np.float64], NDArray[np.float64], float, NDArray[np.float64]]:
-    """Validate the arguments of a locomotion ``update`` for B users (shared by both models).
-
-    Returns:
-        steps (B,) float (counts >= 0), yaw (B,) rad, dt s, bearing (B,) rad.
-
-    Raises:
-        ValueError: a wrong shape, a NaN or infinite value, a negative step count or dt <= 0.
-    """
-    if (
-        bearing is None
-        and type(steps) is np.ndarray
-        and type(yaw) is np.ndarray
-        and steps.dtype == np.float64
-        and yaw.dtype == np.float64
-        and steps.shape == yaw.shape == (b,)
-        and isinstance(dt, float)
-        and 0.0 < dt <= 10.0
-        and np.isfinite(yaw).all()
-        and np.isfinite(steps).all()
-        and (steps >= 0.0).all()
-    ):  # the common call (an env step), valid: the same checks in a few microseconds
-        return steps, yaw, dt, np.zeros(b)
-    st = np.asarray(steps)
-    if st.dtype == np.bool_:
-        st = st.astype(np.float64)
-    try:
-        st = np.asarray(st, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"steps must be a ({b},) array of step counts") from None
-    if st.shape != (b,):
-        raise ValueError(f"steps must have shape ({b},) (step counts per user), got {st.shape}")
-    if not np.all(np.isfinite(st)) or np.any(st < 0.0):
-        raise ValueError("steps must be finite step counts >= 0")
-    y = _check_batch(yaw, b, "yaw", 0.0, "rad")
-    try:
-        dtf = float(dt)
-    except (TypeError, ValueError):
-        raise ValueError(f"dt must be a number > 0 s, got {dt!r}") from None
-    if not (math.isfinite(dtf) and 0.0 < dtf <= 10.0):
-        raise ValueError(f"dt must be in (0, 10] s, got {dt!r}")
-    br = _check_batch(bearing, b, "bearing", 0.0, "rad")
-    return st, y, dtf, br
+__all__ = ["DeadReckoning", "dead_reckon"]
 
 
 class DeadReckoning(TakesUsers):
@@ -156,7 +71,7 @@ class DeadReckoning(TakesUsers):
         if not isinstance(batch_size, int | np.integer) or batch_size < 1:
             raise ValueError(f"batch_size must be an integer >= 1, got {batch_size!r}")
         self.batch_size = int(batch_size)
-        self.step_length = _check_step_length(step_length, (self.batch_size,))
+        self.step_length = check_step_length(step_length, (self.batch_size,))
         self._pos = np.zeros((self.batch_size, 2))
         self._heading = np.zeros(self.batch_size)
         self._distance = np.zeros(self.batch_size)
@@ -185,10 +100,10 @@ class DeadReckoning(TakesUsers):
     ) -> None:
         """Put the users selected by ``mask`` (B,) bool (all if None) at ``position`` (m) facing
         ``heading`` (rad), with zero travelled distance."""
-        sel = _mask(mask, self.batch_size)
-        pos = _positions(position, self.batch_size)
+        sel = check_mask(mask, self.batch_size)
+        pos = check_positions(position, self.batch_size)
         self._pos[sel] = pos[sel]
-        self._heading[sel] = _check_batch(heading, self.batch_size, "heading", 0.0, "rad")[sel]
+        self._heading[sel] = check_per_user(heading, self.batch_size, "heading", 0.0, "rad")[sel]
         self._distance[sel] = 0.0
 
     def update(
@@ -210,7 +125,7 @@ class DeadReckoning(TakesUsers):
         Returns:
             The new positions (m), (B, 2).
         """
-        st, y, _, br = check_update_inputs(steps, yaw, dt, bearing, self.batch_size)
+        st, y, _, br = check_locomotion_update(steps, yaw, dt, bearing, self.batch_size)
         d = st * self.step_length
         ang = y + br
         self._pos[:, 0] += d * np.cos(ang)
@@ -218,28 +133,6 @@ class DeadReckoning(TakesUsers):
         self._distance += d
         self._heading = y
         return self._pos.copy()
-
-
-def _mask(mask: ArrayLike | None, b: int) -> NDArray[np.bool_]:
-    if mask is None:
-        return np.ones(b, dtype=bool)
-    m = np.asarray(mask)
-    if m.shape != (b,) or m.dtype != np.bool_:
-        raise ValueError(f"mask must be a bool array of shape ({b},), got {m.dtype} {m.shape}")
-    return m
-
-
-def _positions(position: ArrayLike | None, b: int) -> NDArray[np.float64]:
-    if position is None:
-        return np.zeros((b, 2))
-    try:
-        p = np.asarray(position, dtype=np.float64)
-        p = np.broadcast_to(p, (b, 2)).copy()
-    except (TypeError, ValueError):
-        raise ValueError(f"position must broadcast to shape ({b}, 2) (m)") from None
-    if not np.all(np.isfinite(p)):
-        raise ValueError("position contains NaN or infinite values (m)")
-    return p
 
 
 def dead_reckon(
@@ -286,7 +179,7 @@ def dead_reckon(
             )
         if not np.all(np.isfinite(count)) or np.any(count < 0.0):
             raise ValueError("steps must be finite step counts >= 0")
-    sl = _check_step_length(step_length, y.shape[:-1])[..., None]
+    sl = check_step_length(step_length, y.shape[:-1])[..., None]
     br = np.zeros_like(y) if bearing is None else np.asarray(bearing, dtype=np.float64)
     try:
         br = np.broadcast_to(br, y.shape)

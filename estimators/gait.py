@@ -99,7 +99,7 @@ from scipy.optimize import linear_sum_assignment
 from estimators.batching import TakesUsers, stream_rows
 from estimators.kernels import BatchKernel, param_record, state_records
 from estimators.rotations import GRAVITY
-from estimators.validation import check_in_range
+from estimators.validation import check_in_range, check_numeric
 
 __all__ = [
     "GaitChunk",
@@ -350,13 +350,6 @@ def _gait_run(norm, k0, prm, state, raw_buf, sm_buf, out):
 _gait_kernel = BatchKernel(_gait_run, parallel=False)
 
 
-def _as_array(value: ArrayLike, name: str) -> NDArray[np.float64]:
-    try:
-        return np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a numeric array") from None
-
-
 class StepDetector(TakesUsers):
     """Streaming, batched still/walk and step detector (seed 000 eqs (15)-(16)).
 
@@ -442,7 +435,7 @@ class StepDetector(TakesUsers):
         Returns:
             A :class:`GaitChunk` over the n samples.
         """
-        a = _as_array(acc, "acc")
+        a = check_numeric(acc, "acc")
         b = self.batch_size
         if a.ndim == 2 and a.shape == (b, 3):
             a = a[:, None, :]
@@ -452,7 +445,7 @@ class StepDetector(TakesUsers):
 
     def update_norm(self, norm: ArrayLike) -> GaitChunk:
         """Process specific-force norms |f| (m/s^2), (B, n) or (B,) for one sample."""
-        x = _as_array(norm, "norm")
+        x = check_numeric(norm, "norm")
         b = self.batch_size
         if x.ndim == 1 and x.shape == (b,):
             x = x[:, None]
@@ -548,8 +541,8 @@ def detect_steps(
         if unknown:
             raise ValueError(f"unknown GaitParams field(s) {unknown}; choose from {sorted(names)}")
         params = dataclasses.replace(params, **overrides)
-    tt = _as_array(t, "t")
-    a = _as_array(acc, "acc")
+    tt = check_numeric(t, "t")
+    a = check_numeric(acc, "acc")
     if tt.ndim != 1 or tt.size < 2:
         raise ValueError(f"t must have shape (n,) with n >= 2, got {tt.shape}")
     if a.shape != (tt.size, 3):
@@ -641,8 +634,8 @@ def step_f1(
         1 (no false alarm); no true steps gives recall 1 (nothing missed); F1 is 1 only when both
         are empty and otherwise 2 P R / (P + R), 0 when P + R = 0.
     """
-    det = _as_array(detected_times, "detected_times").ravel()
-    tru = _as_array(true_times, "true_times").ravel()
+    det = check_numeric(detected_times, "detected_times").ravel()
+    tru = check_numeric(true_times, "true_times").ravel()
     if not (np.all(np.isfinite(det)) and np.all(np.isfinite(tru))):
         raise ValueError("detected_times and true_times must be finite (s)")
     if not (math.isfinite(tol) and tol > 0.0):
@@ -714,7 +707,7 @@ class Seed000Steps(TakesUsers):
 
     def update(self, acc: ArrayLike, gyr: ArrayLike, quat: ArrayLike) -> GaitChunk:
         """Consume (B, N, 3) specific force (m/s^2); ``gyr`` and ``quat`` are not read."""
-        a = _as_array(acc, "acc")
+        a = check_numeric(acc, "acc")
         if a.ndim != 3:
             raise ValueError(f"acc must have shape ({self.batch_size}, N, 3), got {a.shape}")
         return self.detector.update(a)

@@ -57,7 +57,6 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from estimators import _hand_numba as _k
-from estimators._attitude_helpers_numba import check_batch_size, check_fs
 from estimators.batching import TakesUsers, stream_rows
 from estimators.joint_smoothing import (
     INFERRED,
@@ -69,10 +68,12 @@ from estimators.joint_smoothing import (
 )
 from estimators.kernels.records import param_record, record_dtype
 from estimators.validation import (
+    check_batch_size,
     check_condition,
     check_in_range,
     check_instance,
     check_numbers,
+    check_rate,
     check_value,
     value_repr,
 )
@@ -995,7 +996,7 @@ class Seed003Hand(TakesUsers):
 
     def __init__(self, batch_size: int, fs: float = KINECT_RATE_HZ, params: None = None) -> None:
         self.batch_size = check_batch_size(batch_size, "Seed003Hand")
-        self.fs = check_fs(fs, "Seed003Hand")
+        self.fs = check_rate(fs, who="Seed003Hand")
         if params is not None:
             raise ValueError(
                 f"Seed003Hand: takes no params (the pipeline's HandParams), got {params!r}"
@@ -1032,7 +1033,7 @@ class RawHand(TakesUsers):
 
     def __init__(self, batch_size: int, fs: float = KINECT_RATE_HZ, params: None = None) -> None:
         self.batch_size = check_batch_size(batch_size, "RawHand")
-        self.fs = check_fs(fs, "RawHand")
+        self.fs = check_rate(fs, who="RawHand")
         if params is not None:
             raise ValueError(f"RawHand: takes no params, got {params!r}")
 

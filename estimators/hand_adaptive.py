@@ -40,7 +40,6 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from estimators._attitude_helpers_numba import check_batch_size, check_fs
 from estimators.batching import TakesUsers, stream_rows
 from estimators.hand import (
     HandFrame,
@@ -49,7 +48,7 @@ from estimators.hand import (
     OrientationFilter,
     check_hand_frames,
 )
-from estimators.validation import check_in_range
+from estimators.validation import check_batch_size, check_in_range, check_rate
 
 __all__ = ["AdaptiveKalmanHand", "AdaptiveKalmanHandParams"]
 
@@ -114,7 +113,7 @@ class AdaptiveKalmanHand(TakesUsers):
         self, batch_size: int, fs: float = 30.0, params: AdaptiveKalmanHandParams | None = None
     ) -> None:
         self.batch_size = check_batch_size(batch_size, "AdaptiveKalmanHand")
-        self.fs = check_fs(fs, "AdaptiveKalmanHand")
+        self.fs = check_rate(fs, who="AdaptiveKalmanHand")
         if params is None:
             params = AdaptiveKalmanHandParams()
         if not isinstance(params, AdaptiveKalmanHandParams):

@@ -52,11 +52,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from estimators._attitude_helpers_numba import check_batch_size, check_fs
 from estimators.batching import TakesUsers, stream_rows
 from estimators.hand import HandFrame, check_hand_frames
 from estimators.joint_smoothing import OneEuroFilter, OneEuroParams
-from estimators.validation import check_in_range
+from estimators.validation import check_batch_size, check_in_range, check_rate
 
 __all__ = ["OneEuroHand", "OneEuroHandParams"]
 
@@ -119,7 +118,7 @@ class OneEuroHand(TakesUsers):
         self, batch_size: int, fs: float = 30.0, params: OneEuroHandParams | None = None
     ) -> None:
         self.batch_size = check_batch_size(batch_size, "OneEuroHand")
-        self.fs = check_fs(fs, "OneEuroHand")
+        self.fs = check_rate(fs, who="OneEuroHand")
         if params is None:
             params = OneEuroHandParams()
         if not isinstance(params, OneEuroHandParams):

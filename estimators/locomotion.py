@@ -66,17 +66,17 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from estimators.batching import TakesUsers
-from estimators.dead_reckoning import (
-    DeadReckoning,
-    _check_batch,
-    _check_step_length,
-    _mask,
-    _positions,
-    check_step_intervals,
-    check_update_inputs,
-)
+from estimators.dead_reckoning import DeadReckoning
 from estimators.rotations import wrap_angle
-from estimators.validation import check_in_range
+from estimators.validation import (
+    check_in_range,
+    check_locomotion_update,
+    check_mask,
+    check_per_user,
+    check_positions,
+    check_step_intervals,
+    check_step_length,
+)
 
 __all__ = [
     "Locomotion",
@@ -225,7 +225,7 @@ class SmoothLocomotion(TakesUsers):
         if not isinstance(self.params, SmoothParams):
             raise ValueError(f"params must be a SmoothParams, got {type(self.params).__name__}")
         b = self.batch_size = int(batch_size)
-        self.step_length = _check_step_length(step_length, (b,))
+        self.step_length = check_step_length(step_length, (b,))
         wd = 2.0 * math.pi * self.params.distance_bandwidth_hz
         wh = 2.0 * math.pi * self.params.heading_bandwidth_hz
         self._q_dist, self._q_head = wd**4, wh**4  # process noise densities (r = 1)
@@ -280,8 +280,8 @@ class SmoothLocomotion(TakesUsers):
         """Stop the users selected by ``mask`` (B,) bool (all if None) at ``position`` (m); their
         heading is ``heading`` (rad) if given, else the next yaw measurement."""
         b = self.batch_size
-        sel = _mask(mask, b)
-        self._pos[sel] = _positions(position, b)[sel]
+        sel = check_mask(mask, b)
+        self._pos[sel] = check_positions(position, b)[sel]
         for arr in (self._s, self._v, self._travelled, self._target, self._ref, self._rate,
                     self._omega, self._bearing):  # fmt: skip
             arr[sel] = 0.0
@@ -293,7 +293,7 @@ class SmoothLocomotion(TakesUsers):
             self._psi[sel] = 0.0
             self._head_init[sel] = False
         else:
-            self._psi[sel] = wrap_angle(_check_batch(heading, b, "heading", 0.0, "rad"))[sel]
+            self._psi[sel] = wrap_angle(check_per_user(heading, b, "heading", 0.0, "rad"))[sel]
             self._head_init[sel] = True
 
     def update(
@@ -315,7 +315,7 @@ class SmoothLocomotion(TakesUsers):
         Returns:
             The new positions (m), (B, 2).
         """
-        st, y, dt, br = check_update_inputs(steps, yaw, dt, bearing, self.batch_size)
+        st, y, dt, br = check_locomotion_update(steps, yaw, dt, bearing, self.batch_size)
         p = self.params
         t = self._time + dt
         # Step events: extend eq (17)'s distance and restart the ramp towards it.

@@ -56,17 +56,17 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from estimators.batching import TakesUsers
-from estimators.dead_reckoning import (
-    _check_batch,
-    _check_step_length,
-    _mask,
-    _positions,
-    check_step_intervals,
-    check_update_inputs,
-)
 from estimators.kernels import BatchKernel, param_record, state_records
 from estimators.rotations import wrap_angle
-from estimators.validation import check_in_range
+from estimators.validation import (
+    check_in_range,
+    check_locomotion_update,
+    check_mask,
+    check_per_user,
+    check_positions,
+    check_step_intervals,
+    check_step_length,
+)
 
 __all__ = ["CadenceSpeed", "CadenceSpeedParams", "cadence_kernel"]
 
@@ -274,7 +274,7 @@ class CadenceSpeed(TakesUsers):
                 f"params must be a CadenceSpeedParams, got {type(self.params).__name__}"
             )
         b = self.batch_size = int(batch_size)
-        self.step_length = _check_step_length(step_length, (b,))
+        self.step_length = check_step_length(step_length, (b,))
         self._prm = param_record(self.params)
         self._state = state_records(CADENCE_SPEED_STATE, b)
         self.reset(position=position, heading=heading)
@@ -320,13 +320,13 @@ class CadenceSpeed(TakesUsers):
         zero speed and distance and no bout; their heading is ``heading`` (rad) if given, else
         the next yaw."""
         b = self.batch_size
-        sel = _mask(mask, b)
+        sel = check_mask(mask, b)
         st = self._state
         st[sel] = 0.0
-        st["pos"][sel] = _positions(position, b)[sel]
+        st["pos"][sel] = check_positions(position, b)[sel]
         st["interval"][sel] = self.params.default_step_interval
         if heading is not None:
-            st["yaw"][sel] = wrap_angle(_check_batch(heading, b, "heading", 0.0, "rad"))[sel]
+            st["yaw"][sel] = wrap_angle(check_per_user(heading, b, "heading", 0.0, "rad"))[sel]
             st["yaw_known"][sel] = 1.0
 
     def update(
@@ -348,7 +348,7 @@ class CadenceSpeed(TakesUsers):
         Returns:
             The new positions (m), (B, 2).
         """
-        st, y, dtf, br = check_update_inputs(steps, yaw, dt, bearing, self.batch_size)
+        st, y, dtf, br = check_locomotion_update(steps, yaw, dt, bearing, self.batch_size)
         cadence_kernel(self.batch_size)(
             np.ascontiguousarray(st), np.ascontiguousarray(y), np.ascontiguousarray(br),
             self.step_length, dtf, self._prm, self._state,

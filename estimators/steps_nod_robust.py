@@ -86,7 +86,8 @@ from estimators.gait import (
 from estimators.kernels import BatchKernel, param_record, state_records
 from estimators.kernels.rotations import quat_rotate
 from estimators.rotations import GRAVITY
-from estimators.steps_threshold import check_chunk, check_param, check_stage_args, empty_chunk
+from estimators.steps_threshold import empty_chunk
+from estimators.validation import check_chunk, check_in_range, check_stage_args
 
 __all__ = ["NodRobustParams", "NodRobustSteps", "nod_robust_kernel"]
 
@@ -128,17 +129,17 @@ class NodRobustParams:
     docstring."""
 
     def __post_init__(self) -> None:
-        check_param(self, "gravity", 9.0, 10.5, "in [9, 10.5] m/s^2")
+        check_in_range(self, "gravity", 9.0, 10.5, allowed="in [9, 10.5] m/s^2")
         g = self.gravity
-        check_param(self, "gamma", 0.0, 3.0 * g, "in (0, 3 g] m/s^2", True)
-        check_param(self, "min_step_interval", 0.0, 2.0, "in [0, 2] s")
-        check_param(self, "gamma_t", self.min_step_interval, 10.0,
-                    "in (min_step_interval, 10] s", True)  # fmt: skip
-        check_param(self, "mean_window", 0.0, 1.0, "in (0, 1] s", True)
-        check_param(self, "peak_half_window", 0.0, 1.0, "in (0, 1] s", True)
-        check_param(self, "baseline_tau", 0.0, 600.0, "in [0, 600] s (0: fixed g)")
-        check_param(self, "baseline_limit", 0.0, 0.5 * g, "in [0, 0.5 g] m/s^2")
-        check_param(self, "lever_arm", 0.0, 1.0, "in [0, 1] m (0: no veto)")
+        check_in_range(self, "gamma", 0.0, 3.0 * g, lo_open=True, allowed="in (0, 3 g] m/s^2")
+        check_in_range(self, "min_step_interval", 0.0, 2.0, allowed="in [0, 2] s")
+        check_in_range(self, "gamma_t", self.min_step_interval, 10.0, lo_open=True,
+                       allowed="in (min_step_interval, 10] s")  # fmt: skip
+        check_in_range(self, "mean_window", 0.0, 1.0, lo_open=True, allowed="in (0, 1] s")
+        check_in_range(self, "peak_half_window", 0.0, 1.0, lo_open=True, allowed="in (0, 1] s")
+        check_in_range(self, "baseline_tau", 0.0, 600.0, allowed="in [0, 600] s (0: fixed g)")
+        check_in_range(self, "baseline_limit", 0.0, 0.5 * g, allowed="in [0, 0.5 g] m/s^2")
+        check_in_range(self, "lever_arm", 0.0, 1.0, allowed="in [0, 1] m (0: no veto)")
 
     def samples(self, fs: float) -> tuple[int, int]:
         """Mean-filter length M and peak half-window h in samples at rate ``fs`` (Hz)."""

@@ -33,25 +33,14 @@ from estimators.batching import TakesUsers, stream_rows
 from estimators.gait import GaitChunk
 from estimators.kernels import BatchKernel, param_record, state_records
 from estimators.rotations import GRAVITY
-from estimators.validation import check_in_range
+from estimators.validation import check_chunk, check_in_range, check_stage_args
 
 __all__ = [
     "ThresholdParams",
     "ThresholdSteps",
-    "check_chunk",
-    "check_param",
-    "check_stage_args",
     "empty_chunk",
     "threshold_kernel",
 ]
-
-
-def check_param(owner: object, name: str, lo: float, hi: float, allowed: str,
-                open_lo: bool = False) -> None:  # fmt: skip
-    """Raise ``Class.name=value: must be <allowed>`` unless the field ``name`` of ``owner`` is a
-    finite real (not a bool) in ``[lo, hi]`` (``(lo, hi]`` if ``open_lo``):
-    :func:`estimators.validation.check_in_range` with the message's interval in words."""
-    check_in_range(owner, name, lo, hi, lo_open=open_lo, allowed=allowed)
 
 
 @dataclass(frozen=True)
@@ -74,10 +63,11 @@ class ThresholdParams:
     """Gravity (m/s^2), standard gravity by default (:data:`estimators.rotations.GRAVITY`)."""
 
     def __post_init__(self) -> None:
-        check_param(self, "gravity", 9.0, 10.5, "in [9, 10.5] m/s^2")
-        check_param(self, "threshold", 0.0, 3.0 * self.gravity, "in (0, 3 g] m/s^2", True)
-        check_param(self, "refractory", 0.0, 2.0, "in [0, 2] s")
-        check_param(self, "hold", 0.0, 10.0, "in (0, 10] s", True)
+        check_in_range(self, "gravity", 9.0, 10.5, allowed="in [9, 10.5] m/s^2")
+        check_in_range(self, "threshold", 0.0, 3.0 * self.gravity, lo_open=True,
+                       allowed="in (0, 3 g] m/s^2")  # fmt: skip
+        check_in_range(self, "refractory", 0.0, 2.0, allowed="in [0, 2] s")
+        check_in_range(self, "hold", 0.0, 10.0, lo_open=True, allowed="in (0, 10] s")
 
     def build(self, batch_size: int, fs: float) -> ThresholdSteps:
         """The :class:`ThresholdSteps` stage with these parameters."""
@@ -128,45 +118,6 @@ def _threshold_run(acc, k0, prm, state, out):
 
 #: The compiled peak picker: ``threshold_kernel(batch_size)(...)`` (see ``_threshold_run``).
 threshold_kernel = BatchKernel(_threshold_run, parallel=False)
-
-
-def check_stage_args(batch_size: object, fs: object, who: str) -> tuple[int, float]:
-    """``batch_size`` as an int >= 1 and ``fs`` as a float in [10, 2000] Hz (the range of
-    :class:`estimators.gait.StepDetector`), or a ValueError naming ``who`` and the argument."""
-    if isinstance(batch_size, bool) or not isinstance(batch_size, int | np.integer):
-        raise ValueError(f"{who}: batch_size must be an integer >= 1, got {batch_size!r}")
-    if batch_size < 1:
-        raise ValueError(f"{who}: batch_size must be an integer >= 1, got {batch_size!r}")
-    try:
-        rate = float(fs)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        raise ValueError(f"{who}: fs must be a number in [10, 2000] Hz, got {fs!r}") from None
-    if not (10.0 <= rate <= 2000.0):
-        raise ValueError(f"{who}: fs must be in [10, 2000] Hz, got {fs!r}")
-    return int(batch_size), rate
-
-
-def check_chunk(
-    acc: ArrayLike, gyr: ArrayLike, quat: ArrayLike, batch_size: int, who: str
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """The inputs of one ``update`` as C-contiguous float64 arrays (B, N, 3), (B, N, 3) and
-    (B, N, 4) with one N, or a ValueError naming the argument and the shape expected."""
-    out = []
-    n = None
-    for name, value, last in (("acc", acc, 3), ("gyr", gyr, 3), ("quat", quat, 4)):
-        try:
-            arr = np.ascontiguousarray(value, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise ValueError(f"{who}.update: {name} must be a numeric array") from None
-        want = f"({batch_size}, {'N' if n is None else n}, {last})"
-        if arr.ndim != 3 or arr.shape[0] != batch_size or arr.shape[2] != last:
-            raise ValueError(f"{who}.update: {name} must have shape {want}, got {arr.shape}")
-        if n is None:
-            n = arr.shape[1]
-        elif arr.shape[1] != n:
-            raise ValueError(f"{who}.update: {name} must have shape {want}, got {arr.shape}")
-        out.append(arr)
-    return out[0], out[1], out[2]
 
 
 def empty_chunk(batch_size: int, n: int) -> tuple[NDArray[np.int8], ...]:

@@ -61,7 +61,7 @@ from estimators.rotations import (
     ensure_quaternion,
     matrix_to_quat,
 )
-from estimators.validation import check_value
+from estimators.validation import check_array, check_batch_size, check_rate, check_value
 
 __all__ = [
     "Strapdown",
@@ -72,36 +72,8 @@ __all__ = [
 
 
 # ------------------------------------------------------------------------------------------------
-# Validation helpers (shared with estimators.visual_inertial).
+# Validation helpers.
 # ------------------------------------------------------------------------------------------------
-
-
-def _check_batch_size(batch_size: object) -> int:
-    """``batch_size`` as an int, a ValueError unless an integer >= 1."""
-    check_value("batch_size", batch_size, 1, math.inf, integer=True)
-    return int(batch_size)  # type: ignore[call-overload]
-
-
-def _check_rate(rate_hz: object, name: str = "rate_hz") -> float:
-    """``rate_hz`` as a float, a ValueError naming ``name`` unless a rate in (0, 100000] Hz."""
-    check_value(name, rate_hz, 0.0, 100_000.0, "Hz", lo_open=True)
-    return float(rate_hz)  # type: ignore[arg-type]
-
-
-def _as_array(a: ArrayLike, name: str, shape: tuple[int, ...], finite: bool = True) -> NDArray:
-    """``a`` as float64 of exactly ``shape`` (a -1 entry matches any length), or ValueError."""
-    try:
-        arr = np.asarray(a, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be a numeric array: {exc}") from None
-    if arr.ndim != len(shape) or any(
-        s not in (-1, n) for s, n in zip(shape, arr.shape, strict=True)
-    ):
-        want = "(" + ", ".join("N" if s == -1 else str(s) for s in shape) + ")"
-        raise ValueError(f"{name} must have shape {want}, got {arr.shape}")
-    if finite and not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} contains NaN or infinite entries")
-    return arr
 
 
 def _rows_arg(a: ArrayLike | None, name: str, b: int, n: int, default: NDArray) -> NDArray:
@@ -111,7 +83,7 @@ def _rows_arg(a: ArrayLike | None, name: str, b: int, n: int, default: NDArray) 
     arr = np.asarray(a, dtype=np.float64)
     if arr.shape == (n,):
         arr = np.broadcast_to(arr, (b, n))
-    return _as_array(arr, name, (b, n)).copy()
+    return check_array(arr, name, (b, n)).copy()
 
 
 def _check_gravity(gravity: object) -> float:
@@ -163,7 +135,7 @@ def set_nominal_state(
     b = x.shape[0]
     qa = np.asarray(q, dtype=np.float64)
     qa = ensure_quaternion(np.broadcast_to(qa, (b, 4)) if qa.shape == (4,) else qa, "q")
-    qa = _as_array(qa, "q", (b, 4))
+    qa = check_array(qa, "q", (b, 4))
     pa = _rows_arg(p, "p", b, 3, np.zeros(3))
     va = _rows_arg(v, "v", b, 3, np.zeros(3))
     ba = _rows_arg(accel_bias, "accel_bias", b, 3, np.zeros(3))
@@ -202,8 +174,8 @@ class Strapdown:
     """
 
     def __init__(self, batch_size: int, rate_hz: float, gravity: float = GRAVITY) -> None:
-        self.batch_size = _check_batch_size(batch_size)
-        self.rate_hz = _check_rate(rate_hz)
+        self.batch_size = check_batch_size(batch_size)
+        self.rate_hz = check_rate(rate_hz, "rate_hz")
         self.dt = 1.0 / self.rate_hz
         self.gravity = _check_gravity(gravity)
         self._x = np.zeros((self.batch_size, _k.N_X))
@@ -259,8 +231,8 @@ class Strapdown:
             ValueError: wrong shapes or non-finite samples.
         """
         b = self.batch_size
-        g = _as_array(gyr, "gyr", (b, -1, 3))
-        a = _as_array(acc, "acc", g.shape)
+        g = check_array(gyr, "gyr", (b, -1, 3))
+        a = check_array(acc, "acc", g.shape)
         x = self._x
         x[:, _k.X_BG : _k.X_BG + 3] = _rows_arg(gyro_bias, "gyro_bias", b, 3, np.zeros(3))
         x[:, _k.X_BA : _k.X_BA + 3] = _rows_arg(accel_bias, "accel_bias", b, 3, np.zeros(3))
@@ -311,9 +283,9 @@ def coarse_alignment(acc_mean: ArrayLike, mag_mean: ArrayLike, field_world: Arra
         ValueError: shapes, non-finite values, a specific force far from g (not at rest:
             norm outside [0.5 g, 1.5 g]) or a field (anti)parallel to gravity (within 1 deg).
     """
-    f = _as_array(acc_mean, "acc_mean", (-1, 3))
-    m = _as_array(mag_mean, "mag_mean", f.shape)
-    fw = _as_array(field_world, "field_world", (3,))
+    f = check_array(acc_mean, "acc_mean", (-1, 3))
+    m = check_array(mag_mean, "mag_mean", f.shape)
+    fw = check_array(field_world, "field_world", (3,))
     fn = np.linalg.norm(f, axis=-1)
     if np.any((fn < 0.5 * GRAVITY) | (fn > 1.5 * GRAVITY)):
         raise ValueError(
@@ -353,7 +325,7 @@ def static_gyro_bias(gyr: ArrayLike) -> NDArray[np.float64]:
     Returns:
         (B, 3) bias, rad/s, to pass as ``gyro_bias`` to :meth:`Strapdown.propagate`.
     """
-    g = _as_array(gyr, "gyr", (-1, -1, 3))
+    g = check_array(gyr, "gyr", (-1, -1, 3))
     if g.shape[1] < 1:
         raise ValueError("gyr must hold at least one sample per user (N >= 1)")
     return g.mean(axis=1)

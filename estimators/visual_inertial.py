@@ -95,13 +95,16 @@ from estimators import _visual_inertial_numba as _k
 from estimators.batching import TakesUsers, stream_rows
 from estimators.kernels.records import param_record
 from estimators.rotations import GRAVITY
-from estimators.strapdown import _as_array, _check_batch_size, _check_rate, set_nominal_state
+from estimators.strapdown import set_nominal_state
 from estimators.validation import (
+    check_array,
+    check_batch_size,
     check_bool,
     check_choice,
     check_condition,
     check_in_range,
     check_numbers,
+    check_rate,
 )
 
 __all__ = [
@@ -321,8 +324,8 @@ class VisualInertialFilter(TakesUsers):
     def __init__(
         self, batch_size: int, imu_rate_hz: float, config: VioConfig | None = None
     ) -> None:
-        self.batch_size = _check_batch_size(batch_size)
-        self.imu_rate_hz = _check_rate(imu_rate_hz, "imu_rate_hz")
+        self.batch_size = check_batch_size(batch_size)
+        self.imu_rate_hz = check_rate(imu_rate_hz, "imu_rate_hz")
         self.dt = 1.0 / self.imu_rate_hz
         if config is None:
             config = VioConfig()
@@ -393,8 +396,8 @@ class VisualInertialFilter(TakesUsers):
             ValueError: wrong shapes or non-finite samples.
         """
         b = self.batch_size
-        g = _as_array(gyr, "gyr", (b, -1, 3))
-        a = _as_array(acc, "acc", g.shape)
+        g = check_array(gyr, "gyr", (b, -1, 3))
+        a = check_array(acc, "acc", g.shape)
         n = g.shape[1]
         out_p = np.empty((b, n, 3))
         out_q = np.empty((b, n, 4))
@@ -425,8 +428,8 @@ class VisualInertialFilter(TakesUsers):
         ok = np.asarray(valid)
         if ok.dtype != np.bool_ or ok.shape != (b,):
             raise ValueError(f"valid must be a ({b},) bool array, got {ok.dtype} {ok.shape}")
-        pm = _as_array(pos, "pos", (b, 3), finite=False)
-        qm = _as_array(quat, "quat", (b, 4), finite=False)
+        pm = check_array(pos, "pos", (b, 3), finite=False)
+        qm = check_array(quat, "quat", (b, 4), finite=False)
         if not (np.all(np.isfinite(pm[ok])) and np.all(np.isfinite(qm[ok]))):
             raise ValueError("pos and quat must be finite in the rows where valid is True")
         if np.any(np.einsum("bi,bi->b", qm[ok], qm[ok]) < 1e-24):
@@ -462,8 +465,8 @@ class VisualInertialFilter(TakesUsers):
             IMU sample and after any update that follows it.
         """
         b = self.batch_size
-        g = _as_array(gyr, "gyr", (b, -1, 3))
-        a = _as_array(acc, "acc", g.shape)
+        g = check_array(gyr, "gyr", (b, -1, 3))
+        a = check_array(acc, "acc", g.shape)
         n = g.shape[1]
         idx = np.asarray(frame_sample)
         if idx.ndim != 1 or not np.issubdtype(idx.dtype, np.integer):
@@ -471,8 +474,8 @@ class VisualInertialFilter(TakesUsers):
         m = idx.size
         if m and (idx.min() < 0 or idx.max() >= n or np.any(np.diff(idx) < 0)):
             raise ValueError(f"frame_sample must be non-decreasing indices in [0, {n})")
-        pm = _as_array(pos, "pos", (b, m, 3), finite=False)
-        qm = _as_array(quat, "quat", (b, m, 4), finite=False)
+        pm = check_array(pos, "pos", (b, m, 3), finite=False)
+        qm = check_array(quat, "quat", (b, m, 4), finite=False)
         ok = np.asarray(valid)
         if ok.dtype != np.bool_ or ok.shape != (b, m):
             raise ValueError(f"valid must be a ({b}, {m}) bool array, got {ok.dtype} {ok.shape}")
