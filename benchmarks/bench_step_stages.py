@@ -72,7 +72,7 @@ WALK_NOD_CADENCE = 1.7
 
 
 def detectors() -> dict[str, object]:
-    """Label -> what :meth:`estimators.stages.Registry.build` takes."""
+    """Label -> what :meth:`estimators.registry.Registry.build` takes."""
     out: dict[str, object] = {name: name for name in STEPS.names()}
     out["no_veto"] = NodRobustParams(lever_arm=0.0)
     return out

@@ -38,7 +38,8 @@ import numpy as np
 
 from estimators.attitude_errors import orientation_errors
 from estimators.io_broad import broad_trials, load_broad
-from estimators.stages import ATTITUDE, StageError
+from estimators.registry import StageError
+from estimators.stages import ATTITUDE
 
 DEFAULT_DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "broad"
 METRICS = (("total", "total_rmse_deg"), ("heading", "heading_rmse_deg"),

@@ -54,7 +54,7 @@ class DeadReckoning(TakesUsers):
         heading: initial heading (rad), scalar or (B,); 0 (east) by default.
 
     Same interface as :class:`estimators.locomotion.SmoothLocomotion` (the
-    :class:`estimators.locomotion.Locomotion` protocol): :meth:`update`, :meth:`reset`,
+    :class:`estimators.stages.Locomotion` protocol): :meth:`update`, :meth:`reset`,
     :attr:`position`, :attr:`heading`, :attr:`distance`.
     """
 

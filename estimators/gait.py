@@ -99,10 +99,10 @@ from scipy.optimize import linear_sum_assignment
 from estimators.batching import TakesUsers, stream_rows
 from estimators.kernels import BatchKernel, param_record, state_records
 from estimators.rotations import GRAVITY
+from estimators.stages import GaitChunk
 from estimators.validation import check_in_range, check_numeric
 
 __all__ = [
-    "GaitChunk",
     "GaitParams",
     "GaitResult",
     "Seed000Steps",
@@ -181,35 +181,6 @@ class GaitParams:
     def build(self, batch_size: int, fs: float) -> Seed000Steps:
         """The :class:`Seed000Steps` stage with these parameters."""
         return Seed000Steps(batch_size, fs, self)
-
-
-@dataclass
-class GaitChunk:
-    """Output of :meth:`StepDetector.update` for one chunk of n samples of B streams.
-
-    Attributes:
-        state: 0 still, 1 walk, per sample, (B, n) int8.
-        steps: number of steps confirmed at each sample (0, 1, or 2 when the second step of a bout
-            also releases the first), (B, n) int8.
-        peak_time: estimated heel-strike times (s since the stream's last reset, or since the
-            detector started) of the steps
-            confirmed at each sample, NaN-padded: ``[..., 0]`` the newest step, ``[..., 1]`` the
-            released first step of a bout, (B, n, 2).
-        sample_time: time (s since the detector started) of each sample of the chunk, (n,).
-    """
-
-    state: NDArray[np.int8]
-    steps: NDArray[np.int8]
-    peak_time: NDArray[np.float64]
-    sample_time: NDArray[np.float64]
-
-    def events(self) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.float64]]:
-        """Every step of the chunk as ``(user, sample, peak_time)`` arrays, sorted by user then
-        heel-strike time; ``sample`` indexes the chunk sample that confirmed the step."""
-        b, i, j = np.nonzero(np.isfinite(self.peak_time))
-        pt = self.peak_time[b, i, j]
-        order = np.lexsort((pt, b))
-        return b[order], i[order], pt[order]
 
 
 #: Per-stream scalars of :class:`StepDetector`'s kernel (its ring buffers, whose lengths follow

@@ -5,7 +5,7 @@ step length SL in a single frame at each detected step: a 0.7 m jump twice a sec
 discontinuous visual motion that VR comfort guidelines avoid. Seed 001 (an EKF tutorial for VR
 position tracking) suggests the remedy: a filter with a motion model, predicting between
 measurements. :class:`SmoothLocomotion` is that filter; it shares eq (17)'s interface (the
-:class:`Locomotion` protocol), so the environment can use either.
+:class:`estimators.stages.Locomotion` protocol), so the environment can use either.
 
 Model (per user, per update of length dt):
 
@@ -60,7 +60,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -79,50 +78,11 @@ from estimators.validation import (
 )
 
 __all__ = [
-    "Locomotion",
     "SmoothLocomotion",
     "SmoothParams",
     "compare_locomotion",
     "make_locomotion",
 ]
-
-
-@runtime_checkable
-class Locomotion(Protocol):
-    """What the environment needs from a locomotion model (eq 17 or smooth)."""
-
-    batch_size: int
-
-    def update(
-        self, steps: ArrayLike, yaw: ArrayLike, dt: float, bearing: ArrayLike | None = None
-    ) -> NDArray[np.float64]:
-        """Advance by ``dt`` s with ``steps`` (B,) new steps and heading ``yaw`` (B,) rad;
-        return positions (B, 2) m."""
-        ...
-
-    def reset(
-        self,
-        mask: ArrayLike | None = None,
-        position: ArrayLike | None = None,
-        heading: ArrayLike | None = None,
-    ) -> None:
-        """Restart the users selected by ``mask`` (all if None)."""
-        ...
-
-    @property
-    def position(self) -> NDArray[np.float64]:
-        """Virtual positions (m), (B, 2)."""
-        ...
-
-    @property
-    def heading(self) -> NDArray[np.float64]:
-        """Heading (rad) of the motion, (B,)."""
-        ...
-
-    @property
-    def distance(self) -> NDArray[np.float64]:
-        """Path length travelled since reset (m), (B,)."""
-        ...
 
 
 @dataclass(frozen=True)

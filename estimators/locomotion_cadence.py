@@ -8,7 +8,7 @@ starting and stopping. :class:`CadenceSpeed` does the same with the simplest fre
 law, ``speed = SL x cadence`` (GUD WIP maps the frequency through a biomechanical model of real
 walking instead; with a fixed step length SL, eq (17)'s assumption, the law here is the one that
 keeps eq (17)'s distance per step). It shares eq (17)'s interface (the
-:class:`estimators.locomotion.Locomotion` protocol).
+:class:`estimators.stages.Locomotion` protocol).
 
 Per user:
 

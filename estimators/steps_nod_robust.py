@@ -75,7 +75,6 @@ from numpy.typing import ArrayLike
 from estimators.batching import TakesUsers, stream_rows
 from estimators.gait import (
     GAIT_STATE,
-    GaitChunk,
     bout_rule,
     forget_streams,
     mean_filter,
@@ -86,6 +85,7 @@ from estimators.gait import (
 from estimators.kernels import BatchKernel, param_record, state_records
 from estimators.kernels.rotations import quat_rotate
 from estimators.rotations import GRAVITY
+from estimators.stages import GaitChunk
 from estimators.steps_threshold import empty_chunk
 from estimators.validation import check_chunk, check_in_range, check_stage_args
 
@@ -303,7 +303,7 @@ class NodRobustSteps(TakesUsers):
     def update(self, acc: ArrayLike, gyr: ArrayLike, quat: ArrayLike) -> GaitChunk:
         """Consume (B, N, 3) specific force (m/s^2), (B, N, 3) angular rate (rad/s) and (B, N, 4)
         attitude ``[w, x, y, z]`` sensor -> ENU; return the
-        :class:`estimators.gait.GaitChunk` of the N samples."""
+        :class:`estimators.stages.GaitChunk` of the N samples."""
         a, g, q = check_chunk(acc, gyr, quat, self.batch_size, "NodRobustSteps")
         n = a.shape[1]
         out = empty_chunk(self.batch_size, n)

@@ -30,9 +30,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from estimators.batching import TakesUsers, stream_rows
-from estimators.gait import GaitChunk
 from estimators.kernels import BatchKernel, param_record, state_records
 from estimators.rotations import GRAVITY
+from estimators.stages import GaitChunk
 from estimators.validation import check_chunk, check_in_range, check_stage_args
 
 __all__ = [
@@ -171,7 +171,7 @@ class ThresholdSteps(TakesUsers):
 
     def update(self, acc: ArrayLike, gyr: ArrayLike, quat: ArrayLike) -> GaitChunk:
         """Consume (B, N, 3) specific force (m/s^2), (B, N, 3) angular rate and (B, N, 4)
-        attitude; return the :class:`estimators.gait.GaitChunk` of the N samples."""
+        attitude; return the :class:`estimators.stages.GaitChunk` of the N samples."""
         a, _, _ = check_chunk(acc, gyr, quat, self.batch_size, "ThresholdSteps")
         n = a.shape[1]
         out = empty_chunk(self.batch_size, n)

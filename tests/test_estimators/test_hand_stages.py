@@ -28,8 +28,9 @@ from estimators.hand import (
 from estimators.hand_adaptive import AdaptiveKalmanHand, AdaptiveKalmanHandParams
 from estimators.hand_one_euro import OneEuroHand, OneEuroHandParams
 from estimators.joint_smoothing import OneEuroFilter
+from estimators.registry import StageError
 from estimators.rotations import angle_diff
-from estimators.stages import HAND, HandStage, StageError
+from estimators.stages import HAND, HandStage
 
 FS = 30.0
 WARMUP = 30  # frames left out of the statistics (1 s), as agents/experiments/hand_variance.py

@@ -7,12 +7,12 @@ import pytest
 
 from estimators.dead_reckoning import DeadReckoning, dead_reckon
 from estimators.locomotion import (
-    Locomotion,
     SmoothLocomotion,
     SmoothParams,
     compare_locomotion,
     make_locomotion,
 )
+from estimators.stages import Locomotion
 
 SL = 0.7
 

@@ -9,9 +9,9 @@ from kernel_cases.steps import CASES as STEP_CASES
 from kernel_cases.steps import step_counts
 
 from estimators.dead_reckoning import DeadReckoning
-from estimators.locomotion import Locomotion
 from estimators.locomotion_cadence import CadenceSpeed, CadenceSpeedParams
-from estimators.stages import LOCOMOTION, StageError
+from estimators.registry import StageError
+from estimators.stages import LOCOMOTION, Locomotion
 
 SL = 0.7
 LATENCY = 0.135  # s, the gait detector's confirmation delay (as compare_locomotion)
