@@ -28,7 +28,7 @@ from agents.recordings import (
     warn,
 )
 from estimators.attitude import estimate_attitude
-from estimators.attitude_errors import orientation_errors
+from estimators.attitude.errors import orientation_errors
 from estimators.dead_reckoning import dead_reckon
 from estimators.gait import detect_steps, step_f1
 from estimators.rotations import quat_to_ypr

@@ -11,7 +11,7 @@ Each name of :data:`estimators.stages.ATTITUDE` is built as the environment buil
 force, magnetometer) in one ``update``. A stage that cannot be built (its module missing or not
 importable) is skipped with a note.
 
-Metric (:func:`estimators.attitude_errors.orientation_errors`, BROAD's definitions): RMSE (deg)
+Metric (:func:`estimators.attitude.errors.orientation_errors`, BROAD's definitions): RMSE (deg)
 over the ``movement`` samples of the earth-frame error ``q_est ⊗ conj(q_true)``: total angle,
 heading (rotation about the vertical) and inclination; no heading alignment (the optical reference
 is in the magnetometer's ENU frame). Time: wall time of the ``update`` call per sample (us), after
@@ -36,7 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
-from estimators.attitude_errors import orientation_errors
+from estimators.attitude.errors import orientation_errors
 from estimators.io_broad import broad_trials, load_broad
 from estimators.registry import StageError
 from estimators.stages import ATTITUDE

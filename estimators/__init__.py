@@ -7,10 +7,10 @@ Modules:
   and their registries of named implementations; ``"module:attr"`` plug-ins.
 * :mod:`estimators.rotations` — the one quaternion / rotation-matrix / ZYX-Euler module.
 * :mod:`estimators.attitude` — seed 000's error-state attitude EKF (streaming; offline through
-  :mod:`estimators.attitude_offline`, the forward-backward smoother);
-  :mod:`estimators.attitude_errors` — BROAD's orientation error metrics;
-  :mod:`estimators.attitude_vqf`, :mod:`estimators.attitude_madgwick`,
-  :mod:`estimators.attitude_mahony`, :mod:`estimators.attitude_gyro` — the other attitude stages.
+  :mod:`estimators.attitude.offline`, the forward-backward smoother);
+  :mod:`estimators.attitude.errors` — BROAD's orientation error metrics;
+  :mod:`estimators.attitude.vqf`, :mod:`estimators.attitude.madgwick`,
+  :mod:`estimators.attitude.mahony`, :mod:`estimators.attitude.gyro` — the other attitude stages.
 * :mod:`estimators.gait` — seed 000's still/walk and step detector; step F1;
   :mod:`estimators.steps_threshold`, :mod:`estimators.steps_nod_robust` — other step stages;
   :mod:`estimators.cadence` — cadence from step events.

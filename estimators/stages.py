@@ -576,15 +576,15 @@ ATTITUDE = Registry(
     ATTITUDE_CONTRACT,
     home="estimators.stages:ATTITUDE",
 )
-ATTITUDE.register("ekf", "estimators.attitude:EkfStage", "seed 000 error-state EKF (corrected)")
+ATTITUDE.register("ekf", "estimators.attitude.ekf:EkfStage", "seed 000 error-state EKF (corrected)")
 ATTITUDE.register(
-    "ekf_paper_literal", "estimators.attitude:paper_literal_ekf", "seed 000 EKF as printed"
+    "ekf_paper_literal", "estimators.attitude.ekf:paper_literal_ekf", "seed 000 EKF as printed"
 )
-ATTITUDE.register("ekf_f_zero", "estimators.attitude:f_zero_ekf", "corrected EKF with F = 0")
-ATTITUDE.register("vqf", "estimators.attitude_vqf:VqfStage", "VQF (Laidig & Seel), vqf package")
-ATTITUDE.register("madgwick", "estimators.attitude_madgwick:Madgwick", "Madgwick gradient descent")
-ATTITUDE.register("mahony", "estimators.attitude_mahony:Mahony", "Mahony complementary PI filter")
-ATTITUDE.register("gyro_only", "estimators.attitude_gyro:GyroOnly", "gyro integration: the floor")
+ATTITUDE.register("ekf_f_zero", "estimators.attitude.ekf:f_zero_ekf", "corrected EKF with F = 0")
+ATTITUDE.register("vqf", "estimators.attitude.vqf:VqfStage", "VQF (Laidig & Seel), vqf package")
+ATTITUDE.register("madgwick", "estimators.attitude.madgwick:Madgwick", "Madgwick gradient descent")
+ATTITUDE.register("mahony", "estimators.attitude.mahony:Mahony", "Mahony complementary PI filter")
+ATTITUDE.register("gyro_only", "estimators.attitude.gyro:GyroOnly", "gyro integration: the floor")
 
 #: Step detectors: ``factory(batch_size, fs)`` with fs the IMU rate (Hz).
 STEPS = Registry(

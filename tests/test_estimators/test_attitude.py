@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from estimators.attitude import AttitudeEKF, AttitudeParams, estimate_attitude
-from estimators.attitude_errors import orientation_errors
+from estimators.attitude.errors import orientation_errors
 from estimators.io_broad import broad_trials, load_broad
 from estimators.rotations import (
     GRAVITY,

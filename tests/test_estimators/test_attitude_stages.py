@@ -14,10 +14,11 @@ import numpy as np
 import pytest
 from _trajectories import circle_motion
 
-from estimators.attitude_errors import orientation_errors
-from estimators.attitude_gyro import GyroOnly, GyroOnlyParams, gyro_kernel
-from estimators.attitude_madgwick import Madgwick, MadgwickParams, madgwick_kernel
-from estimators.attitude_mahony import Mahony, MahonyParams, mahony_kernel
+from estimators.attitude._kernel import gyro_kernel, madgwick_kernel, mahony_kernel
+from estimators.attitude.errors import orientation_errors
+from estimators.attitude.gyro import GyroOnly, GyroOnlyParams
+from estimators.attitude.madgwick import Madgwick, MadgwickParams
+from estimators.attitude.mahony import Mahony, MahonyParams
 from estimators.rotations import (
     GRAVITY,
     quat_conjugate,
@@ -411,7 +412,7 @@ def test_params_build(params, cls):
 def test_vqf_params_reach_vqf():
     """Our fields reach ``vqf.VQF``, and our defaults are the package's own."""
     vqf = pytest.importorskip("vqf")
-    from estimators.attitude_vqf import VqfParams, VqfStage
+    from estimators.attitude.vqf import VqfParams, VqfStage
 
     stage = VqfParams(tau_acc=1.5, rest_bias_est=False).build(2, 200.0)
     assert isinstance(stage, VqfStage)
@@ -425,7 +426,7 @@ def test_vqf_params_reach_vqf():
 
 def _vqf_params():
     pytest.importorskip("vqf")
-    from estimators.attitude_vqf import VqfParams
+    from estimators.attitude.vqf import VqfParams
 
     return VqfParams
 

@@ -150,7 +150,7 @@ above (one kernel, two switches in its parameter record):
   drifts at the vertical bias rate. The Euler-angle state is singular at pitch +-90 deg, as
   printed.
 
-The per-sample loop runs in the numba kernel :mod:`estimators._attitude_numba`, one stage per
+The per-sample loop runs in the numba kernel :mod:`estimators.attitude._kernel`, one stage per
 step above; its uncompiled Python source is the readable reference. The filter state of each
 stream is a record (:attr:`AttitudeEKF.state`), the parameters a record built once from
 :class:`AttitudeParams`.
@@ -169,8 +169,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from estimators import _attitude_numba as _k
-from estimators.attitude_offline import smooth_attitude
+from estimators.attitude import _kernel as _k
 from estimators.batching import TakesUsers, stream_rows
 from estimators.kernels import param_record, state_records
 from estimators.rotations import GRAVITY, quat_to_ypr
@@ -183,10 +182,11 @@ from estimators.validation import (
 )
 
 __all__ = [
+    "MAX_GYR_NORM",
+    "MIN_ACC_NORM",
     "AttitudeEKF",
     "AttitudeParams",
     "EkfStage",
-    "estimate_attitude",
     "f_zero_ekf",
     "paper_literal_ekf",
 ]
@@ -355,7 +355,7 @@ def _make_params(params: AttitudeParams | None, overrides: dict[str, Any]) -> At
 
 def _fresh_state(n_streams: int, params: AttitudeParams) -> NDArray:
     """(B,) records of uninitialised streams for ``params`` (fields
-    :data:`estimators._attitude_numba.STATE_FIELDS`): identity attitude, zero bias, the initial
+    :data:`estimators.attitude._kernel.STATE_FIELDS`): identity attitude, zero bias, the initial
     covariance, the magnetic reference unlearned or as given, zeroed unit-guard counters."""
     state = state_records(_k.STATE_FIELDS, n_streams)
     if params.mag_ref_norm is not None:
@@ -562,7 +562,7 @@ class AttitudeEKF(TakesUsers):
     @property
     def state(self) -> np.recarray:
         """(B,) filter state, one record per stream, fields named in
-        :data:`estimators._attitude_numba.STATE_FIELDS`: ``q`` (4,) quaternion, ``b`` (3,) gyro
+        :data:`estimators.attitude._kernel.STATE_FIELDS`: ``q`` (4,) quaternion, ``b`` (3,) gyro
         bias (rad/s), ``P`` (6, 6) error-state covariance, the initialisation flags, magnetic
         reference and timers, motion level and unit-guard counters (``ekf.state.mag_norm``).
         A live view: the filter updates it in place, and writes to it reach the filter."""
@@ -628,93 +628,3 @@ def paper_literal_ekf(batch_size: int, fs: float) -> EkfStage:
 def f_zero_ekf(batch_size: int, fs: float) -> EkfStage:
     """The corrected EKF with the printed ``F = 0``, ``model="f_zero"`` (an ablation)."""
     return EkfStage(batch_size, fs, AttitudeParams(model="f_zero"))
-
-
-def estimate_attitude(
-    gyr: ArrayLike,
-    acc: ArrayLike,
-    mag: ArrayLike | None,
-    fs: float,
-    params: AttitudeParams | None = None,
-    *,
-    offline: bool = False,
-    **overrides: Any,
-) -> NDArray[np.float64]:
-    """Attitude of one recording (N, 3) or of B recordings (B, N, 3), filtered or smoothed.
-
-    ``offline=False``: the causal filter, the estimate at sample n uses samples 0..n (bit for bit
-    what :meth:`AttitudeEKF.update_batch` returns).
-
-    ``offline=True``: a forward-backward (two-filter) smoother for recordings, the estimate at
-    sample n uses the whole recording:
-
-    1. Forward pass: the filter as above, its attitude covariance kept after every sample.
-    2. Backward pass: the same compiled filter, same parameters, started afresh on the
-       time-reversed recording. The accelerometer and magnetometer samples are read in reverse;
-       the gyro is negated and shifted by one sample: the filter's model is that gyro sample n is
-       the rate over the interval from sample n-1 to n, so the step of the reversed stream that
-       arrives at sample n rotates by ``-gyr[n+1] dt`` (the first reversed sample, n = N-1, has
-       no rate: NaN, which the filter treats as a dropout). Its bias estimate converges to minus
-       the forward one and is not used.
-    3. Fusion, per sample: each pass's attitude error covariance (the 3x3 attitude block of P,
-       after that sample) is turned into the world frame, ``W = R(q) P_att R(q)^T`` (for
-       ``model="paper_literal"``, whose error state is Euler-angle errors, ``W = J P_att J^T``
-       with J the ZYX Euler-rate Jacobian). With ``d`` the rotation vector of
-       ``q_b ⊗ conj(q_f)`` (world frame, from the forward to the backward estimate), the smoothed
-       attitude is ``exp(W_f (W_f + W_b)^-1 d) ⊗ q_f``: the mean of two independent Gaussian
-       estimates of the same attitude, each weighted by the inverse of its covariance
-       (Fraser & Potter, "The optimum linear smoother as a combination of two optimum linear
-       filters", IEEE TAC 14(4), 1969), to first order in the small angle between them. A pass
-       not yet initialised at a sample (no accelerometer sample within g/2 of g yet) counts
-       there with a variance of :data:`_UNKNOWN_VAR`, and so does its heading before its first
-       magnetometer sample; where neither pass is initialised the forward estimate is kept.
-    4. Without an absolute heading (``mag=None``, or a stream in which one pass never set its
-       heading from the field) the two passes' headings have different, arbitrary origins: the
-       backward estimates are first turned about the vertical by the constant angle that maps
-       them onto the forward ones (the circular mean of the heading twist of
-       ``q_b ⊗ conj(q_f)``, weighted by ``1 / (W_f,zz + W_b,zz)``), so the smoothed heading
-       keeps the forward filter's origin (and drifts as a 6D heading does: only the
-       inclination of a 6D estimate is meaningful).
-
-    Assumptions: the filter's covariance describes its error (first-order Gaussian errors;
-    where the filter inflates R in motion or rejects the field, its covariance grows and the
-    other pass takes over); the two passes are independent, although both use sample n itself
-    (one sample of N, each carrying little information: ``R = sigma^2 / dt``); only the
-    attitude marginals are fused (the passes' bias information enters through their attitude
-    covariances). Cost: the covariance is read after every sample, so each pass makes one
-    kernel call per sample (measured: 2-3 us per sample and pass on an idle core, some 25 times
-    the causal filter's 0.2 us in one call).
-
-    Args:
-        gyr: angular rate, rad/s, sensor frame, (N, 3) or (B, N, 3).
-        acc: specific force, m/s^2, same shape.
-        mag: magnetic field in any fixed unit (uT in our data), same shape, or None for 6D
-            (heading then starts at 0 and drifts with the gyro).
-        fs: sampling rate, Hz.
-        params: filter parameters (defaults: :class:`AttitudeParams`).
-        offline: smooth the whole recording (forward-backward, above) instead of filtering.
-        **overrides: fields of :class:`AttitudeParams` to change, e.g. ``declination=0.05``.
-
-    Returns:
-        Quaternions ``[w, x, y, z]`` rotating sensor to ENU, (N, 4) or (B, N, 4); bit-for-bit
-        reproducible for the same input, parameters and machine, in both modes.
-    """
-    g = check_xyz(gyr, "gyr", None)
-    if g.ndim not in (2, 3):
-        raise ValueError(f"gyr must have shape (N, 3) or (B, N, 3), got {g.shape}")
-    single = g.ndim == 2
-    if single:
-        g = g[None]
-    a = check_xyz(acc, "acc", None)
-    a = a[None] if single and a.ndim == 2 else a
-    if a.shape != g.shape:
-        raise ValueError(f"acc must have the shape of gyr {g.shape[single:]}, got {a.shape}")
-    m = None
-    if mag is not None:
-        m = check_xyz(mag, "mag", None)
-        m = m[None] if single and m.ndim == 2 else m
-        if m.shape != g.shape:
-            raise ValueError(f"mag must have the shape of gyr {g.shape[single:]}, got {m.shape}")
-    ekf = AttitudeEKF(g.shape[0], fs, params, **overrides)
-    out = smooth_attitude(ekf, g, a, m) if offline else ekf.update_batch(g, a, m)
-    return out[0] if single else out
