@@ -27,11 +27,12 @@ from agents.recordings import (
     read_recording,
     warn,
 )
+from agents.step_matching import step_f1
 from estimators.attitude import estimate_attitude
 from estimators.attitude.errors import orientation_errors
 from estimators.dead_reckoning import dead_reckon
-from estimators.gait import detect_steps, step_f1
 from estimators.rotations import quat_to_ypr
+from estimators.steps import detect_steps
 
 __all__ = ["estimate_recording"]
 
@@ -129,7 +130,7 @@ def estimate_recording(
         ``attitude_vs_reference`` (BROAD: total, inclination and heading RMSE in deg against
         ``opt_quat`` over the ``movement`` samples; the heading offset is removed first for 6D
         data) or ``steps_vs_foot_switches`` (Oxford: true and false positives, misses,
-        precision, recall and F1 within +-0.2 s, :func:`estimators.gait.step_f1`).
+        precision, recall and F1 within +-0.2 s, :func:`agents.step_matching.step_f1`).
 
     Raises:
         ValueError: a malformed recording, or ``step_length`` outside [0.2, 1.5] m (the range

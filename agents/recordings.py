@@ -55,8 +55,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from estimators.attitude import MAX_GYR_NORM, MIN_ACC_NORM
-from estimators.gait import GaitParams
 from estimators.rotations import GRAVITY
+from estimators.steps import GaitParams
 
 __all__ = [
     "GAP_INTERVALS",

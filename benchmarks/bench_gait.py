@@ -7,9 +7,9 @@ Run from the repository root::
 
 Prints:
 
-* the cost of :class:`estimators.gait.StepDetector` per user-sample for the environment's shape
-  (B = 256 users x 10 samples per control step at 100 Hz), and for 8 users compiled and with its
-  kernel uncompiled (:func:`estimators.kernels.python_reference`);
+* the cost of :class:`estimators.steps.zhang2021.StepDetector` per user-sample for the environment's
+  shape (B = 256 users x 10 samples per control step at 100 Hz), and for 8 users compiled and with
+  its kernel uncompiled (:func:`estimators.kernels.python_reference`);
 * F1 (+-0.2 s) and phantom steps on the simulator's scripted motions (``vrloco_env.user.motion`` +
   ``vrloco_env.sensors.imu``), if the environment package is importable;
 * the Oxford neck-pouch walk (CC-BY-4.0, Oxford-step-counter/DataSet) with both presets, if
@@ -29,10 +29,11 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from estimators.gait import GaitParams, StepDetector, detect_steps, step_f1
+from agents.step_matching import step_f1
 from estimators.kernels import python_reference
 from estimators.locomotion import compare_locomotion
 from estimators.rotations import GRAVITY
+from estimators.steps import GaitParams, StepDetector, detect_steps
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 

@@ -11,9 +11,9 @@ Modules:
   :mod:`estimators.attitude.errors` — BROAD's orientation error metrics;
   :mod:`estimators.attitude.vqf`, :mod:`estimators.attitude.madgwick`,
   :mod:`estimators.attitude.mahony`, :mod:`estimators.attitude.gyro` — the other attitude stages.
-* :mod:`estimators.gait` — seed 000's still/walk and step detector; step F1;
-  :mod:`estimators.steps_threshold`, :mod:`estimators.steps_nod_robust` — other step stages;
-  :mod:`estimators.cadence` — cadence from step events.
+* :mod:`estimators.steps.zhang2021` — seed 000's still/walk and step detector; step F1;
+  :mod:`estimators.steps.threshold`, :mod:`estimators.steps.nod_robust` — other step stages;
+  :mod:`estimators.steps.cadence` — cadence from step events.
 * :mod:`estimators.steering` — head and torso steering, the torso's yaw from the shoulders.
 * :mod:`estimators.dead_reckoning` — seed 000's eq (17) virtual path.
 * :mod:`estimators.locomotion` — seed 001's smooth-locomotion filter (continuous virtual motion);

@@ -13,10 +13,11 @@ alternative with the same interface.
 
 Decisions:
 
-* A "step event" is what the gait detector reports (:class:`estimators.gait.StepDetector`): only
-  accepted walking steps, so "still" needs no separate input — a sample without a step leaves P
-  unchanged, as eq (17)'s still branch does. The detector may confirm two steps at one sample
-  (the first step of a bout is released with the second), so ``steps`` is a count, not a flag.
+* A "step event" is what the gait detector reports
+  (:class:`estimators.steps.zhang2021.StepDetector`): only accepted walking steps, so "still" needs
+  no separate input — a sample without a step leaves P unchanged, as eq (17)'s still branch does.
+  The detector may confirm two steps at one sample (the first step of a bout is released with the
+  second), so ``steps`` is a count, not a flag.
 * psi_t is the heading given with the update that carries the step; in streaming use that is the
   yaw estimate when the step is *confirmed* (the detector's latency after the heel strike), the
   best a causal system has.

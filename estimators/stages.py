@@ -594,10 +594,10 @@ STEPS = Registry(
     STEPS_CONTRACT,
     home="estimators.stages:STEPS",
 )
-STEPS.register("seed000", "estimators.gait:Seed000Steps", "seed 000 eqs 15-16 on |f|")
-STEPS.register("threshold", "estimators.steps_threshold:ThresholdSteps", "naive |f| peak picker")
+STEPS.register("seed000", "estimators.steps.zhang2021:Seed000Steps", "seed 000 eqs 15-16 on |f|")
+STEPS.register("threshold", "estimators.steps.threshold:ThresholdSteps", "naive |f| peak picker")
 STEPS.register(
-    "nod_robust", "estimators.steps_nod_robust:NodRobustSteps",
+    "nod_robust", "estimators.steps.nod_robust:NodRobustSteps",
     "world-vertical specific force, gated by head rotation",
 )  # fmt: skip
 

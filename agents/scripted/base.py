@@ -16,11 +16,11 @@ hand_roll_rate]`` (:mod:`vrloco_env.actions`).
 
 The walk gate. Walking-in-place steps cannot be stopped at will: a started step is finished, and
 the gait detector reports the first step of a bout only together with the second
-(:mod:`estimators.gait`), so the shortest walk moves the body two step lengths at once. The users
-start walking only when the way ahead is free for ``go_steps`` step lengths (or up to the goal
-region) and stop as soon as it is free for fewer than ``stop_steps``. After a stop the step under
-way still lands, along whatever heading the body has when the detector reports it, so the users
-hold their heading until then (``settle_steps``).
+(:mod:`estimators.steps.zhang2021`), so the shortest walk moves the body two step lengths at once.
+The users start walking only when the way ahead is free for ``go_steps`` step lengths (or up to the
+goal region) and stop as soon as it is free for fewer than ``stop_steps``. After a stop the step
+under way still lands, along whatever heading the body has when the detector reports it, so the
+users hold their heading until then (``settle_steps``).
 
 The head. With a user population that turns the head on the torso (gaze,
 :mod:`vrloco_env.user.behaviour`) the view — heading, bearing, rays — follows the head, while the
@@ -121,7 +121,7 @@ class PolicyParams:
             step length ahead whatever the user does; 1.3 leaves 0.2 m).
         settle_steps: after stopping, hold the heading for up to this many control steps until
             the step under way is detected (8 = 0.8 s at 10 Hz: a step at 1.7 steps/s lasts
-            0.59 s and is detected 0.135 s after its heel strike, ``estimators.gait``).
+            0.59 s and is detected 0.135 s after its heel strike, ``estimators.steps.zhang2021``).
         candidate_step_deg: spacing of the headings considered (deg).
         turn_cost_m: the goal seeker charges this many metres of way per radian of turning,
             so it does not swing round for a marginally shorter way.

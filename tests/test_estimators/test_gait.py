@@ -15,10 +15,11 @@ from hypothesis import strategies as st
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import maximum_bipartite_matching
 
+from agents.step_matching import step_f1
 from estimators.dead_reckoning import DeadReckoning
-from estimators.gait import GaitParams, StepDetector, detect_steps, step_f1
 from estimators.io_oxford import DEFAULT_RECORDING, foot_switch_steps, load_oxford
 from estimators.rotations import GRAVITY, quat_from_ypr, quat_rotate, quat_rotate_inverse
+from estimators.steps import GaitParams, StepDetector, detect_steps
 
 FS = 100.0
 UP = 10  # fine-grid oversampling for the physics

@@ -17,11 +17,18 @@ import pytest
 from kernel_cases.steps import CASES as STEP_CASES
 
 from agents.experiments.head_motions import CADENCES, PRESETS, Trial, run_trial, sense_record
-from estimators.gait import GaitParams, Seed000Steps, StepDetector, step_f1
+from agents.step_matching import step_f1
 from estimators.rotations import GRAVITY, quat_from_ypr, quat_rotate_inverse
 from estimators.stages import STEPS, GaitChunk, StepStage
-from estimators.steps_nod_robust import NodRobustParams, NodRobustSteps
-from estimators.steps_threshold import ThresholdParams, ThresholdSteps
+from estimators.steps import (
+    GaitParams,
+    NodRobustParams,
+    NodRobustSteps,
+    Seed000Steps,
+    StepDetector,
+    ThresholdParams,
+    ThresholdSteps,
+)
 from vrloco_env.batch_rng import BatchRng
 from vrloco_env.user import Intent, MotionParams, MotionRecord, UserMotion
 

@@ -80,37 +80,28 @@ the walk is 0.15 g both ways, and scores TP 244, FP 3, misses 4 (F1 0.986) on th
 together. On the simulator's scripted motions (32 users, both IMU presets) the default finds
 every step (F1 1.000) and no phantom step.
 
-Offline use (:func:`detect_steps`): timestamps may be irregular (a phone at ~405 Hz); the norm is
-averaged over the bins of a uniform grid at ``fs`` (the exact mean of the linearly interpolated
-norm over each bin, an anti-alias box filter), then runs through the streaming detector.
+Offline use: :func:`estimators.steps.offline.detect_steps` runs this detector over one recording
+with irregular timestamps.
+
+The per-sample loop is the compiled kernel :data:`estimators.steps._kernel.gait_kernel`, whose
+stages the world-vertical detector of :mod:`estimators.steps.nod_robust` shares.
 """
 
 from __future__ import annotations
 
-import dataclasses
-import math
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import linear_sum_assignment
 
 from estimators.batching import TakesUsers, stream_rows
-from estimators.kernels import BatchKernel, param_record, state_records
+from estimators.kernels import param_record, state_records
 from estimators.rotations import GRAVITY
 from estimators.stages import GaitChunk
+from estimators.steps._kernel import GAIT_STATE, forget_streams, gait_kernel
 from estimators.validation import check_in_range, check_numeric
 
-__all__ = [
-    "GaitParams",
-    "GaitResult",
-    "Seed000Steps",
-    "StepDetector",
-    "bin_average",
-    "detect_steps",
-    "step_f1",
-]
+__all__ = ["GaitParams", "Seed000Steps", "StepDetector"]
 
 
 @dataclass(frozen=True)
@@ -181,144 +172,6 @@ class GaitParams:
     def build(self, batch_size: int, fs: float) -> Seed000Steps:
         """The :class:`Seed000Steps` stage with these parameters."""
         return Seed000Steps(batch_size, fs, self)
-
-
-#: Per-stream scalars of :class:`StepDetector`'s kernel (its ring buffers, whose lengths follow
-#: the rate, are (B, M) and (B, 2h + 1) arrays beside it): the last finite norm, the baseline
-#: (m/s^2), the samples seen, the last peak, the pending first peak of a bout and the last step
-#: (s; -inf / NaN: none).
-GAIT_STATE = {
-    "last_valid": (), "baseline": (), "n_seen": (), "last_peak": (), "pending": (),
-    "last_step": (),
-}  # fmt: skip
-
-
-def forget_streams(
-    state: NDArray, clock: NDArray[np.int64], sel: ArrayLike, gravity: float
-) -> None:
-    """Start the streams ``sel`` of a seed-000-family detector afresh: the :data:`GAIT_STATE`
-    fields of ``state`` and their ``clock`` (samples since the reset)."""
-    state["last_valid"][sel] = np.nan
-    state["baseline"][sel] = gravity
-    state["n_seen"][sel] = 0.0
-    state["last_peak"][sel] = -np.inf
-    state["pending"][sel] = np.nan
-    state["last_step"][sel] = -np.inf
-    clock[sel] = 0
-
-
-# Stages shared by the detectors of seed 000's family (this one and
-# :mod:`estimators.steps_nod_robust`): ``s`` is a stream's state record, ``p`` the parameter record
-# (a step-parameter dataclass's fields plus ``fs``, ``base_n`` and ``latency``).
-
-
-@numba.njit(cache=True, inline="always")
-def running_baseline(s, p, x):
-    """Move the baseline toward sample ``x`` (after ``n_seen`` counted it): a cumulative mean,
-    then an exponential one of ``base_n`` samples, within ``gravity +- baseline_limit``; a fixed
-    gravity where ``base_n`` is 0."""
-    if p["base_n"] > 0.0:
-        alpha = max(1.0 / s["n_seen"], 1.0 / p["base_n"])
-        g0 = s["baseline"] + alpha * (x - s["baseline"])
-        g, lim = p["gravity"], p["baseline_limit"]
-        s["baseline"] = min(max(g0, g - lim), g + lim)
-
-
-@numba.njit(cache=True, inline="always")
-def mean_filter(raw, smooth, k, x):
-    """Sample ``x`` of global index ``k`` into the ring ``raw`` (M), and the mean of its last M
-    samples into the ring ``smooth`` (causal mean filter)."""
-    m = raw.size
-    raw[k % m] = x
-    s = 0.0
-    for j in range(m):
-        s += raw[j]
-    smooth[k % smooth.size] = s / m
-
-
-@numba.njit(cache=True, inline="always")
-def window_max(smooth, c, h):
-    """Is sample ``c`` of the ring ``smooth`` (2h + 1) the maximum of its centred window: strictly
-    above the h samples before it, at least the h after it (a flat top gives one peak)?"""
-    w = smooth.size
-    v = smooth[c % w]
-    for j in range(1, h + 1):
-        if smooth[(c - j) % w] >= v or smooth[(c + j) % w] > v:
-            return False
-    return True
-
-
-@numba.njit(cache=True, inline="always")
-def bout_rule(s, p, t, steps, peak_t, i):
-    """Seed 000's bout rule for a peak at ``t`` (s), confirmed at chunk sample ``i``: ignored
-    within ``min_step_interval`` of the last peak; a step, with the pending first peak of the bout
-    released beside it, within ``gamma_t``; else the pending first peak of a new bout. Fills row
-    ``i`` of ``steps`` (n,) and ``peak_t`` (n, 2)."""
-    dt = t - s["last_peak"]
-    if dt >= p["min_step_interval"]:
-        if dt <= p["gamma_t"]:
-            steps[i] = 1
-            peak_t[i, 0] = t
-            if math.isfinite(s["pending"]):
-                steps[i] = 2
-                peak_t[i, 1] = s["pending"]
-                s["pending"] = math.nan
-            s["last_step"] = t
-        else:
-            s["pending"] = t
-        s["last_peak"] = t
-
-
-@numba.njit(cache=True, inline="always")
-def walking(s, p, k):
-    """The still (0) / walk (1) state at sample ``k``: walk until ``gamma_t`` after the last
-    step's peak, on the peak time axis (``latency`` after the fact)."""
-    return 1 if k / p["fs"] - p["latency"] - s["last_step"] <= p["gamma_t"] else 0
-
-
-def _gait_run(norm, k0, prm, state, raw_buf, sm_buf, out):
-    """Run the detector over a chunk ``norm`` (B, n) of specific-force norms (m/s^2).
-
-    Streams outside, samples inside. ``k0`` (B,) is each stream's index of the chunk's first sample,
-    counted from the stream's reset (sample k is at time k / fs); ``prm`` the (1,) parameter record
-    (:class:`GaitParams`' fields, ``fs``, ``base_n``, the baseline time constant in samples, 0:
-    fixed gravity, and ``latency``); ``state`` the (B,) records of :data:`GAIT_STATE` and the ring
-    buffers ``raw_buf`` (B, M) and ``sm_buf`` (B, 2h + 1), updated in place; ``out`` the chunk's
-    ``(state, steps, peak_time)`` arrays (B, n), (B, n), (B, n, 2), filled.
-    """
-    out_state, out_steps, out_peak_t = out
-    p = prm[0]
-    nb, n = norm.shape
-    m = raw_buf.shape[1]
-    h = (sm_buf.shape[1] - 1) // 2
-    delay = 0.5 * (m - 1)
-    for b in numba.prange(nb):
-        s = state[b]
-        raw, sm = raw_buf[b], sm_buf[b]
-        for i in range(n):
-            k = k0[b] + i
-            x = norm[b, i]
-            if not math.isfinite(x):
-                x = s["last_valid"] if math.isfinite(s["last_valid"]) else p["gravity"]
-            s["last_valid"] = x
-            if s["n_seen"] == 0.0:  # fresh stream: start both filters and the baseline at x
-                raw[:] = x
-                sm[:] = x
-                s["baseline"] = p["gravity"] if p["base_n"] <= 0.0 else x
-            s["n_seen"] += 1.0
-            running_baseline(s, p, x)
-            mean_filter(raw, sm, k, x)
-            # Is the sample h back a peak: the maximum of its centred window, gamma above the
-            # baseline?
-            if s["n_seen"] > h:
-                c = k - h
-                if sm[c % sm.size] - s["baseline"] >= p["gamma"] and window_max(sm, c, h):
-                    bout_rule(s, p, (c - delay) / p["fs"], out_steps[b], out_peak_t[b], i)
-            out_state[b, i] = walking(s, p, k)
-
-
-#: The compiled detector: ``_gait_kernel(batch_size)(...)`` (see ``_gait_run``).
-_gait_kernel = BatchKernel(_gait_run, parallel=False)
 
 
 class StepDetector(TakesUsers):
@@ -431,209 +284,12 @@ class StepDetector(TakesUsers):
         b = self.batch_size
         n = x.shape[1]
         out = (np.zeros((b, n), np.int8), np.zeros((b, n), np.int8), np.full((b, n, 2), np.nan))
-        _gait_kernel(b)(x, self._clock, self._prm, self._state, self._raw, self._sm, out)
+        gait_kernel(b)(x, self._clock, self._prm, self._state, self._raw, self._sm, out)
         state, steps, peak_t = out
         t = (self.samples_seen + np.arange(n)) / self.fs
         self.samples_seen += n
         self._clock += n
         return GaitChunk(state=state, steps=steps, peak_time=peak_t, sample_time=t)
-
-
-@dataclass
-class GaitResult:
-    """Steps and still/walk state of one recording (see :func:`detect_steps`).
-
-    Attributes:
-        step_times: estimated heel-strike times (s, the clock of the input ``t``), sorted, (S,).
-        step_index: index of the input sample nearest each step, (S,).
-        confirm_times: when a streaming detector would have reported each step (s), (S,).
-        state: 0 still, 1 walk, per input sample, (n,) int8. Non-causal: walk from half a step
-            interval before a bout's first step to half an interval after its last step (a bout:
-            steps with neighbours at most ``gamma_t`` apart).
-        fs: rate (Hz) of the uniform grid the detector ran at.
-        params: the parameters used.
-    """
-
-    step_times: NDArray[np.float64]
-    step_index: NDArray[np.intp]
-    confirm_times: NDArray[np.float64]
-    state: NDArray[np.int8]
-    fs: float
-    params: GaitParams
-
-
-def bin_average(t: NDArray[np.float64], x: NDArray[np.float64], grid: NDArray[np.float64],
-                 fs: float) -> NDArray[np.float64]:  # fmt: skip
-    """Mean of the linearly interpolated x(t) over the bins [grid - 0.5/fs, grid + 0.5/fs]."""
-    if t.size == 1:
-        return np.full(grid.shape, x[0])
-    cum = np.concatenate([[0.0], np.cumsum(0.5 * (x[1:] + x[:-1]) * np.diff(t))])
-    edges = np.clip(np.concatenate([grid - 0.5 / fs, [grid[-1] + 0.5 / fs]]), t[0], t[-1])
-    width = np.diff(edges)
-    mean = np.diff(np.interp(edges, t, cum)) / np.where(width > 0, width, 1.0)
-    # A bin entirely outside [t0, t_end] (zero width after clipping) takes the nearest value.
-    return np.where(width > 0, mean, np.interp(grid, t, x))
-
-
-def detect_steps(
-    t: ArrayLike,
-    acc: ArrayLike,
-    *,
-    fs: float = 100.0,
-    params: GaitParams | None = None,
-    **overrides: float,
-) -> GaitResult:
-    """Detect the steps of one recording, offline.
-
-    Args:
-        t: sample timestamps (s), (n,), non-decreasing (irregular spacing allowed; samples
-            sharing a timestamp are merged into their mean).
-        acc: specific force (m/s^2), (n, 3); rows with a NaN are ignored (the norm is
-            interpolated across them).
-        fs: rate (Hz) of the uniform grid the norm is averaged onto before detection, in
-            [10, 2000]; 100 Hz, the simulator's IMU rate, by default.
-        params: detector parameters (defaults: :class:`GaitParams`, head-worn).
-        **overrides: fields of :class:`GaitParams` replacing those of ``params``.
-
-    Returns:
-        A :class:`GaitResult`. Peaks in the last ``latency`` seconds are still evaluated: the
-        stream is padded with the baseline after its end.
-
-    Raises:
-        ValueError: bad shapes, non-finite or decreasing timestamps, fewer than 2 valid
-            samples, or an invalid parameter.
-    """
-    params = GaitParams() if params is None else params
-    if not isinstance(params, GaitParams):
-        raise ValueError(f"params must be a GaitParams, got {type(params).__name__}")
-    if overrides:
-        names = {f.name for f in dataclasses.fields(GaitParams)}
-        unknown = sorted(set(overrides) - names)
-        if unknown:
-            raise ValueError(f"unknown GaitParams field(s) {unknown}; choose from {sorted(names)}")
-        params = dataclasses.replace(params, **overrides)
-    tt = check_numeric(t, "t")
-    a = check_numeric(acc, "acc")
-    if tt.ndim != 1 or tt.size < 2:
-        raise ValueError(f"t must have shape (n,) with n >= 2, got {tt.shape}")
-    if a.shape != (tt.size, 3):
-        raise ValueError(f"acc must have shape ({tt.size}, 3) to match t, got {a.shape}")
-    if not np.all(np.isfinite(tt)):
-        raise ValueError("t contains NaN or infinite timestamps")
-    d = np.diff(tt)
-    if np.any(d < 0.0):
-        k = int(np.argmax(d < 0.0))
-        raise ValueError(
-            f"t runs backwards: t[{k + 1}]={float(tt[k + 1])!r} < t[{k}]={float(tt[k])!r} "
-            "(timestamps must not decrease; equal ones are merged)"
-        )
-    norm = np.linalg.norm(a, axis=1)
-    ok = np.isfinite(norm)
-    if ok.sum() < 2:
-        raise ValueError("acc must hold at least 2 finite samples")
-    # Samples sharing a timestamp (a logger writing two rows for one tick) are one sample: the
-    # mean of their finite norms.
-    t_ok, norm_ok = tt[ok], norm[ok]
-    if np.any(np.diff(t_ok) == 0.0):
-        t_ok, inverse = np.unique(t_ok, return_inverse=True)
-        norm_ok = np.bincount(inverse, weights=norm_ok) / np.bincount(inverse)
-    if t_ok.size < 2 or t_ok[-1] <= t_ok[0]:
-        raise ValueError("acc must hold finite samples at at least 2 distinct times")
-    det = StepDetector(1, fs, params)
-    grid = tt[0] + np.arange(int(np.floor((tt[-1] - tt[0]) * det.fs)) + 1) / det.fs
-    x = bin_average(t_ok, norm_ok, grid, det.fs)
-    out = det.update_norm(x[None, :])
-    pad = det.h + det.m
-    tail = det.update_norm(np.full((1, pad), det.baseline[0]))
-    _, i0, p0 = out.events()
-    _, i1, p1 = tail.events()
-    peak = np.concatenate([p0, p1])
-    conf = np.concatenate([out.sample_time[i0], tail.sample_time[i1]])
-    order = np.argsort(peak)
-    step_times = tt[0] + peak[order]
-    confirm = tt[0] + conf[order]
-    idx = np.clip(np.searchsorted(tt, step_times), 1, tt.size - 1)
-    idx = np.where(np.abs(tt[idx - 1] - step_times) <= np.abs(tt[idx] - step_times), idx - 1, idx)
-    return GaitResult(
-        step_times=step_times,
-        step_index=idx.astype(np.intp),
-        confirm_times=confirm,
-        state=_bout_state(tt, step_times, params.gamma_t),
-        fs=det.fs,
-        params=params,
-    )
-
-
-def _bout_state(t: NDArray[np.float64], steps: NDArray[np.float64], gamma_t: float
-                ) -> NDArray[np.int8]:  # fmt: skip
-    """Non-causal walk mask over times ``t`` from sorted step times (see GaitResult.state)."""
-    state = np.zeros(t.size, dtype=np.int8)
-    if steps.size < 2:
-        return state
-    gaps = np.diff(steps)
-    breaks = np.flatnonzero(gaps > gamma_t)
-    starts = np.concatenate([[0], breaks + 1])
-    ends = np.concatenate([breaks, [steps.size - 1]])
-    for s, e in zip(starts, ends, strict=True):  # one iteration per walking bout
-        if e == s:
-            continue
-        half = 0.5 * float(np.median(gaps[s:e]))
-        lo, hi = np.searchsorted(t, [steps[s] - half, steps[e] + half])
-        state[lo:hi] = 1
-    return state
-
-
-def step_f1(
-    detected_times: ArrayLike, true_times: ArrayLike, tol: float = 0.2
-) -> tuple[float, float, float]:
-    """Precision, recall and F1 of detected steps against true steps.
-
-    Matching is one-to-one: each true step is matched to at most one detection and vice versa,
-    and only pairs at most ``tol`` seconds apart may match. Among such matchings we take one with
-    the most pairs (and, among those, the least total time error): the Hungarian algorithm
-    (``scipy.optimize.linear_sum_assignment``) on the cost |t_det - t_true|, with pairs beyond
-    ``tol`` priced above any sum of allowed ones. Clusters of times separated by more than
-    ``tol`` cannot share a pair, so each cluster is matched on its own (linear cost overall).
-
-    Args:
-        detected_times: detected step times (s), (D,).
-        true_times: true step times (s), (T,).
-        tol: largest allowed time error (s), > 0.
-
-    Returns:
-        ``(precision, recall, f1)``. Conventions for empty inputs: no detections gives precision
-        1 (no false alarm); no true steps gives recall 1 (nothing missed); F1 is 1 only when both
-        are empty and otherwise 2 P R / (P + R), 0 when P + R = 0.
-    """
-    det = check_numeric(detected_times, "detected_times").ravel()
-    tru = check_numeric(true_times, "true_times").ravel()
-    if not (np.all(np.isfinite(det)) and np.all(np.isfinite(tru))):
-        raise ValueError("detected_times and true_times must be finite (s)")
-    if not (math.isfinite(tol) and tol > 0.0):
-        raise ValueError(f"tol must be > 0 s, got {tol!r}")
-    if det.size == 0 and tru.size == 0:
-        return 1.0, 1.0, 1.0
-    matched = 0
-    if det.size and tru.size:
-        # No allowed pair spans a gap > tol in the merged, sorted times: match each cluster alone.
-        times = np.concatenate([det, tru])
-        is_det = np.concatenate([np.ones(det.size, bool), np.zeros(tru.size, bool)])
-        order = np.argsort(times, kind="stable")
-        times, is_det = times[order], is_det[order]
-        cuts = np.flatnonzero(np.diff(times) > tol) + 1
-        for seg_t, seg_d in zip(np.split(times, cuts), np.split(is_det, cuts), strict=True):
-            dd, tr = seg_t[seg_d], seg_t[~seg_d]
-            if dd.size == 0 or tr.size == 0:
-                continue
-            cost = np.abs(dd[:, None] - tr[None, :])
-            allowed = cost <= tol
-            big = 1.0 + tol * (min(dd.size, tr.size) + 1)
-            r, c = linear_sum_assignment(np.where(allowed, cost, big))
-            matched += int(np.count_nonzero(allowed[r, c]))
-    precision = matched / det.size if det.size else 1.0
-    recall = matched / tru.size if tru.size else 1.0
-    f1 = 2 * precision * recall / (precision + recall) if precision + recall > 0 else 0.0
-    return float(precision), float(recall), float(f1)
 
 
 class Seed000Steps(TakesUsers):

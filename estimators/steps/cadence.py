@@ -6,51 +6,23 @@ previous interval); without steps it decays exponentially with time constant ``t
 falls toward zero while the user stands. The estimate is capped at 4 steps/s, above any human
 stepping rate (about 3.5 steps/s at most).
 
-:func:`cadence_kernel` is the one implementation (compiled; ``cadence_kernel.py_func`` is the
-readable reference); :class:`CadenceEstimator` holds its state for B users.
+:data:`estimators.steps._kernel.cadence_kernel` is the one implementation (compiled;
+``cadence_kernel.py_func`` is the readable reference); :class:`CadenceEstimator` holds its state
+for B users.
 """
 
 from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from estimators.batching import TakesUsers, stream_rows
-from estimators.kernels import BatchKernel, param_record, state_records
+from estimators.kernels import param_record, state_records
+from estimators.steps._kernel import CADENCE_STATE, cadence_kernel
 
-__all__ = ["MAX_CADENCE", "CadenceEstimator", "cadence_kernel"]
-
-#: Largest cadence reported (steps/s).
-MAX_CADENCE = 4.0
-
-
-#: Per-user state of :func:`cadence_kernel`: time since the last step (s, inf before any) and
-#: the cadence (steps/s).
-CADENCE_STATE = {"since_step": (), "cadence": ()}
-
-
-def _cadence_run(steps, dt, prm, state):
-    """One update of length ``dt`` (s) with ``steps`` (B,) new steps; ``prm`` the (1,) record of
-    ``tau_s`` (s), ``state`` the (B,) records of :data:`CADENCE_STATE`, updated in place."""
-    decay = math.exp(-dt / prm[0]["tau_s"])
-    for b in numba.prange(steps.shape[0]):
-        s = state[b]
-        n = steps[b]
-        since = s["since_step"] + dt
-        if n > 0.0 and math.isfinite(since):
-            c = n / max(since, dt)
-        else:
-            c = s["cadence"] * decay
-        s["cadence"] = min(c, MAX_CADENCE)
-        s["since_step"] = 0.0 if n > 0.0 else since
-
-
-#: The compiled update: ``cadence_kernel(batch_size)(...)`` (see ``_cadence_run``).
-cadence_kernel = BatchKernel(_cadence_run, parallel=False)
-
+__all__ = ["CadenceEstimator"]
 
 class CadenceEstimator(TakesUsers):
     """The cadence of B users from their detected steps per control step.

@@ -1,8 +1,8 @@
 """Steps from the world-vertical specific force, with peaks that head rotation can explain vetoed.
 
-Seed 000's detector (:mod:`estimators.gait`) reads the norm ``|f|``: a heel strike lifts it, but
-so does any head rotation, because the IMU sits some centimetres from the head's pivot and turning
-the head accelerates it (centripetal ``w x (w x r)`` and tangential ``alpha x r``). A nod of
+Seed 000's detector (:mod:`estimators.steps.zhang2021`) reads the norm ``|f|``: a heel strike lifts
+it, but so does any head rotation, because the IMU sits some centimetres from the head's pivot and
+turning the head accelerates it (centripetal ``w x (w x r)`` and tangential ``alpha x r``). A nod of
 +-30 deg at 1 Hz lifts ``|f|`` by 2.7 m/s^2, four times the detector's gamma, and looking around
 quickly (+-70 deg of yaw at 1 Hz) lifts it too. This detector uses the attitude estimate and the
 gyro to separate the two:
@@ -33,8 +33,8 @@ gyro to separate the two:
    not a step. The bound needs no head model beyond a length; a heel strike during a slow nod
    still counts when it rises above what the nod can add.
 
-Chosen values. Everything of step 2 is :class:`estimators.gait.GaitParams`' defaults (same
-reasons; a heel strike lifts ``v`` as much as ``|f|``), so walking is detected as seed 000
+Chosen values. Everything of step 2 is :class:`estimators.steps.zhang2021.GaitParams`' defaults
+(same reasons; a heel strike lifts ``v`` as much as ``|f|``), so walking is detected as seed 000
 detects it. ``lever_arm`` 0.20 m: a stated bound on the distance from the upper neck (the head's
 pivot for nods) to a forehead or headset IMU, a little above the 15 cm of the simulated user (9 cm
 ahead of and 12 cm above the pivot). It was checked, not fitted, on development seeds 0-2 of
@@ -59,37 +59,31 @@ stepping costs nothing (F1 1.000).
 Latency: that of seed 000 (``(h + (M - 1)/2) / fs``, 0.135 s at 100 Hz). Non-finite samples: a
 specific-force sample or attitude that is not finite takes the previous ``v`` (gravity before
 any); a gyro sample or attitude that is not finite takes the previous world rate (zero before
-any). The per-sample loop is the compiled kernel :func:`nod_robust_kernel` (loop over streams
-inside; ``nod_robust_kernel.py_func`` is its readable uncompiled source).
+any). The per-sample loop is the compiled kernel
+:data:`estimators.steps._kernel.nod_robust_kernel` (loop over streams inside;
+``nod_robust_kernel.py_func`` is its readable uncompiled source).
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 from numpy.typing import ArrayLike
 
 from estimators.batching import TakesUsers, stream_rows
-from estimators.gait import (
-    GAIT_STATE,
-    bout_rule,
-    forget_streams,
-    mean_filter,
-    running_baseline,
-    walking,
-    window_max,
-)
-from estimators.kernels import BatchKernel, param_record, state_records
-from estimators.kernels.rotations import quat_rotate
+from estimators.kernels import param_record, state_records
 from estimators.rotations import GRAVITY
 from estimators.stages import GaitChunk
-from estimators.steps_threshold import empty_chunk
+from estimators.steps._kernel import (
+    NOD_ROBUST_STATE,
+    empty_chunk,
+    forget_streams,
+    nod_robust_kernel,
+)
 from estimators.validation import check_chunk, check_in_range, check_stage_args
 
-__all__ = ["NodRobustParams", "NodRobustSteps", "nod_robust_kernel"]
+__all__ = ["NodRobustParams", "NodRobustSteps"]
 
 
 @dataclass(frozen=True)
@@ -97,7 +91,7 @@ class NodRobustParams:
     """Parameters of :class:`NodRobustSteps` (see the module docstring for the choices).
 
     Every field is validated on construction. The first eight are those of
-    :class:`estimators.gait.GaitParams`, applied to the world-vertical specific force.
+    :class:`estimators.steps.zhang2021.GaitParams`, applied to the world-vertical specific force.
     """
 
     gamma: float = 0.07 * GRAVITY
@@ -153,106 +147,6 @@ class NodRobustParams:
     def build(self, batch_size: int, fs: float) -> NodRobustSteps:
         """The :class:`NodRobustSteps` stage with these parameters."""
         return NodRobustSteps(batch_size, fs, self)
-
-
-#: Per-stream scalars of :func:`nod_robust_kernel`: seed 000's detector state
-#: (:data:`estimators.gait.GAIT_STATE`), ``last_valid`` being the last usable vertical specific
-#: force (its ring buffers, whose lengths follow the rate, are arrays beside it).
-NOD_ROBUST_STATE = GAIT_STATE
-
-
-def _nod_robust_run(acc, gyr, quat, k0, prm, state, v_buf, sm_buf, rot_buf, w_buf, out):
-    """Run the detector over a chunk of n samples of B streams.
-
-    Inputs (B, n, 3) specific force (m/s^2), (B, n, 3) gyro (rad/s), (B, n, 4) attitude ``[w, x, y,
-    z]`` sensor -> world; ``k0`` (B,) each stream's index of the chunk's first sample, counted from
-    the stream's reset (sample k is at time k / fs s); ``prm`` the (1,) parameter record
-    (:class:`NodRobustParams`' fields, ``fs``, ``base_n``, the baseline time constant in samples, 0:
-    fixed gravity, and ``latency``). State, updated in place: the (B,) records of
-    :data:`NOD_ROBUST_STATE` and ring buffers of the vertical specific force ``v_buf`` (B, M), its
-    mean ``sm_buf`` (B, 2h + 1), the rotation bound ``rot_buf`` (B, 2h + 1) and the world angular
-    rate ``w_buf`` (B, M + 1, 3), all indexed by the sample's index modulo their length. ``out``:
-    the chunk's ``(state, steps, peak_time)`` arrays (B, n), (B, n), (B, n, 2), filled.
-    """
-    out_state, out_steps, out_peak_t = out
-    p = prm[0]
-    nb, n = acc.shape[0], acc.shape[1]
-    m = v_buf.shape[1]
-    w = sm_buf.shape[1]
-    h = (w - 1) // 2
-    mw = w_buf.shape[1]  # M + 1
-    delay = 0.5 * (m - 1)
-    for b in numba.prange(nb):
-        s = state[b]
-        sm, rot, wb = sm_buf[b], rot_buf[b], w_buf[b]
-        for i in range(n):
-            k = k0[b] + i
-            qw, qx, qy, qz = quat[b, i, 0], quat[b, i, 1], quat[b, i, 2], quat[b, i, 3]
-            qn = math.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
-            q_ok = math.isfinite(qn) and qn > 0.0
-            if q_ok:
-                qw, qx, qy, qz = qw / qn, qx / qn, qy / qn, qz / qn
-            # 1. Vertical specific force in the world.
-            ax, ay, az = acc[b, i, 0], acc[b, i, 1], acc[b, i, 2]
-            if q_ok and math.isfinite(ax) and math.isfinite(ay) and math.isfinite(az):
-                x = quat_rotate(qw, qx, qy, qz, ax, ay, az)[2]
-            else:
-                x = s["last_valid"] if math.isfinite(s["last_valid"]) else p["gravity"]
-            s["last_valid"] = x
-            # World angular rate (the previous one where this sample's is unusable).
-            gx, gy, gz = gyr[b, i, 0], gyr[b, i, 1], gyr[b, i, 2]
-            g_ok = q_ok and math.isfinite(gx) and math.isfinite(gy) and math.isfinite(gz)
-            fresh = s["n_seen"] == 0.0
-            wx = wy = wz = 0.0
-            if g_ok:
-                wx, wy, wz = quat_rotate(qw, qx, qy, qz, gx, gy, gz)
-            elif not fresh:
-                j = (k - 1) % mw
-                wx, wy, wz = wb[j, 0], wb[j, 1], wb[j, 2]
-            if fresh:  # start every filter at this sample
-                v_buf[b] = x
-                sm[:] = x
-                rot[:] = 0.0
-                for j in range(mw):
-                    wb[j, 0], wb[j, 1], wb[j, 2] = wx, wy, wz
-                s["baseline"] = p["gravity"] if p["base_n"] <= 0.0 else x
-            s["n_seen"] += 1.0
-            running_baseline(s, p, x)
-            # 2. Mean filter (causal, M samples) into the peak window's ring buffer.
-            mean_filter(v_buf[b], sm, k, x)
-            # 3. Rotation bound over the same M samples: mean world rate, and the angular
-            # acceleration from the rates at both ends of the window (M intervals apart).
-            wb[k % mw, 0], wb[k % mw, 1], wb[k % mw, 2] = wx, wy, wz
-            j0 = (k - m) % mw
-            alx = (wx - wb[j0, 0]) * p["fs"] / m
-            aly = (wy - wb[j0, 1]) * p["fs"] / m
-            mx = my = mz = 0.0
-            for j in range(1, m + 1):
-                jj = (k - m + j) % mw
-                mx += wb[jj, 0]
-                my += wb[jj, 1]
-                mz += wb[jj, 2]
-            w_h = math.sqrt(mx * mx + my * my) / m
-            rot[k % w] = p["lever_arm"] * (
-                math.sqrt(alx * alx + aly * aly) + w_h * (w_h + abs(mz) / m)
-            )
-            # 4. Is the sample h back the maximum of its centred window, high enough, and higher
-            # than the rotation can explain?
-            if s["n_seen"] > h:
-                c = k - h
-                excess = sm[c % w] - s["baseline"]
-                is_peak = excess >= p["gamma"] and window_max(sm, c, h)
-                if is_peak:
-                    for j in range(w):
-                        if rot[j] >= excess:
-                            is_peak = False
-                if is_peak:  # 5. Seed 000's bout rule.
-                    bout_rule(s, p, (c - delay) / p["fs"], out_steps[b], out_peak_t[b], i)
-            out_state[b, i] = walking(s, p, k)
-
-
-#: The compiled detector: ``nod_robust_kernel(batch_size)(...)`` (see ``_nod_robust_run``).
-nod_robust_kernel = BatchKernel(_nod_robust_run, parallel=False)
 
 
 class NodRobustSteps(TakesUsers):

@@ -11,35 +11,33 @@ the threshold), no rule that a step needs a neighbour, and no use of the gyro or
 
 Values (a stated rule, not tuned): ``threshold`` is seed 000's gamma (0.07 g) and ``refractory``
 its shortest step interval (1/3.5 s, about the fastest human stepping), so that this detector
-differs from :class:`estimators.gait.Seed000Steps` only by what it leaves out. A step is confirmed
-one sample after its peak (``latency = 1 / fs``) and carries the peak's time. Still/walk: walk
-while the last step is at most ``hold`` seconds old (seed 000's gamma_t, 1.2 s), still otherwise.
+differs from :class:`estimators.steps.zhang2021.Seed000Steps` only by what it leaves out. A step is
+confirmed one sample after its peak (``latency = 1 / fs``) and carries the peak's time. Still/walk:
+walk while the last step is at most ``hold`` seconds old (seed 000's gamma_t, 1.2 s), still
+otherwise.
 
 A non-finite sample takes the previous sample's norm (gravity before any). The per-sample loop is
-the compiled kernel :func:`threshold_kernel` (loop over streams inside; ``threshold_kernel.py_func``
-is its readable uncompiled source).
+the compiled kernel :data:`estimators.steps._kernel.threshold_kernel` (loop over streams inside;
+``threshold_kernel.py_func`` is its readable uncompiled source).
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
-import numba
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 from estimators.batching import TakesUsers, stream_rows
-from estimators.kernels import BatchKernel, param_record, state_records
+from estimators.kernels import param_record, state_records
 from estimators.rotations import GRAVITY
 from estimators.stages import GaitChunk
+from estimators.steps._kernel import THRESHOLD_STATE, empty_chunk, threshold_kernel
 from estimators.validation import check_chunk, check_in_range, check_stage_args
 
 __all__ = [
     "ThresholdParams",
     "ThresholdSteps",
-    "empty_chunk",
-    "threshold_kernel",
 ]
 
 
@@ -52,7 +50,7 @@ class ThresholdParams:
 
     threshold: float = 0.07 * GRAVITY
     """Excess of the raw norm over ``gravity`` (m/s^2) a peak needs. Default 0.07 g = 0.686
-    m/s^2, seed 000's gamma (:class:`estimators.gait.GaitParams`)."""
+    m/s^2, seed 000's gamma (:class:`estimators.steps.zhang2021.GaitParams`)."""
     refractory: float = 1.0 / 3.5
     """Shortest interval (s) between two steps; a peak sooner after the last step is ignored.
     Default 1/3.5 s: nobody steps faster than about 3.5 steps/s (seed 000's min_step_interval)."""
@@ -72,58 +70,6 @@ class ThresholdParams:
     def build(self, batch_size: int, fs: float) -> ThresholdSteps:
         """The :class:`ThresholdSteps` stage with these parameters."""
         return ThresholdSteps(batch_size, fs, self)
-
-
-#: Per-stream state of :func:`threshold_kernel`: the norms of the two previous samples (m/s^2),
-#: the last step's time (s, -inf: none) and the samples seen.
-THRESHOLD_STATE = {"prev2": (), "prev1": (), "last_step": (), "n_seen": ()}
-
-
-def _threshold_run(acc, k0, prm, state, out):
-    """Run the peak picker over a chunk ``acc`` (B, n, 3) of specific force (m/s^2).
-
-    ``k0`` (B,) is each stream's index of the chunk's first sample, counted from the stream's
-    reset (sample k is at time k / fs s);
-    ``prm`` the (1,) parameter record (:class:`ThresholdParams`' fields, ``fs`` and ``level`` =
-    gravity + threshold); ``state`` the (B,) records of :data:`THRESHOLD_STATE`, updated in place;
-    ``out`` the chunk's ``(state, steps, peak_time)`` arrays (B, n), (B, n), (B, n, 2), filled
-    (only column 0 of ``peak_time`` is used).
-    """
-    out_state, out_steps, out_peak_t = out
-    p = prm[0]
-    nb, n = acc.shape[0], acc.shape[1]
-    for b in numba.prange(nb):
-        s = state[b]
-        x2, x1, last, seen = s["prev2"], s["prev1"], s["last_step"], s["n_seen"]
-        for i in range(n):
-            k = k0[b] + i
-            x = math.sqrt(acc[b, i, 0] ** 2 + acc[b, i, 1] ** 2 + acc[b, i, 2] ** 2)
-            if not math.isfinite(x):
-                x = x1 if seen > 0 else p["gravity"]
-            if seen == 0:  # fresh stream: no peak before its third sample
-                x2 = x
-                x1 = x
-            seen += 1
-            if x1 > x2 and x1 >= x and x1 > p["level"]:
-                t = (k - 1) / p["fs"]
-                if t - last >= p["refractory"]:
-                    out_steps[b, i] = 1
-                    out_peak_t[b, i, 0] = t
-                    last = t
-            out_state[b, i] = 1 if k / p["fs"] - last <= p["hold"] else 0
-            x2 = x1
-            x1 = x
-        s["prev2"], s["prev1"], s["last_step"], s["n_seen"] = x2, x1, last, seen
-
-
-#: The compiled peak picker: ``threshold_kernel(batch_size)(...)`` (see ``_threshold_run``).
-threshold_kernel = BatchKernel(_threshold_run, parallel=False)
-
-
-def empty_chunk(batch_size: int, n: int) -> tuple[NDArray[np.int8], ...]:
-    """Zeroed ``state`` and ``steps`` (B, n) int8 and a NaN ``peak_time`` (B, n, 2)."""
-    return (np.zeros((batch_size, n), np.int8), np.zeros((batch_size, n), np.int8),
-            np.full((batch_size, n, 2), np.nan))  # fmt: skip
 
 
 class ThresholdSteps(TakesUsers):
