@@ -18,9 +18,9 @@ Modules:
 * :mod:`estimators.dead_reckoning` — seed 000's eq (17) virtual path.
 * :mod:`estimators.locomotion` — seed 001's smooth-locomotion filter (continuous virtual motion);
   :mod:`estimators.locomotion_cadence` — speed proportional to the cadence.
-* :mod:`estimators.joint_smoothing`, :mod:`estimators.hand` — seed 003's hand-orientation
+* :mod:`estimators.hand.joint_smoothing`, :mod:`estimators.hand` — seed 003's hand-orientation
   pipeline (target selection, Holt smoothing, eq 1/2, Kalman + median) and a One Euro filter;
-  :mod:`estimators.hand_one_euro` — the One Euro hand stage.
+  :mod:`estimators.hand.one_euro` — the One Euro hand stage.
 * :mod:`estimators.strapdown`, :mod:`estimators.visual_pose`, :mod:`estimators.visual_inertial`
   — seed 004's strapdown inertial solution, OpenCV PnP pose from landmarks, and the (adaptive)
   error-state Kalman filter fusing them.

@@ -609,10 +609,10 @@ HAND = Registry(
     HAND_CONTRACT,
     home="estimators.stages:HAND",
 )
-HAND.register("seed003", "estimators.hand:Seed003Hand", "seed 003 Kalman + median")
-HAND.register("one_euro", "estimators.hand_one_euro:OneEuroHand", "One Euro filter on the angles")
-HAND.register("raw", "estimators.hand:RawHand", "the unfiltered eq (1)/(2) angles")
-HAND.register("adaptive_kalman", "estimators.hand_adaptive:AdaptiveKalmanHand",
+HAND.register("seed003", "estimators.hand.pipeline_stages:Seed003Hand", "seed 003 Kalman + median")
+HAND.register("one_euro", "estimators.hand.one_euro:OneEuroHand", "One Euro filter on the angles")
+HAND.register("raw", "estimators.hand.pipeline_stages:RawHand", "the unfiltered eq (1)/(2) angles")
+HAND.register("adaptive_kalman", "estimators.hand.adaptive:AdaptiveKalmanHand",
               "motion-adaptive Kalman, no median")  # fmt: skip
 
 #: Steering: ``factory(batch_size)``.

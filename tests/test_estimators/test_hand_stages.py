@@ -25,9 +25,9 @@ from estimators.hand import (
     estimate_lag,
     unwrap_angles,
 )
-from estimators.hand_adaptive import AdaptiveKalmanHand, AdaptiveKalmanHandParams
-from estimators.hand_one_euro import OneEuroHand, OneEuroHandParams
-from estimators.joint_smoothing import OneEuroFilter
+from estimators.hand.adaptive import AdaptiveKalmanHand, AdaptiveKalmanHandParams
+from estimators.hand.joint_smoothing import OneEuroFilter
+from estimators.hand.one_euro import OneEuroHand, OneEuroHandParams
 from estimators.registry import StageError
 from estimators.rotations import angle_diff
 from estimators.stages import HAND, HandStage

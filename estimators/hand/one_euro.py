@@ -3,7 +3,7 @@
 Source: G. Casiez, N. Roussel, D. Vogel, "1 € Filter: A Simple Speed-based Low-pass Filter for
 Noisy Input in Interactive Systems", CHI 2012. A first-order low-pass whose cut-off rises with the
 signal's speed, ``fc = min_cutoff + beta |dx_hat|``: strong smoothing at rest, little lag in fast
-motion. The filter itself is :class:`estimators.joint_smoothing.OneEuroFilter` in angular mode
+motion. The filter itself is :class:`estimators.hand.joint_smoothing.OneEuroFilter` in angular mode
 (differences wrapped to (-pi, pi], so crossing +-180 deg gives no jump), one filter per angle of
 ``[yaw, pitch, roll]``; this module only feeds it the pipeline's frames:
 
@@ -38,7 +38,7 @@ no filter that follows the hand removes; about the forearm, whose noise is mostl
 the variance goes.
 
 Held-out figures (rest and motion, beside seed 003's filters and the motion-adaptive Kalman
-filter of :mod:`estimators.hand_adaptive`) are those of ``vrloco experiment hand-variance``
+filter of :mod:`estimators.hand.adaptive`) are those of ``vrloco experiment hand-variance``
 (seeds 0 and 1); ``tests/test_estimators/test_hand_stages.py`` checks on other held-out seeds that
 the
 filter beats
@@ -53,8 +53,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from estimators.batching import TakesUsers, stream_rows
-from estimators.hand import HandFrame, check_hand_frames
-from estimators.joint_smoothing import OneEuroFilter, OneEuroParams
+from estimators.hand.joint_smoothing import OneEuroFilter, OneEuroParams
+from estimators.hand.pipeline import HandFrame, check_hand_frames
 from estimators.validation import check_batch_size, check_in_range, check_rate
 
 __all__ = ["OneEuroHand", "OneEuroHandParams"]

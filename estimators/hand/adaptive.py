@@ -8,8 +8,8 @@ process noise at rest, an innovation average over one frame and a high cap, so t
 opens within a frame when the hand starts, stops or turns back. The median of seed 003 is left out
 because on a steady rotation a causal median of 3 frames lags a frame (33 ms, 3 deg at 90 deg/s),
 more than the whole raw error. The filter runs in the pipeline's own compiled kernel
-(:class:`estimators.hand.OrientationFilter` over :data:`estimators._hand_numba.filter_kernel`); this
-module only feeds it the frames:
+(:class:`estimators.hand.OrientationFilter` over :data:`estimators.hand._kernel.filter_kernel`);
+this module only feeds it the frames:
 
 * the input is ``ypr_raw`` (eq 1/2, before seed 003's Kalman + median) where ``quat_valid``;
 * a frame whose ``reselected`` is True (a new target user) restarts the stream before the frame,
@@ -41,13 +41,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from estimators.batching import TakesUsers, stream_rows
-from estimators.hand import (
-    HandFrame,
-    HandParams,
-    KalmanParams,
-    OrientationFilter,
-    check_hand_frames,
-)
+from estimators.hand.orientation import OrientationFilter
+from estimators.hand.params import HandParams, KalmanParams
+from estimators.hand.pipeline import HandFrame, check_hand_frames
 from estimators.validation import check_batch_size, check_in_range, check_rate
 
 __all__ = ["AdaptiveKalmanHand", "AdaptiveKalmanHandParams"]

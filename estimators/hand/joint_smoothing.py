@@ -6,7 +6,8 @@ no Python loop over the batch.
 * :class:`HoltSmoother` — the Kinect SDK's joint filter (Holt double-exponential smoothing with
   the five ``NUI_TRANSFORM_SMOOTH_PARAMETERS``: smoothing, correction, prediction, jitter radius,
   max deviation radius), followed by the weighted average over the last five frames that seed 003
-  (Yao et al. 2023, section 1.2) adds. Used by :mod:`estimators.hand` on the target's joints.
+  (Yao et al. 2023, section 1.2) adds: the pipeline's stage 2
+  (:class:`estimators.hand.pipeline.HandPipeline`) on its target's joints, here on its own.
 * :class:`OneEuroFilter` — Casiez, Roussel, Vogel, "1 € Filter: A Simple Speed-based Low-pass
   Filter for Noisy Input in Interactive Systems", CHI 2012: the usual competitor for interactive
   tracking, here batched and with an angular mode (filters on unwrapped angles).
@@ -22,10 +23,15 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from estimators.batching import TakesUsers
+from estimators.hand._kernel import holt_kernel, new_holt_state, shared_layout
+from estimators.kernels.records import param_record
 from estimators.rotations import wrap_angle
 from estimators.validation import check_condition, check_in_range, check_numbers
 
 __all__ = [
+    "INFERRED",
+    "NOT_TRACKED",
+    "TRACKED",
     "HoltParams",
     "HoltSmoother",
     "OneEuroFilter",
@@ -34,11 +40,6 @@ __all__ = [
 
 #: Kinect v2 ``TrackingState`` values (Kinect for Windows SDK 2.0, ``TrackingState`` enum).
 NOT_TRACKED, INFERRED, TRACKED = 0, 1, 2
-
-
-def _norm3(v: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Euclidean norm over the last axis (of size 3), keeping it: (..., 3) -> (..., 1)."""
-    return np.sqrt(np.einsum("...c,...c->...", v, v))[..., None]
 
 
 @dataclass(frozen=True)
@@ -130,21 +131,23 @@ class HoltSmoother:
     The outputs of the last ``len(average_weights)`` frames are then averaged with the weights
     (seed 003, section 1.2), over the frames where the joint was valid.
 
-    Lag, with the defaults (measured in tests/test_estimators/test_hand.py): after a step of
-    0.1-0.5 m
-    the output
-    is within the max deviation radius (4 cm) of the new position from the 5th frame on and within
-    1 cm after at most 17 frames (0.57 s); the trend overshoots by up to about 4 cm first (the SDK
-    warns that prediction >= 0.5 overshoots). A static joint with 5 mm noise per axis comes out
-    with 3.0 times less std. On the LabanotationSuite wave recording the RMS second difference of
-    WristRight / HandRight drops 3.2 / 2.0 times for a lag of 34-41 ms (about one frame; the Holt
-    stage alone lags 0 ms, the weighted average the rest).
+    Lag, with the defaults (measured in tests/test_estimators/hand/test_hand.py): after a step of
+    0.1-0.5 m the output is within the max deviation radius (4 cm) of the new position from the
+    5th frame on and within 1 cm after at most 17 frames (0.57 s); the trend overshoots by up to
+    about 4 cm first (the SDK warns that prediction >= 0.5 overshoots). A static joint with 5 mm
+    noise per axis comes out with 3.0 times less std. On the LabanotationSuite wave recording the
+    RMS second difference of WristRight / HandRight drops 3.2 / 2.0 times for a lag of 34-41 ms
+    (about one frame; the Holt stage alone lags 0 ms, the weighted average the rest).
 
     Invalid joints (tracking state *not tracked*, or a NaN coordinate) give a NaN output and reset
     that joint's filter and history, so it restarts cleanly when it reappears. (The SDK resets too,
     but then treats the invalid zero vector as a first sample and averages it into the next frame;
     we skip that quirk.) *Inferred* joints are filtered with radii scaled by
     ``inferred_radius_scale``.
+
+    The recursion runs in the compiled kernel of the hand pipeline's joint smoothing
+    (:data:`estimators.hand._kernel.holt_kernel`, the same scalar functions as the pipeline's
+    stage 2; its ``py_func`` is the readable reference), one user at a time.
 
     Args:
         batch_size: number of streams B.
@@ -162,25 +165,20 @@ class HoltSmoother:
         self.num_joints = int(num_joints)
         w = np.asarray(self.params.average_weights, dtype=np.float64)
         self._weights = w / w.sum()
-        shape = (self.batch_size, self.num_joints, 3)
-        self._count = np.zeros(shape[:2], dtype=np.int64)
-        self._raw = np.zeros(shape)
-        self._filtered = np.zeros(shape)
-        self._trend = np.zeros(shape)
-        self._history = np.zeros((w.size, *shape))  # ring of Holt outputs, metres
-        self._history_ok = np.zeros((w.size, *shape[:2]))  # 1.0 where a ring entry is valid
-        self._head = 0
+        self._prm = shared_layout(param_record(self.params))
+        self._joint, self._ring = new_holt_state(self.batch_size, self.num_joints, w.size)
+        self._head = 0  # the ring's newest slot, shared by all streams
         #: Holt output of the last frame, before the weighted average (B, J, 3) metres.
-        self.holt_output = np.full(shape, np.nan)
+        self.holt_output = np.full((self.batch_size, self.num_joints, 3), np.nan)
 
     def reset(self, mask: ArrayLike | None = None) -> None:
         """Forget the state of the streams where ``mask`` (B,) is True (all streams if None)."""
         m = np.ones(self.batch_size, bool) if mask is None else np.asarray(mask, dtype=bool)
         if m.shape != (self.batch_size,):
             raise ValueError(f"mask must have shape ({self.batch_size},), got {m.shape}")
-        self._count[m] = 0
-        self._trend[m] = 0.0
-        self._history_ok[:, m] = 0.0
+        self._joint["count"][m] = 0.0
+        self._joint["trend"][m] = 0.0
+        self._ring["ok"][m] = 0.0
         self.holt_output[m] = np.nan
 
     def update(
@@ -203,74 +201,32 @@ class HoltSmoother:
         Raises:
             ValueError: wrong shapes, infinite coordinates or tracking states outside {0, 1, 2}.
         """
-        p = self.params
-        x = np.asarray(joints, dtype=np.float64)
+        x = np.ascontiguousarray(joints, dtype=np.float64)
         shape = (self.batch_size, self.num_joints, 3)
         if x.shape != shape:
             raise ValueError(f"joints must have shape {shape}, got {x.shape}")
         if np.any(np.isinf(x)):
             raise ValueError("joints contains infinite coordinates; use NaN for untracked joints")
         if joint_state is None:
-            state = np.full(shape[:2], TRACKED, dtype=np.int8)
+            state = np.full(shape[:2], float(TRACKED))
         else:
             state = np.asarray(joint_state)
             if state.shape != shape[:2]:
                 raise ValueError(f"joint_state must have shape {shape[:2]}, got {state.shape}")
             if np.any((state < NOT_TRACKED) | (state > TRACKED)):
                 raise ValueError("joint_state values must be 0 (not tracked), 1 or 2")
+            state = np.ascontiguousarray(state, dtype=np.float64)
         if reset is not None:
             self.reset(reset)
-
-        valid = (state >= INFERRED) & np.all(np.isfinite(x), axis=-1)  # (B, J)
-        scale = np.where(state == INFERRED, p.inferred_radius_scale, 1.0)
-        jitter_r = (p.jitter_radius * scale)[..., None]
-        max_dev = (p.max_deviation_radius * scale)[..., None]
-        raw = np.where(valid[..., None], x, 0.0)
-        f_prev, b_prev = self._filtered, self._trend
-        c, s = p.correction, p.smoothing
-
-        # Third and later frames: jitter stage, then double-exponential smoothing.
-        d = _norm3(raw - f_prev)
-        a = np.minimum(d / jitter_r, 1.0)  # d > J gives a = 1: the raw sample passes
-        jit = raw * a + f_prev * (1.0 - a)
-        f_late = jit * (1.0 - s) + (f_prev + b_prev) * s
-        # Second frame: mean of the two raw samples.
-        f_second = 0.5 * (raw + self._raw)
-        count = self._count[..., None]
-        f = np.where(count == 0, raw, np.where(count == 1, f_second, f_late))
-        b = np.where(count == 0, 0.0, c * (f - f_prev) + (1.0 - c) * b_prev)
-
-        pred = f + p.prediction * b
-        dev = _norm3(pred - raw)
-        pull = max_dev / np.maximum(dev, 1e-300)
-        pred = np.where(dev > max_dev, pred * pull + raw * (1.0 - pull), pred)
-
-        v3 = valid[..., None]
-        self._raw = np.where(v3, raw, self._raw)
-        self._filtered = np.where(v3, f, self._filtered)
-        self._trend = np.where(v3, b, 0.0)
-        self._count = np.where(valid, np.minimum(self._count + 1, 2), 0)
-        out = np.where(v3, pred, np.nan)
-        self.holt_output = out
-
-        # Weighted average over the last frames where the joint was valid. The ring's position
-        # is shared by all streams, so the sum runs over ages (newest first), not ring slots:
-        # a stream's result then depends on its own history only, bit for bit, however many
-        # frames the others (or its own earlier episodes) have seen.
+        out = np.empty(shape)
+        holt = np.empty(shape)
+        holt_kernel(self.batch_size)(x, state, self._prm, self._weights, self._head, self._joint,
+                                     self._ring, out, holt)  # fmt: skip
         n = self._weights.size
-        if n == 1:
-            return out.copy()
-        self._head = (self._head - 1) % n  # the ring's newest entry
-        self._history[self._head] = np.where(v3, pred, 0.0)
-        self._history_ok[self._head] = 1.0
-        self._history_ok[:, ~valid] = 0.0  # an invalid frame clears the joint's history
-        age = (self._head + np.arange(n)) % n  # ring slot of each age, newest first
-        w = self._history_ok[age] * self._weights[:, None, None]  # (n, B, J)
-        avg = (
-            np.einsum("nbj,nbjc->bjc", w, self._history[age])
-            / np.maximum(w.sum(axis=0), 1e-300)[..., None]
-        )
-        return np.where(v3, avg, np.nan)
+        if n > 1:  # the ring advances once per frame
+            self._head = (self._head - 1) % n
+        self.holt_output = holt
+        return out
 
 
 @dataclass(frozen=True)
