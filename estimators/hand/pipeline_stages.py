@@ -61,6 +61,7 @@ class Seed003Hand(_PipelineOutputHand):
     """
 
     name = "seed003"
+    per_user_fields = _PipelineOutputHand.per_user_fields  # declared: TakesUsers asks each class
     params_note = " (the pipeline's HandParams)"
 
     def update(self, frames: HandFrame) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
@@ -85,6 +86,7 @@ class RawHand(_PipelineOutputHand):
     """
 
     name = "raw"
+    per_user_fields = _PipelineOutputHand.per_user_fields  # declared: TakesUsers asks each class
 
     def update(self, frames: HandFrame) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
         """(B, M, 3) ``frames.ypr_raw`` (copied) and (B, M) validity (all three angles finite)."""
