@@ -30,7 +30,7 @@ from agents.recordings import (
 from agents.step_matching import step_f1
 from estimators.attitude import estimate_attitude
 from estimators.attitude.errors import orientation_errors
-from estimators.dead_reckoning import dead_reckon
+from estimators.locomotion.dead_reckoning import dead_reckon
 from estimators.rotations import quat_to_ypr
 from estimators.steps import detect_steps
 

@@ -14,7 +14,7 @@ Prints:
   ``vrloco_env.sensors.imu``), if the environment package is importable;
 * the Oxford neck-pouch walk (CC-BY-4.0, Oxford-step-counter/DataSet) with both presets, if
   ``../shared/data`` is present;
-* :func:`estimators.locomotion.compare_locomotion`.
+* :func:`agents.experiments.locomotion_table.compare_locomotion`.
 """
 
 from __future__ import annotations
@@ -29,9 +29,9 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from agents.experiments.locomotion_table import compare_locomotion
 from agents.step_matching import step_f1
 from estimators.kernels import python_reference
-from estimators.locomotion import compare_locomotion
 from estimators.rotations import GRAVITY
 from estimators.steps import GaitParams, StepDetector, detect_steps
 
@@ -71,8 +71,8 @@ def bench_speed(b: int = 256, chunk: int = 10, seconds: float = 60.0) -> None:
 
 
 def bench_locomotion_speed(b: int = 256, calls: int = 2000) -> None:
-    from estimators.dead_reckoning import DeadReckoning
     from estimators.locomotion import SmoothLocomotion
+    from estimators.locomotion.dead_reckoning import DeadReckoning
 
     rng = np.random.default_rng(1)
     steps = (rng.random((calls, b)) < 0.02).astype(float)

@@ -14,10 +14,11 @@ Modules:
 * :mod:`estimators.steps.zhang2021` — seed 000's still/walk and step detector; step F1;
   :mod:`estimators.steps.threshold`, :mod:`estimators.steps.nod_robust` — other step stages;
   :mod:`estimators.steps.cadence` — cadence from step events.
-* :mod:`estimators.steering` — head and torso steering, the torso's yaw from the shoulders.
-* :mod:`estimators.dead_reckoning` — seed 000's eq (17) virtual path.
+* :mod:`estimators.locomotion.steering` — head and torso steering, the torso's yaw from the
+  shoulders.
+* :mod:`estimators.locomotion.dead_reckoning` — seed 000's eq (17) virtual path.
 * :mod:`estimators.locomotion` — seed 001's smooth-locomotion filter (continuous virtual motion);
-  :mod:`estimators.locomotion_cadence` — speed proportional to the cadence.
+  :mod:`estimators.locomotion.cadence_speed` — speed proportional to the cadence.
 * :mod:`estimators.hand.joint_smoothing`, :mod:`estimators.hand` — seed 003's hand-orientation
   pipeline (target selection, Holt smoothing, eq 1/2, Kalman + median) and a One Euro filter;
   :mod:`estimators.hand.one_euro` — the One Euro hand stage.

@@ -623,8 +623,12 @@ STEERING = Registry(
     STEERING_CONTRACT,
     home="estimators.stages:STEERING",
 )
-STEERING.register("head", "estimators.steering:HeadSteering", "walk where the head points")
-STEERING.register("torso", "estimators.steering:TorsoSteering", "walk where the torso points")
+STEERING.register(
+    "head", "estimators.locomotion.steering:HeadSteering", "walk where the head points"
+)
+STEERING.register(
+    "torso", "estimators.locomotion.steering:TorsoSteering", "walk where the torso points"
+)
 
 #: Locomotion: ``factory(batch_size, step_length)`` with step_length in m.
 LOCOMOTION = Registry(
@@ -634,9 +638,13 @@ LOCOMOTION = Registry(
     LOCOMOTION_CONTRACT,
     home="estimators.stages:LOCOMOTION",
 )
-LOCOMOTION.register("eq17", "estimators.dead_reckoning:DeadReckoning", "seed 000 eq 17 jumps")
-LOCOMOTION.register("smooth", "estimators.locomotion:SmoothLocomotion", "seed 001 smooth filter")
 LOCOMOTION.register(
-    "cadence_speed", "estimators.locomotion_cadence:CadenceSpeed",
+    "eq17", "estimators.locomotion.dead_reckoning:DeadReckoning", "seed 000 eq 17 jumps"
+)
+LOCOMOTION.register(
+    "smooth", "estimators.locomotion.smooth:SmoothLocomotion", "seed 001 smooth filter"
+)
+LOCOMOTION.register(
+    "cadence_speed", "estimators.locomotion.cadence_speed:CadenceSpeed",
     "speed proportional to the estimated cadence",
 )  # fmt: skip

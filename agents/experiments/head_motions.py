@@ -25,8 +25,8 @@ import numpy as np
 
 from agents.step_matching import step_f1
 from estimators.attitude import estimate_attitude
-from estimators.dead_reckoning import dead_reckon
 from estimators.locomotion import SmoothLocomotion
+from estimators.locomotion.dead_reckoning import dead_reckon
 from estimators.rotations import angle_diff, quat_to_ypr
 from estimators.steps import StepDetector
 from vrloco_env.batch_rng import BatchRng

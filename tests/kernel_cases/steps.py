@@ -7,7 +7,7 @@ different lengths.
 
 import numpy as np
 
-from estimators.locomotion_cadence import CadenceSpeed, CadenceSpeedParams
+from estimators.locomotion.cadence_speed import CadenceSpeed, CadenceSpeedParams
 from estimators.rotations import GRAVITY, quat_from_ypr
 from estimators.steps import CadenceEstimator, NodRobustSteps, StepDetector, ThresholdSteps
 

@@ -5,13 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from estimators.dead_reckoning import DeadReckoning, dead_reckon
 from estimators.locomotion import (
     SmoothLocomotion,
     SmoothParams,
-    compare_locomotion,
     make_locomotion,
 )
+from estimators.locomotion.dead_reckoning import DeadReckoning, dead_reckon
 from estimators.stages import Locomotion
 
 SL = 0.7
@@ -87,23 +86,6 @@ def test_eq17_bad_inputs():
 
 
 # ---------------------------------------------------------------------------- smooth locomotion
-def test_compare_locomotion_table():
-    """Distance within 2 % of eq (17); the smooth path is orders of magnitude less jerky."""
-    table = compare_locomotion(cadences=(1.2, 1.7, 2.2), n_steps=20)
-    np.testing.assert_allclose(table["distance_eq17"], 20 * SL)
-    assert np.all(np.abs(table["distance_error_pct"]) < 2.0)
-    assert np.all(table["jerk_ratio"] > 300.0)
-    assert np.all(table["rms_jerk_smooth"] < 200.0)  # m/s^3
-    assert np.all(table["stop_time"] < 2.5)
-    # No burst of speed: at most the catch-up margin above SL x cadence, plus the filter's
-    # overshoot (a second-order filter with damping 1/sqrt(2) overshoots a speed step by ~21 %).
-    assert np.all(table["max_speed_smooth"] < 1.25 * 1.25 * SL * table["cadence"] + 0.05)
-    # With a turn the paths differ only by the timing of the heading along them.
-    turned = compare_locomotion(cadences=(1.7,), n_steps=20, turn_deg=90.0)
-    assert abs(turned["distance_error_pct"][0]) < 2.0
-    assert turned["end_gap"][0] < 1.0
-
-
 def test_smooth_steady_speed_and_no_drift():
     fs = 100.0
     cad = np.array([1.2, 1.8, 2.2])
@@ -225,5 +207,3 @@ def test_smooth_bad_inputs():
         SmoothParams(distance_bandwidth_hz=0.0)
     with pytest.raises(ValueError, match=r"SmoothParams.default_step_interval="):
         SmoothParams(default_step_interval=5.0)
-    with pytest.raises(ValueError, match="cadences"):
-        compare_locomotion(cadences=(0.1,))

@@ -1,4 +1,4 @@
-"""Cadence-proportional speed (estimators.locomotion_cadence): speed, distance, stopping,
+"""Cadence-proportional speed (estimators.locomotion.cadence_speed): speed, distance, stopping,
 continuity against eq (17), reset, and what its compiled-vs-source case covers."""
 
 from __future__ import annotations
@@ -8,8 +8,8 @@ import pytest
 from kernel_cases.steps import CASES as STEP_CASES
 from kernel_cases.steps import step_counts
 
-from estimators.dead_reckoning import DeadReckoning
-from estimators.locomotion_cadence import CadenceSpeed, CadenceSpeedParams
+from estimators.locomotion.cadence_speed import CadenceSpeed, CadenceSpeedParams
+from estimators.locomotion.dead_reckoning import DeadReckoning
 from estimators.registry import StageError
 from estimators.stages import LOCOMOTION, Locomotion
 

@@ -159,7 +159,7 @@ _TOYS = '''
 import numpy as np
 
 from estimators.attitude import EkfStage
-from estimators.dead_reckoning import DeadReckoning
+from estimators.locomotion.dead_reckoning import DeadReckoning
 from estimators.stages import GaitChunk
 from estimators.hand import RawHand
 
