@@ -283,7 +283,7 @@ def read_recording(path: Path) -> Recording:
     """A recording from a CSV file, a BROAD trial or an Oxford folder (see the module doc)."""
     path = Path(path)
     if path.is_dir():
-        from estimators.io_oxford import load_oxford, read_accelerometer
+        from estimators.io.oxford import load_oxford, read_accelerometer
 
         if not (path / "accelerometer.csv").is_file():
             raise ValueError(
@@ -303,7 +303,7 @@ def read_recording(path: Path) -> Recording:
     if not path.is_file():
         raise ValueError(f"{path}: no such file or folder")
     if path.suffix.lower() in (".hdf5", ".h5", ".mat"):
-        from estimators.io_broad import load_broad
+        from estimators.io.broad import load_broad
 
         trial = load_broad(path)
         t = np.arange(trial.acc.shape[0]) / trial.fs

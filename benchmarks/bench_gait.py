@@ -120,7 +120,7 @@ def bench_simulator(users: int = 32) -> None:
 
 
 def bench_oxford() -> None:
-    from estimators.io_oxford import DEFAULT_RECORDING, load_oxford
+    from estimators.io.oxford import DEFAULT_RECORDING, load_oxford
 
     folder = DATA / "oxford_steps" / DEFAULT_RECORDING
     if not folder.is_dir():

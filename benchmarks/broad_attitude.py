@@ -4,7 +4,7 @@
 
 Data: Laidig, Caruso, Cereatti, Seel, "BROAD - A Benchmark for Robust Inertial Orientation
 Estimation", Data 6(7):72, 2021, CC-BY-4.0 (nine of its 39 trials live in ``shared/data/broad``;
-reader :mod:`estimators.io_broad`).
+reader :mod:`estimators.io.broad`).
 
 Each name of :data:`estimators.stages.ATTITUDE` is built as the environment builds it,
 ``ATTITUDE.build(name, 1, fs)`` with the trial's rate, and fed the whole trial (gyro, specific
@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from estimators.attitude.errors import orientation_errors
-from estimators.io_broad import broad_trials, load_broad
+from estimators.io.broad import broad_trials, load_broad
 from estimators.registry import StageError
 from estimators.stages import ATTITUDE
 

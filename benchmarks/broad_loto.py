@@ -36,7 +36,7 @@ import numpy as np
 
 from estimators.attitude import AttitudeParams, estimate_attitude
 from estimators.attitude.errors import orientation_errors
-from estimators.io_broad import BroadTrial, broad_trials, load_broad
+from estimators.io.broad import BroadTrial, broad_trials, load_broad
 
 DEFAULT_DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "broad"
 ACC_NOISE = (0.005, 0.01, 0.02, 0.04, 0.08)

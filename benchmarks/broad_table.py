@@ -45,7 +45,7 @@ import numpy as np
 
 from estimators.attitude import estimate_attitude
 from estimators.attitude.errors import orientation_errors
-from estimators.io_broad import BroadTrial, broad_trials, load_broad
+from estimators.io.broad import BroadTrial, broad_trials, load_broad
 from estimators.rotations import GRAVITY, quat_from_rotvec, quat_multiply
 
 DEFAULT_DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "broad"

@@ -22,9 +22,9 @@ Modules:
 * :mod:`estimators.hand.joint_smoothing`, :mod:`estimators.hand` — seed 003's hand-orientation
   pipeline (target selection, Holt smoothing, eq 1/2, Kalman + median) and a One Euro filter;
   :mod:`estimators.hand.one_euro` — the One Euro hand stage.
-* :mod:`estimators.strapdown`, :mod:`estimators.visual_pose`, :mod:`estimators.visual_inertial`
-  — seed 004's strapdown inertial solution, OpenCV PnP pose from landmarks, and the (adaptive)
-  error-state Kalman filter fusing them.
-* :mod:`estimators.io_broad`, :mod:`estimators.io_oxford`, :mod:`estimators.io_kinect` — readers
+* :mod:`estimators.head_pose.strapdown`, :mod:`estimators.head_pose.pnp`,
+  :mod:`estimators.head_pose.visual_inertial` — seed 004's strapdown inertial solution, OpenCV PnP
+  pose from landmarks, and the (adaptive) error-state Kalman filter fusing them.
+* :mod:`estimators.io.broad`, :mod:`estimators.io.oxford`, :mod:`estimators.io.kinect` — readers
   for the real recordings we validate against.
 """

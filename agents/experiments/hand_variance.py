@@ -59,7 +59,7 @@ from estimators.hand import (
 )
 from estimators.hand.adaptive import AdaptiveKalmanHandParams
 from estimators.hand.one_euro import OneEuroHandParams
-from estimators.io_kinect import read_kinect_csv
+from estimators.io.kinect import read_kinect_csv
 from estimators.rotations import (
     angle_diff,
     matrix_to_quat,

@@ -73,7 +73,7 @@ from numpy.typing import NDArray
 
 from agents.experiments.head_motions import PRESETS, Trial, sense_record
 from agents.step_matching import match_step_times
-from estimators.io_oxford import DEFAULT_RECORDING, load_oxford
+from estimators.io.oxford import DEFAULT_RECORDING, load_oxford
 from estimators.rotations import GRAVITY, quat_from_rotvec
 from estimators.stages import STEPS
 from estimators.steps import GaitParams, bin_average, detect_steps

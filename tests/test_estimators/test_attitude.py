@@ -7,7 +7,7 @@ import pytest
 
 from estimators.attitude import AttitudeEKF, AttitudeParams, estimate_attitude
 from estimators.attitude.errors import orientation_errors
-from estimators.io_broad import broad_trials, load_broad
+from estimators.io.broad import broad_trials, load_broad
 from estimators.rotations import (
     GRAVITY,
     angle_diff,

@@ -16,7 +16,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import maximum_bipartite_matching
 
 from agents.step_matching import step_f1
-from estimators.io_oxford import DEFAULT_RECORDING, foot_switch_steps, load_oxford
+from estimators.io.oxford import DEFAULT_RECORDING, foot_switch_steps, load_oxford
 from estimators.locomotion.dead_reckoning import DeadReckoning
 from estimators.rotations import GRAVITY, quat_from_ypr, quat_rotate, quat_rotate_inverse
 from estimators.steps import GaitParams, StepDetector, detect_steps

@@ -18,7 +18,7 @@ from agents.experiments.hand_variance import (
 from estimators import hand
 from estimators import rotations as rot
 from estimators.hand.joint_smoothing import HoltParams, HoltSmoother, OneEuroFilter, OneEuroParams
-from estimators.io_kinect import read_kinect_csv
+from estimators.io.kinect import read_kinect_csv
 from vrloco_env.sensors.kinect import KinectSpec
 
 K, J = 6, 25

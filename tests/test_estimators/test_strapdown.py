@@ -7,6 +7,7 @@ import pytest
 from _trajectories import G_WORLD, circle_motion
 from scipy.spatial.transform import Rotation
 
+from estimators.head_pose.strapdown import Strapdown, coarse_alignment, static_gyro_bias
 from estimators.rotations import (
     GRAVITY,
     quat_conjugate,
@@ -16,7 +17,6 @@ from estimators.rotations import (
     quat_rotate_inverse,
     rotation_angle,
 )
-from estimators.strapdown import Strapdown, coarse_alignment, static_gyro_bias
 
 F_REST = -G_WORLD  # a level IMU at rest reads +g up
 

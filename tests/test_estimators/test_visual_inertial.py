@@ -11,6 +11,14 @@ import numpy as np
 import pytest
 from _trajectories import circle_motion
 
+from estimators.head_pose.visual_inertial import (
+    STATUS_ACCEPTED,
+    STATUS_FORCED,
+    STATUS_REJECTED,
+    STATUS_SKIPPED,
+    VioConfig,
+    VisualInertialFilter,
+)
 from estimators.rotations import (
     GRAVITY,
     quat_conjugate,
@@ -18,14 +26,6 @@ from estimators.rotations import (
     quat_from_ypr,
     quat_multiply,
     rotation_angle,
-)
-from estimators.visual_inertial import (
-    STATUS_ACCEPTED,
-    STATUS_FORCED,
-    STATUS_REJECTED,
-    STATUS_SKIPPED,
-    VioConfig,
-    VisualInertialFilter,
 )
 
 RATE = 1000.0  # IMU, Hz

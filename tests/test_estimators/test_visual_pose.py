@@ -5,14 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from estimators.rotations import (
-    quat_conjugate,
-    quat_from_ypr,
-    quat_multiply,
-    quat_rotate,
-    rotation_angle,
-)
-from estimators.visual_pose import (
+from estimators.head_pose.pnp import (
     CAMERA_FROM_BODY,
     CAMERA_FROM_BODY_QUAT,
     REASON_OK,
@@ -26,6 +19,13 @@ from estimators.visual_pose import (
     project_points,
     solve_pose,
     solve_poses,
+)
+from estimators.rotations import (
+    quat_conjugate,
+    quat_from_ypr,
+    quat_multiply,
+    quat_rotate,
+    rotation_angle,
 )
 
 CAM = CameraIntrinsics(fx=600.0, fy=600.0, cx=320.0, cy=240.0, width=640, height=480)

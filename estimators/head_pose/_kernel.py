@@ -1,29 +1,30 @@
 """Compiled per-user kernels of seed 004: strapdown mechanisation and the visual-inertial ESKF.
 
-* :func:`strapdown_run`: the strapdown mechanisation of :class:`estimators.strapdown.Strapdown`
-  (stage :func:`_mech_step`), checked against closed forms by
-  ``tests/test_estimators/test_strapdown.py``;
+* :func:`strapdown_run`: the strapdown mechanisation of
+  :class:`estimators.head_pose.strapdown.Strapdown` (stage :func:`_mech_step`), checked against
+  closed forms by ``tests/test_estimators/test_strapdown.py``;
 * :data:`predict_kernel`: the ESKF prediction, per IMU sample the stages :func:`_mech_step`
   (nominal state) and :func:`_propagate_cov` (covariance);
 * :data:`update_kernel`: the ESKF update with one visual pose, in stages: :func:`_innovation`,
   :func:`_project` (``H P H^T`` and ``S``), the gate, :func:`_adapt_q`, :func:`_adapt_r`
   (Sage-Husa), :func:`_gain`, :func:`_joseph`, :func:`_inject` and :func:`_reset_cov`.
 
-The filter (state, equations, choices) is described in :mod:`estimators.visual_inertial`. The
-two ESKF kernels are :class:`~estimators.kernels.BatchKernel` s over users with a serial build
+The filter (state, equations, choices) is described in :mod:`estimators.head_pose.visual_inertial`.
+The two ESKF kernels are :class:`~estimators.kernels.BatchKernel` s over users with a serial build
 only; their ``py_func`` is the readable reference that ``tests/test_kernels_compiled.py`` plays
 against the compiled build.
 
 Streams (users) are independent: every kernel loops over users outside and samples inside, with
 no Python object in the loop, so a batch of B gives bit for bit the results of B single runs.
 
-Layouts (filled by :mod:`estimators.strapdown` and :mod:`estimators.visual_inertial`):
+Layouts (filled by :mod:`estimators.head_pose.strapdown` and
+:mod:`estimators.head_pose.visual_inertial`):
 
 * nominal state ``x`` (N_X,) per user: the ``X_*`` offsets below, shared with the strapdown
   kernel; the last IMU sample is kept raw (bias not removed) so that a bias correction applies
   to both ends of the next interval.
 * the filter's per-user state: a (B,) record array with the fields of :data:`STATE_FIELDS`;
-* its parameters: the (1,) record of :meth:`estimators.visual_inertial.VioConfig.packed`;
+* its parameters: the (1,) record of :meth:`estimators.head_pose.visual_inertial.VioConfig.packed`;
 * per-user scratch: a (B,) record array with the fields of :data:`WORK_FIELDS`, allocated once
   by the filter, so that no step allocates and users share no memory.
 """

@@ -17,8 +17,8 @@ residual measures directly) and ``b = b_hat + db``.
 
 Prediction (every IMU sample, interval ``dt``)
 ----------------------------------------------
-* Nominal: :mod:`estimators.strapdown`'s mechanisation (RK4 attitude with the gyro linear between
-  samples, end-point trapezoid for v and p) with the bias estimates removed from both ends.
+* Nominal: :mod:`estimators.head_pose.strapdown`'s mechanisation (RK4 attitude with the gyro linear
+  between samples, end-point trapezoid for v and p) with the bias estimates removed from both ends.
 * Error dynamics, with ``R = R(q_hat)`` and ``a_f = R (f - b_a)`` the world specific force at the
   end of the interval: ``dp' = dv``, ``dv' = -[a_f x] dtheta - R db_a - R n_a``,
   ``dtheta' = -R db_g - R n_g``, ``db_a' = n_ba``, ``db_g' = n_bg``. First-order transition
@@ -28,7 +28,7 @@ Prediction (every IMU sample, interval ``dt``)
 * ``P <- F P F^T + Q`` every sample: at 1 kHz ``|A| dt`` is < 1e-2 even in fast head turns, so a
   lower covariance rate would save little and the hot loop is compiled anyway.
 
-Measurement (a visual pose, :mod:`estimators.visual_pose`)
+Measurement (a visual pose, :mod:`estimators.head_pose.pnp`)
 ----------------------------------------------------------
 ``z = [p_meas - p_hat, log(q_meas ⊗ q_hat^-1)]`` (6), ``H = [[I 0 0 0 0], [0 0 I 0 0]]``,
 ``S = H P H^T + R``. Gate: frames whose normalised innovation squared ``nu^T S^-1 nu`` exceeds the
@@ -78,7 +78,7 @@ drifts slowly between its bounds); with both adaptations on, R (faster) absorbs 
 changes and Q (slower) persistent prediction errors.
 
 The per-sample prediction and the update are the compiled per-user kernels of
-:mod:`estimators._visual_inertial_numba` (their uncompiled ``py_func`` is the readable source).
+:mod:`estimators.head_pose._kernel` (their uncompiled ``py_func`` is the readable source).
 """
 
 from __future__ import annotations
@@ -91,11 +91,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.stats import chi2
 
-from estimators import _visual_inertial_numba as _k
 from estimators.batching import TakesUsers, stream_rows
+from estimators.head_pose import _kernel as _k
+from estimators.head_pose.strapdown import set_nominal_state
 from estimators.kernels.records import param_record
 from estimators.rotations import GRAVITY
-from estimators.strapdown import set_nominal_state
 from estimators.validation import (
     check_array,
     check_batch_size,
@@ -306,7 +306,7 @@ class VisualInertialFilter(TakesUsers):
 
     Attributes:
         state: (B,) record array of the users' filter state, fields
-            :data:`estimators._visual_inertial_numba.STATE_FIELDS` (nominal state ``x``,
+            :data:`estimators.head_pose._kernel.STATE_FIELDS` (nominal state ``x``,
             covariances ``P`` and ``R``, counters); the properties below give copies.
 
     Example:
@@ -357,7 +357,7 @@ class VisualInertialFilter(TakesUsers):
             q: (B, 4) or (4,) attitude body -> world (normalised here).
             mask: users to reset, (B,) bool or indices; None: all. Only their rows are used.
             accel_bias, gyro_bias: (B, 3) or (3,) initial bias estimates (m/s^2, rad/s), e.g.
-                from :func:`estimators.strapdown.static_gyro_bias`; None: zero.
+                from :func:`estimators.head_pose.strapdown.static_gyro_bias`; None: zero.
             gyr, acc: (B, 3) or (3,) the IMU sample at the reset instant (start of the first
                 interval); None: the first sample after the reset is held over the first interval.
 

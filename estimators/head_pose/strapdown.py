@@ -40,8 +40,8 @@ calibrates them before its experiments (static gyro bias: :func:`static_gyro_bia
 accelerometer on a turntable, which we do not model).
 
 The per-sample loop is the one mechanisation of the project,
-:func:`estimators._visual_inertial_numba.strapdown_run` (the visual-inertial filter's prediction
-runs the same :func:`~estimators._visual_inertial_numba._mech_step`);
+:func:`estimators.head_pose._kernel.strapdown_run` (the visual-inertial filter's prediction
+runs the same :func:`~estimators.head_pose._kernel._mech_step`);
 ``tests/test_estimators/test_strapdown.py``
 checks it against closed forms.
 """
@@ -54,8 +54,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from estimators import _visual_inertial_numba as _k
 from estimators.batching import stream_rows
+from estimators.head_pose import _kernel as _k
 from estimators.rotations import (
     GRAVITY,
     ensure_quaternion,
@@ -67,6 +67,7 @@ __all__ = [
     "Strapdown",
     "StrapdownTrajectory",
     "coarse_alignment",
+    "set_nominal_state",
     "static_gyro_bias",
 ]
 
@@ -127,7 +128,8 @@ def set_nominal_state(
     (B, ``N_X``): position, velocity, attitude, biases and the IMU sample at this instant.
 
     The arguments are as in :meth:`Strapdown.reset` (``accel_bias``, ``gyro_bias`` (B, 3) or (3,)
-    m/s^2 and rad/s, None: zero); the filter of :mod:`estimators.visual_inertial` shares it.
+    m/s^2 and rad/s, None: zero); the filter of :mod:`estimators.head_pose.visual_inertial` shares
+    it.
 
     Returns:
         1.0 when the sample at this instant was given (it starts the first interval), else 0.0.
