@@ -49,11 +49,11 @@ from agents.scripted.observation import (
     ObservationLayout,
     ObsView,
     _check_obs,
-    _wrap,
     free_lengths,
     ray_points,
 )
 from estimators.batching import TakesUsers
+from estimators.rotations import wrap_angle
 from estimators.validation import check_bool, check_condition, check_in_range
 from vrloco_env.actions import ACTION_SIZE
 
@@ -289,7 +289,7 @@ class ScriptedPolicy(TakesUsers):
         target, want_walk, can_go, can_keep = self._steer(v, state)
         if self._head_on_torso:  # the turn action turns the body: aim it, not the view
             frame = self.walk_offset(v) if self.plans_along_walk else 0.0
-            target = _wrap(target + v.head_on_torso - frame)
+            target = wrap_angle(target + v.head_on_torso - frame)
         self._gate(v, state, target, want_walk, can_go, can_keep, action)
         self._hand(v, action)
         a = np.clip(action, -1.0, 1.0).astype(np.float32)
