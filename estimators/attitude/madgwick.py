@@ -18,19 +18,16 @@ Per sample, with ``q`` the attitude (sensor -> world), ``w`` the gyro reading (r
    the world, ``h = R(q) m``, with its horizontal part put on north: ``b = [|h_xy|, 0, h_z]``.
 4. Integration: ``q <- normalise(q + qdot dt)``.
 
-World frames. Madgwick's world has north on +x and up on +z (north-west-up, NWU), as in step 3.
-The filter runs in that frame, exactly as published, and its attitude is turned into this
-project's ENU world on output: ``q_ENU = r ⊗ q_NWU`` with ``r`` the +90 deg rotation about the
-vertical (it takes north, NWU +x, onto ENU +y); a state given in ENU (the start, below) enters as
-``conj(r) ⊗ q_ENU``. Running the same steps in ENU with ``b = [0, |h_xy|, h_z]`` would not be
-exactly the same filter: Madgwick's objective function uses ``1 - 2 y^2 - 2 z^2``-type diagonal
-terms, equal to the rotation matrix only on unit quaternions, so its gradient is not equivariant
-under a change of world heading (on random noisy samples the two versions differ by 1e-5
-after ten samples and by 1e-2 after 2000).
-``tests/test_estimators/test_attitude_stages.py`` checks this filter against
-``ahrs.filters.Madgwick``
-(which
-uses the NWU world) to 1e-9.
+World frames. Madgwick's world has north on +x and up on +z (north-west-up, NWU), as in step 3. The
+filter runs in that frame, exactly as published, and its attitude is turned into this project's ENU
+world on output: ``q_ENU = r ⊗ q_NWU`` with ``r`` the +90 deg rotation about the vertical (it takes
+north, NWU +x, onto ENU +y); a state given in ENU (the start, below) enters as ``conj(r) ⊗ q_ENU``.
+Running the same steps in ENU with ``b = [0, |h_xy|, h_z]`` would not be exactly the same filter:
+Madgwick's objective function uses ``1 - 2 y^2 - 2 z^2``-type diagonal terms, equal to the rotation
+matrix only on unit quaternions, so its gradient is not equivariant under a change of world heading
+(on random noisy samples the two versions differ by 1e-5 after ten samples and by 1e-2 after 2000).
+``tests/test_estimators/attitude/test_attitude_stages.py`` checks this filter against
+``ahrs.filters.Madgwick`` (which uses the NWU world) to 1e-9.
 
 The gain ``beta`` is ``sqrt(3/4)`` times the gyro measurement error (rad/s); the report's
 experiments found 0.033 rad/s (IMU) and 0.041 rad/s (MARG) best. These are this module's

@@ -18,7 +18,7 @@ Per sample, with ``q`` the attitude (sensor -> ENU world), ``w`` the gyro readin
 
 Gains: ``k_P = 1`` rad/s and ``k_I = 0.3`` rad/s^2, the defaults of ``ahrs.filters.Mahony``
 (which gives them as the experimental settings of the paper); they are not tuned on any data of
-this project. ``tests/test_estimators/test_attitude_stages.py`` checks this filter against
+this project. ``tests/test_estimators/attitude/test_attitude_stages.py`` checks this filter against
 ``ahrs.filters.Mahony``
 to 1e-9 (its world frame puts the field's horizontal part on +y as here, so no frame change).
 

@@ -8,14 +8,12 @@ extra). VQF integrates the gyro in an almost inertial frame, low-passes the spec
 magnetometer through a first-order filter (``tau_mag``), estimates the gyro bias at rest and in
 motion, and rejects magnetic disturbances.
 
-Frames: ``vqf.VQF`` returns ``quat9D`` ``[w, x, y, z]`` (Hamilton) rotating sensor coordinates
-into its earth frame, whose heading correction drives the horizontal field onto +y (it takes the
-disagreement angle ``atan2(m_E,x, m_E,y)``): x east, y (magnetic) north, z up, i.e. ENU with
-zero declination, the frame of this project. No conversion is needed;
-``tests/test_estimators/test_attitude_stages.py`` checks it on static samples of known attitude
-(heading
-30 deg)
-and on an analytic trajectory.
+Frames: ``vqf.VQF`` returns ``quat9D`` ``[w, x, y, z]`` (Hamilton) rotating sensor coordinates into
+its earth frame, whose heading correction drives the horizontal field onto +y (it takes the
+disagreement angle ``atan2(m_E,x, m_E,y)``): x east, y (magnetic) north, z up, i.e. ENU with zero
+declination, the frame of this project. No conversion is needed;
+``tests/test_estimators/attitude/test_attitude_stages.py`` checks it on static samples of known
+attitude (heading 30 deg) and on an analytic trajectory.
 
 Start and missing data: VQF's own start matches the convention of the other reference stages
 (:mod:`estimators.attitude._kernel`): its low-pass filter of the specific force starts at

@@ -22,15 +22,14 @@ this module only feeds it the frames:
 Parameters (:class:`AdaptiveKalmanHandParams`) were chosen on the synthetic Kinect v2 (the chain of
 :mod:`agents.experiments.hand_variance`) on its development seeds only (static trials: seeds 1, 2,
 the paper's 11 angles x 5 repeats x 10 s; moving: seeds 101, 102, 10 users sweeping about the
-forearm at 90 deg/s for 10 s). Rule: the smallest mean, over the three axes and both kinds of
-trial, of the RMSE against the true orientation relative to raw's, among the settings whose every
-ratio is below 1 on every development seed; grid ``accel_psd`` in {0.3, 1, 3, 10} rad^2/s^3,
-``max_accel_psd`` in {30, 100, 1000}, ``adapt_time`` in {1/30, 0.05, 0.1} s. Chosen: 1, 1000,
-1/30 s (development mean ratio 0.919; the runner-up settings differ by less than 0.001;
-``python -m agents.experiments.hand_variance --only adaptive_kalman``). The
-held-out figures are those of ``vrloco experiment hand-variance``;
-``tests/test_estimators/test_hand_stages.py``
-checks on other held-out seeds that the filter beats raw at rest and in motion on every axis.
+forearm at 90 deg/s for 10 s). Rule: the smallest mean, over the three axes and both kinds of trial,
+of the RMSE against the true orientation relative to raw's, among the settings whose every ratio is
+below 1 on every development seed; grid ``accel_psd`` in {0.3, 1, 3, 10} rad^2/s^3,
+``max_accel_psd`` in {30, 100, 1000}, ``adapt_time`` in {1/30, 0.05, 0.1} s. Chosen: 1, 1000, 1/30 s
+(development mean ratio 0.919; the runner-up settings differ by less than 0.001; ``python -m
+agents.experiments.hand_variance --only adaptive_kalman``). The held-out figures are those of
+``vrloco experiment hand-variance``; ``tests/test_estimators/hand/test_hand_stages.py`` checks on
+other held-out seeds that the filter beats raw at rest and in motion on every axis.
 """
 
 from __future__ import annotations

@@ -37,12 +37,10 @@ bending one: the Kinect model's noise about those axes is 95 % slow (correlated 
 no filter that follows the hand removes; about the forearm, whose noise is mostly white, half of
 the variance goes.
 
-Held-out figures (rest and motion, beside seed 003's filters and the motion-adaptive Kalman
-filter of :mod:`estimators.hand.adaptive`) are those of ``vrloco experiment hand-variance``
-(seeds 0 and 1); ``tests/test_estimators/test_hand_stages.py`` checks on other held-out seeds that
-the
-filter beats
-raw at rest and in motion.
+Held-out figures (rest and motion, beside seed 003's filters and the motion-adaptive Kalman filter
+of :mod:`estimators.hand.adaptive`) are those of ``vrloco experiment hand-variance`` (seeds 0 and
+1); ``tests/test_estimators/hand/test_hand_stages.py`` checks on other held-out seeds that the
+filter beats raw at rest and in motion.
 """
 
 from __future__ import annotations

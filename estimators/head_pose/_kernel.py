@@ -2,7 +2,7 @@
 
 * :func:`strapdown_run`: the strapdown mechanisation of
   :class:`estimators.head_pose.strapdown.Strapdown` (stage :func:`_mech_step`), checked against
-  closed forms by ``tests/test_estimators/test_strapdown.py``;
+  closed forms by ``tests/test_estimators/head_pose/test_strapdown.py``;
 * :data:`predict_kernel`: the ESKF prediction, per IMU sample the stages :func:`_mech_step`
   (nominal state) and :func:`_propagate_cov` (covariance);
 * :data:`update_kernel`: the ESKF update with one visual pose, in stages: :func:`_innovation`,

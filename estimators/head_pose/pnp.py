@@ -394,7 +394,7 @@ def solve_pose(
         found, rvec, tvec, inl = _ransac(x, u, k, float(reprojection_px), cv2.SOLVEPNP_EPNP)
     if not found or inl is None or inl.size < max(n_min, n // 2):
         # EPnP's 5-point samples from one wall are coplanar, where OpenCV's EPnP returns a wrong
-        # pose even on exact data (tests/test_estimators/test_visual_pose.py): try AP3P's 4-point
+        # pose even on exact data (tests/test_estimators/head_pose/test_pnp.py): try AP3P's 4-point
         # samples.
         retry = _ransac(x, u, k, float(reprojection_px), cv2.SOLVEPNP_AP3P)
         if retry[0] and retry[3] is not None and (inl is None or retry[3].size > inl.size):

@@ -24,10 +24,9 @@ Discretisation (one interval ``[t_{k-1}, t_k]`` of length ``dt = 1 / rate_hz``)
   samples of gravity, averaged, are shortened by ``cos(|w| dt / 2)``, a vertical acceleration error
   ``g (|w| dt)^2 / 8`` that integrates twice: in the paper's 120 s uniform-rotation test (1 rad/s, 1
   kHz) that is 9 mm of position from the discretisation alone, where the end-point form stays at
-  1e-8 m (``tests/test_estimators/test_strapdown.py``). On the 10 s walking-circle trajectory of the
-  tests both end
-  within 4e-5 m of the truth at 1 kHz (the trapezoid's ``dt^2`` error on the head bob's jerk; the
-  mid-attitude form 3e-5 m).
+  1e-8 m (``tests/test_estimators/head_pose/test_strapdown.py``). On the 10 s walking-circle
+  trajectory of the tests both end within 4e-5 m of the truth at 1 kHz (the trapezoid's ``dt^2``
+  error on the head bob's jerk; the mid-attitude form 3e-5 m).
 * Position: trapezoid on the velocity, ``p_k = p_{k-1} + dt (v_{k-1} + v_k) / 2``.
 
 Timing: the state always refers to the instant of the last sample consumed. :meth:`Strapdown.reset`
@@ -42,7 +41,7 @@ accelerometer on a turntable, which we do not model).
 The per-sample loop is the one mechanisation of the project,
 :func:`estimators.head_pose._kernel.strapdown_run` (the visual-inertial filter's prediction
 runs the same :func:`~estimators.head_pose._kernel._mech_step`);
-``tests/test_estimators/test_strapdown.py``
+``tests/test_estimators/head_pose/test_strapdown.py``
 checks it against closed forms.
 """
 

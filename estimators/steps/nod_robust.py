@@ -38,15 +38,13 @@ Chosen values. Everything of step 2 is :class:`estimators.steps.zhang2021.GaitPa
 detects it. ``lever_arm`` 0.20 m: a stated bound on the distance from the upper neck (the head's
 pivot for nods) to a forehead or headset IMU, a little above the 15 cm of the simulated user (9 cm
 ahead of and 12 cm above the pivot). It was checked, not fitted, on development seeds 0-2 of
-``benchmarks/bench_step_stages.py --dev`` (8 users a trial, both IMU presets, EKF attitude):
-every value from 0.15 to 0.4 m keeps walking in place at 1.2-2.2 steps/s, also while scanning the
-room, at F1 1.000 and leaves no phantom step in the seven standing gestures; 0.10 m (below the
-true lever arm, so the bound no longer holds) keeps about half the phantom steps of the plain
-world-vertical detector (``lever_arm=0``), and 0.6 m starts to veto light steps (F1
-0.986-0.995). The benchmark's default run (seeds 1000-1002) and
-``tests/test_estimators/test_step_stages.py`` (seeds 2000 and up) report on seeds never used to
-choose
-anything.
+``benchmarks/bench_step_stages.py --dev`` (8 users a trial, both IMU presets, EKF attitude): every
+value from 0.15 to 0.4 m keeps walking in place at 1.2-2.2 steps/s, also while scanning the room, at
+F1 1.000 and leaves no phantom step in the seven standing gestures; 0.10 m (below the true lever
+arm, so the bound no longer holds) keeps about half the phantom steps of the plain world-vertical
+detector (``lever_arm=0``), and 0.6 m starts to veto light steps (F1 0.986-0.995). The benchmark's
+default run (seeds 1000-1002) and ``tests/test_estimators/steps/test_step_stages.py`` (seeds 2000
+and up) report on seeds never used to choose anything.
 
 Limits: the bound assumes the IMU turns about a pivot within ``lever_arm`` of it (a rigid head on
 a still neck); a lean of the whole trunk pivots lower and is only partly covered. Attitude error
