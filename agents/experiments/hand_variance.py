@@ -13,7 +13,7 @@ with them (:data:`COMPETITORS`: the One Euro filter and the motion-adaptive Kalm
 
 Everything runs through the real chain: motion model -> Kinect model (bystanders, ids, tracking
 states, noise) -> :class:`estimators.hand.HandPipeline` (target selection, Holt smoothing, eq 1/2,
-Kalman, median) -> hand stages. Axis names are the paper's (see :mod:`estimators.hand`): its
+Kalman, median) -> hand stages. Axis names are the paper's (see :mod:`estimators.hand.angles`): its
 *roll, pitch, yaw* are our ZYX ``[yaw, pitch, roll]`` columns of the wrist orientation in camera
 space; the sweep about the forearm moves the paper's *roll*.
 

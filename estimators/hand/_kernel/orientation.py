@@ -96,7 +96,7 @@ def forget_orientation(s, win):
 @numba.njit(cache=True, inline="always")
 def _paper_ypr(w, x, y, z, threshold):
     """Eq (1), or eq (2) where ``|wy - zx| > threshold``, of a unit quaternion in our order:
-    ``(about_z, pitch, about_x, singular)`` (see :mod:`estimators.hand` for the names)."""
+    ``(about_z, pitch, about_x, singular)`` (see :mod:`estimators.hand.angles` for the names)."""
     s = w * y - z * x
     singular = abs(s) > threshold
     about_x = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
