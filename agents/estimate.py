@@ -29,11 +29,12 @@ from agents.recordings import (
     read_recording,
     warn,
 )
+from agents.step_matching import step_f1
 from estimators.attitude import estimate_attitude
-from estimators.attitude_errors import orientation_errors
-from estimators.dead_reckoning import dead_reckon
-from estimators.gait import detect_steps, step_f1
+from estimators.attitude.errors import orientation_errors
+from estimators.locomotion.dead_reckoning import dead_reckon
 from estimators.rotations import quat_to_ypr
+from estimators.steps import detect_steps
 
 __all__ = ["estimate_recording"]
 
@@ -135,7 +136,7 @@ def estimate_recording(
         ``attitude_vs_reference`` (BROAD: total, inclination and heading RMSE in deg against
         ``opt_quat`` over the ``movement`` samples; the heading offset is removed first for 6D
         data) or ``steps_vs_foot_switches`` (Oxford: true and false positives, misses,
-        precision, recall and F1 within +-0.2 s, :func:`estimators.gait.step_f1`).
+        precision, recall and F1 within +-0.2 s, :func:`agents.step_matching.step_f1`).
 
     Raises:
         ValueError: a malformed recording, units that cannot be found or do not fit the data,

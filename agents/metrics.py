@@ -101,7 +101,7 @@ def spl(success: ArrayLike, shortest: ArrayLike, walked: ArrayLike) -> float:
 
 
 def _prf(tp: int, fp: int, fn: int) -> tuple[float, float, float]:
-    """Precision, recall, F1 with the conventions of :func:`estimators.gait.step_f1`."""
+    """Precision, recall, F1 with the conventions of :func:`agents.step_matching.step_f1`."""
     if tp + fp + fn == 0:
         return 1.0, 1.0, 1.0
     precision = tp / (tp + fp) if tp + fp else 1.0

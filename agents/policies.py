@@ -74,7 +74,7 @@ def check_policy(spec: str) -> str:
             raise ValueError(f"policy={spec!r}: no such model file {base!r}")
         return spec
     if ":" in base:
-        from estimators.stages import load_attr
+        from estimators.registry import load_attr
 
         try:
             obj = load_attr(base, "policy")
@@ -300,7 +300,7 @@ def build_policy(spec: str, env: Any) -> Any:
     elif base.endswith(".zip"):
         policy = LearnedPolicy(base, env)
     else:
-        from estimators.stages import load_attr
+        from estimators.registry import load_attr
 
         policy = load_attr(base, "policy")(env)
         for method in ("reset", "act"):

@@ -75,8 +75,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from estimators.attitude import MAX_GYR_NORM
-from estimators.gait import GaitParams
+from estimators.attitude.ekf import MAX_GYR_NORM
 from estimators.rotations import (
     GRAVITY,
     quat_from_rotvec,
@@ -84,6 +83,7 @@ from estimators.rotations import (
     quat_normalize,
     quat_rotate,
 )
+from estimators.steps.zhang2021 import GaitParams
 
 __all__ = [
     "GAP_INTERVALS",
@@ -396,7 +396,7 @@ def read_recording(path: Path, units: Units | None = None) -> Recording:
     if units is not None and not isinstance(units, Units):
         raise ValueError(f"units={units!r}: must be a Units (or None for 'auto' throughout)")
     if path.is_dir():
-        from estimators.io_oxford import load_oxford, read_accelerometer
+        from estimators.io.oxford import load_oxford, read_accelerometer
 
         if not (path / "accelerometer.csv").is_file():
             raise ValueError(
@@ -417,7 +417,7 @@ def read_recording(path: Path, units: Units | None = None) -> Recording:
     if not path.is_file():
         raise ValueError(f"{path}: no such file or folder")
     if path.suffix.lower() in (".hdf5", ".h5", ".mat"):
-        from estimators.io_broad import load_broad
+        from estimators.io.broad import load_broad
 
         fixed = _format_units(path, units, "a BROAD trial")
         trial = load_broad(path)

@@ -3,7 +3,7 @@
 The env reports the true heel-strike times and the detector's estimated heel-strike times of each
 step (``info["true_step_times"]``, ``info["detected_step_times"]``, episode time, inf-padded);
 :func:`match_step_times` matches them one to one within +-0.2 s, seed 000's tolerance
-(:func:`estimators.gait.step_f1`). The detector is causal and reports a step 0.135 s after it,
+(:func:`step_f1`). The detector is causal and reports a step 0.135 s after it,
 and the first step of a walking bout only with the second; matching the estimated heel-strike
 times, not the reporting times, judges where a step was detected, not when.
 :func:`match_step_counts` (counts per control step in a window) remains for recordings without
@@ -12,10 +12,13 @@ times.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.optimize import linear_sum_assignment
 
-from estimators.gait import step_f1
+from estimators.validation import check_numeric
 
 __all__ = [
     "DEFAULT_LATE_STEPS",
@@ -23,6 +26,7 @@ __all__ = [
     "finite_times",
     "match_step_counts",
     "match_step_times",
+    "step_f1",
 ]
 
 #: Default lateness (control steps) allowed between a heel strike and its detection: 0.2 s.
@@ -31,11 +35,64 @@ DEFAULT_LATE_STEPS = 2
 STEP_TOLERANCE_S = 0.2
 
 
+def step_f1(
+    detected_times: ArrayLike, true_times: ArrayLike, tol: float = 0.2
+) -> tuple[float, float, float]:
+    """Precision, recall and F1 of detected steps against true steps.
+
+    Matching is one-to-one: each true step is matched to at most one detection and vice versa,
+    and only pairs at most ``tol`` seconds apart may match. Among such matchings we take one with
+    the most pairs (and, among those, the least total time error): the Hungarian algorithm
+    (``scipy.optimize.linear_sum_assignment``) on the cost |t_det - t_true|, with pairs beyond
+    ``tol`` priced above any sum of allowed ones. Clusters of times separated by more than
+    ``tol`` cannot share a pair, so each cluster is matched on its own (linear cost overall).
+
+    Args:
+        detected_times: detected step times (s), (D,).
+        true_times: true step times (s), (T,).
+        tol: largest allowed time error (s), > 0.
+
+    Returns:
+        ``(precision, recall, f1)``. Conventions for empty inputs: no detections gives precision
+        1 (no false alarm); no true steps gives recall 1 (nothing missed); F1 is 1 only when both
+        are empty and otherwise 2 P R / (P + R), 0 when P + R = 0.
+    """
+    det = check_numeric(detected_times, "detected_times").ravel()
+    tru = check_numeric(true_times, "true_times").ravel()
+    if not (np.all(np.isfinite(det)) and np.all(np.isfinite(tru))):
+        raise ValueError("detected_times and true_times must be finite (s)")
+    if not (math.isfinite(tol) and tol > 0.0):
+        raise ValueError(f"tol must be > 0 s, got {tol!r}")
+    if det.size == 0 and tru.size == 0:
+        return 1.0, 1.0, 1.0
+    matched = 0
+    if det.size and tru.size:
+        # No allowed pair spans a gap > tol in the merged, sorted times: match each cluster alone.
+        times = np.concatenate([det, tru])
+        is_det = np.concatenate([np.ones(det.size, bool), np.zeros(tru.size, bool)])
+        order = np.argsort(times, kind="stable")
+        times, is_det = times[order], is_det[order]
+        cuts = np.flatnonzero(np.diff(times) > tol) + 1
+        for seg_t, seg_d in zip(np.split(times, cuts), np.split(is_det, cuts), strict=True):
+            dd, tr = seg_t[seg_d], seg_t[~seg_d]
+            if dd.size == 0 or tr.size == 0:
+                continue
+            cost = np.abs(dd[:, None] - tr[None, :])
+            allowed = cost <= tol
+            big = 1.0 + tol * (min(dd.size, tr.size) + 1)
+            r, c = linear_sum_assignment(np.where(allowed, cost, big))
+            matched += int(np.count_nonzero(allowed[r, c]))
+    precision = matched / det.size if det.size else 1.0
+    recall = matched / tru.size if tru.size else 1.0
+    f1 = 2 * precision * recall / (precision + recall) if precision + recall > 0 else 0.0
+    return float(precision), float(recall), float(f1)
+
+
 def match_step_times(
     true_times: ArrayLike, detected_times: ArrayLike, tol: float = STEP_TOLERANCE_S
 ) -> tuple[int, int, int]:
     """(tp, fp, fn) of detected vs true heel-strike times matched one to one within ``tol`` s
-    (:func:`estimators.gait.step_f1`'s matching)."""
+    (:func:`step_f1`'s matching)."""
     true = np.asarray(true_times, dtype=np.float64)
     det = np.asarray(detected_times, dtype=np.float64)
     _, recall, _ = step_f1(det, true, tol=tol)

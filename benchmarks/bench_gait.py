@@ -7,14 +7,14 @@ Run from the repository root::
 
 Prints:
 
-* the cost of :class:`estimators.gait.StepDetector` per user-sample for the environment's shape
-  (B = 256 users x 10 samples per control step at 100 Hz), and for 8 users compiled and with its
-  kernel uncompiled (:func:`estimators.kernels.python_reference`);
+* the cost of :class:`estimators.steps.zhang2021.StepDetector` per user-sample for the environment's
+  shape (B = 256 users x 10 samples per control step at 100 Hz), and for 8 users compiled and with
+  its kernel uncompiled (:func:`estimators.kernels.python_reference`);
 * F1 (+-0.2 s) and phantom steps on the simulator's scripted motions (``vrloco_env.user.motion`` +
   ``vrloco_env.sensors.imu``), if the environment package is importable;
 * the Oxford neck-pouch walk (CC-BY-4.0, Oxford-step-counter/DataSet) with both presets, if
   ``$VRLOCO_DATA`` or the cache holds it (``vrloco data fetch oxford``);
-* :func:`estimators.locomotion.compare_locomotion`.
+* :func:`agents.experiments.locomotion_table.compare_locomotion`.
 """
 
 from __future__ import annotations
@@ -30,10 +30,11 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from agents.data import DataMissing, data_path
-from estimators.gait import GaitParams, StepDetector, detect_steps, step_f1
+from agents.experiments.locomotion_table import compare_locomotion
+from agents.step_matching import step_f1
 from estimators.kernels import python_reference
-from estimators.locomotion import compare_locomotion
 from estimators.rotations import GRAVITY
+from estimators.steps import GaitParams, StepDetector, detect_steps
 
 
 def bench_speed(b: int = 256, chunk: int = 10, seconds: float = 60.0) -> None:
@@ -69,8 +70,8 @@ def bench_speed(b: int = 256, chunk: int = 10, seconds: float = 60.0) -> None:
 
 
 def bench_locomotion_speed(b: int = 256, calls: int = 2000) -> None:
-    from estimators.dead_reckoning import DeadReckoning
-    from estimators.locomotion import SmoothLocomotion
+    from estimators.locomotion.dead_reckoning import DeadReckoning
+    from estimators.locomotion.smooth import SmoothLocomotion
 
     rng = np.random.default_rng(1)
     steps = (rng.random((calls, b)) < 0.02).astype(float)
@@ -118,7 +119,7 @@ def bench_simulator(users: int = 32) -> None:
 
 
 def bench_oxford() -> None:
-    from estimators.io_oxford import DEFAULT_RECORDING, load_oxford
+    from estimators.io.oxford import DEFAULT_RECORDING, load_oxford
 
     try:
         folder = data_path("oxford")

@@ -45,9 +45,9 @@ from agents.experiments.head_motions import (
     sense_record,
     stepping_with_head_scan,
 )
-from estimators.gait import step_f1
+from agents.step_matching import step_f1
 from estimators.stages import STEPS
-from estimators.steps_nod_robust import NodRobustParams
+from estimators.steps import NodRobustParams
 from vrloco_env.batch_rng import BatchRng
 from vrloco_env.user import Intent, MotionParams, MotionRecord, UserMotion
 
@@ -72,7 +72,7 @@ WALK_NOD_CADENCE = 1.7
 
 
 def detectors() -> dict[str, object]:
-    """Label -> what :meth:`estimators.stages.Registry.build` takes."""
+    """Label -> what :meth:`estimators.registry.Registry.build` takes."""
     out: dict[str, object] = {name: name for name in STEPS.names()}
     out["no_veto"] = NodRobustParams(lever_arm=0.0)
     return out

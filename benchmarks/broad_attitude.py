@@ -4,14 +4,14 @@
 
 Data: Laidig, Caruso, Cereatti, Seel, "BROAD - A Benchmark for Robust Inertial Orientation
 Estimation", Data 6(7):72, 2021, CC-BY-4.0 (nine of its 39 trials, ``vrloco data fetch broad``;
-reader :mod:`estimators.io_broad`).
+reader :mod:`estimators.io.broad`).
 
 Each name of :data:`estimators.stages.ATTITUDE` is built as the environment builds it,
 ``ATTITUDE.build(name, 1, fs)`` with the trial's rate, and fed the whole trial (gyro, specific
 force, magnetometer) in one ``update``. A stage that cannot be built (its module missing or not
 importable) is skipped with a note.
 
-Metric (:func:`estimators.attitude_errors.orientation_errors`, BROAD's definitions): RMSE (deg)
+Metric (:func:`estimators.attitude.errors.orientation_errors`, BROAD's definitions): RMSE (deg)
 over the ``movement`` samples of the earth-frame error ``q_est ⊗ conj(q_true)``: total angle,
 heading (rotation about the vertical) and inclination; no heading alignment (the optical reference
 is in the magnetometer's ENU frame). Time: wall time of the ``update`` call per sample (us), after
@@ -37,9 +37,10 @@ from pathlib import Path
 import numpy as np
 
 from agents.data import DataMissing, data_path
-from estimators.attitude_errors import orientation_errors
-from estimators.io_broad import broad_trials, load_broad
-from estimators.stages import ATTITUDE, StageError
+from estimators.attitude.errors import orientation_errors
+from estimators.io.broad import broad_trials, load_broad
+from estimators.registry import StageError
+from estimators.stages import ATTITUDE
 
 METRICS = (("total", "total_rmse_deg"), ("heading", "heading_rmse_deg"),
            ("inclination", "inclination_rmse_deg"))  # fmt: skip

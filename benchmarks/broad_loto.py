@@ -17,7 +17,7 @@ Grid (log-spaced, 5 x 5 x 4 = 100 points, the defaults in it):
 * ``bias_walk``: 1e-4, 1e-3, 1e-2, 1e-1 deg/s/sqrt(s) (default 1e-3).
 
 Metric: BROAD's total RMSE (deg) over the ``movement`` samples
-(:func:`estimators.attitude_errors.orientation_errors`, as ``benchmarks/broad_table.py``). Printed
+(:func:`estimators.attitude.errors.orientation_errors`, as ``benchmarks/broad_table.py``). Printed
 per trial: the defaults (in-sample), the LOTO choice and its held-out RMSE (out-of-sample), VQF
 with its package defaults (out-of-sample); then the means, and the grid point best on all nine (the
 most optimistic, in-sample figure). The figure (per-trial bars: defaults in-sample, LOTO held out,
@@ -36,8 +36,8 @@ import numpy as np
 
 from agents.data import DataMissing, data_path
 from estimators.attitude import AttitudeParams, estimate_attitude
-from estimators.attitude_errors import orientation_errors
-from estimators.io_broad import BroadTrial, broad_trials, load_broad
+from estimators.attitude.errors import orientation_errors
+from estimators.io.broad import BroadTrial, broad_trials, load_broad
 
 ACC_NOISE = (0.005, 0.01, 0.02, 0.04, 0.08)
 MAG_NOISE = (0.0075, 0.015, 0.03, 0.06, 0.12)

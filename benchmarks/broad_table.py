@@ -5,7 +5,7 @@
 Data: Laidig, Caruso, Cereatti, Seel, "BROAD - A Benchmark for Robust Inertial Orientation
 Estimation", Data 6(7):72, 2021, CC-BY-4.0 (nine of its 39 trials: ``vrloco data fetch broad``).
 
-Metric (:func:`estimators.attitude_errors.orientation_errors`, BROAD's own definitions): RMSE in
+Metric (:func:`estimators.attitude.errors.orientation_errors`, BROAD's own definitions): RMSE in
 degrees over the ``movement`` samples of the earth-frame error ``q_est ⊗ conj(q_true)``: total
 angle, heading (rotation about the vertical) and inclination, one table each, per trial, with the
 mean and the win counts (the lowest RMSE of the trial among the six main columns; ties count for
@@ -45,8 +45,8 @@ import numpy as np
 
 from agents.data import DataMissing, data_path
 from estimators.attitude import estimate_attitude
-from estimators.attitude_errors import orientation_errors
-from estimators.io_broad import BroadTrial, broad_trials, load_broad
+from estimators.attitude.errors import orientation_errors
+from estimators.io.broad import BroadTrial, broad_trials, load_broad
 from estimators.rotations import GRAVITY, quat_from_rotvec, quat_multiply
 
 NWU_TO_ENU = quat_from_rotvec([0.0, 0.0, np.pi / 2])

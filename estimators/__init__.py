@@ -1,29 +1,35 @@
 """Estimators of the vrloco source papers: pure numpy (numba where measured), batched over a
 leading dimension of B streams, with no knowledge of the environment.
 
-Modules:
+One sub-package per estimation stage, over a shared ground floor; no stage package imports
+another, and each keeps its compiled code in its own ``_kernel`` (each kernel's uncompiled
+``py_func`` is the readable reference).
 
-* :mod:`estimators.stages` — the stage protocols (attitude, steps, hand, steering, locomotion)
-  and their registries of named implementations; ``"module:attr"`` plug-ins.
-* :mod:`estimators.rotations` — the one quaternion / rotation-matrix / ZYX-Euler module.
-* :mod:`estimators.attitude` — seed 000's error-state attitude EKF (streaming; offline through
-  :mod:`estimators.attitude_offline`, the forward-backward smoother);
-  :mod:`estimators.attitude_errors` — BROAD's orientation error metrics;
-  :mod:`estimators.attitude_vqf`, :mod:`estimators.attitude_madgwick`,
-  :mod:`estimators.attitude_mahony`, :mod:`estimators.attitude_gyro` — the other attitude stages.
-* :mod:`estimators.gait` — seed 000's still/walk and step detector; step F1;
-  :mod:`estimators.steps_threshold`, :mod:`estimators.steps_nod_robust` — other step stages;
-  :mod:`estimators.cadence` — cadence from step events.
-* :mod:`estimators.steering` — head and torso steering, the torso's yaw from the shoulders.
-* :mod:`estimators.dead_reckoning` — seed 000's eq (17) virtual path.
-* :mod:`estimators.locomotion` — seed 001's smooth-locomotion filter (continuous virtual motion);
-  :mod:`estimators.locomotion_cadence` — speed proportional to the cadence.
-* :mod:`estimators.joint_smoothing`, :mod:`estimators.hand` — seed 003's hand-orientation
-  pipeline (target selection, Holt smoothing, eq 1/2, Kalman + median) and a One Euro filter;
-  :mod:`estimators.hand_one_euro` — the One Euro hand stage.
-* :mod:`estimators.strapdown`, :mod:`estimators.visual_pose`, :mod:`estimators.visual_inertial`
-  — seed 004's strapdown inertial solution, OpenCV PnP pose from landmarks, and the (adaptive)
-  error-state Kalman filter fusing them.
-* :mod:`estimators.io_broad`, :mod:`estimators.io_oxford`, :mod:`estimators.io_kinect` — readers
-  for the real recordings we validate against.
+Ground floor:
+
+* :mod:`estimators.stages` — the stage protocols (attitude, steps, hand, steering, locomotion),
+  their contracts and their registries of named implementations;
+  :mod:`estimators.registry` — the :class:`~estimators.registry.Registry` type and the
+  ``"module:attr"`` plug-in loader; :mod:`estimators.checked` — the proxy that holds a plug-in to
+  its contract; :mod:`estimators.stage_docs` — ``docs/protocols.md``, rendered from them.
+* :mod:`estimators.rotations` — the one quaternion / rotation-matrix / ZYX-Euler module;
+  :mod:`estimators.kernels` — what every compiled kernel shares (the batch driver, scalar
+  rotations, named records).
+* :mod:`estimators.batching` — dropping users mid-run; :mod:`estimators.validation` — every
+  argument check, one error format.
+
+Stages:
+
+* :mod:`estimators.attitude` — head attitude: seed 000's error-state EKF (streaming, and offline
+  through its forward-backward smoother), BROAD's error metrics, VQF, Madgwick, Mahony and gyro
+  integration.
+* :mod:`estimators.steps` — seed 000's still/walk and step detector, the other step stages and
+  the cadence.
+* :mod:`estimators.hand` — seed 003's hand-orientation pipeline (target selection, Holt
+  smoothing, eq 1/2, Kalman + median) and the hand stages.
+* :mod:`estimators.locomotion` — seed 000's eq (17) virtual path, seed 001's smooth filter,
+  cadence-proportional speed, and head or torso steering.
+* :mod:`estimators.head_pose` — seed 004's strapdown inertial solution, OpenCV PnP pose from
+  landmarks, and the (adaptive) error-state Kalman filter fusing them.
+* :mod:`estimators.io` — readers for the real recordings we validate against.
 """

@@ -1,10 +1,15 @@
-"""Checks for configuration dataclasses and function arguments: one error format across the
-project (estimators, env and agents alike).
+"""Checks for configuration dataclasses and function arguments: one place for every argument
+check of the project (estimators, env and agents alike).
 
-Every check raises a ValueError that starts with ``Class.field=value:`` (or ``name=value:`` for a
-function argument) and says what is allowed, so that a command line reports it in one line. A
-number is a real number that is not a bool (numpy scalars count; strings such as ``"1.5"`` do
-not); it must be finite unless a check says otherwise.
+Fields and numbers: every check raises a ValueError that starts with ``Class.field=value:`` (or
+``name=value:`` for a function argument) and says what is allowed, so that a command line reports
+it in one line. A number is a real number that is not a bool (numpy scalars count; strings such
+as ``"1.5"`` do not); it must be finite unless a check says otherwise.
+
+Arrays: the checks of the stages' array arguments (:func:`check_samples`, :func:`check_chunk`,
+:func:`check_array`, :func:`check_xyz`, :func:`check_locomotion_update`, ...) return the argument
+as float64 of the shape expected, or raise a ValueError naming the argument (and the stage, where
+given as ``who``) and the shape or the values allowed.
 """
 
 from __future__ import annotations
@@ -14,15 +19,30 @@ import math
 import numbers
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 __all__ = [
+    "check_array",
+    "check_batch_size",
     "check_bool",
     "check_choice",
+    "check_chunk",
     "check_condition",
     "check_in_range",
     "check_instance",
+    "check_locomotion_update",
+    "check_mask",
     "check_numbers",
+    "check_numeric",
+    "check_per_user",
+    "check_positions",
+    "check_rate",
+    "check_samples",
+    "check_stage_args",
+    "check_step_intervals",
+    "check_step_length",
     "check_value",
+    "check_xyz",
     "value_repr",
 ]
 
@@ -189,3 +209,249 @@ def check_numbers(obj: object, name: str, lo: float, hi: float, unit: str = "",
     )
     if not ok:
         raise ValueError(f"{type(obj).__name__}.{name}={value_repr(v)}: {allowed}")
+
+
+# ------------------------------------------------------------------------------ stage arguments
+def check_batch_size(batch_size: object, who: str = "") -> int:
+    """``batch_size`` as an int >= 1, or a ValueError naming it (and ``who``, where given)."""
+    check_value(f"{who}: batch_size" if who else "batch_size", batch_size, 1, math.inf,
+                integer=True)  # fmt: skip
+    return int(batch_size)  # type: ignore[call-overload]
+
+
+def check_rate(rate: object, name: str = "fs", who: str = "") -> float:
+    """A sample rate ``rate`` as a float in (0, 100000] Hz, or a ValueError naming the argument
+    ``name`` (and ``who``, where given)."""
+    check_value(f"{who}: {name}" if who else name, rate, 0.0, 100_000.0, "Hz", lo_open=True)
+    return float(rate)  # type: ignore[arg-type]
+
+
+def check_stage_args(batch_size: object, fs: object, who: str) -> tuple[int, float]:
+    """``batch_size`` as an int >= 1 and ``fs`` as a float in [10, 2000] Hz (the range of the
+    step detectors), or a ValueError naming ``who`` and the argument."""
+    if isinstance(batch_size, bool) or not isinstance(batch_size, int | np.integer):
+        raise ValueError(f"{who}: batch_size must be an integer >= 1, got {batch_size!r}")
+    if batch_size < 1:
+        raise ValueError(f"{who}: batch_size must be an integer >= 1, got {batch_size!r}")
+    try:
+        rate = float(fs)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        raise ValueError(f"{who}: fs must be a number in [10, 2000] Hz, got {fs!r}") from None
+    if not (10.0 <= rate <= 2000.0):
+        raise ValueError(f"{who}: fs must be in [10, 2000] Hz, got {fs!r}")
+    return int(batch_size), rate
+
+
+def check_numeric(value: ArrayLike, name: str) -> NDArray[np.float64]:
+    """``value`` as a float64 array, or a ValueError naming ``name``."""
+    try:
+        return np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a numeric array") from None
+
+
+def check_array(a: ArrayLike, name: str, shape: tuple[int, ...], finite: bool = True) -> NDArray:
+    """``a`` as float64 of exactly ``shape`` (a -1 entry matches any length), finite unless
+    ``finite`` is False, or a ValueError naming ``name``."""
+    try:
+        arr = np.asarray(a, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be a numeric array: {exc}") from None
+    if arr.ndim != len(shape) or any(
+        s not in (-1, n) for s, n in zip(shape, arr.shape, strict=True)
+    ):
+        want = "(" + ", ".join("N" if s == -1 else str(s) for s in shape) + ")"
+        raise ValueError(f"{name} must have shape {want}, got {arr.shape}")
+    if finite and not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} contains NaN or infinite entries")
+    return arr
+
+
+def check_xyz(a: ArrayLike, name: str, shape: tuple[int, ...] | None) -> NDArray[np.float64]:
+    """``a`` as a float64 array of 3-vectors (last axis x, y, z), of exactly ``shape`` where
+    given, or a ValueError naming ``name``."""
+    try:
+        arr = np.asarray(a, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be a numeric array of 3-vectors: {exc}") from None
+    if arr.ndim < 1 or arr.shape[-1] != 3:
+        raise ValueError(f"{name} must have 3 columns (x, y, z), got shape {arr.shape}")
+    if shape is not None and arr.shape != shape:
+        raise ValueError(f"{name} must have shape {shape} like gyr, got {arr.shape}")
+    return arr
+
+
+def check_samples(
+    gyr: ArrayLike, acc: ArrayLike, mag: ArrayLike | None, batch_size: int, who: str
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64] | None]:
+    """The IMU samples of one attitude ``update`` as C-contiguous float64 arrays of shape
+    (B, N, 3) (``mag`` may be None).
+
+    Raises:
+        ValueError: naming the argument and the shape expected.
+    """
+    out = []
+    shape = None
+    for name, value in (("gyr", gyr), ("acc", acc), ("mag", mag)):
+        if value is None and name == "mag":
+            out.append(None)
+            continue
+        try:
+            arr = np.ascontiguousarray(value, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(
+                f"{who}.update: {name} must be a float array of shape ({batch_size}, N, 3), got "
+                f"{type(value).__name__}"
+            ) from None
+        if shape is None:
+            if arr.ndim != 3 or arr.shape[0] != batch_size or arr.shape[2] != 3:
+                raise ValueError(
+                    f"{who}.update: {name} must have shape ({batch_size}, N, 3), got {arr.shape}"
+                )
+            shape = arr.shape
+        elif arr.shape != shape:
+            raise ValueError(f"{who}.update: {name} must have the shape of gyr {shape}, got "
+                             f"{arr.shape}")  # fmt: skip
+        out.append(arr)
+    return out[0], out[1], out[2]
+
+
+def check_chunk(
+    acc: ArrayLike, gyr: ArrayLike, quat: ArrayLike, batch_size: int, who: str
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """The inputs of one step stage's ``update`` as C-contiguous float64 arrays (B, N, 3),
+    (B, N, 3) and (B, N, 4) with one N, or a ValueError naming the argument and the shape
+    expected."""
+    out = []
+    n = None
+    for name, value, last in (("acc", acc, 3), ("gyr", gyr, 3), ("quat", quat, 4)):
+        try:
+            arr = np.ascontiguousarray(value, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(f"{who}.update: {name} must be a numeric array") from None
+        want = f"({batch_size}, {'N' if n is None else n}, {last})"
+        if arr.ndim != 3 or arr.shape[0] != batch_size or arr.shape[2] != last:
+            raise ValueError(f"{who}.update: {name} must have shape {want}, got {arr.shape}")
+        if n is None:
+            n = arr.shape[1]
+        elif arr.shape[1] != n:
+            raise ValueError(f"{who}.update: {name} must have shape {want}, got {arr.shape}")
+        out.append(arr)
+    return out[0], out[1], out[2]
+
+
+# ------------------------------------------------------------------------------ locomotion
+def check_step_intervals(params: object) -> None:
+    """The step-interval fields a step-driven locomotion filter's parameters share:
+    ``min_step_interval`` in [0.05, 2] s, ``max_step_interval`` from it to 10 s, and
+    ``default_step_interval`` between the two (a ValueError naming the field otherwise)."""
+    check_in_range(params, "min_step_interval", 0.05, 2.0, "s")
+    lo = float(params.min_step_interval)  # type: ignore[attr-defined]
+    check_in_range(params, "max_step_interval", lo, 10.0,
+                   allowed=f"in [min_step_interval={lo:g}, 10] s")  # fmt: skip
+    hi = float(params.max_step_interval)  # type: ignore[attr-defined]
+    between = f"in [min_step_interval={lo:g}, max_step_interval={hi:g}] s"
+    check_in_range(params, "default_step_interval", lo, hi, allowed=between)
+
+
+def check_step_length(step_length: ArrayLike, shape: tuple[int, ...]) -> NDArray[np.float64]:
+    """The step length (m), a number or an array broadcast to ``shape``, finite and in [0, 3]."""
+    try:
+        sl = np.asarray(step_length, dtype=np.float64)
+        sl = np.broadcast_to(sl, shape).copy()
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"step_length must be a number or broadcast to shape {shape} (m)"
+        ) from None
+    if not np.all(np.isfinite(sl)) or np.any(sl < 0.0) or np.any(sl > 3.0):
+        raise ValueError("step_length must be finite and in [0, 3] m")
+    return sl
+
+
+def check_per_user(value: ArrayLike | None, b: int, name: str, default: float,
+                   unit: str) -> NDArray[np.float64]:  # fmt: skip
+    """A (B,) float array from a scalar or (B,) input (``default`` where None); NaN and inf are
+    rejected, the ValueError naming ``name`` and ``unit``."""
+    if value is None:
+        return np.full(b, default)
+    try:
+        a = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a number or a ({b},) array ({unit})") from None
+    if a.shape not in ((), (b,)):
+        raise ValueError(f"{name} must have shape ({b},) or be a scalar, got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} contains NaN or infinite values ({unit})")
+    return np.broadcast_to(a, (b,)).astype(np.float64)
+
+
+def check_mask(mask: ArrayLike | None, b: int) -> NDArray[np.bool_]:
+    """A (B,) bool ``mask`` of the users to act on (all where None), or a ValueError."""
+    if mask is None:
+        return np.ones(b, dtype=bool)
+    m = np.asarray(mask)
+    if m.shape != (b,) or m.dtype != np.bool_:
+        raise ValueError(f"mask must be a bool array of shape ({b},), got {m.dtype} {m.shape}")
+    return m
+
+
+def check_positions(position: ArrayLike | None, b: int) -> NDArray[np.float64]:
+    """(B, 2) finite positions (m) from ``position`` broadcast to that shape (zeros where None),
+    or a ValueError."""
+    if position is None:
+        return np.zeros((b, 2))
+    try:
+        p = np.asarray(position, dtype=np.float64)
+        p = np.broadcast_to(p, (b, 2)).copy()
+    except (TypeError, ValueError):
+        raise ValueError(f"position must broadcast to shape ({b}, 2) (m)") from None
+    if not np.all(np.isfinite(p)):
+        raise ValueError("position contains NaN or infinite values (m)")
+    return p
+
+
+def check_locomotion_update(
+    steps: ArrayLike, yaw: ArrayLike, dt: float, bearing: ArrayLike | None, b: int
+) -> tuple[NDArray[np.float64], NDArray[np.float64], float, NDArray[np.float64]]:
+    """Validate the arguments of a locomotion ``update`` for B users (shared by the models).
+
+    Returns:
+        steps (B,) float (counts >= 0), yaw (B,) rad, dt s, bearing (B,) rad.
+
+    Raises:
+        ValueError: a wrong shape, a NaN or infinite value, a negative step count or dt <= 0.
+    """
+    if (
+        bearing is None
+        and type(steps) is np.ndarray
+        and type(yaw) is np.ndarray
+        and steps.dtype == np.float64
+        and yaw.dtype == np.float64
+        and steps.shape == yaw.shape == (b,)
+        and isinstance(dt, float)
+        and 0.0 < dt <= 10.0
+        and np.isfinite(yaw).all()
+        and np.isfinite(steps).all()
+        and (steps >= 0.0).all()
+    ):  # the common call (an env step), valid: the same checks in a few microseconds
+        return steps, yaw, dt, np.zeros(b)
+    st = np.asarray(steps)
+    if st.dtype == np.bool_:
+        st = st.astype(np.float64)
+    try:
+        st = np.asarray(st, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"steps must be a ({b},) array of step counts") from None
+    if st.shape != (b,):
+        raise ValueError(f"steps must have shape ({b},) (step counts per user), got {st.shape}")
+    if not np.all(np.isfinite(st)) or np.any(st < 0.0):
+        raise ValueError("steps must be finite step counts >= 0")
+    y = check_per_user(yaw, b, "yaw", 0.0, "rad")
+    try:
+        dtf = float(dt)
+    except (TypeError, ValueError):
+        raise ValueError(f"dt must be a number > 0 s, got {dt!r}") from None
+    if not (math.isfinite(dtf) and 0.0 < dtf <= 10.0):
+        raise ValueError(f"dt must be in (0, 10] s, got {dt!r}")
+    br = check_per_user(bearing, b, "bearing", 0.0, "rad")
+    return st, y, dtf, br

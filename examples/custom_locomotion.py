@@ -3,7 +3,7 @@
     python examples/custom_locomotion.py   # one walk with it, beside eq (17)'s jumps
 
 A locomotion stage is built as ``Cls(batch_size, step_length)`` (m) and has, as
-:class:`estimators.locomotion.Locomotion` says (``docs/protocols.md``):
+:class:`estimators.stages.Locomotion` says (``docs/protocols.md``):
 
 * ``batch_size`` and the properties ``position`` (B, 2) m, ``heading`` (B,) rad and
   ``distance`` (B,) m;

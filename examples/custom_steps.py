@@ -3,7 +3,7 @@
     python examples/custom_steps.py      # one walk with it, beside seed 000's detector
 
 A step stage is built as ``Cls(batch_size, fs)`` (fs: the IMU rate, Hz) and has
-``reset(rows)`` and ``update(acc, gyr, quat)`` returning an :class:`estimators.gait.GaitChunk`:
+``reset(rows)`` and ``update(acc, gyr, quat)`` returning an :class:`estimators.stages.GaitChunk`:
 per sample of the step, still (0) or walking (1), the steps confirmed there (0, 1 or 2) and
 their heel-strike times on the stream's own clock (sample k after the user's last reset is at
 k / fs s), never later than the sample that confirms them (``docs/protocols.md``).
@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from estimators.batching import TakesUsers
-from estimators.gait import GaitChunk
+from estimators.stages import GaitChunk
 
 GRAVITY = 9.81  # m/s^2
 

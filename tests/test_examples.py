@@ -10,7 +10,7 @@ import pytest
 from gymnasium.vector import AutoresetMode
 
 import vrloco_env  # noqa: F401  (registers the ids)
-from estimators.stages import CheckedStage
+from estimators.checked import CheckedStage
 from vrloco_env.config import EstimatorConfig
 from vrloco_env.vector import VRLocoVectorEnv
 

@@ -20,7 +20,7 @@ import vrloco_env  # noqa: F401  (registers the environments)
 from agents.recordings import MAX_ACC_AXIS, MAX_GYR_AXIS, read_csv_recording
 from agents.scripted import PolicyParams
 from estimators.attitude import AttitudeParams
-from estimators.gait import GaitParams
+from estimators.steps import GaitParams
 from vrloco_env import config
 from vrloco_env.actions import ACTION_NAMES, ACTION_SIZE, check_actions
 from vrloco_env.tasks.avoid import AvoidConfig

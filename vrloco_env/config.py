@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from estimators.hand import HandParams
+from estimators.head_pose.visual_inertial import VioConfig
 from estimators.validation import (
     check_bool,
     check_choice,
@@ -20,7 +21,6 @@ from estimators.validation import (
     check_instance,
     check_value,
 )
-from estimators.visual_inertial import VioConfig
 from vrloco_env.sensors.camera import CameraSpec, camera_spec
 from vrloco_env.sensors.imu import EarthField, ImuSpec, MagneticDisturbance, get_imu_spec
 from vrloco_env.sensors.kinect import KinectSpec

@@ -3,8 +3,9 @@
 This module composes the pieces, it holds no estimator logic::
 
     true head pose at the IMU rate -> HeadCamera frames at the camera trigger samples
-        -> estimators.visual_pose.solve_poses (OpenCV solvePnPRansac, EPnP), one frame per call
-        -> estimators.visual_inertial.VisualInertialFilter (strapdown prediction at every IMU
+        -> estimators.head_pose.pnp.solve_poses (OpenCV solvePnPRansac, EPnP), one frame per call
+        -> estimators.head_pose.visual_inertial.VisualInertialFilter (strapdown prediction at every
+        IMU
            sample, visual pose update after each frame's trigger sample)
 
 Camera timing. The camera is triggered by the IMU clock, as on a hardware-synchronised helmet:
@@ -14,7 +15,8 @@ average, and the filter applies each frame right after its sample with no interp
 
 Start. :meth:`VisualInertialTracker.reset` starts a user's filter at a given pose, standing
 still: the start marker of the tracked space, where a headset defines its origin. The filter's
-initial sigmas (:class:`~estimators.visual_inertial.VioConfig`) say how well that is known.
+initial sigmas (:class:`~estimators.head_pose.visual_inertial.VioConfig`) say how well that is
+known.
 """
 
 from __future__ import annotations
@@ -27,9 +29,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from estimators import rotations as rot
 from estimators.batching import stream_rows
+from estimators.head_pose.pnp import CameraIntrinsics, solve_poses
+from estimators.head_pose.visual_inertial import VioConfig, VisualInertialFilter
 from estimators.validation import check_in_range
-from estimators.visual_inertial import VioConfig, VisualInertialFilter
-from estimators.visual_pose import CameraIntrinsics, solve_poses
 from vrloco_env.batch_rng import BatchRng
 from vrloco_env.sensors.camera import CameraFrames, CameraSpec, HeadCamera
 
@@ -47,7 +49,7 @@ __all__ = [
 
 @dataclass(frozen=True)
 class PnpParams:
-    """How frames are turned into poses (:func:`estimators.visual_pose.solve_pose`).
+    """How frames are turned into poses (:func:`estimators.head_pose.pnp.solve_pose`).
 
     Attributes:
         min_landmarks: fewest correspondences and inliers for a pose (>= 4; 6 lets RANSAC
@@ -69,7 +71,7 @@ class VisualPoses:
 
     Attributes:
         position: (B, M, 3) head positions, m. quat: (B, M, 4) body -> world.
-        ok: (B, M) bool. reason: (B, M) int8 ``estimators.visual_pose.REASON_*``.
+        ok: (B, M) bool. reason: (B, M) int8 ``estimators.head_pose.pnp.REASON_*``.
         n_inliers: (B, M) inliers of each pose.
     """
 
@@ -91,7 +93,7 @@ class TrackedChunk:
         frames: the camera frames (M of them).
         poses: their PnP poses.
         status: (B, M) the filter's verdict on each frame (``STATUS_*`` of
-            :mod:`estimators.visual_inertial`).
+            :mod:`estimators.head_pose.visual_inertial`).
     """
 
     position: NDArray[np.float64]
@@ -108,7 +110,7 @@ def camera_intrinsics(spec: CameraSpec) -> CameraIntrinsics:
 
 
 def pnp_mount(spec: CameraSpec) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """``(mount_quat, mount_offset)`` for :func:`estimators.visual_pose.solve_pose` from the
+    """``(mount_quat, mount_offset)`` for :func:`estimators.head_pose.pnp.solve_pose` from the
     camera's mount (a downward tilt is a positive pitch about the head's y axis)."""
     q = rot.quat_from_ypr([0.0, math.radians(spec.mount_tilt_deg), 0.0])
     return q, np.asarray(spec.mount_offset_m, dtype=np.float64)

@@ -89,7 +89,7 @@ def get_technique(technique: str | Technique) -> Technique:
         if technique in TECHNIQUES:
             return TECHNIQUES[technique]
         if ":" in technique:
-            from estimators.stages import load_attr
+            from estimators.registry import load_attr
 
             obj = load_attr(technique, "technique")
             if callable(obj) and not isinstance(obj, Technique):

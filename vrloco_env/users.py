@@ -29,10 +29,10 @@ from numpy.typing import ArrayLike, NDArray
 
 from estimators import rotations as rot
 from estimators.batching import TakesUsers, stream_rows
-from estimators.cadence import CadenceEstimator
 from estimators.hand import HandFrame, HandPipeline
 from estimators.kernels import param_record
-from estimators.steering import torso_yaw
+from estimators.locomotion.steering import torso_yaw
+from estimators.steps import CadenceEstimator
 from vrloco_env._core_numba import quat_to_ypr_rows, step_summary_kernel
 from vrloco_env._hand_frame_numba import hand_relative_to_torso
 from vrloco_env.batch_rng import BatchRng

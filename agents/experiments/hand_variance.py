@@ -13,12 +13,12 @@ with them (:data:`COMPETITORS`: the One Euro filter and the motion-adaptive Kalm
 
 Everything runs through the real chain: motion model -> Kinect model (bystanders, ids, tracking
 states, noise) -> :class:`estimators.hand.HandPipeline` (target selection, Holt smoothing, eq 1/2,
-Kalman, median) -> hand stages. Axis names are the paper's (see :mod:`estimators.hand`): its
+Kalman, median) -> hand stages. Axis names are the paper's (see :mod:`estimators.hand.angles`): its
 *roll, pitch, yaw* are our ZYX ``[yaw, pitch, roll]`` columns of the wrist orientation in camera
 space; the sweep about the forearm moves the paper's *roll*.
 
 Seeds. Every tuned parameter of the hand filters (:class:`estimators.hand.KalmanParams`'
-``accel_psd``, :mod:`estimators.hand_one_euro`, :mod:`estimators.hand_adaptive`) was chosen on the
+``accel_psd``, :mod:`estimators.hand.one_euro`, :mod:`estimators.hand.adaptive`) was chosen on the
 development seeds :data:`DEV_STATIC_SEEDS` (static trials) and :data:`DEV_MOVING_SEEDS` (moving
 ones); :func:`run_hand_variance` reports seed ``s`` (static) and ``s + 1`` (moving), default 0 and
 1, and labels its figures held-out unless one of them is a development seed.
@@ -58,9 +58,9 @@ from estimators.hand import (
     quat_to_euler_paper,
     unwrap_angles,
 )
-from estimators.hand_adaptive import AdaptiveKalmanHandParams
-from estimators.hand_one_euro import OneEuroHandParams
-from estimators.io_kinect import read_kinect_csv
+from estimators.hand.adaptive import AdaptiveKalmanHandParams
+from estimators.hand.one_euro import OneEuroHandParams
+from estimators.io.kinect import read_kinect_csv
 from estimators.rotations import (
     angle_diff,
     matrix_to_quat,
@@ -579,7 +579,7 @@ def tune_seed003_accel_psd(static: list[HandTrial], moving: list[HandTrial],
 
 def tune_adaptive_kalman(static: list[HandTrial], moving: list[HandTrial]
                          ) -> list[tuple[tuple[float, float, float], dict]]:  # fmt: skip
-    """:class:`estimators.hand_adaptive.AdaptiveKalmanHandParams`: development scores over its
+    """:class:`estimators.hand.adaptive.AdaptiveKalmanHandParams`: development scores over its
     grid; the rule takes the smallest ``mean_ratio`` among settings with every ratio below 1."""
     rows = []
     for q, q_max, tau in itertools.product((0.3, 1.0, 3.0, 10.0), (30.0, 100.0, 1000.0),
@@ -593,7 +593,7 @@ def tune_adaptive_kalman(static: list[HandTrial], moving: list[HandTrial]
 
 def tune_one_euro(static: list[HandTrial], moving: list[HandTrial]
                   ) -> list[tuple[tuple[float, float, float], dict]]:  # fmt: skip
-    """:class:`estimators.hand_one_euro.OneEuroHandParams`: development scores over its grid;
+    """:class:`estimators.hand.one_euro.OneEuroHandParams`: development scores over its grid;
     the rule (module docstring there) takes the largest worst-axis mean ``rest_reduction`` among
     settings whose swept-axis ``moving_ratio`` is below 0.97 on every seed."""
     rows = []

@@ -23,11 +23,12 @@ from pathlib import Path
 
 import numpy as np
 
+from agents.step_matching import step_f1
 from estimators.attitude import estimate_attitude
-from estimators.dead_reckoning import dead_reckon
-from estimators.gait import StepDetector, step_f1
 from estimators.locomotion import SmoothLocomotion
+from estimators.locomotion.dead_reckoning import dead_reckon
 from estimators.rotations import angle_diff, quat_to_ypr
+from estimators.steps import StepDetector
 from vrloco_env.batch_rng import BatchRng
 from vrloco_env.sensors.imu import HeadImu, ImuSamples, get_imu_spec
 from vrloco_env.user import Intent, MotionParams, MotionRecord, UserMotion, run_script

@@ -52,7 +52,7 @@ The Oxford neck-pouch walk (:func:`oxford_table`): every detector on the real re
 its foot switches. The recording has no gyroscope, so the attitude the detectors read is the tilt
 of the 1 s running mean of the specific force (:func:`tilt_quaternions`, yaw 0) and the angular
 rate is zero: ``nod_robust`` runs as a world-vertical detector without its rotation veto. The
-``neck_pouch`` preset (:meth:`estimators.gait.GaitParams.neck_pouch`) was tuned on this
+``neck_pouch`` preset (:meth:`estimators.steps.zhang2021.GaitParams.neck_pouch`) was tuned on this
 recording, so its figure is in-sample. :func:`two_fold_gamma` gives the held-out figure: the
 preset's free parameter (gamma) is chosen on one half of the recording from a small grid and
 scored on the other half, both ways. It holds out the choice of gamma only: the grid, and the
@@ -74,10 +74,10 @@ from numpy.typing import NDArray
 from agents.data import DataMissing, data_path
 from agents.experiments.head_motions import PRESETS, Trial, sense_record
 from agents.step_matching import match_step_times
-from estimators.gait import GaitParams, bin_average, detect_steps
-from estimators.io_oxford import load_oxford
+from estimators.io.oxford import load_oxford
 from estimators.rotations import GRAVITY, quat_from_rotvec
 from estimators.stages import STEPS
+from estimators.steps import GaitParams, bin_average, detect_steps
 from vrloco_env.batch_rng import BatchRng
 from vrloco_env.user import Intent, MotionParams, MotionRecord, UserMotion
 
@@ -340,7 +340,8 @@ def tilt_quaternions(acc: NDArray[np.float64], fs: float, window_s: float = 1.0
 def _uniform(t: NDArray[np.float64], acc: NDArray[np.float64], fs: float
              ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
     """The irregular samples averaged onto a uniform grid at ``fs`` (per axis, the bin mean of
-    the linearly interpolated signal, as :func:`estimators.gait.detect_steps` does for the norm)."""
+    the linearly interpolated signal, as :func:`estimators.steps.offline.detect_steps` does for the
+    norm)."""
     grid = t[0] + np.arange(int(np.floor((t[-1] - t[0]) * fs)) + 1) / fs
     return grid, np.stack([bin_average(t, acc[:, j], grid, fs) for j in range(3)], -1)
 
@@ -386,8 +387,8 @@ def two_fold_gamma(t: NDArray[np.float64], acc: NDArray[np.float64],
     """Choose the neck-pouch preset's gamma on one half of the recording, score it on the other.
 
     For each half: seed 000's detector (``GaitParams.neck_pouch(gamma=...)``, offline
-    :func:`estimators.gait.detect_steps`) runs on that half's samples alone for every gamma of
-    ``grid_g``; the best F1 wins (ties: the smallest gamma, the most sensitive, which keeps the
+    :func:`estimators.steps.offline.detect_steps`) runs on that half's samples alone for every gamma
+    of ``grid_g``; the best F1 wins (ties: the smallest gamma, the most sensitive, which keeps the
     lightest steps). The winner is scored on the other half, beside the preset's 0.15 g and the
     head default 0.07 g on that half; ``pooled_held_out`` sums the two evaluation halves.
     """

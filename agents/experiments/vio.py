@@ -53,9 +53,9 @@ filter's start).
 
 IMU only (``imu_only``)
 -----------------------
-:class:`estimators.strapdown.Strapdown` from the *true* initial pose (position, attitude, zero
-velocity; standing still), not from a coarse alignment: the paper's turntable test starts from a
-known attitude, and an alignment would add its own tilt error (``b_a / g``, 0.2 deg for 4 mg) to
+:class:`estimators.head_pose.strapdown.Strapdown` from the *true* initial pose (position, attitude,
+zero velocity; standing still), not from a coarse alignment: the paper's turntable test starts from
+a known attitude, and an alignment would add its own tilt error (``b_a / g``, 0.2 deg for 4 mg) to
 what is measured here, the drift. "Calibration" as in the paper's turntable calibration: the
 unit's biases right after :meth:`HeadImu.reset` (for the ig500n preset the initial state of its
 Gauss-Markov biases, 4 mg and 0.1 deg/s 1-sigma times the drawn scatter) are subtracted from
@@ -77,7 +77,7 @@ draw.
 
 Visual only (``visual_only``)
 -----------------------------
-Every frame of the walk through :func:`estimators.visual_pose.solve_poses` (OpenCV
+Every frame of the walk through :func:`estimators.head_pose.pnp.solve_poses` (OpenCV
 ``solvePnPRansac`` with EPnP + LM refinement, at least 6 landmarks, RANSAC threshold
 :func:`pnp_params`: 2.5 sigma of the camera's nominal pixel noise, at least 3 px). The errors are
 against the truth at each frame's *stamp*, so they include the time offset, the map and the
@@ -111,19 +111,20 @@ occlusion" row; the harder combination is the stricter test of its fused claim.
 
 Fused (``fused``)
 -----------------
-:class:`estimators.visual_inertial.VisualInertialFilter` on the same IMU record and the same
-visual poses, started at the first frame with a PnP pose (:func:`fuse`: that pose, zero
+:class:`estimators.head_pose.visual_inertial.VisualInertialFilter` on the same IMU record and the
+same visual poses, started at the first frame with a PnP pose (:func:`fuse`: that pose, zero
 velocity, zero bias estimates), so errors are counted from that sample (``start_s``). IMU noise
 in the filter from the ig500n *datasheet* (:func:`filter_config`), not the unit's drawn values:
 white-noise densities as specified, the Gauss-Markov bias instability as the random walk
 ``sigma sqrt(2 / tau)`` with the same short-term growth, initial bias sigmas equal to the bias
 instability. The filter knows nothing of the axis errors, the time offset, the map or
 intrinsics errors. Main result: the adaptive (Sage-Husa R) filter with R0 = the paper's ideal
-visual accuracy read as 2 sigma (0.025 m, 0.5 deg per axis: :class:`~estimators.visual_inertial.
-VioConfig` defaults); ``fixed`` rows: the same R0 kept fixed. ``pos_m`` / ``att_deg`` are the RMSE
-over every IMU sample from the start (1 kHz), with the 95th percentile, the largest error, the
-largest RMS over 10 s windows (``window_max``) and the RMS of the first and of the last 30 s (a
-quarter of the run when it is shorter than 120 s). Nothing of the filter is tuned on these runs.
+visual accuracy read as 2 sigma (0.025 m, 0.5 deg per axis:
+:class:`~estimators.head_pose.visual_inertial. VioConfig` defaults); ``fixed`` rows: the same R0
+kept fixed. ``pos_m`` / ``att_deg`` are the RMSE over every IMU sample from the start (1 kHz), with
+the 95th percentile, the largest error, the largest RMS over 10 s windows (``window_max``) and the
+RMS of the first and of the last 30 s (a quarter of the run when it is shorter than 120 s). Nothing
+of the filter is tuned on these runs.
 
 Adaptive vs fixed R (``adaptive``)
 ----------------------------------
@@ -164,10 +165,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from estimators import rotations as rot
-from estimators.strapdown import Strapdown
-from estimators.validation import check_in_range
-from estimators.visual_inertial import VioConfig, VisualInertialFilter
-from estimators.visual_pose import (
+from estimators.head_pose.pnp import (
     REASON_BEHIND_CAMERA,
     REASON_OK,
     REASON_RANSAC_FAILED,
@@ -175,6 +173,9 @@ from estimators.visual_pose import (
     REASON_TOO_FEW_LANDMARKS,
     solve_poses,
 )
+from estimators.head_pose.strapdown import Strapdown
+from estimators.head_pose.visual_inertial import VioConfig, VisualInertialFilter
+from estimators.validation import check_in_range
 from vrloco_env.batch_rng import BatchRng
 from vrloco_env.head_tracking import PnpParams, camera_intrinsics, frame_triggers, pnp_mount
 from vrloco_env.sensors.camera import (
@@ -621,7 +622,7 @@ class VisualRun:
     Attributes:
         sample: (M,) IMU sample index of each frame's trigger (its time stamp).
         position: (M, 3) m, NaN without a pose. quat: (M, 4). ok: (M,) bool.
-        reason: (M,) int8 failure code (``estimators.visual_pose.REASON_*``).
+        reason: (M,) int8 failure code (``estimators.head_pose.pnp.REASON_*``).
         n_visible, n_extracted, n_correct: (M,) landmark counts per frame.
     """
 

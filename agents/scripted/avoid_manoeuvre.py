@@ -12,7 +12,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agents.scripted.base import PolicyParams, ScriptedPolicy
-from agents.scripted.observation import ObservationLayout, _wrap
+from agents.scripted.observation import ObservationLayout
+from estimators.rotations import wrap_angle
 
 __all__ = ["AvoidManoeuvre"]
 
@@ -93,8 +94,8 @@ class AvoidManoeuvre(ScriptedPolicy):
         side = np.where(blocked, np.where(state["failed"] != 0, -state["failed"], fresh_side), side)
         state["failed"] = np.where(blocked, 0.0, state["failed"])
         phase = np.where(blocked, self.AWAY, phase)
-        to_h0 = _wrap(h0 - v.heading)
-        away_target = _wrap(to_h0 + side * self.away)
+        to_h0 = wrap_angle(h0 - v.heading)
+        away_target = wrap_angle(to_h0 + side * self.away)
         # turn away -> sidestep when turned
         phase = np.where(
             (phase == self.AWAY) & (np.abs(away_target) < np.deg2rad(p.go_deg)),

@@ -16,11 +16,11 @@ hand_roll_rate]`` (:mod:`vrloco_env.actions`).
 
 The walk gate. Walking-in-place steps cannot be stopped at will: a started step is finished, and
 the gait detector reports the first step of a bout only together with the second
-(:mod:`estimators.gait`), so the shortest walk moves the body two step lengths at once. The users
-start walking only when the way ahead is free for ``go_steps`` step lengths (or up to the goal
-region) and stop as soon as it is free for fewer than ``stop_steps``. After a stop the step under
-way still lands, along whatever heading the body has when the detector reports it, so the users
-hold their heading until then (``settle_steps``).
+(:mod:`estimators.steps.zhang2021`), so the shortest walk moves the body two step lengths at once.
+The users start walking only when the way ahead is free for ``go_steps`` step lengths (or up to the
+goal region) and stop as soon as it is free for fewer than ``stop_steps``. After a stop the step
+under way still lands, along whatever heading the body has when the detector reports it, so the
+users hold their heading until then (``settle_steps``).
 
 The head. With a user population that turns the head on the torso (gaze,
 :mod:`vrloco_env.user.behaviour`) the view — heading, bearing, rays — follows the head, while the
@@ -49,11 +49,11 @@ from agents.scripted.observation import (
     ObservationLayout,
     ObsView,
     _check_obs,
-    _wrap,
     free_lengths,
     ray_points,
 )
 from estimators.batching import TakesUsers
+from estimators.rotations import wrap_angle
 from estimators.validation import check_bool, check_condition, check_in_range
 from vrloco_env.actions import ACTION_SIZE
 
@@ -121,7 +121,7 @@ class PolicyParams:
             step length ahead whatever the user does; 1.3 leaves 0.2 m).
         settle_steps: after stopping, hold the heading for up to this many control steps until
             the step under way is detected (8 = 0.8 s at 10 Hz: a step at 1.7 steps/s lasts
-            0.59 s and is detected 0.135 s after its heel strike, ``estimators.gait``).
+            0.59 s and is detected 0.135 s after its heel strike, ``estimators.steps.zhang2021``).
         candidate_step_deg: spacing of the headings considered (deg).
         turn_cost_m: the goal seeker charges this many metres of way per radian of turning,
             so it does not swing round for a marginally shorter way.
@@ -289,7 +289,7 @@ class ScriptedPolicy(TakesUsers):
         target, want_walk, can_go, can_keep = self._steer(v, state)
         if self._head_on_torso:  # the turn action turns the body: aim it, not the view
             frame = self.walk_offset(v) if self.plans_along_walk else 0.0
-            target = _wrap(target + v.head_on_torso - frame)
+            target = wrap_angle(target + v.head_on_torso - frame)
         self._gate(v, state, target, want_walk, can_go, can_keep, action)
         self._hand(v, action)
         a = np.clip(action, -1.0, 1.0).astype(np.float32)

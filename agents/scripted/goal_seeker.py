@@ -22,10 +22,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agents.scripted.base import PolicyParams, ScriptedPolicy
-from agents.scripted.observation import ObservationLayout, ObsView, _wrap, ray_points
+from agents.scripted.observation import ObservationLayout, ObsView, ray_points
 from agents.scripted.planner import plan_kernel
 from estimators.batching import take_rows_in_place
 from estimators.kernels import param_record
+from estimators.rotations import wrap_angle
 
 __all__ = ["GoalSeeker"]
 
@@ -86,7 +87,7 @@ class GoalSeeker(ScriptedPolicy):
             hold=p.hold_m,
         )  # fmt: skip
         n = int(np.floor(180.0 / p.candidate_step_deg))
-        self.candidates = _wrap(np.deg2rad(p.candidate_step_deg) * np.arange(-n, n + 1))
+        self.candidates = wrap_angle(np.deg2rad(p.candidate_step_deg) * np.arange(-n, n + 1))
         self.candidates = np.unique(np.round(self.candidates, 12))
         # the planner's last clearance map, multipliers and cost to go per user, (B, cells^2)
         # each, its search's steps back and level; which inputs they hold is ``plan_key`` of

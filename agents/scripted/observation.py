@@ -8,8 +8,7 @@
   yaw on the torso.
 * :func:`ray_points`, :func:`free_lengths` — the obstacle points the rays see in the body frame,
   and how far the user's disc can move along each heading before touching one.
-* ``_wrap`` (angles into [-pi, pi)) and ``_check_obs`` (observation shape and finiteness), shared by
-  the policies.
+* ``_check_obs`` (observation shape and finiteness), shared by the policies.
 """
 
 from __future__ import annotations
@@ -126,11 +125,6 @@ class ObsView:
             dwell=d["dwell"][:, 0] if "dwell" in d else np.zeros(b),
             head_on_torso=d["head_on_torso"][:, 0] if "head_on_torso" in d else np.zeros(b),
         )
-
-
-def _wrap(a: ArrayLike) -> NDArray[np.float64]:
-    """Angles wrapped into [-pi, pi) (rad)."""
-    return (np.asarray(a, dtype=np.float64) + np.pi) % (2.0 * np.pi) - np.pi
 
 
 def _check_obs(obs: ArrayLike, layout: ObservationLayout) -> tuple[NDArray[np.float64], bool]:

@@ -28,6 +28,7 @@ import numba
 import numpy as np
 
 from estimators.kernels import BatchKernel
+from estimators.kernels.rotations import wrap_angle
 
 __all__ = ["plan_kernel"]
 
@@ -506,7 +507,7 @@ def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cand
         goal = (ti - i0, tj - j0, int(goal_tol / cell) + 1)
         c0 = clear[pi - i0 + 1, pj - j0 + 1] - 0.02
         prev = prev_aim[b] - heading[b]
-        prev = (prev + math.pi) % (2.0 * math.pi) - math.pi
+        prev = wrap_angle(prev)
         low = np.inf
         if not (-half <= x - far and x + far < half and -half <= y - far and y + far < half):
             low = -np.inf  # the marches may leave the map: no bound

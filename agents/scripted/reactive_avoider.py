@@ -11,7 +11,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agents.scripted.base import PolicyParams, ScriptedPolicy
-from agents.scripted.observation import ObservationLayout, _wrap
+from agents.scripted.observation import ObservationLayout
+from estimators.rotations import wrap_angle
 
 __all__ = ["ReactiveAvoider"]
 
@@ -95,7 +96,7 @@ class ReactiveAvoider(ScriptedPolicy):
         going = np.where(done, np.nan, going)
         going = np.where(stalled & np.isnan(going), detour, going)
         state["detour"] = going
-        target = np.where(np.isnan(going), target, _wrap(going - v.heading))
+        target = np.where(np.isnan(going), target, wrap_angle(going - v.heading))
         return target, np.ones_like(ahead, bool), can_go, can_keep
 
     def _init_state(self, b: int) -> dict[str, NDArray]:

@@ -5,9 +5,9 @@
 - :mod:`estimators.kernels.rotations`: scalar quaternion and angle helpers.
 - :mod:`estimators.kernels.records`: parameters and per-user state as named record arrays.
 
-An algorithm's kernel lives in its own module beside the Python class that drives it; its
-uncompiled ``py_func`` is the readable reference: inside ``with python_reference():`` every
-kernel runs uncompiled, which is how the tests check each compiled build against its source.
+An algorithm's kernel lives in its stage package's ``_kernel`` module, beside the Python class that
+drives it; its uncompiled ``py_func`` is the readable reference: inside ``with python_reference():``
+every kernel runs uncompiled, which is how the tests check each compiled build against its source.
 """
 
 from estimators.kernels.batch import (

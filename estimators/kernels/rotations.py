@@ -89,7 +89,7 @@ def quat_to_ypr(w, x, y, z):
     pitch = math.asin(sinp)
     if abs(sinp) > 1.0 - 1e-12:
         yaw = -2.0 * math.copysign(1.0, sinp) * math.atan2(x, w)
-        yaw = math.pi - ((math.pi - yaw) % (2.0 * math.pi))
+        yaw = wrap_angle(yaw)
         return yaw, pitch, 0.0
     yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
     roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))

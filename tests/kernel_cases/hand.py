@@ -1,5 +1,6 @@
 """The hand pipeline (target selection, Holt, eq (1)/(2), Kalman, median), its orientation stage
-alone (OrientationFilter: eq (1)/(2) rows, the Kalman + median over angles) and the env's
+alone (OrientationFilter: eq (1)/(2) rows, the Kalman + median over angles), its joint smoothing
+alone (HoltSmoother) and the env's
 hand-frame arithmetic on short sequences that take every branch: reselection, a gap longer than
 the Kalman's coasting, untracked and all-inferred bodies, NaN joints, NaN and zero quaternions,
 gimbal lock, angles sweeping through +-180 deg, and a reset mid-sequence."""
@@ -8,7 +9,7 @@ import numpy as np
 
 from estimators import rotations as rot
 from estimators.hand import HandParams, HandPipeline, KalmanParams, OrientationFilter
-from estimators.joint_smoothing import HoltParams
+from estimators.hand.joint_smoothing import HoltParams, HoltSmoother
 from vrloco_env._hand_frame_numba import hand_error, hand_relative_to_torso
 
 _K, _J, _WRIST = 3, 25, 10
@@ -100,6 +101,22 @@ def _orientation(params: HandParams | None):
     return play
 
 
+def _holt(params: HoltParams | None):
+    def play():
+        seq = _sequence(6)
+        joints, state = seq["joints"][:, :, 0], seq["joint_state"][:, :, 0]  # (B, M, J, ...)
+        b, m = joints.shape[:2]
+        h = HoltSmoother(b, _J, params)
+        out, holt = [], []
+        for t in range(m):
+            reset = (np.arange(b) == 1) if t == 20 else None
+            out.append(h.update(joints[:, t], state[:, t] if t % 5 else None, reset))
+            holt.append(h.holt_output)
+        return {"joints": np.stack(out, axis=1), "holt": np.stack(holt, axis=1)}
+
+    return play
+
+
 def _hand_frame():
     rng = np.random.default_rng(5)
     b = 6
@@ -130,5 +147,7 @@ CASES = {
         kalman=KalmanParams(max_coast_frames=0, accel_psd=0.01, max_accel_psd=0.01),
         median_window=4, singularity_threshold=0.45,
     )),
+    "hand_holt_default": _holt(None),
+    "hand_holt_no_average": _holt(HoltParams(average_weights=(1.0,))),
     "hand_frame": _hand_frame,
 }  # fmt: skip

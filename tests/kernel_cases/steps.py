@@ -7,12 +7,9 @@ different lengths.
 
 import numpy as np
 
-from estimators.cadence import CadenceEstimator
-from estimators.gait import StepDetector
-from estimators.locomotion_cadence import CadenceSpeed, CadenceSpeedParams
+from estimators.locomotion.cadence_speed import CadenceSpeed, CadenceSpeedParams
 from estimators.rotations import GRAVITY, quat_from_ypr
-from estimators.steps_nod_robust import NodRobustSteps
-from estimators.steps_threshold import ThresholdSteps
+from estimators.steps import CadenceEstimator, NodRobustSteps, StepDetector, ThresholdSteps
 
 FS = 100.0
 CHUNKS = ((0, 1), (1, 130), (130, 260), (260, 420))

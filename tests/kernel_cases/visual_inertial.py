@@ -5,8 +5,8 @@ diagonal Sage-Husa (with adaptive Q) and full Sage-Husa noise models."""
 
 import numpy as np
 
+from estimators.head_pose.visual_inertial import VioConfig, VisualInertialFilter
 from estimators.rotations import GRAVITY, quat_from_rotvec
-from estimators.visual_inertial import VioConfig, VisualInertialFilter
 
 
 def _run(config: VioConfig, seed: int):

@@ -65,7 +65,7 @@ def test_a_step_length_outside_a_persons_range_is_refused(recording, tmp_path, c
 
 
 def test_the_oxford_reader_merges_repeated_timestamps_and_refuses_backward_time(tmp_path):
-    from estimators.io_oxford import read_accelerometer
+    from estimators.io.oxford import read_accelerometer
 
     p = tmp_path / "accelerometer.csv"
     p.write_text("100,3,1,2,3\n200,3,1,2,3\n200,3,3,2,1\n300,3,0,0,0\n")
@@ -504,8 +504,8 @@ def test_the_real_recordings_are_compared_with_their_ground_truth(real_data, tmp
 
 
 def test_the_readers_refuse_non_data_files_by_name_and_skip_a_bom(tmp_path, capsys):
-    from estimators.io_kinect import read_kinect_csv
-    from estimators.io_oxford import read_accelerometer
+    from estimators.io.kinect import read_kinect_csv
+    from estimators.io.oxford import read_accelerometer
 
     junk = bytes(range(256)) * 2
     for name in ("junk.hdf5", "junk.mat"):

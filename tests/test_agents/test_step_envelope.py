@@ -18,7 +18,7 @@ from agents.experiments.step_envelope import (
     tilt_quaternions,
     two_fold_gamma,
 )
-from estimators.io_oxford import load_oxford
+from estimators.io.oxford import load_oxford
 from estimators.rotations import GRAVITY, quat_from_ypr, quat_rotate, quat_rotate_inverse
 from estimators.stages import STEPS
 

@@ -86,7 +86,7 @@ def test_step_summary_counts_steps_and_turns_the_yaws_into_virtual_ones():
 
 
 def test_cadence_is_the_step_rate_and_decays_at_rest():
-    from estimators.cadence import CadenceEstimator
+    from estimators.steps import CadenceEstimator
 
     est = CadenceEstimator(2)
     dt = 0.1

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from estimators import rotations as rot
-from estimators.visual_inertial import VioConfig
+from estimators.head_pose.visual_inertial import VioConfig
 from vrloco_env.batch_rng import BatchRng
 from vrloco_env.head_tracking import VisualInertialTracker, frame_triggers
 from vrloco_env.sensors.camera import camera_spec, layout_landmarks

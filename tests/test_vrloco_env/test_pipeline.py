@@ -12,10 +12,11 @@ from _batch_walk import sized
 from gymnasium.vector import AutoresetMode
 
 import vrloco_env  # noqa: F401
-from estimators import stages
+from estimators import stage_docs, stages
 from estimators.attitude import AttitudeParams, EkfStage
-from estimators.locomotion import Locomotion
-from estimators.stages import CheckedStage, StageError
+from estimators.checked import CheckedStage
+from estimators.registry import StageError, protocol_members
+from estimators.stages import Locomotion
 from vrloco_env import pipeline
 from vrloco_env.config import EnvConfig, EstimatorConfig, SensorConfig
 from vrloco_env.techniques import TECHNIQUES, Technique
@@ -158,8 +159,8 @@ _TOYS = '''
 import numpy as np
 
 from estimators.attitude import EkfStage
-from estimators.dead_reckoning import DeadReckoning
-from estimators.gait import GaitChunk
+from estimators.locomotion.dead_reckoning import DeadReckoning
+from estimators.stages import GaitChunk
 from estimators.hand import RawHand
 
 
@@ -453,11 +454,11 @@ def test_missing_members_are_named_from_the_protocol_itself():
                        r"_HalfLocomotion, which lacks batch_size, position, heading, distance of "
                        r"the Locomotion protocol"):  # fmt: skip
         gym.make("VRLoco-Approach-v0", estimators=EstimatorConfig(locomotion=_HalfLocomotion))
-    assert stages.protocol_members(Locomotion) == [
+    assert protocol_members(Locomotion) == [
         "batch_size", "update", "reset", "position", "heading", "distance"
     ]  # fmt: skip
     for registry in (stages.ATTITUDE, stages.STEPS, stages.HAND, stages.STEERING):
-        assert stages.protocol_members(registry.protocol) == ["reset", "update"]
+        assert protocol_members(registry.protocol) == ["reset", "update"]
 
     from typing import Protocol
 
@@ -470,9 +471,9 @@ def test_missing_members_are_named_from_the_protocol_itself():
         @property
         def area(self) -> float: ...
 
-    assert stages.protocol_members(Child) == ["size", "grow", "area"]
+    assert protocol_members(Child) == ["size", "grow", "area"]
     if sys.version_info >= (3, 12):  # where Python lists them itself, the lists agree
-        assert set(stages.protocol_members(Child)) == set(Child.__protocol_attrs__)
+        assert set(protocol_members(Child)) == set(Child.__protocol_attrs__)
 
 
 def test_a_method_that_cannot_take_the_environment_s_call_is_named():
@@ -486,13 +487,13 @@ def test_a_method_that_cannot_take_the_environment_s_call_is_named():
 
 # ------------------------------------------------------------------------------ reference
 REPO = Path(__file__).resolve().parents[2]
-REGENERATE = ".venv/bin/python -m estimators.stages > docs/protocols.md"
+REGENERATE = ".venv/bin/python -m estimators.stage_docs > docs/protocols.md"
 
 
 def test_docs_protocols_md_is_the_generated_reference():
     """docs/protocols.md is what the generator renders from the protocols and the checks."""
     doc = (REPO / "docs" / "protocols.md").read_text()
-    assert doc == stages.protocol_reference(), f"docs/protocols.md is stale: run `{REGENERATE}`"
+    assert doc == stage_docs.protocol_reference(), f"docs/protocols.md is stale: run `{REGENERATE}`"
 
 
 def test_the_reference_states_every_member_call_and_rule_that_is_checked():
@@ -501,11 +502,11 @@ def test_the_reference_states_every_member_call_and_rule_that_is_checked():
     it names regenerates it."""
     import subprocess
 
-    doc = stages.protocol_reference()
+    doc = stage_docs.protocol_reference()
     for registry in (stages.ATTITUDE, stages.STEPS, stages.HAND, stages.STEERING,
                      stages.LOCOMOTION):  # fmt: skip
         section = doc.split(f"## `{registry.stage}`")[1].split("\n## ")[0]
-        for name in stages.protocol_members(registry.protocol):
+        for name in protocol_members(registry.protocol):
             assert f"- `{name}" in section, (registry.stage, name)
         for method, (positional, keywords) in registry.contract.calls.items():
             call = ", ".join([*positional, *(f"{k}=..." for k in keywords)])
@@ -514,7 +515,7 @@ def test_the_reference_states_every_member_call_and_rule_that_is_checked():
             assert f"| `{out.name}` | ({', '.join(map(str, out.shape))}" in section
         for rule in registry.contract.rules:
             assert rule.text.replace("|", "\\|") in section, (registry.stage, rule.text)
-    run = subprocess.run([sys.executable, "-m", "estimators.stages"], cwd=REPO,
+    run = subprocess.run([sys.executable, "-m", "estimators.stage_docs"], cwd=REPO,
                          capture_output=True, text=True, check=True)  # fmt: skip
     assert run.stdout == doc
 

@@ -81,7 +81,7 @@ def get_task(name: str) -> type[Task]:
         raise ValueError(f"task={name!r}: must be one of {', '.join(TASKS)}")
     target = TASKS[name]
     if isinstance(target, str):
-        from estimators.stages import load_attr
+        from estimators.registry import load_attr
 
         target = load_attr(target, "task")
         if not _is_task(target):

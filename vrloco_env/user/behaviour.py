@@ -39,6 +39,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from estimators.batching import TakesUsers, stream_rows
+from estimators.rotations import wrap_angle
 from vrloco_env.batch_rng import BatchRng
 from vrloco_env.user.motion import MAX_HEAD_YAW, Intent
 from vrloco_env.user.population import RANGE_FIELDS, Population, get_population
@@ -48,10 +49,6 @@ __all__ = ["GLANCE", "GOAL", "HAND", "SCAN", "GazeBehaviour"]
 #: What a user looks at (:attr:`GazeBehaviour.mode`).
 GOAL, GLANCE, SCAN, HAND = 0, 1, 2, 3
 _DONE = 1e-9  # s: a timer this close to 0 has run out (sums of dt carry rounding)
-
-
-def _wrap(a: NDArray[np.float64]) -> NDArray[np.float64]:
-    return (a + np.pi) % (2.0 * np.pi) - np.pi
 
 
 class GazeBehaviour(TakesUsers):
@@ -134,12 +131,12 @@ class GazeBehaviour(TakesUsers):
         u = self.rng.uniform((4,))  # glance onset, scan onset, scan direction, nod onset
         h = np.asarray(head_on_torso, dtype=np.float64)
         interacting = np.asarray(interacting, dtype=bool)
-        on_path = np.abs(_wrap(self.ray_offsets[None, :] + h[:, None])) <= self._glance_cone
+        on_path = np.abs(wrap_angle(self.ray_offsets[None, :] + h[:, None])) <= self._glance_cone
         ahead = np.where(on_path, rays, np.inf)
         nearest = np.argmin(ahead, axis=1)
         near = ahead[np.arange(b), nearest] < p.glance_range_m
-        obstacle_dir = _wrap(self.ray_offsets[nearest] + h)
-        goal_dir = _wrap(np.asarray(goal_bearing, dtype=np.float64) + h)
+        obstacle_dir = wrap_angle(self.ray_offsets[nearest] + h)
+        goal_dir = wrap_angle(np.asarray(goal_bearing, dtype=np.float64) + h)
 
         # What to look at: a glance or scan runs out, or a glance loses its object.
         self._timer = np.maximum(self._timer - dt, 0.0)

@@ -24,7 +24,7 @@ only fx, fy, cx, cy): ``u = fx X / Z + cx``, ``v = fy Y / Z + cy`` for a camera-
 ``[-0.5, width - 0.5] x [-0.5, height - 0.5]`` px. The defaults (640 x 480 px, fx = fy = 460 px,
 principal point at the image centre) give a 69.6 deg x 55.1 deg field of view, a typical helmet
 tracking camera. :attr:`CameraSpec.camera_matrix` is OpenCV's K; ``fx, fy, cx, cy, width,
-height`` are plain fields, so ``estimators.visual_pose.CameraIntrinsics(spec.fx, spec.fy,
+height`` are plain fields, so ``estimators.head_pose.pnp.CameraIntrinsics(spec.fx, spec.fy,
 spec.cx, spec.cy, spec.width, spec.height)`` describes the same camera.
 
 Per landmark and frame (all decisions, seed 004 states only the outcome rates)

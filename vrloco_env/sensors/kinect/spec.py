@@ -129,10 +129,9 @@ class KinectSpec:
     #: spread); about the two bending axes no white part at all (fitted nugget 0: the variogram
     #: starts near zero and rises steadily), as slow as the trunk joints, whose 5 % white share
     #: (``joint_noise_white_fraction``) we take. On simulated series of the recording's 154 frames
-    #: the fit's white share spreads by about +-0.15 (tests/test_estimators/test_hand.py checks the
-    #: estimator on
-    #: known noise). So the split is 80 % white about the forearm and 5 % about y and z: std
-    #: sqrt(share x total).
+    #: the fit's white share spreads by about +-0.15 (tests/test_estimators/hand/test_hand.py checks
+    #: the estimator on known noise). So the split is 80 % white about the forearm and 5 % about y
+    #: and z: std sqrt(share x total).
     hand_rot_white_std_deg: tuple[float, float, float] = (1.86, 0.40, 0.56)
     #: Correlated (AR(1)) part of the wrist orientation noise, deg: the rest of each axis's
     #: variance (see ``hand_rot_white_std_deg``), 20 % about the forearm, 95 % about y and z.

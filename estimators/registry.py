@@ -1,0 +1,288 @@
+"""Named implementations, and the loader of ``"package.module:attr"`` plug-ins.
+
+* :func:`load_attr` — the object a ``"package.module:attr"`` or ``"path/to/file.py:attr"`` string
+  names (the file imported once, as a module of its own), with a clear :class:`StageError` for a
+  bad string, a module that does not import or a missing attribute.
+* :class:`Registry` — the named implementations of one stage (or any other pluggable part): a
+  name -> ``"module:attr"`` table imported on first use, which also accepts a plug-in's own
+  ``"module:attr"``, a class or factory, or an object with a ``build`` method, and builds it
+  checked against a protocol (:func:`check_members`).
+* :func:`protocol_members` — the public members a :class:`typing.Protocol` declares, read from the
+  classes themselves (on every Python that has protocols).
+
+The stage protocols, their contracts and the five stage registries are in
+:mod:`estimators.stages`.
+"""
+
+from __future__ import annotations
+
+import importlib
+import inspect
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, Generic, Protocol
+
+__all__ = [
+    "Registry",
+    "StageError",
+    "call_text",
+    "check_members",
+    "is_method",
+    "load_attr",
+    "protocol_member",
+    "protocol_members",
+]
+
+
+class StageError(ValueError):
+    """A stage's plug-in could not be built, raised, or returned what the stage does not allow."""
+
+
+def protocol_members(protocol: type) -> list[str]:
+    """The public members a protocol class declares, in declaration order: its annotated
+    attributes and the methods and properties of its class body (and of its protocol bases).
+
+    Read from the classes' own ``__annotations__`` and ``__dict__``, so it works on every
+    Python that has :class:`typing.Protocol` (3.12's ``__protocol_attrs__`` is not needed)."""
+    names: dict[str, None] = {}
+    for base in reversed(protocol.__mro__):
+        if base in (object, Protocol, Generic) or not base.__dict__.get("_is_protocol", False):
+            continue
+        for name in (*inspect.get_annotations(base), *vars(base)):
+            if not name.startswith("_"):
+                names[name] = None
+    return list(names)
+
+
+def protocol_member(protocol: type, name: str) -> Any:
+    """The object the protocol's class body binds to ``name`` (None: annotated only)."""
+    for base in protocol.__mro__:
+        if name in vars(base):
+            return vars(base)[name]
+    return None
+
+
+def is_method(obj: Any) -> bool:
+    """Whether a protocol member is a method (callable, not a class)."""
+    return callable(obj) and not isinstance(obj, type)
+
+
+def call_text(method: str, call: tuple[tuple[str, ...], tuple[str, ...]]) -> str:
+    """The call ``method(a, b, c=...)`` that ``call`` (positional names, keyword names) makes."""
+    positional, keywords = call
+    return f"{method}({', '.join((*positional, *(f'{k}=...' for k in keywords)))})"
+
+
+def check_members(stage: Any, protocol: type, contract: Any) -> list[str]:
+    """What ``stage`` lacks of ``protocol`` and its contract, one phrase each (empty: nothing):
+    the members it does not have, by name, the methods that are not callable, and those whose
+    signature does not accept the environment's call (``contract.calls``: method ->
+    (positional argument names, keyword argument names))."""
+    problems: list[str] = []
+    missing = [name for name in protocol_members(protocol) if not hasattr(stage, name)]
+    if missing:
+        problems.append(f"lacks {', '.join(missing)} of the {protocol.__name__} protocol")
+    for name in protocol_members(protocol):
+        if name in missing or not is_method(protocol_member(protocol, name)):
+            continue
+        method = getattr(stage, name)
+        if not callable(method):
+            problems.append(f"has a {type(method).__name__} {name!r} where a method is needed")
+            continue
+        if name not in contract.calls:
+            continue
+        positional, keywords = contract.calls[name]
+        try:
+            signature = inspect.signature(method)
+        except (TypeError, ValueError):  # a builtin without a signature: let the call tell
+            continue
+        try:
+            signature.bind(*positional, **dict.fromkeys(keywords))
+        except TypeError as err:
+            problems.append(
+                f"has {name}{signature}, which cannot be called as "
+                f"{call_text(name, contract.calls[name])} ({err})"
+            )
+    return problems
+
+
+def load_attr(spec: str, what: str) -> Any:
+    """The object a ``"package.module:attr"`` string names, or ``"path/to/file.py:attr"`` (the
+    file is imported as a module of its own), with clear errors for bad strings."""
+    module_name, _, attr = spec.rpartition(":")
+    if not module_name or not attr:
+        raise StageError(
+            f"{what}={spec!r}: a plug-in is named 'package.module:attr' or 'path/file.py:attr'"
+        )
+    if module_name.endswith(".py"):
+        module = _import_file(module_name, spec, what)
+    else:
+        try:
+            module = importlib.import_module(module_name)
+        except ImportError as err:
+            raise StageError(f"{what}={spec!r}: cannot import {module_name!r} ({err})") from None
+    obj: Any = module
+    for part in attr.split("."):
+        if not hasattr(obj, part):
+            raise StageError(f"{what}={spec!r}: {module_name!r} has no attribute {attr!r}")
+        obj = getattr(obj, part)
+    return obj
+
+
+def _import_file(path_text: str, spec: str, what: str) -> Any:
+    """Import a Python file once per process, under a name derived from its resolved path."""
+    import hashlib
+    import importlib.util
+    import sys
+    from pathlib import Path
+
+    path = Path(path_text).expanduser().resolve()
+    if not path.is_file():
+        raise StageError(f"{what}={spec!r}: no such file {str(path)!r}")
+    digest = hashlib.sha1(str(path).encode()).hexdigest()[:10]
+    name = f"vrloco_plugin_{path.stem}_{digest}"
+    if name in sys.modules:
+        return sys.modules[name]
+    loader_spec = importlib.util.spec_from_file_location(name, path)
+    if loader_spec is None or loader_spec.loader is None:
+        raise StageError(f"{what}={spec!r}: cannot import {str(path)!r}")
+    module = importlib.util.module_from_spec(loader_spec)
+    sys.modules[name] = module
+    try:
+        loader_spec.loader.exec_module(module)
+    except Exception as err:
+        del sys.modules[name]
+        raise StageError(f"{what}={spec!r}: importing {str(path)!r} failed: {err}") from err
+    return module
+
+
+@dataclass(frozen=True)
+class _Entry:
+    target: str  # "module:attr" of the factory, imported on first use
+    description: str
+
+
+class Registry:
+    """Named implementations of one stage.
+
+    Args:
+        stage: the stage's name, for error messages (``"attitude"``).
+        protocol: the protocol every built stage must satisfy.
+        signature: how factories are called, for the docs and error messages.
+        contract: how the environment calls the stage and what it must return (a
+            :class:`estimators.stages.StageContract`; :meth:`build` reads its ``calls``).
+        home: ``"module:attr"`` of the variable that holds this registry, by which a pickle
+            names it (its contract holds functions that cannot be pickled); None: not picklable.
+    """
+
+    def __init__(
+        self,
+        stage: str,
+        protocol: type,
+        signature: str,
+        contract: Any,
+        *,
+        home: str | None = None,
+    ) -> None:
+        self.stage = stage
+        self.protocol = protocol
+        self.signature = signature
+        self.contract = contract
+        self.home = home
+        self._entries: dict[str, _Entry] = {}
+
+    def register(self, name: str, target: str, description: str) -> None:
+        """Add ``name`` -> the factory at ``target`` ("module:attr"), with a one-line
+        description. Re-registering a name replaces it."""
+        if ":" not in target:
+            raise ValueError(f"target {target!r} must be 'package.module:attr'")
+        self._entries[name] = _Entry(target, description)
+
+    def names(self) -> list[str]:
+        """The registered names, in registration order."""
+        return list(self._entries)
+
+    def describe(self) -> dict[str, str]:
+        """name -> one-line description."""
+        return {k: e.description for k, e in self._entries.items()}
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._entries
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        """Pickled by name: the variable :attr:`home` names (its contract holds lambdas)."""
+        if self.home is None:
+            raise TypeError(
+                f"the {self.stage} registry has no home ('module:attr') to be pickled by"
+            )
+        return (load_attr, (self.home, self.stage))
+
+    def check(self, spec: Any) -> None:
+        """Raise a clear :class:`StageError` if ``spec`` names nothing buildable (without
+        building it). Registered names pass (their modules are imported when first built);
+        "module:attr" strings are imported and resolved; other objects must be callable or
+        have a ``build`` method."""
+        if not (isinstance(spec, str) and spec in self._entries):
+            self.factory(spec)
+
+    def label(self, spec: Any) -> str:
+        """A short name of ``spec`` for tables and errors."""
+        if isinstance(spec, str):
+            return spec
+        name = getattr(spec, "name", None)
+        if isinstance(name, str):
+            return name
+        return type(spec).__name__ if not callable(spec) else getattr(spec, "__name__", "custom")
+
+    def factory(self, spec: Any) -> Callable[..., Any]:
+        """The callable that builds ``spec``'s stage.
+
+        ``spec`` is a registered name, a ``"module:attr"`` string naming a class or factory, an
+        object with a ``build(...)`` method (a parameter dataclass such as
+        :class:`estimators.attitude.AttitudeParams`), or a class / factory.
+        """
+        if isinstance(spec, str):
+            if spec in self._entries:
+                return load_attr(self._entries[spec].target, self.stage)
+            if ":" in spec:
+                return _as_factory(load_attr(spec, self.stage), self.stage, spec)
+            raise StageError(
+                f"{self.stage}={spec!r}: unknown; valid names: {', '.join(self.names())}, or "
+                "'package.module:attr' (or 'path/file.py:attr') naming your own"
+            )
+        return _as_factory(spec, self.stage, type(spec).__name__)
+
+    def build(self, spec: Any, *args: Any, **kwargs: Any) -> Any:
+        """Build ``spec``'s stage with the stage's factory arguments and check that it has every
+        member of the protocol and that its methods accept the environment's calls
+        (:func:`check_members`)."""
+        factory = self.factory(spec)
+        label = self.label(spec)
+        try:
+            stage = factory(*args, **kwargs)
+        except StageError:
+            raise
+        except Exception as err:  # a user's factory failing: say which stage and plug-in
+            raise StageError(
+                f"{self.stage} plug-in {label!r} failed to build with {self.signature}: "
+                f"{type(err).__name__}: {err}"
+            ) from err
+        problems = check_members(stage, self.protocol, self.contract)
+        if problems:
+            raise StageError(
+                f"{self.stage} plug-in {label!r} built a {type(stage).__name__}, which "
+                f"{'; and '.join(problems)} (docs/protocols.md)"
+            )
+        return stage
+
+
+def _as_factory(obj: Any, stage: str, label: str) -> Callable[..., Any]:
+    build = getattr(obj, "build", None)
+    if callable(build) and not isinstance(obj, type):
+        return build
+    if callable(obj):
+        return obj
+    raise StageError(
+        f"{stage}={label!r}: a plug-in must be a registered name, 'package.module:attr', a class "
+        "or factory, or an object with a build() method"
+    )
