@@ -131,6 +131,7 @@ def _cell_parts(cell: Any) -> tuple[list[str], set[Path], set[Path]]:
     """A cell's configuration texts, its plug-ins' root folders and its model files."""
     from agents.conditions import get_condition
     from estimators import stages
+    from estimators.registry import load_attr
     from vrloco_env.config import STAGE_FIELDS
     from vrloco_env.tasks import get_task
     from vrloco_env.techniques import TECHNIQUES, get_technique
@@ -147,7 +148,7 @@ def _cell_parts(cell: Any) -> tuple[list[str], set[Path], set[Path]]:
     if base.endswith(".zip"):
         blobs.add(Path(base).resolve())
     elif ":" in base:
-        origins += [base, stages.load_attr(base, "policy")]
+        origins += [base, load_attr(base, "policy")]
     tech = get_technique(cell.technique)
     if isinstance(cell.technique, str) and cell.technique not in TECHNIQUES:
         origins.append(cell.technique)
