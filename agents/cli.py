@@ -180,10 +180,10 @@ def _cmd_head_behaviour(args: argparse.Namespace) -> int:
 
 
 def _cmd_benchmark(args: argparse.Namespace) -> int:
-    from agents.backends import BackendError
     from agents.benchmark import run_benchmark
-    from agents.benchmark_outputs import WriteError
-    from agents.resume import FolderBusy
+    from agents.benchmark.backends import BackendError
+    from agents.benchmark.outputs import WriteError
+    from agents.benchmark.resume import FolderBusy
 
     def names(text: str) -> list[str]:
         return [s.strip() for s in text.split(",") if s.strip()]
@@ -247,7 +247,7 @@ def _cmd_techniques(args: argparse.Namespace) -> int:
 
 
 def _cmd_train(args: argparse.Namespace) -> int:
-    from agents.backends import BackendError
+    from agents.benchmark.backends import BackendError
 
     seeds = args.seeds if args.seeds is not None else [args.seed]
     common = dict(steps=args.steps, sensor_preset=args.sensors, eval_every=args.eval_every,
@@ -293,7 +293,7 @@ def _cmd_train(args: argparse.Namespace) -> int:
 
 
 def _cmd_evaluate(args: argparse.Namespace) -> int:
-    from agents.benchmark_outputs import WriteError, show_table, write_json
+    from agents.benchmark.outputs import WriteError, show_table, write_json
     from agents.learned import evaluate_model
 
     try:
@@ -414,7 +414,7 @@ def _cmd_data(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from agents.grid import (
+    from agents.benchmark.grid import (
         DEFAULT_BATCH_SIZE,
         DEFAULT_EPISODES,
         DEFAULT_POLICIES,
@@ -520,8 +520,8 @@ def build_parser() -> argparse.ArgumentParser:
         description="Without --tasks, --policies, --techniques, --sensors and --conditions: the "
         "default run (agents.benchmark.DEFAULT_GRIDS: the main grid and the scenarios where a "
         "technique should differ from seed000), then the discriminating-power table "
-        "(agents.discrimination). Given some of them: their one grid, the others from the main "
-        "grid.",
+        "(agents.benchmark.discrimination). Given some of them: their one grid, the others from "
+        "the main grid.",
     )
     bench.add_argument(
         "--tasks", help=f"comma-separated tasks: {', '.join(TASKS)} "
@@ -545,9 +545,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     bench.add_argument(
         "--conditions",
-        help="comma-separated physical-room conditions (agents.conditions): lab (nothing near "
-        "the play area), beside_metal (a steel cabinet at its edge); each a grid axis "
-        "(main grid: lab)",
+        help="comma-separated physical-room conditions (agents.benchmark.conditions): "
+        "lab (nothing near the play area), beside_metal (a steel cabinet at its edge); each a grid "
+        "axis (main grid: lab)",
     )
     bench.add_argument("--episodes", type=_int_at_least(1), default=DEFAULT_EPISODES,
                        help="episodes per cell")  # fmt: skip

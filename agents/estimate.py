@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from agents.benchmark.step_matching import step_f1
 from agents.recordings import (
     MAX_BRIDGE_S,
     Recording,
@@ -29,7 +30,6 @@ from agents.recordings import (
     read_recording,
     warn,
 )
-from agents.step_matching import step_f1
 from estimators.attitude import estimate_attitude
 from estimators.attitude.errors import orientation_errors
 from estimators.locomotion.dead_reckoning import dead_reckon
@@ -97,8 +97,8 @@ def _compare_attitude(rec: Recording, q: NDArray[np.float64]) -> dict:
 
 def _compare_steps(rec: Recording, step_times: NDArray[np.float64], tol: float = 0.2) -> dict:
     """Detected steps against the foot-switch heel strikes, matched within +-tol s
-    (:func:`agents.step_matching.match_step_times`, the benchmark's matching)."""
-    from agents.step_matching import match_step_times
+    (:func:`agents.benchmark.step_matching.match_step_times`, the benchmark's matching)."""
+    from agents.benchmark.step_matching import match_step_times
 
     assert rec.ref_steps is not None
     truth = rec.ref_steps
@@ -136,7 +136,7 @@ def estimate_recording(
         ``attitude_vs_reference`` (BROAD: total, inclination and heading RMSE in deg against
         ``opt_quat`` over the ``movement`` samples; the heading offset is removed first for 6D
         data) or ``steps_vs_foot_switches`` (Oxford: true and false positives, misses,
-        precision, recall and F1 within +-0.2 s, :func:`agents.step_matching.step_f1`).
+        precision, recall and F1 within +-0.2 s, :func:`agents.benchmark.step_matching.step_f1`).
 
     Raises:
         ValueError: a malformed recording, units that cannot be found or do not fit the data,

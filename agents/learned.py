@@ -10,12 +10,12 @@ with the mean and the spread over the seeds. RLlib's PPO is in :mod:`agents.rlli
 
 A run trains on one benchmark cell: a task, a technique (:mod:`vrloco_env.techniques`), a user
 population (:mod:`vrloco_env.user.population`, its head behaviour in the env) and a physical-room
-condition (:mod:`agents.conditions`); the cell is saved with the model (``model.vrloco_cell``)
-beside the env's settings (``model.vrloco_env``), and so is how the policy sees the env
-(``model.vrloco_policy``: ``frame_stack``, the last k observations side by side through
+condition (:mod:`agents.benchmark.conditions`); the cell is saved with the model
+(``model.vrloco_cell``) beside the env's settings (``model.vrloco_env``), and so is how the policy
+sees the env (``model.vrloco_policy``: ``frame_stack``, the last k observations side by side through
 :class:`~vrloco_env.wrappers.FrameStack`, and ``recurrent``, sb3-contrib's ``RecurrentPPO`` with
 an LSTM policy), so that :func:`evaluate_model` and the benchmark
-(:class:`agents.policies.LearnedPolicy`) play it on its own cell, the way it was trained.
+(:class:`agents.benchmark.policies.LearnedPolicy`) play it on its own cell, the way it was trained.
 
 Speed. The env's compiled kernels and torch both run OpenMP thread pools on the same cores.
 This module imports :mod:`estimators.kernels` before torch, so that torch's OpenMP runtime
@@ -480,16 +480,16 @@ def _train_seeds_ray(
     tasks set torch's thread count to this machine's default (at most their node's cores), so
     that on one machine a seed's curve and model are bit-identical to the local backend's.
 
-    Failures (:mod:`agents.backends`): a worker or node lost mid-run is retried up to
-    :data:`~agents.backends.MAX_RETRIES` times; a seed whose own code raised is not (it would
-    raise again). After every other seed has finished and been written, a
-    :class:`~agents.backends.BackendError` names each failed seed and why; the combined curve
-    holds the finished seeds. Ctrl-C cancels the tasks: the finished seeds' files stay (an
+    Failures (:mod:`agents.benchmark.backends`): a worker or node lost mid-run is retried up to
+    :data:`~agents.benchmark.backends.MAX_RETRIES` times; a seed whose own code raised is not (it
+    would raise again). After every other seed has finished and been written, a
+    :class:`~agents.benchmark.backends.BackendError` names each failed seed and why; the combined
+    curve holds the finished seeds. Ctrl-C cancels the tasks: the finished seeds' files stay (an
     unfinished seed's were on its node and are lost), the combined curve is written from them.
     """
     import torch
 
-    from agents.backends import (
+    from agents.benchmark.backends import (
         MAX_RETRIES,
         BackendError,
         _cause,
@@ -743,14 +743,14 @@ def env_settings(
         population: a user population (:mod:`vrloco_env.user.population`) whose head behaviour
             the env simulates (None: none; one whose head turns on the torso adds the
             observation field ``head_on_torso``).
-        condition: a physical-room condition (:mod:`agents.conditions`; None: ``lab``).
+        condition: a physical-room condition (:mod:`agents.benchmark.conditions`; None: ``lab``).
         configs: further keywords of :func:`~vrloco_env.env.make_configs`.
 
     Raises:
         ValueError: an unknown task, technique, population or condition (the registry's error,
             listing the registered names), or settings that contradict each other.
     """
-    from agents.conditions import get_condition
+    from agents.benchmark.conditions import get_condition
     from vrloco_env.env import make_configs
     from vrloco_env.tasks import get_task
     from vrloco_env.techniques import get_technique
@@ -783,7 +783,7 @@ def cell_of(settings: dict[str, Any], technique: Any = None) -> dict[str, Any]:
     estimators make up, or ``"custom"``), ``population`` (the name, None without one) and
     ``condition`` (the registered condition whose magnetic disturbances its sensors have, else
     ``"custom"``)."""
-    from agents.conditions import CONDITIONS
+    from agents.benchmark.conditions import CONDITIONS
     from vrloco_env.env import technique_name
     from vrloco_env.techniques import get_technique
 
@@ -845,7 +845,7 @@ def _asked_cell(
 ) -> dict[str, tuple[Any, Any]]:  # fmt: skip
     """The parts of the cell asked for that differ from the model's: ``{name: (trained,
     asked)}``; unknown names raise the registries' errors."""
-    from agents.conditions import get_condition
+    from agents.benchmark.conditions import get_condition
     from vrloco_env.tasks import get_task
     from vrloco_env.techniques import get_technique
     from vrloco_env.user.population import get_population
@@ -876,7 +876,7 @@ def _settings_for(
     (room, reward, rates, ...) as trained."""
     from dataclasses import replace
 
-    from agents.conditions import get_condition
+    from agents.benchmark.conditions import get_condition
     from vrloco_env.techniques import get_technique
 
     out = dict(settings)
@@ -913,44 +913,44 @@ def evaluate_model(
     condition: str | None = None,
     allow_mismatch: bool = False,
 ) -> dict[str, Any]:
-    """The benchmark's row (:func:`agents.metrics.summarize`) for a saved PPO model.
+    """The benchmark's row (:func:`agents.benchmark.metrics.summarize`) for a saved PPO model.
 
     The model is evaluated on the cell it was trained on (task, technique, population and
     condition, and every configuration, stored with it by :func:`train_ppo`), seeing the env as
     it was trained to (its frame stack, its recurrent state:
-    :class:`agents.policies.LearnedPolicy`). ``task``, ``technique``, ``population``,
+    :class:`agents.benchmark.policies.LearnedPolicy`). ``task``, ``technique``, ``population``,
     ``condition`` and ``sensor_preset`` may repeat what the model carries; one that
     contradicts it is an error naming every difference, unless ``allow_mismatch``: then the
     model plays the cell asked for (the model's env with those parts replaced). A model saved
     elsewhere, without vrloco's settings, needs ``task``. Episode i is a single env reset with
     ``seed + i`` and run with the deterministic policy, as ``vrloco benchmark`` runs a scripted
     user, and steps are matched in the benchmark's window
-    (:func:`agents.benchmark.step_window`), so the row compares directly with the benchmark's
-    (:func:`agents.benchmark_outputs.show_table` prints it). ``progress`` shows a progress bar
-    over the episodes (rich, as the benchmark's).
+    (:func:`agents.benchmark.step_matching.step_window`), so the row compares directly with the
+    benchmark's (:func:`agents.benchmark.outputs.show_table` prints it). ``progress`` shows a
+    progress bar over the episodes (rich, as the benchmark's).
 
     Returns:
         The row: ``task``, ``policy`` (``ppo:<file name>``), ``technique``, ``population``
         (None: no population), ``condition`` (the registered physical-room condition whose
         magnetic disturbances the env's sensors have, else ``"custom"``), ``sensors`` (the IMU
         preset), ``trained_on`` (the model's own cell where it was played on another, else
-        None), the metrics of :func:`~agents.metrics.summarize` and ``vs_baseline`` (None: no
-        baseline here).
+        None), the metrics of :func:`~agents.benchmark.metrics.summarize` and ``vs_baseline`` (None:
+        no baseline here).
 
     Raises:
         ValueError: one line naming the file or the argument: no such file, not a PPO model
-            (:func:`agents.policies.load_ppo`), an unknown technique, population or condition
-            (listing the registered names), a cell contradicting the model's without
+            (:func:`agents.benchmark.policies.load_ppo`), an unknown technique, population or
+            condition (listing the registered names), a cell contradicting the model's without
             ``allow_mismatch``, a model without vrloco's settings and no ``task``, or
             ``episodes`` below 1.
     """
     import gymnasium as gym
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeElapsedColumn
 
-    from agents.benchmark import step_window
-    from agents.episodes import run_episode
-    from agents.metrics import summarize
-    from agents.policies import LearnedPolicy, _load_ppo
+    from agents.benchmark.episodes import run_episode
+    from agents.benchmark.metrics import summarize
+    from agents.benchmark.policies import LearnedPolicy, _load_ppo
+    from agents.benchmark.step_matching import step_window
     from vrloco_env.tasks import env_id
 
     if isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 1:

@@ -1,7 +1,7 @@
 """Offline-RL datasets of the benchmark's simulated users, in Minari's format (``vrloco record``).
 
 :func:`record_dataset` plays seeded episodes of a policy as the benchmark plays a cell's episode
-alone in a single env (:func:`agents.episodes.run_episode`: episode ``i`` is
+alone in a single env (:func:`agents.benchmark.episodes.run_episode`: episode ``i`` is
 ``reset(seed=seed + i)``, the policy's randomness ``default_rng([seed + i, 1])``) on
 ``gym.make(env_id(task), technique=..., population=...)`` and writes them as a Minari dataset
 (``minari.load_dataset(dataset_id)`` reads it; Minari's root folder is ``MINARI_DATASETS_PATH``,
@@ -12,16 +12,16 @@ else ``~/.minari/datasets``). An episode of ``T`` control steps holds, in Minari
   space's dtype, clipped to [-1, 1] as the env clips them);
 * ``rewards``, ``terminations``, ``truncations`` ``(T,)``;
 * ``infos``: every key of the env's step ``info`` whose value is a number or flag of one shape
-  throughout (every key :mod:`agents.metrics` and :mod:`agents.wip_measures` read among them),
-  ``(T + 1, ...)`` each: row 0 is the reset's ``info`` (for a key it does not report: NaN for
-  floats, 0 for integers, False for flags), rows 1 to T the steps';
+  throughout (every key :mod:`agents.benchmark.metrics` and :mod:`agents.benchmark.wip_measures`
+  read among them), ``(T + 1, ...)`` each: row 0 is the reset's ``info`` (for a key it does not
+  report: NaN for floats, 0 for integers, False for flags), rows 1 to T the steps';
 * its seed in the episode's metadata (``dataset.storage.get_episode_metadata``).
 
 The dataset keeps the env's spec (id, keywords, horizon), so ``dataset.recover_environment()``
 makes the same env: reset with an episode's seed and given its actions it plays the stored
 observations again, bit for bit. :func:`dataset_episode_stats` gives back the benchmark's
-:class:`~agents.metrics.EpisodeStats` of the stored episodes, so that
-``agents.metrics.summarize(dataset_episode_stats(dataset))`` is the benchmark's row of the
+:class:`~agents.benchmark.metrics.EpisodeStats` of the stored episodes, so that
+``agents.benchmark.metrics.summarize(dataset_episode_stats(dataset))`` is the benchmark's row of the
 dataset.
 
 Minari is an optional dependency (``pip install 'vrloco[minari]'``); it writes HDF5 through h5py.
@@ -38,7 +38,7 @@ import gymnasium as gym
 import numpy as np
 from numpy.typing import NDArray
 
-from agents.metrics import STEP_KEYS, EpisodeStats, episode_stats
+from agents.benchmark.metrics import STEP_KEYS, EpisodeStats, episode_stats
 
 __all__ = ["INSTALL_HINT", "LAST_KEYS", "MinariMissing", "dataset_episode_stats",
            "dataset_path", "record_dataset"]  # fmt: skip
@@ -227,7 +227,7 @@ def record_dataset(
 
     Args:
         task: a registered task (:mod:`vrloco_env.tasks`).
-        policy: a policy spec (:mod:`agents.policies`: a scripted user, a PPO ``.zip`` or
+        policy: a policy spec (:mod:`agents.benchmark.policies`: a scripted user, a PPO ``.zip`` or
             ``module:attr``, optionally ``+<population>``, whose head behaviour the env takes).
         dataset_id: Minari's ``(namespace/)name-v<version>``.
         technique: a registered technique's name or ``"module:attr"`` naming one (a name: the
@@ -247,8 +247,8 @@ def record_dataset(
         FileExistsError: the dataset exists and ``force`` is False.
         MinariMissing: Minari is not installed.
     """
-    from agents.episodes import run_episode
-    from agents.policies import build_policy, check_policy, env_population
+    from agents.benchmark.episodes import run_episode
+    from agents.benchmark.policies import build_policy, check_policy, env_population
     from vrloco_env import __version__
     from vrloco_env.tasks import env_id, get_task
     from vrloco_env.techniques import get_technique
@@ -310,9 +310,9 @@ def record_dataset(
 
 
 def dataset_episode_stats(dataset: Any) -> list[EpisodeStats]:
-    """The benchmark's :class:`~agents.metrics.EpisodeStats` of every episode of ``dataset`` (a
-    :class:`minari.MinariDataset` written by :func:`record_dataset`), from its ``infos`` and
-    seeds alone, as :func:`agents.episodes.run_episode` gives them.
+    """The benchmark's :class:`~agents.benchmark.metrics.EpisodeStats` of every episode of
+    ``dataset`` (a :class:`minari.MinariDataset` written by :func:`record_dataset`), from its
+    ``infos`` and seeds alone, as :func:`agents.benchmark.episodes.run_episode` gives them.
 
     Raises:
         ValueError: an episode's ``infos`` lack a key the metrics read (named).

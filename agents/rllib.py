@@ -308,7 +308,7 @@ def train_rllib(
     rollout_fragment_length`` steps), in the cell of ``technique``, ``population`` and
     ``condition`` (:func:`ppo_config`); returns the final checkpoint's folder.
 
-    Ray runs where :func:`agents.backends.run_jobs_ray` would (``address``: ``"auto"``,
+    Ray runs where :func:`agents.benchmark.backends.run_jobs_ray` would (``address``: ``"auto"``,
     ``"HOST:PORT"``, or None: a running cluster, else a local instance, shut down at the end),
     with its errors for an unreachable address. After the first iteration and then every
     ``eval_every`` steps, the deterministic policy plays ``eval_episodes`` users seeded
@@ -323,10 +323,11 @@ def train_rllib(
 
     Raises:
         ValueError: a bad setting (named), RLlib not installed (:data:`RLLIB_HINT`).
-        agents.backends.BackendError: no Ray cluster at ``address``; the cluster or every env
+        agents.benchmark.backends.BackendError: no Ray cluster at ``address``; the cluster or every
+        env
             runner lost.
     """
-    from agents.backends import BackendError, _connect, _first_line
+    from agents.benchmark.backends import BackendError, _connect, _first_line
     from agents.learned import env_settings, plot_learning_curve, run_policy_episodes
 
     RLlibRun(steps, num_env_runners, num_envs_per_env_runner, seed, eval_every, eval_episodes)

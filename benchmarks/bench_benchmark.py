@@ -12,8 +12,8 @@ Run from the repository root::
 Both paths run the same grid (``vrloco benchmark``'s main grid: its default tasks, policies and
 techniques, or those of ``--tasks``, ``--policies`` and ``--techniques``) with the same worker
 processes, in this one run: ``batch_size=0`` plays every episode alone in a single env
-(:func:`agents.episodes.run_cell_episode`), the batched path plays each cell's episodes as
-users of the native vector env (:func:`agents.episodes.run_cell_batched`). It prints
+(:func:`agents.benchmark.episodes.run_cell_episode`), the batched path plays each cell's episodes as
+users of the native vector env (:func:`agents.benchmark.episodes.run_cell_batched`). It prints
 episodes/s of each, their ratio, and whether the two tables are identical (they must be).
 Each path runs once untimed first on a small grid in this process, so that neither numba's
 compilation nor the loading of the compiled code into a process is timed: the workers, forked
@@ -35,8 +35,13 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from agents.benchmark import run_benchmark
-from agents.episodes import DEFAULT_BATCH_SIZE
-from agents.grid import DEFAULT_EPISODES, DEFAULT_POLICIES, DEFAULT_TASKS, DEFAULT_TECHNIQUES
+from agents.benchmark.episodes import DEFAULT_BATCH_SIZE
+from agents.benchmark.grid import (
+    DEFAULT_EPISODES,
+    DEFAULT_POLICIES,
+    DEFAULT_TASKS,
+    DEFAULT_TECHNIQUES,
+)
 
 
 def main() -> None:
@@ -84,8 +89,8 @@ def profile(args: argparse.Namespace) -> None:
     import cProfile
     import pstats
 
-    from agents.episodes import run_batched
-    from agents.grid import Cell
+    from agents.benchmark.episodes import run_batched
+    from agents.benchmark.grid import Cell
     from vrloco_env.vector import VRLocoVectorEnv
 
     cells = [Cell(t, p, args.techniques[0]) for t in args.tasks for p in args.policies]

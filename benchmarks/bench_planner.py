@@ -25,8 +25,8 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import agents.scripted.goal_seeker as goal_seeker
-from agents.episodes import run_batched
-from agents.grid import Cell
+from agents.benchmark.episodes import run_batched
+from agents.benchmark.grid import Cell
 
 CELLS = (Cell("approach", "goal_seeker+typical", "seed000"),
          Cell("avoid", "goal_seeker+typical", "seed000"),

@@ -37,6 +37,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from agents.benchmark.step_matching import step_f1
 from agents.experiments.head_motions import (
     CADENCES,
     PRESETS,
@@ -45,7 +46,6 @@ from agents.experiments.head_motions import (
     sense_record,
     stepping_with_head_scan,
 )
-from agents.step_matching import step_f1
 from estimators.stages import STEPS
 from estimators.steps import NodRobustParams
 from vrloco_env.batch_rng import BatchRng

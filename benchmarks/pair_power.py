@@ -5,21 +5,21 @@ Run from the repository root::
     python benchmarks/pair_power.py                      # every pair, development seeds 1000..1079
     python benchmarks/pair_power.py --pairs torso_steering madgwick --sizes 40 80 160
 
-For each pair of :data:`agents.discrimination.PAIRS` it plays the pair's cells of the default run
-(:data:`agents.grid.DEFAULT_GRIDS`: the technique and the baseline ``seed000`` on each task the
-run compares them on, the same users and room) on *development* seeds, ``--seed`` onwards (1000 by
-default, disjoint from the run's seeds 0, 1, ...), then estimates the power of the run's test at
-each cell size ``N`` of ``--sizes``: the share of ``--resamples`` bootstrap draws of ``N``
-paired episodes (the same seed indices in every task, drawn with replacement) in which the pair
-separates as :func:`agents.discrimination.pair_results` decides it (some signature or outcome
-metric at p < 0.01 in the expected direction, in some task), and the share in which it separates
-on an outcome; and the share in which the run's claim holds: every pair the scenario tells apart
-(power >= 0.5 at the largest size) separates and at least three separate on an outcome. A pair
+For each pair of :data:`agents.benchmark.discrimination.PAIRS` it plays the pair's cells of the
+default run (:data:`agents.benchmark.grid.DEFAULT_GRIDS`: the technique and the baseline ``seed000``
+on each task the run compares them on, the same users and room) on *development* seeds, ``--seed``
+onwards (1000 by default, disjoint from the run's seeds 0, 1, ...), then estimates the power of the
+run's test at each cell size ``N`` of ``--sizes``: the share of ``--resamples`` bootstrap draws of
+``N`` paired episodes (the same seed indices in every task, drawn with replacement) in which the
+pair separates as :func:`agents.benchmark.discrimination.pair_results` decides it (some signature or
+outcome metric at p < 0.01 in the expected direction, in some task), and the share in which it
+separates on an outcome; and the share in which the run's claim holds: every pair the scenario tells
+apart (power >= 0.5 at the largest size) separates and at least three separate on an outcome. A pair
 whose power stays near 0 at every size is one the scenario does not tell apart (the techniques
 behave alike there), not one that needs more episodes.
 
-The episode count of the default run (:data:`agents.grid.DEFAULT_EPISODES`) is the smallest size
-at which that claim holds in at least 99 % of the resamples on development seeds.
+The episode count of the default run (:data:`agents.benchmark.grid.DEFAULT_EPISODES`) is the
+smallest size at which that claim holds in at least 99 % of the resamples on development seeds.
 """
 
 from __future__ import annotations
@@ -34,10 +34,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np
 
-from agents.discrimination import PAIRS, Pair, pair_results
-from agents.episodes import DEFAULT_BATCH_SIZE, run_cell_batched
-from agents.grid import DEFAULT_GRIDS, Cell
-from agents.paired import compare_values, episode_values
+from agents.benchmark.discrimination import PAIRS, Pair, pair_results
+from agents.benchmark.episodes import DEFAULT_BATCH_SIZE, run_cell_batched
+from agents.benchmark.grid import DEFAULT_GRIDS, Cell
+from agents.benchmark.paired import compare_values, episode_values
 
 BASELINE = "seed000"
 

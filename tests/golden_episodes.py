@@ -63,7 +63,7 @@ def _single(env_id: str, seed: int, **kwargs) -> np.ndarray:
 def _seeker(env_id: str, seed: int, policy: str, **kwargs) -> np.ndarray:
     """An episode of the scripted ``policy`` (its actions and the env's numbers), seeded as the
     benchmark seeds it."""
-    from agents.policies import build_policy
+    from agents.benchmark.policies import build_policy
 
     env = gym.make(env_id, **kwargs)
     try:

@@ -5,7 +5,7 @@ that a feed-forward policy sees a short history (velocities, what was in view a 
 ``FrameStack(VRLocoVectorEnv(32), 4)`` returns observations of shape ``(32, 4 * n)``. One
 numpy operation per step shifts every user's frames; nothing loops over the users.
 :class:`StackedFrames` is the per-user history itself, for a policy that stacks the frames of a
-single env or of a batch it is handed (:class:`agents.policies.LearnedPolicy`).
+single env or of a batch it is handed (:class:`agents.benchmark.policies.LearnedPolicy`).
 """
 
 from __future__ import annotations

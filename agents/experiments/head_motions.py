@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from agents.step_matching import step_f1
+from agents.benchmark.step_matching import step_f1
 from estimators.attitude import estimate_attitude
 from estimators.locomotion import SmoothLocomotion
 from estimators.locomotion.dead_reckoning import dead_reckon

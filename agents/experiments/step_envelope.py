@@ -4,9 +4,9 @@ Every detector of :data:`estimators.stages.STEPS` and both IMU presets of
 :mod:`agents.experiments.head_motions`, on motions the simulated users of the benchmark never
 make. Each case reports, pooled over its users and seeds, the true positives, false positives
 and misses against the true heel strikes (one-to-one within +-0.2 s,
-:func:`agents.step_matching.match_step_times`), F1 where the case has steps, and false steps
-per minute (false positives over the case's user-minutes: of standing for the standing cases, in
-excess of the true steps for the stepping ones). The attitude each detector reads is the
+:func:`agents.benchmark.step_matching.match_step_times`), F1 where the case has steps, and false
+steps per minute (false positives over the case's user-minutes: of standing for the standing cases,
+in excess of the true steps for the stepping ones). The attitude each detector reads is the
 error-state EKF's estimate from the same IMU samples.
 
 Cases (:data:`CASES`; 2 s still, the motion, 2 s still, as the head-motion scripts do):
@@ -71,9 +71,9 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from agents.benchmark.step_matching import match_step_times
 from agents.data import DataMissing, data_path
 from agents.experiments.head_motions import PRESETS, Trial, sense_record
-from agents.step_matching import match_step_times
 from estimators.io.oxford import load_oxford
 from estimators.rotations import GRAVITY, quat_from_rotvec
 from estimators.stages import STEPS

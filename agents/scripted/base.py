@@ -65,7 +65,7 @@ class Policy(Protocol):
     """What the benchmark needs from a simulated user. A policy that plays batches of users
     (``act`` on (B, n), ``reset`` with one generator per reset row) says so with a class
     attribute ``batched = True``; the benchmark then runs its episodes as users of one vector
-    env (:func:`agents.episodes.run_cell_batched`), else one at a time."""
+    env (:func:`agents.benchmark.episodes.run_cell_batched`), else one at a time."""
 
     def reset(self, rng: Any = None, rows: ArrayLike | None = None) -> None:
         """Start new episodes (all rows, or only ``rows`` of a batch)."""
@@ -109,7 +109,8 @@ class PolicyParams:
             120 deg/s above 48 deg of error; the loop gain 1.2 x 2.09 rad/s = 2.5 /s keeps the
             turn stable under a human reaction delay of up to ~0.6 s (a delayed integrator
             oscillates once gain x delay exceeds pi / 2): with 2.5 /rad the seeker behind
-            :class:`agents.variability.HumanVariability`'s 0.25 s delay circled its heading.
+            :class:`agents.benchmark.variability.HumanVariability`'s 0.25 s delay circled its
+            heading.
         go_deg: start walking when the heading error is below this (deg).
         stop_deg: stop walking and re-align when the heading error exceeds this (deg).
         go_steps: start walking only when the way ahead is free for this many step lengths:

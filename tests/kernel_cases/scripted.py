@@ -4,7 +4,7 @@ import gymnasium as gym
 import numpy as np
 
 import vrloco_env  # noqa: F401  (registers the ids)
-from agents.policies import build_policy
+from agents.benchmark.policies import build_policy
 
 
 def _plan():

@@ -47,8 +47,8 @@ def test_help_shows_the_defaults(capsys):
         main(["train", "--help"])
     out = capsys.readouterr().out
     assert "(default: 2000000)" in out and "(default: approach)" in out
-    from agents.episodes import DEFAULT_BATCH_SIZE
-    from agents.grid import DEFAULT_EPISODES
+    from agents.benchmark.episodes import DEFAULT_BATCH_SIZE
+    from agents.benchmark.grid import DEFAULT_EPISODES
 
     with pytest.raises(SystemExit):
         main(["benchmark", "--help"])

@@ -175,7 +175,7 @@ def test_seeds_on_ray_train_as_the_local_backend_and_a_failed_seed_is_named(tmp_
     import logging
 
     ray = pytest.importorskip("ray", reason=NEEDS_RAY)
-    from agents.backends import BackendError
+    from agents.benchmark.backends import BackendError
     from agents.learned import train_seeds
 
     out = tmp_path / "ray"
@@ -209,7 +209,7 @@ def test_seeds_on_an_unreachable_ray_address_are_named_at_once(tmp_path, capsys)
     import time
 
     pytest.importorskip("ray", reason=NEEDS_RAY)
-    from agents.backends import BackendError
+    from agents.benchmark.backends import BackendError
     from agents.cli import main
     from agents.learned import train_seeds
 
@@ -352,8 +352,8 @@ class OneRow:
 
 
 def test_a_policy_returning_actions_of_the_wrong_shape_is_named(tmp_path):
-    from agents.episodes import run_batched, run_cell_episode
-    from agents.grid import Cell
+    from agents.benchmark.episodes import run_batched, run_cell_episode
+    from agents.benchmark.grid import Cell
 
     plugin = tmp_path / "bad_users.py"
     plugin.write_text(_WRONG_WIDTH)
@@ -525,12 +525,12 @@ def test_train_passes_the_cell_and_the_policy_options_on(tmp_path, monkeypatch, 
 def test_a_model_trained_on_a_cell_carries_it_and_is_evaluated_on_it(tmp_path, capsys):
     import gymnasium as gym
 
+    from agents.benchmark.conditions import CONDITIONS, get_condition
+    from agents.benchmark.episodes import run_episode
+    from agents.benchmark.metrics import summarize
+    from agents.benchmark.policies import LearnedPolicy, load_ppo
     from agents.cli import main
-    from agents.conditions import CONDITIONS, get_condition
-    from agents.episodes import run_episode
     from agents.learned import env_settings
-    from agents.metrics import summarize
-    from agents.policies import LearnedPolicy, load_ppo
     from vrloco_env.tasks import env_id
     from vrloco_env.techniques import TECHNIQUES
 
@@ -619,7 +619,7 @@ def _played_actions(path, task, seed, steps):
     each episode, as a vector env's user is)."""
     import gymnasium as gym
 
-    from agents.policies import LearnedPolicy
+    from agents.benchmark.policies import LearnedPolicy
     from vrloco_env.tasks import env_id
 
     env = gym.make(env_id(task), max_episode_steps=6)
@@ -642,7 +642,7 @@ def test_frame_stacked_and_recurrent_models_play_as_they_were_trained(tmp_path):
     import gymnasium as gym
 
     from agents.benchmark import run_benchmark
-    from agents.policies import LearnedPolicy, load_ppo
+    from agents.benchmark.policies import LearnedPolicy, load_ppo
     from vrloco_env.tasks import env_id
 
     tiny = dict(steps=256, num_envs=4, eval_every=256, eval_episodes=2, progress=False,

@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 
 import vrloco_env  # noqa: F401  (registers the ids)
+from agents.benchmark.episodes import run_episode
+from agents.benchmark.metrics import STEP_KEYS, TRACE_KEYS, summarize
+from agents.benchmark.policies import build_policy
 from agents.cli import main
-from agents.episodes import run_episode
-from agents.metrics import STEP_KEYS, TRACE_KEYS, summarize
 from agents.minari_datasets import LAST_KEYS, dataset_episode_stats, record_dataset
-from agents.policies import build_policy
 
 TASK, POLICY, TECHNIQUE = "avoid", "goal_seeker+typical", "nod_robust"
 ENV_ID, POPULATION = "VRLoco-Avoid-v0", "typical"

@@ -8,7 +8,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
 import vrloco_env  # noqa: F401  (registers the ids)
-from agents.policies import build_policy
+from agents.benchmark.policies import build_policy
 from agents.scripted.planner import _cost_to_go, _known, _repair
 
 SQRT2 = 1.4142135623730951

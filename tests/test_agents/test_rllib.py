@@ -107,7 +107,7 @@ def test_without_rllib_the_error_says_how_to_install_it(monkeypatch, capsys):
 
 def test_an_unreachable_address_is_named_at_once(tmp_path, capsys):
     pytest.importorskip("ray.rllib", reason=NEEDS_RLLIB)
-    from agents.backends import BackendError
+    from agents.benchmark.backends import BackendError
     from agents.rllib import train_rllib
 
     t0 = time.perf_counter()

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 import vrloco_env  # noqa: F401  (registers the ids)
+from agents.benchmark.variability import HumanVariability, VariabilityParams
 from agents.scripted import (
     AvoidManoeuvre,
     GoalSeeker,
@@ -17,7 +18,6 @@ from agents.scripted import (
     make_policy,
     params_from_env,
 )
-from agents.variability import HumanVariability, VariabilityParams
 from vrloco_env.config import EnvConfig
 from vrloco_env.world import signed_distance
 
@@ -272,7 +272,7 @@ def test_a_policy_that_drops_users_acts_for_the_kept_ones_as_before(task, spec):
     from _batch_walk import sized
     from gymnasium.vector import AutoresetMode
 
-    from agents.policies import build_policy
+    from agents.benchmark.policies import build_policy
     from vrloco_env.vector import VRLocoVectorEnv
 
     b, rows = 7, np.array([5, 0, 3, 6])

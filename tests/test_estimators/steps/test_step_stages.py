@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 from kernel_cases.steps import CASES as STEP_CASES
 
+from agents.benchmark.step_matching import step_f1
 from agents.experiments.head_motions import CADENCES, PRESETS, Trial, run_trial, sense_record
-from agents.step_matching import step_f1
 from estimators.rotations import GRAVITY, quat_from_ypr, quat_rotate_inverse
 from estimators.stages import STEPS, GaitChunk, StepStage
 from estimators.steps import (

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from agents.step_matching import step_f1
+from agents.benchmark.step_matching import step_f1
 from estimators.io.oxford import load_oxford
 from estimators.locomotion.dead_reckoning import DeadReckoning
 from estimators.rotations import GRAVITY, quat_from_ypr, quat_rotate, quat_rotate_inverse

@@ -588,7 +588,7 @@ def test_a_user_turning_away_in_the_env_loses_the_hand():
     reports that body's hand (its documented target rule), which is not missing but wrong."""
     import gymnasium as gym
 
-    from agents.metrics import EpisodeRecorder, summarize
+    from agents.benchmark.metrics import EpisodeRecorder, summarize
     from vrloco_env.config import SensorConfig
 
     alone = SensorConfig(kinect=KinectSpec(n_bystanders=0))

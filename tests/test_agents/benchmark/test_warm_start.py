@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import pytest
 
-from agents import benchmark, warm_start
-from agents.benchmark import run_benchmark
+from agents.benchmark import run as benchmark
+from agents.benchmark import run_benchmark, warm_start
 
 KW = dict(tasks=["approach"], policies=["goal_seeker"], techniques=["seed000"], episodes=2,
           progress=False, print_table=False)  # fmt: skip

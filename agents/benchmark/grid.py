@@ -4,8 +4,8 @@ and the default run.
 The default run (:data:`DEFAULT_GRIDS`): the main grid, Approach and Avoid x the goal seeker with
 the ``typical`` population (gaze at the goal, at what is on its path and at the hand, occasional
 scans and nods, the drift of stepping in place) x six techniques, and the scenarios in which a
-technique is meant to differ from seed 000's chain (:mod:`agents.discrimination`): 20 cells of
-:data:`DEFAULT_EPISODES` episodes.
+technique is meant to differ from seed 000's chain (:mod:`agents.benchmark.discrimination`): 20
+cells of :data:`DEFAULT_EPISODES` episodes.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ import re
 from dataclasses import dataclass
 from typing import Any
 
-from agents.conditions import DEFAULT_CONDITION
+from agents.benchmark.conditions import DEFAULT_CONDITION
 
 __all__ = [
     "DEFAULT_EPISODES",
@@ -39,7 +39,7 @@ DEFAULT_SENSORS = ("ig500n", "consumer_mems")
 #: of bootstrap resamples (``python benchmarks/pair_power.py --episodes 160 --sizes 40 60 80``).
 DEFAULT_EPISODES = 60
 
-#: Users per vector env in the batched runner (:func:`agents.episodes.run_cell_batched`).
+#: Users per vector env in the batched runner (:func:`agents.benchmark.episodes.run_cell_batched`).
 #: Batches shed their finished users once a job has none left to hand out, so a larger batch
 #: costs no idle users. Chosen on development seeds 1000-1059 of the main grid (``python
 #: benchmarks/bench_benchmark.py --seed 1000 --batch-size N``), where 30 users ran as fast as
@@ -52,7 +52,7 @@ DEFAULT_BATCH_SIZE = 30
 class Cell:
     """One cell of the benchmark grid: a task, a policy, a technique (a registered name, a
     ``"module:attr"`` naming a :class:`~vrloco_env.techniques.Technique`, or one) and the
-    physical room's condition (:mod:`agents.conditions`)."""
+    physical room's condition (:mod:`agents.benchmark.conditions`)."""
 
     task: str
     policy: str
@@ -68,8 +68,8 @@ class Cell:
     @property
     def population(self) -> str | None:
         """The env's user population: the policy's ``+<population>`` where it acts on the body
-        (:func:`agents.policies.env_population`), else None."""
-        from agents.policies import env_population
+        (:func:`agents.benchmark.policies.env_population`), else None."""
+        from agents.benchmark.policies import env_population
 
         return env_population(self.policy)
 
@@ -111,9 +111,9 @@ class Grid:
 
 
 #: The default run: the main grid, and the scenarios that put a technique where it is meant to
-#: differ (:mod:`agents.discrimination`): nodding users, also while they stand and hold the hand
-#: at a pedestal, for the nod-robust step detector; gaze-scanning users in Avoid's corridor for
-#: torso steering (in Doorway the goal seeker itself fails too often to tell steering apart);
+#: differ (:mod:`agents.benchmark.discrimination`): nodding users, also while they stand and hold
+#: the hand at a pedestal, for the nod-robust step detector; gaze-scanning users in Avoid's corridor
+#: for torso steering (in Doorway the goal seeker itself fails too often to tell steering apart);
 #: a metal cabinet beside the play area for the magnetometer's gate.
 DEFAULT_GRIDS = (
     Grid(DEFAULT_TASKS, DEFAULT_POLICIES, DEFAULT_TECHNIQUES),

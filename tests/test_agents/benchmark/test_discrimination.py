@@ -6,9 +6,16 @@ import math
 import pytest
 
 from agents.benchmark import run_benchmark
-from agents.discrimination import OUTCOMES, PAIRS, Pair, pair_results, show_pairs, write_pairs
-from agents.grid import DEFAULT_GRIDS, Cell, Grid
-from agents.paired import BINARY_METRICS, MEAN_METRICS
+from agents.benchmark.discrimination import (
+    OUTCOMES,
+    PAIRS,
+    Pair,
+    pair_results,
+    show_pairs,
+    write_pairs,
+)
+from agents.benchmark.grid import DEFAULT_GRIDS, Cell, Grid
+from agents.benchmark.paired import BINARY_METRICS, MEAN_METRICS
 
 
 def _row(technique, policy, task="approach", condition="lab", **tests):

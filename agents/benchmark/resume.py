@@ -50,7 +50,7 @@ from typing import Any
 
 import numpy as np
 
-from agents.conditions import DEFAULT_CONDITION
+from agents.benchmark.conditions import DEFAULT_CONDITION
 
 __all__ = [
     "EpisodeStore",
@@ -64,7 +64,7 @@ __all__ = [
 ]
 
 _PACKAGES = ("estimators", "vrloco_env", "agents")
-_ROOT = Path(__file__).resolve().parents[1]
+_ROOT = Path(__file__).resolve().parents[2]
 
 
 def source_fingerprint() -> str:
@@ -81,8 +81,8 @@ def episode_key(fingerprint: str, task: str, policy: str, technique: Any, seed: 
                 trace: bool, condition: str = DEFAULT_CONDITION,
                 inputs: str = "") -> str:  # fmt: skip
     """The key of one episode (see the module docstring); ``technique`` a Technique object,
-    ``condition`` the physical room's (:mod:`agents.conditions`; the default adds nothing),
-    ``inputs`` the cell's :func:`cell_inputs` (empty adds nothing)."""
+    ``condition`` the physical room's (:mod:`agents.benchmark.conditions`; the default adds
+    nothing), ``inputs`` the cell's :func:`cell_inputs` (empty adds nothing)."""
     where = () if condition == DEFAULT_CONDITION else (condition,)
     extra = (inputs,) if inputs else ()
     what = re.sub(r" at 0x[0-9a-fA-F]+", "", repr(technique))  # an object's address varies
@@ -129,7 +129,7 @@ def cell_inputs(cells: Iterable[Any]) -> dict[Any, str]:
 
 def _cell_parts(cell: Any) -> tuple[list[str], set[Path], set[Path]]:
     """A cell's configuration texts, its plug-ins' root folders and its model files."""
-    from agents.conditions import get_condition
+    from agents.benchmark.conditions import get_condition
     from estimators import stages
     from estimators.registry import load_attr
     from vrloco_env.config import STAGE_FIELDS
@@ -222,7 +222,7 @@ class BadEntry(ValueError):
 
 def _classes() -> dict[str, type]:
     """The only types an entry may hold besides numbers, strings, containers and arrays."""
-    from agents.metrics import EpisodeStats
+    from agents.benchmark.metrics import EpisodeStats
     from vrloco_env.world.geometry import Box, Cylinder
     from vrloco_env.world.layout import Layout
 
@@ -360,9 +360,9 @@ def _natural(x: Any) -> bool:
 def _check_episode(value: Any) -> None:
     """A BadEntry unless ``value`` is ``(EpisodeStats, reset_info)`` as the runners give them:
     per-step arrays of one length, the trace's arrays and room, the measures the rows read."""
-    from agents.collision_causes import COLLISION_CAUSES
-    from agents.metrics import TRACE_KEYS, EpisodeStats
-    from agents.wip_measures import MOTION_KEYS, PLAY_AREA_KEYS
+    from agents.benchmark.collision_causes import COLLISION_CAUSES
+    from agents.benchmark.metrics import TRACE_KEYS, EpisodeStats
+    from agents.benchmark.wip_measures import MOTION_KEYS, PLAY_AREA_KEYS
     from vrloco_env.world.layout import Layout
 
     if not (isinstance(value, tuple) and len(value) == 2):
@@ -549,7 +549,7 @@ class RunFolder:
         self._previous: set[str] = set()
 
     def __enter__(self) -> RunFolder:
-        from agents.benchmark_outputs import WriteError
+        from agents.benchmark.outputs import WriteError
 
         try:
             self.path.mkdir(parents=True, exist_ok=True)
@@ -570,7 +570,7 @@ class RunFolder:
         self._unlock()
 
     def _lock(self) -> None:
-        from agents.benchmark_outputs import WriteError
+        from agents.benchmark.outputs import WriteError
 
         lock = self.path / self.LOCK
         try:
@@ -648,7 +648,7 @@ class RunFolder:
         Raises:
             WriteError: a file could not be written (a full disk), naming it.
         """
-        from agents.benchmark_outputs import WriteError, atomic_path
+        from agents.benchmark.outputs import WriteError, atomic_path
 
         stage = self.path / self.STAGING
         shutil.rmtree(stage, ignore_errors=True)

@@ -1,12 +1,12 @@
 """Playing a cell's episodes: one alone in a single env, or many as users of one vector env.
 
 :func:`run_episode` plays one episode of a policy in a single env; :func:`run_cell_episode` does so
-for a grid cell (:class:`agents.grid.Cell`: its task, technique, population and condition's env,
-kept per process, and its policy). :func:`run_batched` plays episodes of cells that share a task,
-a technique, a population and a condition as the users of one native vector env, a user taking
-the next episode when its own ends (:func:`play_claimed`: those that a claim hands out, which
-several processes may share); each episode gives exactly the numbers of :func:`run_cell_episode`
-with its seed. :mod:`agents.benchmark` runs a grid's jobs with these.
+for a grid cell (:class:`agents.benchmark.grid.Cell`: its task, technique, population and
+condition's env, kept per process, and its policy). :func:`run_batched` plays episodes of cells that
+share a task, a technique, a population and a condition as the users of one native vector env, a
+user taking the next episode when its own ends (:func:`play_claimed`: those that a claim hands out,
+which several processes may share); each episode gives exactly the numbers of
+:func:`run_cell_episode` with its seed. :mod:`agents.benchmark` runs a grid's jobs with these.
 """
 
 from __future__ import annotations
@@ -17,10 +17,16 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from agents.conditions import DEFAULT_CONDITION, get_condition
-from agents.grid import DEFAULT_BATCH_SIZE, Cell
-from agents.metrics import STEP_KEYS, TRACE_KEYS, EpisodeRecorder, EpisodeStats, episode_stats
-from agents.policies import build_policy
+from agents.benchmark.conditions import DEFAULT_CONDITION, get_condition
+from agents.benchmark.grid import DEFAULT_BATCH_SIZE, Cell
+from agents.benchmark.metrics import (
+    STEP_KEYS,
+    TRACE_KEYS,
+    EpisodeRecorder,
+    EpisodeStats,
+    episode_stats,
+)
+from agents.benchmark.policies import build_policy
 from agents.scripted import is_batched
 from vrloco_env.actions import ACTION_NAMES
 from vrloco_env.tasks import env_id
@@ -80,8 +86,8 @@ def run_episode(
             shape than the env's (default: :func:`policy_label`).
 
     Returns:
-        The episode's :class:`~agents.metrics.EpisodeStats` (with ``trace``: per-step traces,
-        the room in ``trace["layout"]`` for figures) and the reset info.
+        The episode's :class:`~agents.benchmark.metrics.EpisodeStats` (with ``trace``: per-step
+        traces, the room in ``trace["layout"]`` for figures) and the reset info.
     """
     obs, reset_info = env.reset(seed=seed)
     policy.reset(np.random.default_rng([seed, 1]))

@@ -5,8 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from agents.metrics import EpisodeStats
-from agents.paired import (
+from agents.benchmark.metrics import EpisodeStats
+from agents.benchmark.paired import (
     BINARY_METRICS,
     MEAN_METRICS,
     compare_values,

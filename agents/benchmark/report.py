@@ -5,17 +5,17 @@ figures as base64 PNG, the rooms as inline SVG):
 
 * the run's configuration: its grids, seeds, episodes per cell, workers, batch size, baseline;
 * the outcome and walking-in-place tables, one row per cell and a column per measure of
-  :data:`~agents.benchmark_outputs.ROW_KEYS` (:data:`OUTCOME_COLUMNS`, :data:`WIP_COLUMNS`),
+  :data:`~agents.benchmark.outputs.ROW_KEYS` (:data:`OUTCOME_COLUMNS`, :data:`WIP_COLUMNS`),
   sorted by a click on a heading; a value that differs from the baseline technique's at
-  p < :data:`~agents.paired.ALPHA` (the row's ``vs_baseline``) is marked ``*`` as on the
+  p < :data:`~agents.benchmark.paired.ALPHA` (the row's ``vs_baseline``) is marked ``*`` as on the
   terminal, and a value's tooltip gives its 95 % interval and its paired test;
-* the discriminating-power table (:mod:`agents.discrimination`);
-* the figures the run wrote (:mod:`agents.benchmark_figures`);
+* the discriminating-power table (:mod:`agents.benchmark.discrimination`);
+* the figures the run wrote (:mod:`agents.benchmark.figures`);
 * per cell, the replays of its episodes that keep a trace (the first :data:`REPLAY_EPISODES`,
-  :func:`agents.benchmark._split_jobs`): the true path (perfect sensing) and the virtual body's
+  :func:`agents.benchmark.run._split_jobs`): the true path (perfect sensing) and the virtual body's
   over the room, walls and obstacles from the episode's layout, animated with a play/pause
   button and a time slider, each collision marked in the colour of its cause
-  (:func:`collision_events`, the rule of :mod:`agents.collision_causes`).
+  (:func:`collision_events`, the rule of :mod:`agents.benchmark.collision_causes`).
 
 Size: the figures are re-encoded as PNGs of :data:`PNG_COLOURS` colours, and a replay keeps at
 most :data:`MAX_FRAMES` frames (positions in centimetres, times in centiseconds), so that the
@@ -35,14 +35,14 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from agents.benchmark_figures import cell_name
-from agents.benchmark_outputs import BASELINE_TECHNIQUE, atomic_path, json_safe
-from agents.collision_causes import COLLISION_CAUSES, collision_causes
-from agents.paired import ALPHA
+from agents.benchmark.collision_causes import COLLISION_CAUSES, collision_causes
+from agents.benchmark.figures import cell_name
+from agents.benchmark.outputs import BASELINE_TECHNIQUE, atomic_path, json_safe
+from agents.benchmark.paired import ALPHA
 
 if TYPE_CHECKING:
-    from agents.grid import Cell
-    from agents.metrics import EpisodeStats
+    from agents.benchmark.grid import Cell
+    from agents.benchmark.metrics import EpisodeStats
 
 __all__ = [
     "MAX_FRAMES",
@@ -120,7 +120,7 @@ def write_report(path: Path | str, rows: list[dict[str, Any]], meta: dict[str, A
                  results: dict[tuple[Cell, int], EpisodeStats], figures: Sequence[Path | str],
                  baseline: str = BASELINE_TECHNIQUE) -> Path:  # fmt: skip
     """Write :func:`report_html` to ``path`` atomically
-    (:func:`agents.benchmark_outputs.atomic_path`: a full disk is a WriteError naming it).
+    (:func:`agents.benchmark.outputs.atomic_path`: a full disk is a WriteError naming it).
 
     Returns:
         ``path``.
@@ -139,10 +139,10 @@ def report_html(rows: list[dict[str, Any]], meta: dict[str, Any], pairs: list[di
     """The report of a run as one HTML page (see the module docstring).
 
     Args:
-        rows: the benchmark rows (:data:`~agents.benchmark_outputs.ROW_KEYS`).
+        rows: the benchmark rows (:data:`~agents.benchmark.outputs.ROW_KEYS`).
         meta: the run's configuration (``seed``, ``episodes``, ``workers``, ``batch_size``,
             ``grids``), as in ``benchmark.json``.
-        pairs: :func:`agents.discrimination.pair_results` of the rows.
+        pairs: :func:`agents.benchmark.discrimination.pair_results` of the rows.
         cells: the rows' cells, in the rows' order.
         results: ``(cell, episode index)`` -> the episode's stats; those with a trace are
             replayed.
@@ -212,8 +212,8 @@ def report_html(rows: list[dict[str, Any]], meta: dict[str, Any], pairs: list[di
 
 def collision_events(trace: dict[str, Any]) -> list[tuple[int, str]]:
     """Each collision of a traced episode: ``(control step index, cause)``, the cause by the rule
-    of :func:`agents.collision_causes.collision_causes` (the episode's causes counted are these
-    causes counted)."""
+    of :func:`agents.benchmark.collision_causes.collision_causes` (the episode's causes counted are
+    these causes counted)."""
     hit = np.asarray(trace["collision"], dtype=bool).ravel()
     steps = {k: trace[k] for k in _CAUSE_KEYS}
     events = []
@@ -231,7 +231,7 @@ def replay_data(stats: EpisodeStats) -> dict[str, Any]:
     centimetres) and headings ``vy`` and ``ry`` (degrees, counter-clockwise from +x; the true
     one is the virtual minus the heading error), at most :data:`MAX_FRAMES` frames from the
     start; ``c``, each collision as ``[time, x, y, cause index]`` (the cause's index in
-    :data:`~agents.collision_causes.COLLISION_CAUSES`)."""
+    :data:`~agents.benchmark.collision_causes.COLLISION_CAUSES`)."""
     tr = stats.trace
     if tr is None:
         raise ValueError("stats has no trace: run the episode with trace=True")
@@ -324,7 +324,8 @@ def _replay_legend() -> str:
     return ('<p class="legend"><span class="ln true"></span>true path (perfect sensing) '
             '<span class="ln virt"></span>virtual body (estimated); the dots with a line: where '
             "each is and faces; collisions by cause: " + causes + "(the rule of "
-            "<code>agents.collision_causes</code>). Walls and obstacles grey, the goal green.</p>")
+            "<code>agents.benchmark.collision_causes</code>). Walls and obstacles grey, the goal "
+            "green.</p>")
 
 
 def _cell_section(k: int, row: dict[str, Any], blocks: list[str], figures: list[Path]) -> str:
@@ -437,7 +438,7 @@ def _table_section(sid: str, title: str, rows: list[dict[str, Any]], columns: tu
         body.append(f'<tr data-cell="{k}">' + "".join(cells) + "</tr>")
     legend = [f"* differs from {baseline} (same task, policy, condition and seeds) at p < "
               f"{ALPHA}: exact McNemar test for rates, Wilcoxon signed-rank for means "
-              "(agents.paired)" + ("" if marked else "; no value here does")]  # fmt: skip
+              "(agents.benchmark.paired)" + ("" if marked else "; no value here does")]  # fmt: skip
     if any(key == "collision_causes" for key, *_ in columns):
         legend.append("collision causes: " + "/".join(c.replace("_", " ")
                                                       for c in COLLISION_CAUSES))  # fmt: skip
@@ -452,7 +453,8 @@ def _table_section(sid: str, title: str, rows: list[dict[str, Any]], columns: tu
 def _pairs_section(pairs: list[dict[str, Any]], baseline: str) -> str:
     if not pairs:
         return ('<section id="pairs"><h2>Discriminating power</h2><p>No technique pair of '
-                "<code>agents.discrimination</code> has its cells in this run.</p></section>")
+                "<code>agents.benchmark.discrimination</code> has its cells in this "
+                "run.</p></section>")
     rows = []
     for res in pairs:
         against = [f"{task}:{m}" for task, per in res["tasks"].items()

@@ -8,27 +8,29 @@ so the same episode index meets the same room in every cell, and an episode's nu
 nothing else: not on the worker processes, the batch it ran in, or the backend.
 
 Jobs (:func:`_split_jobs`): the cells that share a task and a technique run together as users of
-one native vector env (:func:`agents.episodes.run_batched`, ``batch_size`` users; ``batch_size=0``
-runs every episode alone in a single env, :func:`agents.episodes.run_cell_episode`). They run in a
+one native vector env (:func:`agents.benchmark.episodes.run_batched`, ``batch_size`` users;
+``batch_size=0`` runs every episode alone in a single env,
+:func:`agents.benchmark.episodes.run_cell_episode`). They run in a
 ``concurrent.futures.ProcessPoolExecutor`` of ``workers`` processes (1: in this process) or, with
-``backend="ray"``, as Ray tasks (:mod:`agents.backends`), under one progress bar. A local worker
-claims a job's episodes one by one from a counter the workers share, so that a worker with no job
-left to start joins one still running (:func:`_job`): the workers end together. Finished
-episodes are kept in ``<out>/.resume`` (:mod:`agents.resume`) until the grid is complete, so an
-interrupted run resumes; an output folder holds one run at a time, and one run's files alone
-(:class:`agents.resume.RunFolder`). :func:`agents.metrics.summarize` turns each cell into a
-row, compared with the baseline technique's (:mod:`agents.paired`): a table on the terminal, a
-CSV and a JSON file (:mod:`agents.benchmark_outputs`), and the figures
-(:mod:`agents.benchmark_figures`: for the first episode of each cell the true and virtual paths
-over the room, the head attitude, the gait; for the grid every metric, the collision causes and
-the latencies), all in one page with each cell's first episodes replayed (:mod:`agents.report`,
-``report.html``).
+``backend="ray"``, as Ray tasks (:mod:`agents.benchmark.backends`), under one progress bar. A local
+worker claims a job's episodes one by one from a counter the workers share, so that a worker with no
+job left to start joins one still running (:func:`agents.benchmark.jobs._job`): the workers end
+together. Finished episodes are kept in ``<out>/.resume`` (:mod:`agents.benchmark.resume`) until the
+grid is complete, so an interrupted run resumes; an output folder holds one run at a time, and one
+run's files alone (:class:`agents.benchmark.resume.RunFolder`).
+:func:`agents.benchmark.metrics.summarize` turns each cell into a row, compared with the baseline
+technique's (:mod:`agents.benchmark.paired`): a table on the terminal, a CSV and a JSON file
+(:mod:`agents.benchmark.outputs`), and the figures (:mod:`agents.benchmark.figures`: for the first
+episode of each cell the true and virtual paths over the room, the head attitude, the gait; for the
+grid every metric, the collision causes and the latencies), all in one page with each cell's first
+episodes replayed (:mod:`agents.benchmark.report`, ``report.html``).
 
 Policies: ``goal_seeker``, ``avoid_manoeuvre``, ``reactive_avoider`` (:mod:`agents.scripted`),
 ``+<population>`` for a human population (:mod:`vrloco_env.user.population`), a stable-baselines3
-``.zip`` or ``module:attr`` (:mod:`agents.policies`). The default run is
-:data:`agents.grid.DEFAULT_GRIDS`; after its table comes the discriminating-power table of the
-technique pairs whose cells the run holds (:mod:`agents.discrimination`, also ``pairs.json``).
+``.zip`` or ``module:attr`` (:mod:`agents.benchmark.policies`). The default run is
+:data:`agents.benchmark.grid.DEFAULT_GRIDS`; after its table comes the discriminating-power table of
+the technique pairs whose cells the run holds (:mod:`agents.benchmark.discrimination`, also
+``pairs.json``).
 """
 
 from __future__ import annotations
@@ -41,21 +43,12 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any
 
-from agents import warm_start
-from agents.benchmark_figures import cell_name, draw_cell, draw_grid
-from agents.benchmark_outputs import (
-    BASELINE_TECHNIQUE,
-    ROW_KEYS,
-    atomic_path,
-    show_table,
-    write_csv,
-    write_json,
-    written_summary,
-)
-from agents.conditions import DEFAULT_CONDITION, get_condition
-from agents.discrimination import pair_results, show_pairs, write_pairs
-from agents.episodes import DEFAULT_BATCH_SIZE, play_claimed, run_batched, run_cell_episode
-from agents.grid import (
+from agents.benchmark import warm_start
+from agents.benchmark.conditions import DEFAULT_CONDITION, get_condition
+from agents.benchmark.discrimination import pair_results, show_pairs, write_pairs
+from agents.benchmark.episodes import DEFAULT_BATCH_SIZE, run_cell_episode
+from agents.benchmark.figures import cell_name, draw_cell, draw_grid
+from agents.benchmark.grid import (
     DEFAULT_EPISODES,
     DEFAULT_GRIDS,
     DEFAULT_POLICIES,
@@ -64,14 +57,31 @@ from agents.grid import (
     Cell,
     Grid,
 )
-from agents.metrics import (
+from agents.benchmark.jobs import _init_worker, _job, _pool_context, _worker_threads
+from agents.benchmark.metrics import (
     EpisodeStats,
     summarize,
 )
-from agents.paired import compare_values, episode_values
-from agents.policies import check_policy
-from agents.report import REPLAY_EPISODES, write_report
-from agents.resume import EpisodeStore, RunFolder, cell_inputs, episode_key, source_fingerprint
+from agents.benchmark.outputs import (
+    BASELINE_TECHNIQUE,
+    ROW_KEYS,
+    atomic_path,
+    show_table,
+    write_csv,
+    write_json,
+    written_summary,
+)
+from agents.benchmark.paired import compare_values, episode_values
+from agents.benchmark.policies import check_policy
+from agents.benchmark.report import REPLAY_EPISODES, write_report
+from agents.benchmark.resume import (
+    EpisodeStore,
+    RunFolder,
+    cell_inputs,
+    episode_key,
+    source_fingerprint,
+)
+from agents.benchmark.step_matching import step_window
 from vrloco_env.tasks import get_task
 
 __all__ = [
@@ -97,104 +107,9 @@ def technique_for_preset(preset: str) -> Any:
 
 
 def check_policy_name(name: str) -> str:
-    """``name`` if it names a policy (:func:`agents.policies.check_policy`), else a ValueError."""
+    """``name`` if it names a policy (:func:`agents.benchmark.policies.check_policy`), else a
+    ValueError."""
     return check_policy(name)
-
-
-def step_window(reset_info: dict, dt: float) -> tuple[int, int]:
-    """The step-matching window ``(late, early)`` in control steps of ``dt`` s, from an episode's
-    reset info: a detection may come up to the step stage's report delay after its heel strike
-    (seed 000: gamma_t plus the detector's latency, a bout's first step being held until the
-    second), and one control step early (a heel strike at a control-step boundary). See
-    :mod:`agents.metrics`."""
-    late = math.ceil(float(reset_info["step_report_delay_s"]) / dt - 1e-9)
-    return late, 1
-
-
-def _job(args: tuple) -> list[tuple]:
-    """Episodes ``(cell, index, seed, trace)``: batched in the vector env (cells sharing a task
-    and technique), or one at a time in the single env for ``batch_size`` 0. ``args`` is
-    ``(episodes, batch_size)``, or in a local worker process ``(episodes, batch_size, k)``: then
-    the episodes are claimed from job ``k``'s shared counter (:func:`_init_worker`), so that
-    the same job may run in several workers at once, each playing the episodes it claims.
-    Returns ``(cell, index, stats, reset_info)`` per episode played."""
-    episodes, batch_size, *shared = args
-    plays = [(c, s, t) for c, _, s, t in episodes]
-    if batch_size == 0:
-        done = dict(enumerate(run_cell_episode(*p) for p in plays))
-    elif not shared:
-        done = dict(enumerate(run_batched(plays, batch_size)))
-    else:
-        claim = _Claim(_CLAIMED, shared[0], len(plays))
-        if claim.left() == 0:  # a helper of a job already handed out
-            return []
-        done = play_claimed(plays, batch_size, claim)
-    return [(*episodes[j][:2], *d) for j, d in sorted(done.items())]
-
-
-#: In a local worker process: how many episodes of each job have been claimed (a shared
-#: ``multiprocessing.Array``, set by :func:`_init_worker`).
-_CLAIMED: Any = None
-
-
-def _init_worker(claimed: Any, threads: int) -> None:
-    """A local worker process: the jobs' shared claim counters, and ``threads`` for its compiled
-    kernels (its share of the cores, :func:`estimators.kernels.use_threads`: 1 where there are
-    as many workers as cores). Ctrl-C is left to the main process, which stops the workers."""
-    import signal
-
-    from estimators.kernels import use_threads
-
-    global _CLAIMED
-    _CLAIMED = claimed
-    use_threads(threads)
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-
-
-def _worker_threads(n_workers: int) -> int:
-    """Each of ``n_workers`` local workers' share of this process's cores (at least 1, at most
-    numba's thread count)."""
-    import numba
-
-    from estimators.kernels import usable_cores
-
-    return max(1, min(usable_cores() // n_workers, numba.config.NUMBA_NUM_THREADS))
-
-
-def _pool_context() -> Any:
-    """How to start the local workers: the platform's default (``fork`` on Linux: the workers
-    start at once, with this process's compiled kernels), unless this process has started
-    numba's threads (a vector env of many users did): forking a process that runs OpenMP threads
-    is unsafe (GNU OpenMP kills the child), so the workers are spawned instead."""
-    import multiprocessing
-
-    import numba
-
-    try:
-        numba.threading_layer()
-    except ValueError:  # no thread started yet
-        return multiprocessing.get_context()
-    return multiprocessing.get_context("spawn")
-
-
-class _Claim:
-    """The claims on job ``k``'s ``total`` episodes through the shared counters ``claimed``:
-    ``claim(n)`` takes the next (up to) ``n`` indices, for this process alone."""
-
-    def __init__(self, claimed: Any, k: int, total: int) -> None:
-        self.claimed, self.k, self.total = claimed, k, total
-
-    def left(self) -> int:
-        """How many of the job's episodes nobody has claimed yet."""
-        with self.claimed.get_lock():
-            return self.total - self.claimed[self.k]
-
-    def __call__(self, n: int) -> list[int]:
-        with self.claimed.get_lock():
-            lo = self.claimed[self.k]
-            hi = min(lo + n, self.total)
-            self.claimed[self.k] = hi
-        return list(range(lo, hi))
 
 
 # --------------------------------------------------------------------------- the grid
@@ -229,8 +144,9 @@ def run_benchmark(
 
     Args:
         tasks: registered task names (:mod:`vrloco_env.tasks`).
-        policies: scripted users, optionally with ``+<population>`` (:mod:`agents.policies`).
-        sensors: IMU presets (``ig500n``, ``consumer_mems``): shorthand for seed 000's chain on
+        policies: scripted users, optionally with ``+<population>``
+        (:mod:`agents.benchmark.policies`). sensors: IMU presets (``ig500n``, ``consumer_mems``):
+        shorthand for seed 000's chain on
             each, added to ``techniques``.
         techniques: registered technique names, ``"module:attr"`` strings or
             :class:`~vrloco_env.techniques.Technique` objects. Without ``sensors`` and
@@ -240,26 +156,26 @@ def run_benchmark(
         seed: episode ``i`` is seeded ``seed + i``.
         workers: worker processes (>= 1; 1 runs in this process).
         batch_size: users stepped together in the native vector env (>= 1), each job a cell's
-            batch of seeds (:func:`agents.episodes.run_batched`); 0 runs every episode alone in a
-            single env (:func:`agents.episodes.run_cell_episode`). The results are the same
-            either way.
+            batch of seeds (:func:`agents.benchmark.episodes.run_batched`); 0 runs every episode
+            alone in a single env (:func:`agents.benchmark.episodes.run_cell_episode`). The results
+            are the same either way.
         out_dir: folder for ``benchmark.csv``, ``benchmark.json``, ``pairs.json``, the
             figures and ``report.html``, and for the finished episodes of an interrupted run
-            (``.resume``), one run at a time (:class:`agents.resume.RunFolder`): a folder
+            (``.resume``), one run at a time (:class:`agents.benchmark.resume.RunFolder`): a folder
             holding another run's files is refused (None: no files).
         force: remove another run's files from ``out_dir`` first instead of refusing it.
         json_path: also write the JSON here.
         progress: show a progress bar.
         print_table: print the table.
         backend: ``"local"`` (a process pool of ``workers`` here) or ``"ray"``: every job a Ray
-            task (:func:`agents.backends.run_jobs_ray`; ``workers`` then only sizes the jobs).
-            The rows are the same either way.
+            task (:func:`agents.benchmark.backends.run_jobs_ray`; ``workers`` then only sizes the
+            jobs). The rows are the same either way.
         address: with ``"ray"``: the cluster, ``"auto"`` or ``"HOST:PORT"``; None: a running
             cluster of this machine where there is one, else a new local Ray instance.
-        conditions: physical-room conditions (:mod:`agents.conditions`), each a grid axis.
+        conditions: physical-room conditions (:mod:`agents.benchmark.conditions`), each a grid axis.
         baseline: the technique every other one is compared with, episode by episode, in the
-            same task, policy and condition (:func:`agents.paired.paired_p_values`; the row's
-            ``vs_baseline``, None for the baseline itself or where it is not in the grid).
+            same task, policy and condition (:func:`agents.benchmark.paired.paired_p_values`; the
+            row's ``vs_baseline``, None for the baseline itself or where it is not in the grid).
 
     Returns:
         One dict per cell with :data:`ROW_KEYS`, grouped by technique.
@@ -267,12 +183,13 @@ def run_benchmark(
     Raises:
         ValueError: an unknown task, policy, technique or preset, or a bad count; an unknown
             backend, an address without ``"ray"``, ``"ray"`` without Ray installed.
-        agents.backends.BackendError: no Ray cluster at ``address``, or Ray jobs that failed
+        agents.benchmark.backends.BackendError: no Ray cluster at ``address``, or Ray jobs that
+        failed
             (raised once the other jobs have finished; with ``out_dir`` their episodes are kept
             for a rerun to resume).
         ValueError: ``out_dir`` holds another run's files and not ``force``.
-        agents.resume.FolderBusy: another run is writing to ``out_dir``.
-        agents.benchmark_outputs.WriteError: an output could not be written (a full disk),
+        agents.benchmark.resume.FolderBusy: another run is writing to ``out_dir``.
+        agents.benchmark.outputs.WriteError: an output could not be written (a full disk),
             naming the file; the folder keeps its earlier files.
     """
     from vrloco_env.techniques import get_technique
@@ -312,7 +229,7 @@ def run_benchmark(
     if address is not None and backend != "ray":
         raise ValueError(f"address={address!r} needs backend 'ray' (--backend ray)")
     if backend == "ray":
-        from agents.backends import import_ray
+        from agents.benchmark.backends import import_ray
 
         import_ray()  # not installed: the install hint, before any work
 
@@ -410,8 +327,9 @@ def _compile_shared_kernels(job: tuple) -> None:
     """Play ``job``'s first episode alone in this process, unrecorded, before the local workers
     fork: that compiles the kernels every cell shares (the user's motion, the sensors, the world,
     the scripted user's planner) once, so that each worker starts with them loaded and compiles
-    only the estimators of its own cells, beside the others (:mod:`agents.warm_start`). One user,
-    so the serial builds the workers use, and no thread pool that would make them spawn."""
+    only the estimators of its own cells, beside the others (:mod:`agents.benchmark.warm_start`).
+    One user, so the serial builds the workers use, and no thread pool that would make them
+    spawn."""
     cell, _, seed, _ = job[0][0]
     run_cell_episode(cell, seed, False)
 
@@ -421,7 +339,7 @@ def _write_outputs(out: Path, rows: list[dict[str, Any]], meta: dict[str, Any], 
                    baseline: str = BASELINE_TECHNIQUE) -> list[Path]:  # fmt: skip
     """The run's files in ``out``: the CSV, the JSON, ``pairs.json`` where there are pairs, the
     figures of each cell's first episode and of the grid, and ``report.html``
-    (:func:`agents.report.write_report`: all of these in one page, with each cell's traced
+    (:func:`agents.benchmark.report.write_report`: all of these in one page, with each cell's traced
     episodes replayed)."""
     written = [write_csv(out / "benchmark.csv", rows),
                write_json(out / "benchmark.json", rows, meta)]  # fmt: skip
@@ -442,7 +360,8 @@ def _write_outputs(out: Path, rows: list[dict[str, Any]], meta: dict[str, Any], 
 
 def _run_identity(cells: list[Cell], episodes: int, seed: int) -> tuple[str, str]:
     """The run's identity in its output folder (its cells, episodes and first seed: the same
-    command gives the same one) and a few words on it (:class:`agents.resume.RunFolder`)."""
+    command gives the same one) and a few words on it
+    (:class:`agents.benchmark.resume.RunFolder`)."""
     names = [[c.task, c.policy, c.technique_name, c.condition] for c in cells]
     run = hashlib.sha256(json.dumps([names, episodes, seed]).encode()).hexdigest()[:16]
     techniques = list(dict.fromkeys(c.technique_name for c in cells))
@@ -493,8 +412,9 @@ class _CellRows:
         return self._summary[c]
 
     def versus(self, c: Cell) -> dict | None:
-        """The paired comparison with the cell's baseline (:func:`agents.paired.paired_p_values`;
-        None for the baseline itself, or where it is not in the grid or not finished)."""
+        """The paired comparison with the cell's baseline
+        (:func:`agents.benchmark.paired.paired_p_values`; None for the baseline itself, or where it
+        is not in the grid or not finished)."""
         ref = self.base.get((c.task, c.policy, c.condition))
         if ref is None or ref is c or not self._ready(c):
             return None
@@ -510,9 +430,9 @@ class _CellRows:
         return ref is None or self.count.get(ref, 0) == self.episodes
 
     def _values_of(self, c: Cell, window_of: Cell) -> list:
-        """``c``'s episodes' values (:func:`agents.paired.episode_values`) in the step-matching
-        window of ``window_of`` (:func:`agents.paired.paired_p_values` uses the compared cell's
-        for both), each worked out once."""
+        """``c``'s episodes' values (:func:`agents.benchmark.paired.episode_values`) in the
+        step-matching window of ``window_of`` (:func:`agents.benchmark.paired.paired_p_values` uses
+        the compared cell's for both), each worked out once."""
         late, early = self.window(window_of)
         key = (c, late, early)
         if key not in self._values:
@@ -543,8 +463,8 @@ def _check_grid(grid: Grid) -> None:
 def _episode_keys(
     cells: list[Cell], episodes: int, seed: int, figures: bool
 ) -> dict[tuple[Cell, int], str]:
-    """The resume key of every episode of the grid (:func:`agents.resume.episode_key`, with each
-    cell's :func:`agents.resume.cell_inputs`)."""
+    """The resume key of every episode of the grid (:func:`agents.benchmark.resume.episode_key`,
+    with each cell's :func:`agents.benchmark.resume.cell_inputs`)."""
     from vrloco_env.techniques import get_technique
 
     fp = source_fingerprint()
@@ -562,8 +482,8 @@ def _split_jobs(
     that share a task, a technique and a population (one vector env), taken episode index by
     episode index across those cells, in jobs of about four batches, cut smaller where there
     would be fewer jobs than workers. A ``module:attr`` policy's cells form groups of their own.
-    With ``figures`` the first :data:`agents.report.REPLAY_EPISODES` episodes of each cell keep
-    their trace (the figures draw the first, the report replays them all)."""
+    With ``figures`` the first :data:`agents.benchmark.report.REPLAY_EPISODES` episodes of each cell
+    keep their trace (the figures draw the first, the report replays them all)."""
     def ep(c: Cell, i: int) -> tuple[Cell, int, int, bool]:
         return (c, i, seed + i, figures and i < REPLAY_EPISODES)
 
@@ -589,9 +509,10 @@ def _run_jobs(jobs: list, workers: int, progress: bool, backend: str = "local",
               address: str | None = None):  # fmt: skip
     """Yield each job's ``[(cell, index, stats, reset_info), ...]`` as it finishes, in any order,
     with a progress bar over the episodes: in ``workers`` local processes, or for ``backend``
-    ``"ray"`` as Ray tasks on the cluster at ``address`` (:func:`agents.backends.run_jobs_ray`)."""
+    ``"ray"`` as Ray tasks on the cluster at ``address``
+    (:func:`agents.benchmark.backends.run_jobs_ray`)."""
     if backend == "ray":
-        from agents.backends import run_jobs_ray
+        from agents.benchmark.backends import run_jobs_ray
 
         yield from run_jobs_ray(jobs, address, progress)
         return

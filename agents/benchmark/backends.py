@@ -1,9 +1,9 @@
 """Where ``vrloco benchmark`` runs its jobs: the Ray backend (``--backend ray``).
 
-The local backend (:func:`agents.benchmark._run_jobs`) runs the grid's jobs in a process pool on
+The local backend (:func:`agents.benchmark.run._run_jobs`) runs the grid's jobs in a process pool on
 this machine. :func:`run_jobs_ray` runs the same jobs — one per (cell group, batch of seeds),
-each a call of :func:`agents.benchmark._job` — as Ray tasks on a Ray cluster, and yields each
-job's episodes as it finishes, so that :func:`agents.benchmark.run_benchmark` keeps them in
+each a call of :func:`agents.benchmark.jobs._job` — as Ray tasks on a Ray cluster, and yields each
+job's episodes as it finishes, so that :func:`agents.benchmark.run.run_benchmark` keeps them in
 ``<out>/.resume`` and builds the table from them exactly as for the local backend: the rows are
 the same, only where the episodes ran differs.
 
@@ -64,7 +64,7 @@ def run_jobs_ray(jobs: list, address: str | None, progress: bool) -> Iterator[li
     any order, under the local backend's progress bar (advanced per finished job).
 
     Args:
-        jobs: ``(episodes, batch_size)`` jobs of :func:`agents.benchmark._split_jobs`.
+        jobs: ``(episodes, batch_size)`` jobs of :func:`agents.benchmark.run._split_jobs`.
         address: the cluster: ``"auto"`` (one started with ``ray start`` on this machine, or
             ``RAY_ADDRESS``), ``"HOST:PORT"`` (its head), or None: ``"auto"``'s cluster where
             there is one, else a new local Ray instance on this machine's cores, shut down at
@@ -79,7 +79,7 @@ def run_jobs_ray(jobs: list, address: str | None, progress: bool) -> Iterator[li
     """
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeElapsedColumn
 
-    from agents.benchmark import _job
+    from agents.benchmark.jobs import _job
 
     ray = import_ray()
     if not jobs:  # every episode was found in .resume: no cluster needed

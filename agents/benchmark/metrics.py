@@ -21,16 +21,16 @@ row of the benchmark table. The definitions:
 * **hand error** — mean of ``info["hand_error_deg"]`` over the control steps with a hand
   estimate, and the fraction of steps that had one.
 * **walking in place** — start and stop latency, stop overshoot, false motion, yaw drift,
-  yaw-rate mismatch, virtual jerk (:mod:`agents.wip_measures`), means over the episodes.
+  yaw-rate mismatch, virtual jerk (:mod:`agents.benchmark.wip_measures`), means over the episodes.
 * **play area** — ``boundary_violations`` and ``min_boundary_m`` per episode
-  (:func:`agents.wip_measures.play_area_measures`), means over the episodes.
+  (:func:`agents.benchmark.wip_measures.play_area_measures`), means over the episodes.
 * **collision causes** — every collision put down to one cause
-  (:mod:`agents.collision_causes`), summed over the episodes.
+  (:mod:`agents.benchmark.collision_causes`), summed over the episodes.
 * **intervals** — each rate and mean with its 95 % interval (``<key>_ci``: Wilson for rates,
-  bootstrap for means, :mod:`agents.cell_statistics`).
+  bootstrap for means, :mod:`agents.benchmark.cell_statistics`).
 
 Step F1: detected vs true heel-strike times matched one to one within +-0.2 s
-(:mod:`agents.step_matching`).
+(:mod:`agents.benchmark.step_matching`).
 """
 
 from __future__ import annotations
@@ -42,15 +42,25 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from agents.cell_statistics import bootstrap_interval, exact_mean, finite_mean, wilson_interval
-from agents.collision_causes import COLLISION_CAUSES, collision_causes
-from agents.step_matching import (
+from agents.benchmark.cell_statistics import (
+    bootstrap_interval,
+    exact_mean,
+    finite_mean,
+    wilson_interval,
+)
+from agents.benchmark.collision_causes import COLLISION_CAUSES, collision_causes
+from agents.benchmark.step_matching import (
     DEFAULT_LATE_STEPS,
     finite_times,
     match_step_counts,
     match_step_times,
 )
-from agents.wip_measures import MOTION_KEYS, PLAY_AREA_KEYS, motion_measures, play_area_measures
+from agents.benchmark.wip_measures import (
+    MOTION_KEYS,
+    PLAY_AREA_KEYS,
+    motion_measures,
+    play_area_measures,
+)
 
 __all__ = [
     "STEP_KEYS",
@@ -101,7 +111,8 @@ def spl(success: ArrayLike, shortest: ArrayLike, walked: ArrayLike) -> float:
 
 
 def _prf(tp: int, fp: int, fn: int) -> tuple[float, float, float]:
-    """Precision, recall, F1 with the conventions of :func:`agents.step_matching.step_f1`."""
+    """Precision, recall, F1 with the conventions of
+    :func:`agents.benchmark.step_matching.step_f1`."""
     if tp + fp + fn == 0:
         return 1.0, 1.0, 1.0
     precision = tp / (tp + fp) if tp + fp else 1.0
@@ -180,7 +191,7 @@ STEP_KEYS = (
     "play_area_outside",
 )
 #: The ``info`` keys kept per control step for the figures and the report's replays (the
-#: headings, and what :func:`agents.collision_causes.collision_causes` reads to give each
+#: headings, and what :func:`agents.benchmark.collision_causes.collision_causes` reads to give each
 #: collision its cause).
 TRACE_KEYS = (
     "position",

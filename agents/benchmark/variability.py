@@ -30,7 +30,7 @@ and makes it behave less like a machine:
 
 A user population (:mod:`vrloco_env.user.population`) carries its own values of these parameters
 (:meth:`VariabilityParams.from_population`; the ``+<population>`` policy suffix of
-:mod:`agents.policies`): ``human`` is the defaults above.
+:mod:`agents.benchmark.policies`): ``human`` is the defaults above.
 
 Randomness: every draw goes through :class:`vrloco_env.batch_rng.BatchRng`, row i from user
 i's generator, with a fixed number of draws per user and step (two normals per ``act``,

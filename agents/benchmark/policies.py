@@ -10,7 +10,7 @@ A policy spec is one of
 * the path of a stable-baselines3 PPO model (``.zip``), played with its deterministic policy;
 
 each optionally followed by ``+<population>`` for the agent-side variability of a user population
-(:mod:`vrloco_env.user.population`) through :class:`agents.variability.HumanVariability`
+(:mod:`vrloco_env.user.population`) through :class:`agents.benchmark.variability.HumanVariability`
 (reaction delay, turn overshoot, cadence bias and jitter): ``+human`` as it always was,
 ``+typical``, ``+gaze_scanners``, ``+nodders``; ``+idealised`` leaves the policy as it is. The
 population's head behaviour is the env's (``gym.make(..., population="typical")``); give both
@@ -25,8 +25,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from agents.benchmark.variability import HumanVariability, VariabilityParams
 from agents.scripted import POLICIES, ObservationLayout, make_policy, params_from_env
-from agents.variability import HumanVariability, VariabilityParams
 from estimators.batching import TakesUsers
 from vrloco_env.user.population import POPULATIONS
 from vrloco_env.wrappers import StackedFrames

@@ -33,7 +33,7 @@ __all__ = ["COLD_START_MINUTES", "announce", "is_compiled", "kernel_fingerprint"
 #: announcement quotes it as an order of magnitude.
 COLD_START_MINUTES = 2
 
-_ROOT = Path(__file__).resolve().parents[1]
+_ROOT = Path(__file__).resolve().parents[2]
 _PACKAGES = ("estimators", "vrloco_env", "agents")
 
 

@@ -1,5 +1,5 @@
-"""Step F1 (agents.step_matching.step_f1): one-to-one matching of detected and true step times
-within a tolerance, a maximum matching."""
+"""Step F1 (agents.benchmark.step_matching.step_f1): one-to-one matching of detected and true step
+times within a tolerance, a maximum matching."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import maximum_bipartite_matching
 
-from agents.step_matching import step_f1
+from agents.benchmark.step_matching import step_f1
 
 
 def test_step_f1_matching():

@@ -16,10 +16,10 @@ import numpy as np
 import pytest
 
 from agents.benchmark import run_benchmark
+from agents.benchmark.episodes import run_cell_batched, run_cell_episode
+from agents.benchmark.grid import Cell
+from agents.benchmark.resume import EpisodeStore
 from agents.cli import main
-from agents.episodes import run_cell_batched, run_cell_episode
-from agents.grid import Cell
-from agents.resume import EpisodeStore
 
 TINY = {"tasks": ["approach"], "techniques": ["seed000"], "episodes": 1, "workers": 1,
         "progress": False, "print_table": False}  # fmt: skip
@@ -60,13 +60,13 @@ def _same_episode(a, b) -> None:
 def keep_resume(monkeypatch):
     """The ``.resume`` folder stays after a complete run (as after Ctrl-C), so that the next
     run shows which episodes it finds; the package's sources count as unchanged meanwhile (an
-    edit of them changes every key, :func:`agents.resume.source_fingerprint`)."""
-    import agents.benchmark
+    edit of them changes every key, :func:`agents.benchmark.resume.source_fingerprint`)."""
+    import agents.benchmark.run
 
     monkeypatch.setattr(EpisodeStore, "clear", lambda self: None)
     monkeypatch.setattr(sys, "dont_write_bytecode", True)  # each edit is read from its source
-    sources = agents.benchmark.source_fingerprint()
-    monkeypatch.setattr(agents.benchmark, "source_fingerprint", lambda: sources)
+    sources = agents.benchmark.run.source_fingerprint()
+    monkeypatch.setattr(agents.benchmark.run, "source_fingerprint", lambda: sources)
 
 
 # --------------------------------------------------------------------------- resume keys
@@ -125,8 +125,8 @@ def test_an_edited_plugin_or_a_module_it_imports_runs_again(tmp_path, monkeypatc
 
 def test_a_changed_model_condition_or_population_changes_the_keys(tmp_path, monkeypatch):
     """A ``.zip`` policy's bytes, a condition's and a population's definitions are inputs."""
-    from agents.benchmark import _episode_keys
-    from agents.conditions import CONDITIONS, Condition
+    from agents.benchmark.conditions import CONDITIONS, Condition
+    from agents.benchmark.run import _episode_keys
     from vrloco_env.user.population import POPULATIONS
 
     model = tmp_path / "user.zip"
@@ -158,7 +158,7 @@ def test_a_changed_model_condition_or_population_changes_the_keys(tmp_path, monk
 def test_stored_episodes_come_back_bit_for_bit_from_a_file_without_pickles(tmp_path):
     """Episodes of the single and the batched runner, with a trace and its room, through an
     entry file read with ``allow_pickle=False``: every number, dtype and type the same."""
-    from agents.resume import EpisodeStore
+    from agents.benchmark.resume import EpisodeStore
 
     single = [run_cell_episode(Cell(t, "goal_seeker"), 3, trace=True)
               for t in ("approach", "avoid", "interact", "doorway", "reach")]  # fmt: skip
@@ -319,7 +319,7 @@ def test_a_folder_another_run_is_writing_to_is_refused(tmp_path, capsys):
     finally:
         holder.kill()
         holder.wait()
-    from agents.resume import RunFolder
+    from agents.benchmark.resume import RunFolder
 
     with RunFolder(out, "mine", "this run"):  # a dead holder's lock is free
         assert (out / ".lock").read_text().strip() == str(os.getpid())

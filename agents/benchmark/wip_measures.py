@@ -17,8 +17,8 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from agents.cell_statistics import exact_mean
-from agents.step_matching import finite_times
+from agents.benchmark.cell_statistics import exact_mean
+from agents.benchmark.step_matching import finite_times
 from estimators.rotations import wrap_angle
 
 __all__ = [

@@ -6,9 +6,9 @@ import re
 
 import pytest
 
-from agents.benchmark_outputs import ROW_KEYS, show_table, written_summary
-from agents.collision_causes import COLLISION_CAUSES
-from agents.discrimination import show_pairs
+from agents.benchmark.collision_causes import COLLISION_CAUSES
+from agents.benchmark.discrimination import show_pairs
+from agents.benchmark.outputs import ROW_KEYS, show_table, written_summary
 
 POPULATIONS = ("typical", "nodders", "gaze_scanners")
 TECHNIQUES = ("seed000", "seed000_consumer", "threshold_steps", "torso_steering")

@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 from agents.benchmark import ROW_KEYS, check_policy_name, run_benchmark
+from agents.benchmark.episodes import run_batched, run_cell_batched, run_cell_episode
+from agents.benchmark.grid import Cell
+from agents.benchmark.metrics import EpisodeStats, spl, summarize
+from agents.benchmark.step_matching import match_step_counts
 from agents.cli import main
-from agents.episodes import run_batched, run_cell_batched, run_cell_episode
-from agents.grid import Cell
-from agents.metrics import EpisodeStats, spl, summarize
-from agents.step_matching import match_step_counts
 
 
 def episode(success, collisions, walked, shortest, elapsed=10.0, true=(), det=(), att=(), hand=()):
@@ -172,7 +172,7 @@ def test_a_batch_sheds_its_finished_users_and_still_gives_the_single_env_episode
 
     plugin = tmp_path / "my_batched_user.py"
     plugin.write_text(
-        "from agents.policies import build_policy\n"
+        "from agents.benchmark.policies import build_policy\n"
         "class Seeker:  # batched, but it cannot drop users\n"
         "    batched = True\n"
         "    def __init__(self, env):\n"
@@ -208,7 +208,7 @@ def test_a_job_shared_by_workers_plays_each_claimed_episode_as_alone(monkeypatch
     the numbers it gives alone; once every episode is claimed, a helper returns at once."""
     import multiprocessing
 
-    import agents.benchmark as bm
+    import agents.benchmark.jobs as bm
 
     cell = Cell("avoid", "goal_seeker", "seed000")
     episodes = [(cell, i, 20 + i, False) for i in range(5)]
@@ -224,7 +224,7 @@ def test_a_job_shared_by_workers_plays_each_claimed_episode_as_alone(monkeypatch
 
 
 def test_local_workers_with_helpers_play_every_episode_once():
-    from agents.benchmark import _run_jobs, _split_jobs
+    from agents.benchmark.run import _run_jobs, _split_jobs
 
     cells = [Cell("approach", "goal_seeker"), Cell("avoid", "goal_seeker")]
     jobs = _split_jobs(cells, 3, 7, False, 2, 2)
@@ -256,7 +256,7 @@ def test_each_local_worker_gets_its_share_of_the_cores():
 
     import numba
 
-    from agents.benchmark import _worker_threads
+    from agents.benchmark.jobs import _worker_threads
 
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     assert _worker_threads(1) == min(cores, numba.config.NUMBA_NUM_THREADS)
@@ -303,7 +303,7 @@ def test_bad_benchmark_options_are_rejected_clearly(capsys):
 
 
 def test_step_times_are_matched_within_0_2_s():
-    from agents.step_matching import match_step_times
+    from agents.benchmark.step_matching import match_step_times
 
     true = [1.0, 1.6, 2.2, 2.8]
     detected = [1.05, 1.78, 2.41, 2.79, 3.5]  # 2.41 is 0.21 s late: a miss and a false step
@@ -351,7 +351,7 @@ def test_unknown_policies_and_techniques_are_named():
 
 def test_the_table_fits_a_narrow_terminal(capsys):
     from agents.benchmark import show_table
-    from agents.collision_causes import COLLISION_CAUSES
+    from agents.benchmark.collision_causes import COLLISION_CAUSES
 
     row = {k: 0.5 for k in ROW_KEYS}
     row.update(task="approach", policy="goal_seeker+human", technique="seed000_consumer",
@@ -378,8 +378,8 @@ def test_walking_in_place_measures_against_a_hand_made_episode():
     """One bout (intent in steps 10-29, heel strikes at 1.2-3.0 s), the virtual body moving
     0.05 m a step from 1.5 s to 3.4 s, then 0.1 m of drift while standing, a heading error that
     grows 1 deg while standing and a true head turn of 10 deg the view does not follow."""
-    from agents.cell_statistics import wilson_interval
-    from agents.wip_measures import motion_measures
+    from agents.benchmark.cell_statistics import wilson_interval
+    from agents.benchmark.wip_measures import motion_measures
 
     n, dt = 100, 0.1
     t_end = dt * np.arange(1, n + 1)
@@ -433,7 +433,7 @@ def test_each_collision_of_a_hand_made_episode_gets_its_cause():
     """Five collisions, one per cause: a detected step far from every heel strike, a collision
     after the user meant to stop, a 15 deg heading error, walking 20 deg off the torso's facing,
     and one with sensing as perfect sensing would be."""
-    from agents.collision_causes import COLLISION_CAUSES, collision_causes
+    from agents.benchmark.collision_causes import COLLISION_CAUSES, collision_causes
 
     n, dt = 100, 0.1
     t_end = dt * np.arange(1, n + 1)
@@ -466,7 +466,7 @@ def test_the_step_log_gives_each_users_steps_across_growth_and_forgetting():
     """The batched runner's log of info arrays: a user's rows from a step on are the arrays it
     was given, past the log's growth (64 steps at first) and after its first steps are dropped;
     an info array that changes shape is an error, not a silent cast."""
-    from agents.episodes import _StepLog
+    from agents.benchmark.episodes import _StepLog
 
     rng = np.random.default_rng(0)
     given = [{"a": rng.normal(size=3), "b": rng.integers(0, 9, size=(3, 2))} for _ in range(150)]

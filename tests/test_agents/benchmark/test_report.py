@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 
 from agents.benchmark import run_benchmark
-from agents.benchmark_figures import cell_name
-from agents.benchmark_outputs import ROW_KEYS
-from agents.collision_causes import COLLISION_CAUSES
-from agents.report import (
+from agents.benchmark.collision_causes import COLLISION_CAUSES
+from agents.benchmark.figures import cell_name
+from agents.benchmark.outputs import ROW_KEYS
+from agents.benchmark.report import (
     CAUSE_COLOURS,
     MAX_FRAMES,
     NAME_COLUMNS,
@@ -160,9 +160,9 @@ def test_a_stored_trace_of_the_wrong_length_is_refused():
     episode's steps is named as bad, never handed to the report."""
     import dataclasses
 
-    from agents.episodes import run_cell_episode
-    from agents.grid import Cell
-    from agents.resume import BadEntry, decode_episodes, encode_episodes
+    from agents.benchmark.episodes import run_cell_episode
+    from agents.benchmark.grid import Cell
+    from agents.benchmark.resume import BadEntry, decode_episodes, encode_episodes
 
     stats, info = run_cell_episode(Cell("approach", "goal_seeker"), 3, trace=True)
     decode_episodes(encode_episodes({"a" * 64: (stats, info)}))  # as run: accepted

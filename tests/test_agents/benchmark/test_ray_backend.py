@@ -87,7 +87,7 @@ def test_ray_tasks_give_the_local_rows(ray_local):
 
 def test_a_failed_job_is_named_by_cell_and_seed_and_the_rest_is_kept(ray_local, plugin,
                                                                      tmp_path, capsys):  # fmt: skip
-    from agents.backends import BackendError
+    from agents.benchmark.backends import BackendError
 
     out = tmp_path / "out"
     boom, crash = f"{plugin}:Boom", f"{plugin}:Crash"
@@ -115,7 +115,7 @@ def test_a_lost_worker_is_retried(ray_local, plugin):
 
 def test_an_unreachable_address_is_named_at_once(tmp_path, capsys):
     pytest.importorskip("ray", reason=NEEDS_RAY)
-    from agents.backends import BackendError
+    from agents.benchmark.backends import BackendError
 
     t0 = time.perf_counter()
     with pytest.raises(BackendError, match=r"cannot reach a Ray cluster at 127\.0\.0\.1:1"):

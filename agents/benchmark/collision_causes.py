@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from agents.step_matching import STEP_TOLERANCE_S, finite_times
-from agents.wip_measures import steering_offsets_deg
+from agents.benchmark.step_matching import STEP_TOLERANCE_S, finite_times
+from agents.benchmark.wip_measures import steering_offsets_deg
 
 __all__ = [
     "CAUSE_WINDOW_S",

@@ -3,7 +3,7 @@ true and virtual paths over the room, the head attitude, truth vs estimate, and 
 heel strikes vs detected steps; :func:`draw_cell`) and of the whole grid (the metrics with their
 intervals, the collisions by cause, the latency distributions; :func:`draw_grid`), each written
 atomically: a file is whole or absent, and a full disk is a
-:class:`~agents.benchmark_outputs.WriteError` naming it."""
+:class:`~agents.benchmark.outputs.WriteError` naming it."""
 
 from __future__ import annotations
 
@@ -13,21 +13,21 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from agents.conditions import DEFAULT_CONDITION
-from agents.metrics import EpisodeStats
+from agents.benchmark.conditions import DEFAULT_CONDITION
+from agents.benchmark.metrics import EpisodeStats
 
 if TYPE_CHECKING:
-    from agents.benchmark import Cell
+    from agents.benchmark.grid import Cell
 
 __all__ = ["GRID_METRICS", "draw_cell", "draw_grid"]
 
 
 def _save(fig: Any, path: Path) -> None:
-    """Write ``fig`` as a PNG to ``path`` atomically (:func:`agents.benchmark_outputs.atomic_path`:
+    """Write ``fig`` as a PNG to ``path`` atomically (:func:`agents.benchmark.outputs.atomic_path`:
     a full disk is a WriteError naming ``path``), and close it."""
     import matplotlib.pyplot as plt
 
-    from agents.benchmark_outputs import atomic_path
+    from agents.benchmark.outputs import atomic_path
 
     try:
         with atomic_path(path) as tmp:
@@ -183,7 +183,7 @@ def draw_grid(out_dir: Path, rows: list[dict[str, Any]],
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from agents.collision_causes import COLLISION_CAUSES
+    from agents.benchmark.collision_causes import COLLISION_CAUSES
 
     names = [cell_name(r) for r in rows]
     y = np.arange(len(rows))

@@ -33,10 +33,10 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from agents.cell_statistics import exact_mean
-from agents.metrics import EpisodeStats
-from agents.step_matching import match_step_counts, match_step_times
-from agents.wip_measures import MOTION_KEYS
+from agents.benchmark.cell_statistics import exact_mean
+from agents.benchmark.metrics import EpisodeStats
+from agents.benchmark.step_matching import match_step_counts, match_step_times
+from agents.benchmark.wip_measures import MOTION_KEYS
 
 __all__ = [
     "ALPHA",

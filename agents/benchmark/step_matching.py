@@ -27,6 +27,7 @@ __all__ = [
     "match_step_counts",
     "match_step_times",
     "step_f1",
+    "step_window",
 ]
 
 #: Default lateness (control steps) allowed between a heel strike and its detection: 0.2 s.
@@ -154,3 +155,13 @@ def finite_times(per_step: ArrayLike) -> NDArray[np.float64]:
     """The sorted finite times of per-step padded time arrays, (T, K)."""
     t = np.ravel(np.asarray(per_step, dtype=np.float64))
     return np.sort(t[np.isfinite(t)])
+
+
+def step_window(reset_info: dict, dt: float) -> tuple[int, int]:
+    """The step-matching window ``(late, early)`` in control steps of ``dt`` s, from an episode's
+    reset info: a detection may come up to the step stage's report delay after its heel strike
+    (seed 000: gamma_t plus the detector's latency, a bout's first step being held until the
+    second), and one control step early (a heel strike at a control-step boundary). See
+    :mod:`agents.benchmark.metrics`."""
+    late = math.ceil(float(reset_info["step_report_delay_s"]) / dt - 1e-9)
+    return late, 1

@@ -3,10 +3,10 @@
 Each :class:`Pair` names a technique, the users and room in which it should differ from the
 baseline technique (``seed000``), the direction it should differ in and why. A run's rows carry
 each cell's paired tests against the baseline on the same seeds (``vs_baseline``,
-:mod:`agents.paired`); :func:`pair_results` reads them: a pair *separates* where one of its
-signature metrics or one outcome (success, collisions, SPL, time to goal) differs at p <
-:data:`agents.paired.ALPHA` in the expected direction, in at least one task. A difference in the
-unexpected direction is reported too (``against``), never counted.
+:mod:`agents.benchmark.paired`); :func:`pair_results` reads them: a pair *separates* where one of
+its signature metrics or one outcome (success, collisions, SPL, time to goal) differs at p <
+:data:`agents.benchmark.paired.ALPHA` in the expected direction, in at least one task. A difference
+in the unexpected direction is reported too (``against``), never counted.
 
 Caveat on the many comparisons: a pair is tested on several metrics in several tasks, each at
 p < 0.01 with no correction (the p-values are in the output for a reader who wants Holm or
@@ -22,9 +22,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from agents.benchmark_outputs import json_safe, terminal_console
-from agents.conditions import DEFAULT_CONDITION
-from agents.paired import ALPHA
+from agents.benchmark.conditions import DEFAULT_CONDITION
+from agents.benchmark.outputs import json_safe, terminal_console
+from agents.benchmark.paired import ALPHA
 
 __all__ = ["OUTCOMES", "PAIRS", "Pair", "pair_results", "show_pairs", "write_pairs"]
 
@@ -43,7 +43,7 @@ class Pair:
             technique's value higher than the baseline's).
         better: whether the technique should do better than the baseline on the outcomes
             (False: worse).
-        condition: the physical room (:mod:`agents.conditions`).
+        condition: the physical room (:mod:`agents.benchmark.conditions`).
         why: the mechanism, in words.
     """
 
@@ -144,7 +144,7 @@ def pair_results(rows: list[dict[str, Any]], pairs: tuple[Pair, ...] = PAIRS) ->
 def show_pairs(results: list[dict], baseline: str = "seed000", width: int | None = None) -> None:
     """The pairs: each pair's metrics that differ from ``baseline`` in the expected direction,
     and a count of the pairs that separate (on an outcome). ``width``: the console's columns
-    (None: :func:`agents.benchmark_outputs.terminal_console`'s choice). A console narrower than
+    (None: :func:`agents.benchmark.outputs.terminal_console`'s choice). A console narrower than
     :data:`_TABLE_WIDTH` gets one paragraph per pair, wrapped between words, never inside a
     metric's name."""
     from rich.table import Table

@@ -14,10 +14,10 @@ from typing import Any
 
 import numpy as np
 
-from agents.collision_causes import COLLISION_CAUSES
-from agents.conditions import DEFAULT_CONDITION
-from agents.paired import ALPHA, BINARY_METRICS, MEAN_METRICS
-from agents.wip_measures import MOTION_KEYS, PLAY_AREA_KEYS
+from agents.benchmark.collision_causes import COLLISION_CAUSES
+from agents.benchmark.conditions import DEFAULT_CONDITION
+from agents.benchmark.paired import ALPHA, BINARY_METRICS, MEAN_METRICS
+from agents.benchmark.wip_measures import MOTION_KEYS, PLAY_AREA_KEYS
 
 __all__ = [
     "BASELINE_TECHNIQUE",
@@ -32,7 +32,8 @@ __all__ = [
     "written_summary",
 ]
 
-#: The technique every other one is compared with, episode by episode (:mod:`agents.paired`).
+#: The technique every other one is compared with, episode by episode
+#: (:mod:`agents.benchmark.paired`).
 BASELINE_TECHNIQUE = "seed000"
 
 #: Keys of every row of the CSV/JSON output, in order.
@@ -203,7 +204,7 @@ def show_table(rows: list[dict[str, Any]], seed: int, width: int | None = None,
     if marked:
         console.print(f"* differs from {baseline} (same task, policy, condition and seeds) at "
                       f"p < {ALPHA}: exact McNemar test for rates, Wilcoxon signed-rank for means "
-                      "(agents.paired)")  # fmt: skip
+                      "(agents.benchmark.paired)")  # fmt: skip
     if compact or left_out:
         view = "a compact view" if compact else "a view"
         more = f"; not shown at this width: {', '.join(left_out)}" if left_out else ""

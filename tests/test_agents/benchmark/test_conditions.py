@@ -7,11 +7,11 @@ import pytest
 
 import vrloco_env  # noqa: F401  (registers the ids)
 from agents.benchmark import run_benchmark, step_window
-from agents.conditions import CONDITIONS, Condition, get_condition
-from agents.episodes import run_cell_episode
-from agents.grid import Cell
-from agents.paired import episode_values, paired_p_values
-from agents.resume import episode_key
+from agents.benchmark.conditions import CONDITIONS, Condition, get_condition
+from agents.benchmark.episodes import run_cell_episode
+from agents.benchmark.grid import Cell
+from agents.benchmark.paired import episode_values, paired_p_values
+from agents.benchmark.resume import episode_key
 from vrloco_env.sensors.imu import MU0_OVER_4PI, EarthField
 from vrloco_env.techniques import get_technique
 
