@@ -265,7 +265,7 @@ def _cmd_train(args: argparse.Namespace) -> int:
         return 2
     try:
         if args.backend == "rllib":
-            from agents.rllib import train_rllib_seeds
+            from agents.learned.rllib import train_rllib_seeds
 
             runners = 2 if args.env_runners is None else args.env_runners
             paths = train_rllib_seeds(args.task, seeds, Path(args.out), address=args.address,
@@ -273,7 +273,7 @@ def _cmd_train(args: argparse.Namespace) -> int:
                                       num_envs_per_env_runner=args.num_envs,
                                       **common)  # fmt: skip
         else:
-            from agents.learned import train_seeds
+            from agents.learned.train import train_seeds
 
             paths = train_seeds(args.task, seeds, Path(args.out), backend=args.backend,
                                 address=args.address, num_envs=args.num_envs,
@@ -294,7 +294,7 @@ def _cmd_train(args: argparse.Namespace) -> int:
 
 def _cmd_evaluate(args: argparse.Namespace) -> int:
     from agents.benchmark.outputs import WriteError, show_table, write_json
-    from agents.learned import evaluate_model
+    from agents.learned.evaluate import evaluate_model
 
     try:
         row = evaluate_model(
@@ -331,7 +331,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
 
 
 def _cmd_record(args: argparse.Namespace) -> int:
-    from agents.minari_datasets import MinariMissing, dataset_path, record_dataset
+    from agents.learned.offline_datasets import MinariMissing, dataset_path, record_dataset
 
     try:
         dataset = record_dataset(

@@ -6,16 +6,16 @@ Run from the repository root::
     python benchmarks/bench_training.py --busy 1    # beside a process that keeps a core busy
     python benchmarks/bench_training.py --busy 2    # beside two (about three minutes)
 
-Each run trains PPO from scratch (seed 0, :func:`agents.learned.defaults_ppo`: 256 steps x 32
+Each run trains PPO from scratch (seed 0, :func:`agents.learned.train.defaults_ppo`: 256 steps x 32
 users per rollout, minibatches of 2048, 5 epochs) on Approach for ``--iterations`` PPO
 iterations in a fresh Python process, in one of two configurations:
 
 * ``default``: the loop as stable-baselines3 runs it when torch is imported before vrloco's
   kernels (what ``agents.learned`` did before it imported :mod:`estimators.kernels` first):
   torch's OpenMP threads wait actively, and the rollouts' forward passes use torch's threads.
-* ``vrloco``: the loop of :func:`agents.learned.train_ppo`: ``agents.learned`` imported first
+* ``vrloco``: the loop of :func:`agents.learned.train.train_ppo`: ``agents.learned`` imported first
   (torch's OpenMP threads wait passively), rollouts on one torch thread
-  (:class:`agents.learned.RolloutThreads`), the same PPO settings.
+  (:class:`agents.learned.train.RolloutThreads`), the same PPO settings.
 
 The runs alternate (default, vrloco, default, vrloco, ...) so that other load on the machine
 hits both alike; the table gives each configuration's median environment steps per second of
@@ -52,7 +52,8 @@ def child(config: str, task: str, num_envs: int, iterations: int) -> dict:
     if config == "default":
         import torch  # first, as stable-baselines3 pulled it in before vrloco's kernels
     sys.path.insert(0, str(ROOT))
-    import agents.learned as learned  # in the vrloco configuration, before torch
+    import agents.learned.train as learned  # in the vrloco configuration, before torch
+    from agents.learned.models import env_settings
 
     # isort: split
     import hashlib
@@ -66,7 +67,7 @@ def child(config: str, task: str, num_envs: int, iterations: int) -> dict:
 
     settings = learned.defaults_ppo()
     steps = iterations * settings["n_steps"] * num_envs
-    env = VRLocoVectorEnv(num_envs, **learned.env_settings(task))
+    env = VRLocoVectorEnv(num_envs, **env_settings(task))
     env.reset(seed=0)  # load the compiled kernels before the clock starts; learn() reseeds
     env.step(np.zeros((num_envs, 5), np.float32))
     inner = learned.SB3VecEnv(env, seed=0)

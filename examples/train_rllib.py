@@ -8,7 +8,7 @@
 env runner steps one batched :class:`~vrloco_env.vector.VRLocoVectorEnv` of
 ``num_envs_per_env_runner`` users, seeded from the run's seed, its runner and the user's row, so
 that the same seed repeats the run. ``vrloco train --backend rllib`` is this loop with
-evaluations, checkpoints and the learning curve (:func:`agents.rllib.train_rllib`).
+evaluations, checkpoints and the learning curve (:func:`agents.learned.rllib.train_rllib`).
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ import logging
 
 import ray
 
-from agents.rllib import ppo_config, register_rllib_env
+from agents.learned.rllib import ppo_config, register_rllib_env
 
 
 def main() -> None:

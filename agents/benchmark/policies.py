@@ -96,7 +96,7 @@ class LearnedPolicy(TakesUsers):
     """A saved stable-baselines3 PPO model as a policy (deterministic actions).
 
     The model sees the env as it was trained to (``model.vrloco_policy``,
-    :func:`agents.learned.model_policy`): with a frame stack, each user's last k observations
+    :func:`agents.learned.models.model_policy`): with a frame stack, each user's last k observations
     side by side (:class:`~vrloco_env.wrappers.StackedFrames`, started from the episode's first
     observation at every ``reset``); a recurrent model (sb3-contrib's ``RecurrentPPO``) carries
     each user's LSTM state from step to step, started afresh at ``reset``.
@@ -115,7 +115,7 @@ class LearnedPolicy(TakesUsers):
     per_user_parts = ("_frames",)
 
     def __init__(self, path: str | Path, env: Any, allow_mismatch: bool = False) -> None:
-        from agents.learned import model_policy
+        from agents.learned.models import model_policy
 
         self.path = Path(path)
         self.name = f"ppo:{self.path.name}"

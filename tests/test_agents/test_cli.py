@@ -3,7 +3,7 @@
 import pytest
 
 from agents.cli import main
-from agents.learned import rollout_steps
+from agents.learned.train import rollout_steps
 
 
 @pytest.mark.parametrize(

@@ -5,7 +5,7 @@ new API stack: ``EnvRunner``s, an ``RLModule`` and a ``Learner``) on a task. Eac
 steps one :class:`~vrloco_env.vector.VRLocoVectorEnv` of ``num_envs_per_env_runner`` users
 (RLlib's ``VECTOR_ENTRY_POINT`` mode: the users stay batched, nothing loops over them). The
 run writes ``out_dir/learning_curve.json`` and ``.png`` in the schema of the stable-baselines3
-trainer (:func:`agents.learned.train_ppo`): the deterministic policy's success rate, collision
+trainer (:func:`agents.learned.train.train_ppo`): the deterministic policy's success rate, collision
 rate and mean return on separately seeded evaluation episodes, every ``eval_every`` environment
 steps; and RLlib checkpoints (``out_dir/checkpoint``, ``out_dir/best_checkpoint``).
 
@@ -142,7 +142,7 @@ def make_rllib_env(env_config: dict[str, Any]) -> RLlibVectorEnv:
     """The env creator RLlib calls (``register_env``): an :class:`RLlibVectorEnv` of
     ``env_config["num_envs"]`` users (RLlib passes ``num_envs_per_env_runner`` there in
     ``VECTOR_ENTRY_POINT`` mode) on ``task`` with the IMU preset ``sensor_preset``, in the cell
-    of ``technique``, ``population`` and ``condition`` (:func:`agents.learned.env_settings`;
+    of ``technique``, ``population`` and ``condition`` (:func:`agents.learned.models.env_settings`;
     each optional), seeded from ``seed`` (the run's seed, default 0) and RLlib's reset seed.
 
     Raises:
@@ -161,7 +161,7 @@ def make_rllib_env(env_config: dict[str, Any]) -> RLlibVectorEnv:
     num_envs = config["num_envs"]
     if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
         raise ValueError(f"env_config num_envs={num_envs!r}: must be an integer >= 1")
-    from agents.learned import env_settings
+    from agents.learned.models import env_settings
 
     cell = {k: config.get(k) for k in ("sensor_preset", "technique", "population", "condition")}
     settings = env_settings(config.get("task", "approach"), **cell,
@@ -180,7 +180,7 @@ def register_rllib_env(name: str = ENV_NAME) -> str:
 
 def defaults_rllib() -> dict[str, Any]:
     """PPO's settings for ``vrloco train --backend rllib``: those of the stable-baselines3
-    trainer (:func:`agents.learned.defaults_ppo` and SB3's PPO defaults: 64-64 tanh networks,
+    trainer (:func:`agents.learned.train.defaults_ppo` and SB3's PPO defaults: 64-64 tanh networks,
     clip 0.2, no KL penalty, no value clipping, value loss weight 0.5, gradients clipped to a
     global norm of 0.5) in RLlib's terms; ``rollout_fragment_length`` is SB3's ``n_steps``.
     The networks' initialisation is RLlib's (SB3: orthogonal), and the Gaussian's log-std is an
@@ -218,7 +218,7 @@ def ppo_config(
     by :func:`train_rllib`): ``num_env_runners`` env runners (0: sample in this process) of
     ``num_envs_per_env_runner`` batched users each, a train batch of one rollout fragment per
     user, seeded with ``seed``, in the cell of ``technique``, ``population`` and ``condition``
-    (:func:`agents.learned.env_settings`; ``sensor_preset`` None: the technique's);
+    (:func:`agents.learned.models.env_settings`; ``sensor_preset`` None: the technique's);
     ``ppo`` overrides :func:`defaults_rllib`. Every iteration
     waits for every env runner's fragment (no ``sample_timeout_s``): RLlib's timeout would fill a
     batch from whichever runners answered in time, so a loaded machine would change the run.
@@ -229,7 +229,7 @@ def ppo_config(
     """
     import gymnasium as gym
 
-    from agents.learned import env_settings
+    from agents.learned.models import env_settings
 
     cell = {"technique": technique, "population": population, "condition": condition}
     env_settings(task, sensor_preset, **cell)  # raises with the registered names
@@ -269,7 +269,7 @@ def ppo_config(
 
 class RLlibPolicy:
     """An RLlib ``RLModule`` behind stable-baselines3's ``predict``, for
-    :func:`agents.learned.run_policy_episodes`: the deterministic action is the Gaussian's
+    :func:`agents.learned.evaluate.run_policy_episodes`: the deterministic action is the Gaussian's
     mean, clipped to the action space."""
 
     def __init__(self, module: Any) -> None:
@@ -312,7 +312,7 @@ def train_rllib(
     ``"HOST:PORT"``, or None: a running cluster, else a local instance, shut down at the end),
     with its errors for an unreachable address. After the first iteration and then every
     ``eval_every`` steps, the deterministic policy plays ``eval_episodes`` users seeded
-    ``10_000 + seed`` (as :func:`agents.learned.train_ppo` evaluates) and the point goes to
+    ``10_000 + seed`` (as :func:`agents.learned.train.train_ppo` evaluates) and the point goes to
     ``out_dir/learning_curve.json`` (steps, wall time, success and collision rate, mean
     return); the best one's algorithm to ``out_dir/best_checkpoint``; the end's to
     ``out_dir/checkpoint``, with ``learning_curve.png``. An env runner lost mid-run is
@@ -328,7 +328,9 @@ def train_rllib(
             runner lost.
     """
     from agents.benchmark.backends import BackendError, _connect, _first_line
-    from agents.learned import env_settings, plot_learning_curve, run_policy_episodes
+    from agents.learned.curves import plot_learning_curve
+    from agents.learned.evaluate import run_policy_episodes
+    from agents.learned.models import env_settings
 
     RLlibRun(steps, num_env_runners, num_envs_per_env_runner, seed, eval_every, eval_episodes)
     cell = {"technique": technique, "population": population, "condition": condition}
@@ -411,9 +413,9 @@ def train_rllib_seeds(
     """:func:`train_rllib` once per seed, one after the other (each run spreads over its own
     env runners), each in ``out_dir/seed_<s>/`` (one seed: in ``out_dir``); returns the final
     checkpoints. Several seeds' curves go together into ``out_dir/learning_curve.json`` and
-    ``.png`` with the mean and std over the seeds, as :func:`agents.learned.train_seeds`
+    ``.png`` with the mean and std over the seeds, as :func:`agents.learned.train.train_seeds`
     writes them (after a failure or Ctrl-C too, from the seeds done so far)."""
-    from agents.learned import _read_curves, write_seed_curves
+    from agents.learned.curves import _read_curves, write_seed_curves
 
     seeds = list(seeds)
     if not seeds or len(set(seeds)) != len(seeds):

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from agents.cli import main
-from agents.rllib import RLlibRun, make_rllib_env, ppo_config
+from agents.learned.rllib import RLlibRun, make_rllib_env, ppo_config
 from vrloco_env.vector import VRLocoVectorEnv
 
 NEEDS_RLLIB = "RLlib needs its extra: pip install 'vrloco[rllib]'"
@@ -108,7 +108,7 @@ def test_without_rllib_the_error_says_how_to_install_it(monkeypatch, capsys):
 def test_an_unreachable_address_is_named_at_once(tmp_path, capsys):
     pytest.importorskip("ray.rllib", reason=NEEDS_RLLIB)
     from agents.benchmark.backends import BackendError
-    from agents.rllib import train_rllib
+    from agents.learned.rllib import train_rllib
 
     t0 = time.perf_counter()
     with pytest.raises(BackendError, match=r"cannot reach a Ray cluster at 127\.0\.0\.1:1"):
@@ -126,7 +126,7 @@ def test_ppo_on_two_env_runners_trains_and_repeats_bit_for_bit(tmp_path):
     pytest.importorskip("ray.rllib", reason=NEEDS_RLLIB)
     import ray
 
-    from agents.rllib import train_rllib
+    from agents.learned.rllib import train_rllib
 
     kw = dict(steps=1024, num_env_runners=2, num_envs_per_env_runner=4, eval_every=512,
               eval_episodes=2, rollout_fragment_length=64, minibatch_size=128,

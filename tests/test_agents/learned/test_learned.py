@@ -114,7 +114,7 @@ def test_tiny_ppo_run_writes_a_model_and_a_learning_curve(tmp_path, capsys):
 def test_tiny_runs_over_two_seeds_write_each_seed_and_their_mean(tmp_path):
     import zipfile
 
-    from agents.learned import train_seeds
+    from agents.learned.train import train_seeds
 
     kw = dict(steps=512, num_envs=4, eval_every=256, eval_episodes=2, n_steps=64,
               batch_size=128)  # fmt: skip
@@ -176,7 +176,7 @@ def test_seeds_on_ray_train_as_the_local_backend_and_a_failed_seed_is_named(tmp_
 
     ray = pytest.importorskip("ray", reason=NEEDS_RAY)
     from agents.benchmark.backends import BackendError
-    from agents.learned import train_seeds
+    from agents.learned.train import train_seeds
 
     out = tmp_path / "ray"
     bad = 2**32  # numpy's seeding refuses it inside the worker, after the run has started
@@ -211,7 +211,7 @@ def test_seeds_on_an_unreachable_ray_address_are_named_at_once(tmp_path, capsys)
     pytest.importorskip("ray", reason=NEEDS_RAY)
     from agents.benchmark.backends import BackendError
     from agents.cli import main
-    from agents.learned import train_seeds
+    from agents.learned.train import train_seeds
 
     t0 = time.perf_counter()
     with pytest.raises(BackendError, match=r"cannot reach a Ray cluster at 127\.0\.0\.1:1"):
@@ -256,7 +256,7 @@ def test_a_seed_whose_ray_worker_is_lost_is_trained_again(tmp_path):
     import threading
 
     ray = pytest.importorskip("ray", reason=NEEDS_RAY)
-    from agents.learned import train_seeds
+    from agents.learned.train import train_seeds
 
     stop, killed = threading.Event(), []
     killer = threading.Thread(target=_kill_one_seed_task, args=(stop, killed))
@@ -372,7 +372,7 @@ def test_a_policy_returning_actions_of_the_wrong_shape_is_named(tmp_path):
 
 
 def test_a_model_predicting_the_wrong_shape_is_named():
-    from agents.learned import run_policy_episodes
+    from agents.learned.evaluate import run_policy_episodes
 
     class Wide:
         def predict(self, obs, deterministic=True):
@@ -462,13 +462,13 @@ def test_importing_the_trainer_starts_torch_after_the_passive_thread_policy():
 
     code = ("import os, sys, agents.learned; m = list(sys.modules); "
             "print(m.index('estimators.kernels.batch') < m.index('torch'), "
-            "os.environ['OMP_WAIT_POLICY'], agents.learned._TORCH_SPINS)")  # fmt: skip
+            "os.environ['OMP_WAIT_POLICY'], agents.learned.threads._TORCH_SPINS)")  # fmt: skip
     env = {k: v for k, v in os.environ.items() if k != "OMP_WAIT_POLICY"}
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
                          check=True)  # fmt: skip
     assert out.stdout.split() == ["True", "PASSIVE", "False"]
     # torch imported first (without the policy): the trainer knows, and warns.
-    code = "import torch, agents.learned; print(agents.learned._TORCH_SPINS)"
+    code = "import torch, agents.learned; print(agents.learned.threads._TORCH_SPINS)"
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
                          check=True)  # fmt: skip
     assert out.stdout.split() == ["True"]
@@ -501,7 +501,7 @@ def test_an_unknown_technique_population_or_condition_is_one_error_naming_the_va
 
 
 def test_train_passes_the_cell_and_the_policy_options_on(tmp_path, monkeypatch, capsys):
-    import agents.learned
+    import agents.learned.train
     from agents.cli import main
 
     seen = {}
@@ -510,7 +510,7 @@ def test_train_passes_the_cell_and_the_policy_options_on(tmp_path, monkeypatch, 
         seen.update(kwargs, task=task, seeds=seeds)
         return [out_dir / "ppo_final.zip"]
 
-    monkeypatch.setattr(agents.learned, "train_seeds", fake)
+    monkeypatch.setattr(agents.learned.train, "train_seeds", fake)
     assert main(["train", "--task", "reach", "--technique", "madgwick", "--population",
                  "nodders", "--condition", "beside_metal", "--frame-stack", "4", "--recurrent",
                  "--out", str(tmp_path)]) == 0  # fmt: skip
@@ -530,7 +530,7 @@ def test_a_model_trained_on_a_cell_carries_it_and_is_evaluated_on_it(tmp_path, c
     from agents.benchmark.metrics import summarize
     from agents.benchmark.policies import LearnedPolicy, load_ppo
     from agents.cli import main
-    from agents.learned import env_settings
+    from agents.learned.models import env_settings
     from vrloco_env.tasks import env_id
     from vrloco_env.techniques import TECHNIQUES
 
@@ -597,7 +597,8 @@ def _trained_actions(model, task, seed, steps, frame_stack):
     """The model's deterministic actions in the vector env it was trained in (one user, seeded
     ``seed``, autoreset), as the training loop feeds it (the wrapper's frames, the LSTM state
     carried and restarted at each episode)."""
-    from agents.learned import _wrap, is_recurrent
+    from agents.learned.models import is_recurrent
+    from agents.learned.train import _wrap
 
     env = _wrap(VRLocoVectorEnv(1, task=task, max_episode_steps=6), frame_stack)
     obs, _ = env.reset(seed=seed)

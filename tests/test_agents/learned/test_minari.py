@@ -15,7 +15,7 @@ from agents.benchmark.episodes import run_episode
 from agents.benchmark.metrics import STEP_KEYS, TRACE_KEYS, summarize
 from agents.benchmark.policies import build_policy
 from agents.cli import main
-from agents.minari_datasets import LAST_KEYS, dataset_episode_stats, record_dataset
+from agents.learned.offline_datasets import LAST_KEYS, dataset_episode_stats, record_dataset
 
 TASK, POLICY, TECHNIQUE = "avoid", "goal_seeker+typical", "nod_robust"
 ENV_ID, POPULATION = "VRLoco-Avoid-v0", "typical"

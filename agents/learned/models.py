@@ -1,0 +1,132 @@
+"""A learned model's cell and settings: the env settings of a training cell (task, technique,
+population, condition; :func:`env_settings`), stored with the model (``model.vrloco_cell``,
+``model.vrloco_env``, ``model.vrloco_policy``) and read back (:func:`model_cell`,
+:func:`model_env_settings`, :func:`model_policy`).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+__all__ = ["CELL_KEYS", "env_settings", "model_cell", "model_env_settings", "model_policy"]
+
+
+#: The names of a training cell, as :attr:`model.vrloco_cell <train_ppo>` stores them.
+CELL_KEYS = ("task", "technique", "population", "condition")
+
+
+def is_recurrent(model: Any) -> bool:
+    """Whether ``model``'s policy keeps a state between steps (an LSTM policy of sb3-contrib's
+    ``RecurrentPPO``), so that ``predict`` takes ``state`` and ``episode_start``."""
+    return hasattr(getattr(model, "policy", None), "lstm_actor")
+
+
+def env_settings(
+    task: str,
+    sensor_preset: str | None = None,
+    technique: Any = None,
+    population: Any = None,
+    condition: str | None = None,
+    **configs: Any,
+) -> dict[str, Any]:
+    """The env a policy is trained on, as the keywords of :class:`~vrloco_env.env.VRLocoEnv`:
+    the task and every configuration dataclass filled in (stored with the model).
+
+    Args:
+        task: a registered task.
+        sensor_preset: the IMU preset (None: the technique's, ``"ig500n"`` without one).
+        technique: a registered technique, ``"module:attr"`` or a
+            :class:`~vrloco_env.techniques.Technique` (None: the env's default chain).
+        population: a user population (:mod:`vrloco_env.user.population`) whose head behaviour
+            the env simulates (None: none; one whose head turns on the torso adds the
+            observation field ``head_on_torso``).
+        condition: a physical-room condition (:mod:`agents.benchmark.conditions`; None: ``lab``).
+        configs: further keywords of :func:`~vrloco_env.env.make_configs`.
+
+    Raises:
+        ValueError: an unknown task, technique, population or condition (the registry's error,
+            listing the registered names), or settings that contradict each other.
+    """
+    from agents.benchmark.conditions import get_condition
+    from vrloco_env.env import make_configs
+    from vrloco_env.tasks import get_task
+    from vrloco_env.techniques import get_technique
+    from vrloco_env.user.population import get_population
+
+    get_task(task)  # raises with the registered names
+    if technique is not None:
+        get_technique(technique)
+    if population is not None:
+        get_population(population)
+    if condition is not None:
+        room_sensors = get_condition(condition).sensors()
+        if room_sensors is not None:
+            if configs.get("sensors") is not None:
+                raise ValueError(f"condition={condition!r} sets the sensors' magnetic "
+                                 "disturbances; give the condition or sensors=, not both")
+            configs["sensors"] = room_sensors
+    config, sensors, estimators, room, reward = make_configs(
+        sensor_preset=sensor_preset, technique=technique, population=population, **configs
+    )
+    return {
+        "task": task, "config": config, "sensors": sensors, "estimators": estimators,
+        "room": room, "reward": reward,
+    }  # fmt: skip
+
+
+def cell_of(settings: dict[str, Any], technique: Any = None) -> dict[str, Any]:
+    """The cell of the env ``settings`` (:func:`env_settings`): its ``task``, ``technique``
+    (``technique``'s name where one was given, else the registered technique its sensors and
+    estimators make up, or ``"custom"``), ``population`` (the name, None without one) and
+    ``condition`` (the registered condition whose magnetic disturbances its sensors have, else
+    ``"custom"``)."""
+    from agents.benchmark.conditions import CONDITIONS
+    from vrloco_env.env import technique_name
+    from vrloco_env.techniques import get_technique
+
+    sensors, config = settings["sensors"], settings["config"]
+    if technique is not None:
+        tech = get_technique(technique).name
+    else:
+        tech = technique_name(sensors, settings["estimators"])
+    disturbances = tuple(getattr(sensors, "magnetic_disturbances", ()) or ())
+    condition = next((c.name for c in CONDITIONS.values()
+                      if tuple(c.magnetic_disturbances) == disturbances), "custom")  # fmt: skip
+    population = config.population
+    return {
+        "task": settings["task"],
+        "technique": tech,
+        "population": getattr(population, "name", population),
+        "condition": condition,
+    }
+
+
+def model_env_settings(model: Any, path: Path) -> dict[str, Any]:
+    """The env settings stored with a model by :func:`~agents.learned.train.train_ppo` (a clear
+    error without them)."""
+    settings = getattr(model, "vrloco_env", None)
+    if not isinstance(settings, dict) or "task" not in settings:
+        raise ValueError(
+            f"{path}: the model carries no vrloco env settings (it was not saved by vrloco "
+            "train); pass task= (--task) and the sensors explicitly"
+        )
+    return settings
+
+
+def model_cell(model: Any, settings: dict[str, Any]) -> dict[str, Any]:
+    """The cell a model was trained on: ``model.vrloco_cell`` as
+    :func:`~agents.learned.train.train_ppo` saved it, or for a model saved without one, the cell its
+    env ``settings`` make up (:func:`cell_of`)."""
+    cell = getattr(model, "vrloco_cell", None)
+    if isinstance(cell, dict) and all(k in cell for k in CELL_KEYS):
+        return {k: cell[k] for k in CELL_KEYS}
+    return cell_of(settings)
+
+
+def model_policy(model: Any) -> dict[str, Any]:
+    """How a model sees the env (``model.vrloco_policy``): ``frame_stack`` (frames side by side,
+    1 for a model saved without it) and ``recurrent`` (read from the model's policy)."""
+    saved = getattr(model, "vrloco_policy", None)
+    frames = saved.get("frame_stack", 1) if isinstance(saved, dict) else 1
+    return {"frame_stack": int(frames), "recurrent": is_recurrent(model)}
