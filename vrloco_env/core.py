@@ -164,7 +164,11 @@ class LocoCore(TakesUsers):
             and config.pose_source == "walk_in_place"
         )  # fmt: skip
         if self.population is not None and (self.population.moves_head or self._drifts):
-            self.behaviour = GazeBehaviour(self.population, self.rng, self.dt, self.ray_offsets)
+            self.behaviour = GazeBehaviour(
+                self.population, self.rng, self.dt, self.ray_offsets,
+                max_turn_rate=self.users.motion_params.max_turn_rate,
+                walk_in_place=config.pose_source == "walk_in_place",
+            )  # fmt: skip
         self._head_on_torso = np.zeros(b)  # the head's true yaw on the torso (rad)
         self._hand_task = any(f.name == "hand_error" for f in self.task.fields())
         extra = population_fields(self.population)

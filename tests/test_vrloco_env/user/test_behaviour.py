@@ -68,10 +68,14 @@ def _behaviour(pop: Population, seeds, rays_range=5.0):
     return g, offsets
 
 
-def _still(b: int) -> Intent:
-    return Intent(cadence=np.zeros(b), turn_rate=np.zeros(b), hand_rates=np.zeros((b, 3)),
+def _still(b: int, cadence: float = 0.0) -> Intent:
+    return Intent(cadence=np.full(b, cadence), turn_rate=np.zeros(b), hand_rates=np.zeros((b, 3)),
                   gesture_amplitude=np.zeros((b, 3)), gesture_frequency=np.full((b, 3), 0.5),
                   lean=np.zeros(b))  # fmt: skip
+
+
+def _stepping(b: int) -> Intent:
+    return _still(b, cadence=1.7)
 
 
 def test_the_head_takes_what_the_eyes_cannot_of_the_goal_bearing():
@@ -82,11 +86,19 @@ def test_the_head_takes_what_the_eyes_cannot_of_the_goal_bearing():
     assert np.all((eye >= np.deg2rad(10.0)) & (eye <= np.deg2rad(20.0))) and np.ptp(eye) > 0
     bearing = np.deg2rad([5.0, 30.0, -50.0, 100.0, -170.0, 0.0])
     h = np.deg2rad([0.0, 0.0, 10.0, 0.0, 0.0, 0.0])
-    out = g.intent(_still(6), h, bearing, np.full((6, 15), 5.0), np.zeros(6, bool))
     gaze = bearing + h  # the goal relative to the torso
     want = np.sign(gaze) * np.minimum(np.maximum(np.abs(gaze) - eye, 0.0), np.deg2rad(70.0))
-    np.testing.assert_allclose(out.head_yaw, want)
+    heads = []
+    for _ in range(30):
+        out = g.intent(_still(6), h, bearing, np.full((6, 15), 5.0), np.zeros(6, bool))
+        np.testing.assert_allclose(g.head_target, want)
+        heads.append(out.head_yaw)
     assert np.all(g.mode == GOAL)
+    # the head turns toward its target over several control steps and stops on it
+    heads = np.array(heads)
+    np.testing.assert_allclose(heads[-1], want)
+    assert np.all(np.abs(heads[0]) < np.abs(want) + 1e-12) and np.abs(heads[0] - want).max() > 0.1
+    assert np.all(np.diff(np.abs(heads), axis=0) >= -1e-12)  # no overshoot, no reversal
 
 
 def test_the_head_stays_straight_until_the_user_has_seen_the_scene():
@@ -97,26 +109,33 @@ def test_the_head_stays_straight_until_the_user_has_seen_the_scene():
     for k in range(6):
         out = g.intent(_still(20), np.zeros(20), np.full(20, 0.5), np.full((20, 15), 5.0),
                        np.zeros(20, bool))  # fmt: skip
-        np.testing.assert_array_equal(out.head_yaw, np.where(k * DT >= onset - 1e-9, 0.5, 0.0))
-    assert np.all(out.head_yaw == 0.5)
+        seen = k * DT >= onset - 1e-9
+        np.testing.assert_array_equal(g.head_target, np.where(seen, 0.5, 0.0))
+        assert np.all(out.head_yaw[~seen] == 0.0) and np.all(out.head_yaw[seen] > 0.0)
+    assert np.all(g.head_target == 0.5)
 
 
 def test_glances_look_at_the_nearest_thing_and_end_when_it_is_gone():
     pop = Population("glancers", "", gaze=True, eye_range_deg=(0.0, 0.0),
-                     glance_rate_hz=(2.0, 2.0), glance_s=(5.0, 5.0),
+                     glance_rate_hz=(2.0, 2.0), glance_s=(5.0, 5.0), walking_head_deg=80.0,
                      gaze_onset_s=(0.0, 0.0), glance_cone_deg=90.0)  # fmt: skip
     g, offsets = _behaviour(pop, [1])
     rays = np.full((1, 15), 5.0)
     rays[0, 3] = 0.8  # something close, to the right
     seen = []
     for _ in range(40):
-        out = g.intent(_still(1), np.zeros(1), np.zeros(1), rays, np.zeros(1, bool))
+        out = g.intent(_stepping(1), np.zeros(1), np.zeros(1), rays, np.zeros(1, bool))
         seen.append(g.mode[0])
     assert GLANCE in seen
     k = seen.index(GLANCE)
     assert out.head_yaw[0] == pytest.approx(offsets[3]) and np.all(np.array(seen[k:]) == GLANCE)
-    g.intent(_still(1), np.zeros(1), np.zeros(1), np.full((1, 15), 5.0), np.zeros(1, bool))
+    g.intent(_stepping(1), np.zeros(1), np.zeros(1), np.full((1, 15), 5.0), np.zeros(1, bool))
     assert g.mode[0] == GOAL  # nothing near any more
+    # standing still, nothing is on a travel path: no glances
+    g2, _ = _behaviour(pop, [1])
+    for _ in range(40):
+        g2.intent(_still(1), np.zeros(1), np.zeros(1), rays, np.zeros(1, bool))
+        assert g2.mode[0] == GOAL
 
 
 def test_only_what_lies_on_the_travel_path_draws_glances():
@@ -133,46 +152,68 @@ def test_only_what_lies_on_the_travel_path_draws_glances():
     wall[0, side] = 0.5  # nearer than anything else, but beside the path
     modes = []
     for _ in range(60):
-        g.intent(_still(1), np.zeros(1), np.zeros(1), wall, np.zeros(1, bool))
+        g.intent(_stepping(1), np.zeros(1), np.zeros(1), wall, np.zeros(1, bool))
         modes.append(g.mode[0])
     assert GLANCE not in modes  # 60 steps at 2 Hz: a glance would have started
     both = wall.copy()
     both[0, ahead] = 1.2  # farther than the wall, on the path
     for _ in range(60):
-        out = g.intent(_still(1), np.zeros(1), np.zeros(1), both, np.zeros(1, bool))
+        g.intent(_stepping(1), np.zeros(1), np.zeros(1), both, np.zeros(1, bool))
         if g.mode[0] == GLANCE:
             break
-    assert g.mode[0] == GLANCE and out.head_yaw[0] == pytest.approx(offsets[ahead])
+    assert g.mode[0] == GLANCE and g.head_target[0] == pytest.approx(offsets[ahead])
     # the head turned 60 deg right on the torso: the wall's ray (70 deg right of the view) is
     # now 130 deg off the torso, the ray 20 deg left of the view is 40 deg right of it: neither
     g2, _ = _behaviour(pop, [1])
     turned = np.full(1, np.deg2rad(-60.0))
     modes = []
     for _ in range(60):
-        g2.intent(_still(1), turned, np.zeros(1), both, np.zeros(1, bool))
+        g2.intent(_stepping(1), turned, np.zeros(1), both, np.zeros(1, bool))
         modes.append(g2.mode[0])
     assert GLANCE not in modes
 
 
-def test_scans_start_at_their_rate_and_stay_within_their_amplitude():
+def test_looks_around_come_in_bouts_of_exponential_looks_and_walking_bounds_them():
+    """Standing, a bout starts at scan_rate_hz and chains looks (geometric, mean scan_looks),
+    each held an exponential time of mean scan_s and shifting the gaze by an exponential size
+    of mean scan_amplitude_deg; stepping, a bout is one look, at most walking_head_deg from
+    the goal."""
     pop = Population("scanners", "", gaze=True, eye_range_deg=(0.0, 0.0),
-                     scan_rate_hz=(0.5, 0.5), scan_s=(1.0, 1.0),
-                     scan_amplitude_deg=(50.0, 50.0), gaze_onset_s=(0.0, 0.0))  # fmt: skip
-    b, steps = 200, 300
+                     scan_rate_hz=(0.2, 0.2), scan_s=(1.0, 1.0), scan_looks=(3.0, 3.0),
+                     scan_amplitude_deg=(20.0, 20.0), gaze_onset_s=(0.0, 0.0),
+                     walking_head_deg=25.0)  # fmt: skip
+    b, steps = 300, 600
     g, _ = _behaviour(pop, range(b))
-    scanning, heads = [], []
+    modes, targets = [], []
     for _ in range(steps):
-        out = g.intent(_still(b), np.zeros(b), np.zeros(b), np.full((b, 15), 5.0),
-                       np.zeros(b, bool))  # fmt: skip
-        scanning.append(g.mode == SCAN)
-        heads.append(out.head_yaw)
-    frac = np.mean(scanning)
-    # a renewal process: a scan of 10 control steps, then a geometric wait of (1 - p) / p steps
-    p = -np.expm1(-0.5 * DT)
-    assert frac == pytest.approx(10 / (10 + (1 - p) / p), abs=0.02)
-    heads = np.array(heads)
-    assert np.abs(heads).max() <= np.deg2rad(50.0) + 1e-12
-    assert np.std(heads[np.array(scanning)]) > np.deg2rad(20.0)  # uniform within +-50 deg
+        g.intent(_still(b), np.zeros(b), np.zeros(b), np.full((b, 15), 5.0), np.zeros(b, bool))
+        modes.append(g.mode.copy())
+        targets.append(g.head_target.copy())
+    modes, targets = np.array(modes), np.array(targets)
+    scanning = modes == SCAN
+    # a bout of N / h steps on average (h: a look's end per step, N: looks per bout), then a
+    # geometric wait of mean 1 / p steps
+    h, p = -np.expm1(-DT / 1.0), -np.expm1(-0.2 * DT)
+    assert scanning.mean() == pytest.approx((3 / h) / (3 / h + 1 / p), abs=0.03)
+    onset = scanning[1:] & ~scanning[:-1]
+    first = np.abs(targets[1:][onset])  # a bout's first look, from the goal (straight ahead)
+    assert first.size > 500
+    assert np.rad2deg(first.mean()) == pytest.approx(20.0 * (1 - np.exp(-3.5)), rel=0.1)
+    assert np.median(first) == pytest.approx(np.log(2) * first.mean(), rel=0.15)  # exponential
+    changes = scanning[1:] & scanning[:-1] & (targets[1:] != targets[:-1])
+    assert changes.sum() / onset.sum() == pytest.approx(2.0, rel=0.15)  # 3 looks per bout
+    # stepping: one look per bout, within +-25 deg of the goal (straight ahead)
+    g, _ = _behaviour(pop, range(b))
+    walk_modes, walk_targets = [], []
+    for _ in range(steps):
+        g.intent(_stepping(b), np.zeros(b), np.zeros(b), np.full((b, 15), 5.0),
+                 np.zeros(b, bool))  # fmt: skip
+        walk_modes.append(g.mode.copy())
+        walk_targets.append(g.head_target.copy())
+    walk_scan, walk_targets = np.array(walk_modes) == SCAN, np.array(walk_targets)
+    assert np.abs(walk_targets).max() <= np.deg2rad(25.0) + 1e-12
+    assert (walk_scan[1:] & walk_scan[:-1] & (walk_targets[1:] != walk_targets[:-1])).sum() == 0
+    assert walk_scan.mean() == pytest.approx((1 / h) / (1 / h + 1 / p), abs=0.03)
 
 
 def test_interacting_users_look_down_at_the_hand():

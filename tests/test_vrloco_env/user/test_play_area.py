@@ -8,7 +8,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from agents.wip_measures import play_area_measures
+from agents.benchmark.wip_measures import play_area_measures
 from vrloco_env.config import EnvConfig
 from vrloco_env.env import VRLocoEnv
 from vrloco_env.user.play_area import PlayArea
@@ -42,12 +42,76 @@ def test_bad_drift_range_and_config_name_the_field():
 
 
 def test_drift_is_drawn_last_and_only_some_populations_drift():
-    assert RANGE_FIELDS[-1] == "wip_drift_mps"
-    assert POPULATIONS["idealised"].wip_drift_mps == (0.0, 0.0)
-    assert POPULATIONS["human"].wip_drift_mps == (0.0, 0.0)
+    assert RANGE_FIELDS[-2:] == ("wip_drift_mps", "wip_turn_deg_per_step")
+    for name in ("idealised", "human"):
+        assert POPULATIONS[name].wip_drift_mps == (0.0, 0.0)
+        assert POPULATIONS[name].wip_turn_deg_per_step == (0.0, 0.0)
     for name in ("typical", "gaze_scanners", "nodders"):
         lo, hi = POPULATIONS[name].wip_drift_mps
         assert 0.0 < lo <= hi <= 0.1
+        # Fukuda: under 30 deg in 50 steps and 45 deg in 100, either way
+        lo, hi = POPULATIONS[name].wip_turn_deg_per_step
+        assert lo < 0.0 < hi and max(-lo, hi) * 100 <= 45.0 and max(-lo, hi) * 50 <= 30.0
+
+
+def test_the_turning_drift_adds_to_the_asked_turn_while_stepping_in_place():
+    """The drift is the body's, added to the turn the action asks for (which keeps its
+    meaning): rate (deg/step) times cadence while stepping, nothing standing, never beyond
+    the largest turn rate, and nothing for a user who walks for real."""
+    from vrloco_env.batch_rng import BatchRng
+    from vrloco_env.user import Intent
+    from vrloco_env.user.behaviour import GazeBehaviour
+
+    b, top = 4, np.deg2rad(120.0)
+    asked = np.array([0.0, 0.3, -top, top])
+    cadence = np.array([1.7, 2.0, 1.5, 0.0])
+
+    def turn(**kw):
+        g = GazeBehaviour("typical", BatchRng.from_seeds(range(b)), 0.1, np.zeros(3), **kw)
+        g.reset()
+        intent = Intent(cadence=cadence, turn_rate=asked, hand_rates=np.zeros((b, 3)),
+                        gesture_amplitude=np.zeros((b, 3)),
+                        gesture_frequency=np.full((b, 3), 0.5), lean=np.zeros(b))  # fmt: skip
+        out = g.intent(intent, np.zeros(b), np.zeros(b), np.full((b, 3), 5.0), np.zeros(b, bool))
+        return np.asarray(out.turn_rate), g.values["wip_turn_deg_per_step"]
+
+    got, rate = turn(max_turn_rate=top)
+    assert np.all(rate != 0.0)
+    want = np.clip(asked + np.deg2rad(rate) * cadence, -top, top)
+    np.testing.assert_array_equal(got, want)
+    assert got[3] == top  # standing: the asked turn, untouched
+    assert abs(got[0] - np.deg2rad(rate[0]) * 1.7) < 1e-15
+    np.testing.assert_array_equal(turn(walk_in_place=False)[0], asked)
+    with pytest.raises(ValueError, match=r"GazeBehaviour max_turn_rate=0.0: must be in"):
+        turn(max_turn_rate=0.0)
+
+
+def test_stepping_in_place_turns_the_body_and_drifts_forward_in_the_env():
+    """Open loop (the action asks for no turn), every user of the env turns by its drawn rate
+    per step taken and its spot drifts forward (Grostern et al. 2021: all 16 healthy subjects
+    slowly turned and drifted forward)."""
+    n = 6
+    envs = VRLocoVectorEnv(n, population="typical", max_episode_steps=400)
+    envs.reset(seed=30)
+    core = envs.core
+    start = core.users.motion.base.copy()
+    a = np.zeros((n, envs.single_action_space.shape[0]), np.float32)
+    a[:, 0] = 0.5  # step in place at 1.7 steps/s, no turn
+    steps = np.zeros(n)
+    for k in range(150):
+        _, _, te, tr, _ = envs.step(a)
+        assert not (te | tr).any()
+        if k == 0:
+            yaw0 = core.last.motion.body_yaw[:, 0]  # 10 ms in: the facing at the start
+        steps += core.last.motion.step.sum(axis=1)
+    assert steps.min() >= 20
+    rate = core.behaviour.values["wip_turn_deg_per_step"]
+    assert np.all(rate != 0.0)
+    turned = np.rad2deg(core.last.motion.body_yaw[:, -1] - yaw0)
+    np.testing.assert_allclose(turned, rate * steps, atol=0.6)
+    moved = core.users.motion.base - start
+    forward = moved[:, 0] * np.cos(yaw0) + moved[:, 1] * np.sin(yaw0)
+    assert np.all(forward > 0.0)
 
 
 def test_boundary_distance_inside_on_the_edge_and_outside():
@@ -179,7 +243,7 @@ def test_boundary_metrics_of_a_hand_built_episode():
 
 
 def test_a_row_averages_the_episodes_play_area_measures():
-    from agents.metrics import episode_stats, summarize
+    from agents.benchmark.metrics import episode_stats, summarize
 
     def episode(margin):
         margin = np.asarray(margin, dtype=np.float64)
