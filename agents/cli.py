@@ -353,8 +353,8 @@ def _cmd_record(args: argparse.Namespace) -> int:
 
 
 def _cmd_estimate(args: argparse.Namespace) -> int:
-    from agents.estimate import estimate_recording
-    from agents.recordings import Units
+    from agents.recordings.estimate import estimate_recording
+    from agents.recordings.units import Units
 
     try:
         units = Units(time=args.time_unit, acc=args.acc_unit, gyro=args.gyro_unit)
@@ -369,7 +369,7 @@ def _cmd_estimate(args: argparse.Namespace) -> int:
 
 
 def _cmd_data(args: argparse.Namespace) -> int:
-    from agents import data
+    from agents.recordings import data
 
     prog = f"vrloco data {args.data_command}"
     try:

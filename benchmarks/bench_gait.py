@@ -30,8 +30,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from agents.benchmark.step_matching import step_f1
-from agents.data import DataMissing, data_path
 from agents.experiments.locomotion_table import compare_locomotion
+from agents.recordings.data import DataMissing, data_path
 from estimators.kernels import python_reference
 from estimators.rotations import GRAVITY
 from estimators.steps import GaitParams, StepDetector, detect_steps

@@ -36,7 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
-from agents.data import DataMissing, data_path
+from agents.recordings.data import DataMissing, data_path
 from estimators.attitude.errors import orientation_errors
 from estimators.io.broad import broad_trials, load_broad
 from estimators.registry import StageError

@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from agents.data import DataMissing, data_path
+from agents.recordings.data import DataMissing, data_path
 from estimators.attitude import AttitudeParams, estimate_attitude
 from estimators.attitude.errors import orientation_errors
 from estimators.io.broad import BroadTrial, broad_trials, load_broad

@@ -1,6 +1,6 @@
-"""Shared fixtures: a seeded generator, and the real recordings as :mod:`agents.data` finds them
-(``$VRLOCO_DATA``, which this session points at ../shared/data beside the repository unless it is
-set, else the download cache)."""
+"""Shared fixtures: a seeded generator, and the real recordings as :mod:`agents.recordings.data`
+finds them (``$VRLOCO_DATA``, which this session points at ../shared/data beside the repository
+unless it is set, else the download cache)."""
 
 import os
 from pathlib import Path
@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from agents.data import DataMissing, data_path
+from agents.recordings.data import DataMissing, data_path
 
 SHARED_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 os.environ.setdefault("VRLOCO_DATA", str(SHARED_DATA))
@@ -21,8 +21,8 @@ def rng():
 
 @pytest.fixture
 def real_data():
-    """``real_data(name)``: :func:`agents.data.data_path` of a set of real recordings; a test
-    that needs an absent set skips, saying how to fetch it."""
+    """``real_data(name)``: :func:`agents.recordings.data.data_path` of a set of real recordings; a
+    test that needs an absent set skips, saying how to fetch it."""
 
     def find(name: str) -> Path:
         try:

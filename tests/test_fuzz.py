@@ -17,7 +17,8 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 import vrloco_env  # noqa: F401  (registers the environments)
-from agents.recordings import MAX_ACC_AXIS, MAX_GYR_AXIS, read_csv_recording
+from agents.recordings.readers import read_csv_recording
+from agents.recordings.record import MAX_ACC_AXIS, MAX_GYR_AXIS
 from agents.scripted import PolicyParams
 from estimators.attitude import AttitudeParams
 from estimators.steps import GaitParams
@@ -429,7 +430,7 @@ def damaged_walks(draw):
 def test_estimate_on_a_damaged_recording_gives_finite_outputs_or_one_error(
     tmp_path_factory, data
 ):
-    from agents.estimate import estimate_recording
+    from agents.recordings.estimate import estimate_recording
 
     folder = tmp_path_factory.mktemp("est")
     path = folder / "walk.csv"

@@ -45,7 +45,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
 
-from agents.data import DataMissing, data_path
+from agents.recordings.data import DataMissing, data_path
 from estimators.hand import (
     PAPER_AXIS_NAMES,
     HandFrame,
@@ -347,8 +347,8 @@ def moving_accuracy(repeats: int = 10, seconds: float = 10.0, rate_deg_s: float 
 
 
 def _laban_csv(path: Path | None) -> Path | None:
-    """``path``, else the kinect_laban recording (:func:`agents.data.data_path`), or None where
-    it is absent."""
+    """``path``, else the kinect_laban recording (:func:`agents.recordings.data.data_path`), or None
+    where it is absent."""
     if path is not None:
         return path if path.is_file() else None
     try:

@@ -1,8 +1,8 @@
 """Simulated heads beside real ones: the head-motion statistics of every user population,
 standing and walking in place, and of people watching 360-degree videos in a headset.
 
-This measures today's populations (:mod:`vrloco_env.user.population`); it changes none of their
-parameters. Every statistic is :mod:`agents.head_motion_stats`'s, at 10 Hz.
+This measures the registered populations (:mod:`vrloco_env.user.population`); it changes none
+of their parameters. Every statistic is :mod:`agents.recordings.head_motion_stats`'s, at 10 Hz.
 
 **Simulated heads.** For each registered population, ``episodes`` users (seeds ``seed`` to
 ``seed + episodes - 1``) in one native vector env of ``VRLoco-Approach-v0`` with that population
@@ -12,8 +12,9 @@ conditions run apart:
 
 * ``standing`` — the user never walks (walk action -1, no turn, hands still) for the whole
   60 s episode: what the population's head does on its own while standing and looking around
-  (gaze at the goal, glances, idle scans, nods), as during a dwell. Approach, not Interact or
-  Reach, because those tasks' dwell makes the user look down at the hand, which stops scans.
+  (gaze at the goal, looks around, nods; glances come only while stepping), as during a
+  dwell. Approach, not Interact or Reach, because those tasks' dwell makes the user look down
+  at the hand, which stops looking around.
 * ``walking`` — the goal seeker (:class:`agents.scripted.GoalSeeker`, with the population's
   agent-side variability, ``goal_seeker+<population>``) walks in place to the goal, turning its
   body toward it first; the episode ends at the goal or after 60 s. Episodes shorter than 10 s
@@ -24,12 +25,14 @@ physical room), once per control step (10 Hz). The world frame, not the head on 
 because the real traces are headset orientations in the tracking frame: they hold the body's
 turns (on a swivel chair or standing) as well as the neck's, and cannot be split.
 
-**Real heads** (:mod:`agents.head_traces`, in ``$VRLOCO_DATA/head_traces`` only, never
+**Real heads** (:mod:`agents.recordings.head_traces`, in ``$VRLOCO_DATA/head_traces`` only, never
 downloaded: no licence is stated): Corbillon et al. 2017, Lo et al. 2017 and Wu et al. 2017 (ACM
 MMSys 2017), people **seated or standing, freely viewing 360-degree videos: nobody walked**. They
 bound idle looking around from above and give a shape to gaze shifts (sizes, speeds, intervals);
 they are no truth for walking in place. Split per dataset by video number (:func:`is_held_out`):
-even numbers are tuning files (for a later calibration), **odd numbers are held out**, and only
+even numbers are the tuning files the populations' looking around was calibrated on (the
+shape of its turns, with the rate bounded; :mod:`vrloco_env.user.population`, simulated on
+seeds 1000-1299; this experiment's default seeds are 0-15), **odd numbers are held out**, and only
 the held-out files are reported here (corbillon2017: 1, 3, 5; lo2017: 7, 9, 11, 13, 15; wu2017:
 33, 35, 37, 39, 41). A viewing the statistics reject (lo2017 has three with a pitch beyond
 +-90 deg, one of them held out) is left out and listed
@@ -46,9 +49,9 @@ either is None).
 
 Output: ``{"populations": {NAME: {"standing": S, "walking": S}}, "real": {DATASET: S},
 "distances": {NAME: {CONDITION: {DATASET: D}}}, "split": {DATASET: {...}}, "settings": {...}}``,
-each S :meth:`agents.head_motion_stats.HeadMotionStats.to_json` (None where no trace was left);
-a compact table on stdout; a figure ``head_behaviour.png`` (yaw-speed distributions, turn rates)
-in ``out_dir``.
+each S :meth:`agents.recordings.head_motion_stats.HeadMotionStats.to_json` (None where no trace was
+left); a compact table on stdout; a figure ``head_behaviour.png`` (yaw-speed distributions, turn
+rates) in ``out_dir``.
 
 Run: ``vrloco experiment head-behaviour [--json F] [--episodes N] [--seed S] [--out DIR]``.
 """
@@ -62,14 +65,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from agents.head_motion_stats import (
+from agents.recordings.head_motion_stats import (
     STATS_KEYS,
     TURN_CLASSES_DEG,
     HeadMotionSamples,
     head_motion_samples,
     prepare_traces,
 )
-from agents.head_traces import dataset_files, head_traces_folder, read_head_traces
+from agents.recordings.head_traces import dataset_files, head_traces_folder, read_head_traces
 from vrloco_env.world import RoomConfig
 
 __all__ = [
@@ -112,7 +115,7 @@ def simulate_heads(
     """
     from gymnasium.vector import AutoresetMode
 
-    from agents.policies import build_policy
+    from agents.benchmark.policies import build_policy
     from vrloco_env.actions import ACTION_SIZE
     from vrloco_env.vector import VRLocoVectorEnv
 
@@ -209,7 +212,8 @@ def run_head_behaviour(
         seed: the first episode's seed (>= 0).
         populations: the populations (default: every registered one).
         max_steps: the episodes' horizon (control steps, >= 100: 10 s).
-        traces_folder: the head traces (default :func:`agents.head_traces.head_traces_folder`).
+        traces_folder: the head traces (default
+            :func:`agents.recordings.head_traces.head_traces_folder`).
 
     Raises:
         ValueError: a bad argument, naming it.

@@ -72,8 +72,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agents.benchmark.step_matching import match_step_times
-from agents.data import DataMissing, data_path
 from agents.experiments.head_motions import PRESETS, Trial, sense_record
+from agents.recordings.data import DataMissing, data_path
 from estimators.io.oxford import load_oxford
 from estimators.rotations import GRAVITY, quat_from_rotvec
 from estimators.stages import STEPS
@@ -435,8 +435,8 @@ def two_fold_gamma(t: NDArray[np.float64], acc: NDArray[np.float64],
 
 def oxford_table(folder: Path | None = None) -> dict | None:
     """Every detector on the Oxford neck-pouch walk (default: the one
-    :func:`agents.data.data_path` finds, ``vrloco data fetch oxford``), and the two-fold gamma;
-    None if absent."""
+    :func:`agents.recordings.data.data_path` finds, ``vrloco data fetch oxford``), and the two-fold
+    gamma; None if absent."""
     if folder is None:
         try:
             folder = data_path("oxford")

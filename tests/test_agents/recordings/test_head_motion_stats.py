@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from agents.head_motion_stats import (
+from agents.recordings.head_motion_stats import (
     STATS_KEYS,
     head_motion_samples,
     head_motion_stats,

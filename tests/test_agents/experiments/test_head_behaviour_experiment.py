@@ -13,8 +13,12 @@ from agents.experiments.head_behaviour import (
     run_head_behaviour,
     simulate_heads,
 )
-from agents.head_motion_stats import STATS_KEYS, head_motion_samples, head_motion_stats
-from agents.head_traces import dataset_files, read_head_traces
+from agents.recordings.head_motion_stats import (
+    STATS_KEYS,
+    head_motion_samples,
+    head_motion_stats,
+)
+from agents.recordings.head_traces import dataset_files, read_head_traces
 from vrloco_env.user.population import population_names
 
 SEED = 4100  # seeds 4100 and up: used by this file only

@@ -5,7 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from agents.head_traces import (
+from agents.recordings.head_traces import (
     DATASETS,
     data_folder,
     dataset_files,

@@ -18,7 +18,7 @@ behaviors in VR spherical video streaming", ACM MMSys 2017 (33-41, no 38; HTC Vi
 sat or stood and explored freely; nobody walked: these are traces of looking around, not of
 walking (in place or otherwise). Credit the datasets wherever their figures are reported.
 
-The folder is found by :func:`agents.data.data_path` (:func:`head_traces_folder`).
+The folder is found by :func:`agents.recordings.data.data_path` (:func:`head_traces_folder`).
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from agents.data import data_folder, data_path
+from agents.recordings.data import data_folder, data_path
 
 __all__ = [
     "DATASETS",
@@ -52,7 +52,7 @@ DATASETS: dict[str, tuple[str, tuple[int, ...]]] = {
 
 
 def head_traces_folder() -> Path:
-    """``head_traces/`` in ``$VRLOCO_DATA`` (:func:`agents.data.data_path`).
+    """``head_traces/`` in ``$VRLOCO_DATA`` (:func:`agents.recordings.data.data_path`).
 
     Raises:
         FileNotFoundError: it is not there, or VRLOCO_DATA is not set (one line saying so).

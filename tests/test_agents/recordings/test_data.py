@@ -1,5 +1,5 @@
-"""`vrloco data` and :mod:`agents.data`: fetching the real recordings from a local HTTP server
-that serves the development copies (../shared/data), and finding them afterwards.
+"""`vrloco data` and :mod:`agents.recordings.data`: fetching the real recordings from a local HTTP
+server that serves the development copies (../shared/data), and finding them afterwards.
 
 The server listens on 127.0.0.1 on an ephemeral port, in a thread, for the length of one test;
 it can serve a file corrupted (one byte changed) or cut off (the connection closed halfway).
@@ -16,10 +16,10 @@ from urllib.parse import unquote
 
 import pytest
 
-from agents import data
 from agents.cli import main
+from agents.recordings import data
 
-SHARED = Path(__file__).resolve().parents[3] / "shared" / "data"
+SHARED = Path(__file__).resolve().parents[4] / "shared" / "data"
 KINECT = "kinect_laban/Ges01_wavehand.csv"
 OXFORD_ACC = "oxford_steps/Pixel_Jamie_Hard_NeckPouch_1/accelerometer.csv"
 

@@ -126,7 +126,7 @@ def estimate_recording(
     ``offline=True`` estimates the attitude with the forward-backward smoother of
     :func:`estimators.attitude.estimate_attitude` (the whole recording at every sample) instead
     of the causal filter; the steps and the path are the same either way. ``units``: the
-    units of a CSV's columns (:class:`agents.recordings.Units`; default: each found from the
+    units of a CSV's columns (:class:`agents.recordings.units.Units`; default: each found from the
     data).
 
     Returns:

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from agents.cli import main
-from agents.recordings import Units, read_csv_recording
+from agents.recordings.readers import read_csv_recording
+from agents.recordings.units import Units
 from estimators.rotations import GRAVITY
 from vrloco_env.batch_rng import BatchRng
 from vrloco_env.sensors.imu import HeadImu, get_imu_spec
@@ -307,7 +308,7 @@ def test_time_and_accelerometer_units_are_found_read_and_said_or_given(walk, tmp
 
 def test_units_are_checked_by_name_and_fixed_by_the_broad_and_oxford_formats(walk, tmp_path,
                                                                             capsys):  # fmt: skip
-    from agents.recordings import read_recording
+    from agents.recordings.readers import read_recording
 
     with pytest.raises(ValueError, match=r"Units.gyro='rpm': must be 'auto' or one of rad/s, "
                                          r"deg/s"):  # fmt: skip
@@ -324,8 +325,8 @@ def test_units_are_checked_by_name_and_fixed_by_the_broad_and_oxford_formats(wal
 
 
 def test_the_help_states_the_unit_checks_limits():
-    from agents import recordings as r
     from agents.cli import build_parser
+    from agents.recordings import units as r
 
     sub = build_parser()._subparsers._group_actions[0].choices["estimate"]
     text = " ".join(sub.format_help().split())
