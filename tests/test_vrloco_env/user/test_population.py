@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 import vrloco_env  # noqa: F401  (registers the ids)
-from agents.policies import build_policy, check_policy
-from agents.variability import HumanVariability, VariabilityParams
+from agents.benchmark.policies import build_policy, check_policy
+from agents.benchmark.variability import HumanVariability, VariabilityParams
 from vrloco_env.batch_rng import BatchRng
 from vrloco_env.config import EnvConfig
 from vrloco_env.user.behaviour import GazeBehaviour
