@@ -239,7 +239,7 @@ PAPER = {
     "imu_rate_hz": IMU_RATE_HZ,
     "camera_rate_hz": CAMERA_RATE_HZ,
 }
-#: Fused targets of the issue (RMSE): ideal and complex conditions.
+#: Fused targets (RMSE) of seed 004: ideal and complex conditions.
 TARGETS = {"ideal": {"pos_m": 0.05, "att_deg": 1.0}, "complex": {"pos_m": 0.1, "att_deg": 3.0}}
 VISUAL_CONDITIONS = ("ideal", "low_light", "occlusion", "motion_blur", "complex")
 ROTATION_RATE_DEG_S = 10.0

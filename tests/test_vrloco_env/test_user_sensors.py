@@ -1,4 +1,4 @@
-"""The simulated user seen through its sensors: the issue's ground-truth checks end to end."""
+"""The simulated user seen through its sensors: ground-truth checks end to end."""
 
 import numpy as np
 import pytest
