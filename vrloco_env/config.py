@@ -27,10 +27,21 @@ from vrloco_env.sensors.kinect import KinectSpec
 from vrloco_env.user import MotionParams, Population, get_population
 from vrloco_env.user.play_area import PlayArea
 
-__all__ = ["STAGE_FIELDS", "EnvConfig", "EstimatorConfig", "RewardConfig", "SensorConfig"]
+__all__ = [
+    "DEFAULT_IMU",
+    "STAGE_FIELDS",
+    "EnvConfig",
+    "EstimatorConfig",
+    "RewardConfig",
+    "SensorConfig",
+]
 
 #: Where the virtual head pose comes from (:attr:`EnvConfig.pose_source`).
 POSE_SOURCES = ("walk_in_place", "visual_inertial")
+
+
+#: The IMU preset of a :class:`SensorConfig` that names none, without a technique: seed 000's.
+DEFAULT_IMU = "ig500n"
 
 
 @dataclass(frozen=True)
@@ -39,7 +50,9 @@ class SensorConfig:
 
     Attributes:
         imu: IMU preset name (``"ig500n"``, seed 000's SBG IG-500N; ``"consumer_mems"``) or an
-            :class:`~vrloco_env.sensors.imu.ImuSpec`.
+            :class:`~vrloco_env.sensors.imu.ImuSpec`. None (the default): the technique's preset,
+            ``"ig500n"`` without a technique. An IMU given here is never replaced: one that
+            contradicts the technique's preset is an error.
         imu_rate_hz: IMU sample rate (Hz), a multiple of the control rate, up to 1000.
         earth_field: the local geomagnetic field (intensity, inclination, declination).
         magnetic_disturbances: dipoles (metal, magnets) in the *physical* room, in the tracked
@@ -51,7 +64,7 @@ class SensorConfig:
             120 Hz beside a 1 kHz IMU is the experiment's setting, ``vrloco experiment vio``).
     """
 
-    imu: str | ImuSpec = "ig500n"
+    imu: str | ImuSpec | None = None
     imu_rate_hz: float = 100.0
     earth_field: EarthField = field(default_factory=EarthField)
     magnetic_disturbances: tuple[MagneticDisturbance, ...] = ()
@@ -59,8 +72,9 @@ class SensorConfig:
     head_camera: CameraSpec = field(default_factory=lambda: camera_spec("ideal", rate_hz=30.0))
 
     def __post_init__(self) -> None:
-        check_instance(self, "imu", (str, ImuSpec))
-        get_imu_spec(self.imu)  # raises with the valid names
+        if self.imu is not None:
+            check_instance(self, "imu", (str, ImuSpec))
+            get_imu_spec(self.imu)  # raises with the valid names
         check_in_range(self, "imu_rate_hz", 10.0, 1000.0, "Hz")
         check_instance(self, "earth_field", EarthField)
         d = self.magnetic_disturbances
@@ -75,10 +89,13 @@ class SensorConfig:
 
     @property
     def imu_spec(self) -> ImuSpec:
-        return get_imu_spec(self.imu)
+        return get_imu_spec(DEFAULT_IMU if self.imu is None else self.imu)
 
     @property
     def preset_name(self) -> str:
+        """The IMU preset's name (``"ig500n"`` where :attr:`imu` is None)."""
+        if self.imu is None:
+            return DEFAULT_IMU
         return self.imu if isinstance(self.imu, str) else self.imu.name
 
 

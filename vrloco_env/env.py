@@ -38,7 +38,13 @@ from gymnasium.envs.registration import EnvSpec
 from numpy.typing import NDArray
 
 from vrloco_env.actions import ACTION_SIZE, check_action
-from vrloco_env.config import EnvConfig, EstimatorConfig, RewardConfig, SensorConfig
+from vrloco_env.config import (
+    DEFAULT_IMU,
+    EnvConfig,
+    EstimatorConfig,
+    RewardConfig,
+    SensorConfig,
+)
 from vrloco_env.core import LocoCore
 from vrloco_env.techniques import TECHNIQUES, Technique, get_technique
 from vrloco_env.world import RoomConfig
@@ -73,7 +79,7 @@ def make_configs(
     ):
         if value is not None and not isinstance(value, cls):
             raise TypeError(f"{name} must be a {cls.__name__}, got {type(value).__name__}")
-    default_imu = SensorConfig.__dataclass_fields__["imu"].default
+    given_imu = _imu_name(sensors)  # None: the caller's SensorConfig names no IMU
     if technique is not None:
         tech = get_technique(technique)
         if estimators is not None:
@@ -81,10 +87,8 @@ def make_configs(
                 f"estimators=... contradicts technique={tech.name!r}, which sets the estimators; "
                 "give one (or register a Technique with your EstimatorConfig)"
             )
-        for arg, value in (("sensor_preset", sensor_preset), ("sensors.imu", _imu_name(sensors))):
-            if value not in (None, tech.sensor_preset) and not (
-                arg == "sensors.imu" and value == default_imu
-            ):
+        for arg, value in (("sensor_preset", sensor_preset), ("sensors.imu", given_imu)):
+            if value not in (None, tech.sensor_preset):
                 raise ValueError(
                     f"{arg}={value!r} contradicts technique={tech.name!r} "
                     f"(sensor preset {tech.sensor_preset!r}); give one"
@@ -95,16 +99,16 @@ def make_configs(
                 f"{tech.estimators.locomotion!r}); give one"
             )
         sensor_preset, estimators = tech.sensor_preset, tech.estimators
-    elif sensor_preset is not None and _imu_name(sensors) not in (None, default_imu, sensor_preset):
+    elif sensor_preset is not None and given_imu not in (None, sensor_preset):
         raise ValueError(
             f"sensor_preset={sensor_preset!r} contradicts sensors=SensorConfig(imu="
-            f"{_imu_name(sensors)!r}); give one"
+            f"{given_imu!r}); give one"
         )
     config = config or EnvConfig()
     sensors = sensors or SensorConfig()
     estimators = estimators or EstimatorConfig()
-    if sensor_preset is not None:
-        sensors = replace(sensors, imu=sensor_preset)
+    if sensors.imu is None or sensor_preset is not None:
+        sensors = replace(sensors, imu=sensor_preset or DEFAULT_IMU)
     if locomotion is not None:
         estimators = replace(estimators, locomotion=locomotion)
     if max_episode_steps is not None:
@@ -122,7 +126,10 @@ def make_configs(
 
 
 def _imu_name(sensors: SensorConfig | None) -> str | None:
-    return None if sensors is None else sensors.preset_name
+    """The IMU preset the caller's ``sensors`` names (None: it names none)."""
+    if sensors is None or sensors.imu is None:
+        return None
+    return sensors.preset_name
 
 
 def technique_name(sensors: SensorConfig, estimators: EstimatorConfig) -> str:

@@ -563,7 +563,11 @@ def test_an_unregistered_technique_object_and_the_vector_env():
     [
         ({"technique": "vqf", "estimators": EstimatorConfig()}, "contradicts technique='vqf'"),
         ({"technique": "seed000", "sensor_preset": "consumer_mems"}, "contradicts technique"),
-        ({"technique": "seed000_consumer", "sensors": SensorConfig(imu="ig500n")}, None),
+        ({"technique": "seed000_consumer", "sensors": SensorConfig(imu="ig500n")},
+         "sensors.imu='ig500n' contradicts technique='seed000_consumer'"),
+        ({"sensors": SensorConfig(imu="ig500n"), "technique": "seed000_consumer"},
+         "sensors.imu='ig500n' contradicts technique='seed000_consumer'"),
+        ({"technique": "seed000_consumer", "sensors": SensorConfig(imu_rate_hz=200.0)}, None),
         ({"technique": "smooth", "locomotion": "eq17"}, "locomotion='eq17' contradicts"),
         ({"sensors": SensorConfig(imu="consumer_mems"), "sensor_preset": "ig500n"},
          "sensor_preset='ig500n' contradicts"),
@@ -573,9 +577,10 @@ def test_an_unregistered_technique_object_and_the_vector_env():
     ],
 )
 def test_contradicting_arguments_are_an_error(kwargs, message):
-    if message is None:  # sensors.imu at its default defers to the technique
+    if message is None:  # a SensorConfig naming no IMU takes the technique's, keeping the rest
         env = gym.make("VRLoco-Approach-v0", **kwargs)
         assert env.unwrapped.sensors.preset_name == "consumer_mems"
+        assert env.unwrapped.sensors.imu_rate_hz == kwargs["sensors"].imu_rate_hz
         return
     with pytest.raises(ValueError, match=message):
         gym.make("VRLoco-Approach-v0", **kwargs)
