@@ -148,9 +148,9 @@ def train_ppo(
 
     Args:
         technique, population, condition: the cell trained on
-        (:func:`~agents.learned.models.env_settings`; None: the
-            env's default technique, no population, the ``lab``); saved with every model as
-            ``model.vrloco_cell`` (with ``task``), the env's settings as ``model.vrloco_env``.
+            (:func:`~agents.learned.models.env_settings`; None: the env's default technique, no
+            population, the ``lab``); saved with every model as ``model.vrloco_cell`` (with
+            ``task``), the env's settings as ``model.vrloco_env``.
         sensor_preset: the IMU preset (None: the technique's, ``"ig500n"`` without one).
         frame_stack: the policy sees each user's last ``frame_stack`` observations side by side
             (:class:`~vrloco_env.wrappers.FrameStack`; 1: the observation alone).
