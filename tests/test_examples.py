@@ -130,3 +130,138 @@ def test_each_example_runs_as_a_script(example, capsys):
     runpy.run_path(str(EXAMPLES / example), run_name="__main__")
     lines = capsys.readouterr().out.strip().splitlines()
     assert len(lines) >= 2 and all(lines)
+
+
+# --------------------------------------------------------------------------- task and policy
+
+
+@pytest.fixture
+def turn_around():
+    """examples/custom_task.py registered as ``turn_around`` by its path (the route its docstring
+    shows), unregistered afterwards so that no other test sees it."""
+    from vrloco_env.registration import ENV_IDS
+    from vrloco_env.tasks import TASKS, env_id, register_task
+
+    register_task("turn_around", _plugin("custom_task.py", "TurnAround"))
+    yield "turn_around"
+    TASKS.pop("turn_around", None)
+    ENV_IDS.pop(env_id("turn_around"), None)
+    gym.registry.pop(env_id("turn_around"), None)
+
+
+def _walker() -> str:
+    return _plugin("custom_policy.py", "CautiousWalker")
+
+
+def test_the_task_example_puts_the_goal_behind_the_start_and_the_pillar_in_the_way(turn_around):
+    """examples/custom_task.py: every room starts the user facing away from the goal, with the
+    pillar on the straight way; a user standing still never finishes; the goal seeker's episode
+    succeeds on the very step its virtual position enters the goal disc, without a collision."""
+    from agents.benchmark.policies import build_policy
+
+    env = gym.make("VRLoco-TurnAround-v0")
+    for seed in range(4):
+        env.reset(seed=seed)
+        layout = env.unwrapped.core.layouts[0]
+        (sx, sy, yaw), (gx, gy) = layout.start, layout.goal
+        behind = np.arctan2(gy - sy, gx - sx) - yaw
+        assert abs((behind + np.pi) % (2 * np.pi) - np.pi) > np.deg2rad(170.0)
+        (pillar,) = layout.obstacles
+        assert min(sx, gx) < pillar.center[0] < max(sx, gx)
+        assert abs(pillar.center[1]) < pillar.radius  # it blocks the straight way
+        assert layout.shortest_path_length > np.hypot(gx - sx, gy - sy) - layout.goal_radius
+    env.reset(seed=0)
+    assert not any(env.step(STAND)[-1]["task_done"] for _ in range(30))
+    obs, info = env.reset(seed=0)
+    layout = env.unwrapped.core.layouts[0]
+    goal, radius = np.array(layout.goal), layout.goal_radius
+    policy = build_policy("goal_seeker", env)
+    policy.reset()
+    for _ in range(300):
+        obs, _, terminated, truncated, info = env.step(policy.act(obs))
+        inside = np.hypot(*(info["position"] - goal)) <= radius
+        assert bool(info["is_success"]) == inside == terminated, info["position"]
+        if terminated or truncated:
+            break
+    assert info["is_success"] and info["collisions"] == 0 and info["elapsed_time"] > 3.0
+
+
+def test_the_policy_example_walks_to_the_obstacle_and_stops_short_of_it():
+    """examples/custom_policy.py, three users of the Avoid corridor: each walks more than 3 m
+    toward the end line, stops without a collision before the obstacle that blocks it and stays
+    there; each user's actions are those it gets alone (no row leaks into another)."""
+    from agents.benchmark.policies import build_policy
+    from agents.scripted import ObsView
+
+    env = gym.make_vec("VRLoco-Avoid-v0", num_envs=3, vectorization_mode="vector_entry_point")
+    policy = build_policy(_walker(), env)
+    assert type(policy).__name__ == "CautiousWalker" and policy.batched
+    obs, info = env.reset(seed=[0, 1, 2])
+    policy.reset()
+    start, seen, acts, path = info["position"].copy(), [], [], []
+    for _ in range(120):
+        seen.append(obs)
+        acts.append(policy.act(obs))
+        obs, _, terminated, truncated, info = env.step(acts[-1])
+        path.append(info["position"].copy())
+    assert not (terminated | truncated).any()
+    assert (info["collisions"] == 0).all() and (info["distance_to_goal"] > 0).all()
+    assert (info["position"][:, 0] - start[:, 0] > 3.0).all()
+    np.testing.assert_array_equal(path[-30], path[-1])  # stood still for the last 3 s
+    ahead = ObsView.decode(obs.astype(np.float64), policy.layout).rays[:, policy.front].min(1)
+    assert ((ahead > 0.5) & (ahead < policy.go_m)).all(), ahead  # the obstacle stopped it
+    alone = build_policy(_walker(), env)
+    alone.reset()
+    np.testing.assert_array_equal([alone.act(o[1]) for o in seen], np.array(acts)[:, 1])
+
+
+def test_the_task_and_policy_examples_run_in_the_benchmark(turn_around):
+    """Both examples through run_benchmark's own resolution (the task by its registered name,
+    the policy by its path): the goal seeker passes the pillar in both episodes; the cautious
+    walker, which goes round nothing, stops in front of it in both, without a collision."""
+    from agents.benchmark import run_benchmark
+
+    rows = run_benchmark(tasks=[turn_around], policies=["goal_seeker", _walker()],
+                         techniques=["seed000"], episodes=2, workers=1, out_dir=None,
+                         progress=False, print_table=False)  # fmt: skip
+    by_policy = {r["policy"]: r for r in rows}
+    assert set(by_policy) == {"goal_seeker", _walker()}
+    assert all(r["task"] == "turn_around" and r["episodes"] == 2 for r in rows)
+    assert by_policy["goal_seeker"]["success_rate"] == 1.0
+    assert by_policy["goal_seeker"]["collision_rate"] == 0.0
+    assert by_policy[_walker()]["success_rate"] == 0.0
+    assert by_policy[_walker()]["collision_rate"] == 0.0
+
+
+def test_the_task_and_policy_examples_run_from_the_command_line(tmp_path, capsys):
+    """``python examples/custom_task.py benchmark ...`` registers the task and runs ``vrloco
+    benchmark`` on it; ``vrloco benchmark --policies examples/custom_policy.py:CautiousWalker``
+    runs the policy; each writes its cell's row to benchmark.csv."""
+    import csv
+    import sys
+
+    from agents.cli import main
+    from vrloco_env.registration import ENV_IDS
+    from vrloco_env.tasks import TASKS, env_id
+
+    args = ["--techniques", "seed000", "--episodes", "2", "--workers", "1"]
+    argv = sys.argv
+    sys.argv = [str(EXAMPLES / "custom_task.py"), "benchmark", "--tasks", "turn_around",
+                "--policies", "goal_seeker", *args, "--out", str(tmp_path / "task")]  # fmt: skip
+    try:
+        with pytest.raises(SystemExit) as done:
+            runpy.run_path(sys.argv[0], run_name="__main__")
+    finally:
+        sys.argv = argv
+        TASKS.pop("turn_around", None)
+        ENV_IDS.pop(env_id("turn_around"), None)
+        gym.registry.pop(env_id("turn_around"), None)
+    assert done.value.code == 0
+    assert main(["benchmark", "--tasks", "approach", "--policies", _walker(), *args,
+                 "--out", str(tmp_path / "policy")]) == 0  # fmt: skip
+    capsys.readouterr()
+    for folder, task, policy in (("task", "turn_around", "goal_seeker"),
+                                 ("policy", "approach", _walker())):  # fmt: skip
+        with open(tmp_path / folder / "benchmark.csv", newline="") as f:
+            (row,) = csv.DictReader(f)
+        assert (row["task"], row["policy"], row["episodes"]) == (task, policy, "2")
