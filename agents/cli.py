@@ -179,6 +179,21 @@ def _cmd_head_behaviour(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_population_sensitivity(args: argparse.Namespace) -> int:
+    from agents.experiments.population_sensitivity import run_population_sensitivity
+
+    try:
+        run_population_sensitivity(
+            json_path=Path(args.json) if args.json else None, episodes=args.episodes,
+            fields=args.fields.split(",") if args.fields else None,
+            out_dir=Path(args.out) if args.out else None,
+        )
+    except ValueError as err:  # a field that is no choice field: one line
+        print(f"vrloco experiment population-sensitivity: {err}", file=sys.stderr)
+        return 2
+    return 0
+
+
 def _cmd_benchmark(args: argparse.Namespace) -> int:
     from agents.benchmark import run_benchmark
     from agents.benchmark.backends import BackendError
@@ -486,6 +501,18 @@ def build_parser() -> argparse.ArgumentParser:
     hb.add_argument("--out", type=_out_dir,
                     help="folder for the figure (default: beside --json; neither: no figure)")
     hb.set_defaults(func=_cmd_head_behaviour)
+    ps = exp_sub.add_parser(
+        "population-sensitivity",
+        help="the default benchmark's pair verdicts with each chosen population range (a choice "
+        "in its doc) collapsed to its low or high end",
+    )
+    ps.add_argument("--json", type=_out_file, help="write the results to this JSON file")
+    ps.add_argument("--episodes", type=_int_at_least(1), default=60,
+                    help="episodes per cell (seeds 0 to N-1, as the default benchmark)")
+    ps.add_argument("--fields", help="comma-separated choice fields (default: every one)")
+    ps.add_argument("--out", type=_out_dir,
+                    help="folder for each run's rows, reused by a rerun (default: a temp folder)")
+    ps.set_defaults(func=_cmd_population_sensitivity)
     hv = exp_sub.add_parser(
         "hand-variance",
         help="seed 003 Tables 1-4 on the synthetic Kinect, with lag and RMSE while moving",

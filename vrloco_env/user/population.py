@@ -262,6 +262,21 @@ RANGE_FIELDS = tuple(
     f.name for f in fields(Population) if f.type in ("tuple[float, float]", tuple[float, float])
 )
 
+#: The ``(lo, hi)`` fields whose doc calls them a choice (no evidence sets them), in
+#: :data:`RANGE_FIELDS` order: the ranges ``vrloco experiment population-sensitivity``
+#: collapses to each end (:mod:`agents.experiments.population_sensitivity`).
+CHOICE_FIELDS: tuple[str, ...] = (
+    "glance_rate_hz",
+    "glance_s",
+    "scan_rate_hz",
+    "scan_looks",
+    "look_down_deg",
+    "nod_rate_hz",
+    "stride_yaw_deg",
+    "bob_scale",
+    "wip_drift_mps",
+)
+
 _TYPICAL_HEAD = dict(
     gaze=True,
     eye_range_deg=(15.0, 25.0),
