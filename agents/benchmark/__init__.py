@@ -5,8 +5,9 @@
 and the policies (:mod:`~agents.benchmark.policies`, :mod:`~agents.benchmark.variability`) say
 what runs; the episodes (:mod:`~agents.benchmark.episodes`) are played in jobs
 (:mod:`~agents.benchmark.jobs`, :mod:`~agents.benchmark.backends`,
-:mod:`~agents.benchmark.warm_start`) and kept for resuming (:mod:`~agents.benchmark.resume`); their
-metrics (:mod:`~agents.benchmark.metrics` and the measures it uses) are compared
+:mod:`~agents.benchmark.warm_start`) and kept for resuming (:mod:`~agents.benchmark.resume`), one
+run per output folder (:mod:`~agents.benchmark.run_folder`); their metrics
+(:mod:`~agents.benchmark.metrics` and the measures it uses) are compared
 (:mod:`~agents.benchmark.paired`, :mod:`~agents.benchmark.discrimination`) and written
 (:mod:`~agents.benchmark.outputs`, :mod:`~agents.benchmark.figures`,
 :mod:`~agents.benchmark.report`).

@@ -17,7 +17,7 @@ worker claims a job's episodes one by one from a counter the workers share, so t
 job left to start joins one still running (:func:`agents.benchmark.jobs._job`): the workers end
 together. Finished episodes are kept in ``<out>/.resume`` (:mod:`agents.benchmark.resume`) until the
 grid is complete, so an interrupted run resumes; an output folder holds one run at a time, and one
-run's files alone (:class:`agents.benchmark.resume.RunFolder`).
+run's files alone (:class:`agents.benchmark.run_folder.RunFolder`).
 :func:`agents.benchmark.metrics.summarize` turns each cell into a row, compared with the baseline
 technique's (:mod:`agents.benchmark.paired`): a table on the terminal, a CSV and a JSON file
 (:mod:`agents.benchmark.outputs`), and the figures (:mod:`agents.benchmark.figures`: for the first
@@ -76,11 +76,11 @@ from agents.benchmark.policies import check_policy
 from agents.benchmark.report import REPLAY_EPISODES, write_report
 from agents.benchmark.resume import (
     EpisodeStore,
-    RunFolder,
     cell_inputs,
     episode_key,
     source_fingerprint,
 )
+from agents.benchmark.run_folder import RunFolder
 from agents.benchmark.step_matching import step_window
 from vrloco_env.tasks import get_task
 
@@ -145,8 +145,8 @@ def run_benchmark(
     Args:
         tasks: registered task names (:mod:`vrloco_env.tasks`).
         policies: scripted users, optionally with ``+<population>``
-        (:mod:`agents.benchmark.policies`). sensors: IMU presets (``ig500n``, ``consumer_mems``):
-        shorthand for seed 000's chain on
+            (:mod:`agents.benchmark.policies`).
+        sensors: IMU presets (``ig500n``, ``consumer_mems``): shorthand for seed 000's chain on
             each, added to ``techniques``.
         techniques: registered technique names, ``"module:attr"`` strings or
             :class:`~vrloco_env.techniques.Technique` objects. Without ``sensors`` and
@@ -161,8 +161,8 @@ def run_benchmark(
             are the same either way.
         out_dir: folder for ``benchmark.csv``, ``benchmark.json``, ``pairs.json``, the
             figures and ``report.html``, and for the finished episodes of an interrupted run
-            (``.resume``), one run at a time (:class:`agents.benchmark.resume.RunFolder`): a folder
-            holding another run's files is refused (None: no files).
+            (``.resume``), one run at a time (:class:`agents.benchmark.run_folder.RunFolder`): a
+            folder holding another run's files is refused (None: no files).
         force: remove another run's files from ``out_dir`` first instead of refusing it.
         json_path: also write the JSON here.
         progress: show a progress bar.
@@ -183,12 +183,11 @@ def run_benchmark(
     Raises:
         ValueError: an unknown task, policy, technique or preset, or a bad count; an unknown
             backend, an address without ``"ray"``, ``"ray"`` without Ray installed.
-        agents.benchmark.backends.BackendError: no Ray cluster at ``address``, or Ray jobs that
-        failed
-            (raised once the other jobs have finished; with ``out_dir`` their episodes are kept
-            for a rerun to resume).
+        agents.benchmark.backends.BackendError: no Ray cluster at ``address``, or Ray jobs
+            that failed (raised once the other jobs have finished; with ``out_dir`` their
+            episodes are kept for a rerun to resume).
         ValueError: ``out_dir`` holds another run's files and not ``force``.
-        agents.benchmark.resume.FolderBusy: another run is writing to ``out_dir``.
+        agents.benchmark.run_folder.FolderBusy: another run is writing to ``out_dir``.
         agents.benchmark.outputs.WriteError: an output could not be written (a full disk),
             naming the file; the folder keeps its earlier files.
     """
@@ -361,7 +360,7 @@ def _write_outputs(out: Path, rows: list[dict[str, Any]], meta: dict[str, Any], 
 def _run_identity(cells: list[Cell], episodes: int, seed: int) -> tuple[str, str]:
     """The run's identity in its output folder (its cells, episodes and first seed: the same
     command gives the same one) and a few words on it
-    (:class:`agents.benchmark.resume.RunFolder`)."""
+    (:class:`agents.benchmark.run_folder.RunFolder`)."""
     names = [[c.task, c.policy, c.technique_name, c.condition] for c in cells]
     run = hashlib.sha256(json.dumps([names, episodes, seed]).encode()).hexdigest()[:16]
     techniques = list(dict.fromkeys(c.technique_name for c in cells))

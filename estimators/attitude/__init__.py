@@ -9,8 +9,9 @@
   :mod:`~estimators.attitude.mahony`, :mod:`~estimators.attitude.gyro` — the reference stages
   (VQF through the ``vqf`` package; Madgwick, Mahony and gyro integration on the shell of
   :mod:`~estimators.attitude.base`).
-* :mod:`~estimators.attitude._kernel` — the package's compiled kernels (the EKF and the reference
-  filters, their start convention); each ``py_func`` is the readable reference.
+* :mod:`~estimators.attitude._kernel` — the package's compiled kernels, one module per filter
+  (the EKF and the reference filters) and one for the reference filters' start convention; each
+  ``py_func`` is the readable reference.
 """
 
 from estimators.attitude.base import QuaternionStage

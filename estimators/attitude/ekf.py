@@ -150,7 +150,7 @@ above (one kernel, two switches in its parameter record):
   drifts at the vertical bias rate. The Euler-angle state is singular at pitch +-90 deg, as
   printed.
 
-The per-sample loop runs in the numba kernel :mod:`estimators.attitude._kernel`, one stage per
+The per-sample loop runs in the numba kernel :mod:`estimators.attitude._kernel.ekf`, one stage per
 step above; its uncompiled Python source is the readable reference. The filter state of each
 stream is a record (:attr:`AttitudeEKF.state`), the parameters a record built once from
 :class:`AttitudeParams`.

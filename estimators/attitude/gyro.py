@@ -8,7 +8,7 @@ it: the tilt drifts with the gyro bias and noise at ``|bias| t`` (rad), the head
 is the floor any fusion filter must beat.
 
 Start and dropouts (the convention of all the reference stages,
-:mod:`estimators.attitude._kernel`): the first sample of a (re)set stream whose
+:mod:`estimators.attitude._kernel.start`): the first sample of a (re)set stream whose
 accelerometer reading is usable sets the attitude from the accelerometer (tilt) and, when that
 sample's magnetometer reading is usable, the field (heading); its gyro reading is not integrated.
 Until such a sample arrives the gyro is integrated from the identity. A non-finite gyro sample

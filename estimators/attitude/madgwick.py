@@ -39,7 +39,7 @@ Missing data: a sample whose accelerometer reading is not usable (non-finite or 
 correction (the MARG step needs the accelerometer, as in the report); a sample whose magnetometer
 reading is not usable takes the IMU step with ``beta_imu``; a non-finite gyro reading counts as a
 zero rate for that sample. Start: the convention of the reference stages
-(:mod:`estimators.attitude._kernel`): the first sample of a (re)set stream with a usable
+(:mod:`estimators.attitude._kernel.start`): the first sample of a (re)set stream with a usable
 accelerometer reading sets the attitude (tilt, plus heading from that sample's field when usable)
 and takes no filter step.
 

@@ -25,7 +25,7 @@ to 1e-9 (its world frame puts the field's horizontal part on +y as here, so no f
 Missing data: a sample whose accelerometer reading is not usable (non-finite or zero) gets no
 correction (``W = w - b``); a sample whose magnetometer reading is not usable uses gravity only;
 a non-finite gyro reading counts as a zero rate for that sample (``W = -b + k_P w_mes``). Start:
-the convention of the reference stages (:mod:`estimators.attitude._kernel`): the first
+the convention of the reference stages (:mod:`estimators.attitude._kernel.start`): the first
 sample of a (re)set stream with a usable accelerometer reading sets the attitude (tilt, plus
 heading from that sample's field when usable) and takes no filter step; the bias starts at 0.
 

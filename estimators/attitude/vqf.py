@@ -16,7 +16,7 @@ declination, the frame of this project. No conversion is needed;
 attitude (heading 30 deg) and on an analytic trajectory.
 
 Start and missing data: VQF's own start matches the convention of the other reference stages
-(:mod:`estimators.attitude._kernel`): its low-pass filter of the specific force starts at
+(:mod:`estimators.attitude._kernel.start`): its low-pass filter of the specific force starts at
 the first sample and the inclination correction is complete at every sample, and its heading
 gain starts at 1 (then 1/2, 1/3, ... until ``tau_mag``), so the first sample sets the tilt and
 the heading. ``vqf`` skips a ``[0, 0, 0]`` accelerometer or magnetometer sample, so non-finite

@@ -58,7 +58,8 @@ from numpy.typing import ArrayLike, NDArray
 from estimators.batching import TakesUsers, stream_rows
 from estimators.rotations import wrap_angle
 from vrloco_env.batch_rng import BatchRng
-from vrloco_env.user.motion import MAX_HEAD_YAW, Intent, MotionParams
+from vrloco_env.user.intent import MAX_HEAD_YAW, Intent
+from vrloco_env.user.motion_params import MotionParams
 from vrloco_env.user.play_area import turning_drift
 from vrloco_env.user.population import RANGE_FIELDS, Population, get_population
 

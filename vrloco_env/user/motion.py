@@ -43,29 +43,34 @@ The right hand is held in front of the body; its orientation relative to the tor
 intrinsic ZYX [yaw, pitch, roll] integrated from the intent's hand rates and held within joint
 limits. Hand frame: x along the forearm toward the fingertips, y to the thumb side of a palm-down
 right hand (left), z out of the back of the hand (up when palm-down).
+
+The parts live beside this module, each re-exported here: the settings
+(:mod:`~vrloco_env.user.motion_params`: :class:`MotionParams`), the input
+(:mod:`~vrloco_env.user.intent`: :class:`Intent`, :data:`MAX_HEAD_YAW`), the outputs
+(:mod:`~vrloco_env.user.motion_records`: :class:`MotionChunk`, :class:`KinectChunk`,
+:class:`MotionRecord`), what the compiled body reads (:mod:`vrloco_env.user._motion_inputs`) and
+seed 000's scripted motions (:mod:`~vrloco_env.user.scripts`: :data:`SCRIPTS`,
+:func:`script_intents`, :func:`run_script`).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, fields
-from typing import ClassVar
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from estimators import rotations as rot
 from estimators.batching import TakesUsers, stream_rows
-from estimators.kernels import param_record, state_records
-from estimators.validation import (
-    check_bool,
-    check_condition,
-    check_in_range,
-    check_numbers,
-)
+from estimators.kernels import state_records
 from vrloco_env.batch_rng import BatchRng
+from vrloco_env.user._motion_inputs import _BODY, _kernel_params
 from vrloco_env.user._motion_numba import SCALARS, STATE, VECTORS, evaluate_kernel, skeleton_kernel
-from vrloco_env.user.skeleton import NUM_JOINTS, Joint
+from vrloco_env.user.intent import MAX_HEAD_YAW, Intent, _intent_arrays
+from vrloco_env.user.motion_params import MotionParams
+from vrloco_env.user.motion_records import KinectChunk, MotionChunk, MotionRecord
+from vrloco_env.user.scripts import SCRIPTS, run_script, script_intents
+from vrloco_env.user.skeleton import NUM_JOINTS
 
 __all__ = [
     "MAX_HEAD_YAW",
@@ -80,238 +85,8 @@ __all__ = [
     "script_intents",
 ]
 
-_PULSE_KAPPA = 3.0  # von Mises concentration of the heel-strike acceleration pulse
-_PULSE_HARMONICS = 24
 _DIFF_H = 1e-4  # s, central-difference step for the head's linear acceleration
 _GL_NODES, _GL_WEIGHTS = np.polynomial.legendre.leggauss(12)  # overground walking quadrature
-
-
-def _pulse_coefficients() -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Fourier weights of the unit-peak, zero-mean heel-strike pulse and of its double integral."""
-    from scipy.special import iv
-
-    k = np.arange(1, _PULSE_HARMONICS + 1, dtype=np.float64)
-    w = iv(k, _PULSE_KAPPA)
-    w = w / (2.0 * w.sum())  # peak of sum 2 w_k cos(...) at the heel strike is 1
-    acc = 2.0 * w  # d2Z/dphi2 = sum acc_k cos(2 pi k (phi - 1/2))
-    pos = -acc / (2.0 * np.pi * k) ** 2  # Z = sum pos_k cos(...)
-    return acc, pos
-
-
-_PULSE_ACC, _PULSE_POS = _pulse_coefficients()
-_PULSE_K = np.arange(1, _PULSE_HARMONICS + 1, dtype=np.float64)
-_PULSE_Z0 = float(np.sum(_PULSE_POS * np.cos(-np.pi * _PULSE_K)))  # Z at a step boundary
-
-
-@dataclass(frozen=True)
-class MotionParams:
-    """Rates, limits and body measurements of the simulated user.
-
-    Every field is validated on construction; units in the names or docs.
-    """
-
-    imu_rate_hz: float = 100.0
-    """Head IMU sample rate (Hz), 10-1000. Seed 000's IG-500N ran at 100 Hz."""
-    kinect_rate_hz: float = 30.0
-    """Kinect v2 skeleton frame rate (Hz); the sensor delivers 30 frames/s (seed 003)."""
-    control_rate_hz: float = 10.0
-    """Rate at which the intent changes (Hz): one env step."""
-    cadence_range_hz: tuple[float, float] = (1.2, 2.2)
-    """Allowed stepping cadence while walking (steps/s); 0 stands still."""
-    max_turn_rate: float = np.deg2rad(120.0)
-    """Largest body yaw rate (rad/s): a brisk in-place turn."""
-    turn_lag_s: float = 0.1
-    """Time constant (s) of the yaw rate following its command (head inertia)."""
-    max_hand_rate: float = np.deg2rad(180.0)
-    """Largest hand angular rate about each axis (rad/s)."""
-    hand_limits_deg: tuple[float, float, float] = (90.0, 80.0, 90.0)
-    """Hand yaw, pitch, roll limits (deg, symmetric) relative to the torso heading."""
-    peak_accel_g: tuple[float, float] = (0.12, 0.45)
-    """Peak vertical head acceleration (g) at the lowest and highest cadence (interpolated)."""
-    sway_m: float = 0.02
-    """Lateral body sway amplitude (m), one sway per stride."""
-    sway_roll_deg: float = 1.5
-    """Head roll (deg) accompanying the lateral sway."""
-    gesture_lag_s: float = 0.4
-    """Time constant (s) of the critically damped response of gesture amplitudes and lean."""
-    head_turn_lag_s: float = 0.1
-    """Time constant (s) of the critically damped response of the head-on-torso yaw to its target
-    (:attr:`Intent.head_yaw`), in [0.02, 1]. A linear response has a peak speed proportional to
-    the amplitude, the "main sequence" of head movements (Zangemeister, Jones & Stark, Exp.
-    Neurol. 1981; Freedman, Biol. Cybern. 2008): with 0.1 s a 40 deg turn peaks at
-    40 / (e * 0.1) ~ 150 deg/s and settles (95 %) in ~0.47 s, inside the 0.3-0.6 s and
-    100-300 deg/s those studies report for 20-60 deg head movements."""
-    neck_height_m: float = 1.55
-    """Height (m) of the head's pivot (upper neck) when standing."""
-    imu_offset_m: tuple[float, float, float] = (0.09, 0.0, 0.12)
-    """Forehead IMU position (m) in the head frame relative to the neck pivot."""
-    style_spread: float = 0.1
-    """Relative spread (1-sigma) of each user's step-impact and sway style, drawn at reset."""
-    overground: bool = False
-    """False (default): the user steps in place, as in seed 000 — the virtual body moves by the
-    estimated steps. True: the user really walks through the tracked space (seed 004's helmet
-    users; the env's ``pose_source="visual_inertial"``): the body advances along its heading at
-    ``stride_m`` per step, with the speed following the cadence with lag ``speed_lag_s``."""
-    stride_m: float = 0.65
-    """Distance (m) covered per step when walking overground, in [0.2, 1.2]."""
-    speed_lag_s: float = 0.4
-    """Time constant (s) of the overground walking speed following cadence * stride_m."""
-
-    def __post_init__(self) -> None:
-        check_in_range(self, "imu_rate_hz", 10.0, 1000.0, "Hz")
-        check_in_range(self, "kinect_rate_hz", 1.0, 120.0, "Hz")
-        check_in_range(self, "control_rate_hz", 0.5, self.imu_rate_hz,
-                       allowed=f"in [0.5, imu_rate_hz={float(self.imu_rate_hz):g}] Hz")  # fmt: skip
-        ratio = self.imu_rate_hz / self.control_rate_hz
-        whole_samples = abs(ratio - round(ratio)) < 1e-9
-        divisor = "a divisor of imu_rate_hz (whole IMU samples per control step)"
-        check_condition(self, "control_rate_hz", whole_samples, divisor)
-        check_numbers(self, "cadence_range_hz", 0.3, 4.0, "Hz", length=2, ordered=True, strict=True)
-        check_in_range(self, "max_turn_rate", 0.0, 2 * np.pi, "rad/s", lo_open=True)
-        check_in_range(self, "turn_lag_s", 0.0, 2.0, "s", lo_open=True)
-        check_in_range(self, "max_hand_rate", 0.0, 4 * np.pi, "rad/s", lo_open=True)
-        check_numbers(self, "hand_limits_deg", 0.0, 180.0, "deg", length=3, lo_open=True)
-        check_numbers(self, "peak_accel_g", 0.0, 2.0, "g", length=2, ordered=True)
-        check_in_range(self, "sway_m", 0.0, 0.1, "m")
-        check_in_range(self, "sway_roll_deg", 0.0, 10.0, "deg")
-        check_in_range(self, "gesture_lag_s", 0.0, 5.0, "s", lo_open=True)
-        check_in_range(self, "head_turn_lag_s", 0.02, 1.0, "s")
-        check_in_range(self, "neck_height_m", 0.8, 2.2, "m")
-        check_in_range(self, "style_spread", 0.0, 0.5)
-        check_bool(self, "overground")
-        check_in_range(self, "stride_m", 0.2, 1.2, "m")
-        check_in_range(self, "speed_lag_s", 0.01, 5.0, "s")
-
-    @property
-    def samples_per_step(self) -> int:
-        """IMU samples per control step."""
-        return round(self.imu_rate_hz / self.control_rate_hz)
-
-
-@dataclass
-class Intent:
-    """What B users want to do during one control step (arrays broadcast to the batch).
-
-    Attributes:
-        cadence: stepping cadence (steps/s), 0 to stand still, otherwise within
-            ``MotionParams.cadence_range_hz``. Shape (B,).
-        turn_rate: body yaw rate (rad/s, counter-clockwise positive), |.| <= max_turn_rate. (B,)
-        hand_rates: hand [yaw, pitch, roll] rates (rad/s) relative to the torso. (B, 3)
-        gesture_amplitude: head [yaw, pitch, roll] oscillation amplitudes (rad) about the body
-            heading: serpentine, nod and shake of seed 000. (B, 3)
-        gesture_frequency: frequencies (Hz) of those oscillations. (B, 3)
-        lean: head pitch offset (rad; negative leans back / looks up). (B,)
-        head_yaw: head-on-torso yaw target (rad, counter-clockwise positive, |.| <= 80 deg):
-            where the user turns the head relative to the body, followed with the critically
-            damped lag ``MotionParams.head_turn_lag_s``. 0 keeps the head straight on the torso
-            (apart from the gestures). (B,)
-    """
-
-    cadence: ArrayLike = 0.0
-    turn_rate: ArrayLike = 0.0
-    hand_rates: ArrayLike = (0.0, 0.0, 0.0)
-    gesture_amplitude: ArrayLike = (0.0, 0.0, 0.0)
-    gesture_frequency: ArrayLike = (0.5, 0.5, 0.5)
-    lean: ArrayLike = 0.0
-    head_yaw: ArrayLike = 0.0
-
-
-#: Largest head-on-torso yaw target (rad): the active range of cervical axial rotation of
-#: adults, about 70-80 deg each way (Ferrario et al., J. Orthop. Res. 20(1), 2002).
-MAX_HEAD_YAW = float(np.deg2rad(80.0))
-
-_INTENT_FIELDS = tuple(f.name for f in fields(Intent))
-
-
-@dataclass
-class MotionChunk:
-    """True motion over one control step, at the IMU rate (N samples, times ``t``).
-
-    Attributes:
-        t: sample times (s), (N,), the end of each IMU sample interval.
-        quat: head/IMU orientation, sensor -> world, (B, N, 4).
-        omega: body-frame angular rate (rad/s), (B, N, 3).
-        pos: IMU position in the world (m), (B, N, 3).
-        acc: IMU linear acceleration in the world (m/s^2, gravity excluded), (B, N, 3).
-        ypr: head [yaw, pitch, roll] (rad; yaw unwrapped), (B, N, 3).
-        body_yaw: the body's (torso's) yaw (rad, unwrapped), (B, N): the head's yaw is this plus
-            the head-on-torso yaw (the intent's ``head_yaw`` and yaw gestures: looking around),
-            :attr:`head_on_torso_yaw`.
-        step: a heel strike happened in this sample's interval, (B, N) bool.
-        step_time: time (s) of that heel strike, NaN where none, (B, N).
-        step_offset: the same heel strikes as time (s) after the start of this control step,
-            NaN where none, (B, N): independent of how long the model has run.
-        walking: the user is mid-step at this sample, (B, N) bool.
-        kinect: skeleton frames that fall in this control step.
-    """
-
-    shared_fields: ClassVar[tuple[str, ...]] = ("t",)  # one clock for the batch: not per user
-
-    t: NDArray[np.float64]
-    quat: NDArray[np.float64]
-    omega: NDArray[np.float64]
-    pos: NDArray[np.float64]
-    acc: NDArray[np.float64]
-    ypr: NDArray[np.float64]
-    body_yaw: NDArray[np.float64]
-    step: NDArray[np.bool_]
-    step_time: NDArray[np.float64]
-    step_offset: NDArray[np.float64]
-    walking: NDArray[np.bool_]
-    kinect: KinectChunk
-
-    @property
-    def head_on_torso_yaw(self) -> NDArray[np.float64]:
-        """The head's yaw relative to the torso (rad), (B, N)."""
-        return self.ypr[..., 0] - self.body_yaw
-
-
-@dataclass
-class KinectChunk:
-    """True skeleton at the Kinect rate (M frames in this control step; M may be 0).
-
-    Attributes:
-        t: frame times (s), (M,).
-        joints: 25 Kinect v2 joints in the world frame (m), (B, M, 25, 3).
-        hand_quat: right-hand orientation, hand frame -> world, (B, M, 4).
-        hand_ypr: right-hand [yaw, pitch, roll] relative to the torso heading (rad), (B, M, 3).
-    """
-
-    shared_fields: ClassVar[tuple[str, ...]] = ("t",)  # one clock for the batch: not per user
-
-    t: NDArray[np.float64]
-    joints: NDArray[np.float64]
-    hand_quat: NDArray[np.float64]
-    hand_ypr: NDArray[np.float64]
-
-
-@dataclass
-class MotionRecord(MotionChunk):
-    """Chunks of a whole run concatenated along time (the fields of :class:`MotionChunk`)."""
-
-    @classmethod
-    def concatenate(cls, chunks: list[MotionChunk]) -> MotionRecord:
-        if not chunks:
-            raise ValueError("chunks must hold at least one MotionChunk")
-        kw = {}
-        for f in fields(MotionChunk):
-            if f.name == "kinect":
-                continue
-            axis = 0 if f.name == "t" else 1
-            kw[f.name] = np.concatenate([getattr(c, f.name) for c in chunks], axis=axis)
-        kin = [c.kinect for c in chunks]
-        kw["kinect"] = KinectChunk(
-            t=np.concatenate([k.t for k in kin]),
-            joints=np.concatenate([k.joints for k in kin], axis=1),
-            hand_quat=np.concatenate([k.hand_quat for k in kin], axis=1),
-            hand_ypr=np.concatenate([k.hand_ypr for k in kin], axis=1),
-        )
-        return cls(**kw)
-
-    @property
-    def step_times(self) -> list[NDArray[np.float64]]:
-        """True heel-strike times (s) of each user."""
-        return [st[~np.isnan(st)] for st in self.step_time]
 
 
 class _State:
@@ -680,89 +455,6 @@ class UserMotion(TakesUsers):
         return KinectChunk(t=t_abs, joints=joints, hand_quat=hand_q, hand_ypr=hand_ypr)
 
 
-#: Joints fixed in the torso frame, as offsets (m) from the neck pivot (x forward, y left, z up);
-#: adult proportions after Winter, Biomechanics and Motor Control of Human Movement (2009).
-_TORSO_OFFSETS = {
-    Joint.NECK: (0.0, 0.0, 0.0),
-    Joint.SPINE_SHOULDER: (0.0, 0.0, -0.08),
-    Joint.SPINE_MID: (0.0, 0.0, -0.32),
-    Joint.SPINE_BASE: (0.0, 0.0, -0.55),
-    Joint.SHOULDER_LEFT: (0.0, 0.19, -0.12),
-    Joint.SHOULDER_RIGHT: (0.0, -0.19, -0.12),
-    Joint.ELBOW_LEFT: (0.0, 0.21, -0.40),
-    Joint.ELBOW_RIGHT: (0.08, -0.21, -0.36),
-    # The left arm hangs.
-    Joint.WRIST_LEFT: (0.02, 0.21, -0.65),
-    Joint.HAND_LEFT: (0.02, 0.21, -0.73),
-    Joint.HAND_TIP_LEFT: (0.02, 0.21, -0.82),
-    Joint.THUMB_LEFT: (0.06, 0.21, -0.71),
-}
-_TORSO_JOINTS = np.array(list(_TORSO_OFFSETS), dtype=np.intp)
-_TORSO_OFFSET_ARRAY = np.array(list(_TORSO_OFFSETS.values()))
-_HEAD_OFFSET = np.array([0.02, 0.0, 0.10])  # head centre from the neck pivot, head frame
-#: Legs (left, right) x (hip, knee, ankle, foot) at rest, and the change at full knee lift.
-_LEG_JOINTS = np.array(
-    [Joint.HIP_LEFT, Joint.KNEE_LEFT, Joint.ANKLE_LEFT, Joint.FOOT_LEFT,
-     Joint.HIP_RIGHT, Joint.KNEE_RIGHT, Joint.ANKLE_RIGHT, Joint.FOOT_RIGHT], dtype=np.intp,
-)  # fmt: skip
-_LEG_REST = np.array(
-    [[[0.0, y, -0.60], [0.0, y, -1.05], [0.0, y, -1.47], [0.12, y, -1.53]] for y in (0.09, -0.09)]
-)
-_LEG_LIFT = np.array([[0.0, 0.0, 0.0], [0.10, 0.0, 0.12], [0.05, 0.0, 0.12], [0.05, 0.0, 0.12]])
-_FLOOR_CLEARANCE = 0.02  # m, lowest height of ankle and foot joints
-_FOREARM = np.array([0.26, 0.0, 0.04])  # elbow -> wrist, torso frame
-#: Hand, hand tip and thumb from the wrist in the hand frame (x to the fingertips, y thumb side).
-_HAND_JOINTS = np.array([Joint.HAND_RIGHT, Joint.HAND_TIP_RIGHT, Joint.THUMB_RIGHT], dtype=np.intp)
-_HAND_OFFSETS = np.array([[0.08, 0.0, 0.0], [0.17, 0.0, 0.0], [0.06, 0.05, 0.0]])
-
-
-def _record(base: NDArray | None = None, **values: ArrayLike) -> NDArray:
-    """A (1,) record for a kernel: the fields of ``base`` (a (1,) record such as
-    :func:`estimators.kernels.param_record` builds), then ``values``, each a number or a
-    fixed-shape array stored with its own dtype and shape."""
-    items = {} if base is None else {name: base[name][0] for name in base.dtype.names}
-    items.update((name, np.asarray(v)) for name, v in values.items())
-    rec = np.zeros(1, [(name, v.dtype, v.shape) for name, v in items.items()])
-    for name, v in items.items():
-        rec[name][0] = v
-    return rec
-
-
-#: The body geometry :data:`vrloco_env.user._motion_numba.skeleton_kernel` reads: torso-frame
-#: offsets (m) and the Kinect joints they place.
-_BODY = _record(
-    torso_offsets=_TORSO_OFFSET_ARRAY, torso_joints=_TORSO_JOINTS, head_offset=_HEAD_OFFSET,
-    head_joint=int(Joint.HEAD), leg_rest=_LEG_REST, leg_lift=_LEG_LIFT, leg_joints=_LEG_JOINTS,
-    floor_z=_FLOOR_CLEARANCE, forearm=_FOREARM, elbow_right=int(Joint.ELBOW_RIGHT),
-    wrist_right=int(Joint.WRIST_RIGHT), hand_offsets=_HAND_OFFSETS, hand_joints=_HAND_JOINTS,
-)  # fmt: skip
-
-#: MotionParams fields :data:`vrloco_env.user._motion_numba.evaluate_kernel` does not read.
-_UNREAD_PARAMS = ("imu_rate_hz", "kinect_rate_hz", "control_rate_hz", "max_turn_rate",
-                  "max_hand_rate", "sway_roll_deg", "style_spread", "overground", "stride_m",
-                  "speed_lag_s")  # fmt: skip
-
-
-def _kernel_params(p: MotionParams) -> NDArray:
-    """The (1,) parameter record of :data:`vrloco_env.user._motion_numba.evaluate_kernel`: the
-    fields of ``p`` it reads under their names, the sway roll in rad, gravity (m/s^2) and the
-    heel-strike pulse's position weights ``pulse_pos`` with their value at a step boundary."""
-    scalars = param_record(
-        p, exclude=_UNREAD_PARAMS, sway_roll=float(np.deg2rad(p.sway_roll_deg)),
-        gravity=rot.GRAVITY, pulse_z0=_PULSE_Z0,
-    )  # fmt: skip
-    return _record(
-        scalars, cadence_range_hz=np.asarray(p.cadence_range_hz, dtype=np.float64),
-        peak_accel_g=np.asarray(p.peak_accel_g, dtype=np.float64),
-        imu_offset_m=np.asarray(p.imu_offset_m, dtype=np.float64), pulse_pos=_PULSE_POS,
-    )  # fmt: skip
-
-
-def _intent_arrays(intent: Intent) -> dict[str, NDArray[np.float64]]:
-    """The intent's fields as float arrays, unchecked (see ``UserMotion.advance``)."""
-    return {name: np.asarray(getattr(intent, name), dtype=np.float64) for name in _INTENT_FIELDS}
-
-
 def _frame_times(step: int, control_rate: float, rate: float) -> tuple[NDArray, NDArray]:
     """Frames k / rate in control step ``step``'s interval (t0, t1]: times after t0, and absolute.
 
@@ -790,90 +482,3 @@ def _check_range(a: NDArray, lo: float, hi: float, name: str, unit: str) -> None
     bad = (a < lo - 1e-12) | (a > hi + 1e-12)
     if np.any(bad):
         raise ValueError(f"{name}={float(a[bad][0])!r}: must be in [{lo:.4g}, {hi:.4g}] {unit}")
-
-
-# ---------------------------------------------------------------------- scripted sequences
-SCRIPTS = ("stand", "serpentine", "pitch", "shake", "spin", "backward", "straight", "avoid",
-           "stand_step_turn")  # fmt: skip
-
-
-def script_intents(name: str, params: MotionParams | None = None, cadence: float = 1.7,
-                   duration_s: float | None = None) -> list[Intent]:  # fmt: skip
-    """Intent sequence of one of seed 000's experiments (one :class:`Intent` per control step).
-
-    Args:
-        name: one of :data:`SCRIPTS`:
-            ``stand`` still; ``serpentine`` head yaw left-right (±40 deg, 0.4 Hz) standing;
-            ``pitch`` nod forward then back (±30 deg, 0.3 Hz); ``shake`` roll left-right
-            (±25 deg, 0.5 Hz); ``spin`` a full turn in place (stepping, 45 deg/s for 8 s);
-            ``backward`` lean back 15 deg while stepping in place; ``straight`` stepping in
-            place facing one direction (Fig. 4); ``avoid`` stepping, turn away 45 deg from an
-            obstacle, step on, turn back to the original heading, step on (Fig. 5);
-            ``stand_step_turn`` stand, step in place, turn while stepping, stand (the demo).
-        params: the motion parameters (for the control rate).
-        cadence: stepping cadence (steps/s) where the script steps.
-        duration_s: total length (s); each script has a sensible default.
-    """
-    p = params or MotionParams()
-    dt = 1.0 / p.control_rate_hz
-    z3 = (0.0, 0.0, 0.0)
-
-    def seg(seconds: float, **kw) -> list[Intent]:
-        return [Intent(**kw) for _ in range(round(seconds / dt))]
-
-    deg = np.deg2rad
-    if name == "stand":
-        seq = seg(duration_s or 10.0)
-    elif name in ("serpentine", "pitch", "shake"):
-        axis = {"serpentine": 0, "pitch": 1, "shake": 2}[name]
-        amp = list(z3)
-        amp[axis] = deg({"serpentine": 40.0, "pitch": 30.0, "shake": 25.0}[name])
-        freq = [{"serpentine": 0.4, "pitch": 0.3, "shake": 0.5}[name]] * 3
-        total = duration_s or 20.0
-        # The frequency is held throughout, so the head rate stays continuous as the gesture
-        # fades in and out.
-        seq = (
-            seg(2.0, gesture_frequency=tuple(freq))
-            + seg(total - 4.0, gesture_amplitude=tuple(amp), gesture_frequency=tuple(freq))
-            + seg(2.0, gesture_frequency=tuple(freq))
-        )
-    elif name == "spin":
-        seq = seg(2.0) + seg(8.0, cadence=cadence, turn_rate=deg(45.0)) + seg(2.0)
-    elif name == "backward":
-        total = duration_s or 16.0
-        seq = seg(2.0) + seg(total - 4.0, cadence=cadence, lean=-deg(15.0)) + seg(2.0)
-    elif name == "straight":
-        total = duration_s or 20.0
-        seq = seg(2.0) + seg(total - 4.0, cadence=cadence) + seg(2.0)
-    elif name == "avoid":
-        turn = deg(45.0)
-        seq = (
-            seg(2.0)
-            + seg(5.0, cadence=cadence)
-            + seg(1.5, cadence=cadence, turn_rate=turn / 1.5)
-            + seg(4.0, cadence=cadence)
-            + seg(1.5, cadence=cadence, turn_rate=-turn / 1.5)
-            + seg(6.0, cadence=cadence)
-            + seg(2.0)
-        )
-    elif name == "stand_step_turn":
-        seq = (
-            seg(3.0)
-            + seg(5.0, cadence=cadence)
-            + seg(4.0, cadence=cadence, turn_rate=deg(45.0))
-            + seg(3.0, cadence=cadence)
-            + seg(3.0)
-        )
-    else:
-        raise ValueError(f"unknown motion script {name!r}; choose one of {', '.join(SCRIPTS)}")
-    return seq
-
-
-def run_script(name: str, rng: BatchRng, params: MotionParams | None = None, yaw: float = 0.0,
-               **kwargs) -> MotionRecord:  # fmt: skip
-    """Run a scripted sequence (see :func:`script_intents`) for every user of ``rng``."""
-    p = params or MotionParams()
-    motion = UserMotion(p, rng)
-    motion.reset(yaw=yaw)
-    chunks = [motion.advance(i) for i in script_intents(name, p, **kwargs)]
-    return MotionRecord.concatenate(chunks)

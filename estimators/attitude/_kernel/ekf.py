@@ -1,7 +1,5 @@
-"""Compiled kernels of the attitude stages; the Python classes that drive them are beside it.
+"""The error-state EKF's compiled kernel (the filter is derived in :mod:`estimators.attitude.ekf`).
 
-The error-state EKF (the filter is derived in :mod:`estimators.attitude.ekf`)
-------------------------------------------------------------------------------
 One sample of one stream is :func:`_step`, cut into the stages of the filter: initialisation
 (:func:`_initialise_tilt`, :func:`_initialise_heading`), gyro propagation (:func:`_gyro_step`),
 accelerometer update (:func:`_accelerometer_update`), magnetometer update
@@ -26,24 +24,8 @@ The arguments are plain structured arrays, not ``np.recarray`` views (numba's di
 recarray through its Python-level attribute lookup on every call). Their elements (``np.void``)
 have no attribute access in Python, so the Python source of :data:`ekf_kernel` reads the records
 only inside the stages, which stay compiled under :func:`estimators.kernels.python_reference`.
-
-The reference stages (gyro_only, Madgwick, Mahony)
---------------------------------------------------
-:data:`gyro_kernel` (:mod:`estimators.attitude.gyro`), :data:`madgwick_kernel`
-(:mod:`estimators.attitude.madgwick`) and :data:`mahony_kernel` (:mod:`estimators.attitude.mahony`)
-loop over users inside; each ``py_func`` is the readable uncompiled source. They share scalar
-helpers (same conventions as :mod:`estimators.kernels.rotations`): the initialisation of a
-stream's attitude from one accelerometer (+ magnetometer) sample (:func:`quat_from_acc`,
-:func:`quat_from_acc_mag`) and the sample-validity test (:func:`usable3`).
-
-Initialisation (one convention for these stages and VQF, so that they compare fairly): the tilt
-is the smallest rotation that takes the normalised specific force onto world +z (VQF's
-inclination correction applied to the identity; Laidig & Seel, Information Fusion 91, 2023), then
-a rotation about world z turns the horizontal part of the field, rotated into the world by the
-tilt, onto north (+y, ENU) — VQF's heading correction with gain 1, which it applies to its first
-magnetometer sample. Without a usable magnetometer sample the heading is left at that of the
-tilt rotation (no rotation about the vertical).
 """
+
 from __future__ import annotations
 
 import math
@@ -55,23 +37,12 @@ from estimators.kernels.rotations import (
     quat_from_rotvec,
     quat_from_ypr,
     quat_mul,
-    quat_rotate,
     quat_to_ypr,
     rotation_matrix,
     wrap_angle,
 )
 
-__all__ = [
-    "SCRATCH_FIELDS",
-    "STATE_FIELDS",
-    "ekf_kernel",
-    "gyro_kernel",
-    "madgwick_kernel",
-    "mahony_kernel",
-    "quat_from_acc",
-    "quat_from_acc_mag",
-    "usable3",
-]
+__all__ = ["SCRATCH_FIELDS", "STATE_FIELDS", "ekf_kernel"]
 
 #: Per-stream filter state (float64 record fields and their shapes).
 STATE_FIELDS = {
@@ -521,257 +492,3 @@ def _ekf_run(state, scratch, gyr, acc, mag, prm, out):
 #: The EKF over a batch of streams: ``ekf_kernel(B)(state, scratch, gyr, acc, mag, prm, out)``.
 #: Serial only: the streams of one call are few or their samples many.
 ekf_kernel = BatchKernel(_ekf_run, parallel=False)
-
-
-# ------------------------------------------------------------------------------------------------
-# The reference stages' start convention (module docstring).
-# ------------------------------------------------------------------------------------------------
-
-
-@numba.njit(cache=True)
-def usable3(x, y, z):
-    """Whether a 3-vector sample can be used: finite and not all zero."""
-    return (
-        math.isfinite(x) and math.isfinite(y) and math.isfinite(z)
-        and (x != 0.0 or y != 0.0 or z != 0.0)
-    )  # fmt: skip
-
-
-@numba.njit(cache=True)
-def quat_from_acc(ax, ay, az):
-    """Tilt quaternion (tuple) of one specific-force sample: the smallest rotation taking
-    ``a / |a|`` to world +z (VQF's formula; a sensor upside down gets the half-turn about x)."""
-    n = math.sqrt(ax * ax + ay * ay + az * az)
-    ux, uy, uz = ax / n, ay / n, az / n
-    w = math.sqrt(max(0.0, 0.5 * (uz + 1.0)))
-    if w > 1e-6:
-        return w, 0.5 * uy / w, -0.5 * ux / w, 0.0
-    return 0.0, 1.0, 0.0, 0.0
-
-
-@numba.njit(cache=True)
-def quat_from_acc_mag(ax, ay, az, mx, my, mz):
-    """Attitude quaternion (tuple) of one specific-force and one field sample: the tilt of
-    :func:`quat_from_acc`, then the rotation about world z that puts the horizontal part of the
-    field on +y (north, ENU). A field along the vertical leaves the heading of the tilt."""
-    qw, qx, qy, qz = quat_from_acc(ax, ay, az)
-    ex, ey, _ = quat_rotate(qw, qx, qy, qz, mx, my, mz)
-    if ex * ex + ey * ey <= 1e-24 * (mx * mx + my * my + mz * mz):
-        return qw, qx, qy, qz
-    delta = math.atan2(ex, ey)  # rotating the field by +delta about z brings it onto +y
-    c, s = math.cos(0.5 * delta), math.sin(0.5 * delta)
-    rw, rx, ry, rz = quat_mul(c, 0.0, 0.0, s, qw, qx, qy, qz)
-    n = math.sqrt(rw * rw + rx * rx + ry * ry + rz * rz)
-    return rw / n, rx / n, ry / n, rz / n
-
-
-# ------------------------------------------------------------------------------------------------
-# Gyro only (estimators.attitude.gyro).
-# ------------------------------------------------------------------------------------------------
-
-
-def _gyro_run(q, ready, gyr, acc, mag, dt, init_from_acc, out):
-    """Integrate the gyro of B streams over N samples (state ``q`` (B, 4), ``ready`` (B,)
-    updated in place; ``out`` (B, N, 4) the attitude after each sample)."""
-    for i in numba.prange(gyr.shape[0]):
-        qw, qx, qy, qz = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
-        rdy = ready[i]
-        for k in range(gyr.shape[1]):
-            ax, ay, az = acc[i, k, 0], acc[i, k, 1], acc[i, k, 2]
-            if not rdy and init_from_acc and usable3(ax, ay, az):
-                mx, my, mz = mag[i, k, 0], mag[i, k, 1], mag[i, k, 2]
-                if usable3(mx, my, mz):
-                    qw, qx, qy, qz = quat_from_acc_mag(ax, ay, az, mx, my, mz)
-                else:
-                    qw, qx, qy, qz = quat_from_acc(ax, ay, az)
-                rdy = True
-            else:
-                gx, gy, gz = gyr[i, k, 0], gyr[i, k, 1], gyr[i, k, 2]
-                if math.isfinite(gx) and math.isfinite(gy) and math.isfinite(gz):
-                    dw, dx, dy, dz = quat_from_rotvec(gx * dt, gy * dt, gz * dt)
-                    qw, qx, qy, qz = quat_mul(qw, qx, qy, qz, dw, dx, dy, dz)
-                    n = math.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
-                    qw, qx, qy, qz = qw / n, qx / n, qy / n, qz / n
-            out[i, k, 0], out[i, k, 1], out[i, k, 2], out[i, k, 3] = qw, qx, qy, qz
-        q[i, 0], q[i, 1], q[i, 2], q[i, 3] = qw, qx, qy, qz
-        ready[i] = rdy
-
-
-#: The compiled kernel: ``gyro_kernel(B)(q, ready, gyr, acc, mag, dt, init_from_acc, out)``.
-gyro_kernel = BatchKernel(_gyro_run)
-
-
-# ------------------------------------------------------------------------------------------------
-# Madgwick (estimators.attitude.madgwick).
-# ------------------------------------------------------------------------------------------------
-
-
-@numba.njit(cache=True)
-def _misfit_gradient(qw, qx, qy, qz, dx, dy, dz, sx, sy, sz):
-    """``J^T f`` (tuple of 4) for one reference: ``f = R(q)^T d - s`` and its Jacobian as in
-    Madgwick 2010, for a general world direction ``d`` and a unit ``q``."""
-    f1 = (
-        2.0 * dx * (0.5 - qy * qy - qz * qz)
-        + 2.0 * dy * (qw * qz + qx * qy)
-        + 2.0 * dz * (qx * qz - qw * qy)
-        - sx
-    )
-    f2 = (
-        2.0 * dx * (qx * qy - qw * qz)
-        + 2.0 * dy * (0.5 - qx * qx - qz * qz)
-        + 2.0 * dz * (qw * qx + qy * qz)
-        - sy
-    )
-    f3 = (2.0 * dx * (qw * qy + qx * qz) + 2.0 * dy * (qy * qz - qw * qx)
-          + 2.0 * dz * (0.5 - qx * qx - qy * qy) - sz)  # fmt: skip
-    # Rows of J: derivatives of f1, f2, f3 with respect to (qw, qx, qy, qz).
-    gw = (
-        (2.0 * dy * qz - 2.0 * dz * qy) * f1
-        + (-2.0 * dx * qz + 2.0 * dz * qx) * f2
-        + (2.0 * dx * qy - 2.0 * dy * qx) * f3
-    )
-    gx = (
-        (2.0 * dy * qy + 2.0 * dz * qz) * f1
-        + (2.0 * dx * qy - 4.0 * dy * qx + 2.0 * dz * qw) * f2
-        + (2.0 * dx * qz - 2.0 * dy * qw - 4.0 * dz * qx) * f3
-    )
-    gy = (
-        (-4.0 * dx * qy + 2.0 * dy * qx - 2.0 * dz * qw) * f1
-        + (2.0 * dx * qx + 2.0 * dz * qz) * f2
-        + (2.0 * dx * qw + 2.0 * dy * qz - 4.0 * dz * qy) * f3
-    )
-    gz = ((-4.0 * dx * qz + 2.0 * dy * qw + 2.0 * dz * qx) * f1
-          + (-2.0 * dx * qw - 4.0 * dy * qz + 2.0 * dz * qy) * f2
-          + (2.0 * dx * qx + 2.0 * dy * qy) * f3)  # fmt: skip
-    return gw, gx, gy, gz
-
-
-def _madgwick_run(q, ready, gyr, acc, mag, dt, beta_imu, beta_marg, out):
-    """Run Madgwick's filter on B streams over N samples: state ``q`` (B, 4) in Madgwick's NWU
-    world and ``ready`` (B,), updated in place; ``out`` (B, N, 4) the attitude after each
-    sample, sensor -> ENU (``r ⊗ q``, r the +90 deg turn about the vertical)."""
-    rw = rz = math.sqrt(0.5)  # r = [cos 45 deg, 0, 0, sin 45 deg]: NWU -> ENU
-    for i in numba.prange(gyr.shape[0]):
-        qw, qx, qy, qz = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
-        rdy = ready[i]
-        for k in range(gyr.shape[1]):
-            ax, ay, az = acc[i, k, 0], acc[i, k, 1], acc[i, k, 2]
-            mx, my, mz = mag[i, k, 0], mag[i, k, 1], mag[i, k, 2]
-            acc_ok = usable3(ax, ay, az)
-            mag_ok = usable3(mx, my, mz)
-            if not rdy and acc_ok:  # start: the attitude of this sample, no filter step
-                if mag_ok:
-                    ew, ex, ey, ez = quat_from_acc_mag(ax, ay, az, mx, my, mz)
-                else:
-                    ew, ex, ey, ez = quat_from_acc(ax, ay, az)
-                qw, qx, qy, qz = quat_mul(rw, 0.0, 0.0, -rz, ew, ex, ey, ez)  # ENU -> NWU
-                rdy = True
-                out[i, k, 0], out[i, k, 1], out[i, k, 2], out[i, k, 3] = ew, ex, ey, ez
-                continue
-            gx, gy, gz = gyr[i, k, 0], gyr[i, k, 1], gyr[i, k, 2]
-            if not (math.isfinite(gx) and math.isfinite(gy) and math.isfinite(gz)):
-                gx, gy, gz = 0.0, 0.0, 0.0
-            # rate of change from the gyro: qdot = 0.5 q ⊗ [0, w]
-            dw, dx, dy, dz = quat_mul(qw, qx, qy, qz, 0.0, gx, gy, gz)
-            dw, dx, dy, dz = 0.5 * dw, 0.5 * dx, 0.5 * dy, 0.5 * dz
-            if acc_ok:
-                na = math.sqrt(ax * ax + ay * ay + az * az)
-                ax, ay, az = ax / na, ay / na, az / na
-                # gravity: world up [0, 0, 1] against the normalised specific force
-                sw, sx, sy, sz = _misfit_gradient(qw, qx, qy, qz, 0.0, 0.0, 1.0, ax, ay, az)
-                beta = beta_imu
-                if mag_ok:
-                    nm = math.sqrt(mx * mx + my * my + mz * mz)
-                    mx, my, mz = mx / nm, my / nm, mz / nm
-                    # field reference (NWU): b = [|h_xy|, 0, h_z], h = R(q) m
-                    hx, hy, hz = quat_rotate(qw, qx, qy, qz, mx, my, mz)
-                    bx = math.sqrt(hx * hx + hy * hy)
-                    tw, tx, ty, tz = _misfit_gradient(qw, qx, qy, qz, bx, 0.0, hz, mx, my, mz)
-                    sw, sx, sy, sz = sw + tw, sx + tx, sy + ty, sz + tz
-                    beta = beta_marg
-                ng = math.sqrt(sw * sw + sx * sx + sy * sy + sz * sz)
-                if ng > 0.0:  # one step along the normalised gradient
-                    dw -= beta * sw / ng
-                    dx -= beta * sx / ng
-                    dy -= beta * sy / ng
-                    dz -= beta * sz / ng
-            # integrate and normalise
-            qw, qx, qy, qz = qw + dw * dt, qx + dx * dt, qy + dy * dt, qz + dz * dt
-            n = math.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
-            qw, qx, qy, qz = qw / n, qx / n, qy / n, qz / n
-            out[i, k, 0], out[i, k, 1], out[i, k, 2], out[i, k, 3] = quat_mul(
-                rw, 0.0, 0.0, rz, qw, qx, qy, qz
-            )
-        q[i, 0], q[i, 1], q[i, 2], q[i, 3] = qw, qx, qy, qz
-        ready[i] = rdy
-
-
-#: The compiled kernel:
-#: ``madgwick_kernel(B)(q, ready, gyr, acc, mag, dt, beta_imu, beta_marg, out)``.
-madgwick_kernel = BatchKernel(_madgwick_run)
-
-
-# ------------------------------------------------------------------------------------------------
-# Mahony (estimators.attitude.mahony).
-# ------------------------------------------------------------------------------------------------
-
-
-def _mahony_run(q, bias, ready, gyr, acc, mag, dt, kp, ki, out):
-    """Run Mahony's filter on B streams over N samples (state ``q`` (B, 4), ``bias`` (B, 3),
-    ``ready`` (B,) updated in place; ``out`` (B, N, 4) the attitude after each sample)."""
-    for i in numba.prange(gyr.shape[0]):
-        qw, qx, qy, qz = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
-        bx, by, bz = bias[i, 0], bias[i, 1], bias[i, 2]
-        rdy = ready[i]
-        for k in range(gyr.shape[1]):
-            ax, ay, az = acc[i, k, 0], acc[i, k, 1], acc[i, k, 2]
-            mx, my, mz = mag[i, k, 0], mag[i, k, 1], mag[i, k, 2]
-            acc_ok = usable3(ax, ay, az)
-            mag_ok = usable3(mx, my, mz)
-            if not rdy and acc_ok:  # start: the attitude of this sample, no filter step
-                if mag_ok:
-                    qw, qx, qy, qz = quat_from_acc_mag(ax, ay, az, mx, my, mz)
-                else:
-                    qw, qx, qy, qz = quat_from_acc(ax, ay, az)
-                rdy = True
-                out[i, k, 0], out[i, k, 1], out[i, k, 2], out[i, k, 3] = qw, qx, qy, qz
-                continue
-            gx, gy, gz = gyr[i, k, 0], gyr[i, k, 1], gyr[i, k, 2]
-            if not (math.isfinite(gx) and math.isfinite(gy) and math.isfinite(gz)):
-                gx, gy, gz = 0.0, 0.0, 0.0
-            if acc_ok:
-                na = math.sqrt(ax * ax + ay * ay + az * az)
-                ax, ay, az = ax / na, ay / na, az / na
-                # predicted gravity direction in the sensor frame, R(q)^T [0, 0, 1]
-                vx, vy, vz = quat_rotate(qw, -qx, -qy, -qz, 0.0, 0.0, 1.0)
-                ex, ey, ez = ay * vz - az * vy, az * vx - ax * vz, ax * vy - ay * vx
-                if mag_ok:
-                    nm = math.sqrt(mx * mx + my * my + mz * mz)
-                    mx, my, mz = mx / nm, my / nm, mz / nm
-                    hx, hy, hz = quat_rotate(qw, qx, qy, qz, mx, my, mz)  # R(q) m
-                    hn = math.sqrt(hx * hx + hy * hy)  # field reference: horizontal on north
-                    ux, uy, uz = quat_rotate(qw, -qx, -qy, -qz, 0.0, hn, hz)
-                    nu = math.sqrt(ux * ux + uy * uy + uz * uz)
-                    ux, uy, uz = ux / nu, uy / nu, uz / nu
-                    ex += my * uz - mz * uy
-                    ey += mz * ux - mx * uz
-                    ez += mx * uy - my * ux
-                bx -= ki * ex * dt
-                by -= ki * ey * dt
-                bz -= ki * ez * dt
-                wx, wy, wz = gx - bx + kp * ex, gy - by + kp * ey, gz - bz + kp * ez
-            else:
-                wx, wy, wz = gx - bx, gy - by, gz - bz
-            dw, dx, dy, dz = quat_mul(qw, qx, qy, qz, 0.0, wx, wy, wz)
-            qw, qx, qy, qz = (qw + 0.5 * dw * dt, qx + 0.5 * dx * dt, qy + 0.5 * dy * dt,
-                              qz + 0.5 * dz * dt)  # fmt: skip
-            n = math.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
-            qw, qx, qy, qz = qw / n, qx / n, qy / n, qz / n
-            out[i, k, 0], out[i, k, 1], out[i, k, 2], out[i, k, 3] = qw, qx, qy, qz
-        q[i, 0], q[i, 1], q[i, 2], q[i, 3] = qw, qx, qy, qz
-        bias[i, 0], bias[i, 1], bias[i, 2] = bx, by, bz
-        ready[i] = rdy
-
-
-#: The compiled kernel: ``mahony_kernel(B)(q, bias, ready, gyr, acc, mag, dt, kp, ki, out)``.
-mahony_kernel = BatchKernel(_mahony_run)
