@@ -242,7 +242,7 @@ def _cmd_techniques(args: argparse.Namespace) -> int:
     base = EstimatorConfig()
     chain = ", ".join(f"{k}={base.label(k)}" for k in STAGE_FIELDS)
     print("techniques (gym.make(..., technique=NAME); vrloco benchmark --techniques A,B):")
-    print(f"  each is seed 000's chain but for what it names:\n    {chain}")
+    print(f"  each is Zhang 2021's chain but for what it names:\n    {chain}")
     width = max(len(n) for n in TECHNIQUES)
     for name, tech in TECHNIQUES.items():
         e = tech.estimators
@@ -471,7 +471,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     hm = exp_sub.add_parser(
         "head-motions",
-        help="seed 000: attitude on five head motions, step detection, Fig. 2-5 analogues",
+        help="Zhang 2021: attitude on five head motions, step detection, Fig. 2-5 analogues",
     )
     hm.add_argument("--out", default="out", type=_out_dir, help="folder for the figures")
     hm.add_argument("--json", type=_out_file, help="write the results to this JSON file")
@@ -515,7 +515,7 @@ def build_parser() -> argparse.ArgumentParser:
     ps.set_defaults(func=_cmd_population_sensitivity)
     hv = exp_sub.add_parser(
         "hand-variance",
-        help="seed 003 Tables 1-4 on the synthetic Kinect, with lag and RMSE while moving",
+        help="Yao 2023 Tables 1-4 on the synthetic Kinect, with lag and RMSE while moving",
     )
     hv.add_argument("--json", type=_out_file, help="write the results to this JSON file")
     hv.add_argument("--repeats", type=_int_at_least(1), default=10, help="repeats per angle")
@@ -523,7 +523,8 @@ def build_parser() -> argparse.ArgumentParser:
     hv.set_defaults(func=_cmd_hand_variance)
     vio = exp_sub.add_parser(
         "vio",
-        help="seed 004: IMU-only drift, visual-only and fused helmet pose, adaptive vs fixed R",
+        help="the helmet-tracking paper: IMU-only drift, visual-only and fused helmet pose, "
+        "adaptive vs fixed R",
     )
     vio.add_argument("--json", type=_out_file, help="write the results to this JSON file")
     vio.add_argument(
@@ -536,7 +537,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     vio.set_defaults(func=_cmd_vio)
     loco = exp_sub.add_parser(
-        "locomotion", help="eq (17) vs the smooth-locomotion filter: distance and jerk (seed 001)"
+        "locomotion",
+        help="eq (17) vs the smooth-locomotion paper's filter: distance and jerk",
     )
     loco.add_argument("--json", type=_out_file, help="write the results to this JSON file")
     loco.set_defaults(func=_cmd_locomotion)
@@ -546,7 +548,7 @@ def build_parser() -> argparse.ArgumentParser:
         "collision causes, paired tests",
         description="Without --tasks, --policies, --techniques, --sensors and --conditions: the "
         "default run (agents.benchmark.DEFAULT_GRIDS: the main grid and the scenarios where a "
-        "technique should differ from seed000), then the discriminating-power table "
+        "technique should differ from zhang2021), then the discriminating-power table "
         "(agents.benchmark.discrimination). Given some of them: their one grid, the others from "
         "the main grid.",
     )
@@ -567,8 +569,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     bench.add_argument(
         "--sensors",
-        help="comma-separated IMU presets: shorthand for seed 000's chain on each "
-        "(ig500n = seed000, consumer_mems = seed000_consumer), added to --techniques",
+        help="comma-separated IMU presets: shorthand for Zhang 2021's chain on each "
+        "(ig500n = zhang2021, consumer_mems = zhang2021_consumer), added to --techniques",
     )
     bench.add_argument(
         "--conditions",
@@ -628,7 +630,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="IMU preset (default: the technique's; ig500n)")  # fmt: skip
     train.add_argument("--technique",
                        help="a registered technique (vrloco techniques) or 'module:attr' "
-                       "(default: seed 000's chain)")  # fmt: skip
+                       "(default: Zhang 2021's chain)")  # fmt: skip
     train.add_argument("--population",
                        help="the users' head behaviour in the env: a user population (default: "
                        "none, the head straight on the torso)")  # fmt: skip
@@ -711,7 +713,7 @@ def build_parser() -> argparse.ArgumentParser:
         f"or 'module:attr'; append +<population> ({', '.join(POPULATIONS)}) for a human "
         "population",
     )  # fmt: skip
-    rec.add_argument("--technique", default="seed000",
+    rec.add_argument("--technique", default="zhang2021",
                      help="a technique (vrloco techniques lists them) or 'module:attr'")
     rec.add_argument("--episodes", type=_int_at_least(1), default=100, help="seeded episodes")
     rec.add_argument("--seed", type=_int_at_least(0), default=0, help="episode i uses seed + i")

@@ -58,9 +58,9 @@ PICTURE_SEED = 0
 PICTURE_DPI = 80
 
 #: The project's source papers ("seed NNN" in the docstrings), named as the package's docstrings
-#: describe them: seed 000 in ``estimators/attitude/ekf.py``, seed 001 in
-#: ``estimators/locomotion/smooth.py``, seed 003 in ``estimators/hand/pipeline.py``, seed 004 in
-#: ``vrloco_env/sensors/camera/__init__.py`` and ``vrloco_env/config.py``.
+#: describe them: Zhang 2021 in ``estimators/attitude/ekf.py``, the smooth-locomotion paper in
+#: ``estimators/locomotion/smooth.py``, Yao 2023 in ``estimators/hand/pipeline.py``, the
+#: helmet-tracking paper in ``vrloco_env/sensors/camera/__init__.py`` and ``vrloco_env/config.py``.
 SEED_PAPERS = {
     "000": "Zhang, Chen & Gao 2021, hands-free interaction based on an IMU in a VR device",
     "001": "an EKF tutorial for VR position tracking",

@@ -6,7 +6,7 @@ Run from the repository root::
     python benchmarks/bench_benchmark.py --episodes 10 --batch-size 10
     python benchmarks/bench_benchmark.py --seed 1000  # other seeds (episode i uses 1000 + i)
     python benchmarks/bench_benchmark.py --policies avoid_manoeuvre   # no route planner
-    python benchmarks/bench_benchmark.py --techniques seed000 madgwick --tasks avoid reach
+    python benchmarks/bench_benchmark.py --techniques zhang2021 madgwick --tasks avoid reach
     python benchmarks/bench_benchmark.py --profile    # where the batched path's time goes
 
 Both paths run the same grid (``vrloco benchmark``'s main grid: its default tasks, policies and

@@ -2,7 +2,7 @@
 (every kernel compiled) and again with the cache it left (every kernel loaded), in one run.
 
     python benchmarks/bench_cold_start.py                 # the default run, cold then warm
-    python benchmarks/bench_cold_start.py -- --tasks approach --techniques seed000 --episodes 5
+    python benchmarks/bench_cold_start.py -- --tasks approach --techniques zhang2021 --episodes 5
 
 Each run is a fresh ``python -m agents.cli benchmark`` process with ``NUMBA_CACHE_DIR`` set to a
 new temporary folder, so the cache of this work tree is neither used nor touched. Prints the

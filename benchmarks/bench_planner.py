@@ -5,7 +5,7 @@ Run from the repository root::
     python benchmarks/bench_planner.py                 # batches of 30 and of 1
     python benchmarks/bench_planner.py --batch-sizes 30 --seed 1000
 
-Plays the goal seeker's episodes of three cells (Approach with seed 000, Avoid with seed 000 and
+Plays the goal seeker's episodes of three cells (Approach with Zhang 2021, Avoid with Zhang 2021 and
 with the smooth filter; episode i uses seed + i) batched in this process, timing every call of
 :data:`agents.scripted.planner.plan_kernel`, and prints the kernel's total time, its time per
 user and call, and a digest of the episodes' numbers (the same for every batch size and every
@@ -28,8 +28,8 @@ import agents.scripted.goal_seeker as goal_seeker
 from agents.benchmark.episodes import run_batched
 from agents.benchmark.grid import Cell
 
-CELLS = (Cell("approach", "goal_seeker+typical", "seed000"),
-         Cell("avoid", "goal_seeker+typical", "seed000"),
+CELLS = (Cell("approach", "goal_seeker+typical", "zhang2021"),
+         Cell("avoid", "goal_seeker+typical", "zhang2021"),
          Cell("avoid", "goal_seeker+typical", "smooth"))  # fmt: skip
 
 

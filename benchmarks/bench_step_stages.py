@@ -12,7 +12,7 @@ For each detector of :data:`estimators.stages.STEPS` and both IMU presets it pri
   1.2, 1.7 and 2.2 steps/s, facing one way and while scanning the room (the scripts of
   :mod:`agents.experiments.head_motions`), and at 1.7 steps/s while nodding, gently (+-15 deg
   at 0.5 Hz) and vigorously (+-30 deg at 1 Hz);
-* phantom steps per minute while standing: seed 000's three head gestures (serpentine, pitch,
+* phantom steps per minute while standing: Zhang 2021's three head gestures (serpentine, pitch,
   shake) and faster ones that lift ``|f|`` like a step (nods of +-30 deg at 1 Hz and +-10 deg at
   2 Hz, a head shake of +-25 deg at 1 Hz, and looking around: yaw +-70 deg at 1 Hz with pitch
   +-30 deg at 0.8 Hz and roll +-10 deg at 0.6 Hz);

@@ -30,7 +30,7 @@ come from (``in``: in-sample, ``out``: out-of-sample):
   Madgwick.
 * ``--ablations`` adds, outside the win counts, ``EKF 6D`` (in; no magnetometer, inclination
   only: a 6D estimate has no absolute heading) and ``EKF printed`` (in: the same noise densities
-  in ``model="paper_literal"``, the EKF as seed 000 prints it, bias never estimated).
+  in ``model="paper_literal"``, the EKF as Zhang 2021 prints it, bias never estimated).
 """
 
 from __future__ import annotations

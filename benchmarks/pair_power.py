@@ -6,17 +6,17 @@ Run from the repository root::
     python benchmarks/pair_power.py --pairs torso_steering madgwick --sizes 40 80 160
 
 For each pair of :data:`agents.benchmark.discrimination.PAIRS` it plays the pair's cells of the
-default run (:data:`agents.benchmark.grid.DEFAULT_GRIDS`: the technique and the baseline ``seed000``
-on each task the run compares them on, the same users and room) on *development* seeds, ``--seed``
-onwards (1000 by default, disjoint from the run's seeds 0, 1, ...), then estimates the power of the
-run's test at each cell size ``N`` of ``--sizes``: the share of ``--resamples`` bootstrap draws of
-``N`` paired episodes (the same seed indices in every task, drawn with replacement) in which the
-pair separates as :func:`agents.benchmark.discrimination.pair_results` decides it (some signature or
-outcome metric at p < 0.01 in the expected direction, in some task), and the share in which it
-separates on an outcome; and the share in which the run's claim holds: every pair the scenario tells
-apart (power >= 0.5 at the largest size) separates and at least three separate on an outcome. A pair
-whose power stays near 0 at every size is one the scenario does not tell apart (the techniques
-behave alike there), not one that needs more episodes.
+default run (:data:`agents.benchmark.grid.DEFAULT_GRIDS`: the technique and the baseline
+``zhang2021`` on each task the run compares them on, the same users and room) on *development*
+seeds, ``--seed`` onwards (1000 by default, disjoint from the run's seeds 0, 1, ...), then estimates
+the power of the run's test at each cell size ``N`` of ``--sizes``: the share of ``--resamples``
+bootstrap draws of ``N`` paired episodes (the same seed indices in every task, drawn with
+replacement) in which the pair separates as :func:`agents.benchmark.discrimination.pair_results`
+decides it (some signature or outcome metric at p < 0.01 in the expected direction, in some task),
+and the share in which it separates on an outcome; and the share in which the run's claim holds:
+every pair the scenario tells apart (power >= 0.5 at the largest size) separates and at least three
+separate on an outcome. A pair whose power stays near 0 at every size is one the scenario does not
+tell apart (the techniques behave alike there), not one that needs more episodes.
 
 The episode count of the default run (:data:`agents.benchmark.grid.DEFAULT_EPISODES`) is the
 smallest size at which that claim holds in at least 99 % of the resamples on development seeds.
@@ -39,7 +39,7 @@ from agents.benchmark.episodes import DEFAULT_BATCH_SIZE, run_cell_batched
 from agents.benchmark.grid import DEFAULT_GRIDS, Cell
 from agents.benchmark.paired import compare_values, episode_values
 
-BASELINE = "seed000"
+BASELINE = "zhang2021"
 
 
 def pair_tasks(pair: Pair) -> list[str]:

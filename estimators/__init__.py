@@ -20,16 +20,18 @@ Ground floor:
 
 Stages:
 
-* :mod:`estimators.attitude` — head attitude: seed 000's error-state EKF (streaming, and offline
+* :mod:`estimators.attitude` — head attitude: Zhang 2021's error-state EKF (streaming, and offline
   through its forward-backward smoother), BROAD's error metrics, VQF, Madgwick, Mahony and gyro
   integration.
-* :mod:`estimators.steps` — seed 000's still/walk and step detector, the other step stages and
+* :mod:`estimators.steps` — Zhang 2021's still/walk and step detector, the other step stages and
   the cadence.
-* :mod:`estimators.hand` — seed 003's hand-orientation pipeline (target selection, Holt
+* :mod:`estimators.hand` — Yao 2023's hand-orientation pipeline (target selection, Holt
   smoothing, eq 1/2, Kalman + median) and the hand stages.
-* :mod:`estimators.locomotion` — seed 000's eq (17) virtual path, seed 001's smooth filter,
+* :mod:`estimators.locomotion` — Zhang 2021's eq (17) virtual path, the smooth-locomotion paper's
+smooth filter,
   cadence-proportional speed, and head or torso steering.
-* :mod:`estimators.head_pose` — seed 004's strapdown inertial solution, OpenCV PnP pose from
+* :mod:`estimators.head_pose` — the helmet-tracking paper's strapdown inertial solution, OpenCV PnP
+pose from
   landmarks, and the (adaptive) error-state Kalman filter fusing them.
 * :mod:`estimators.io` — readers for the real recordings we validate against.
 """

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import importlib
 import inspect
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Generic, Protocol
@@ -31,6 +32,7 @@ __all__ = [
     "load_attr",
     "protocol_member",
     "protocol_members",
+    "renamed_attributes",
 ]
 
 
@@ -190,6 +192,7 @@ class Registry:
         self.contract = contract
         self.home = home
         self._entries: dict[str, _Entry] = {}
+        self._renamed: dict[str, str] = {}
 
     def register(self, name: str, target: str, description: str) -> None:
         """Add ``name`` -> the factory at ``target`` ("module:attr"), with a one-line
@@ -198,8 +201,29 @@ class Registry:
             raise ValueError(f"target {target!r} must be 'package.module:attr'")
         self._entries[name] = _Entry(target, description)
 
+    def rename(self, old: str, new: str) -> None:
+        """Keep ``old`` working as a deprecated name of the registered ``new``: it resolves to
+        ``new`` with a :class:`DeprecationWarning`, and no listing shows it."""
+        if new not in self._entries:
+            raise ValueError(f"{self.stage}: cannot rename {old!r} to unregistered {new!r}")
+        self._renamed[old] = new
+
+    def canonical(self, spec: Any) -> Any:
+        """``spec`` with a deprecated name replaced by its current one (warning once per call
+        site); anything else unchanged."""
+        if isinstance(spec, str) and spec in self._renamed:
+            new = self._renamed[spec]
+            warnings.warn(
+                f"{self.stage} {spec!r} is now called {new!r}; the old name will be removed "
+                "in the next release",
+                DeprecationWarning,
+                stacklevel=3,
+            )
+            return new
+        return spec
+
     def names(self) -> list[str]:
-        """The registered names, in registration order."""
+        """The registered names, in registration order (deprecated names not included)."""
         return list(self._entries)
 
     def describe(self) -> dict[str, str]:
@@ -207,7 +231,7 @@ class Registry:
         return {k: e.description for k, e in self._entries.items()}
 
     def __contains__(self, name: object) -> bool:
-        return name in self._entries
+        return name in self._entries or name in self._renamed
 
     def __reduce__(self) -> tuple[Any, ...]:
         """Pickled by name: the variable :attr:`home` names (its contract holds lambdas)."""
@@ -241,6 +265,7 @@ class Registry:
         object with a ``build(...)`` method (a parameter dataclass such as
         :class:`estimators.attitude.AttitudeParams`), or a class / factory.
         """
+        spec = self.canonical(spec)
         if isinstance(spec, str):
             if spec in self._entries:
                 return load_attr(self._entries[spec].target, self.stage)
@@ -286,3 +311,24 @@ def _as_factory(obj: Any, stage: str, label: str) -> Callable[..., Any]:
         f"{stage}={label!r}: a plug-in must be a registered name, 'package.module:attr', a class "
         "or factory, or an object with a build() method"
     )
+
+
+def renamed_attributes(module_globals: dict[str, Any], renamed: dict[str, str]) -> Any:
+    """A module ``__getattr__`` that keeps each old name in ``renamed`` importable as the object
+    now called by its new name, with a :class:`DeprecationWarning`; other names are an
+    :class:`AttributeError` as usual."""
+    module = module_globals["__name__"]
+
+    def __getattr__(name: str) -> Any:
+        if name in renamed:
+            new = renamed[name]
+            warnings.warn(
+                f"{module}.{name} is now called {new}; the old name will be removed in the "
+                "next release",
+                DeprecationWarning,
+                stacklevel=2,
+            )
+            return module_globals[new]
+        raise AttributeError(f"module {module!r} has no attribute {name!r}")
+
+    return __getattr__

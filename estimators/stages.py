@@ -432,7 +432,7 @@ HAND_CONTRACT = StageContract(
         Rule(
             "ypr",
             f"every angle in [-pi, pi] where finite (radians, wrapped; {ANGLE_TOLERANCE_RAD:g} "
-            "rad of slack); a filtered pitch may pass +-pi/2, as seed003's Kalman filter's does "
+            "rad of slack); a filtered pitch may pass +-pi/2, as yao2023's Kalman filter's does "
             "near the pole",
             _hand_range_broken,
         ),
@@ -576,9 +576,10 @@ ATTITUDE = Registry(
     ATTITUDE_CONTRACT,
     home="estimators.stages:ATTITUDE",
 )
-ATTITUDE.register("ekf", "estimators.attitude.ekf:EkfStage", "seed 000 error-state EKF (corrected)")
+ATTITUDE.register("ekf", "estimators.attitude.ekf:EkfStage",
+                  "Zhang 2021 error-state EKF (corrected)")  # fmt: skip
 ATTITUDE.register(
-    "ekf_paper_literal", "estimators.attitude.ekf:paper_literal_ekf", "seed 000 EKF as printed"
+    "ekf_paper_literal", "estimators.attitude.ekf:paper_literal_ekf", "Zhang 2021 EKF as printed"
 )
 ATTITUDE.register("ekf_f_zero", "estimators.attitude.ekf:f_zero_ekf", "corrected EKF with F = 0")
 ATTITUDE.register("vqf", "estimators.attitude.vqf:VqfStage", "VQF (Laidig & Seel), vqf package")
@@ -594,7 +595,9 @@ STEPS = Registry(
     STEPS_CONTRACT,
     home="estimators.stages:STEPS",
 )
-STEPS.register("seed000", "estimators.steps.zhang2021:Seed000Steps", "seed 000 eqs 15-16 on |f|")
+STEPS.register("zhang2021", "estimators.steps.zhang2021:Zhang2021Steps",
+               "Zhang 2021 eqs 15-16 on |f|")  # fmt: skip
+STEPS.rename("seed000", "zhang2021")
 STEPS.register("threshold", "estimators.steps.threshold:ThresholdSteps", "naive |f| peak picker")
 STEPS.register(
     "nod_robust", "estimators.steps.nod_robust:NodRobustSteps",
@@ -609,7 +612,8 @@ HAND = Registry(
     HAND_CONTRACT,
     home="estimators.stages:HAND",
 )
-HAND.register("seed003", "estimators.hand.pipeline_stages:Seed003Hand", "seed 003 Kalman + median")
+HAND.register("yao2023", "estimators.hand.pipeline_stages:Yao2023Hand", "Yao 2023 Kalman + median")
+HAND.rename("seed003", "yao2023")
 HAND.register("one_euro", "estimators.hand.one_euro:OneEuroHand", "One Euro filter on the angles")
 HAND.register("raw", "estimators.hand.pipeline_stages:RawHand", "the unfiltered eq (1)/(2) angles")
 HAND.register("adaptive_kalman", "estimators.hand.adaptive:AdaptiveKalmanHand",
@@ -639,10 +643,11 @@ LOCOMOTION = Registry(
     home="estimators.stages:LOCOMOTION",
 )
 LOCOMOTION.register(
-    "eq17", "estimators.locomotion.dead_reckoning:DeadReckoning", "seed 000 eq 17 jumps"
+    "eq17", "estimators.locomotion.dead_reckoning:DeadReckoning", "Zhang 2021 eq 17 jumps"
 )
 LOCOMOTION.register(
-    "smooth", "estimators.locomotion.smooth:SmoothLocomotion", "seed 001 smooth filter"
+    "smooth", "estimators.locomotion.smooth:SmoothLocomotion",
+    "the smooth-locomotion paper's filter",
 )
 LOCOMOTION.register(
     "cadence_speed", "estimators.locomotion.cadence_speed:CadenceSpeed",

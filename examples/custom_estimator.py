@@ -1,7 +1,7 @@
 """Plug your own attitude filter into vrloco: a complementary filter in thirty lines.
 
-    python examples/custom_estimator.py             # one episode with it, beside seed 000's EKF
-    vrloco benchmark --techniques seed000,examples/custom_estimator.py:TECHNIQUE --episodes 10
+    python examples/custom_estimator.py             # one episode with it, beside Zhang 2021's EKF
+    vrloco benchmark --techniques zhang2021,examples/custom_estimator.py:TECHNIQUE --episodes 10
 
 The filter needs nothing from vrloco but the stage protocol (:mod:`estimators.stages`,
 ``docs/protocols.md``): a class built as ``Cls(batch_size, fs)`` with ``reset(rows)`` and
@@ -59,7 +59,7 @@ class ComplementaryFilter:
         return out
 
 
-#: The filter in seed 000's chain, for ``vrloco benchmark --techniques``.
+#: The filter in Zhang 2021's chain, for ``vrloco benchmark --techniques``.
 TECHNIQUE = Technique(
     "complementary",
     "a 30-line complementary filter (examples/custom_estimator.py)",
@@ -72,7 +72,7 @@ if __name__ == "__main__":
 
     import vrloco_env  # noqa: F401  (registers the ids)
 
-    for technique in ("seed000", TECHNIQUE):
+    for technique in ("zhang2021", TECHNIQUE):
         env = gym.make("VRLoco-Approach-v0", technique=technique)
         obs, info = env.reset(seed=0)
         errors = []

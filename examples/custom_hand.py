@@ -1,6 +1,6 @@
 """Plug your own hand filter into vrloco: exponential smoothing of the wrist angles.
 
-    python examples/custom_hand.py       # one episode with it, beside seed 003's filter
+    python examples/custom_hand.py       # one episode with it, beside Yao 2023's filter
 
 A hand stage is built as ``Cls(batch_size, fs)`` (fs: the Kinect frame rate, Hz) and has
 ``reset(rows)`` and ``update(frames)``: ``frames`` is an :class:`estimators.hand.HandFrame`
@@ -50,7 +50,7 @@ if __name__ == "__main__":
     from vrloco_env.config import EstimatorConfig
 
     action = np.array([0.0, 0.0, 0.6, -0.4, 0.3])  # stand still, rotate the hand
-    for name, hand in (("seed003", "seed003"), ("SmoothedHand", f"{__file__}:SmoothedHand")):
+    for name, hand in (("yao2023", "yao2023"), ("SmoothedHand", f"{__file__}:SmoothedHand")):
         env = gym.make("VRLoco-Interact-v0", estimators=EstimatorConfig(hand=hand))
         env.reset(seed=0)
         errors = [env.step(action)[-1]["hand_error_deg"] for _ in range(60)]

@@ -2,7 +2,7 @@
 
     python examples/custom_policy.py     # three users of the Avoid corridor, batched
     vrloco benchmark --tasks avoid --policies examples/custom_policy.py:CautiousWalker \\
-        --techniques seed000 --episodes 4 --out out/custom_policy
+        --techniques zhang2021 --episodes 4 --out out/custom_policy
 
 A policy is built as ``Cls(env)`` (any ``factory(env)``) and has ``reset(rng=None, rows=None)``
 and ``act(obs) -> action`` (:class:`agents.scripted.Policy`): one observation ``(n,)`` gives one

@@ -1,6 +1,6 @@
 """Plug your own step detector into vrloco: a peak picker on the specific force's norm.
 
-    python examples/custom_steps.py      # one walk with it, beside seed 000's detector
+    python examples/custom_steps.py      # one walk with it, beside Zhang 2021's detector
 
 A step stage is built as ``Cls(batch_size, fs)`` (fs: the IMU rate, Hz) and has
 ``reset(rows)`` and ``update(acc, gyr, quat)`` returning an :class:`estimators.stages.GaitChunk`:
@@ -70,7 +70,7 @@ if __name__ == "__main__":
     import vrloco_env  # noqa: F401  (registers the ids)
     from vrloco_env.config import EstimatorConfig
 
-    for name, steps in (("seed000", "seed000"), ("PeakSteps", f"{__file__}:PeakSteps")):
+    for name, steps in (("zhang2021", "zhang2021"), ("PeakSteps", f"{__file__}:PeakSteps")):
         env = gym.make("VRLoco-Approach-v0", estimators=EstimatorConfig(steps=steps))
         env.reset(seed=0)
         detected = true = 0

@@ -1,7 +1,7 @@
 """Plug your own task into vrloco: turn round, pass a pillar and reach the goal behind you.
 
     python examples/custom_task.py       # one goal_seeker episode of the task
-    python examples/custom_task.py benchmark --tasks turn_around --techniques seed000 \\
+    python examples/custom_task.py benchmark --tasks turn_around --techniques zhang2021 \\
         --episodes 4 --out out/custom_task
 
 A task is a :class:`~vrloco_env.tasks.base.Task` subclass (the protocol is documented there): its
@@ -25,7 +25,7 @@ examples/custom_task.py:TurnAround`` is refused with the list of registered name
 
     register_task("turn_around", "examples/custom_task.py:TurnAround")
     env = gym.make("VRLoco-TurnAround-v0")  # gym.make_vec too
-    run_benchmark(tasks=["turn_around"], policies=["goal_seeker"], techniques=["seed000"],
+    run_benchmark(tasks=["turn_around"], policies=["goal_seeker"], techniques=["zhang2021"],
                   episodes=4, out_dir="out/custom_task")
 
 The ``vrloco`` command cannot register it, so run this file instead, with the same arguments:

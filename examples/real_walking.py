@@ -1,4 +1,5 @@
-"""A goal-seeking user who really walks (seed 004), tracked by the head camera and the IMU.
+"""A goal-seeking user who really walks (the helmet-tracking paper), tracked by the head camera and
+the IMU.
 
 Runs one Approach episode with ``pose_source="visual_inertial"`` under a chosen lighting
 condition and prints how far the avatar (the visual-inertial estimate) was from the real head.

@@ -1,4 +1,5 @@
-"""Analytic head trajectories with exact derivatives, shared by the seed 004 tests."""
+"""Analytic head trajectories with exact derivatives, shared by the helmet-tracking paper's
+tests."""
 
 import numpy as np
 

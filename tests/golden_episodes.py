@@ -7,9 +7,9 @@ for a change that is meant to alter episodes, and say so in the commit.
 The cases cover every kernel on the default path: the single env of every task (motion, IMU,
 attitude EKF, step detector, Kinect and hand pipeline, locomotion, world), a vector env large
 enough to take the multi-threaded builds, the consumer IMU beside a magnet (magnetometer gating),
-the visual-inertial pose source (seed 004's camera and filter), and techniques whose stages differ
-from the default. Two cases play the goal seeker instead of a fixed action sequence, which pins
-its route planner's choices too.
+the visual-inertial pose source (the helmet-tracking paper's camera and filter), and techniques
+whose stages differ from the default. Two cases play the goal seeker instead of a fixed action
+sequence, which pins its route planner's choices too.
 """
 
 from __future__ import annotations

@@ -222,7 +222,7 @@ def test_the_task_and_policy_examples_run_in_the_benchmark(turn_around):
     from agents.benchmark import run_benchmark
 
     rows = run_benchmark(tasks=[turn_around], policies=["goal_seeker", _walker()],
-                         techniques=["seed000"], episodes=2, workers=1, out_dir=None,
+                         techniques=["zhang2021"], episodes=2, workers=1, out_dir=None,
                          progress=False, print_table=False)  # fmt: skip
     by_policy = {r["policy"]: r for r in rows}
     assert set(by_policy) == {"goal_seeker", _walker()}
@@ -244,7 +244,7 @@ def test_the_task_and_policy_examples_run_from_the_command_line(tmp_path, capsys
     from vrloco_env.registration import ENV_IDS
     from vrloco_env.tasks import TASKS, env_id
 
-    args = ["--techniques", "seed000", "--episodes", "2", "--workers", "1"]
+    args = ["--techniques", "zhang2021", "--episodes", "2", "--workers", "1"]
     argv = sys.argv
     sys.argv = [str(EXAMPLES / "custom_task.py"), "benchmark", "--tasks", "turn_around",
                 "--policies", "goal_seeker", *args, "--out", str(tmp_path / "task")]  # fmt: skip

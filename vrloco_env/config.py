@@ -40,7 +40,7 @@ __all__ = [
 POSE_SOURCES = ("walk_in_place", "visual_inertial")
 
 
-#: The IMU preset of a :class:`SensorConfig` that names none, without a technique: seed 000's.
+#: The IMU preset of a :class:`SensorConfig` that names none, without a technique: Zhang 2021's.
 DEFAULT_IMU = "ig500n"
 
 
@@ -49,7 +49,7 @@ class SensorConfig:
     """The head IMU and the Kinect v2.
 
     Attributes:
-        imu: IMU preset name (``"ig500n"``, seed 000's SBG IG-500N; ``"consumer_mems"``) or an
+        imu: IMU preset name (``"ig500n"``, Zhang 2021's SBG IG-500N; ``"consumer_mems"``) or an
             :class:`~vrloco_env.sensors.imu.ImuSpec`. None (the default): the technique's preset,
             ``"ig500n"`` without a technique. An IMU given here is never replaced: one that
             contradicts the technique's preset is an error.
@@ -58,10 +58,12 @@ class SensorConfig:
         magnetic_disturbances: dipoles (metal, magnets) in the *physical* room, in the tracked
             space's frame where the user stands at the origin.
         kinect: Kinect v2 specification; the default stands 2.5 m in front of the user.
-        head_camera: the helmet camera of seed 004, used with ``pose_source="visual_inertial"``
+        head_camera: the helmet camera of the helmet-tracking paper, used with
+            ``pose_source="visual_inertial"``
             (:mod:`vrloco_env.sensors.camera`; ``camera_spec("low_light", rate_hz=30)``
-            etc.). The env's default runs it at 30 Hz, triggered by the IMU clock (seed 004's
-            120 Hz beside a 1 kHz IMU is the experiment's setting, ``vrloco experiment vio``).
+            etc.). The env's default runs it at 30 Hz, triggered by the IMU clock (the
+            helmet-tracking paper's 120 Hz beside a 1 kHz IMU is the experiment's setting, ``vrloco
+            experiment vio``).
     """
 
     imu: str | ImuSpec | None = None
@@ -113,28 +115,29 @@ class EstimatorConfig:
     (``attitude=AttitudeParams(acc_noise=0.03)``, ``steps=GaitParams(gamma=0.8)``).
 
     Attributes:
-        attitude: head attitude from the IMU (default ``"ekf"``, seed 000's error-state EKF;
+        attitude: head attitude from the IMU (default ``"ekf"``, Zhang 2021's error-state EKF;
             ``"ekf_paper_literal"``, ``"ekf_f_zero"``, ``"vqf"``, ``"madgwick"``, ``"mahony"``,
             ``"gyro_only"``).
-        steps: step detector (default ``"seed000"``, eqs 15-16; ``"threshold"``,
+        steps: step detector (default ``"zhang2021"``, eqs 15-16; ``"threshold"``,
             ``"nod_robust"``).
-        hand: filter of the Kinect's wrist angles (default ``"seed003"``, Kalman + median;
+        hand: filter of the Kinect's wrist angles (default ``"yao2023"``, Kalman + median;
             ``"one_euro"``, ``"raw"``).
         steering: which yaw turns the walking direction (default ``"head"``; ``"torso"``, the
             Kinect's shoulder line).
-        locomotion: ``"eq17"`` (seed 000: jump one step length at each detected step),
-            ``"smooth"`` (seed 001: a planar filter moving the body continuously) or
-            ``"cadence_speed"`` (speed proportional to the estimated cadence).
+        locomotion: ``"eq17"`` (Zhang 2021: jump one step length at each detected step),
+            ``"smooth"`` (the smooth-locomotion paper: a planar filter moving the body continuously)
+            or ``"cadence_speed"`` (speed proportional to the estimated cadence).
         step_length: SL of eq (17) (m).
-        hand_pipeline: seed 003's Kinect processing (target selection, joint smoothing, eq 1/2,
-            and the Kalman + median filter that the ``"seed003"`` hand stage reports).
-        visual_inertial: seed 004's visual-inertial filter (``pose_source="visual_inertial"``);
+        hand_pipeline: Yao 2023's Kinect processing (target selection, joint smoothing, eq 1/2,
+            and the Kalman + median filter that the ``"yao2023"`` hand stage reports).
+        visual_inertial: the helmet-tracking paper's visual-inertial filter
+            (``pose_source="visual_inertial"``);
             Sage-Husa adaptive R by default, since the camera's noise changes with the light.
     """
 
     attitude: Any = "ekf"
-    steps: Any = "seed000"
-    hand: Any = "seed003"
+    steps: Any = "zhang2021"
+    hand: Any = "yao2023"
     steering: Any = "head"
     locomotion: Any = "eq17"
     step_length: float = 0.7
@@ -145,14 +148,16 @@ class EstimatorConfig:
         from estimators import stages
 
         for name in STAGE_FIELDS:
-            value = getattr(self, name)
+            registry = getattr(stages, name.upper())
+            value = registry.canonical(getattr(self, name))  # a deprecated name: today's
+            object.__setattr__(self, name, value)
             if isinstance(value, HandParams):
                 raise ValueError(
                     f"EstimatorConfig.{name}: HandParams configure the Kinect pipeline; pass "
                     "them as hand_pipeline=HandParams(...)"
                 )
             try:
-                getattr(stages, name.upper()).check(value)
+                registry.check(value)
             except ValueError as err:
                 raise ValueError(f"EstimatorConfig.{err}") from None
         check_in_range(self, "step_length", 0.2, 1.5, "m")
@@ -201,10 +206,10 @@ class EnvConfig:
         ray_fov_deg: angular spread of the rays, centred on the virtual heading (deg).
         ray_range_m: rays report at most this range (m).
         pose_source: where the virtual head pose comes from.
-            ``"walk_in_place"`` (default, seed 000): the user steps in place; the virtual body
+            ``"walk_in_place"`` (default, Zhang 2021): the user steps in place; the virtual body
             moves a step length along the IMU's estimated yaw per detected step (eq 17 or the
-            smooth filter). ``"visual_inertial"`` (seed 004): the user really walks through a
-            tracked space the size of the room, with markers on its walls where the room's
+            smooth filter). ``"visual_inertial"`` (the helmet-tracking paper): the user really walks
+            through a tracked space the size of the room, with markers on its walls where the room's
             landmarks are; the virtual head follows the visual-inertial estimate (head camera +
             PnP + adaptive Kalman filter) one to one, and its yaw gives the heading. A step into
             a virtual obstacle is still blocked (the avatar stays, counted as a collision) while

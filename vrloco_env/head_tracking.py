@@ -1,4 +1,5 @@
-"""Visual-inertial head tracking (seed 004) for B users: head camera -> PnP -> Kalman fusion.
+"""Visual-inertial head tracking (the helmet-tracking paper) for B users: head camera -> PnP ->
+Kalman fusion.
 
 This module composes the pieces, it holds no estimator logic::
 

@@ -1,20 +1,21 @@
 """Techniques: named bundles of a sensor preset and one choice (with parameters) per stage.
 
 A technique is what a study compares: "the consumer IMU with VQF and torso steering" against
-"seed 000 as published". ``gym.make(env_id, technique="vqf")`` runs one; ``vrloco benchmark
---techniques seed000,vqf`` compares them; ``vrloco techniques`` lists the registered ones.
-Adding one is one :func:`register` call (or a :class:`Technique` passed directly).
+"Zhang, Chen & Gao 2021 as published". ``gym.make(env_id, technique="vqf")`` runs one;
+``vrloco benchmark --techniques zhang2021,vqf`` compares them; ``vrloco techniques`` lists the
+registered ones. Adding one is one :func:`register` call (or a :class:`Technique` passed directly).
 """
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field, replace
 from typing import Any
 
 from vrloco_env.config import EstimatorConfig
 from vrloco_env.sensors.imu import get_imu_spec
 
-__all__ = ["TECHNIQUES", "Technique", "get_technique", "register"]
+__all__ = ["RENAMED", "TECHNIQUES", "Technique", "canonical_name", "get_technique", "register"]
 
 
 @dataclass(frozen=True)
@@ -57,18 +58,20 @@ def _chain(name: str, description: str, preset: str = "ig500n", **stages: Any) -
     register(Technique(name, description, preset, replace(EstimatorConfig(), **stages)))
 
 
-_chain("seed000", "seed 000 as published (EKF, |f| steps, head steering, eq 17 jumps)")
-_chain("seed000_consumer", "seed 000's chain on a consumer MEMS IMU", preset="consumer_mems")
-_chain("paper_literal", "seed 000 with the EKF as printed", attitude="ekf_paper_literal")
-_chain("vqf", "VQF attitude (Laidig & Seel) in seed 000's chain", attitude="vqf")
-_chain("madgwick", "Madgwick attitude in seed 000's chain", attitude="madgwick")
-_chain("mahony", "Mahony attitude in seed 000's chain", attitude="mahony")
-_chain("threshold_steps", "a naive |f| peak picker instead of seed 000's detector",
+_chain("zhang2021", "Zhang, Chen & Gao 2021 as published (EKF, |f| steps, head steering, eq 17 "
+       "jumps)")  # fmt: skip
+_chain("zhang2021_consumer", "Zhang 2021's chain on a consumer MEMS IMU", preset="consumer_mems")
+_chain("zhang2021_as_printed", "Zhang 2021 with the EKF as printed", attitude="ekf_paper_literal")
+_chain("vqf", "VQF attitude (Laidig & Seel) in Zhang 2021's chain", attitude="vqf")
+_chain("madgwick", "Madgwick attitude in Zhang 2021's chain", attitude="madgwick")
+_chain("mahony", "Mahony attitude in Zhang 2021's chain", attitude="mahony")
+_chain("threshold_steps", "a naive |f| peak picker instead of Zhang 2021's detector",
        steps="threshold")  # fmt: skip
 _chain("nod_robust", "steps from world-vertical force, gated by head rotation",
        steps="nod_robust")  # fmt: skip
 _chain("torso_steering", "walk where the torso points (Kinect shoulders)", steering="torso")
-_chain("smooth", "seed 001's smooth locomotion filter instead of eq 17 jumps", locomotion="smooth")
+_chain("smooth", "the smooth-locomotion paper's filter instead of eq 17 jumps",
+       locomotion="smooth")  # fmt: skip
 _chain("cadence_speed", "speed proportional to the estimated cadence (GUD-WIP style)",
        locomotion="cadence_speed")  # fmt: skip
 _chain("one_euro_hand", "One Euro filter on the hand angles instead of Kalman + median",
@@ -77,7 +80,30 @@ _chain("adaptive_kalman_hand", "motion-adaptive Kalman filter on the hand angles
        hand="adaptive_kalman")  # fmt: skip
 
 #: The technique of an env built without one.
-DEFAULT_TECHNIQUE = "seed000"
+DEFAULT_TECHNIQUE = "zhang2021"
+
+
+#: Earlier names of techniques -> their names now. An old name still works for one release, with a
+#: :class:`DeprecationWarning`; listings show only the new names.
+RENAMED: dict[str, str] = {
+    "seed000": "zhang2021",
+    "seed000_consumer": "zhang2021_consumer",
+    "paper_literal": "zhang2021_as_printed",
+}
+
+
+def canonical_name(name: Any) -> Any:
+    """``name``, or the current name of a technique it used to name (with a warning)."""
+    if isinstance(name, str) and name in RENAMED:
+        new = RENAMED[name]
+        warnings.warn(
+            f"technique {name!r} is now called {new!r}; the old name will be removed in the "
+            "next release",
+            DeprecationWarning,
+            stacklevel=3,
+        )
+        return new
+    return name
 
 
 def get_technique(technique: str | Technique) -> Technique:
@@ -85,6 +111,7 @@ def get_technique(technique: str | Technique) -> Technique:
     technique itself; unknown names get an error listing the registered ones."""
     if isinstance(technique, Technique):
         return technique
+    technique = canonical_name(technique)
     if isinstance(technique, str):
         if technique in TECHNIQUES:
             return TECHNIQUES[technique]

@@ -4,14 +4,16 @@ One control step, as data (SPEC section 1)::
 
     intent -> UserMotion        true head pose at the IMU rate, true heel strikes, true skeleton
            -> HeadImu, KinectV2 IMU samples, Kinect frames (bodies, ids, tracking states)
-           -> AttitudeEKF       estimated head attitude (seed 000)
-           -> StepDetector      still/walk and step events (seed 000)
-           -> HandPipeline      hand orientation (seed 003)
-           -> locomotion        eq (17) or the smooth filter (seed 001): the virtual displacement
+           -> AttitudeEKF       estimated head attitude (Zhang 2021)
+           -> StepDetector      still/walk and step events (Zhang 2021)
+           -> HandPipeline      hand orientation (Yao 2023)
+           -> locomotion        eq (17) or the smooth filter (the smooth-locomotion paper): the
+           virtual displacement
 
-With ``pose_source="visual_inertial"`` (seed 004) the user really walks through the tracked space
-and a head camera + PnP + visual-inertial filter (:mod:`vrloco_env.head_tracking`) replace the
-attitude EKF and the locomotion model: the virtual head follows the estimated pose one to one.
+With ``pose_source="visual_inertial"`` (the helmet-tracking paper) the user really walks through the
+tracked space and a head camera + PnP + visual-inertial filter (:mod:`vrloco_env.head_tracking`)
+replace the attitude EKF and the locomotion model: the virtual head follows the estimated pose one
+to one.
 
 Every stage is batched over the B users and given to :class:`SimulatedUsers` ready-built
 (:func:`vrloco_env.pipeline.build_stages`); this module only composes them (no estimator logic

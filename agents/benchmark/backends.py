@@ -125,7 +125,7 @@ def run_jobs_ray(jobs: list, address: str | None, progress: bool) -> Iterator[li
 
 
 def describe_job(job: tuple) -> str:
-    """A job's cells and seeds: ``cell (approach, goal_seeker, seed000) seeds 0-2, 5``, one per
+    """A job's cells and seeds: ``cell (approach, goal_seeker, zhang2021) seeds 0-2, 5``, one per
     cell, joined by ``; ``."""
     seeds: dict[Any, list[int]] = {}
     for cell, _, seed, _ in job[0]:

@@ -22,7 +22,7 @@ __all__ = [
 COLLISION_CAUSES = ("phantom_step", "stop_latency", "heading_error", "steering", "policy")
 #: The detected steps that may have carried the body into a collision: those reported in the
 #: control steps of the last second (eq 17 moves the body with the step it reports; the smooth
-#: filter of seed 001 spreads a step over about 0.5 s).
+#: filter of the smooth-locomotion paper spreads a step over about 0.5 s).
 CAUSE_WINDOW_S = 1.0
 #: A heading error (virtual minus true head yaw) beyond this (deg) is the cause: at 10 deg a
 #: 0.7 m step lands 0.12 m to the side, more than the scripted users' 0.1 m margin (engineering

@@ -1,7 +1,7 @@
 """Discriminating power: the technique pairs a benchmark run should tell apart, and whether it does.
 
 Each :class:`Pair` names a technique, the users and room in which it should differ from the
-baseline technique (``seed000``), the direction it should differ in and why. A run's rows carry
+baseline technique (``zhang2021``), the direction it should differ in and why. A run's rows carry
 each cell's paired tests against the baseline on the same seeds (``vs_baseline``,
 :mod:`agents.benchmark.paired`); :func:`pair_results` reads them: a pair *separates* where one of
 its signature metrics or one outcome (success, collisions, SPL, time to goal) differs at p <
@@ -62,11 +62,11 @@ class Pair:
 
 #: The pairs the default run (:data:`agents.benchmark.DEFAULT_GRIDS`) should separate.
 PAIRS = (
-    Pair("paper_literal", "goal_seeker+typical",
+    Pair("zhang2021_as_printed", "goal_seeker+typical",
          (("yaw_drift_deg_per_min", +1), ("heading_error_rmse_deg", +1),
           ("yaw_rate_mismatch_deg_s", +1)),
          why="the EKF as printed does not estimate the gyro bias: the heading drifts"),
-    Pair("seed000_consumer", "goal_seeker+typical",
+    Pair("zhang2021_consumer", "goal_seeker+typical",
          (("heading_error_rmse_deg", +1), ("attitude_rmse_deg", +1),
           ("yaw_drift_deg_per_min", +1), ("yaw_rate_mismatch_deg_s", +1)),
          why="a consumer MEMS IMU: more gyro bias, noise and magnetometer error"),
@@ -82,11 +82,11 @@ PAIRS = (
          why="head steering walks where the head looks; the torso keeps the body's line"),
     Pair("smooth", "goal_seeker+typical",
          (("virtual_jerk_m_s3", -1), ("stop_latency_s", +1)),
-         why="seed 001's smooth filter spreads each step: less jerk, a later stop"),
+         why="the smooth-locomotion paper's filter spreads each step: less jerk, a later stop"),
     Pair("madgwick", "goal_seeker+typical",
          (("heading_error_rmse_deg", +1), ("yaw_drift_deg_per_min", +1),
           ("yaw_rate_mismatch_deg_s", +1)), condition="beside_metal",
-         why="an ungated magnetometer follows the cabinet's field; seed 000's EKF gates it"),
+         why="an ungated magnetometer follows the cabinet's field; Zhang 2021's EKF gates it"),
 )  # fmt: skip
 
 
@@ -141,7 +141,7 @@ def pair_results(rows: list[dict[str, Any]], pairs: tuple[Pair, ...] = PAIRS) ->
     return out
 
 
-def show_pairs(results: list[dict], baseline: str = "seed000", width: int | None = None) -> None:
+def show_pairs(results: list[dict], baseline: str = "zhang2021", width: int | None = None) -> None:
     """The pairs: each pair's metrics that differ from ``baseline`` in the expected direction,
     and a count of the pairs that separate (on an outcome). ``width``: the console's columns
     (None: :func:`agents.benchmark.outputs.terminal_console`'s choice). A console narrower than

@@ -1,4 +1,4 @@
-"""The benchmark's figures: of one episode per cell (the analogues of seed 000's Figs. 2-5: the
+"""The benchmark's figures: of one episode per cell (the analogues of Zhang 2021's Figs. 2-5: the
 true and virtual paths over the room, the head attitude, truth vs estimate, and the gait, true
 heel strikes vs detected steps; :func:`draw_cell`) and of the whole grid (the metrics with their
 intervals, the collisions by cause, the latency distributions; :func:`draw_grid`), each written
@@ -69,7 +69,7 @@ def _draw_room(ax: Any, layout: Any) -> None:
 
 def draw_cell(out_dir: Path, cell: Cell, stats: EpisodeStats) -> list[Path]:
     """The three figures of one episode (needs ``stats.trace``): paths over the room
-    (seed 000 Figs. 4/5), head attitude truth vs estimate (Fig. 3), gait (Fig. 2).
+    (Zhang 2021 Figs. 4/5), head attitude truth vs estimate (Fig. 3), gait (Fig. 2).
 
     Returns:
         The written files.

@@ -34,7 +34,7 @@ __all__ = [
 
 #: The technique every other one is compared with, episode by episode
 #: (:mod:`agents.benchmark.paired`).
-BASELINE_TECHNIQUE = "seed000"
+BASELINE_TECHNIQUE = "zhang2021"
 
 #: Keys of every row of the CSV/JSON output, in order.
 ROW_KEYS = (

@@ -1,7 +1,7 @@
 """``vrloco benchmark``: simulated users x tasks x techniques over seeded episodes.
 
 A technique (:mod:`vrloco_env.techniques`) is a sensor preset plus one choice per estimation
-stage; ``--sensors`` is a shorthand for seed 000's chain on each IMU preset. Every cell of the
+stage; ``--sensors`` is a shorthand for Zhang 2021's chain on each IMU preset. Every cell of the
 grid (task, policy, technique) runs ``episodes`` episodes; episode ``i`` of every cell is seeded
 ``seed + i`` (the env's ``reset(seed=...)``; the policy draws from ``default_rng([seed + i, 1])``),
 so the same episode index meets the same room in every cell, and an episode's numbers depend on
@@ -93,8 +93,8 @@ __all__ = [
 ]
 
 def technique_for_preset(preset: str) -> Any:
-    """Seed 000's chain on the IMU ``preset`` (the ``--sensors`` shorthand): the registered
-    technique if one is exactly that, else an unregistered one named ``seed000_<preset>``."""
+    """Zhang 2021's chain on the IMU ``preset`` (the ``--sensors`` shorthand): the registered
+    technique if one is exactly that, else an unregistered one named ``zhang2021_<preset>``."""
     from vrloco_env.config import EstimatorConfig
     from vrloco_env.sensors.imu import get_imu_spec
     from vrloco_env.techniques import TECHNIQUES, Technique
@@ -103,7 +103,7 @@ def technique_for_preset(preset: str) -> Any:
     for tech in TECHNIQUES.values():
         if tech.sensor_preset == preset and tech.estimators == EstimatorConfig():
             return tech.name
-    return Technique(f"seed000_{preset}", f"seed 000's chain on {preset}", preset)
+    return Technique(f"zhang2021_{preset}", f"Zhang 2021's chain on {preset}", preset)
 
 
 def check_policy_name(name: str) -> str:
@@ -146,7 +146,7 @@ def run_benchmark(
         tasks: registered task names (:mod:`vrloco_env.tasks`).
         policies: scripted users, optionally with ``+<population>``
             (:mod:`agents.benchmark.policies`).
-        sensors: IMU presets (``ig500n``, ``consumer_mems``): shorthand for seed 000's chain on
+        sensors: IMU presets (``ig500n``, ``consumer_mems``): shorthand for Zhang 2021's chain on
             each, added to ``techniques``.
         techniques: registered technique names, ``"module:attr"`` strings or
             :class:`~vrloco_env.techniques.Technique` objects. Without ``sensors`` and
@@ -191,8 +191,9 @@ def run_benchmark(
         agents.benchmark.outputs.WriteError: an output could not be written (a full disk),
             naming the file; the folder keeps its earlier files.
     """
-    from vrloco_env.techniques import get_technique
+    from vrloco_env.techniques import canonical_name, get_technique
 
+    baseline = canonical_name(baseline)
     axes = (tasks, policies, sensors, techniques, conditions)
     if grids is not None and any(a is not None for a in axes):
         raise ValueError("grids replaces tasks, policies, sensors, techniques and conditions: "

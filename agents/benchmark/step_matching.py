@@ -2,7 +2,7 @@
 
 The env reports the true heel-strike times and the detector's estimated heel-strike times of each
 step (``info["true_step_times"]``, ``info["detected_step_times"]``, episode time, inf-padded);
-:func:`match_step_times` matches them one to one within +-0.2 s, seed 000's tolerance
+:func:`match_step_times` matches them one to one within +-0.2 s, Zhang 2021's tolerance
 (:func:`step_f1`). The detector is causal and reports a step 0.135 s after it,
 and the first step of a walking bout only with the second; matching the estimated heel-strike
 times, not the reporting times, judges where a step was detected, not when.
@@ -32,7 +32,7 @@ __all__ = [
 
 #: Default lateness (control steps) allowed between a heel strike and its detection: 0.2 s.
 DEFAULT_LATE_STEPS = 2
-#: Step matching tolerance (s), seed 000's +-0.2 s.
+#: Step matching tolerance (s), Zhang 2021's +-0.2 s.
 STEP_TOLERANCE_S = 0.2
 
 
@@ -160,7 +160,7 @@ def finite_times(per_step: ArrayLike) -> NDArray[np.float64]:
 def step_window(reset_info: dict, dt: float) -> tuple[int, int]:
     """The step-matching window ``(late, early)`` in control steps of ``dt`` s, from an episode's
     reset info: a detection may come up to the step stage's report delay after its heel strike
-    (seed 000: gamma_t plus the detector's latency, a bout's first step being held until the
+    (Zhang 2021: gamma_t plus the detector's latency, a bout's first step being held until the
     second), and one control step early (a heel strike at a control-step boundary). See
     :mod:`agents.benchmark.metrics`."""
     late = math.ceil(float(reset_info["step_report_delay_s"]) / dt - 1e-9)

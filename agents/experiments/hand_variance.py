@@ -1,4 +1,4 @@
-"""Seed 003's experiment 2 on the synthetic Kinect v2, plus what variance alone hides.
+"""Yao 2023's experiment 2 on the synthetic Kinect v2, plus what variance alone hides.
 
 1. Static: the user holds the right hand still, turned about the forearm to each of the paper's 11
    angles (-90, 0, 90, -35, -50, -65, -75, 30, 45, 60, 75 deg), R repeats of 10 s at 30 Hz. The
@@ -8,7 +8,7 @@
 2. Moving: the hand sweeps about the forearm at 90 deg/s between -75 and +75 deg. RMSE against the
    true orientation per axis and lag on the swept axis (ms).
 
-Both for raw, seed 003's Kalman and Kalman + median, and the registered hand stages that compete
+Both for raw, Yao 2023's Kalman and Kalman + median, and the registered hand stages that compete
 with them (:data:`COMPETITORS`: the One Euro filter and the motion-adaptive Kalman filter).
 
 Everything runs through the real chain: motion model -> Kinect model (bystanders, ids, tracking
@@ -31,7 +31,7 @@ The core of the static experiment on given orientation sequences is
 :func:`hand_variance_experiment` (through :class:`estimators.hand.OrientationFilter`, the pipeline's
 compiled stage 3). Run: ``vrloco experiment hand-variance --json out/hand_variance.json``; the
 tuning rules on the development seeds: ``python -m agents.experiments.hand_variance [--only
-seed003 adaptive_kalman one_euro]`` (:func:`run_tuning`).
+yao2023 adaptive_kalman one_euro]`` (:func:`run_tuning`).
 """
 
 from __future__ import annotations
@@ -74,9 +74,9 @@ from vrloco_env.batch_rng import BatchRng
 from vrloco_env.sensors.kinect import KinectSpec, KinectV2
 from vrloco_env.user import Intent, MotionParams, UserMotion
 
-#: Seed 003's 11 static angles (deg), in the order of its Tables 1-3.
+#: Yao 2023's 11 static angles (deg), in the order of its Tables 1-3.
 PAPER_ANGLES_DEG = (-90, 0, 90, -35, -50, -65, -75, 30, 45, 60, 75)
-#: Seed 003 Table 4: variance reduction (%) per axis (roll, pitch, yaw).
+#: Yao 2023 Table 4: variance reduction (%) per axis (roll, pitch, yaw).
 PAPER_REDUCTION = {
     "kalman": {"roll": 54.0, "pitch": 40.0, "yaw": 54.0},
     "kalman_median": {"roll": 65.0, "pitch": 54.0, "yaw": 69.0},
@@ -85,7 +85,7 @@ PAPER_REDUCTION = {
 #: moving ones (10 users). Reported figures use other seeds.
 DEV_STATIC_SEEDS = (1, 2)
 DEV_MOVING_SEEDS = (101, 102)
-#: Registered hand stages (:data:`estimators.stages.HAND`) run beside seed 003's filters.
+#: Registered hand stages (:data:`estimators.stages.HAND`) run beside Yao 2023's filters.
 COMPETITORS = ("one_euro", "adaptive_kalman")
 #: Every filter the experiment reports: the pipeline's own outputs, then the competitors.
 FILTERS = ("raw", "kalman", "kalman_median", *COMPETITORS)
@@ -97,7 +97,7 @@ _FS = 30.0
 
 @dataclass
 class HandVarianceResult:
-    """Seed 003 experiment 2 (Tables 1-4): variances of static hand angles, deg^2.
+    """Yao 2023 experiment 2 (Tables 1-4): variances of static hand angles, deg^2.
 
     Columns are our ``[yaw, pitch, roll]`` = the paper's *Roll, Pitch, Yaw* (see
     :data:`PAPER_AXIS_NAMES`).
@@ -118,7 +118,7 @@ class HandVarianceResult:
     reduction_filtered: NDArray[np.float64]
 
     def table(self) -> str:
-        """Seed 003's Table 4 layout: reduction per paper axis name, Kalman and Kalman + median."""
+        """Yao 2023's Table 4 layout: reduction per paper axis name, Kalman and Kalman + median."""
         lines = ["axis (paper)  Kalman %  Kalman+median %"]
         for i, name in enumerate(PAPER_AXIS_NAMES):
             lines.append(
@@ -138,7 +138,7 @@ def _pooled_variance(ypr: NDArray[np.float64], poses: int) -> NDArray[np.float64
 def hand_variance_experiment(
     hand_orientation: ArrayLike, params: HandParams | None = None, warmup_frames: int = 30
 ) -> HandVarianceResult:
-    """Core of seed 003's static-variance experiment (its experiment 2, Tables 1-4).
+    """Core of Yao 2023's static-variance experiment (its experiment 2, Tables 1-4).
 
     The paper holds the hand still at 11 yaw angles (its yaw: our roll, the rotation about the
     bone) and repeats 10 times, comparing the variance of the raw, Kalman and Kalman + median
@@ -480,7 +480,7 @@ def format_table(result: dict) -> str:
     cols = "".join(f"{a:>8}" for a in axes)
     mv = result["moving"]
     lines = [
-        f"Seed 003 experiment 2 on the synthetic Kinect v2 ({len(result['angles_deg'])} angles x "
+        f"Yao 2023 experiment 2 on the synthetic Kinect v2 ({len(result['angles_deg'])} angles x "
         f"{result['repeats']} repeats x {result['seconds']:.0f} s, seed {result['seed']}; moving "
         f"seed {mv['seed']}): {result['label']} (development seeds: static "
         f"{result['development_seeds']['static']}, moving {result['development_seeds']['moving']})",
@@ -563,10 +563,10 @@ def _angles(trial: HandTrial, params: HandParams, output: str = "ypr") -> NDArra
     return getattr(out, output)
 
 
-def tune_seed003_accel_psd(static: list[HandTrial], moving: list[HandTrial],
+def tune_yao2023_accel_psd(static: list[HandTrial], moving: list[HandTrial],
                            grid: tuple[float, ...] = (0.03, 0.1, 0.3, 1.0, 3.0, 10.0)
                            ) -> list[tuple[float, dict]]:  # fmt: skip
-    """Seed 003's ``KalmanParams.accel_psd``: the development scores of the Kalman output (the
+    """Yao 2023's ``KalmanParams.accel_psd``: the development scores of the Kalman output (the
     other fields at their defaults, ``max_accel_psd`` raised to ``accel_psd`` where below it);
     the rule takes the smallest ``mean_ratio``."""
     rows = []
@@ -611,19 +611,19 @@ def tune_one_euro(static: list[HandTrial], moving: list[HandTrial]
     return rows
 
 
-def run_tuning(which: tuple[str, ...] = ("seed003", "adaptive_kalman", "one_euro")) -> dict:
+def run_tuning(which: tuple[str, ...] = ("yao2023", "adaptive_kalman", "one_euro")) -> dict:
     """Print each rule's grid and choice on the development seeds (the One Euro grid, 600
     settings, takes some minutes); returns the chosen settings."""
     static, moving = development_trials()
     chosen: dict = {}
     print(f"development seeds: static {DEV_STATIC_SEEDS}, moving {DEV_MOVING_SEEDS} (in-sample)")
-    if "seed003" in which:
-        rows = tune_seed003_accel_psd(static, moving)
-        print("seed 003 KalmanParams.accel_psd: mean RMSE ratio of the Kalman output")
+    if "yao2023" in which:
+        rows = tune_yao2023_accel_psd(static, moving)
+        print("Yao 2023 KalmanParams.accel_psd: mean RMSE ratio of the Kalman output")
         for q, sc in rows:
             print(f"  {q:8.3f}  {sc['mean_ratio']:.4f}  rest reduction "
                   f"{np.round(sc['rest_reduction'].mean(axis=0), 1)}")  # fmt: skip
-        chosen["seed003"] = min(rows, key=lambda r: r[1]["mean_ratio"])[0]
+        chosen["yao2023"] = min(rows, key=lambda r: r[1]["mean_ratio"])[0]
     if "adaptive_kalman" in which:
         rows = tune_adaptive_kalman(static, moving)
         ok = [r for r in rows if max(r[1]["rest_ratio"].max(), r[1]["moving_ratio"].max()) < 1.0]
@@ -648,6 +648,6 @@ if __name__ == "__main__":
     import argparse
 
     parser = argparse.ArgumentParser(description="tune the hand filters on the development seeds")
-    parser.add_argument("--only", nargs="+", default=["seed003", "adaptive_kalman", "one_euro"],
-                        choices=["seed003", "adaptive_kalman", "one_euro"])  # fmt: skip
+    parser.add_argument("--only", nargs="+", default=["yao2023", "adaptive_kalman", "one_euro"],
+                        choices=["yao2023", "adaptive_kalman", "one_euro"])  # fmt: skip
     run_tuning(tuple(parser.parse_args().only))

@@ -1,4 +1,4 @@
-"""Seed 000's experiments in simulation, with ground truth the paper did not have.
+"""Zhang 2021's experiments in simulation, with ground truth the paper did not have.
 
 * Fig. 3 / section 4.1: the five in-place head motions (serpentine, pitch, shake, spin, backward)
   with the IMU on the forehead. Attitude RMSE against the true attitude (yaw, pitch, roll) for both
@@ -10,7 +10,7 @@
   phantom steps during the head-only motions.
 * Figs. 4 and 5 / section 4.2: a straight walk in place, and a walk turning 45 deg away from an
   obstacle and back; true path (true steps, true heading) against eq (17) (detected steps,
-  estimated heading) and the smooth-locomotion filter (seed 001).
+  estimated heading) and the smooth-locomotion filter (the smooth-locomotion paper).
 
 Run: ``vrloco experiment head-motions [--out DIR] [--json PATH] [--users N]``.
 """
@@ -54,7 +54,7 @@ class Trial:
 
 
 def sense_record(record: MotionRecord, rng: BatchRng, preset: str, fs: float) -> Trial:
-    """A true motion record through the head IMU ``preset`` at ``fs`` Hz, the seed 000 EKF and
+    """A true motion record through the head IMU ``preset`` at ``fs`` Hz, the Zhang 2021 EKF and
     step detector: the :class:`Trial` of every head-motion case."""
     imu = HeadImu(get_imu_spec(preset), rng, rate_hz=fs)
     s = imu.sample(record.quat, record.omega, record.acc, record.pos)
@@ -188,7 +188,7 @@ def run_head_motions(out_dir: Path | None = None, json_path: Path | None = None,
 
 
 def format_tables(result: dict) -> str:
-    lines = [f"Seed 000 head motions, simulated ({result['users']} users each), attitude RMSE vs "
+    lines = [f"Zhang 2021 head motions, simulated ({result['users']} users each), attitude RMSE vs "
              "truth (deg) and mean deviation from VQF (deg; the paper: 1.1e-2 vs the IMU's "
              "own filter)"]  # fmt: skip
     lines.append(f"  {'preset':<14}{'motion':<12}{'yaw':>7}{'pitch':>7}{'roll':>7}{'vs VQF':>9}")
@@ -241,7 +241,8 @@ def draw_figures(out_dir: Path, fig3: dict[str, Trial], walks: dict[str, Trial],
                 ax.set_title(name)
         axes[-1, j].set_xlabel("time (s)")
     axes[0, 0].legend(fontsize=8)
-    fig.suptitle("Head attitude during seed 000's five motions (ig500n, 100 Hz): estimate vs truth")
+    fig.suptitle("Head attitude during Zhang 2021's five motions (ig500n, 100 Hz): estimate vs "
+                 "truth")
     written.append(out_dir / "fig3_attitude.png")
     fig.savefig(written[-1], dpi=110)
     plt.close(fig)
@@ -262,7 +263,7 @@ def draw_figures(out_dir: Path, fig3: dict[str, Trial], walks: dict[str, Trial],
     ax.set_ylabel("|f| (m/s²)")
     ax.set_ylim(fnorm.min() - 0.3, fnorm.max() + 1.6)
     ax.legend(fontsize=8, loc="center left", bbox_to_anchor=(1.0, 0.5))
-    ax.set_title("Still / walk recognition and step events (seed 000 Fig. 2 analogue)")
+    ax.set_title("Still / walk recognition and step events (Zhang 2021 Fig. 2 analogue)")
     written.append(out_dir / "fig2_gait.png")
     fig.savefig(written[-1], dpi=110)
     plt.close(fig)
@@ -274,7 +275,7 @@ def draw_figures(out_dir: Path, fig3: dict[str, Trial], walks: dict[str, Trial],
         ps = paths[name]
         ax.plot(*ps["true"].T, color="0.6", lw=3, label="true steps and heading")
         ax.plot(*ps["eq17"].T, "o-", color="tab:red", ms=3, lw=0.8, label="eq (17)")
-        ax.plot(*ps["smooth"].T, color="tab:blue", lw=1.2, label="smooth (seed 001)")
+        ax.plot(*ps["smooth"].T, color="tab:blue", lw=1.2, label="smooth")
         ax.set_aspect("equal", adjustable="datalim")
         ax.set_xlabel("x east (m)")
         ax.set_ylabel("y north (m)")

@@ -1,4 +1,5 @@
-"""Eq (17) against the smooth-locomotion filter (seed 001): distance kept, jerk removed.
+"""Eq (17) against the smooth-locomotion filter (the smooth-locomotion paper): distance kept, jerk
+removed.
 
 :func:`compare_locomotion` runs both models on the same step events; :func:`run_locomotion_table`
 prints its table. Run: ``vrloco experiment locomotion [--json PATH]``.

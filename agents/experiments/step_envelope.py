@@ -16,7 +16,7 @@ Cases (:data:`CASES`; 2 s still, the motion, 2 s still, as the head-motion scrip
   0.12-0.45 g: about 1.2 and 0.7 cm of vertical head travel per step, against the model's 2-3 cm.
   Lee, Ahn & Hwang (Sensors 18(9) 2832, 2018, Fig. 4) show that a "march-in-place" moves a
   headset much less than a "jog-in-place", but give no acceleration; the two values are an
-  engineering choice bracketing the detectors' 0.07 g threshold (seed 000's gamma), so they show
+  engineering choice bracketing the detectors' 0.07 g threshold (Zhang 2021's gamma), so they show
   where each detector's floor lies.
 * **Heavy nods** — +-35 deg at 1.5 Hz, standing and while stepping at 1.7 steps/s, and fast
   small nods, +-5 deg at 3 Hz, standing. Frequencies: Hale et al. (J. Nonverbal Behav. 44, 2020,
@@ -386,7 +386,7 @@ def two_fold_gamma(t: NDArray[np.float64], acc: NDArray[np.float64],
                    grid_g: tuple[float, ...] = GAMMA_GRID_G) -> dict:  # fmt: skip
     """Choose the neck-pouch preset's gamma on one half of the recording, score it on the other.
 
-    For each half: seed 000's detector (``GaitParams.neck_pouch(gamma=...)``, offline
+    For each half: Zhang 2021's detector (``GaitParams.neck_pouch(gamma=...)``, offline
     :func:`estimators.steps.offline.detect_steps`) runs on that half's samples alone for every gamma
     of ``grid_g``; the best F1 wins (ties: the smallest gamma, the most sensitive, which keeps the
     lightest steps). The winner is scored on the other half, beside the preset's 0.15 g and the
@@ -450,11 +450,11 @@ def oxford_table(folder: Path | None = None) -> dict | None:
     for name in STEPS.names():
         rows[name] = {"label": "not tuned on this recording",
                       **_score(truth, oxford_detections(name, rec.t, rec.acc))}  # fmt: skip
-    rows["seed000 neck_pouch"] = {
+    rows["zhang2021 neck_pouch"] = {
         "label": "in-sample (preset tuned on this recording)",
         **_score(truth, oxford_detections(GaitParams.neck_pouch(), rec.t, rec.acc)),
     }
-    rows["seed000 neck_pouch (detect_steps)"] = {
+    rows["zhang2021 neck_pouch (detect_steps)"] = {
         "label": "in-sample (preset tuned on this recording); vrloco estimate's path",
         **_score(truth, detect_steps(rec.t, rec.acc, params=GaitParams.neck_pouch()).step_times),
     }

@@ -215,7 +215,7 @@ def record_dataset(
     task: str,
     policy: str,
     dataset_id: str,
-    technique: str = "seed000",
+    technique: str = "zhang2021",
     episodes: int = 100,
     seed: int = 0,
     max_episode_steps: int | None = None,

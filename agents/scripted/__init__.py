@@ -22,7 +22,7 @@ Modules:
   * :mod:`agents.scripted.goal_seeker` — :class:`GoalSeeker`: turn toward the goal, step when
     aligned, re-align when the bearing error grows, along the shortest way around what it has
     seen (a map of the ray hits).
-  * :mod:`agents.scripted.avoid_manoeuvre` — :class:`AvoidManoeuvre`: seed 000's Fig. 5
+  * :mod:`agents.scripted.avoid_manoeuvre` — :class:`AvoidManoeuvre`: Zhang 2021's Fig. 5
     manoeuvre: turn away from an obstacle ahead, step, turn back to the original heading.
   * :mod:`agents.scripted.reactive_avoider` — :class:`ReactiveAvoider`: a potential field on the
     current rays (Khatib 1986), no memory.

@@ -1,4 +1,4 @@
-"""The avoid manoeuvre: seed 000's Fig. 5 turn-away-and-back as a scripted user.
+"""The avoid manoeuvre: Zhang 2021's Fig. 5 turn-away-and-back as a scripted user.
 
 :class:`AvoidManoeuvre` walks at the goal; when an obstacle stands on the line ahead it turns away
 by a fixed angle, steps until the original heading is clear, turns back to the original heading and
@@ -19,7 +19,7 @@ __all__ = ["AvoidManoeuvre"]
 
 
 class AvoidManoeuvre(ScriptedPolicy):
-    """Seed 000 Fig. 5: turn away, step, turn back to the original heading.
+    """Zhang 2021 Fig. 5: turn away, step, turn back to the original heading.
 
     Phases per user: *cruise* (turn to the goal, walk when aligned); when the way along the
     heading, seen by the rays, is free for less than ``trigger_m`` short of the goal, remember
@@ -33,7 +33,7 @@ class AvoidManoeuvre(ScriptedPolicy):
     Args:
         layout: observation layout.
         params: behaviour parameters.
-        away_deg: how far to turn away (deg); seed 000 Fig. 5 shows roughly 45 deg.
+        away_deg: how far to turn away (deg); Zhang 2021 Fig. 5 shows roughly 45 deg.
         trigger_m: start the manoeuvre when the obstacle ahead is this close (m).
         beyond_m: how far past the trigger distance the original heading must be free before
             turning back (m).

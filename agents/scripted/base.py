@@ -27,7 +27,7 @@ The head. With a user population that turns the head on the torso (gaze,
 turn action turns the body. A human knows where their head points relative to their body
 (proprioception), so the users read the observation's ``head_on_torso`` and turn the body toward
 their target: the target relative to the view plus the head's yaw on the torso. The walking
-direction is the head's under seed 000's steering and the torso's under torso steering
+direction is the head's under Zhang 2021's steering and the torso's under torso steering
 (``PolicyParams.walks_with_torso``, learnt like the step length): the goal seeker dead-reckons its
 map and checks the way ahead along it, and plans relative to it
 (:attr:`ScriptedPolicy.plans_along_walk`); the reactive users check the way ahead along the view.

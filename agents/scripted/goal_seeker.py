@@ -58,8 +58,8 @@ class GoalSeeker(ScriptedPolicy):
     control step (the same actions, slower); ``plans_reused`` counts the user-steps whose plan
     was reused.
 
-    Under the smooth locomotion filter (seed 001) the body moves between detected steps, so the
-    dead-reckoned map is approximate (the filter's lag, well under a metre).
+    Under the smooth locomotion filter (the smooth-locomotion paper) the body moves between detected
+    steps, so the dead-reckoned map is approximate (the filter's lag, well under a metre).
 
     Args:
         layout: observation layout.

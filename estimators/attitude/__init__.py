@@ -1,6 +1,6 @@
 """Head attitude from a head-worn IMU: the attitude stages of :data:`estimators.stages.ATTITUDE`.
 
-* :mod:`~estimators.attitude.ekf` — seed 000's error-state EKF (Zhang, Chen & Gao 2021, corrected
+* :mod:`~estimators.attitude.ekf` — Zhang 2021's error-state EKF (Zhang, Chen & Gao 2021, corrected
   with Trawny & Roumeliotis 2005): :class:`AttitudeEKF`, its parameters and its stages.
 * :mod:`~estimators.attitude.offline` — whole recordings: :func:`estimate_attitude`, causal or
   smoothed forward-backward (:func:`smooth_attitude`).

@@ -1,4 +1,4 @@
-"""Head attitude from a 9D IMU: the indirect (error-state) EKF of seed 000, section 1.
+"""Head attitude from a 9D IMU: the indirect (error-state) EKF of Zhang 2021, section 1.
 
 Source: Zhang, Chen, Gao, "Hands-free interaction based on an IMU in a VR device" (2021), eqs
 (1)-(14) (``shared/seeds/000_*.txt``), corrected with the paper's own reference [21], Trawny &
@@ -96,7 +96,7 @@ above (one kernel, two switches in its parameter record):
 * ``"f_zero"``: an ablation, the printed ``F = 0`` with the corrected measurements, robustness
   included. The zero-rate update at rest measures the bias directly (``H = [0 I]``), so this
   model still learns the bias whenever the sensor rests, and ``F = 0`` shows only in motion.
-* ``"paper_literal"``: the filter as seed 000 prints it, eqs (1)-(14), read as follows.
+* ``"paper_literal"``: the filter as Zhang 2021 prints it, eqs (1)-(14), read as follows.
 
   Printed and used as printed: the state ``x = [phi, b]`` with ``phi = [theta, gamma, psi]``
   (pitch, roll, yaw; eq 1) and the error state ``dx = [dphi, db]`` (eq 6); the quaternion update
@@ -219,9 +219,9 @@ class AttitudeParams:
         model: the filter (module docstring, "Models"). ``"trawny"`` (default): the error
             dynamics ``F = [[-[w x], -I], [0, 0]]`` of the paper's reference [21] and the
             corrected, robust measurement update; the gyro bias is estimated. ``"f_zero"``:
-            the printed ``F = 0`` (seed 000 eq 7) with the same measurement update; the bias
-            is learned at rest only. ``"paper_literal"``: the filter as printed, ``F = 0`` and
-            the Euler-angle residuals of eqs (10)-(14) with a constant R, no rest update and
+            the printed ``F = 0`` (Zhang 2021 eq 7) with the same measurement update; the bias
+            is learned at rest only. ``"paper_literal"``: the filter as printed, ``F = 0``
+            and the Euler-angle residuals of eqs (10)-(14) with a constant R, no rest update and
             no magnetometer check; the bias is never estimated. ``paper_literal`` reads only
             ``gyr_noise``, ``bias_walk``, ``att_init_std``, ``bias_init_std``, ``acc_noise``,
             ``gravity`` (initialisation), ``mag_noise``, ``declination`` and ``gyr_gap_rate``.
@@ -234,14 +234,14 @@ class AttitudeParams:
         att_init_std: initial attitude standard deviation, rad. Default 5 deg: one noisy
             accelerometer/magnetometer sample sets the initial attitude.
         bias_init_std: initial gyro bias standard deviation, rad/s. Default 1 deg/s: the
-            turn-on bias of a consumer MEMS gyro (SBG IG-500N: 0.1 deg/s stability, seed 000
+            turn-on bias of a consumer MEMS gyro (SBG IG-500N: 0.1 deg/s stability, Zhang 2021
             section 4; consumer parts up to a few deg/s).
         acc_noise: tilt measurement noise density, rad*sqrt(s) (``R = acc_noise^2 / dt``).
             Default 0.02: a tilt correction time constant of about ``acc_noise / gyr_noise``
             = 11 s, long enough to average head accelerations out, short enough to follow the
             gyro drift (BROAD: 0.015-0.04 within 0.15 deg of the best).
         acc_motion_ref: motion level (m/s^2) at which the tilt variance doubles. Default 5 m/s^2
-            (about 0.5 g, the peaks of the specific-force norm while walking, seed 000 Fig 2).
+            (about 0.5 g, the peaks of the specific-force norm while walking, Zhang 2021 Fig 2).
         motion_tau: time constant (s) of the low-pass on ``| |f| - g |`` that gives the motion
             level, and of the candidate-field average. Default 5 s, a few strides.
         gravity: gravity magnitude, m/s^2, for the tilt measurement and the initialisation
@@ -412,7 +412,8 @@ class AttitudeEKF(TakesUsers):
         n_streams: number of streams B (users), >= 1.
         fs: sampling rate, Hz (fixed; one sample every ``1/fs`` s).
         params: filter parameters (defaults: :class:`AttitudeParams`).
-        **overrides: fields of :class:`AttitudeParams` to change, e.g. ``model="paper_literal"``.
+        **overrides: fields of :class:`AttitudeParams` to change, e.g.
+            ``model="paper_literal"``.
 
     Example:
         >>> ekf = AttitudeEKF(2, fs=100.0)
@@ -621,7 +622,7 @@ class EkfStage(TakesUsers):
 
 
 def paper_literal_ekf(batch_size: int, fs: float) -> EkfStage:
-    """Seed 000's EKF as printed, ``model="paper_literal"`` (:attr:`AttitudeParams.model`)."""
+    """Zhang 2021's EKF as printed, ``model="paper_literal"`` (:attr:`AttitudeParams.model`)."""
     return EkfStage(batch_size, fs, AttitudeParams(model="paper_literal"))
 
 

@@ -1,9 +1,9 @@
-"""Attitude of whole recordings: :func:`estimate_attitude` runs seed 000's EKF over one or B
+"""Attitude of whole recordings: :func:`estimate_attitude` runs Zhang 2021's EKF over one or B
 recordings, causally or, with ``offline=True``, through the forward-backward smoother
 :func:`smooth_attitude` (the method, its assumptions and its cost are in
 :func:`estimate_attitude`'s docstring).
 
-One pass of the seed 000 EKF runs forward, a second one on the time-reversed recording
+One pass of the Zhang 2021 EKF runs forward, a second one on the time-reversed recording
 (:meth:`estimators.attitude.ekf.AttitudeEKF.filter_with_covariance` keeps each pass's attitude
 covariance after every sample), and the two estimates are fused per sample, each weighted by the
 inverse of its covariance in the world frame (Fraser & Potter, IEEE TAC 14(4), 1969).
@@ -133,8 +133,8 @@ def estimate_attitude(
        the forward one and is not used.
     3. Fusion, per sample: each pass's attitude error covariance (the 3x3 attitude block of P,
        after that sample) is turned into the world frame, ``W = R(q) P_att R(q)^T`` (for
-       ``model="paper_literal"``, whose error state is Euler-angle errors, ``W = J P_att J^T``
-       with J the ZYX Euler-rate Jacobian). With ``d`` the rotation vector of
+       ``model="paper_literal"``, whose error state is Euler-angle errors, ``W = J P_att
+       J^T`` with J the ZYX Euler-rate Jacobian). With ``d`` the rotation vector of
        ``q_b ⊗ conj(q_f)`` (world frame, from the forward to the backward estimate), the smoothed
        attitude is ``exp(W_f (W_f + W_b)^-1 d) ⊗ q_f``: the mean of two independent Gaussian
        estimates of the same attitude, each weighted by the inverse of its covariance

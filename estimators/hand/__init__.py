@@ -1,16 +1,16 @@
-"""Hand orientation from Kinect v2 frames: seed 003's pipeline (Yao, Chen, Pan & Huang 2023) and
+"""Hand orientation from Kinect v2 frames: Yao 2023's pipeline (Yao, Chen, Pan & Huang 2023) and
 the hand stages of :data:`estimators.stages.HAND`.
 
 * :mod:`~estimators.hand.pipeline` — :class:`HandPipeline`: target selection, joint smoothing,
   eq (1)/(2), Kalman and median for B users, frame by frame (:class:`HandFrame`), and
   :func:`estimate_hand_orientation` over whole sequences.
-* :mod:`~estimators.hand.joint_smoothing` — the Kinect SDK's Holt joint filter with seed 003's
+* :mod:`~estimators.hand.joint_smoothing` — the Kinect SDK's Holt joint filter with Yao 2023's
   weighted average (:class:`HoltSmoother`) and the One Euro filter (:class:`OneEuroFilter`).
 * :mod:`~estimators.hand.angles` — the angle convention: eq (1)/(2) and the paper's axis names.
 * :mod:`~estimators.hand.orientation` — the Kalman + median filter of the angles on its own
   (:class:`OrientationFilter`); :mod:`~estimators.hand.params` — its parameters and the pipeline's.
 * :mod:`~estimators.hand.lag` — the lag metric (:func:`estimate_lag`).
-* The hand stages: :mod:`~estimators.hand.pipeline_stages` (``seed003``, ``raw``: the pipeline's
+* The hand stages: :mod:`~estimators.hand.pipeline_stages` (``yao2023``, ``raw``: the pipeline's
   own outputs), :mod:`~estimators.hand.one_euro` (``one_euro``), :mod:`~estimators.hand.adaptive`
   (``adaptive_kalman``).
 * :mod:`~estimators.hand._kernel` — the compiled pipeline, stage by stage; each kernel's
@@ -46,7 +46,8 @@ from estimators.hand.pipeline import (
     check_hand_frames,
     estimate_hand_orientation,
 )
-from estimators.hand.pipeline_stages import RawHand, Seed003Hand
+from estimators.hand.pipeline_stages import RawHand, Yao2023Hand
+from estimators.registry import renamed_attributes
 
 __all__ = [
     "INFERRED",
@@ -70,7 +71,7 @@ __all__ = [
     "OrientationFilter",
     "OrientationFrame",
     "RawHand",
-    "Seed003Hand",
+    "Yao2023Hand",
     "check_hand_frames",
     "estimate_hand_orientation",
     "estimate_lag",
@@ -80,3 +81,7 @@ __all__ = [
     "unwrap_angles",
     "ypr_to_paper",
 ]
+
+#: The earlier name, importable for one release with a deprecation warning.
+__getattr__ = renamed_attributes(globals(), {"Seed003Hand": "Yao2023Hand"})
+

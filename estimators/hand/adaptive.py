@@ -1,20 +1,20 @@
 """Motion-adaptive Kalman filter on the hand pipeline's raw wrist angles: a hand stage
 (``"adaptive_kalman"``).
 
-Seed 003's Kalman filter (:class:`estimators.hand.KalmanParams`: per angle a constant-rate model
+Yao 2023's Kalman filter (:class:`estimators.hand.KalmanParams`: per angle a constant-rate model
 whose process noise grows with the low-passed normalised innovation squared) without the median
 behind it, and with its adaptation set for a moving hand as well as a still one: a higher
 process noise at rest, an innovation average over one frame and a high cap, so that the filter
-opens within a frame when the hand starts, stops or turns back. The median of seed 003 is left out
+opens within a frame when the hand starts, stops or turns back. The median of Yao 2023 is left out
 because on a steady rotation a causal median of 3 frames lags a frame (33 ms, 3 deg at 90 deg/s),
 more than the whole raw error. The filter runs in the pipeline's own compiled kernel
 (:class:`estimators.hand.OrientationFilter` over :data:`estimators.hand._kernel.filter_kernel`);
 this module only feeds it the frames:
 
-* the input is ``ypr_raw`` (eq 1/2, before seed 003's Kalman + median) where ``quat_valid``;
+* the input is ``ypr_raw`` (eq 1/2, before Yao 2023's Kalman + median) where ``quat_valid``;
 * a frame whose ``reselected`` is True (a new target user) restarts the stream before the frame,
   so one user's estimate never carries over to another;
-* a dropout (``quat_valid`` False) is coasted then held, as seed 003's filter does
+* a dropout (``quat_valid`` False) is coasted then held, as Yao 2023's filter does
   (``max_coast_frames``);
 * the output is NaN, with ``valid`` False, before the stream's first usable frame (after a reset
   or a reselection).
@@ -64,7 +64,7 @@ class AdaptiveKalmanHandParams:
     """Time constant of the innovation average that drives the adaptation, s, in (0, 10].
     Default one frame (1/30 s)."""
     measurement_std_deg: float = 2.0
-    """Std of the raw angles, deg, in (0, 90]. Default 2 deg, as seed 003's filter (its raw
+    """Std of the raw angles, deg, in (0, 90]. Default 2 deg, as Yao 2023's filter (its raw
     static variances, Tables 1-3, are typically about 4 deg^2)."""
 
     def __post_init__(self) -> None:

@@ -1,7 +1,7 @@
-"""Seed 003's angle convention: the wrist quaternion to Euler angles, eq (1) and eq (2) (Yao,
+"""Yao 2023's angle convention: the wrist quaternion to Euler angles, eq (1) and eq (2) (Yao,
 Chen, Pan & Huang 2023, section 1.3), and the order of its angles.
 
-Axis names. Seed 003's eq (1) writes::
+Axis names. Yao 2023's eq (1) writes::
 
     theta_yaw   = atan2(2 (w x + y z), 1 - 2 (x^2 + y^2))
     theta_pitch = asin(2 (w y - z x))
@@ -47,15 +47,15 @@ __all__ = [
     "ypr_to_paper",
 ]
 
-#: Seed 003's names of our ``[yaw, pitch, roll]`` columns (its Tables' row order Roll, Pitch, Yaw).
+#: Yao 2023's names of our ``[yaw, pitch, roll]`` columns (its Tables' row order Roll, Pitch, Yaw).
 PAPER_AXIS_NAMES = ("roll", "pitch", "yaw")
 
-#: Seed 003's gimbal-lock threshold on ``|wy - zx|`` (section 1.3; 0.5 is pitch +-90 deg).
+#: Yao 2023's gimbal-lock threshold on ``|wy - zx|`` (section 1.3; 0.5 is pitch +-90 deg).
 PAPER_SINGULARITY_THRESHOLD = 0.499
 
 
 def ypr_to_paper(ypr: ArrayLike) -> NDArray[np.float64]:
-    """Our ``[yaw, pitch, roll]`` (..., 3) to seed 003's eq (1) order ``[yaw_p, pitch_p, roll_p]``.
+    """Our ``[yaw, pitch, roll]`` (..., 3) to Yao 2023's eq (1) order ``[yaw_p, pitch_p, roll_p]``.
 
     The paper's yaw is our roll and its roll our yaw, so this reverses the last axis.
     """
@@ -63,14 +63,14 @@ def ypr_to_paper(ypr: ArrayLike) -> NDArray[np.float64]:
 
 
 def paper_to_ypr(euler: ArrayLike) -> NDArray[np.float64]:
-    """Seed 003's eq (1) order (..., 3) to our ``[yaw, pitch, roll]`` (reverses the last axis)."""
+    """Yao 2023's eq (1) order (..., 3) to our ``[yaw, pitch, roll]`` (reverses the last axis)."""
     return np.asarray(euler, dtype=np.float64)[..., ::-1].copy()
 
 
 def quat_to_euler_paper(
     q: ArrayLike, threshold: float = PAPER_SINGULARITY_THRESHOLD
 ) -> NDArray[np.float64]:
-    """Seed 003's quaternion -> Euler conversion, eq (1), with eq (2) where ``|wy - zx| > 0.499``.
+    """Yao 2023's quaternion -> Euler conversion, eq (1), with eq (2) where ``|wy - zx| > 0.499``.
 
     Args:
         q: (..., 4) quaternions ``[w, x, y, z]`` (normalised here; sign does not matter).

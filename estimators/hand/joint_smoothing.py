@@ -5,7 +5,7 @@ no Python loop over the batch.
 
 * :class:`HoltSmoother` — the Kinect SDK's joint filter (Holt double-exponential smoothing with
   the five ``NUI_TRANSFORM_SMOOTH_PARAMETERS``: smoothing, correction, prediction, jitter radius,
-  max deviation radius), followed by the weighted average over the last five frames that seed 003
+  max deviation radius), followed by the weighted average over the last five frames that Yao 2023
   (Yao et al. 2023, section 1.2) adds: the pipeline's stage 2
   (:class:`estimators.hand.pipeline.HandPipeline`) on its target's joints, here on its own.
 * :class:`OneEuroFilter` — Casiez, Roussel, Vogel, "1 € Filter: A Simple Speed-based Low-pass
@@ -44,14 +44,14 @@ NOT_TRACKED, INFERRED, TRACKED = 0, 1, 2
 
 @dataclass(frozen=True)
 class HoltParams:
-    """Parameters of the Kinect SDK joint filter plus seed 003's 5-frame weighted average.
+    """Parameters of the Kinect SDK joint filter plus Yao 2023's 5-frame weighted average.
 
     The five Holt parameters and their defaults are those of the Kinect for Windows SDK's
     ``NUI_TRANSFORM_SMOOTH_PARAMETERS`` (SDK 1.5-1.8 reference; the v2 SDK ships the same filter as
     the ``KinectJointFilter`` sample). The SDK's own defaults ``{0.5, 0.5, 0.5, 0.05, 0.04}`` are
     documented as "some smoothing with little latency, only filters out small jitters, good for
     gesture recognition". We keep them as our defaults because the pipeline feeds a VR interaction,
-    where latency costs more than a few millimetres of residual jitter, and because seed 003 does
+    where latency costs more than a few millimetres of residual jitter, and because Yao 2023 does
     not publish its values. The SDK's other published presets are :meth:`smoothed` and
     :meth:`very_smoothed`.
 
@@ -62,16 +62,16 @@ class HoltParams:
         correction: in [0, 1]: how fast the trend follows the change of the smoothed value; lower
             is smoother and slower.
         prediction: >= 0, in frames: how far along the trend the output is extrapolated to cancel
-            lag. The SDK warns that values above 0.5 overshoot on fast changes. (Seed 003 writes
+            lag. The SDK warns that values above 0.5 overshoot on fast changes. (Yao 2023 writes
             "should be >= 0.5"; we follow the SDK's range, >= 0.)
         jitter_radius: > 0, metres. A raw sample closer than this to the previous filtered
             position is blended towards it with weight ``d / jitter_radius`` (d the distance), so
             small jitter is damped quadratically; farther samples pass unchanged.
         max_deviation_radius: > 0, metres. The output is pulled back to at most this distance from
             the raw sample.
-        average_weights: weights of seed 003's weighted average over the last frames of Holt
+        average_weights: weights of Yao 2023's weighted average over the last frames of Holt
             output, newest first (normalised internally). Default ``(5, 4, 3, 2, 1)``: linearly
-            decaying over 5 frames, mean delay 4/3 frame (44 ms at 30 Hz). Seed 003 says only "a
+            decaying over 5 frames, mean delay 4/3 frame (44 ms at 30 Hz). Yao 2023 says only "a
             weighted average of five consecutive frames"; the linear weights are our choice (more
             weight on recent frames keeps the lag down). ``(1.0,)`` disables the average.
         inferred_radius_scale: > 0: jitter and max deviation radii are multiplied by this for joints
@@ -129,7 +129,7 @@ class HoltSmoother:
       ``|p - r| <= D`` (max deviation radius).
 
     The outputs of the last ``len(average_weights)`` frames are then averaged with the weights
-    (seed 003, section 1.2), over the frames where the joint was valid.
+    (Yao 2023, section 1.2), over the frames where the joint was valid.
 
     Lag, with the defaults (measured in tests/test_estimators/hand/test_hand.py): after a step of
     0.1-0.5 m the output is within the max deviation radius (4 cm) of the new position from the

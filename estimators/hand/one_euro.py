@@ -7,7 +7,7 @@ motion. The filter itself is :class:`estimators.hand.joint_smoothing.OneEuroFilt
 (differences wrapped to (-pi, pi], so crossing +-180 deg gives no jump), one filter per angle of
 ``[yaw, pitch, roll]``; this module only feeds it the pipeline's frames:
 
-* the input is ``ypr_raw`` (eq 1/2, before seed 003's Kalman + median);
+* the input is ``ypr_raw`` (eq 1/2, before Yao 2023's Kalman + median);
 * a frame whose ``reselected`` is True (a new target user) restarts the stream before the frame,
   so one user's estimate never carries over to another;
 * a frame whose ``quat_valid`` is False (a dropout) is not fed: the output holds its last value;
@@ -21,7 +21,7 @@ Parameters (:class:`OneEuroHandParams`) were chosen on the synthetic Kinect v2 (
 -> :class:`estimators.hand.HandPipeline`) on the experiment's development seeds only, with two
 criteria against the raw angles:
 
-* rest: pooled variance reduction per axis, hand held still at seed 003's 11 angles about the
+* rest: pooled variance reduction per axis, hand held still at Yao 2023's 11 angles about the
   forearm, 5 repeats of 10 s (first 1 s left out), seeds 1 and 2;
 * motion: RMSE against the true orientation per axis while the hand sweeps about the forearm at
   90 deg/s between +-75 deg (10 users x 10 s), seeds 101 and 102.
@@ -37,7 +37,7 @@ bending one: the Kinect model's noise about those axes is 95 % slow (correlated 
 no filter that follows the hand removes; about the forearm, whose noise is mostly white, half of
 the variance goes.
 
-Held-out figures (rest and motion, beside seed 003's filters and the motion-adaptive Kalman filter
+Held-out figures (rest and motion, beside Yao 2023's filters and the motion-adaptive Kalman filter
 of :mod:`estimators.hand.adaptive`) are those of ``vrloco experiment hand-variance`` (seeds 0 and
 1); ``tests/test_estimators/hand/test_hand_stages.py`` checks on other held-out seeds that the
 filter beats raw at rest and in motion.

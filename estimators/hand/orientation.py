@@ -1,4 +1,4 @@
-"""Stage 3 of seed 003's hand pipeline on its own: eq (1)/(2), then a Kalman filter per angle,
+"""Stage 3 of Yao 2023's hand pipeline on its own: eq (1)/(2), then a Kalman filter per angle,
 then a median over consecutive Kalman outputs (section 1.4), for B streams of wrist quaternions or
 raw angles (:class:`OrientationFilter`). The model and its parameters are
 :class:`~estimators.hand.params.KalmanParams`.
@@ -52,7 +52,7 @@ class OrientationFilter(TakesUsers):
     compiled code (:data:`estimators.hand._kernel.filter_kernel` after
     :data:`estimators.hand._kernel.angles_kernel`): fed the target's wrist quaternions, it gives the
     pipeline's ``ypr_raw``, ``ypr_kalman`` and ``ypr`` bit for bit. For recorded or simulated
-    orientation sequences (the static-variance experiment of seed 003) and for hand stages that
+    orientation sequences (the static-variance experiment of Yao 2023) and for hand stages that
     filter the pipeline's raw angles again with other parameters (:meth:`update_angles`).
 
     Dropouts -- a NaN or zero-norm quaternion, NaN angles, or ``valid`` False -- are never

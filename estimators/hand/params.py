@@ -1,4 +1,4 @@
-"""Parameters of seed 003's hand pipeline: the Kalman filter of the Euler angles, the pipeline's
+"""Parameters of Yao 2023's hand pipeline: the Kalman filter of the Euler angles, the pipeline's
 own fields, and the kernels' parameter records built from them.
 """
 
@@ -32,7 +32,7 @@ __all__ = [
     "kernel_params",
 ]
 
-#: Kinect v2 frame rate, Hz (Kinect for Windows SDK 2.0; seed 003, section 2.2).
+#: Kinect v2 frame rate, Hz (Kinect for Windows SDK 2.0; Yao 2023, section 2.2).
 KINECT_RATE_HZ = 30.0
 
 # Kinect v2 JointType indices (Kinect for Windows SDK 2.0), as defaults; the environment's
@@ -49,7 +49,7 @@ def _per_axis(value: float | Sequence[float]) -> NDArray[np.float64]:
 class KalmanParams:
     """Kalman filter on each Euler angle: constant-rate model with adaptive process noise.
 
-    Seed 003 gives the generic equations (3)-(8) but neither its model nor its noise values. We
+    Yao 2023 gives the generic equations (3)-(8) but neither its model nor its noise values. We
     choose per axis the state ``[angle, rate]`` with ``A = [[1, dt], [0, 1]]``, ``H = [1, 0]``,
     driven by white angular acceleration of spectral density ``q`` (``Q = q [[dt^3/3, dt^2/2],
     [dt^2/2, dt]]``). A constant-rate model follows a steady rotation without lag, which a
@@ -66,7 +66,7 @@ class KalmanParams:
     ``max_accel_psd == accel_psd`` gives the plain Kalman filter. The innovation is wrapped to
     (-pi, pi] and the angle state kept unwrapped, so crossing +-180 deg gives no 360 deg jump.
 
-    Seed 003 states no values; ``accel_psd`` was chosen on the development seeds of
+    Yao 2023 states no values; ``accel_psd`` was chosen on the development seeds of
     :mod:`agents.experiments.hand_variance` (static: seeds 1, 2, the paper's 11 angles x 5
     repeats x 10 s; moving: seeds 101, 102, 10 users sweeping about the forearm at 90 deg/s), the
     other fields set by the reasoning given with each.
@@ -74,13 +74,13 @@ class KalmanParams:
     Attributes:
         rate_hz: frame rate, Hz (Kinect v2: 30).
         measurement_std: std of the raw Euler angles, rad (one value or one per ``[yaw, pitch,
-            roll]``). Default 2 deg: seed 003's raw static variances (Tables 1-3) span 0.5 to
+            roll]``). Default 2 deg: Yao 2023's raw static variances (Tables 1-3) span 0.5 to
             14 deg^2 (0.7 to 3.7 deg), typically about 4 deg^2.
         accel_psd: spectral density of the angular acceleration at rest, rad^2/s^3 (one or per
             axis). Default 1: on the development seeds, the value of the grid 0.03, 0.1, 0.3, 1,
             3, 10 whose Kalman output has the smallest RMSE against the truth relative to raw's,
             averaged over the three axes, the still and the moving trials (0.926; 0.935 at 0.3,
-            0.926 at 3; ``python -m agents.experiments.hand_variance --only seed003``). Smaller
+            0.926 at 3; ``python -m agents.experiments.hand_variance --only yao2023``). Smaller
             values smooth a still hand more (higher variance reduction) and fall behind a moving
             one.
         max_accel_psd: cap of the adapted density, rad^2/s^3 (one or per axis, >= accel_psd).
@@ -145,7 +145,7 @@ class HandParams:
         holt: joint smoothing, :class:`HoltParams` (Kinect SDK defaults).
         kalman: Euler Kalman filter, :class:`KalmanParams`.
         median_window: frames in the median over consecutive Kalman outputs, >= 1. Default 3:
-            seed 003 does not state it. On a steady rotation a causal median of n frames lags
+            Yao 2023 does not state it. On a steady rotation a causal median of n frames lags
             (n - 1) / 2 frames: 33 ms for 3, 67 ms for 5 at 30 Hz. Behind our Kalman filter the
             median removes a few points more variance at rest but adds that lag in motion (its
             share and its price: ``vrloco experiment hand-variance``), so we keep the smallest

@@ -1,6 +1,6 @@
-"""Hand orientation from Kinect v2 frames: the pipeline of seed 003 (Yao, Chen, Pan, Huang 2023).
+"""Hand orientation from Kinect v2 frames: the pipeline of Yao, Chen, Pan & Huang 2023.
 
-The stages (seed 003, sections 1.1-1.4):
+The stages (Yao 2023, sections 1.1-1.4):
 
 1. Target user selection (1.1): among the tracked bodies pick the one nearest the sensor, keep it
    by id from frame to frame, re-select when its id is gone or no longer tracked.
@@ -42,7 +42,7 @@ __all__ = [
 class HandFrame:
     """Output of :class:`HandPipeline` for one Kinect frame of B streams.
 
-    Angles are ``[yaw, pitch, roll]`` in rad (the project's ZYX names; seed 003 calls these
+    Angles are ``[yaw, pitch, roll]`` in rad (the project's ZYX names; Yao 2023 calls these
     columns Roll, Pitch, Yaw), of the wrist orientation in camera space.
 
     Attributes:
@@ -88,9 +88,9 @@ _HAND_FRAME_FIELDS = tuple(f.name for f in fields(HandFrame))  # in the construc
 
 
 class HandPipeline(TakesUsers):
-    """Seed 003's hand-orientation pipeline, streaming, batched over B users.
+    """Yao 2023's hand-orientation pipeline, streaming, batched over B users.
 
-    Per frame: select the target user (seed 003, 1.1), reset the filters of streams whose
+    Per frame: select the target user (Yao 2023, 1.1), reset the filters of streams whose
     target changed, smooth its joints (the Kinect SDK's Holt filter and the weighted average, as
     :class:`~estimators.hand.joint_smoothing.HoltSmoother` does), convert its wrist quaternion
     (eq 1/2) and filter the angles (Kalman, then median), as
@@ -99,7 +99,7 @@ class HandPipeline(TakesUsers):
     Target selection. The current target is kept while a slot holds its id and is tracked, else
     the tracked body nearest the sensor is selected: nearest by the Euclidean distance from the
     sensor of a body's centre, the mean of its valid ``center_joints`` (default SpineBase,
-    SpineMid, SpineShoulder: the torso, which moves least). Seed 003 says "nearest by depth
+    SpineMid, SpineShoulder: the torso, which moves least). Yao 2023 says "nearest by depth
     data"; the Euclidean distance differs from depth only for bodies far off-axis. Slots with id
     0, untracked slots and bodies without a valid centre joint are never selected; ties go to the
     lowest slot. The current target is kept even when another body comes nearer.

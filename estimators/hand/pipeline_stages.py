@@ -1,7 +1,7 @@
-"""The hand pipeline's own outputs as hand stages (:data:`estimators.stages.HAND`): ``seed003``
+"""The hand pipeline's own outputs as hand stages (:data:`estimators.stages.HAND`): ``yao2023``
 (its Kalman + median angles) and ``raw`` (its unfiltered eq (1)/(2) angles).
 
-:class:`~estimators.hand.pipeline.HandPipeline` already runs seed 003's filter for the
+:class:`~estimators.hand.pipeline.HandPipeline` already runs Yao 2023's filter for the
 environment, and its state is the pipeline's: these stages report one of its outputs unchanged
 and hold no state, so ``reset`` only checks its argument (the pipeline's own reset forgets the
 filter).
@@ -17,9 +17,10 @@ from numpy.typing import ArrayLike, NDArray
 from estimators.batching import TakesUsers, stream_rows
 from estimators.hand.params import KINECT_RATE_HZ
 from estimators.hand.pipeline import HandFrame, check_hand_frames
+from estimators.registry import renamed_attributes
 from estimators.validation import check_batch_size, check_rate
 
-__all__ = ["RawHand", "Seed003Hand"]
+__all__ = ["RawHand", "Yao2023Hand"]
 
 
 class _PipelineOutputHand(TakesUsers):
@@ -44,8 +45,8 @@ class _PipelineOutputHand(TakesUsers):
         stream_rows(rows, self.batch_size, "rows", unique=False)
 
 
-class Seed003Hand(_PipelineOutputHand):
-    """Seed 003's Kalman + median output as a hand stage (:class:`estimators.stages.HandStage`).
+class Yao2023Hand(_PipelineOutputHand):
+    """Yao 2023's Kalman + median output as a hand stage (:class:`estimators.stages.HandStage`).
 
     :class:`~estimators.hand.pipeline.HandPipeline` already runs the filter (its state is the
     pipeline's); this stage reports the frames' ``ypr`` and ``valid`` unchanged (copies, bit for
@@ -60,13 +61,13 @@ class Seed003Hand(_PipelineOutputHand):
             :data:`estimators.stages.HAND`.
     """
 
-    name = "seed003"
+    name = "yao2023"
     per_user_fields = _PipelineOutputHand.per_user_fields  # declared: TakesUsers asks each class
     params_note = " (the pipeline's HandParams)"
 
     def update(self, frames: HandFrame) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
         """(B, M, 3) ``frames.ypr`` and (B, M) ``frames.valid``, copied."""
-        check_hand_frames(frames, self.batch_size, "Seed003Hand")
+        check_hand_frames(frames, self.batch_size, "Yao2023Hand")
         return np.array(frames.ypr, dtype=np.float64), np.array(frames.valid, dtype=bool)
 
 
@@ -76,7 +77,7 @@ class RawHand(_PipelineOutputHand):
     Returns the frames' ``ypr_raw``: this frame's angles where its quaternion was usable, the last
     usable ones held through a dropout (``quat_valid`` False), NaN between a (re)selection and the
     new target's first usable quaternion. ``valid`` is True where a raw estimate of the current
-    target exists (the angles are finite): it stays True through a dropout, as the seed 003
+    target exists (the angles are finite): it stays True through a dropout, as the Yao 2023
     stage's does. Stateless; :meth:`reset` only checks its argument.
 
     Args:
@@ -93,3 +94,7 @@ class RawHand(_PipelineOutputHand):
         check_hand_frames(frames, self.batch_size, "RawHand")
         ypr = np.array(frames.ypr_raw, dtype=np.float64)
         return ypr, np.isfinite(ypr).all(axis=-1)
+
+#: The earlier name, importable for one release with a deprecation warning.
+__getattr__ = renamed_attributes(globals(), {"Seed003Hand": "Yao2023Hand"})
+

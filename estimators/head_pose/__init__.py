@@ -1,5 +1,5 @@
-"""Head pose of seed 004 (a helmet's inertial and visual pose): strapdown inertial navigation,
-PnP pose from image landmarks, and the (adaptive) error-state Kalman filter fusing them.
+"""Head pose of the helmet-tracking paper (a helmet's inertial and visual pose): strapdown inertial
+navigation, PnP pose from image landmarks, and the (adaptive) error-state Kalman filter fusing them.
 
 * :mod:`~estimators.head_pose.strapdown` — the strapdown solution (:class:`Strapdown`), coarse
   alignment and the static gyro bias.

@@ -1,4 +1,5 @@
-"""Compiled per-user kernels of seed 004: strapdown mechanisation and the visual-inertial ESKF.
+"""Compiled per-user kernels of the helmet-tracking paper: strapdown mechanisation and the
+visual-inertial ESKF.
 
 * :func:`strapdown_run`: the strapdown mechanisation of
   :class:`estimators.head_pose.strapdown.Strapdown` (stage :func:`_mech_step`), checked against

@@ -1,7 +1,8 @@
-"""Head pose from a head camera that sees landmarks with known 3D positions (seed 004, visual part).
+"""Head pose from a head camera that sees landmarks with known 3D positions (the helmet-tracking
+paper, visual part).
 
-Source: seed 004 section 2.2: pinhole camera (``fx, fy, cx, cy``, calibrated with Zhang's
-method), feature matching with outlier removal by RANSAC, pose by PnP (DLT or EPnP). We use
+Source: the helmet-tracking paper section 2.2: pinhole camera (``fx, fy, cx, cy``, calibrated with
+Zhang's method), feature matching with outlier removal by RANSAC, pose by PnP (DLT or EPnP). We use
 OpenCV: ``cv2.solvePnPRansac(..., flags=cv2.SOLVEPNP_EPNP)`` (EPnP hypotheses on minimal
 subsets, inliers by reprojection error), then a Levenberg-Marquardt refinement on the inliers
 (``cv2.solvePnPRefineLM``). No distortion model: the images are taken as undistorted (the seed

@@ -1,7 +1,8 @@
-"""Strapdown inertial navigation of seed 004 (inertial part of the helmet pose), batched.
+"""Strapdown inertial navigation of the helmet-tracking paper (inertial part of the helmet pose),
+batched.
 
-Source: seed 004 section 2.1 ("慣性捷聯(lián)位姿解算"): the attitude quaternion obeys
-``q_dot = 0.5 q ⊗ [0, w]`` and is integrated "e.g. with the Runge-Kutta method"; the specific
+Source: the helmet-tracking paper, section 2.1 ("慣性捷聯(lián)位姿解算"): the attitude quaternion
+obeys ``q_dot = 0.5 q ⊗ [0, w]`` and is integrated "e.g. with the Runge-Kutta method"; the specific
 force is rotated into the navigation frame, gravity is removed, and the result is integrated twice
 for velocity and position. The paper gives no discretisation; the choices below are ours.
 

@@ -1,11 +1,12 @@
-"""Loosely coupled visual-inertial helmet pose: an error-state Kalman filter (seed 004), batched.
+"""Loosely coupled visual-inertial helmet pose: an error-state Kalman filter (the helmet-tracking
+paper), batched.
 
-Source: seed 004 section 3 ("組合測(cè)量算法"): a Kalman filter with the inertial solution as the
-prediction and the visual pose as the measurement, and an adaptive variant that re-estimates the
-noise statistics from the innovations (Sage-Husa) for time-varying visual noise. The paper gives
-no state vector, Jacobians or noise values; the filter below is the standard loosely coupled
-error-state filter (Solà, "Quaternion kinematics for the error-state Kalman filter", 2017, with
-the *global* attitude error of its section 7) and every choice is stated here.
+Source: the helmet-tracking paper section 3 ("組合測(cè)量算法"): a Kalman filter with the inertial
+solution as the prediction and the visual pose as the measurement, and an adaptive variant that
+re-estimates the noise statistics from the innovations (Sage-Husa) for time-varying visual noise.
+The paper gives no state vector, Jacobians or noise values; the filter below is the standard loosely
+coupled error-state filter (Solà, "Quaternion kinematics for the error-state Kalman filter", 2017,
+with the *global* attitude error of its section 7) and every choice is stated here.
 
 State
 -----

@@ -1,9 +1,10 @@
 """Virtual motion from steps and yaw: the locomotion models of :data:`estimators.stages.LOCOMOTION`
 and the steering stages of :data:`estimators.stages.STEERING`.
 
-* :mod:`~estimators.locomotion.dead_reckoning` — seed 000's eq (17): a jump of one step length
+* :mod:`~estimators.locomotion.dead_reckoning` — Zhang 2021's eq (17): a jump of one step length
   along the heading at each step (:class:`DeadReckoning`, :func:`dead_reckon` offline).
-* :mod:`~estimators.locomotion.smooth` — seed 001's smooth filter: continuous motion from the same
+* :mod:`~estimators.locomotion.smooth` — the smooth-locomotion paper's filter: continuous
+motion from the same
   events (:class:`SmoothLocomotion`).
 * :mod:`~estimators.locomotion.cadence_speed` — speed proportional to the estimated cadence
   (:class:`CadenceSpeed`).

@@ -1,6 +1,6 @@
-"""Virtual trajectory by step-and-heading dead reckoning: seed 000, eq (17).
+"""Virtual trajectory by step-and-heading dead reckoning: Zhang 2021, eq (17).
 
-At each detected peak t, seed 000 (Zhang, Chen, Gao 2021, section 3) updates the 2D virtual
+At each detected peak t, Zhang, Chen & Gao 2021 (section 3) updates the 2D virtual
 position
 
     P_t = P_{t-1}                                   if still

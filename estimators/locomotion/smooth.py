@@ -1,11 +1,11 @@
 """Smooth locomotion: a Kalman filter that turns step events and yaw into continuous motion.
 
-Seed 000's eq (17) (:class:`estimators.locomotion.dead_reckoning.DeadReckoning`) moves the virtual
+Zhang 2021's eq (17) (:class:`estimators.locomotion.dead_reckoning.DeadReckoning`) moves the virtual
 body one step length SL in a single frame at each detected step: a 0.7 m jump twice a second, the
-kind of discontinuous visual motion that VR comfort guidelines avoid. Seed 001 (an EKF tutorial for
-VR position tracking) suggests the remedy: a filter with a motion model, predicting between
-measurements. :class:`SmoothLocomotion` is that filter; it shares eq (17)'s interface (the
-:class:`estimators.stages.Locomotion` protocol), so the environment can use either.
+kind of discontinuous visual motion that VR comfort guidelines avoid. The smooth-locomotion paper
+(an EKF tutorial for VR position tracking) suggests the remedy: a filter with a motion model,
+predicting between measurements. :class:`SmoothLocomotion` is that filter; it shares eq (17)'s
+interface (the :class:`estimators.stages.Locomotion` protocol), so the environment can use either.
 
 Model (per user, per update of length dt):
 
@@ -17,7 +17,8 @@ Model (per user, per update of length dt):
 
   - the yaw estimate of the attitude filter measures psi (innovation wrapped to (-pi, pi]: the one
     nonlinearity, which makes this the EKF of an otherwise linear model);
-  - the step events give a pseudo-measurement of travelled distance (seed 001's "measurement"
+  - the step events give a pseudo-measurement of travelled distance (the smooth-locomotion paper's
+  "measurement"
     slot). Eq (17) would say s = SL x (steps so far): a staircase. Measuring that staircase would
     pull the path forward in jerks, so the filter measures a *ramped* staircase ``D_ref``: at each
     step event ``D_ref`` starts moving from where it is towards SL x (steps so far), and stops

@@ -1,6 +1,6 @@
 """Steering: which yaw turns a walking-in-place user's walking direction.
 
-Seed 000 walks where the head points (:class:`HeadSteering`): the estimated head yaw is both the
+Zhang 2021 walks where the head points (:class:`HeadSteering`): the estimated head yaw is both the
 view and the walking direction, so a user who looks at an obstacle while walking past it walks
 into it ("gaze-directed steering"). :class:`TorsoSteering` walks where the torso points instead:
 the shoulder line of the Kinect v2 skeleton (the body's left-right axis; the torso faces 90 deg
@@ -67,7 +67,7 @@ class _StatelessSteering(TakesUsers):
 
 
 class HeadSteering(_StatelessSteering):
-    """Walk where the head points (seed 000): the steering yaw is the estimated head yaw."""
+    """Walk where the head points (Zhang 2021): the steering yaw is the estimated head yaw."""
 
     name = "head"
     uses_torso = False

@@ -1,9 +1,9 @@
 """Compiled kernels of the step stages and the cadence; the classes that drive them are beside it.
 
-* :data:`gait_kernel` — seed 000's still/walk and step detector
+* :data:`gait_kernel` — Zhang 2021's still/walk and step detector
   (:class:`estimators.steps.zhang2021.StepDetector`), and the stages of its family that
   :data:`nod_robust_kernel` (:class:`estimators.steps.nod_robust.NodRobustSteps`) shares: the
-  running baseline, the causal mean filter, the centred-window maximum, seed 000's bout rule and
+  running baseline, the causal mean filter, the centred-window maximum, Zhang 2021's bout rule and
   the still/walk state (:func:`running_baseline`, :func:`mean_filter`, :func:`window_max`,
   :func:`bout_rule`, :func:`walking`), over the per-stream state :data:`GAIT_STATE`
   (:func:`forget_streams` starts streams afresh);
@@ -55,7 +55,7 @@ def empty_chunk(batch_size: int, n: int) -> tuple[NDArray[np.int8], ...]:
 
 
 # ------------------------------------------------------------------------------------------------
-# Seed 000's detector and the stages of its family.
+# Zhang 2021's detector and the stages of its family.
 # ------------------------------------------------------------------------------------------------
 
 
@@ -83,7 +83,7 @@ def forget_streams(
     clock[sel] = 0
 
 
-# Stages shared by the detectors of seed 000's family (:mod:`estimators.steps.zhang2021` and
+# Stages shared by the detectors of Zhang 2021's family (:mod:`estimators.steps.zhang2021` and
 # :mod:`estimators.steps.nod_robust`): ``s`` is a stream's state record, ``p`` the parameter
 # record (a step-parameter dataclass's fields plus ``fs``, ``base_n`` and ``latency``).
 
@@ -126,7 +126,7 @@ def window_max(smooth, c, h):
 
 @numba.njit(cache=True, inline="always")
 def bout_rule(s, p, t, steps, peak_t, i):
-    """Seed 000's bout rule for a peak at ``t`` (s), confirmed at chunk sample ``i``: ignored
+    """Zhang 2021's bout rule for a peak at ``t`` (s), confirmed at chunk sample ``i``: ignored
     within ``min_step_interval`` of the last peak; a step, with the pending first peak of the bout
     released beside it, within ``gamma_t``; else the pending first peak of a new bout. Fills row
     ``i`` of ``steps`` (n,) and ``peak_t`` (n, 2)."""
@@ -253,7 +253,7 @@ threshold_kernel = BatchKernel(_threshold_run, parallel=False)
 # ------------------------------------------------------------------------------------------------
 
 
-#: Per-stream scalars of :func:`nod_robust_kernel`: seed 000's detector state
+#: Per-stream scalars of :func:`nod_robust_kernel`: Zhang 2021's detector state
 #: (:data:`estimators.steps._kernel.GAIT_STATE`), ``last_valid`` being the last usable vertical
 #: specific force (its ring buffers, whose lengths follow the rate, are arrays beside it).
 NOD_ROBUST_STATE = GAIT_STATE
@@ -344,7 +344,7 @@ def _nod_robust_run(acc, gyr, quat, k0, prm, state, v_buf, sm_buf, rot_buf, w_bu
                     for j in range(w):
                         if rot[j] >= excess:
                             is_peak = False
-                if is_peak:  # 5. Seed 000's bout rule.
+                if is_peak:  # 5. Zhang 2021's bout rule.
                     bout_rule(s, p, (c - delay) / p["fs"], out_steps[b], out_peak_t[b], i)
             out_state[b, i] = walking(s, p, k)
 

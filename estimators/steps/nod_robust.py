@@ -1,21 +1,21 @@
 """Steps from the world-vertical specific force, with peaks that head rotation can explain vetoed.
 
-Seed 000's detector (:mod:`estimators.steps.zhang2021`) reads the norm ``|f|``: a heel strike lifts
-it, but so does any head rotation, because the IMU sits some centimetres from the head's pivot and
-turning the head accelerates it (centripetal ``w x (w x r)`` and tangential ``alpha x r``). A nod of
-+-30 deg at 1 Hz lifts ``|f|`` by 2.7 m/s^2, four times the detector's gamma, and looking around
-quickly (+-70 deg of yaw at 1 Hz) lifts it too. This detector uses the attitude estimate and the
-gyro to separate the two:
+Zhang 2021's detector (:mod:`estimators.steps.zhang2021`) reads the norm ``|f|``: a heel strike
+lifts it, but so does any head rotation, because the IMU sits some centimetres from the head's pivot
+and turning the head accelerates it (centripetal ``w x (w x r)`` and tangential ``alpha x r``). A
+nod of +-30 deg at 1 Hz lifts ``|f|`` by 2.7 m/s^2, four times the detector's gamma, and looking
+around quickly (+-70 deg of yaw at 1 Hz) lifts it too. This detector uses the attitude estimate and
+the gyro to separate the two:
 
 1. **World vertical.** Each sample of specific force is rotated to the world with the attitude
    quaternion and its vertical component is kept: ``v = (R(q) f)_z``, gravity plus the IMU's
    vertical linear acceleration. Heel strikes are vertical jolts and keep their full height;
    yaw about the vertical (looking left and right) moves the IMU on a horizontal circle and adds
    nothing to ``v``, however fast.
-2. **Peaks** of ``v`` exactly as seed 000 finds them in ``|f|``: a mean filter of M samples, a
+2. **Peaks** of ``v`` exactly as Zhang 2021 finds them in ``|f|``: a mean filter of M samples, a
    running-mean baseline (which absorbs the accelerometer's offset along the vertical), a
    sample that is the maximum of its centred window of 2 h + 1 samples and exceeds the baseline by
-   ``gamma``; then seed 000's bout rule (``min_step_interval``, ``gamma_t``, the first peak of a
+   ``gamma``; then Zhang 2021's bout rule (``min_step_interval``, ``gamma_t``, the first peak of a
    bout held until a second confirms it) and still/walk state.
 3. **Rotation veto.** Nods and head shakes (rotation about a horizontal axis) do move the IMU
    vertically. For an IMU at any point within ``lever_arm`` of the pivot, the vertical
@@ -34,7 +34,7 @@ gyro to separate the two:
    still counts when it rises above what the nod can add.
 
 Chosen values. Everything of step 2 is :class:`estimators.steps.zhang2021.GaitParams`' defaults
-(same reasons; a heel strike lifts ``v`` as much as ``|f|``), so walking is detected as seed 000
+(same reasons; a heel strike lifts ``v`` as much as ``|f|``), so walking is detected as Zhang 2021
 detects it. ``lever_arm`` 0.20 m: a stated bound on the distance from the upper neck (the head's
 pivot for nods) to a forehead or headset IMU, a little above the 15 cm of the simulated user (9 cm
 ahead of and 12 cm above the pivot). It was checked, not fitted, on development seeds 0-2 of
@@ -50,11 +50,11 @@ Limits: the bound assumes the IMU turns about a pivot within ``lever_arm`` of it
 a still neck); a lean of the whole trunk pivots lower and is only partly covered. Attitude error
 leaks horizontal acceleration into ``v`` (a 1 deg tilt error leaks 1.7 % of it). The bound is
 conservative, so a step taken during a vigorous nod is vetoed with the nod: stepping at 1.7
-steps/s while nodding +-30 deg at 1 Hz, the benchmark's held-out F1 is 0.12-0.14 (seed 000's
+steps/s while nodding +-30 deg at 1 Hz, the benchmark's held-out F1 is 0.12-0.14 (Zhang 2021's
 0.91, which counts the nod's peaks among the steps); a gentle nod (+-15 deg at 0.5 Hz) while
 stepping costs nothing (F1 1.000).
 
-Latency: that of seed 000 (``(h + (M - 1)/2) / fs``, 0.135 s at 100 Hz). Non-finite samples: a
+Latency: that of Zhang 2021 (``(h + (M - 1)/2) / fs``, 0.135 s at 100 Hz). Non-finite samples: a
 specific-force sample or attitude that is not finite takes the previous ``v`` (gravity before
 any); a gyro sample or attitude that is not finite takes the previous world rate (zero before
 any). The per-sample loop is the compiled kernel
@@ -94,19 +94,19 @@ class NodRobustParams:
 
     gamma: float = 0.07 * GRAVITY
     """Excess (m/s^2) of the smoothed vertical specific force over its baseline a peak needs.
-    Default 0.07 g = 0.686 m/s^2, seed 000's gamma."""
+    Default 0.07 g = 0.686 m/s^2, Zhang 2021's gamma."""
     gamma_t: float = 1.2
     """Longest interval (s) between neighbouring steps of one walking bout; a peak with no
-    neighbour within it is not a step. Default 1.2 s (seed 000's gamma_t)."""
+    neighbour within it is not a step. Default 1.2 s (Zhang 2021's gamma_t)."""
     min_step_interval: float = 1.0 / 3.5
     """Shortest interval (s) between two steps; closer peaks are ignored. Default 1/3.5 s: nobody
     steps faster than about 3.5 steps/s."""
     mean_window: float = 0.08
     """Length (s) of the mean filter on the vertical specific force and on the world angular rate
-    (M = round(mean_window * fs) >= 1 samples). Default 0.08 s, seed 000's."""
+    (M = round(mean_window * fs) >= 1 samples). Default 0.08 s, Zhang 2021's."""
     peak_half_window: float = 0.10
     """Half-width (s) of the peak window (h = round(peak_half_window * fs) >= 1; 2 h + 1 samples),
-    also the window over which the rotation bound is taken. Default 0.10 s, seed 000's."""
+    also the window over which the rotation bound is taken. Default 0.10 s, Zhang 2021's."""
     baseline_tau: float = 4.0
     """Time constant (s) of the running-mean baseline of the vertical specific force (a
     cumulative mean until that much data has been seen); 0 uses ``gravity``. Default 4 s."""

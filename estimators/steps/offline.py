@@ -1,4 +1,4 @@
-"""Steps of whole recordings: seed 000's detector run offline over one recording.
+"""Steps of whole recordings: Zhang 2021's detector run offline over one recording.
 
 :func:`detect_steps` takes timestamps that may be irregular (a phone at ~405 Hz): the norm of the
 specific force is averaged over the bins of a uniform grid at ``fs`` (:func:`bin_average`, the

@@ -9,12 +9,12 @@ unless it comes less than ``refractory`` seconds after the previous step. Nothin
 smoothing, no peak window, no baseline (a fixed g, so an accelerometer offset along gravity shifts
 the threshold), no rule that a step needs a neighbour, and no use of the gyro or the attitude.
 
-Values (a stated rule, not tuned): ``threshold`` is seed 000's gamma (0.07 g) and ``refractory``
+Values (a stated rule, not tuned): ``threshold`` is Zhang 2021's gamma (0.07 g) and ``refractory``
 its shortest step interval (1/3.5 s, about the fastest human stepping), so that this detector
-differs from :class:`estimators.steps.zhang2021.Seed000Steps` only by what it leaves out. A step is
-confirmed one sample after its peak (``latency = 1 / fs``) and carries the peak's time. Still/walk:
-walk while the last step is at most ``hold`` seconds old (seed 000's gamma_t, 1.2 s), still
-otherwise.
+differs from :class:`estimators.steps.zhang2021.Zhang2021Steps` only by what it leaves out. A step
+is confirmed one sample after its peak (``latency = 1 / fs``) and carries the peak's time.
+Still/walk: walk while the last step is at most ``hold`` seconds old (Zhang 2021's gamma_t, 1.2 s),
+still otherwise.
 
 A non-finite sample takes the previous sample's norm (gravity before any). The per-sample loop is
 the compiled kernel :data:`estimators.steps._kernel.threshold_kernel` (loop over streams inside;
@@ -50,12 +50,12 @@ class ThresholdParams:
 
     threshold: float = 0.07 * GRAVITY
     """Excess of the raw norm over ``gravity`` (m/s^2) a peak needs. Default 0.07 g = 0.686
-    m/s^2, seed 000's gamma (:class:`estimators.steps.zhang2021.GaitParams`)."""
+    m/s^2, Zhang 2021's gamma (:class:`estimators.steps.zhang2021.GaitParams`)."""
     refractory: float = 1.0 / 3.5
     """Shortest interval (s) between two steps; a peak sooner after the last step is ignored.
-    Default 1/3.5 s: nobody steps faster than about 3.5 steps/s (seed 000's min_step_interval)."""
+    Default 1/3.5 s: nobody steps faster than about 3.5 steps/s (Zhang 2021's min_step_interval)."""
     hold: float = 1.2
-    """How long (s) the state stays 'walk' after a step. Default 1.2 s, seed 000's gamma_t (20 %
+    """How long (s) the state stays 'walk' after a step. Default 1.2 s, Zhang 2021's gamma_t (20 %
     above the slowest in-place step interval, 1 s)."""
     gravity: float = GRAVITY
     """Gravity (m/s^2), standard gravity by default (:data:`estimators.rotations.GRAVITY`)."""

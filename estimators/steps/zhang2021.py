@@ -1,6 +1,6 @@
-"""Still / walk recognition and step events from the specific-force norm (seed 000, section 2).
+"""Still / walk recognition and step events from the specific-force norm (Zhang 2021, section 2).
 
-Seed 000 (Zhang, Chen, Gao 2021) detects walking in place with a head-worn IMU from the norm of
+Zhang, Chen & Gao 2021 detect walking in place with a head-worn IMU from the norm of
 the specific force, eq (15), ``|f| = sqrt(fx^2 + fy^2 + fz^2)``: the norm is smoothed by a mean
 filter, the maximum over a sliding window of N samples is compared with gravity, and eq (16)
 reads
@@ -46,7 +46,7 @@ mean filter 0.08 s [M = 8], peak window half-width 0.10 s [N = 21 samples, 0.21 
 * gamma: what separates steps from head gestures is the excess of the smoothed norm over its
   baseline. The simulated head (``vrloco_env.user.motion``; peaks of 1.1-1.5 g when stepping in
   place at 1.2-2.2 steps/s, after Tregillus & Folmer, VR-STEP, CHI 2016) gives at least 0.86 m/s^2
-  (0.088 g) for its lightest stepper at 1.2 steps/s; seed 000's head gestures as scripted there
+  (0.088 g) for its lightest stepper at 1.2 steps/s; Zhang 2021's head gestures as scripted there
   (serpentine +-40 deg at 0.4 Hz, nod +-30 deg at 0.3 Hz, shake +-25 deg at 0.5 Hz; forehead IMU
   9 cm ahead of and 12 cm above the neck pivot) reach at most 0.51 m/s^2 (0.052 g) with a consumer
   IMU's noise. 0.07 g sits half-way. The gesture envelope below gamma (rigid head, that lever
@@ -96,12 +96,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from estimators.batching import TakesUsers, stream_rows
 from estimators.kernels import param_record, state_records
+from estimators.registry import renamed_attributes
 from estimators.rotations import GRAVITY
 from estimators.stages import GaitChunk
 from estimators.steps._kernel import GAIT_STATE, forget_streams, gait_kernel
 from estimators.validation import check_in_range, check_numeric
 
-__all__ = ["GaitParams", "Seed000Steps", "StepDetector"]
+__all__ = ["GaitParams", "StepDetector", "Zhang2021Steps"]
 
 
 @dataclass(frozen=True)
@@ -117,7 +118,7 @@ class GaitParams:
     gamma_t: float = 1.2
     """Longest interval (s) between neighbouring steps of one walking bout (eq 16's gamma_t)."""
     min_step_interval: float = 1.0 / 3.5
-    """Shortest interval (s) between two steps; closer peaks are pseudo-peaks (seed 000 text).
+    """Shortest interval (s) between two steps; closer peaks are pseudo-peaks (Zhang 2021 text).
     1/3.5 s: humans do not step faster than about 3.5 steps/s."""
     mean_window: float = 0.08
     """Length (s) of the mean filter on the norm (M = round(mean_window * fs) >= 1 samples)."""
@@ -169,13 +170,13 @@ class GaitParams:
         m, h = self.samples(fs)
         return (h + 0.5 * (m - 1)) / fs
 
-    def build(self, batch_size: int, fs: float) -> Seed000Steps:
-        """The :class:`Seed000Steps` stage with these parameters."""
-        return Seed000Steps(batch_size, fs, self)
+    def build(self, batch_size: int, fs: float) -> Zhang2021Steps:
+        """The :class:`Zhang2021Steps` stage with these parameters."""
+        return Zhang2021Steps(batch_size, fs, self)
 
 
 class StepDetector(TakesUsers):
-    """Streaming, batched still/walk and step detector (seed 000 eqs (15)-(16)).
+    """Streaming, batched still/walk and step detector (Zhang 2021 eqs (15)-(16)).
 
     Args:
         batch_size: B, the number of independent streams (users), >= 1.
@@ -292,8 +293,8 @@ class StepDetector(TakesUsers):
         return GaitChunk(state=state, steps=steps, peak_time=peak_t, sample_time=t)
 
 
-class Seed000Steps(TakesUsers):
-    """Seed 000's detector (:class:`StepDetector`, eqs (15)-(16) on ``|f|``) as a step stage of
+class Zhang2021Steps(TakesUsers):
+    """Zhang 2021's detector (:class:`StepDetector`, eqs (15)-(16) on ``|f|``) as a step stage of
     :data:`estimators.stages.STEPS`.
 
     Args:
@@ -338,3 +339,7 @@ class Seed000Steps(TakesUsers):
         if a.ndim != 3:
             raise ValueError(f"acc must have shape ({self.batch_size}, N, 3), got {a.shape}")
         return self.detector.update(a)
+
+#: The earlier name, importable for one release with a deprecation warning.
+__getattr__ = renamed_attributes(globals(), {"Seed000Steps": "Zhang2021Steps"})
+

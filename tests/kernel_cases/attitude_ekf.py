@@ -1,4 +1,4 @@
-"""Seed 000's attitude EKF on three short streams that visit every stage of the kernel.
+"""Zhang 2021's attitude EKF on three short streams that visit every stage of the kernel.
 
 Stream 0 starts without accelerometer (gyro integration before the initialisation), loses its
 gyro for 0.1 s and sees a lasting field change that is rejected, then adopted. Stream 1 starts

@@ -53,7 +53,7 @@ def _stage(make):
     return play
 
 
-def _seed000():
+def _zhang2021():
     acc, _, _ = imu_stream()
     det = StepDetector(acc.shape[0], FS)
     out = {}
@@ -108,7 +108,7 @@ def _cadence_speed():
 CASES = {
     "steps_threshold": _stage(ThresholdSteps),
     "steps_nod_robust": _stage(NodRobustSteps),
-    "steps_seed000": _seed000,
+    "steps_zhang2021": _zhang2021,
     "cadence_estimator": _cadence,
     "cadence_speed": _cadence_speed,
 }

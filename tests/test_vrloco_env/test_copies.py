@@ -105,7 +105,7 @@ def _techniques_by_task() -> list[tuple[str, str]]:
     """Every task with the default technique, and every technique once, with the tasks in
     turn (so techniques meet hand tasks too)."""
     tasks = task_names()
-    cases = [(t, "seed000") for t in tasks]
+    cases = [(t, "zhang2021") for t in tasks]
     cases += [(tasks[i % len(tasks)], tech) for i, tech in enumerate(TECHNIQUES)]
     return list(dict.fromkeys(cases))
 

@@ -1,4 +1,5 @@
-"""pose_source="visual_inertial": the user really walks; seed 004's tracker moves the avatar."""
+"""pose_source="visual_inertial": the user really walks; the helmet-tracking paper's tracker moves
+the avatar."""
 
 import gymnasium as gym
 import numpy as np

@@ -344,9 +344,9 @@ def test_only_plugins_are_wrapped_and_each_once():
         assert not isinstance(getattr(users.stages, field), CheckedStage)
         assert users.stages.trusted[field]
     cfg = EstimatorConfig(attitude="estimators.attitude:EkfStage", steps=stages.STEPS.factory(
-        "seed000"))  # fmt: skip
+        "zhang2021"))  # fmt: skip
     users = gym.make("VRLoco-Approach-v0", estimators=cfg).unwrapped.core.users
-    for field, inner in (("attitude", "EkfStage"), ("steps", "Seed000Steps")):
+    for field, inner in (("attitude", "EkfStage"), ("steps", "Zhang2021Steps")):
         stage = getattr(users.stages, field)
         assert isinstance(stage, CheckedStage) and type(stage.wrapped).__name__ == inner
         assert not users.stages.trusted[field]
@@ -521,14 +521,14 @@ def test_the_reference_states_every_member_call_and_rule_that_is_checked():
 
 
 # ------------------------------------------------------------------------------ techniques
-def test_the_default_env_is_the_seed000_technique_bit_for_bit():
+def test_the_default_env_is_the_zhang2021_technique_bit_for_bit():
     a = _episode(gym.make("VRLoco-Approach-v0"))
-    b = _episode(gym.make("VRLoco-Approach-v0", technique="seed000"))
+    b = _episode(gym.make("VRLoco-Approach-v0", technique="zhang2021"))
     np.testing.assert_array_equal(a, b)
-    assert gym.make("VRLoco-Approach-v0").unwrapped.technique == "seed000"
+    assert gym.make("VRLoco-Approach-v0").unwrapped.technique == "zhang2021"
 
 
-@pytest.mark.parametrize("name", ["smooth", "torso_steering", "paper_literal"])
+@pytest.mark.parametrize("name", ["smooth", "torso_steering", "zhang2021_as_printed"])
 def test_a_technique_equals_its_estimator_config(name):
     tech = TECHNIQUES[name]
     a = _episode(gym.make("VRLoco-Avoid-v0", technique=name))
@@ -539,11 +539,11 @@ def test_a_technique_equals_its_estimator_config(name):
 
 
 def test_the_consumer_technique_is_the_consumer_preset():
-    env = gym.make("VRLoco-Approach-v0", technique="seed000_consumer")
+    env = gym.make("VRLoco-Approach-v0", technique="zhang2021_consumer")
     assert env.unwrapped.sensors.preset_name == "consumer_mems"
-    assert env.unwrapped.technique == "seed000_consumer"
+    assert env.unwrapped.technique == "zhang2021_consumer"
     shorthand = gym.make("VRLoco-Approach-v0", sensor_preset="consumer_mems")
-    assert shorthand.unwrapped.technique == "seed000_consumer"
+    assert shorthand.unwrapped.technique == "zhang2021_consumer"
     np.testing.assert_array_equal(_episode(env), _episode(shorthand))
 
 
@@ -562,16 +562,16 @@ def test_an_unregistered_technique_object_and_the_vector_env():
     ("kwargs", "message"),
     [
         ({"technique": "vqf", "estimators": EstimatorConfig()}, "contradicts technique='vqf'"),
-        ({"technique": "seed000", "sensor_preset": "consumer_mems"}, "contradicts technique"),
-        ({"technique": "seed000_consumer", "sensors": SensorConfig(imu="ig500n")},
-         "sensors.imu='ig500n' contradicts technique='seed000_consumer'"),
-        ({"sensors": SensorConfig(imu="ig500n"), "technique": "seed000_consumer"},
-         "sensors.imu='ig500n' contradicts technique='seed000_consumer'"),
-        ({"technique": "seed000_consumer", "sensors": SensorConfig(imu_rate_hz=200.0)}, None),
+        ({"technique": "zhang2021", "sensor_preset": "consumer_mems"}, "contradicts technique"),
+        ({"technique": "zhang2021_consumer", "sensors": SensorConfig(imu="ig500n")},
+         "sensors.imu='ig500n' contradicts technique='zhang2021_consumer'"),
+        ({"sensors": SensorConfig(imu="ig500n"), "technique": "zhang2021_consumer"},
+         "sensors.imu='ig500n' contradicts technique='zhang2021_consumer'"),
+        ({"technique": "zhang2021_consumer", "sensors": SensorConfig(imu_rate_hz=200.0)}, None),
         ({"technique": "smooth", "locomotion": "eq17"}, "locomotion='eq17' contradicts"),
         ({"sensors": SensorConfig(imu="consumer_mems"), "sensor_preset": "ig500n"},
          "sensor_preset='ig500n' contradicts"),
-        ({"technique": "nope"}, "technique='nope': unknown; valid names: seed000"),
+        ({"technique": "nope"}, "technique='nope': unknown; valid names: zhang2021"),
         ({"config": EnvConfig(motion=MotionParams(imu_rate_hz=200.0))},
          "MotionParams.imu_rate_hz=200.0 contradicts SensorConfig.imu_rate_hz"),
     ],
@@ -603,7 +603,7 @@ def test_torso_steering_walks_straight_while_the_head_looks_around():
     from vrloco_env.user import Intent
 
     headings = {}
-    for name in ("seed000", "torso_steering"):
+    for name in ("zhang2021", "torso_steering"):
         core = LocoCore("approach", 3, *make_configs(technique=name))
         for i in range(3):
             core.generators[i] = np.random.default_rng(30 + i)
@@ -626,7 +626,7 @@ def test_torso_steering_walks_straight_while_the_head_looks_around():
         err = np.rad2deg(np.angle(np.exp(1j * (direction - start_yaw))))[moving]
         headings[name] = np.sqrt(np.mean(err**2))
     # The head sweeps +-35 deg: the walk follows it (RMS ~ 35 / sqrt 2 = 25 deg) ...
-    assert headings["seed000"] > 15.0
+    assert headings["zhang2021"] > 15.0
     # ... while the torso keeps facing the start heading.
     assert headings["torso_steering"] < 5.0
 

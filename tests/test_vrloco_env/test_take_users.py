@@ -66,10 +66,10 @@ def _check_kept_users_go_on(task: str, technique: str, population: str | None) -
 
 @pytest.mark.parametrize("task", ["approach", "avoid", "doorway", "interact", "reach"])
 def test_every_task_s_kept_users_go_on_as_in_the_whole_batch(task):
-    _check_kept_users_go_on(task, "seed000", "typical")
+    _check_kept_users_go_on(task, "zhang2021", "typical")
 
 
-@pytest.mark.parametrize("technique", [t for t in TECHNIQUES if t != "seed000"])
+@pytest.mark.parametrize("technique", [t for t in TECHNIQUES if t != "zhang2021"])
 def test_every_technique_s_kept_users_go_on_as_in_the_whole_batch(technique):
     _check_kept_users_go_on("approach", technique, "typical")
 
@@ -80,7 +80,7 @@ def test_every_population_s_kept_users_go_on_as_in_the_whole_batch(population):
 
 
 def test_take_users_rejects_bad_rows_before_changing_anything():
-    env = _env("approach", "seed000", None)
+    env = _env("approach", "zhang2021", None)
     with pytest.raises(RuntimeError, match="reset"):
         env.take_users([0])
     env.reset(seed=0)
@@ -93,7 +93,7 @@ def test_take_users_rejects_bad_rows_before_changing_anything():
 def test_a_part_that_cannot_drop_users_stops_take_users_before_any_change():
     """The visual-inertial head tracker keeps per-user state and no ``take_users``: the batch
     says so, and refuses with the batch untouched."""
-    env = _env("approach", "seed000", None, pose_source="visual_inertial")
+    env = _env("approach", "zhang2021", None, pose_source="visual_inertial")
     env.reset(seed=0)
     assert not env.can_take_users
     with pytest.raises(TypeError, match="cannot drop users"):

@@ -2,7 +2,7 @@
 choices and the command line's help.
 
 * ``approach`` (:mod:`vrloco_env.tasks.approach`) — reach the goal in a room with obstacles.
-* ``avoid`` (:mod:`vrloco_env.tasks.avoid`) — seed 000's Fig. 5 corridor, collision-free.
+* ``avoid`` (:mod:`vrloco_env.tasks.avoid`) — Zhang 2021's Fig. 5 corridor, collision-free.
 * ``interact`` (:mod:`vrloco_env.tasks.interact`) — reach a pedestal, hold a hand orientation.
 * ``doorway`` (:mod:`vrloco_env.tasks.doorway`) — pass a sequence of doorways 0.8-1.2 m wide,
   collision-free.

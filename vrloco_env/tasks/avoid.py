@@ -1,4 +1,4 @@
-"""Avoid: seed 000's Fig. 5 — walk down a corridor, pass the obstacle on the straight line and
+"""Avoid: Zhang 2021's Fig. 5 — walk down a corridor, pass the obstacle on the straight line and
 reach the end line (success: the end line crossed without a single collision)."""
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ __all__ = ["Avoid", "AvoidConfig", "avoid_layout"]
 
 @dataclass(frozen=True)
 class AvoidConfig:
-    """The Avoid task's corridor and obstacle (seed 000 Fig. 5).
+    """The Avoid task's corridor and obstacle (Zhang 2021 Fig. 5).
 
     Attributes:
         corridor_width: interior width of the corridor (m).
@@ -129,7 +129,7 @@ class Avoid(Task):
 def avoid_layout(
     config: RoomConfig, rng: np.random.Generator, task: AvoidConfig | None = None
 ) -> Layout:
-    """The Avoid corridor of seed 000 Fig. 5: walk straight, pass an obstacle, reach the end line.
+    """The Avoid corridor of Zhang 2021 Fig. 5: walk straight, pass an obstacle, reach the end line.
 
     The corridor (interior ``corridor_length`` along +x by a width drawn in
     ``corridor_width +- corridor_width_jitter``) is closed by end walls. The start sits

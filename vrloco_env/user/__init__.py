@@ -8,7 +8,7 @@
 * :mod:`~vrloco_env.user.intent`: :class:`Intent`, what the users want to do in one control step.
 * :mod:`~vrloco_env.user.motion_records`: :class:`MotionChunk`, :class:`KinectChunk` and
   :class:`MotionRecord`, the true motion of a control step and of a run.
-* :mod:`~vrloco_env.user.scripts`: seed 000's scripted motions (:func:`script_intents`,
+* :mod:`~vrloco_env.user.scripts`: Zhang 2021's scripted motions (:func:`script_intents`,
   :func:`run_script`).
 * :mod:`~vrloco_env.user.skeleton`: the Kinect v2 joint indices, bones and tracking states shared
   by the motion and sensor models.

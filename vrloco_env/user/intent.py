@@ -22,7 +22,7 @@ class Intent:
         turn_rate: body yaw rate (rad/s, counter-clockwise positive), |.| <= max_turn_rate. (B,)
         hand_rates: hand [yaw, pitch, roll] rates (rad/s) relative to the torso. (B, 3)
         gesture_amplitude: head [yaw, pitch, roll] oscillation amplitudes (rad) about the body
-            heading: serpentine, nod and shake of seed 000. (B, 3)
+            heading: serpentine, nod and shake of Zhang 2021. (B, 3)
         gesture_frequency: frequencies (Hz) of those oscillations. (B, 3)
         lean: head pitch offset (rad; negative leans back / looks up). (B,)
         head_yaw: head-on-torso yaw target (rad, counter-clockwise positive, |.| <= 80 deg):

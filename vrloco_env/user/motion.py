@@ -12,7 +12,7 @@ head gestures — and :class:`UserMotion` turns it into
 All users of a batch advance in lock-step over the same time grid; every array carries a leading
 batch dimension B. Frames follow :mod:`estimators.rotations` (ENU world, ZYX yaw-pitch-roll).
 
-Stepping in place (the walking-in-place metaphor of seed 000):
+Stepping in place (the walking-in-place metaphor of Zhang 2021):
 
 * A *step* is one unit of the continuous step phase ``phi``; it starts and ends with the head at
   standing height and zero vertical speed (``phi`` integer) and has its heel strike, the peak of
@@ -22,9 +22,9 @@ Stepping in place (the walking-in-place metaphor of seed 000):
 * Vertical acceleration over a step is a von Mises pulse (concentration 3) centred on the heel
   strike, mean removed. Its peak grows with cadence from 0.12 g at 1.2 Hz to 0.45 g at 2.2 Hz, so
   the specific-force norm peaks at about 1.1-1.5 g — the range of head-worn accelerometers during
-  walking in place (seed 000 Fig. 2 shows |f| peaks of roughly 11-15 m/s^2; Tregillus & Folmer,
-  VR-STEP, CHI 2016, seed 000 ref. [15], report similar head-bob peaks). The resulting vertical head
-  travel is 2-3 cm per step (stepping in place moves the head less than overground walking's
+  walking in place (Zhang 2021 Fig. 2 shows |f| peaks of roughly 11-15 m/s^2; Tregillus & Folmer,
+  VR-STEP, CHI 2016, Zhang 2021 ref. [15], report similar head-bob peaks). The resulting vertical
+  head travel is 2-3 cm per step (stepping in place moves the head less than overground walking's
   4-5 cm; Kavanagh et al., Gait & Posture 2006, for the head during walking).
 * The body sways laterally at half the step rate (one sway per stride), 2 cm by default, with a
   matching head roll of about 1.5 deg.
@@ -33,7 +33,7 @@ Stepping in place (the walking-in-place metaphor of seed 000):
 
 The head turns with the body (yaw rate with a 0.1 s first-order lag, so angular acceleration stays
 finite) and may add gesture oscillations about each axis (serpentine, nod, shake) and a lean, as in
-seed 000's five head motions, and turn on the torso toward the intent's ``head_yaw`` (critically
+Zhang 2021's five head motions, and turn on the torso toward the intent's ``head_yaw`` (critically
 damped, ``MotionParams.head_turn_lag_s``: where a user looks, set by
 :class:`vrloco_env.user.behaviour.GazeBehaviour` for a user population). The IMU sits on the
 forehead, 9 cm in front of and 12 cm above the head's pivot at the neck, so head rotations also
@@ -49,7 +49,7 @@ The parts live beside this module, each re-exported here: the settings
 (:mod:`~vrloco_env.user.intent`: :class:`Intent`, :data:`MAX_HEAD_YAW`), the outputs
 (:mod:`~vrloco_env.user.motion_records`: :class:`MotionChunk`, :class:`KinectChunk`,
 :class:`MotionRecord`), what the compiled body reads (:mod:`vrloco_env.user._motion_inputs`) and
-seed 000's scripted motions (:mod:`~vrloco_env.user.scripts`: :data:`SCRIPTS`,
+Zhang 2021's scripted motions (:mod:`~vrloco_env.user.scripts`: :data:`SCRIPTS`,
 :func:`script_intents`, :func:`run_script`).
 """
 

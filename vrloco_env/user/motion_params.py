@@ -25,9 +25,9 @@ class MotionParams:
     """
 
     imu_rate_hz: float = 100.0
-    """Head IMU sample rate (Hz), 10-1000. Seed 000's IG-500N ran at 100 Hz."""
+    """Head IMU sample rate (Hz), 10-1000. Zhang 2021's IG-500N ran at 100 Hz."""
     kinect_rate_hz: float = 30.0
-    """Kinect v2 skeleton frame rate (Hz); the sensor delivers 30 frames/s (seed 003)."""
+    """Kinect v2 skeleton frame rate (Hz); the sensor delivers 30 frames/s (Yao 2023)."""
     control_rate_hz: float = 10.0
     """Rate at which the intent changes (Hz): one env step."""
     cadence_range_hz: tuple[float, float] = (1.2, 2.2)
@@ -62,10 +62,11 @@ class MotionParams:
     style_spread: float = 0.1
     """Relative spread (1-sigma) of each user's step-impact and sway style, drawn at reset."""
     overground: bool = False
-    """False (default): the user steps in place, as in seed 000 — the virtual body moves by the
-    estimated steps. True: the user really walks through the tracked space (seed 004's helmet
-    users; the env's ``pose_source="visual_inertial"``): the body advances along its heading at
-    ``stride_m`` per step, with the speed following the cadence with lag ``speed_lag_s``."""
+    """False (default): the user steps in place, as in Zhang 2021 — the virtual body moves by the
+    estimated steps. True: the user really walks through the tracked space (the helmet-tracking
+    paper's helmet users; the env's ``pose_source="visual_inertial"``): the body advances along its
+    heading at ``stride_m`` per step, with the speed following the cadence with lag
+    ``speed_lag_s``."""
     stride_m: float = 0.65
     """Distance (m) covered per step when walking overground, in [0.2, 1.2]."""
     speed_lag_s: float = 0.4

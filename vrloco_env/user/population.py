@@ -164,7 +164,7 @@ class Population:
         bob_scale: factor on the user's step impact (vertical head acceleration per step)
             drawn by the motion model (heavier or lighter steppers). An engineering choice: the
             seed papers give no spread between users; ``typical``'s 0.8-1.25 keeps the
-            specific-force peaks within roughly 1.1-1.6 g, about seed 000 Fig. 2's range.
+            specific-force peaks within roughly 1.1-1.6 g, about Zhang 2021 Fig. 2's range.
         reaction_delay_s, reaction_delay_sd_s, overshoot, overshoot_sd, cadence_bias_sd,
             cadence_jitter_sd: the agent-side variability
             (:class:`agents.benchmark.variability.VariabilityParams`, whose docs give the evidence);

@@ -1,4 +1,4 @@
-"""Seed 000's scripted motions: the names (:data:`SCRIPTS`), the intent sequence of each
+"""Zhang 2021's scripted motions: the names (:data:`SCRIPTS`), the intent sequence of each
 (:func:`script_intents`) and a run of one by every user of a batch (:func:`run_script`)."""
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ SCRIPTS = ("stand", "serpentine", "pitch", "shake", "spin", "backward", "straigh
 
 def script_intents(name: str, params: MotionParams | None = None, cadence: float = 1.7,
                    duration_s: float | None = None) -> list[Intent]:  # fmt: skip
-    """Intent sequence of one of seed 000's experiments (one :class:`Intent` per control step).
+    """Intent sequence of one of Zhang 2021's experiments (one :class:`Intent` per control step).
 
     Args:
         name: one of :data:`SCRIPTS`:

@@ -2,7 +2,7 @@
 
 The map shows the room (walls, obstacles, the goal or end line, the Interact pedestal), the true
 path (where perfect sensing would have walked, grey) and the virtual path (what the estimates did,
-blue), the virtual body with its heading, the VR rays, and the estimated hand axes (seed 003 draws
+blue), the virtual body with its heading, the VR rays, and the estimated hand axes (Yao 2023 draws
 them on the colour image; we draw them in a corner of the map).
 """
 

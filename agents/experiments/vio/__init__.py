@@ -1,7 +1,8 @@
-"""Seed 004's experiments in simulation: inertial, visual and fused helmet pose against the truth.
+"""The helmet-tracking paper's experiments in simulation: inertial, visual and fused helmet pose
+against the truth.
 
-Everything runs through the real chain at seed 004's rates (IMU 1000 Hz, camera 120 Hz, frames
-triggered by the IMU clock, :func:`vrloco_env.head_tracking.frame_triggers`)::
+Everything runs through the real chain at the helmet-tracking paper's rates (IMU 1000 Hz, camera 120
+Hz, frames triggered by the IMU clock, :func:`vrloco_env.head_tracking.frame_triggers`)::
 
     UserMotion (1 kHz true head pose) -> HeadImu (ig500n unit) x axis errors -> Strapdown / filter
                                       -> HeadCamera (true intrinsics, true landmarks, late by the

@@ -1,5 +1,5 @@
-"""The camera calibration of seed 004's experiment: the pixel-noise scale at which the ideal
-camera's visual-only error matches the paper's, on the development seeds
+"""The camera calibration of the helmet-tracking paper's experiment: the pixel-noise scale at which
+the ideal camera's visual-only error matches the paper's, on the development seeds
 (:func:`calibrate_camera`; the value in use is
 :data:`~agents.experiments.vio.settings.PIXEL_NOISE_SCALE`).
 """
@@ -52,7 +52,8 @@ def calibrate_camera(
     mismatch: Mismatch | None = None,
     iterations: int = 6,
 ) -> dict:
-    """The pixel-noise scale at which the ideal camera's visual-only error matches seed 004's.
+    """The pixel-noise scale at which the ideal camera's visual-only error matches the
+    helmet-tracking paper's.
 
     The target is the paper's own visual-only accuracy (+-0.05 m, +-1 deg, ideal conditions),
     read as the RMSE without gross errors (the ``pos_clean_m`` / ``att_clean_deg`` of

@@ -1,6 +1,6 @@
-"""Seed 004's experiment in one call (:func:`run_vio`): the IMU-only runs, the visual-only and
-fused runs of every condition on the walk, adaptive against fixed R, the targets, and the
-table, JSON and figure (:mod:`agents.experiments.vio`).
+"""The helmet-tracking paper's experiment in one call (:func:`run_vio`): the IMU-only runs, the
+visual-only and fused runs of every condition on the walk, adaptive against fixed R, the targets,
+and the table, JSON and figure (:mod:`agents.experiments.vio`).
 """
 
 from __future__ import annotations
@@ -55,8 +55,8 @@ def run_vio(
     mismatch: Mismatch | None = None,
     pixel_noise_scale: float = PIXEL_NOISE_SCALE,
 ) -> dict:
-    """All of seed 004's experiments; print the table beside the paper's, optionally write JSON
-    and (with ``out_dir``) a figure of the errors over time.
+    """All of the helmet-tracking paper's experiments; print the table beside the paper's,
+    optionally write JSON and (with ``out_dir``) a figure of the errors over time.
 
     Args:
         json_path: where to write the results (JSON); None: not written.

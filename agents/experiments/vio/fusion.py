@@ -1,5 +1,6 @@
-"""The visual-inertial fusion of seed 004's experiment: the filter over a trajectory, started at
-the first visual pose (:func:`fuse`), and the errors of its estimate (:func:`_fused_stats`).
+"""The visual-inertial fusion of the helmet-tracking paper's experiment: the filter over a
+trajectory, started at the first visual pose (:func:`fuse`), and the errors of its estimate
+(:func:`_fused_stats`).
 """
 
 from __future__ import annotations

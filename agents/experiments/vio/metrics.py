@@ -1,6 +1,6 @@
-"""Error measures of seed 004's experiment: the position and attitude error series of an
-estimate against the truth (:func:`error_series`), and their RMSE, percentiles, largest values,
-windowed and first/last RMS (:func:`_error_stats`).
+"""Error measures of the helmet-tracking paper's experiment: the position and attitude error series
+of an estimate against the truth (:func:`error_series`), and their RMSE, percentiles, largest
+values, windowed and first/last RMS (:func:`_error_stats`).
 """
 
 from __future__ import annotations

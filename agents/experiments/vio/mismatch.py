@@ -1,5 +1,5 @@
-"""The model mismatch of seed 004's experiment: what to draw (:class:`Mismatch`) and one run's
-draw, the truth the simulator uses beside the nominal values the estimators get
+"""The model mismatch of the helmet-tracking paper's experiment: what to draw (:class:`Mismatch`)
+and one run's draw, the truth the simulator uses beside the nominal values the estimators get
 (:class:`Setup`, :func:`make_setup`); the package docstring (:mod:`agents.experiments.vio`) gives
 the evidence behind each default.
 """

@@ -1,5 +1,5 @@
-"""The report of seed 004's experiment: the results beside the paper's numbers as a table
-(:func:`format_table`) and the figure of the errors over time (:func:`_figure`).
+"""The report of the helmet-tracking paper's experiment: the results beside the paper's numbers as a
+table (:func:`format_table`) and the figure of the errors over time (:func:`_figure`).
 """
 
 from __future__ import annotations
@@ -48,11 +48,12 @@ def _figure(series: dict, t: NDArray, out_dir: Path, switch_s: float) -> Path:
 
 
 def format_table(result: dict) -> str:
-    """The results beside seed 004's numbers, as plain text."""
+    """The results beside the helmet-tracking paper's numbers, as plain text."""
     cfg, paper = result["config"], result["paper"]
     lines = [
-        f"Seed 004 helmet pose: IMU {cfg['imu']} at {cfg['imu_rate_hz']:.0f} Hz, camera "
-        f"{cfg['camera_rate_hz']:.0f} Hz, {cfg['duration_s']:.0f} s runs, seed {cfg['seed']}",
+        f"The helmet-tracking paper's pose: IMU {cfg['imu']} at {cfg['imu_rate_hz']:.0f} Hz, "
+        f"camera {cfg['camera_rate_hz']:.0f} Hz, {cfg['duration_s']:.0f} s runs, "
+        f"seed {cfg['seed']}",
         "IMU only (strapdown, calibrated biases)   largest  |  at end       paper",
     ]
     io = result["imu_only"]

@@ -1,5 +1,5 @@
-"""Seed 004's experiment settings: the rates, the IMU preset, the paper's numbers and the
-targets (:data:`PAPER`, :data:`TARGETS`), the trajectories' and cameras' constants, and the
+"""The helmet-tracking paper's experiment settings: the rates, the IMU preset, the paper's numbers
+and the targets (:data:`PAPER`, :data:`TARGETS`), the trajectories' and cameras' constants, and the
 nominal camera (:func:`condition_spec`), PnP (:func:`pnp_params`) and fusion filter
 (:func:`filter_config`) of each run (:mod:`agents.experiments.vio`).
 """
@@ -39,8 +39,8 @@ __all__ = [
 IMU_RATE_HZ = 1000.0
 CAMERA_RATE_HZ = 120.0
 IMU_PRESET = "ig500n"
-#: Seed 004's reported numbers ("+-" bounds). Its extraction and matching success rates are not
-#: results here: they are the camera model's inputs (``camera_inputs``).
+#: The helmet-tracking paper's reported numbers ("+-" bounds). Its extraction and matching success
+#: rates are not results here: they are the camera model's inputs (``camera_inputs``).
 PAPER = {
     "imu_only": {
         "static": {"att_deg": 2.0, "pos_m": 0.2},
@@ -61,7 +61,7 @@ PAPER = {
     "imu_rate_hz": IMU_RATE_HZ,
     "camera_rate_hz": CAMERA_RATE_HZ,
 }
-#: Fused targets (RMSE) of seed 004: ideal and complex conditions.
+#: Fused targets (RMSE) of the helmet-tracking paper: ideal and complex conditions.
 TARGETS = {"ideal": {"pos_m": 0.05, "att_deg": 1.0}, "complex": {"pos_m": 0.1, "att_deg": 3.0}}
 VISUAL_CONDITIONS = ("ideal", "low_light", "occlusion", "motion_blur", "complex")
 ROTATION_RATE_DEG_S = 10.0
@@ -87,7 +87,8 @@ CALIBRATION_DURATION_S = 30.0
 #: 1.5 px): the value :func:`calibrate_camera` returns on :data:`CALIBRATION_SEEDS` with the
 #: default :class:`Mismatch` (``.venv/bin/python -c "from agents.experiments.vio import
 #: calibrate_camera as c; print(c())"``): the ideal camera's visual-only RMSE (gross errors left
-#: out) lands on seed 004's +-0.05 m / +-1 deg in the geometric mean of the two ratios.
+#: out) lands on the helmet-tracking paper's +-0.05 m / +-1 deg in the geometric mean of the two
+#: ratios.
 PIXEL_NOISE_SCALE = 2.68
 
 

@@ -1,6 +1,6 @@
-"""The trajectories of seed 004's experiment (static, rotation, walk: one user each at 1 kHz,
-:func:`simulate`, :class:`Trajectory`) with the IMU record of the run's unit, and the IMU-only
-strapdown from the true initial pose (:func:`imu_only`).
+"""The trajectories of the helmet-tracking paper's experiment (static, rotation, walk: one user each
+at 1 kHz, :func:`simulate`, :class:`Trajectory`) with the IMU record of the run's unit, and the
+IMU-only strapdown from the true initial pose (:func:`imu_only`).
 """
 
 from __future__ import annotations

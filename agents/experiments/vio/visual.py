@@ -1,5 +1,5 @@
-"""The visual poses of seed 004's experiment: frames captured by the run's true camera on a
-trajectory and solved by PnP against the surveyed map (:func:`capture_visual`,
+"""The visual poses of the helmet-tracking paper's experiment: frames captured by the run's true
+camera on a trajectory and solved by PnP against the surveyed map (:func:`capture_visual`,
 :class:`VisualRun`; the PnP spread over threads, :func:`_solve_all`), and their errors against
 the truth (:func:`visual_stats`).
 """

@@ -5,7 +5,7 @@ One sample of one stream is :func:`_step`, cut into the stages of the filter: in
 accelerometer update (:func:`_accelerometer_update`), magnetometer update
 (:func:`_magnetometer_gate`, :func:`_magnetometer_update`), zero-rate update at rest
 (:func:`_rest_update`) and injection of the error state (:func:`_inject`); or, in place of the
-last four, the measurement update as seed 000 prints it (:func:`_printed_update`: Euler-angle
+last four, the measurement update as Zhang 2021 prints it (:func:`_printed_update`: Euler-angle
 residuals, constant R, compensation of the Euler angles). The stages are inlined into the loop
 over samples. :data:`ekf_kernel` loops over streams outside and samples inside, so each stream's
 state stays in cache while its samples are processed; its uncompiled ``py_func`` is the readable
@@ -49,7 +49,7 @@ STATE_FIELDS = {
     "q": (4,),  # nominal quaternion, sensor -> ENU
     "b": (3,),  # gyro bias estimate, rad/s
     # Error-state covariance, [dphi (rad), db (rad/s)]; under the printed measurement model dphi
-    # are the Euler-angle errors [pitch, roll, yaw] (rad) of seed 000 eq (6).
+    # are the Euler-angle errors [pitch, roll, yaw] (rad) of Zhang 2021 eq (6).
     "P": (6, 6),
     "init": (),  # 1.0 once the attitude has been initialised from an accelerometer sample
     "head_init": (),  # 1.0 once the heading has been initialised from a magnetometer sample
@@ -108,7 +108,7 @@ def _yaw_rotate(q, angle):
 def _scalar_update(P, dx, h, z, r, ph):
     """One scalar Kalman update with ``H = [h, 0, 0, 0]`` (h acts on dphi only).
 
-    Eq. (14) of seed 000, ``dx+ = dx- + K (z - H dx-)``, processed one measurement row at a time
+    Eq. (14) of Zhang 2021, ``dx+ = dx- + K (z - H dx-)``, processed one measurement row at a time
     (equivalent to the joint update for a diagonal R), and ``P+ = P- - K H P-`` computed on the
     upper triangle and mirrored (P stays exactly symmetric). ``ph`` is (6,) scratch.
     """

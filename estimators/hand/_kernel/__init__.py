@@ -1,4 +1,4 @@
-"""Seed 003's hand pipeline, compiled (:mod:`estimators.hand`), in the order of its stages:
+"""Yao 2023's hand pipeline, compiled (:mod:`estimators.hand`), in the order of its stages:
 
 * :mod:`~estimators.hand._kernel.joints` — stages 1 and 2: target selection, the Kinect SDK's
   Holt joint filter and the weighted average (:data:`holt_kernel` runs stage 2 alone, for

@@ -1,6 +1,6 @@
-"""Stages 1 and 2 of seed 003's hand pipeline, compiled: target selection and joint smoothing.
+"""Stages 1 and 2 of Yao 2023's hand pipeline, compiled: target selection and joint smoothing.
 
-* :func:`select_target` (seed 003, 1.1): keep the current target by id while it is tracked, else
+* :func:`select_target` (Yao 2023, 1.1): keep the current target by id while it is tracked, else
   take the tracked body whose centre, the mean of its valid centre joints, is nearest the sensor
   (ties to the lowest slot).
 * :func:`smooth_joints` (1.2): per joint the Kinect SDK's Holt filter (:func:`_holt_joint`;

@@ -1,4 +1,4 @@
-"""Stage 3 of seed 003's hand pipeline, compiled: eq (1)/(2), the Kalman filter, the median.
+"""Stage 3 of Yao 2023's hand pipeline, compiled: eq (1)/(2), the Kalman filter, the median.
 
 The scalar stages run per user and frame inside the pipeline's kernel
 (:data:`estimators.hand._kernel.pipeline.hand_kernel`) and alone, without target selection and
@@ -8,7 +8,7 @@ joint smoothing, in :data:`filter_kernel` (Kalman and median over raw angles) af
 angles bit for bit.
 
 * :func:`_paper_ypr` / :func:`quat_angles` — eq (1), or eq (2) where ``|wy - zx|`` exceeds the
-  threshold (seed 003, 1.3; the names are discussed in :mod:`estimators.hand.angles`);
+  threshold (Yao 2023, 1.3; the names are discussed in :mod:`estimators.hand.angles`);
 * :func:`kalman_step` — the Kalman filter of each angle (1.4; the model is documented in
   :class:`~estimators.hand.params.KalmanParams`);
 * :func:`median_step` — the median over the last Kalman angles.

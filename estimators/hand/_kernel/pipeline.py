@@ -1,10 +1,10 @@
-"""Seed 003's hand pipeline, compiled, one user at a time
+"""Yao 2023's hand pipeline, compiled, one user at a time
 (:class:`estimators.hand.pipeline.HandPipeline`).
 
 :data:`hand_kernel` runs, for each user (the ``prange`` loop over users) and each of the M Kinect
 frames of a call, these stages in order:
 
-1. :func:`~estimators.hand._kernel.joints.select_target` (seed 003, 1.1): keep the current target
+1. :func:`~estimators.hand._kernel.joints.select_target` (Yao 2023, 1.1): keep the current target
    by id while it is tracked, else take the tracked body whose centre, the mean of its valid
    centre joints, is nearest the sensor (ties to the lowest slot); a new target makes
    :func:`_forget` clear the filters.

@@ -107,7 +107,7 @@ def test_a_tiny_benchmark_writes_its_outputs_and_ignores_the_worker_count(tmp_pa
         rows = list(csv.DictReader(f))
     assert len(rows) == 1 and float(rows[0]["spl"]) == pytest.approx(row["spl"])
     for kind in ("trajectory", "attitude", "gait"):
-        png = tmp_path / "one" / f"{kind}_approach_goal_seeker_seed000.png"
+        png = tmp_path / "one" / f"{kind}_approach_goal_seeker_zhang2021.png"
         assert png.stat().st_size > 10_000
 
 
@@ -127,7 +127,7 @@ def _same_episode(a, b) -> None:
 
 @pytest.mark.parametrize("cell", [
     Cell("approach", "goal_seeker+human"),
-    Cell("avoid", "avoid_manoeuvre", "seed000_consumer"),
+    Cell("avoid", "avoid_manoeuvre", "zhang2021_consumer"),
     Cell("interact", "goal_seeker", "smooth"),
     Cell("approach", "goal_seeker", "madgwick", "beside_metal"),
 ], ids=lambda c: c.label)  # fmt: skip
@@ -210,7 +210,7 @@ def test_a_job_shared_by_workers_plays_each_claimed_episode_as_alone(monkeypatch
 
     import agents.benchmark.jobs as bm
 
-    cell = Cell("avoid", "goal_seeker", "seed000")
+    cell = Cell("avoid", "goal_seeker", "zhang2021")
     episodes = [(cell, i, 20 + i, False) for i in range(5)]
     claimed = multiprocessing.Array("q", 2)
     claimed[1] = 2  # another worker took the job's first two episodes
@@ -245,7 +245,7 @@ env = VRLocoVectorEnv(2, task="approach")
 env.reset(seed=[0, 1])
 env.step(np.zeros((2, env.single_action_space.shape[0]), np.float32))
 print("threads:", numba.threading_layer())
-kw = {"tasks": ["approach", "avoid"], "policies": ["goal_seeker"], "techniques": ["seed000"],
+kw = {"tasks": ["approach", "avoid"], "policies": ["goal_seeker"], "techniques": ["zhang2021"],
       "episodes": 2, "seed": 5, "progress": False, "print_table": False}
 print("same table:", run_benchmark(**kw, workers=2) == run_benchmark(**kw, workers=1))
 """
@@ -279,7 +279,7 @@ def test_local_workers_start_in_a_process_whose_kernels_ran_threads():
 
 def test_the_batched_and_the_one_at_a_time_grid_give_one_table():
     kw = {"tasks": ["approach", "avoid"], "policies": ["goal_seeker", "avoid_manoeuvre+human"],
-          "techniques": ["seed000"], "episodes": 3, "seed": 2, "progress": False,
+          "techniques": ["zhang2021"], "episodes": 3, "seed": 2, "progress": False,
           "print_table": False, "workers": 1}  # fmt: skip
     assert run_benchmark(**kw, batch_size=2) == run_benchmark(**kw, batch_size=0)
 
@@ -328,11 +328,11 @@ def test_cells_take_techniques_and_a_users_own_policy(tmp_path):
     )
     rows = run_benchmark(
         tasks=["avoid"], policies=["goal_seeker", f"{plugin}:Stand"],
-        techniques=["seed000", "smooth"], episodes=1, seed=3, workers=1, progress=False,
+        techniques=["zhang2021", "smooth"], episodes=1, seed=3, workers=1, progress=False,
         print_table=False,
     )  # fmt: skip
     assert [(r["policy"], r["technique"]) for r in rows] == [  # grouped by technique
-        ("goal_seeker", "seed000"), (f"{plugin}:Stand", "seed000"),
+        ("goal_seeker", "zhang2021"), (f"{plugin}:Stand", "zhang2021"),
         ("goal_seeker", "smooth"), (f"{plugin}:Stand", "smooth"),
     ]  # fmt: skip
     stand = [r for r in rows if r["policy"].endswith(":Stand")]
@@ -354,7 +354,7 @@ def test_the_table_fits_a_narrow_terminal(capsys):
     from agents.benchmark.collision_causes import COLLISION_CAUSES
 
     row = {k: 0.5 for k in ROW_KEYS}
-    row.update(task="approach", policy="goal_seeker+human", technique="seed000_consumer",
+    row.update(task="approach", policy="goal_seeker+human", technique="zhang2021_consumer",
                condition="lab", sensors="consumer_mems", episodes=40,
                vs_baseline={"spl": {"p": 0.001}},
                collision_causes=dict.fromkeys(COLLISION_CAUSES, 2))  # fmt: skip
@@ -362,7 +362,7 @@ def test_the_table_fits_a_narrow_terminal(capsys):
     out = capsys.readouterr().out
     lines = out.splitlines()
     assert max(len(line) for line in lines) <= 80
-    assert "human" in out and "seed000_consumer" in out  # names are not cut
+    assert "human" in out and "zhang2021_consumer" in out  # names are not cut
     assert "users: goal_seeker with the population shown" in out
     assert "compact view" in out
     show_table([row], 0, width=200)
@@ -371,7 +371,7 @@ def test_the_table_fits_a_narrow_terminal(capsys):
     show_table([row], 0, width=260)
     out = capsys.readouterr().out
     assert "2/2/2/2/2" in out
-    assert "0.500*" in out and "differs from seed000" in out  # the SPL marked, and why
+    assert "0.500*" in out and "differs from zhang2021" in out  # the SPL marked, and why
 
 
 def test_walking_in_place_measures_against_a_hand_made_episode():

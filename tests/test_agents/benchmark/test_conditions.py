@@ -20,12 +20,12 @@ def test_unknown_conditions_are_named():
     with pytest.raises(ValueError, match=r"condition=.kitchen.*lab, beside_metal"):
         get_condition("kitchen")
     with pytest.raises(ValueError, match="conditions='kitchen'"):
-        run_benchmark(tasks=["approach"], policies=["goal_seeker"], techniques=["seed000"],
+        run_benchmark(tasks=["approach"], policies=["goal_seeker"], techniques=["zhang2021"],
                       episodes=1, conditions=["kitchen"], progress=False, print_table=False)
     with pytest.raises(ValueError, match=r"Condition.magnetic_disturbances=.*MagneticDisturbance"):
         Condition("odd", "not a dipole", (1.0,))  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="conditions must not repeat"):
-        run_benchmark(tasks=["approach"], policies=["goal_seeker"], techniques=["seed000"],
+        run_benchmark(tasks=["approach"], policies=["goal_seeker"], techniques=["zhang2021"],
                       episodes=1, conditions=["lab", "lab"], progress=False, print_table=False)
 
 
@@ -34,8 +34,8 @@ def test_the_default_condition_is_the_plain_env():
     are without a condition."""
     assert get_condition("lab").sensors() is None
     cell = Cell("approach", "goal_seeker")
-    assert cell.condition == "lab" and cell.label == "approach_goal_seeker_seed000"
-    tech = get_technique("seed000")
+    assert cell.condition == "lab" and cell.label == "approach_goal_seeker_zhang2021"
+    tech = get_technique("zhang2021")
     assert episode_key("fp", "approach", "goal_seeker", tech, 3, False) == episode_key(
         "fp", "approach", "goal_seeker", tech, 3, False, "lab")
     assert episode_key("fp", "approach", "goal_seeker", tech, 3, False) != episode_key(
@@ -73,7 +73,7 @@ def test_the_trolley_passes_along_the_cabinets_line_while_the_user_walks():
     np.testing.assert_allclose(field.max(), np.linalg.norm(cabinet.field_at(head)), rtol=1e-12)
     assert field[0] < 0.2 * field.max()
     # at the head, the earth field plus the trolley's bends north by 3 deg over the pass, but
-    # its norm changes by 0.5 % and its dip by 2.4 deg: within seed 000's magnetometer gate
+    # its norm changes by 0.5 % and its dip by 2.4 deg: within Zhang 2021's magnetometer gate
     # (10 %, 10 deg), which therefore never rejects it
     m = EarthField().vector_enu() + trolley.field_at(np.tile(head, (101, 1)), times)
     norm = np.linalg.norm(m, axis=1)
@@ -85,14 +85,14 @@ def test_the_trolley_passes_along_the_cabinets_line_while_the_user_walks():
 
 
 def test_rows_compare_techniques_within_their_condition():
-    kw = dict(tasks=["approach"], policies=["goal_seeker"], techniques=["seed000", "madgwick"],
+    kw = dict(tasks=["approach"], policies=["goal_seeker"], techniques=["zhang2021", "madgwick"],
               episodes=3, seed=5, conditions=["lab", "beside_metal"], progress=False,
               print_table=False, workers=1)  # fmt: skip
     rows = run_benchmark(**kw)
     assert [(r["technique"], r["condition"]) for r in rows] == [
-        ("seed000", "lab"), ("seed000", "beside_metal"),
+        ("zhang2021", "lab"), ("zhang2021", "beside_metal"),
         ("madgwick", "lab"), ("madgwick", "beside_metal")]  # fmt: skip
-    ref = [run_cell_episode(Cell("approach", "goal_seeker", "seed000", "beside_metal"), s)
+    ref = [run_cell_episode(Cell("approach", "goal_seeker", "zhang2021", "beside_metal"), s)
            for s in (5, 6, 7)]  # fmt: skip
     own = [run_cell_episode(Cell("approach", "goal_seeker", "madgwick", "beside_metal"), s)[0]
            for s in (5, 6, 7)]  # fmt: skip

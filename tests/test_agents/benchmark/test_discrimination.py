@@ -79,7 +79,7 @@ def test_pairs_match_their_cells_by_policy_and_condition(tmp_path, capsys):
 def test_every_pair_has_its_scenario_in_the_default_run():
     cells = {c for g in DEFAULT_GRIDS for c in g.cells()}
     for pair in PAIRS:
-        for technique in ("seed000", pair.technique):
+        for technique in ("zhang2021", pair.technique):
             found = [c for c in cells if c.technique == technique and c.policy == pair.policy
                      and c.condition == pair.condition]  # fmt: skip
             assert found, (pair.name, technique)
@@ -87,17 +87,17 @@ def test_every_pair_has_its_scenario_in_the_default_run():
 
 
 def test_grids_run_as_one_and_replace_the_axes():
-    g = Grid(("approach",), ("goal_seeker",), ("seed000", "smooth"))
-    assert g.cells() == [Cell("approach", "goal_seeker", "seed000"),
+    g = Grid(("approach",), ("goal_seeker",), ("zhang2021", "smooth"))
+    assert g.cells() == [Cell("approach", "goal_seeker", "zhang2021"),
                          Cell("approach", "goal_seeker", "smooth")]  # fmt: skip
-    shared = Grid(("approach",), ("goal_seeker",), ("seed000",))
+    shared = Grid(("approach",), ("goal_seeker",), ("zhang2021",))
     rows = run_benchmark(grids=[g, shared], episodes=1, seed=4, workers=1, progress=False,
                          print_table=False)  # fmt: skip
-    assert [r["technique"] for r in rows] == ["seed000", "smooth"]  # the shared cell ran once
+    assert [r["technique"] for r in rows] == ["zhang2021", "smooth"]  # the shared cell ran once
     assert rows[1]["vs_baseline"]["spl"]["n"] == 1
     with pytest.raises(ValueError, match="grids replaces tasks"):
         run_benchmark(grids=[g], tasks=["avoid"], progress=False)
     with pytest.raises(ValueError, match="techniques must name at least one entry"):
         run_benchmark(grids=[Grid(("approach",), ("goal_seeker",), ())], progress=False)
     with pytest.raises(ValueError, match="policy='robot'"):
-        run_benchmark(grids=[Grid(("approach",), ("robot",), ("seed000",))], progress=False)
+        run_benchmark(grids=[Grid(("approach",), ("robot",), ("zhang2021",))], progress=False)

@@ -63,7 +63,7 @@ def test_an_interrupted_grid_writes_the_cells_that_finished(tmp_path):
     )
     with pytest.raises(KeyboardInterrupt):
         run_benchmark(tasks=["approach"], policies=["goal_seeker", f"{plugin}:Impatient"],
-                      techniques=["seed000"], episodes=1, workers=1, progress=False,
+                      techniques=["zhang2021"], episodes=1, workers=1, progress=False,
                       print_table=False, out_dir=tmp_path / "out")  # fmt: skip
     rows = json.loads((tmp_path / "out" / "benchmark.json").read_text())["rows"]
     assert [r["policy"] for r in rows] == ["goal_seeker"]
@@ -89,7 +89,7 @@ def test_an_interrupted_grid_resumes_where_it_stopped(tmp_path, capsys):
         "        return -np.ones(5, np.float32)\n"
     )
     kw = dict(tasks=["approach"], policies=["goal_seeker", f"{plugin}:Flaky"],
-              techniques=["seed000"], episodes=2, workers=1, progress=False,
+              techniques=["zhang2021"], episodes=2, workers=1, progress=False,
               print_table=False)  # fmt: skip
     out = tmp_path / "out"
     with pytest.raises(KeyboardInterrupt):

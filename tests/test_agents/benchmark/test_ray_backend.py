@@ -15,7 +15,7 @@ from agents.cli import main
 NEEDS_RAY = "the Ray backend needs Ray: pip install 'vrloco[ray]'"
 
 QUIET = {"progress": False, "print_table": False}
-TINY = {"tasks": ["approach"], "techniques": ["seed000"], "episodes": 2, "seed": 4,
+TINY = {"tasks": ["approach"], "techniques": ["zhang2021"], "episodes": 2, "seed": 4,
         "batch_size": 2, "workers": 2, **QUIET}  # fmt: skip
 
 PLUGIN = """\
@@ -94,8 +94,8 @@ def test_a_failed_job_is_named_by_cell_and_seed_and_the_rest_is_kept(ray_local, 
     with pytest.raises(BackendError, match=r"2 of 3 Ray jobs failed") as err:
         run_benchmark(**TINY, policies=["goal_seeker", boom, crash], out_dir=out, backend="ray")
     lines = str(err.value).splitlines()
-    assert f"  cell (approach, {boom}, seed000) seeds 4-5: RuntimeError: boom in reset" in lines
-    assert any(s.startswith(f"  cell (approach, {crash}, seed000) seeds 4-5: WorkerCrashedError "
+    assert f"  cell (approach, {boom}, zhang2021) seeds 4-5: RuntimeError: boom in reset" in lines
+    assert any(s.startswith(f"  cell (approach, {crash}, zhang2021) seeds 4-5: WorkerCrashedError "
                             "after 2 retries") for s in lines)  # fmt: skip
     assert err.value.partial
     assert not (out / "benchmark.csv").exists()  # no table from a part of the grid

@@ -26,10 +26,10 @@ from agents.benchmark.report import (
     WIP_COLUMNS,
 )
 
-#: Avoid with seed 000's chain and the smooth filter, seeds 0-2: both collide (seed 000 once,
+#: Avoid with Zhang 2021's chain and the smooth filter, seeds 0-2: both collide (Zhang 2021 once,
 #: a phantom step; smooth 29 times, phantom steps and stop latency), and every episode of a
 #: cell is replayed, so the replays' collisions are all the row counts.
-RUN = {"tasks": ["avoid"], "techniques": ["seed000", "smooth"], "episodes": REPLAY_EPISODES,
+RUN = {"tasks": ["avoid"], "techniques": ["zhang2021", "smooth"], "episodes": REPLAY_EPISODES,
        "seed": 0, "workers": 1, "progress": False, "print_table": False}  # fmt: skip
 
 

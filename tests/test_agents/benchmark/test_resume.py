@@ -21,7 +21,7 @@ from agents.benchmark.grid import Cell
 from agents.benchmark.resume import EpisodeStore
 from agents.cli import main
 
-TINY = {"tasks": ["approach"], "techniques": ["seed000"], "episodes": 1, "workers": 1,
+TINY = {"tasks": ["approach"], "techniques": ["zhang2021"], "episodes": 1, "workers": 1,
         "progress": False, "print_table": False}  # fmt: skip
 
 
@@ -132,7 +132,7 @@ def test_a_changed_model_condition_or_population_changes_the_keys(tmp_path, monk
     model = tmp_path / "user.zip"
     model.write_bytes(b"a model")
     cells = [Cell("approach", str(model)), Cell("approach", "goal_seeker+nodders"),
-             Cell("approach", "goal_seeker", "seed000", "beside_metal")]  # fmt: skip
+             Cell("approach", "goal_seeker", "zhang2021", "beside_metal")]  # fmt: skip
 
     def keys() -> list[str]:
         return list(_episode_keys(cells, 2, 0, False).values())
@@ -269,10 +269,10 @@ def _bench(*args: str) -> list[str]:
 
 def test_a_folder_holding_another_runs_results_is_refused_unless_forced(tmp_path, capsys):
     out = tmp_path / "out"
-    assert main(_bench("--techniques", "seed000", "--out", str(out))) == 0
+    assert main(_bench("--techniques", "zhang2021", "--out", str(out))) == 0
     mine = {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()}
     capsys.readouterr()
-    assert main(_bench("--techniques", "seed000,smooth", "--out", str(out))) == 2
+    assert main(_bench("--techniques", "zhang2021,smooth", "--out", str(out))) == 2
     (line,) = capsys.readouterr().err.splitlines()
     assert line.startswith(f"vrloco benchmark: --out {out} holds another run's results")
     assert "--force" in line
@@ -280,7 +280,7 @@ def test_a_folder_holding_another_runs_results_is_refused_unless_forced(tmp_path
     assert main(_bench("--techniques", "smooth", "--out", str(out), "--force")) == 0
     names = {p.name for p in out.iterdir()}
     assert "trajectory_approach_goal_seeker_smooth.png" in names
-    assert not any("seed000" in n for n in names)  # the other run's files are gone
+    assert not any("zhang2021" in n for n in names)  # the other run's files are gone
     rows = json.loads((out / "benchmark.json").read_text())["rows"]
     assert [r["technique"] for r in rows] == ["smooth"]
     legacy = tmp_path / "legacy"  # results written without a record of their run

@@ -11,7 +11,7 @@ from agents.benchmark.discrimination import show_pairs
 from agents.benchmark.outputs import ROW_KEYS, show_table, written_summary
 
 POPULATIONS = ("typical", "nodders", "gaze_scanners")
-TECHNIQUES = ("seed000", "seed000_consumer", "threshold_steps", "torso_steering")
+TECHNIQUES = ("zhang2021", "zhang2021_consumer", "threshold_steps", "torso_steering")
 
 
 def _rows(policies=None):
@@ -46,9 +46,14 @@ def test_narrow_tables_keep_the_users_and_whole_values(capsys, width):
         population = row["policy"].partition("+")[2]
         assert re.search(rf"\b{population}\b", line), line  # the users column is kept
         assert re.search(rf"\b{row['technique']}\b", line), line
-    table_one = lines[: len(rows)]
-    for line, row in zip(table_one, rows, strict=True):  # a starred value keeps its star
-        assert f"{row['spl']:.3f}*" in line
+    # a starred value keeps its star: SPL in the outcomes (where the width leaves it a column)
+    # and stop latency in the walking-in-place table
+    spl_shown = any(" SPL " in f" {line} " for line in out.splitlines()[:4])
+    for line, row in zip(lines[: len(rows)], rows, strict=True):
+        assert (f"{row['spl']:.3f}*" in line) == spl_shown, line
+    for line, row in zip(lines[len(rows):], rows, strict=True):
+        assert f"{row['stop_latency_s']:.3f}*" in line, line
+    assert spl_shown or width < 100  # at 100 columns and wider the outcomes show SPL
     assert "users: goal_seeker" in out
     if width == 80:
         assert "not shown at this width" in out  # what was left out is named
@@ -77,14 +82,14 @@ def test_piped_output_honours_columns(capsys, monkeypatch):
 def test_the_pairs_table_wraps_between_names(capsys):
     metrics = ["heading_error_rmse_deg", "attitude_rmse_deg", "yaw_rate_mismatch_deg_s",
                "phantom_steps_per_min"]  # fmt: skip
-    res = {"pair": "seed000_consumer (typical, lab)", "separates": True, "on_outcome": False,
+    res = {"pair": "zhang2021_consumer (typical, lab)", "separates": True, "on_outcome": False,
            "metrics": metrics, "tasks": {}}  # fmt: skip
     show_pairs([res], width=100)
     out = capsys.readouterr().out
     assert max(len(line) for line in out.splitlines()) <= 100
     for m in metrics:
         assert m in out, m  # every name whole on one line
-    assert "seed000_consumer (typical, lab): separates yes" in " ".join(out.split())
+    assert "zhang2021_consumer (typical, lab): separates yes" in " ".join(out.split())
     assert "1 of 1 pairs separate" in out
     show_pairs([res], width=200)
     out = capsys.readouterr().out

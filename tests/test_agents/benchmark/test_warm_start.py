@@ -8,7 +8,7 @@ import pytest
 from agents.benchmark import run as benchmark
 from agents.benchmark import run_benchmark, warm_start
 
-KW = dict(tasks=["approach"], policies=["goal_seeker"], techniques=["seed000"], episodes=2,
+KW = dict(tasks=["approach"], policies=["goal_seeker"], techniques=["zhang2021"], episodes=2,
           progress=False, print_table=False)  # fmt: skip
 
 

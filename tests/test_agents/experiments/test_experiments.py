@@ -25,7 +25,7 @@ def test_hand_variance_reports_table_4_and_the_filters_in_motion(tmp_path, capsy
     swept = moving["swept_axis"]
     for axis in axes:  # the motion-adaptive filter beats raw in motion too
         assert moving["adaptive_kalman"]["rmse_deg"][axis] < moving["raw"]["rmse_deg"][axis]
-    # seed 003's median costs its lag in motion: worse than raw on the swept axis
+    # Yao 2023's median costs its lag in motion: worse than raw on the swept axis
     assert moving["kalman_median"]["rmse_deg"][swept] > moving["raw"]["rmse_deg"][swept]
     assert moving["kalman_median"]["lag_ms"] > moving["kalman"]["lag_ms"] + 20.0
     assert "Kalman + median" in capsys.readouterr().out

@@ -17,8 +17,8 @@ from vrloco_env.user.population import (
     Population,
 )
 
-#: One pair's cells (nod_robust against seed000 with nodding users), few episodes: a fast run.
-SMALL_GRID = (Grid(("approach",), ("goal_seeker+nodders",), ("seed000", "nod_robust")),)
+#: One pair's cells (nod_robust against zhang2021 with nodding users), few episodes: a fast run.
+SMALL_GRID = (Grid(("approach",), ("goal_seeker+nodders",), ("zhang2021", "nod_robust")),)
 
 
 def _attribute_docs() -> dict[str, str]:

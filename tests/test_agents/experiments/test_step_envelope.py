@@ -45,12 +45,12 @@ def test_a_squat_moves_the_head_by_its_depth_with_the_exact_second_derivative():
         add_squats(rec, depth=0.0, rate=0.4, start=2.0, cycles=2)
 
 
-def test_squats_without_steps_give_seed000_and_nod_robust_almost_no_false_steps():
+def test_squats_without_steps_give_zhang2021_and_nod_robust_almost_no_false_steps():
     """A deep, quick squat lifts |f| above the naive threshold, but its peaks are 2 s apart,
-    beyond the 1.2 s bout rule of seed 000 and nod_robust: at most 1 false step a minute."""
+    beyond the 1.2 s bout rule of Zhang 2021 and nod_robust: at most 1 false step a minute."""
     trials = [build_trial(CASE["squat 0.5 m 0.5 Hz"], "consumer_mems", 2, SEED)]
     assert count_steps("threshold", trials).fp > 0  # the squat does reach the |f| threshold
-    for name in ("seed000", "nod_robust"):
+    for name in ("zhang2021", "nod_robust"):
         c = count_steps(name, trials)
         assert c.true_steps == 0 and c.tp == 0 and c.f1 is None
         assert c.fp_per_min <= 1.0, name
@@ -70,10 +70,11 @@ def test_tp_and_misses_make_the_true_steps_and_tp_and_fp_the_detections():
 
 
 def test_steps_below_the_threshold_are_missed_and_steps_above_it_found():
-    """seed 000's gamma is 0.07 g: heel strikes peaking at 0.06 g fall under it, 0.10 g clear it."""
-    soft = count_steps("seed000", [build_trial(CASE["light steps 0.06 g, 1.5/s"], "ig500n", 2,
+    """Zhang 2021's gamma is 0.07 g: heel strikes peaking at 0.06 g fall under it, 0.10 g clear
+    it."""
+    soft = count_steps("zhang2021", [build_trial(CASE["light steps 0.06 g, 1.5/s"], "ig500n", 2,
                                                SEED + 2)])  # fmt: skip
-    firm = count_steps("seed000", [build_trial(CASE["light steps 0.10 g, 1.5/s"], "ig500n", 2,
+    firm = count_steps("zhang2021", [build_trial(CASE["light steps 0.10 g, 1.5/s"], "ig500n", 2,
                                                SEED + 2)])  # fmt: skip
     assert soft.true_steps == firm.true_steps > 40
     assert soft.tp <= 0.2 * soft.true_steps
@@ -163,7 +164,7 @@ def test_the_cli_runs_every_case_and_labels_its_seeds(tmp_path, capsys):
                 assert (r["true_steps"] > 0) == CASE[name].stepping
     if out["oxford"] is not None:
         labels = {k: r["label"] for k, r in out["oxford"]["detectors"].items()}
-        assert labels["seed000 neck_pouch"].startswith("in-sample")
+        assert labels["zhang2021 neck_pouch"].startswith("in-sample")
 
 
 @pytest.mark.parametrize(("kw", "message"), [({"users": 0}, "users=0"), ({"seed": -2}, "seed=-2"),

@@ -1,5 +1,6 @@
-"""Seed 004's experiment (``vrloco experiment vio``): its parts through the public API on short
-walks, and one 15 s run through the command line (slow) whose JSON the claims are checked on.
+"""The helmet-tracking paper's experiment (``vrloco experiment vio``): its parts through the public
+API on short walks, and one 15 s run through the command line (slow) whose JSON the claims are
+checked on.
 
 Seed 3 is not a calibration seed, so the camera's calibrated noise is held-out there.
 """

@@ -59,14 +59,14 @@ def test_tiny_ppo_run_writes_a_model_and_a_learning_curve(tmp_path, capsys):
     # The benchmark plays the same model through the same episode loop: the same numbers.
     from agents.benchmark import run_benchmark
 
-    (row,) = run_benchmark(tasks=["avoid"], policies=[str(path)], techniques=["seed000"],
+    (row,) = run_benchmark(tasks=["avoid"], policies=[str(path)], techniques=["zhang2021"],
                            episodes=2, workers=1, progress=False, print_table=False)  # fmt: skip
     # The same row, steps matched in the benchmark's window (step F1 too).
     for key in ("success_rate", "spl", "attitude_rmse_deg", "mean_collisions", "step_f1",
                 "heading_error_rmse_deg", "phantom_steps_per_min"):  # fmt: skip
         assert row[key] == pytest.approx(result[key], nan_ok=True), key
     # Batched users play the model row by row: the same table as one episode at a time.
-    kw = dict(tasks=["avoid"], policies=[str(path)], techniques=["seed000"], episodes=3,
+    kw = dict(tasks=["avoid"], policies=[str(path)], techniques=["zhang2021"], episodes=3,
               workers=1, progress=False, print_table=False)  # fmt: skip
     assert run_benchmark(**kw, batch_size=2) == run_benchmark(**kw, batch_size=0)
     with pytest.raises(ValueError, match="trained on task 'avoid'"):
@@ -480,7 +480,7 @@ def test_an_unknown_technique_population_or_condition_is_one_error_naming_the_va
     from agents.cli import main
 
     cases = {
-        "technique": "technique='nope': unknown; valid names: seed000, seed000_consumer",
+        "technique": "technique='nope': unknown; valid names: zhang2021, zhang2021_consumer",
         "population": "population='nope': must be one of idealised, human, typical",
         "condition": "condition='nope': unknown; valid names: lab, beside_metal",
     }
@@ -566,10 +566,10 @@ def test_a_model_trained_on_a_cell_carries_it_and_is_evaluated_on_it(tmp_path, c
         assert row[key] == pytest.approx(ref[key], nan_ok=True), key
     # Repeating the model's own cell is no mismatch; another cell is refused, naming it.
     assert evaluate_model(path, episodes=2, progress=False, **cell) == row
-    with pytest.raises(ValueError, match=r"technique='seed000' \(trained: 'madgwick'\), "
+    with pytest.raises(ValueError, match=r"technique='zhang2021' \(trained: 'madgwick'\), "
                                          r"condition='lab' \(trained: 'beside_metal'\) "
                                          r"contradicts the model"):  # fmt: skip
-        evaluate_model(path, episodes=1, technique="seed000", condition="lab")
+        evaluate_model(path, episodes=1, technique="zhang2021", condition="lab")
     with pytest.raises(ValueError, match="condition='nope': unknown; valid names: lab"):
         evaluate_model(path, episodes=1, condition="nope")
     capsys.readouterr()
@@ -658,7 +658,7 @@ def test_frame_stacked_and_recurrent_models_play_as_they_were_trained(tmp_path):
         want = _trained_actions(model, "avoid", 11, 20, frames)
         np.testing.assert_array_equal(_played_actions(path, "avoid", 11, 20), want)
         # Batched users keep their own frames and LSTM states: the same table as one at a time.
-        kw = dict(tasks=["avoid"], policies=[str(path)], techniques=["seed000"], episodes=3,
+        kw = dict(tasks=["avoid"], policies=[str(path)], techniques=["zhang2021"], episodes=3,
                   workers=1, progress=False, print_table=False)  # fmt: skip
         assert run_benchmark(**kw, batch_size=2) == run_benchmark(**kw, batch_size=0)
         row = evaluate_model(path, episodes=1, progress=False)

@@ -173,13 +173,13 @@ def test_an_existing_dataset_is_refused_unless_forced(minari_root, capsys):
     [
         (["--policy", "goal_seker"], "policy='goal_seker': must be one of goal_seeker"),
         (["--policy", "goal_seeker+nope"], "unknown population 'nope'"),
-        (["--technique", "nope"], "technique='nope': unknown; valid names: seed000"),
+        (["--technique", "nope"], "technique='nope': unknown; valid names: zhang2021"),
         (["--minari", "no_version"], "minari dataset id 'no_version': must be"),
         (["--minari", "../up-v0"], "minari dataset id '../up-v0': must be"),
     ],
 )
 def test_bad_input_gets_one_line(options, message, minari_root, capsys):
-    argv = ["record", "--task", "approach", "--policy", "goal_seeker", "--technique", "seed000",
+    argv = ["record", "--task", "approach", "--policy", "goal_seeker", "--technique", "zhang2021",
             "--minari", "bad/x-v0"]  # fmt: skip
     for flag, value in zip(options[::2], options[1::2], strict=True):
         argv[argv.index(flag) + 1] = value

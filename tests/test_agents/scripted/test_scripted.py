@@ -276,7 +276,7 @@ def test_a_policy_that_drops_users_acts_for_the_kept_ones_as_before(task, spec):
     from vrloco_env.vector import VRLocoVectorEnv
 
     b, rows = 7, np.array([5, 0, 3, 6])
-    env = VRLocoVectorEnv(b, task=task, technique="seed000", population="typical",
+    env = VRLocoVectorEnv(b, task=task, technique="zhang2021", population="typical",
                           autoreset_mode=AutoresetMode.DISABLED)  # fmt: skip
     whole = build_policy(spec, env)
     obs, _ = env.reset(seed=list(range(b)))

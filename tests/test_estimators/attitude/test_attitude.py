@@ -1,4 +1,4 @@
-"""Attitude EKF (seed 000, section 1) against ground truth: synthetic head motion and BROAD."""
+"""Attitude EKF (Zhang 2021, section 1) against ground truth: synthetic head motion and BROAD."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Seed 003's hand pipeline against ground truth: eq (1)/(2), target selection, Holt smoothing,
+"""Yao 2023's hand pipeline against ground truth: eq (1)/(2), target selection, Holt smoothing,
 Kalman + median filtering, the One Euro competitor, batching, and the Kinect CSV reader on a
 real wrist.
 
@@ -341,7 +341,7 @@ def test_holt_invalid_joints_are_nan_and_restart():
 
 
 def test_static_variance_reduction_follows_the_white_share_of_the_noise(rng):
-    """Seed 003's experiment 2 on known noise: 11 static angles (its "yaw" = our roll) x repeats.
+    """Yao 2023's experiment 2 on known noise: 11 static angles (its "yaw" = our roll) x repeats.
 
     On white noise the Kalman filter removes most of the variance and the median adds to it; on
     noise that is 95 % AR(1) with a 0.5 s time constant (the Kinect model's bending axes) a filter

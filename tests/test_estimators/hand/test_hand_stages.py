@@ -1,4 +1,4 @@
-"""Hand stages (estimators.stages.HAND): seed003, raw, the One Euro filter and the motion-adaptive
+"""Hand stages (estimators.stages.HAND): yao2023, raw, the One Euro filter and the motion-adaptive
 Kalman filter, against the truth of the synthetic Kinect v2 chain (motion model -> KinectV2 ->
 HandPipeline)."""
 
@@ -21,7 +21,7 @@ from estimators.hand import (
     KalmanParams,
     OrientationFilter,
     RawHand,
-    Seed003Hand,
+    Yao2023Hand,
     estimate_lag,
     unwrap_angles,
 )
@@ -39,7 +39,7 @@ WARMUP = 30  # frames left out of the statistics (1 s), as agents/experiments/ha
 STATIC_SEED, MOVING_SEED = 5, 105
 assert STATIC_SEED not in DEV_STATIC_SEEDS and MOVING_SEED not in DEV_MOVING_SEEDS
 REPEATS = 3
-NAMES = ("raw", "seed003", "one_euro", "adaptive_kalman")
+NAMES = ("raw", "yao2023", "one_euro", "adaptive_kalman")
 
 
 def simulate(hand_roll, roll_rate, seconds, seed):
@@ -101,7 +101,7 @@ def build_all(b):
 # ---------------------------------------------------------------------------- registry
 def test_registry_builds_all_four():
     built = build_all(4)
-    assert isinstance(built["seed003"], Seed003Hand)
+    assert isinstance(built["yao2023"], Yao2023Hand)
     assert isinstance(built["raw"], RawHand)
     assert isinstance(built["one_euro"], OneEuroHand)
     assert isinstance(built["adaptive_kalman"], AdaptiveKalmanHand)
@@ -146,8 +146,8 @@ def test_bad_params_and_frames_raise_value_errors():
             stage.reset([5])
 
 
-# ---------------------------------------------------------------------------- seed003 and raw
-def test_seed003_and_raw_are_the_pipelines_own_outputs_bit_for_bit():
+# ---------------------------------------------------------------------------- yao2023 and raw
+def test_yao2023_and_raw_are_the_pipelines_own_outputs_bit_for_bit():
     """On the hand-variance chain, step by step: the stages give exactly the pipeline's Kalman +
     median and raw angles."""
     for roll, rate, seed in ((np.deg2rad([-90.0, 0.0, 45.0]), None, 11),
@@ -156,14 +156,14 @@ def test_seed003_and_raw_are_the_pipelines_own_outputs_bit_for_bit():
         trial = simulate_trial(roll, rates, 3.0, seed)
         frames = trial.step_frames()
         stages = build_all(3)
-        ypr, valid = run(stages["seed003"], frames)
+        ypr, valid = run(stages["yao2023"], frames)
         np.testing.assert_array_equal(ypr, trial.frames.ypr)
         np.testing.assert_array_equal(valid, trial.frames.valid)
         raw, raw_valid = run(stages["raw"], frames)
         np.testing.assert_array_equal(raw, trial.frames.ypr_raw)
         np.testing.assert_array_equal(raw_valid, np.isfinite(raw).all(axis=-1))
         # Copies: the caller may keep them while the frames are reused.
-        y0, _ = stages["seed003"].update(frames[-1])
+        y0, _ = stages["yao2023"].update(frames[-1])
         assert not np.shares_memory(y0, frames[-1].ypr)
 
 
@@ -173,8 +173,8 @@ def test_adaptive_kalman_is_the_pipelines_kalman_filter_on_raw_angles():
     chunking of the frames into steps gives the same numbers."""
     roll = np.deg2rad([-30.0, 10.0, 60.0])
     trial = simulate_trial(roll, np.full(3, np.deg2rad(90.0)), 3.0, 13)
-    seed003 = AdaptiveKalmanHandParams(accel_psd=1.0, max_accel_psd=10.0, adapt_time=0.1)
-    ypr, valid = run(AdaptiveKalmanHand(3, FS, seed003), trial.step_frames())
+    yao2023 = AdaptiveKalmanHandParams(accel_psd=1.0, max_accel_psd=10.0, adapt_time=0.1)
+    ypr, valid = run(AdaptiveKalmanHand(3, FS, yao2023), trial.step_frames())
     np.testing.assert_array_equal(ypr, trial.frames.ypr_kalman)
     np.testing.assert_array_equal(valid, trial.frames.valid)
     whole, _ = AdaptiveKalmanHand(3, FS).update(trial.frames)
@@ -189,7 +189,7 @@ def test_adaptive_kalman_is_the_pipelines_kalman_filter_on_raw_angles():
 
 def test_adaptive_kalman_beats_raw_at_rest_and_in_motion(static_frames, moving_frames):
     """Held-out seeds: lower RMSE against the truth than raw on every axis, at rest and while the
-    hand sweeps at 90 deg/s, with under half a frame of lag; seed 003's Kalman + median is worse
+    hand sweeps at 90 deg/s, with under half a frame of lag; Yao 2023's Kalman + median is worse
     than raw in motion (the median's lag)."""
     static_truth = static_frames[1]
     b = static_truth.shape[0]
@@ -205,14 +205,14 @@ def test_adaptive_kalman_beats_raw_at_rest_and_in_motion(static_frames, moving_f
     assert np.all(rmse_ak < rmse_raw), (rmse_ak, rmse_raw)
     assert rmse_ak[axis] < 0.9 * rmse_raw[axis], (rmse_ak, rmse_raw)
     assert lag_ak < 0.5 / FS, lag_ak
-    assert res["seed003"][0][axis] > rmse_raw[axis]  # the documented price of the median
+    assert res["yao2023"][0][axis] > rmse_raw[axis]  # the documented price of the median
 
 
 # ---------------------------------------------------------------------------- One Euro vs truth
 def test_one_euro_beats_raw_at_rest(static_frames):
     static_frames, truth = static_frames
     b = static_frames[0].ypr.shape[0]
-    stages = {name: HAND.build(name, b, FS) for name in ("raw", "seed003", "one_euro")}
+    stages = {name: HAND.build(name, b, FS) for name in ("raw", "yao2023", "one_euro")}
     out = {name: run(s, static_frames)[0] for name, s in stages.items()}
     var = {name: rest_variance(y) for name, y in out.items()}
     reduction = 100.0 * (1.0 - var["one_euro"] / var["raw"])
@@ -221,7 +221,7 @@ def test_one_euro_beats_raw_at_rest(static_frames):
     # about a tenth (development seeds: 49.6 / 11.2 / 10.0 %).
     assert reduction[0] > 40.0, reduction
     assert np.all(reduction[1:] > 5.0), reduction
-    assert reduction[0] < 100.0 * (1.0 - var["seed003"][0] / var["raw"][0])
+    assert reduction[0] < 100.0 * (1.0 - var["yao2023"][0] / var["raw"][0])
     err = {name: rmse_deg(y, truth) for name, y in out.items()}
     assert np.all(err["one_euro"] < err["raw"]), err
     ypr, valid = run(stages["one_euro"], static_frames)
@@ -239,9 +239,9 @@ def test_one_euro_beats_raw_in_motion(moving_frames):
     assert np.all(rmse_oe < 0.99 * rmse_raw), (rmse_oe, rmse_raw)
     # Lag: under half a frame, far below Kalman + median's (the median's frame).
     assert lag_oe < 0.5 / FS, lag_oe
-    assert lag_oe < 0.5 * res["seed003"][1]
+    assert lag_oe < 0.5 * res["yao2023"][1]
     assert lag_raw <= lag_oe + 1e-9
-    assert rmse_oe[axis] < res["seed003"][0][axis]
+    assert rmse_oe[axis] < res["yao2023"][0][axis]
 
 
 # ---------------------------------------------------------------------------- One Euro mechanics

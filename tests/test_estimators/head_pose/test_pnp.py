@@ -1,4 +1,5 @@
-"""Visual head pose (seed 004): OpenCV EPnP + RANSAC + LM on synthetic landmark views."""
+"""Visual head pose (the helmet-tracking paper): OpenCV EPnP + RANSAC + LM on synthetic landmark
+views."""
 
 from __future__ import annotations
 

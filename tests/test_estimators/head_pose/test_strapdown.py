@@ -1,4 +1,5 @@
-"""Strapdown inertial navigation (seed 004): accuracy against closed forms and analytic motion."""
+"""Strapdown inertial navigation (the helmet-tracking paper): accuracy against closed forms and
+analytic motion."""
 
 from __future__ import annotations
 

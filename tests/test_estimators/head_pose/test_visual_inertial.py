@@ -1,4 +1,5 @@
-"""Visual-inertial ESKF (seed 004) against ground truth on a synthetic walking trajectory.
+"""Visual-inertial ESKF (the helmet-tracking paper) against ground truth on a synthetic walking
+trajectory.
 
 The truth is analytic (a 1 m/s circle with head bob and yaw turns), the IMU is exact plus white
 noise at the consumer-MEMS densities and constant biases, and the visual poses are the truth at

@@ -1,4 +1,4 @@
-"""The step stages of :data:`estimators.stages.STEPS`: seed000, threshold and nod_robust.
+"""The step stages of :data:`estimators.stages.STEPS`: zhang2021, threshold and nod_robust.
 
 Ground truth from the simulated user (:mod:`vrloco_env.user.motion` through the IMU presets, with
 the trial machinery of :mod:`agents.experiments.head_motions`; the attitude input is the error-state
@@ -24,16 +24,16 @@ from estimators.steps import (
     GaitParams,
     NodRobustParams,
     NodRobustSteps,
-    Seed000Steps,
     StepDetector,
     ThresholdParams,
     ThresholdSteps,
+    Zhang2021Steps,
 )
 from vrloco_env.batch_rng import BatchRng
 from vrloco_env.user import Intent, MotionParams, MotionRecord, UserMotion
 
 FS = 100.0
-NAMES = ("seed000", "threshold", "nod_robust")
+NAMES = ("zhang2021", "threshold", "nod_robust")
 USERS = 4
 SEED = 2000  # held out: see the module docstring
 
@@ -92,22 +92,22 @@ def phantoms_per_minute(name: str, trial: Trial) -> float:
 
 
 # ------------------------------------------------------------------------------------------------
-# (1) Walking in place: nod_robust keeps seed 000's F1.
+# (1) Walking in place: nod_robust keeps Zhang 2021's F1.
 # ------------------------------------------------------------------------------------------------
 
 
 @pytest.mark.parametrize("cadence", CADENCES)
 @pytest.mark.parametrize("preset", PRESETS)
 def test_walking_f1(preset, cadence):
-    """Every step found (F1 >= 0.97) and nod_robust within 0.02 of seed000; threshold reported.
+    """Every step found (F1 >= 0.97) and nod_robust within 0.02 of zhang2021; threshold reported.
 
-    Measured (seed 2000, F1 seed000 / threshold / nod_robust): 1.000 / 1.000 / 1.000 at every
+    Measured (seed 2000, F1 zhang2021 / threshold / nod_robust): 1.000 / 1.000 / 1.000 at every
     cadence on both presets."""
     trial = walking(preset, cadence)
     f1 = {name: pooled_f1(name, trial) for name in NAMES}
     print(f"{preset} {cadence} steps/s F1: {f1}")
-    assert f1["seed000"] >= 0.97
-    assert f1["nod_robust"] >= max(0.97, f1["seed000"] - 0.02)
+    assert f1["zhang2021"] >= 0.97
+    assert f1["nod_robust"] >= max(0.97, f1["zhang2021"] - 0.02)
     assert 0.0 <= f1["threshold"] <= 1.0
 
 
@@ -116,12 +116,12 @@ def test_walking_while_nodding_gently_f1(preset):
     """Stepping at 1.7 steps/s while nodding +-15 deg at 0.5 Hz: the veto costs nothing.
     (A vigorous nod while stepping vetoes the steps too: see ``benchmarks/bench_step_stages.py``.)
 
-    Measured (seed 2001, F1 seed000 / threshold / nod_robust): 1.000 / 1.000 / 1.000 on both
+    Measured (seed 2001, F1 zhang2021 / threshold / nod_robust): 1.000 / 1.000 / 1.000 on both
     presets."""
     trial = gesture(preset, "gentle_nod", cadence=1.7)
     f1 = {name: pooled_f1(name, trial) for name in NAMES}
     print(f"{preset} walking while nodding F1: {f1}")
-    assert f1["nod_robust"] >= max(0.97, f1["seed000"] - 0.02)
+    assert f1["nod_robust"] >= max(0.97, f1["zhang2021"] - 0.02)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -132,17 +132,17 @@ def test_walking_while_nodding_gently_f1(preset):
 @pytest.mark.parametrize("name", ["nod", "look_around"])
 @pytest.mark.parametrize("preset", PRESETS)
 def test_fewer_phantom_steps_while_standing(preset, name):
-    """nod_robust gives strictly fewer phantom steps per minute than seed000, at most a tenth.
+    """nod_robust gives strictly fewer phantom steps per minute than zhang2021, at most a tenth.
 
-    Measured (seed 2001, phantom steps/min seed000 / threshold / nod_robust): nod ig500n
+    Measured (seed 2001, phantom steps/min zhang2021 / threshold / nod_robust): nod ig500n
     51.0 / 51.0 / 0.0, consumer_mems 51.0 / 49.5 / 0.0; look_around ig500n 22.5 / 57.8 / 0.0,
     consumer_mems 18.0 / 57.0 / 0.0."""
     trial = gesture(preset, name)
     rate = {n: phantoms_per_minute(n, trial) for n in NAMES}
     print(f"{preset} {name} phantom steps/min: {rate}")
-    assert rate["seed000"] > 0.0  # the motion does fool seed 000 (else the test shows nothing)
-    assert rate["nod_robust"] < rate["seed000"]
-    assert rate["nod_robust"] <= 0.1 * rate["seed000"]
+    assert rate["zhang2021"] > 0.0  # the motion does fool Zhang 2021 (else the test shows nothing)
+    assert rate["nod_robust"] < rate["zhang2021"]
+    assert rate["nod_robust"] <= 0.1 * rate["zhang2021"]
 
 
 def test_nod_robust_ignores_a_constant_tilt():
@@ -174,15 +174,15 @@ def test_nod_robust_ignores_a_constant_tilt():
 # ------------------------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("name", ["steps_threshold", "steps_nod_robust", "steps_seed000"])
+@pytest.mark.parametrize("name", ["steps_threshold", "steps_nod_robust", "steps_zhang2021"])
 def test_the_kernel_cases_find_steps_and_release_held_ones(name):
     out = STEP_CASES[name]()
     steps = np.concatenate([out[f"steps_{k}"] for k in range(4)], axis=1)
     assert steps.sum() > 0
-    if name != "steps_threshold":  # seed 000's bout rule: a bout's first step is held
+    if name != "steps_threshold":  # Zhang 2021's bout rule: a bout's first step is held
         assert (steps == 2).any()
     if name == "steps_nod_robust":  # the nodding stream's peaks are vetoed
-        assert steps[2].sum() == 0 and STEP_CASES["steps_seed000"]()["steps_3"][2].sum() > 0
+        assert steps[2].sum() == 0 and STEP_CASES["steps_zhang2021"]()["steps_3"][2].sum() > 0
 
 
 # ------------------------------------------------------------------------------------------------
@@ -256,7 +256,7 @@ def test_reset_rows_are_independent(name, rows):
 
 
 # ------------------------------------------------------------------------------------------------
-# (6) Registry, protocol, Seed000Steps == StepDetector.
+# (6) Registry, protocol, Zhang2021Steps == StepDetector.
 # ------------------------------------------------------------------------------------------------
 
 
@@ -277,7 +277,7 @@ def test_registry_builds_the_protocol(name):
 
 @pytest.mark.parametrize(
     "params, cls",
-    [(GaitParams(gamma=1.0), Seed000Steps), (ThresholdParams(threshold=1.0), ThresholdSteps),
+    [(GaitParams(gamma=1.0), Zhang2021Steps), (ThresholdParams(threshold=1.0), ThresholdSteps),
      (NodRobustParams(lever_arm=0.1), NodRobustSteps)],
 )  # fmt: skip
 def test_params_build(params, cls):
@@ -286,11 +286,11 @@ def test_params_build(params, cls):
     assert isinstance(params.build(2, 50.0), cls)
 
 
-def test_seed000_equals_step_detector_bit_for_bit():
+def test_zhang2021_equals_step_detector_bit_for_bit():
     trial = walking("consumer_mems", 1.2)
     s = trial.imu
     ref = StepDetector(USERS, FS).update(s.acc)
-    stage = Seed000Steps(USERS, FS)
+    stage = Zhang2021Steps(USERS, FS)
     out = stage.update(s.acc, s.gyr, trial.q_est)
     for f in ("state", "steps", "peak_time", "sample_time"):
         np.testing.assert_array_equal(getattr(out, f), getattr(ref, f))

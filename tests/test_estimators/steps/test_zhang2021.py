@@ -1,4 +1,4 @@
-"""Gait detector (seed 000 eqs 15-16), offline and streaming, and eq (17) fed by it.
+"""Gait detector (Zhang 2021 eqs 15-16), offline and streaming, and eq (17) fed by it.
 
 The synthetic head: a rigid head turning about the neck pivot with the IMU 9 cm ahead of and
 12 cm above it; stepping in place moves the pivot vertically with one zero-mean heel-strike pulse
@@ -150,11 +150,11 @@ def test_lightest_steps_at_lowest_cadence(rng):
     ("gestures", "label"),
     [
         (((40.0, 1.0), (0.0, 0.5), (0.0, 0.5)), "serpentine 40 deg 1 Hz"),
-        (((40.0, 0.4), (0.0, 0.5), (0.0, 0.5)), "serpentine 40 deg 0.4 Hz (seed 000 script)"),
+        (((40.0, 0.4), (0.0, 0.5), (0.0, 0.5)), "serpentine 40 deg 0.4 Hz (Zhang 2021 script)"),
         (((0.0, 0.5), (30.0, 0.4), (0.0, 0.5)), "nod 30 deg 0.4 Hz"),
         (((0.0, 0.5), (20.0, 0.5), (0.0, 0.5)), "nod 20 deg 0.5 Hz"),
         (((0.0, 0.5), (10.0, 0.7), (0.0, 0.5)), "nod 10 deg 0.7 Hz"),
-        (((0.0, 0.5), (0.0, 0.5), (25.0, 0.5)), "shake 25 deg 0.5 Hz (seed 000 script)"),
+        (((0.0, 0.5), (0.0, 0.5), (25.0, 0.5)), "shake 25 deg 0.5 Hz (Zhang 2021 script)"),
         (((0.0, 0.5), (0.0, 0.5), (15.0, 1.0)), "shake 15 deg 1 Hz"),
         (((30.0, 0.6), (10.0, 0.5), (15.0, 0.7)), "all three"),
     ],

@@ -1,4 +1,5 @@
-"""Head camera model: projection and frames, visibility, seed 004 rates, blur, determinism."""
+"""Head camera model: projection and frames, visibility, the helmet-tracking paper's rates, blur,
+determinism."""
 
 import math
 

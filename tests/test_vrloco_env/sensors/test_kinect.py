@@ -1,4 +1,4 @@
-"""Kinect v2 model: seed 003 calibration, noise vs depth, tracking states, bodies, determinism."""
+"""Kinect v2 model: Yao 2023 calibration, noise vs depth, tracking states, bodies, determinism."""
 
 import numpy as np
 import pytest
@@ -32,7 +32,7 @@ from vrloco_env.sensors.kinect import _kernel as _kinect_numba
 from vrloco_env.user import INFERRED, NOT_TRACKED, TRACKED, Joint
 
 FPS = 30.0
-# Seed 003, Tables 1-3: the 11 static hand "yaw" angles (turn about the forearm), deg.
+# Yao 2023, Tables 1-3: the 11 static hand "yaw" angles (turn about the forearm), deg.
 PAPER_ANGLES_DEG = (-90, 0, 90, -35, -50, -65, -75, 30, 45, 60, 75)
 # A quiet sensor for tests that check one mechanism at a time.
 QUIET = {
@@ -110,7 +110,7 @@ def test_camera_space_follows_the_kinect_sdk():
 
 def test_wrist_quaternion_is_the_sdk_frame_and_eq1_names_match_the_hand():
     """SDK wrist frame: +y along the forearm. With the forearm pointing at the sensor (motion.py's
-    pose), seed 003's eq (1) "roll" / "pitch" / "yaw" -- quat_to_ypr(q)[..., 0 / 1 / 2] -- follow
+    pose), Yao 2023's eq (1) "roll" / "pitch" / "yaw" -- quat_to_ypr(q)[..., 0 / 1 / 2] -- follow
     the hand's turn about the forearm, fingertips up/down and sweep left/right.
     """
     spec = KinectSpec()

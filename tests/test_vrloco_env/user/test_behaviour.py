@@ -275,7 +275,7 @@ def test_a_batch_of_behaviours_reproduces_single_users_bit_for_bit():
 # ------------------------------------------------------------------------------- in the env
 
 
-def _episode(population, technique="seed000", steps=120, seed=3, action=(0.5, 0, 0, 0, 0)):
+def _episode(population, technique="zhang2021", steps=120, seed=3, action=(0.5, 0, 0, 0, 0)):
     env = gym.make("VRLoco-Approach-v0", population=population, technique=technique,
                    max_episode_steps=steps)  # fmt: skip
     obs, _ = env.reset(seed=seed)
@@ -339,33 +339,33 @@ def test_a_vector_env_with_a_population_matches_single_envs_across_autoresets():
 
 
 @pytest.mark.slow
-def test_nodding_while_standing_makes_seed000_count_phantom_steps():
-    """Nods reach the step detector: a standing user who nods gets steps from seed 000's
+def test_nodding_while_standing_makes_zhang2021_count_phantom_steps():
+    """Nods reach the step detector: a standing user who nods gets steps from Zhang 2021's
     |f| detector (the failure mode of head-IMU step detection the population exposes)."""
     nodder = replace(POPULATIONS["nodders"], name="always_nods", gaze=False,
                      nod_rate_hz=(1.0, 1.0), nod_amplitude_deg=(15.0, 15.0),
                      nod_frequency_hz=(2.0, 2.0))  # fmt: skip
     counts = {}
-    for tech in ("seed000", "nod_robust"):
+    for tech in ("zhang2021", "nod_robust"):
         _, _, infos = _episode(nodder, technique=tech, steps=300, action=(-1, 0, 0, 0, 0))
         assert sum(i["true_steps"] for i in infos) == 0
         counts[tech] = sum(i["detected_steps"] for i in infos)
         _, _, still = _episode(None, technique=tech, steps=300, action=(-1, 0, 0, 0, 0))
         assert sum(i["detected_steps"] for i in still) == 0  # without nods: none
-    assert counts["seed000"] >= 5
-    assert counts["nod_robust"] < counts["seed000"]
+    assert counts["zhang2021"] >= 5
+    assert counts["nod_robust"] < counts["zhang2021"]
 
 
 @pytest.mark.slow
 def test_head_directed_steering_walks_where_the_head_looks():
-    """A user stepping straight ahead with the body while the head scans: seed 000 moves the
+    """A user stepping straight ahead with the body while the head scans: Zhang 2021 moves the
     body along the head's estimated yaw, torso steering (the Kinect's shoulders) along the body.
     Measured on the locomotion's own displacements (before any blocking by the room)."""
     scanner = replace(POPULATIONS["gaze_scanners"], name="scan_only", eye_range_deg=(0.0, 0.0),
                       scan_rate_hz=(1.0, 1.0), scan_s=(2.0, 2.0), glance_rate_hz=(0.0, 0.0),
                       scan_amplitude_deg=(60.0, 60.0), nod_rate_hz=(0.0, 0.0))  # fmt: skip
     off = {}
-    for tech in ("seed000", "torso_steering"):
+    for tech in ("zhang2021", "torso_steering"):
         env = gym.make("VRLoco-Approach-v0", population=scanner, technique=tech,
                        max_episode_steps=150)  # fmt: skip
         env.reset(seed=3)
@@ -380,5 +380,5 @@ def test_head_directed_steering_walks_where_the_head_looks():
                 angles.append(np.angle(np.exp(1j * (np.arctan2(d[1], d[0]) - start_yaw))))
         assert len(angles) > 15 and np.rad2deg(np.ptp(heads)) > 60.0  # eq 17 steps; scans
         off[tech] = np.rad2deg(np.abs(angles))
-    assert off["seed000"].max() > 30.0 and np.median(off["seed000"]) > 5.0
+    assert off["zhang2021"].max() > 30.0 and np.median(off["zhang2021"]) > 5.0
     assert off["torso_steering"].max() < 10.0

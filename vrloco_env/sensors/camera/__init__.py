@@ -1,4 +1,5 @@
-"""Head camera model for seed 004's visual helmet pose: wall landmarks seen by a pinhole camera.
+"""Head camera model for the helmet-tracking paper's visual helmet pose: wall landmarks seen by a
+pinhole camera.
 
 A camera on the helmet looks at landmarks with known 3-D positions on the room's inner walls
 (:attr:`vrloco_env.world.layout.Layout.landmarks`). For B users and N frames at once,
@@ -18,16 +19,16 @@ y = -body z (:data:`BODY_FROM_CAMERA`). The mount (:attr:`CameraSpec.mount_offse
 places the camera on the helmet; :func:`camera_pose` gives the camera's world pose, and
 :func:`head_pose_from_camera` turns a camera pose (e.g. from PnP) back into a head pose.
 
-Pinhole model, no lens distortion (the images are taken as rectified; decision, seed 004 gives
-only fx, fy, cx, cy): ``u = fx X / Z + cx``, ``v = fy Y / Z + cy`` for a camera-frame point
-``(X, Y, Z)``, pixel centres at integer coordinates (OpenCV), so the image spans
+Pinhole model, no lens distortion (the images are taken as rectified; decision, the helmet-tracking
+paper gives only fx, fy, cx, cy): ``u = fx X / Z + cx``, ``v = fy Y / Z + cy`` for a camera-frame
+point ``(X, Y, Z)``, pixel centres at integer coordinates (OpenCV), so the image spans
 ``[-0.5, width - 0.5] x [-0.5, height - 0.5]`` px. The defaults (640 x 480 px, fx = fy = 460 px,
 principal point at the image centre) give a 69.6 deg x 55.1 deg field of view, a typical helmet
 tracking camera. :attr:`CameraSpec.camera_matrix` is OpenCV's K; ``fx, fy, cx, cy, width,
 height`` are plain fields, so ``estimators.head_pose.pnp.CameraIntrinsics(spec.fx, spec.fy,
 spec.cx, spec.cy, spec.width, spec.height)`` describes the same camera.
 
-Per landmark and frame (all decisions, seed 004 states only the outcome rates)
+Per landmark and frame (all decisions, the helmet-tracking paper states only the outcome rates)
 -------------------------------------------------------------------------------
 1. *Visible* (geometry): in front of the camera with depth ``Z >= min_range_m``, distance from the
    camera ``<= max_range_m``, projection inside the image, not flagged ``blocked`` by the caller
@@ -63,8 +64,8 @@ Per landmark and frame (all decisions, seed 004 states only the outcome rates)
    real matcher confuses), chosen uniformly. The pixel stays where the true landmark projects.
    Where a landmark has no other valid landmark, the match cannot go wrong.
 
-Conditions (:data:`CONDITIONS`, :func:`camera_spec`), calibrated to seed 004's rates for a still
-head (motion lowers extraction further through blur):
+Conditions (:data:`CONDITIONS`, :func:`camera_spec`), calibrated to the helmet-tracking paper's
+rates for a still head (motion lowers extraction further through blur):
 
 ===========  ========== ======== ======= =========== ==================================
 condition    extraction matching  noise   exposure    other
@@ -75,8 +76,8 @@ occlusion    0.95       0.60     0.5 px  2 ms        band over 30 % of the width
 motion_blur  0.95       0.90     0.5 px  8.3 ms      full frame-time exposure
 ===========  ========== ======== ======= =========== ==================================
 
-Seed 004 reports extraction 95 % ideal / ~70 % low light and matching 90 % / ~60 % with
-occlusion. Matching in low light is not reported: 0.85 (engineering choice, dim descriptors are
+The helmet-tracking paper reports extraction 95 % ideal / ~70 % low light and matching 90 % / ~60 %
+with occlusion. Matching in low light is not reported: 0.85 (engineering choice, dim descriptors are
 a little less distinctive). Under occlusion, :func:`extraction_rate` (extracted / visible) is about
 ``0.95 * (1 - 0.3)``, about 0.67, since the occluder hides visible landmarks; among the unoccluded
 ones it stays 0.95. :func:`matching_rate` equals ``match_prob`` in expectation, whatever the
@@ -87,10 +88,10 @@ exposure to 4 ms, so it blurs more than ideal when the head turns.
 
 The extraction and matching probabilities are therefore the model's inputs, set to the paper's
 rates, not results. The pixel noise is not the paper's: with it and the ~17 landmarks a frame of
-the default room extracts, PnP is about 3x more accurate than seed 004's +-0.05 m / +-1 deg.
-Seed 004's experiment (:mod:`agents.experiments.vio`) scales every preset's noise by a factor
-calibrated to the paper's visual-only error; the presets here (and the env's camera) keep the
-sub-pixel corner accuracy.
+the default room extracts, PnP is about 3x more accurate than the helmet-tracking paper's +-0.05 m /
++-1 deg. The helmet-tracking paper's experiment (:mod:`agents.experiments.vio`) scales every
+preset's noise by a factor calibrated to the paper's visual-only error; the presets here (and the
+env's camera) keep the sub-pixel corner accuracy.
 
 Randomness
 ----------

@@ -15,7 +15,8 @@ from estimators.validation import check_in_range, check_instance, check_numbers
 
 __all__ = ["CONDITIONS", "MAX_RATE_HZ", "CameraSpec", "camera_spec"]
 
-#: Highest frame rate the model accepts, Hz (high-speed tracking cameras; seed 004 uses 120).
+#: Highest frame rate the model accepts, Hz (high-speed tracking cameras; the helmet-tracking paper
+#: uses 120).
 MAX_RATE_HZ = 240.0
 #: Rotation camera (OpenCV: x right, y down, z forward) -> head body (x forward, y left, z up),
 #: without mount tilt: its columns are the camera axes in body coordinates.
@@ -43,7 +44,7 @@ class CameraSpec:
         cy: principal point v, px, in [0, height].
         width: image width, px, integer in [1, 10000].
         height: image height, px, integer in [1, 10000].
-        rate_hz: frame rate, Hz, in (0, 240] (seed 004: 120).
+        rate_hz: frame rate, Hz, in (0, 240] (the helmet-tracking paper: 120).
         exposure_s: exposure time, s, in [0, 1 / rate_hz].
         min_range_m: nearest depth (along the optical axis) a landmark is seen at, m, > 0.
         max_range_m: farthest distance a landmark is detectable at, m, > min_range_m (a 10 cm
@@ -168,7 +169,8 @@ class CameraSpec:
         return dataclasses.replace(self, **changes)  # type: ignore[arg-type]
 
 
-#: The four imaging conditions of seed 004, calibrated to its rates (module docstring table).
+#: The four imaging conditions of the helmet-tracking paper, calibrated to its rates (module
+#: docstring table).
 CONDITIONS: dict[str, CameraSpec] = {
     "ideal": CameraSpec(name="ideal"),
     "low_light": CameraSpec(

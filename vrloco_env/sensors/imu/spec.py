@@ -144,7 +144,7 @@ def _lsb(full_scale: float, bits: int = 16) -> float:
     return 2.0 * full_scale / 2**bits
 
 
-# SBG Systems IG-500N, the sensor of seed 000 (Zhang, Chen, Gao 2021, section 4).
+# SBG Systems IG-500N, the sensor of Zhang, Chen & Gao 2021 (section 4).
 # Ranges and bias stabilities: the paper (accel +-5 g, 4 mg; gyro +-300 deg/s, 0.1 deg/s;
 # magnetometer +-1.2 G, 0.5 mG). The paper's "+-" bias stability is taken as the 1-sigma of the
 # Gauss-Markov bias, whose initial state is drawn at reset, so each run starts with a bias of that

@@ -3,12 +3,12 @@
 The model turns the target user's true skeleton (world frame, from :mod:`vrloco_env.user.motion`)
 into what the Kinect v2 SDK hands an application at 30 frames/s: up to six body slots, each with a
 tracking id, 25 joints in camera space with a per-joint tracking state, and the right wrist's
-orientation quaternion. It adds what makes the real sensor hard to use (seed 003, section 1):
+orientation quaternion. It adds what makes the real sensor hard to use (Yao 2023, section 1):
 
 * joint noise whose standard deviation grows with depth, part white and part temporally correlated
   (an AR(1) process), plus a per-session offset of every joint;
 * jitter bursts: now and then one limb jitters strongly for a few frames;
-* a noisy wrist orientation (white + AR(1) rotation noise: its level calibrated to seed 003
+* a noisy wrist orientation (white + AR(1) rotation noise: its level calibrated to Yao 2023
   Tables 1-3, its white share measured on a real Kinect v2 recording);
 * tracking states: joints outside the field of view or depth range are not tracked (NaN); joints
   hidden behind a torso (the user's own or another body's), or in a short random episode, are
@@ -51,7 +51,7 @@ coincide; the poses of :func:`standing_skeleton` and motion.py keep the wrist st
 ``hand_quat`` is the Hamilton quaternion [w, x, y, z] rotating wrist-frame vectors into camera
 space; :func:`hand_to_sdk_wrist` / :func:`sdk_wrist_to_hand` convert from / to the hand frame.
 
-Seed 003's eq (1) on this quaternion — an engineering decision
+Yao 2023's eq (1) on this quaternion — an engineering decision
 ----------------------------------------------------------------
 Eq (1) names ``atan2(2(wx + yz), 1 - 2(x^2 + y^2))`` "yaw" (in :mod:`estimators.rotations`'s ZYX
 naming that is the *roll*, ``quat_to_ypr(q)[..., 2]``, the rotation about the frame's own x axis),

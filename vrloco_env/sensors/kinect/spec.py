@@ -66,7 +66,7 @@ class KinectSpec:
     """
 
     #: Body frame rate, Hz. Kinect v2 skeleton stream: 30 frames/s (Microsoft Kinect for Windows v2
-    #: specification; seed 003 section 2.2).
+    #: specification; Yao 2023 section 2.2).
     frame_rate_hz: float = 30.0
     #: Depth camera field of view (horizontal, vertical), deg: 70.6 x 60 (Microsoft specification).
     fov_deg: tuple[float, float] = (70.6, 60.0)
@@ -111,7 +111,7 @@ class KinectSpec:
     #: axes (x forearm, y thumb side, z back of hand), deg, at ``noise_ref_depth_m``.
     #:
     #: Level: the total variance per axis (white + AR(1); bursts come on top) is calibrated to
-    #: seed 003 Tables 1-3, which give no spectrum: a static hand gives raw eq (1) variances of
+    #: Yao 2023 Tables 1-3, which give no spectrum: a static hand gives raw eq (1) variances of
     #: 0.5-14 deg^2 whose means over the 11 angles are "roll" 4.7 (about the forearm), "pitch" 3.5
     #: (about the thumb axis), "yaw" 6.5 deg^2 (about the back-of-hand normal);
     #: tests/test_vrloco_env/sensors/test_kinect.py
@@ -144,7 +144,7 @@ class KinectSpec:
     hand_rot_tau_s: float = 0.5
     #: Depth at which ``hand_rot_*_std_deg`` hold, m; the orientation noise scales with the joint
     #: noise std ``a + b z^2`` at the wrist's depth relative to this one. 2.2 m: the hand of a user
-    #: standing 2.5 m away and reaching toward the sensor (seed 003 does not state its distance).
+    #: standing 2.5 m away and reaching toward the sensor (Yao 2023 does not state its distance).
     noise_ref_depth_m: float = 2.2
 
     #: Probability per frame and body that a jitter burst starts (engineering choice: one every
