@@ -10,7 +10,7 @@ ones a technique names and composes them::
     Kinect    --frames------->  hand pipeline  --hand frames-->  hand filter
                                                --shoulders-->  torso yaw --> steering --> yaw
 
-Every registry (:class:`estimators.registry.Registry`) holds named implementations and also
+Every registry (:class:`estimators.registry.StageRegistry`) holds named implementations and also
 accepts ``"package.module:attr"`` (or ``"path/to/file.py:attr"``), naming a user's class or
 factory; unknown names get a clear error listing the valid ones. What each factory is called with
 is fixed per stage.
@@ -22,7 +22,7 @@ environment calls the protocol's methods, and the shapes and meaning of what ``u
 :data:`ANGLE_TOLERANCE_RAD` and :data:`POSITION_BOUND_M`). A step stage returns a
 :class:`GaitChunk`.
 
-* :meth:`estimators.registry.Registry.build` checks, when a stage is built, that it has every
+* :meth:`estimators.registry.StageRegistry.build` checks, when a stage is built, that it has every
   member of its protocol (:func:`estimators.registry.protocol_members`, named in the error if
   missing) and that each method accepts the call the environment makes.
 * :class:`estimators.checked.CheckedStage` wraps a plug-in that is not one of the package's own
@@ -50,7 +50,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from estimators.registry import Registry
+from estimators.registry import StageRegistry
 
 __all__ = [
     "ANGLE_TOLERANCE_RAD",
@@ -127,7 +127,7 @@ class StageContract:
     Attributes:
         factory: the factory's arguments, in words.
         calls: method -> (positional argument names, keyword argument names) of the environment's
-            call; :meth:`Registry.build` checks that each method accepts it.
+            call; :meth:`StageRegistry.build` checks that each method accepts it.
         returns: what ``update`` returns, in words (the error for a malformed result cites it).
         outputs: the arrays of ``update``'s result, checked for shape.
         rules: the rules on their meaning, checked in order.
@@ -569,7 +569,7 @@ LOCOMOTION_CONTRACT = StageContract(
 # arguments (and returning an object of the stage's protocol); it is imported on first use.
 
 #: Attitude filters: ``factory(batch_size, fs)`` with fs the IMU rate (Hz).
-ATTITUDE = Registry(
+ATTITUDE = StageRegistry(
     "attitude",
     AttitudeStage,
     "(batch_size, fs)",
@@ -588,7 +588,7 @@ ATTITUDE.register("mahony", "estimators.attitude.mahony:Mahony", "Mahony complem
 ATTITUDE.register("gyro_only", "estimators.attitude.gyro:GyroOnly", "gyro integration: the floor")
 
 #: Step detectors: ``factory(batch_size, fs)`` with fs the IMU rate (Hz).
-STEPS = Registry(
+STEPS = StageRegistry(
     "steps",
     StepStage,
     "(batch_size, fs)",
@@ -605,7 +605,7 @@ STEPS.register(
 )  # fmt: skip
 
 #: Hand filters: ``factory(batch_size, fs)`` with fs the Kinect frame rate (Hz).
-HAND = Registry(
+HAND = StageRegistry(
     "hand",
     HandStage,
     "(batch_size, fs)",
@@ -620,7 +620,7 @@ HAND.register("adaptive_kalman", "estimators.hand.adaptive:AdaptiveKalmanHand",
               "motion-adaptive Kalman, no median")  # fmt: skip
 
 #: Steering: ``factory(batch_size)``.
-STEERING = Registry(
+STEERING = StageRegistry(
     "steering",
     SteeringStage,
     "(batch_size,)",
@@ -635,7 +635,7 @@ STEERING.register(
 )
 
 #: Locomotion: ``factory(batch_size, step_length)`` with step_length in m.
-LOCOMOTION = Registry(
+LOCOMOTION = StageRegistry(
     "locomotion",
     Locomotion,
     "(batch_size, step_length)",

@@ -8,10 +8,11 @@ registered ones. Adding one is one :func:`register` call (or a :class:`Technique
 
 from __future__ import annotations
 
-import warnings
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any
 
+from estimators.registry import Registry
 from vrloco_env.config import EstimatorConfig
 from vrloco_env.sensors.imu import get_imu_spec
 
@@ -45,13 +46,28 @@ class Technique:
             )
 
 
-TECHNIQUES: dict[str, Technique] = {}
+def _loaded_technique(obj: Any, name: str, target: str) -> Technique:
+    """The Technique a ``"module:attr"`` names: the object, or what calling it returns."""
+    if callable(obj) and not isinstance(obj, Technique):
+        obj = obj()
+    if isinstance(obj, Technique):
+        return obj
+    raise ValueError(f"technique={target!r} names a {type(obj).__name__}, not a Technique")
+
+
+#: The registered techniques, by name; ``"package.module:attr"`` names a plug-in's own.
+TECHNIQUES: Registry[Technique] = Registry(
+    "technique",
+    kind=Technique,
+    load=_loaded_technique,
+    plugins=True,
+    also="'package.module:attr' naming a Technique",
+)
 
 
 def register(technique: Technique) -> Technique:
     """Add ``technique`` to :data:`TECHNIQUES` under its name (replacing one of that name)."""
-    TECHNIQUES[technique.name] = technique
-    return technique
+    return TECHNIQUES.register(technique.name, technique, technique.description)
 
 
 def _chain(name: str, description: str, preset: str = "ig500n", **stages: Any) -> None:
@@ -83,50 +99,21 @@ _chain("adaptive_kalman_hand", "motion-adaptive Kalman filter on the hand angles
 DEFAULT_TECHNIQUE = "zhang2021"
 
 
-#: Earlier names of techniques -> their names now. An old name still works for one release, with a
-#: :class:`DeprecationWarning`; listings show only the new names.
-RENAMED: dict[str, str] = {
-    "seed000": "zhang2021",
-    "seed000_consumer": "zhang2021_consumer",
-    "paper_literal": "zhang2021_as_printed",
-}
+TECHNIQUES.rename("seed000", "zhang2021")
+TECHNIQUES.rename("seed000_consumer", "zhang2021_consumer")
+TECHNIQUES.rename("paper_literal", "zhang2021_as_printed")
+
+#: Earlier names of techniques -> their names now (read-only). An old name still works for one
+#: release, with a :class:`DeprecationWarning`; listings show only the new names.
+RENAMED: Mapping[str, str] = TECHNIQUES.renamed
 
 
 def canonical_name(name: Any) -> Any:
     """``name``, or the current name of a technique it used to name (with a warning)."""
-    if isinstance(name, str) and name in RENAMED:
-        new = RENAMED[name]
-        warnings.warn(
-            f"technique {name!r} is now called {new!r}; the old name will be removed in the "
-            "next release",
-            DeprecationWarning,
-            stacklevel=3,
-        )
-        return new
-    return name
+    return TECHNIQUES.canonical(name, stacklevel=4)
 
 
 def get_technique(technique: str | Technique) -> Technique:
     """A registered technique by name, ``"module:attr"`` naming a :class:`Technique`, or the
     technique itself; unknown names get an error listing the registered ones."""
-    if isinstance(technique, Technique):
-        return technique
-    technique = canonical_name(technique)
-    if isinstance(technique, str):
-        if technique in TECHNIQUES:
-            return TECHNIQUES[technique]
-        if ":" in technique:
-            from estimators.registry import load_attr
-
-            obj = load_attr(technique, "technique")
-            if callable(obj) and not isinstance(obj, Technique):
-                obj = obj()
-            if isinstance(obj, Technique):
-                return obj
-            raise ValueError(
-                f"technique={technique!r} names a {type(obj).__name__}, not a Technique"
-            )
-    raise ValueError(
-        f"technique={technique!r}: unknown; valid names: {', '.join(TECHNIQUES)}, or "
-        "'package.module:attr' naming a Technique"
-    )
+    return TECHNIQUES.get(technique)

@@ -34,6 +34,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from estimators.registry import Registry
 from estimators.validation import check_instance, value_repr
 from vrloco_env.sensors.imu import MagneticDisturbance
 
@@ -76,7 +77,8 @@ class Condition:
         return SensorConfig(magnetic_disturbances=self.magnetic_disturbances)
 
 
-CONDITIONS: dict[str, Condition] = {}
+#: The registered conditions, by name.
+CONDITIONS: Registry[Condition] = Registry("condition", kind=Condition)
 
 #: The condition of a cell given none: nothing near the play area.
 DEFAULT_CONDITION = "lab"
@@ -84,8 +86,7 @@ DEFAULT_CONDITION = "lab"
 
 def register(condition: Condition) -> Condition:
     """Add ``condition`` to :data:`CONDITIONS` under its name (replacing one of that name)."""
-    CONDITIONS[condition.name] = condition
-    return condition
+    return CONDITIONS.register(condition.name, condition, condition.description)
 
 
 register(Condition("lab", "nothing near the play area"))
@@ -107,8 +108,4 @@ register(Condition(
 def get_condition(name: str | Condition, field: str = "condition") -> Condition:
     """The registered condition ``name`` (or the :class:`Condition` itself); unknown names get a
     ValueError naming ``field`` and the registered ones."""
-    if isinstance(name, Condition):
-        return name
-    if isinstance(name, str) and name in CONDITIONS:
-        return CONDITIONS[name]
-    raise ValueError(f"{field}={name!r}: unknown; valid names: {', '.join(CONDITIONS)}")
+    return CONDITIONS.get(name, field=field)

@@ -46,7 +46,7 @@ def _split(spec: str) -> tuple[str, str | None]:
         return spec, None
     if suffix not in POPULATIONS:
         raise ValueError(
-            f"policy={spec!r}: unknown population {suffix!r} after '+'; must be one of "
+            f"policy={spec!r}: unknown population {suffix!r} after '+'; valid names: "
             f"{', '.join(POPULATIONS)}"
         )
     return base, suffix
@@ -85,10 +85,10 @@ def check_policy(spec: str) -> str:
                 f"policy={spec!r} names a {type(obj).__name__}, not a class or factory"
             )
         return spec
-    raise ValueError(
-        f"policy={spec!r}: must be one of {', '.join(POLICIES)}, a stable-baselines3 model "
-        f"(.zip) or 'package.module:attr', optionally with '+<population>' "
-        f"({', '.join(POPULATIONS)}; e.g. goal_seeker{HUMAN_SUFFIX})"
+    raise POLICIES.unknown(
+        spec,
+        also="a stable-baselines3 model (.zip) or 'package.module:attr', optionally with "
+        f"'+<population>' ({', '.join(POPULATIONS)}; e.g. goal_seeker{HUMAN_SUFFIX})",
     )
 
 

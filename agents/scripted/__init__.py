@@ -41,6 +41,7 @@ from agents.scripted.base import Policy, PolicyParams, ScriptedPolicy, is_batche
 from agents.scripted.goal_seeker import GoalSeeker
 from agents.scripted.observation import ObservationLayout, ObsView, free_lengths, ray_points
 from agents.scripted.reactive_avoider import ReactiveAvoider
+from estimators.registry import Registry
 
 __all__ = [
     "POLICIES",
@@ -60,11 +61,14 @@ __all__ = [
 ]
 
 
-POLICIES: dict[str, type[ScriptedPolicy]] = {
-    GoalSeeker.name: GoalSeeker,
-    AvoidManoeuvre.name: AvoidManoeuvre,
-    ReactiveAvoider.name: ReactiveAvoider,
-}
+#: The scripted users, by name (each class's ``name``).
+POLICIES: Registry[type[ScriptedPolicy]] = Registry("policy")
+POLICIES.register(GoalSeeker.name, GoalSeeker, "turn toward the goal, step when aligned, along "
+                  "the shortest way around what it has seen")  # fmt: skip
+POLICIES.register(AvoidManoeuvre.name, AvoidManoeuvre, "Zhang 2021's Fig. 5 manoeuvre: turn "
+                  "away from an obstacle ahead, step, turn back")  # fmt: skip
+POLICIES.register(ReactiveAvoider.name, ReactiveAvoider, "a potential field on the current "
+                  "rays, no memory")  # fmt: skip
 
 
 def make_policy(
@@ -76,6 +80,4 @@ def make_policy(
     Raises:
         ValueError: an unknown name (the valid ones are listed).
     """
-    if name not in POLICIES:
-        raise ValueError(f"policy={name!r}: must be one of {', '.join(POLICIES)}")
-    return POLICIES[name](layout, params, **kwargs)
+    return POLICIES.get(name)(layout, params, **kwargs)

@@ -9,7 +9,7 @@ from agents.learned.train import rollout_steps
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
-        (["train", "--task", "nope"], "task='nope': must be one of approach"),
+        (["train", "--task", "nope"], "task='nope': unknown; valid names: approach"),
         (["train", "--num-envs", "0"], "--num-envs: 0 must be >= 1"),
         (["train", "--steps", "0"], "--steps: 0 must be >= 1"),
         (["train", "--sensors", "nope"], "--sensors"),

@@ -52,7 +52,7 @@ def test_every_registered_name_appears(generated: Path) -> None:
     from agents.scripted import POLICIES
     from estimators import stages
     from vrloco_env.config import STAGE_FIELDS
-    from vrloco_env.sensors.camera.spec import CONDITIONS as CAMERA
+    from vrloco_env.sensors.camera.spec import LIGHTING as CAMERA
     from vrloco_env.sensors.imu.spec import PRESETS
     from vrloco_env.tasks import env_id, task_names
     from vrloco_env.techniques import TECHNIQUES

@@ -170,7 +170,7 @@ def test_human_render_without_a_display_says_so():
 @pytest.mark.parametrize(
     ("kwargs", "match"),
     [
-        ({"task": "fly"}, "task='fly': must be one of approach, avoid, interact"),
+        ({"task": "fly"}, "task='fly': unknown; valid names: approach, avoid, interact"),
         ({"sensor_preset": "iphone"}, "iphone"),
         ({"locomotion": "teleport"}, "locomotion='teleport': unknown; valid names: eq17, smooth"),
         ({"render_mode": "ascii"}, "render_mode='ascii'"),

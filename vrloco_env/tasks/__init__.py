@@ -20,6 +20,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
+from estimators.registry import Registry
+
 if TYPE_CHECKING:
     from vrloco_env.tasks.base import Task
 
@@ -34,8 +36,22 @@ __all__ = [
     "task_names",
 ]
 
-#: name -> the Task subclass, or "module:attr" naming it (imported on first use).
-TASKS: dict[str, Any] = {}
+
+def _is_task(obj: Any) -> bool:
+    from vrloco_env.tasks.base import Task
+
+    return isinstance(obj, type) and issubclass(obj, Task)
+
+
+def _loaded_task(obj: Any, name: str, target: str) -> Any:
+    """The Task subclass a registered ``"module:attr"`` named (a TypeError otherwise)."""
+    if not _is_task(obj):
+        raise TypeError(f"task {name!r}: {target!r} is not a Task subclass")
+    return obj
+
+
+#: name -> the Task subclass; one registered as "module:attr" is imported on first use.
+TASKS: Registry[type[Task]] = Registry("task", load=_loaded_task)
 
 
 def env_id(name: str) -> str:
@@ -50,16 +66,10 @@ def register_task(name: str, task: Any) -> None:
         raise ValueError(f"task name {name!r} must be an identifier (letters, digits, _)")
     if not isinstance(task, str) and not _is_task(task):
         raise TypeError(f"task must be a Task subclass or 'module:attr', got {task!r}")
-    TASKS[name] = task
+    TASKS.register(name, task)
     from vrloco_env.registration import register_id
 
     register_id(env_id(name), name)
-
-
-def _is_task(obj: Any) -> bool:
-    from vrloco_env.tasks.base import Task
-
-    return isinstance(obj, type) and issubclass(obj, Task)
 
 
 def __getattr__(name: str) -> Any:  # Task and NoConfig, imported when first asked for
@@ -72,22 +82,12 @@ def __getattr__(name: str) -> Any:  # Task and NoConfig, imported when first ask
 
 def task_names() -> list[str]:
     """The registered task names, in registration order."""
-    return list(TASKS)
+    return TASKS.names()
 
 
 def get_task(name: str) -> type[Task]:
     """The Task subclass registered as ``name`` (a ValueError listing the names otherwise)."""
-    if name not in TASKS:
-        raise ValueError(f"task={name!r}: must be one of {', '.join(TASKS)}")
-    target = TASKS[name]
-    if isinstance(target, str):
-        from estimators.registry import load_attr
-
-        target = load_attr(target, "task")
-        if not _is_task(target):
-            raise TypeError(f"task {name!r}: {TASKS[name]!r} is not a Task subclass")
-        TASKS[name] = target
-    return target
+    return TASKS.get(name)
 
 
 def make_layout(task: str, room: Any, rng: Any, task_config: Any = None) -> Any:

@@ -72,7 +72,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, fields
 
-from estimators.validation import check_bool, check_in_range, check_numbers, value_repr
+from estimators.registry import Registry
+from estimators.validation import check_bool, check_in_range, check_numbers
 
 __all__ = ["POPULATIONS", "RANGE_FIELDS", "Population", "get_population", "population_names"]
 
@@ -291,26 +292,27 @@ _TYPICAL_HEAD = dict(
     wip_turn_deg_per_step=(-0.45, 0.45),
 )
 
-POPULATIONS: dict[str, Population] = {
-    p.name: p
-    for p in (
-        Population("idealised", "no head behaviour, no variability: the idealised scripted user"),
-        Population("human", "reaction delay, turn overshoot and cadence variation; head straight",
-                   variability=True),
-        Population("typical", "looks at the goal and at what is near, down at the hand; "
-                   "occasional looks around and nods", **_TYPICAL_HEAD),
-        Population("gaze_scanners", "head-movers who look around often and widely",
-                   **{**_TYPICAL_HEAD, "eye_range_deg": (5.0, 12.0), "scan_rate_hz": (0.06, 0.12),
-                      "scan_amplitude_deg": (20.0, 50.0)}),
-        Population("nodders", "typical gaze with frequent nod bouts",
-                   **{**_TYPICAL_HEAD, "nod_rate_hz": (0.1, 0.25)}),
-    )
-}  # fmt: skip
+#: The registered populations, by name.
+POPULATIONS: Registry[Population] = Registry("population", kind=Population, also="a Population")
+for _p in (
+    Population("idealised", "no head behaviour, no variability: the idealised scripted user"),
+    Population("human", "reaction delay, turn overshoot and cadence variation; head straight",
+               variability=True),
+    Population("typical", "looks at the goal and at what is near, down at the hand; "
+               "occasional looks around and nods", **_TYPICAL_HEAD),
+    Population("gaze_scanners", "head-movers who look around often and widely",
+               **{**_TYPICAL_HEAD, "eye_range_deg": (5.0, 12.0), "scan_rate_hz": (0.06, 0.12),
+                  "scan_amplitude_deg": (20.0, 50.0)}),
+    Population("nodders", "typical gaze with frequent nod bouts",
+               **{**_TYPICAL_HEAD, "nod_rate_hz": (0.1, 0.25)}),
+):  # fmt: skip
+    POPULATIONS.register(_p.name, _p, _p.description)
+del _p
 
 
 def population_names() -> tuple[str, ...]:
     """The registered population names."""
-    return tuple(POPULATIONS)
+    return tuple(POPULATIONS.names())
 
 
 def get_population(name: str | Population, field: str = "population") -> Population:
@@ -319,10 +321,4 @@ def get_population(name: str | Population, field: str = "population") -> Populat
     Raises:
         ValueError: an unknown name, naming ``field`` and the registered names.
     """
-    if isinstance(name, Population):
-        return name
-    if isinstance(name, str) and name in POPULATIONS:
-        return POPULATIONS[name]
-    raise ValueError(
-        f"{field}={value_repr(name)}: must be one of {', '.join(POPULATIONS)} (or a Population)"
-    )
+    return POPULATIONS.get(name, field=field)

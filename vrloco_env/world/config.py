@@ -37,7 +37,7 @@ class RoomConfig:
         min_start_goal_distance: minimum straight-line start-goal distance.
         goal_radius: success radius around the goal point.
         grid_resolution: cell size of the planning grid.
-        landmark_spacing: horizontal spacing of the wall landmarks.
+        landmark_spacing: horizontal spacing of the wall landmarks (m, 0.1-100).
         landmark_heights: heights of the landmark rows.
         max_attempts: redraws before giving up with a RuntimeError.
     """
@@ -80,9 +80,11 @@ class RoomConfig:
             "avatar_radius",
             "avatar_height",
             "goal_radius",
-            "landmark_spacing",
         ):
             check_in_range(self, name, 0.0, 100.0, "m", lo_open=True)
+        # a chosen floor: closer landmarks would be one blob to the camera, and a wall's count of
+        # them (its length / spacing) would grow without bound
+        check_in_range(self, "landmark_spacing", 0.1, 100.0, "m")
         check_in_range(self, "grid_resolution", 0.005, 1.0, "m")
         for name in ("min_start_goal_distance", "keepout_radius"):
             check_in_range(self, name, 0.0, big, "m")

@@ -481,7 +481,7 @@ def test_an_unknown_technique_population_or_condition_is_one_error_naming_the_va
 
     cases = {
         "technique": "technique='nope': unknown; valid names: zhang2021, zhang2021_consumer",
-        "population": "population='nope': must be one of idealised, human, typical",
+        "population": "population='nope': unknown; valid names: idealised, human, typical",
         "condition": "condition='nope': unknown; valid names: lab, beside_metal",
     }
     for name, says in cases.items():

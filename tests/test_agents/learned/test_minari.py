@@ -171,7 +171,7 @@ def test_an_existing_dataset_is_refused_unless_forced(minari_root, capsys):
 @pytest.mark.parametrize(
     ("options", "message"),
     [
-        (["--policy", "goal_seker"], "policy='goal_seker': must be one of goal_seeker"),
+        (["--policy", "goal_seker"], "policy='goal_seker': unknown; valid names: goal_seeker"),
         (["--policy", "goal_seeker+nope"], "unknown population 'nope'"),
         (["--technique", "nope"], "technique='nope': unknown; valid names: zhang2021"),
         (["--minari", "no_version"], "minari dataset id 'no_version': must be"),
@@ -194,7 +194,7 @@ def test_an_unknown_task_is_refused_by_the_parser(capsys):
     with pytest.raises(SystemExit) as exit_:
         main(["record", "--task", "nope", "--policy", "goal_seeker", "--minari", "x-v0"])
     assert exit_.value.code == 2
-    assert "task='nope': must be one of approach" in capsys.readouterr().err
+    assert "task='nope': unknown; valid names: approach" in capsys.readouterr().err
 
 
 def test_without_minari_one_line_says_how_to_install(monkeypatch, minari_root, capsys):

@@ -17,7 +17,7 @@ from estimators.rotations import (
 )
 from vrloco_env.batch_rng import BatchRng
 from vrloco_env.sensors.camera import (
-    CONDITIONS,
+    LIGHTING,
     CameraFrames,
     CameraSpec,
     HeadCamera,
@@ -366,12 +366,12 @@ def test_reset_some_users(rng, room):
 
 
 def test_spec_presets_and_validation():
-    assert set(CONDITIONS) == {"ideal", "low_light", "occlusion", "motion_blur"}
+    assert set(LIGHTING) == {"ideal", "low_light", "occlusion", "motion_blur"}
     s = camera_spec("low_light", rate_hz=60.0)
     assert s.rate_hz == 60.0 and s.extraction_prob == 0.70 and s.name == "low_light"
     h, v = CameraSpec().fov_deg
     assert 68.0 < h < 72.0 and 50.0 < v < 58.0
-    with pytest.raises(ValueError, match="condition"):
+    with pytest.raises(ValueError, match="condition='foggy': unknown; valid names: ideal, "):
         camera_spec("foggy")
     with pytest.raises(ValueError, match="no field"):
         camera_spec("ideal", focal=400.0)

@@ -64,7 +64,7 @@ Per landmark and frame (all decisions, the helmet-tracking paper states only the
    real matcher confuses), chosen uniformly. The pixel stays where the true landmark projects.
    Where a landmark has no other valid landmark, the match cannot go wrong.
 
-Conditions (:data:`CONDITIONS`, :func:`camera_spec`), calibrated to the helmet-tracking paper's
+Conditions (:data:`LIGHTING`, :func:`camera_spec`), calibrated to the helmet-tracking paper's
 rates for a still head (motion lowers extraction further through blur):
 
 ===========  ========== ======== ======= =========== ==================================
@@ -114,13 +114,14 @@ Modules: :mod:`~vrloco_env.sensors.camera.spec` (the specification and lighting 
 :mod:`~vrloco_env.sensors.camera.model` (the camera :class:`HeadCamera`).
 """
 
+from estimators.registry import renamed_attributes
 from vrloco_env.sensors.camera.frames import CameraFrames, extraction_rate, matching_rate
 from vrloco_env.sensors.camera.geometry import camera_pose, head_pose_from_camera, project
 from vrloco_env.sensors.camera.landmarks import layout_landmarks, pad_landmarks
 from vrloco_env.sensors.camera.model import HeadCamera
 from vrloco_env.sensors.camera.spec import (
     BODY_FROM_CAMERA,
-    CONDITIONS,
+    LIGHTING,
     MAX_RATE_HZ,
     CameraSpec,
     camera_spec,
@@ -128,7 +129,7 @@ from vrloco_env.sensors.camera.spec import (
 
 __all__ = [
     "BODY_FROM_CAMERA",
-    "CONDITIONS",
+    "LIGHTING",
     "MAX_RATE_HZ",
     "CameraFrames",
     "CameraSpec",
@@ -142,3 +143,6 @@ __all__ = [
     "pad_landmarks",
     "project",
 ]
+
+#: ``CONDITIONS``, the old name of :data:`LIGHTING`, still imports (with a warning).
+__getattr__ = renamed_attributes(globals(), {"CONDITIONS": "LIGHTING"})

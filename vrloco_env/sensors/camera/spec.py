@@ -1,5 +1,5 @@
 """The head camera's specification (:class:`CameraSpec`) and its lighting presets
-(:data:`CONDITIONS`, :func:`camera_spec`); the sources of the values are given per field."""
+(:data:`LIGHTING`, :func:`camera_spec`); the sources of the values are given per field."""
 
 from __future__ import annotations
 
@@ -10,10 +10,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from estimators.registry import Registry, renamed_attributes
 from estimators.rotations import matrix_to_quat, quat_from_rotvec, quat_multiply
 from estimators.validation import check_in_range, check_instance, check_numbers
 
-__all__ = ["CONDITIONS", "MAX_RATE_HZ", "CameraSpec", "camera_spec"]
+__all__ = ["LIGHTING", "MAX_RATE_HZ", "CameraSpec", "camera_spec"]
 
 #: Highest frame rate the model accepts, Hz (high-speed tracking cameras; the helmet-tracking paper
 #: uses 120).
@@ -169,27 +170,41 @@ class CameraSpec:
         return dataclasses.replace(self, **changes)  # type: ignore[arg-type]
 
 
-#: The four imaging conditions of the helmet-tracking paper, calibrated to its rates (module
-#: docstring table).
-CONDITIONS: dict[str, CameraSpec] = {
-    "ideal": CameraSpec(name="ideal"),
-    "low_light": CameraSpec(
+#: The four imaging conditions of the helmet-tracking paper, calibrated to its rates (the
+#: :mod:`vrloco_env.sensors.camera` docstring's table).
+LIGHTING: Registry[CameraSpec] = Registry("condition")
+LIGHTING.register("ideal", CameraSpec(name="ideal"), "good light, nothing in the way")
+LIGHTING.register(
+    "low_light",
+    CameraSpec(
         name="low_light",
         extraction_prob=0.70,
         match_prob=0.85,
         pixel_noise_px=1.5,
         exposure_s=0.004,
     ),
-    "occlusion": CameraSpec(name="occlusion", match_prob=0.60, occluder_fraction=0.30),
-    "motion_blur": CameraSpec(name="motion_blur", exposure_s=1.0 / 120.0),
-}
+    "dim: fewer features extracted, noisier corners, a longer exposure",
+)
+LIGHTING.register(
+    "occlusion",
+    CameraSpec(name="occlusion", match_prob=0.60, occluder_fraction=0.30),
+    "a band over 30 % of the image width hides landmarks",
+)
+LIGHTING.register(
+    "motion_blur",
+    CameraSpec(name="motion_blur", exposure_s=1.0 / 120.0),
+    "full frame-time exposure",
+)
+
+#: ``CONDITIONS``, the old name of :data:`LIGHTING`, still imports (with a warning).
+__getattr__ = renamed_attributes(globals(), {"CONDITIONS": "LIGHTING"})
 
 
 def camera_spec(condition: str = "ideal", **overrides: object) -> CameraSpec:
     """The preset of an imaging condition, with some fields changed.
 
     Args:
-        condition: one of :data:`CONDITIONS` ("ideal", "low_light", "occlusion", "motion_blur").
+        condition: one of :data:`LIGHTING` ("ideal", "low_light", "occlusion", "motion_blur").
         **overrides: any :class:`CameraSpec` field (units as there), e.g. ``rate_hz=60.0``.
 
     Returns:
@@ -198,9 +213,7 @@ def camera_spec(condition: str = "ideal", **overrides: object) -> CameraSpec:
     Raises:
         ValueError: an unknown condition or field, or an override out of its range.
     """
-    if not isinstance(condition, str) or condition not in CONDITIONS:
-        raise ValueError(f"condition must be one of {sorted(CONDITIONS)}, got {condition!r}")
-    return CONDITIONS[condition].with_(**overrides)
+    return LIGHTING.get(condition).with_(**overrides)
 
 
 def _mount_matrix(spec: CameraSpec) -> NDArray[np.float64]:

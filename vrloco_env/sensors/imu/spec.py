@@ -8,6 +8,7 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
+from estimators.registry import Registry
 from estimators.rotations import GRAVITY
 from estimators.validation import check_in_range, check_instance, check_value
 
@@ -246,7 +247,10 @@ _CONSUMER_MEMS = ImuSpec(
 )
 
 #: Sensor presets by name.
-PRESETS: dict[str, ImuSpec] = {"ig500n": _IG500N, "consumer_mems": _CONSUMER_MEMS}
+PRESETS: Registry[ImuSpec] = Registry("imu", kind=ImuSpec, also="an ImuSpec")
+PRESETS.register("ig500n", _IG500N, "Zhang 2021's SBG IG-500N")
+PRESETS.register("consumer_mems", _CONSUMER_MEMS, "a consumer MEMS IMU: Bosch BMI160 "
+                 "accelerometer and gyroscope, AKM AK09916 magnetometer")  # fmt: skip
 
 
 def get_imu_spec(name_or_spec: str | ImuSpec) -> ImuSpec:
@@ -255,10 +259,4 @@ def get_imu_spec(name_or_spec: str | ImuSpec) -> ImuSpec:
     Raises:
         ValueError: unknown preset name (the message lists the valid names).
     """
-    if isinstance(name_or_spec, ImuSpec):
-        return name_or_spec
-    if isinstance(name_or_spec, str) and name_or_spec in PRESETS:
-        return PRESETS[name_or_spec]
-    raise ValueError(
-        f"imu spec must be an ImuSpec or one of {sorted(PRESETS)}, got {name_or_spec!r}"
-    )
+    return PRESETS.get(name_or_spec)

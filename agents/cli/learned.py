@@ -1,0 +1,92 @@
+"""``vrloco train`` (a PPO user, stable-baselines3 or RLlib) and ``vrloco evaluate`` (the
+benchmark's metrics for a trained model)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+
+def _cmd_train(args: argparse.Namespace) -> int:
+    from agents.benchmark.backends import BackendError
+
+    seeds = args.seeds if args.seeds is not None else [args.seed]
+    common = dict(steps=args.steps, sensor_preset=args.sensors, eval_every=args.eval_every,
+                  technique=args.technique, population=args.population,
+                  condition=args.condition)  # fmt: skip
+    if args.address is not None and args.backend == "local":
+        print("vrloco train: --address needs --backend ray or rllib", file=sys.stderr)
+        return 2
+    if args.env_runners is not None and args.backend != "rllib":
+        print("vrloco train: --env-runners needs --backend rllib", file=sys.stderr)
+        return 2
+    if args.backend == "rllib" and (args.frame_stack != 1 or args.recurrent):
+        print("vrloco train: --frame-stack and --recurrent need --backend local or ray",
+              file=sys.stderr)  # fmt: skip
+        return 2
+    try:
+        if args.backend == "rllib":
+            from agents.learned.rllib import train_rllib_seeds
+
+            runners = 2 if args.env_runners is None else args.env_runners
+            paths = train_rllib_seeds(args.task, seeds, Path(args.out), address=args.address,
+                                      num_env_runners=runners,
+                                      num_envs_per_env_runner=args.num_envs,
+                                      **common)  # fmt: skip
+        else:
+            from agents.learned.train import train_seeds
+
+            paths = train_seeds(args.task, seeds, Path(args.out), backend=args.backend,
+                                address=args.address, num_envs=args.num_envs,
+                                frame_stack=args.frame_stack, recurrent=args.recurrent,
+                                **common)  # fmt: skip
+    except BackendError as err:  # no Ray cluster, or runs lost: what and where, no traceback
+        print(f"vrloco train: {err}", file=sys.stderr)
+        return 1
+    curve = Path(args.out) / "learning_curve.json"
+    if len(paths) == 1:
+        print(f"wrote {paths[0]}; learning curve in {curve}")
+    else:
+        where = "checkpoints" if args.backend == "rllib" else "models"
+        print(f"wrote {len(paths)} {where} in {Path(args.out)}/seed_*; learning curves (each "
+              f"seed, mean and std) in {curve} and {curve.with_suffix('.png')}")  # fmt: skip
+    return 0
+
+
+def _cmd_evaluate(args: argparse.Namespace) -> int:
+    from agents.benchmark.outputs import WriteError, show_table, write_json
+    from agents.learned.evaluate import evaluate_model
+
+    try:
+        row = evaluate_model(
+            Path(args.model),
+            task=args.task,
+            episodes=args.episodes,
+            seed=args.seed,
+            sensor_preset=args.sensors,
+            progress=True,
+            technique=args.technique,
+            population=args.population,
+            condition=args.condition,
+            allow_mismatch=args.allow_mismatch,
+        )
+    except ValueError as err:  # not a model, or a contradiction with it: one line, no traceback
+        print(f"vrloco evaluate: {err}", file=sys.stderr)
+        return 2
+    cell = ", ".join(f"{k} {row[k]}" for k in ("task", "technique", "population", "condition"))
+    trained = row.get("trained_on")
+    if trained:
+        print(f"cell: {cell}; the model was trained on "
+              + ", ".join(f"{k} {v}" for k, v in trained.items()))  # fmt: skip
+    else:
+        print(f"cell: {cell} (the model's own)")
+    show_table([row], args.seed)
+    if args.json:
+        meta = {"model": str(args.model), "seed": args.seed, "episodes": args.episodes}
+        try:
+            print(f"wrote {write_json(Path(args.json), [row], meta)}")
+        except WriteError as err:  # a full disk: one line
+            print(f"vrloco evaluate: {err}", file=sys.stderr)
+            return 1
+    return 0
