@@ -153,12 +153,15 @@ def main() -> None:
     for name, r in rows:
         print(f"  {name:<44} {r / base:12.1f}x")
     print("\ntargets:")
-    single = min(rate["ours AttitudeEKF.update per sample (B=1)"],
-                 rate["ours estimate_attitude offline (1 stream)"])  # fmt: skip
+    single = min(
+        rate["ours AttitudeEKF.update per sample (B=1)"],
+        rate["ours estimate_attitude offline (1 stream)"],
+    )
     batched = rate["ours AttitudeEKF.update_batch (B=1024)"]
     print(f"  single stream, slowest API / ahrs EKF: {single / base:8.1f}x   (target >= 6)")
-    print(f"  batched B=1024: {batched:12.4g} sample-updates/s  (target >= 2e6): "
-          f"{batched / 2e6:.2f}x")  # fmt: skip
+    print(
+        f"  batched B=1024: {batched:12.4g} sample-updates/s  (target >= 2e6): {batched / 2e6:.2f}x"
+    )
     vqf_batch = rate["vqf.VQF.updateBatch (1 stream)"]
     ours_offline = rate["ours estimate_attitude offline (1 stream)"]
     print(f"  ours offline / vqf.VQF.updateBatch: {ours_offline / vqf_batch:.2f}x")

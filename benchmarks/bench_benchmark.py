@@ -58,17 +58,27 @@ def main() -> None:
     if args.profile:
         profile(args)
         return
-    grid = dict(tasks=args.tasks, policies=args.policies, techniques=args.techniques,
-                workers=args.workers, seed=args.seed, progress=False,
-                print_table=False)  # fmt: skip
+    grid = dict(
+        tasks=args.tasks,
+        policies=args.policies,
+        techniques=args.techniques,
+        workers=args.workers,
+        seed=args.seed,
+        progress=False,
+        print_table=False,
+    )
     n_cells = len(args.tasks) * len(args.policies) * len(args.techniques)
     total = n_cells * args.episodes
-    print(f"grid: {', '.join(args.tasks)} x {', '.join(args.policies)} x "
-          f"{', '.join(args.techniques)}: {n_cells} cells x {args.episodes} episodes = {total} "
-          f"episodes, {args.workers} workers")  # fmt: skip
+    print(
+        f"grid: {', '.join(args.tasks)} x {', '.join(args.policies)} x "
+        f"{', '.join(args.techniques)}: {n_cells} cells x {args.episodes} episodes = {total} "
+        f"episodes, {args.workers} workers"
+    )
     rates, tables = {}, {}
-    for label, batch in (("one episode at a time", 0), (f"batched ({args.batch_size})",
-                                                        args.batch_size)):  # fmt: skip
+    for label, batch in (
+        ("one episode at a time", 0),
+        (f"batched ({args.batch_size})", args.batch_size),
+    ):
         # compile and load the kernels here, for the forked workers (batches of 2: serial builds)
         run_benchmark(**{**grid, "episodes": 2, "workers": 1}, batch_size=batch)
         t = time.perf_counter()
@@ -116,25 +126,34 @@ def profile(args: argparse.Namespace) -> None:
         prof.disable()
         VRLocoVectorEnv.step = env_step  # type: ignore[method-assign]
     total = time.perf_counter() - t
-    print(f"{len(cells)} cells x {args.episodes} episodes batched ({args.batch_size}) in this "
-          f"process: {total:.1f} s under the profiler; by own time:")  # fmt: skip
+    print(
+        f"{len(cells)} cells x {args.episodes} episodes batched ({args.batch_size}) in this "
+        f"process: {total:.1f} s under the profiler; by own time:"
+    )
     stats = pstats.Stats(prof)
     rows = sorted(stats.stats.items(), key=lambda kv: -kv[1][2])[:15]  # type: ignore[attr-defined]
     for (file, line, name), (_, calls, own, _cum, _) in rows:
         where = f"{Path(file).name}:{line}({name})"
         print(f"  {100 * own / total:5.1f} %  {own:6.2f} s  {calls:7d} calls  {where}")
-    stages = {"the env's step (users, world, observation)": ("core.py", "step"),
-              "the env's reset (room generation included)": ("core.py", "reset"),
-              "room generation (layout and its path plan)": ("planning.py", "_plan"),
-              "the policy's act (route planning included)": ("base.py", "act")}  # fmt: skip
+    stages = {
+        "the env's step (users, world, observation)": ("core.py", "step"),
+        "the env's reset (room generation included)": ("core.py", "reset"),
+        "room generation (layout and its path plan)": ("planning.py", "_plan"),
+        "the policy's act (route planning included)": ("base.py", "act"),
+    }
     print("by time including callees:")
     for label, (file, name) in stages.items():
-        cum = sum(v[3] for (f, _, n), v in stats.stats.items()  # type: ignore[attr-defined]
-                  if Path(f).name == file and n == name)  # fmt: skip
+        cum = sum(
+            v[3]
+            for (f, _, n), v in stats.stats.items()  # type: ignore[attr-defined]
+            if Path(f).name == file and n == name
+        )
         print(f"  {100 * cum / total:5.1f} %  {cum:6.2f} s  {label}")
     idle = stepped[0] - played
-    print(f"user-steps simulated: {stepped[0]}, of them {idle} ({100 * idle / stepped[0]:.0f} %) "
-          "by users whose episode had ended, waiting for the batch's last one")  # fmt: skip
+    print(
+        f"user-steps simulated: {stepped[0]}, of them {idle} ({100 * idle / stepped[0]:.0f} %) "
+        "by users whose episode had ended, waiting for the batch's last one"
+    )
 
 
 if __name__ == "__main__":

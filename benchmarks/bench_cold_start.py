@@ -44,8 +44,10 @@ def main() -> None:
     said = "compiling kernels" in out_cold
     print(f"vrloco benchmark {' '.join(args.extra)}".rstrip())
     print(f"  cold (empty cache): {cold:7.1f} s   announced compiling: {'yes' if said else 'NO'}")
-    print(f"  warm (cached):      {warm:7.1f} s   announced compiling: "
-          f"{'YES' if 'compiling kernels' in out_warm else 'no'}")
+    print(
+        f"  warm (cached):      {warm:7.1f} s   announced compiling: "
+        f"{'YES' if 'compiling kernels' in out_warm else 'no'}"
+    )
     print(f"  compiling:          {cold - warm:7.1f} s ({(cold - warm) / 60:.1f} min)")
 
 

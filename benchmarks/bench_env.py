@@ -97,8 +97,10 @@ def technique_costs(seconds: float) -> None:
     """Microseconds per user-step of every registered technique, beside the default's."""
     from vrloco_env.techniques import TECHNIQUES
 
-    print(f"{'technique':20}{'single us/step':>16}{'x zhang2021':>11}{'N=64 us/user-step':>20}"
-          f"{'x zhang2021':>11}")  # fmt: skip
+    print(
+        f"{'technique':20}{'single us/step':>16}{'x zhang2021':>11}{'N=64 us/user-step':>20}"
+        f"{'x zhang2021':>11}"
+    )
     base = None
     for name in TECHNIQUES:
         single = 1e6 * best_step_time(gym.make("VRLoco-Approach-v0", technique=name).unwrapped)

@@ -53,8 +53,10 @@ def bench_speed(b: int = 256, chunk: int = 10, seconds: float = 60.0) -> None:
         det.update(acc[:, k : k + chunk])
     el = time.perf_counter() - t0
     per = el / (b * (n - chunk)) * 1e9
-    print(f"StepDetector.update, B={b}, {chunk} samples/call: {per:.1f} ns per user-sample "
-          f"({el / ((n - chunk) / chunk) * 1e6:.0f} us per call)")  # fmt: skip
+    print(
+        f"StepDetector.update, B={b}, {chunk} samples/call: {per:.1f} ns per user-sample "
+        f"({el / ((n - chunk) / chunk) * 1e6:.0f} us per call)"
+    )
     # The detector compiled vs its kernel's pure-Python source (the readable implementation).
     small = acc[:8, :2000]
     timings = {}
@@ -65,8 +67,10 @@ def bench_speed(b: int = 256, chunk: int = 10, seconds: float = 60.0) -> None:
             t0 = time.perf_counter()
             d.update(small[:, 10:])
         timings[name] = (time.perf_counter() - t0) / small[:, 10:, 0].size * 1e9
-    print(f"detector: numba {timings['numba']:.1f} ns, python {timings['python']:.0f} ns per "
-          f"user-sample (ratio {timings['python'] / timings['numba']:.0f}x)")  # fmt: skip
+    print(
+        f"detector: numba {timings['numba']:.1f} ns, python {timings['python']:.0f} ns per "
+        f"user-sample (ratio {timings['python'] / timings['numba']:.0f}x)"
+    )
 
 
 def bench_locomotion_speed(b: int = 256, calls: int = 2000) -> None:
@@ -95,8 +99,20 @@ def bench_simulator(users: int = 32) -> None:
         return
     print(f"simulator (vrloco_env.user.motion scripts, {users} users, 100 Hz):")
     print(f"  {'script':<16} {'imu':<14} {'true':>6} {'found':>6} {'min F1':>7} {'phantom':>8}")
-    cases = [(s, {}) for s in ("stand", "serpentine", "pitch", "shake", "spin", "backward",
-                               "straight", "avoid", "stand_step_turn")]  # fmt: skip
+    cases = [
+        (s, {})
+        for s in (
+            "stand",
+            "serpentine",
+            "pitch",
+            "shake",
+            "spin",
+            "backward",
+            "straight",
+            "avoid",
+            "stand_step_turn",
+        )
+    ]
     cases += [("straight", {"cadence": c}) for c in (1.2, 2.2)]
     for name, kw in cases:
         for spec in ("consumer_mems", "ig500n"):
@@ -114,8 +130,7 @@ def bench_simulator(users: int = 32) -> None:
                 true += tru.size
                 phantom += det_t.size if tru.size == 0 else 0
             label = name + (f"@{kw['cadence']}" if kw else "")
-            print(f"  {label:<16} {spec:<14} {true:>6} {found:>6} {min(f1s):>7.3f} "
-                  f"{phantom:>8}")  # fmt: skip
+            print(f"  {label:<16} {spec:<14} {true:>6} {found:>6} {min(f1s):>7.3f} {phantom:>8}")
 
 
 def bench_oxford() -> None:
@@ -133,8 +148,10 @@ def bench_oxford() -> None:
         res = detect_steps(rec.t, rec.acc, params=params)
         p, r, f1 = step_f1(res.step_times, rec.step_times, tol=0.2)
         err = 100.0 * (res.step_times.size - n_true) / n_true
-        print(f"  {name:<15} found {res.step_times.size} ({err:+.1f} %), P {p:.3f} R {r:.3f} "
-              f"F1 {f1:.3f}")  # fmt: skip
+        print(
+            f"  {name:<15} found {res.step_times.size} ({err:+.1f} %), P {p:.3f} R {r:.3f} "
+            f"F1 {f1:.3f}"
+        )
 
 
 def bench_locomotion() -> None:

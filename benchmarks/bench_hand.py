@@ -107,18 +107,14 @@ def main() -> None:
     args = parser.parse_args()
 
     print(f"hand pipeline, ms per Kinect frame (best of {args.repeat}), frames from the env")
-    print(
-        f"{'B':>5} {'frames':>7} {'update':>9} {'update_frames':>14} {'target':>7}"
-    )
+    print(f"{'B':>5} {'frames':>7} {'update':>9} {'update_frames':>14} {'target':>7}")
     for b in args.batch:
         steps = record_frames(b, args.steps)
         frames = sum(step[0].shape[1] for step in steps)
         fast = best_ms_per_frame(replay_update, steps, args.repeat)
         multi = best_ms_per_frame(replay_update_frames, steps, args.repeat)
         target = f"{TARGETS_MS[b]:.2f}" if b in TARGETS_MS else "-"
-        print(
-            f"{b:>5} {frames:>7} {fast:>9.4f} {multi:>14.4f} {target:>7}"
-        )
+        print(f"{b:>5} {frames:>7} {fast:>9.4f} {multi:>14.4f} {target:>7}")
 
 
 if __name__ == "__main__":

@@ -28,9 +28,11 @@ import agents.scripted.goal_seeker as goal_seeker
 from agents.benchmark.episodes import run_batched
 from agents.benchmark.grid import Cell
 
-CELLS = (Cell("approach", "goal_seeker+typical", "zhang2021"),
-         Cell("avoid", "goal_seeker+typical", "zhang2021"),
-         Cell("avoid", "goal_seeker+typical", "smooth"))  # fmt: skip
+CELLS = (
+    Cell("approach", "goal_seeker+typical", "zhang2021"),
+    Cell("avoid", "goal_seeker+typical", "zhang2021"),
+    Cell("avoid", "goal_seeker+typical", "smooth"),
+)
 
 
 class _Timed:
@@ -62,8 +64,10 @@ def main() -> None:
     goal_seeker.plan_kernel = timed
     for cell in CELLS:  # compile and load
         run_batched([(cell, args.seed + args.episodes, False)], 1)
-    print(f"{len(CELLS)} cells x {args.episodes} episodes (seeds {args.seed}-"
-          f"{args.seed + args.episodes - 1}), the goal seeker's planner kernel:")  # fmt: skip
+    print(
+        f"{len(CELLS)} cells x {args.episodes} episodes (seeds {args.seed}-"
+        f"{args.seed + args.episodes - 1}), the goal seeker's planner kernel:"
+    )
     for size in args.batch_sizes:
         timed.seconds, timed.users = 0.0, 0
         digest = hashlib.sha256()
@@ -71,8 +75,10 @@ def main() -> None:
             done = run_batched([(cell, args.seed + i, False) for i in range(args.episodes)], size)
             digest.update(repr([stats for stats, _ in done]).encode())
         per_call = 1e6 * timed.seconds / timed.users
-        print(f"  batches of {size:3d}: {timed.seconds:6.2f} s, {per_call:6.1f} us per user and "
-              f"call ({timed.users} user-calls); digest {digest.hexdigest()[:12]}")  # fmt: skip
+        print(
+            f"  batches of {size:3d}: {timed.seconds:6.2f} s, {per_call:6.1f} us per user and "
+            f"call ({timed.users} user-calls); digest {digest.hexdigest()[:12]}"
+        )
 
 
 if __name__ == "__main__":

@@ -69,20 +69,28 @@ def time_revision(rev: str, runs: list[tuple[int, int, int]]) -> list[float]:
     tree = Path(tempfile.mkdtemp(prefix="bench_sensors_"))
     archive = subprocess.run(["git", "archive", rev], cwd=ROOT, check=True, capture_output=True)
     subprocess.run(["tar", "-x", "-C", str(tree)], input=archive.stdout, check=True)
-    code = "\n".join([
-        "import time",
-        "from typing import Any",
-        "import numpy as np",
-        "from estimators.rotations import quat_from_ypr",
-        "from vrloco_env.batch_rng import BatchRng",
-        "from vrloco_env.sensors import kinect",
-        f"FRAMES = {FRAMES}",
-        inspect.getsource(users),
-        inspect.getsource(time_capture),
-        f"print([time_capture(kinect, b, c, r) for b, c, r in {runs!r}])",
-    ])  # fmt: skip
-    out = subprocess.run([sys.executable, "-c", code], cwd=tree, check=True, capture_output=True,
-                         text=True, env={**os.environ, "PYTHONPATH": str(tree)})  # fmt: skip
+    code = "\n".join(
+        [
+            "import time",
+            "from typing import Any",
+            "import numpy as np",
+            "from estimators.rotations import quat_from_ypr",
+            "from vrloco_env.batch_rng import BatchRng",
+            "from vrloco_env.sensors import kinect",
+            f"FRAMES = {FRAMES}",
+            inspect.getsource(users),
+            inspect.getsource(time_capture),
+            f"print([time_capture(kinect, b, c, r) for b, c, r in {runs!r}])",
+        ]
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code],
+        cwd=tree,
+        check=True,
+        capture_output=True,
+        text=True,
+        env={**os.environ, "PYTHONPATH": str(tree)},
+    )
     return [float(x) for x in out.stdout.strip().splitlines()[-1].strip("[]").split(",")]
 
 
@@ -152,8 +160,7 @@ def imu_section(batches: list[int], repeat: int, seconds: float) -> None:
         target = IMU_TARGETS_MS.get(b)
         print(
             f"{b:>5} {now * 1e3:>10.4f} {now / (b * IMU_SAMPLES) * 1e6:>19.3f} "
-            f"{draw * 1e3:>8.4f}"
-            + (f" {target:>10.2f}" if target else f" {'':>10}")
+            f"{draw * 1e3:>8.4f}" + (f" {target:>10.2f}" if target else f" {'':>10}")
         )
 
 
@@ -171,8 +178,11 @@ def kinect_section(args: argparse.Namespace) -> None:
         rough = time_capture(kinect, b, 3, 1)
         calls = max(5, int(args.seconds / max(rough, 1e-6)))
         rows.append((b, calls, time_capture(kinect, b, calls, args.repeat)))
-    before = [None] * len(rows) if ref is None else time_revision(
-        ref, [(b, calls, args.repeat) for b, calls, _ in rows])  # fmt: skip
+    before = (
+        [None] * len(rows)
+        if ref is None
+        else time_revision(ref, [(b, calls, args.repeat) for b, calls, _ in rows])
+    )
     for (b, _, now), then in zip(rows, before, strict=True):
         row = f"{b:>5} {now * 1e3:>13.4f} {now / (b * FRAMES) * 1e6:>18.3f}"
         if then is not None:

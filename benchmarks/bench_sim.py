@@ -43,8 +43,7 @@ def bench(n: int, n_rays: int, repeats: int, threads: int) -> list[tuple[str, fl
     approach_layout(cfg, np.random.default_rng(12345))  # warm-up: numba kernels
     t0 = time.perf_counter()
     layouts = [
-        approach_layout(cfg, np.random.default_rng(s)).with_origin(origins[s])
-        for s in range(n)
+        approach_layout(cfg, np.random.default_rng(s)).with_origin(origins[s]) for s in range(n)
     ]
     rows.append(("draw layout (per room)", (time.perf_counter() - t0) * 1e3 / n, float("nan")))
     sim = Simulation(ray_threads=threads)

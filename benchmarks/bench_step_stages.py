@@ -78,8 +78,15 @@ def detectors() -> dict[str, object]:
     return out
 
 
-def gesture_trial(amp_deg, freq_hz, preset: str, users: int, seed: int, seconds: float = 20.0,
-                  cadence: float = 0.0) -> Trial:  # fmt: skip
+def gesture_trial(
+    amp_deg,
+    freq_hz,
+    preset: str,
+    users: int,
+    seed: int,
+    seconds: float = 20.0,
+    cadence: float = 0.0,
+) -> Trial:
     """Standing (or stepping at ``cadence``) with a head gesture: 2 s still, the gesture, 2 s
     still, the frequency held throughout (as :func:`vrloco_env.user.motion.script_intents` does)."""
     rng = BatchRng([np.random.default_rng([seed, 13, i]) for i in range(users)])
@@ -153,11 +160,15 @@ def main(argv: list[str] | None = None) -> None:
     names = detectors()
     u = args.users
     att = "true attitude" if args.true_attitude else "EKF attitude"
-    print(f"Step detectors on the simulator, {'development' if args.dev else 'held-out'} seeds "
-          f"{seeds}, {u} users per trial, {att}")  # fmt: skip
+    print(
+        f"Step detectors on the simulator, {'development' if args.dev else 'held-out'} seeds "
+        f"{seeds}, {u} users per trial, {att}"
+    )
     for preset in PRESETS:
-        print(f"\n[{preset}] F1 (+-0.2 s) stepping in place: plain / scanning the room; "
-              f"at {WALK_NOD_CADENCE} steps/s while nodding")  # fmt: skip
+        print(
+            f"\n[{preset}] F1 (+-0.2 s) stepping in place: plain / scanning the room; "
+            f"at {WALK_NOD_CADENCE} steps/s while nodding"
+        )
         walks = []
         for seed in seeds:
             for c in CADENCES:
@@ -167,8 +178,11 @@ def main(argv: list[str] | None = None) -> None:
                 c = WALK_NOD_CADENCE
                 walks.append((c, label, gesture_trial(amp, freq, preset, u, seed, cadence=c)))
 
-        print(f"  {'detector':<12}" + "".join(f"{f'{c} Hz':>16}" for c in CADENCES)
-              + "".join(f"{k:>17}" for k in WALK_NODS))  # fmt: skip
+        print(
+            f"  {'detector':<12}"
+            + "".join(f"{f'{c} Hz':>16}" for c in CADENCES)
+            + "".join(f"{k:>17}" for k in WALK_NODS)
+        )
         for name, spec in names.items():
             kinds = {(c, k) for c, k, _ in walks}
             f1 = {(c, k): walk_f1(spec, walks, c, k, args.true_attitude) for c, k in kinds}

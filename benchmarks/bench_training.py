@@ -103,20 +103,34 @@ def child(config: str, task: str, num_envs: int, iterations: int) -> dict:
     for p in model.policy.state_dict().values():
         digest.update(p.detach().cpu().numpy().tobytes())
     return {
-        "config": config, "steps": int(model.num_timesteps), "wall_s": wall,
-        "env_s": spent["env"], "forward_s": spent["collect"] - spent["env"],
+        "config": config,
+        "steps": int(model.num_timesteps),
+        "wall_s": wall,
+        "env_s": spent["env"],
+        "forward_s": spent["collect"] - spent["env"],
         "update_s": spent["update"],
         "other_s": wall - spent["collect"] - spent["update"],
-        "torch_threads": torch.get_num_threads(), "weights": digest.hexdigest(),
-    }  # fmt: skip
+        "torch_threads": torch.get_num_threads(),
+        "weights": digest.hexdigest(),
+    }
 
 
 def run(config: str, args: argparse.Namespace) -> dict:
     """:func:`child` in a fresh process, started without ``OMP_WAIT_POLICY`` (each
     configuration sets what it sets itself)."""
     env = {k: v for k, v in os.environ.items() if k != "OMP_WAIT_POLICY"}
-    cmd = [sys.executable, __file__, "--child", config, "--task", args.task,
-           "--num-envs", str(args.num_envs), "--iterations", str(args.iterations)]  # fmt: skip
+    cmd = [
+        sys.executable,
+        __file__,
+        "--child",
+        config,
+        "--task",
+        args.task,
+        "--num-envs",
+        str(args.num_envs),
+        "--iterations",
+        str(args.iterations),
+    ]
     out = subprocess.run(cmd, env=env, cwd=ROOT, capture_output=True, text=True, check=False)
     if out.returncode != 0:
         raise SystemExit(f"the {config} run failed:\n{out.stderr[-3000:]}")
@@ -129,15 +143,19 @@ def main() -> None:
     parser.add_argument("--num-envs", type=int, default=32)
     parser.add_argument("--iterations", type=int, default=3, help="PPO iterations per run")
     parser.add_argument("--repeats", type=int, default=2, help="runs of each configuration")
-    parser.add_argument("--busy", type=int, default=0, metavar="N",
-                        help="keep N other processes busy during the runs")
+    parser.add_argument(
+        "--busy",
+        type=int,
+        default=0,
+        metavar="N",
+        help="keep N other processes busy during the runs",
+    )
     parser.add_argument("--child", choices=CONFIGS, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child:
         print(json.dumps(child(args.child, args.task, args.num_envs, args.iterations)))
         return
-    busy = [subprocess.Popen([sys.executable, "-c", "while True: pass"])
-            for _ in range(args.busy)]  # fmt: skip
+    busy = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(args.busy)]
     try:
         measure(args)
     finally:
@@ -149,32 +167,46 @@ def main() -> None:
 def measure(args: argparse.Namespace) -> None:
     """The alternated runs and their table."""
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
-    print(f"PPO on {args.task}: {args.num_envs} users, {args.iterations} iterations per run, "
-          f"{args.repeats} runs of each configuration alternated; {os.cpu_count()} cores, "
-          f"load average {load:.2f} at the start"
-          f"{f'; {args.busy} other processes kept busy' if args.busy else ''}")  # fmt: skip
+    print(
+        f"PPO on {args.task}: {args.num_envs} users, {args.iterations} iterations per run, "
+        f"{args.repeats} runs of each configuration alternated; {os.cpu_count()} cores, "
+        f"load average {load:.2f} at the start"
+        f"{f'; {args.busy} other processes kept busy' if args.busy else ''}"
+    )
     runs: dict[str, list[dict]] = {c: [] for c in CONFIGS}
     for i in range(args.repeats):
         for config in CONFIGS:
             r = run(config, args)
             runs[config].append(r)
-            print(f"  run {i + 1} {config:<8} {r['steps'] / r['wall_s']:7.0f} steps/s  "
-                  f"({r['steps']:,} steps in {r['wall_s']:.1f} s)", flush=True)
+            print(
+                f"  run {i + 1} {config:<8} {r['steps'] / r['wall_s']:7.0f} steps/s  "
+                f"({r['steps']:,} steps in {r['wall_s']:.1f} s)",
+                flush=True,
+            )
     print()
-    print(f"{'':8} {'steps/s':>8}  {'env':>6} {'forward':>8} {'update':>7} {'other':>6}   "
-          "(medians; shares of the loop's time)")
+    print(
+        f"{'':8} {'steps/s':>8}  {'env':>6} {'forward':>8} {'update':>7} {'other':>6}   "
+        "(medians; shares of the loop's time)"
+    )
     rate = {}
     for config in CONFIGS:
         rs = runs[config]
         rate[config] = statistics.median(r["steps"] / r["wall_s"] for r in rs)
-        share = {k: statistics.median(r[f"{k}_s"] / r["wall_s"] for r in rs)
-                 for k in ("env", "forward", "update", "other")}  # fmt: skip
-        print(f"{config:<8} {rate[config]:8.0f}  {share['env']:6.0%} {share['forward']:8.0%} "
-              f"{share['update']:7.0%} {share['other']:6.0%}")
+        share = {
+            k: statistics.median(r[f"{k}_s"] / r["wall_s"] for r in rs)
+            for k in ("env", "forward", "update", "other")
+        }
+        print(
+            f"{config:<8} {rate[config]:8.0f}  {share['env']:6.0%} {share['forward']:8.0%} "
+            f"{share['update']:7.0%} {share['other']:6.0%}"
+        )
     print(f"\nvrloco / default: {rate['vrloco'] / rate['default']:.2f}x the steps per second")
     digests = {r["weights"] for rs in runs.values() for r in rs}
-    same = "the same weights in every run" if len(digests) == 1 else (
-        f"DIFFERENT weights ({len(digests)} distinct)")  # fmt: skip
+    same = (
+        "the same weights in every run"
+        if len(digests) == 1
+        else (f"DIFFERENT weights ({len(digests)} distinct)")
+    )
     print(f"trained policy: {same} (SHA-256 {sorted(digests)[0][:16]}...)")
 
 

@@ -42,8 +42,11 @@ from estimators.io.broad import broad_trials, load_broad
 from estimators.registry import StageError
 from estimators.stages import ATTITUDE
 
-METRICS = (("total", "total_rmse_deg"), ("heading", "heading_rmse_deg"),
-           ("inclination", "inclination_rmse_deg"))  # fmt: skip
+METRICS = (
+    ("total", "total_rmse_deg"),
+    ("heading", "heading_rmse_deg"),
+    ("inclination", "inclination_rmse_deg"),
+)
 SOURCE = {
     "ekf": "in-sample (defaults chosen on these trials)",
     "ekf_paper_literal": "in-sample (same noise densities, the EKF as printed)",
@@ -73,8 +76,11 @@ def buildable(names: list[str], fs: float) -> list[str]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--data", type=Path, help="BROAD folder (default: the one $VRLOCO_DATA "
-                        "or `vrloco data fetch broad` provides)")  # fmt: skip
+    parser.add_argument(
+        "--data",
+        type=Path,
+        help="BROAD folder (default: the one $VRLOCO_DATA or `vrloco data fetch broad` provides)",
+    )
     args = parser.parse_args()
     if args.data is None:
         try:
@@ -115,10 +121,14 @@ def main() -> None:
             print(f"{trial.name[:35]:<36}{row}")
         print(f"{'MEAN':<36}" + "".join(f"{v:{width}.2f}" for v in table.mean(axis=1)))
         best = table == table.min(axis=0, keepdims=True)
-        print(f"{'wins (lowest; ties count for each)':<36}"
-              + "".join(f"{int(v):{width}d}" for v in best.sum(axis=1)))  # fmt: skip
-    print(f"\n{'wall time per sample (us)':<36}"
-          + "".join(f"{1e6 * seconds[n] / samples:{width}.3f}" for n in names))  # fmt: skip
+        print(
+            f"{'wins (lowest; ties count for each)':<36}"
+            + "".join(f"{int(v):{width}d}" for v in best.sum(axis=1))
+        )
+    print(
+        f"\n{'wall time per sample (us)':<36}"
+        + "".join(f"{1e6 * seconds[n] / samples:{width}.3f}" for n in names)
+    )
     print(f"({samples} samples in all, one stream, whole trial per update call)")
 
 

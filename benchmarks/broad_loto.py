@@ -73,8 +73,7 @@ def loto(err: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def describe(i: int) -> str:
     p = GRID[i]
-    return (f"acc {p['acc_noise']:g}, mag {p['mag_noise']:g}, "
-            f"bw {math.degrees(p['bias_walk']):.0e}")  # fmt: skip
+    return f"acc {p['acc_noise']:g}, mag {p['mag_noise']:g}, bw {math.degrees(p['bias_walk']):.0e}"
 
 
 def plot(names: list[str], bars: dict[str, np.ndarray], path: Path) -> None:
@@ -88,8 +87,12 @@ def plot(names: list[str], bars: dict[str, np.ndarray], path: Path) -> None:
     width = 0.8 / len(bars)
     fig, ax = plt.subplots(figsize=(11, 4.5), constrained_layout=True)
     for k, (label, values) in enumerate(bars.items()):
-        ax.bar(x + (k - (len(bars) - 1) / 2) * width, np.append(values, values.mean()), width,
-               label=label)  # fmt: skip
+        ax.bar(
+            x + (k - (len(bars) - 1) / 2) * width,
+            np.append(values, values.mean()),
+            width,
+            label=label,
+        )
     ax.set_xticks(x, labels)
     ax.set_xlabel("BROAD trial")
     ax.set_ylabel("total RMSE (deg)")
@@ -103,10 +106,14 @@ def plot(names: list[str], bars: dict[str, np.ndarray], path: Path) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--data", type=Path, help="BROAD folder (default: the one $VRLOCO_DATA "
-                        "or `vrloco data fetch broad` provides)")  # fmt: skip
-    parser.add_argument("--out", type=Path, default=Path("out/broad_loto.png"),
-                        help="figure path (PNG)")  # fmt: skip
+    parser.add_argument(
+        "--data",
+        type=Path,
+        help="BROAD folder (default: the one $VRLOCO_DATA or `vrloco data fetch broad` provides)",
+    )
+    parser.add_argument(
+        "--out", type=Path, default=Path("out/broad_loto.png"), help="figure path (PNG)"
+    )
     args = parser.parse_args()
     if args.data is None:
         try:
@@ -117,41 +124,62 @@ def main() -> None:
     trials = [load_broad(p) for p in broad_trials(args.data)]
     names = [t.name for t in trials]
     defaults = AttitudeParams()
-    centre = {"acc_noise": defaults.acc_noise, "mag_noise": defaults.mag_noise,
-              "bias_walk": defaults.bias_walk}  # fmt: skip
-    i_def = next(i for i, p in enumerate(GRID) if all(math.isclose(p[k], v)
-                                                     for k, v in centre.items()))  # fmt: skip
+    centre = {
+        "acc_noise": defaults.acc_noise,
+        "mag_noise": defaults.mag_noise,
+        "bias_walk": defaults.bias_walk,
+    }
+    i_def = next(
+        i for i, p in enumerate(GRID) if all(math.isclose(p[k], v) for k, v in centre.items())
+    )
     t0 = time.perf_counter()
     err = grid_errors(trials)
     seconds = time.perf_counter() - t0
     chosen, held_out = loto(err)
     from vqf import VQF
 
-    vqf = np.array([total_rmse(t, VQF(1.0 / t.fs).updateBatch(t.gyr, t.acc, t.mag)["quat9D"])
-                    for t in trials])  # fmt: skip
+    vqf = np.array(
+        [total_rmse(t, VQF(1.0 / t.fs).updateBatch(t.gyr, t.acc, t.mag)["quat9D"]) for t in trials]
+    )
     d = err[i_def]
     i_best = int(np.argmin(err.mean(axis=1)))
 
-    print(f"BROAD, {len(trials)} trials from {args.data}, 9D; total RMSE (deg) over the movement "
-          f"phases; grid of {len(GRID)} points ({seconds:.0f} s)")  # fmt: skip
-    print(f"grid: acc_noise {ACC_NOISE}, mag_noise {MAG_NOISE}, bias_walk {BIAS_WALK_DEG} deg/s/"
-          "sqrt(s); other parameters at their defaults")  # fmt: skip
+    print(
+        f"BROAD, {len(trials)} trials from {args.data}, 9D; total RMSE (deg) over the movement "
+        f"phases; grid of {len(GRID)} points ({seconds:.0f} s)"
+    )
+    print(
+        f"grid: acc_noise {ACC_NOISE}, mag_noise {MAG_NOISE}, bias_walk {BIAS_WALK_DEG} deg/s/"
+        "sqrt(s); other parameters at their defaults"
+    )
     print(f"\n{'trial':<36}{'defaults':>10}{'LOTO':>10}{'VQF':>10}   LOTO choice (on the other 8)")
     print(f"{'':<36}{'in':>10}{'out':>10}{'out':>10}")
     for j, name in enumerate(names):
-        print(f"{name[:35]:<36}{d[j]:10.2f}{held_out[j]:10.2f}{vqf[j]:10.2f}   "
-              f"{describe(chosen[j])}")  # fmt: skip
+        print(
+            f"{name[:35]:<36}{d[j]:10.2f}{held_out[j]:10.2f}{vqf[j]:10.2f}   {describe(chosen[j])}"
+        )
     print(f"{'MEAN':<36}{d.mean():10.2f}{held_out.mean():10.2f}{vqf.mean():10.2f}")
     print(f"\nin-sample defaults ({describe(i_def)}): mean {d.mean():.3f} deg")
-    print(f"leave-one-trial-out (out-of-sample):    mean {held_out.mean():.3f} deg "
-          f"({held_out.mean() - d.mean():+.3f}); held-out trial lower than VQF on "
-          f"{int(np.sum(held_out < vqf))} of {len(trials)}")  # fmt: skip
+    print(
+        f"leave-one-trial-out (out-of-sample):    mean {held_out.mean():.3f} deg "
+        f"({held_out.mean() - d.mean():+.3f}); held-out trial lower than VQF on "
+        f"{int(np.sum(held_out < vqf))} of {len(trials)}"
+    )
     print(f"VQF, package defaults (out-of-sample):  mean {vqf.mean():.3f} deg")
-    print(f"best grid point on all nine (in-sample, the most optimistic; {describe(i_best)}): "
-          f"mean {err[i_best].mean():.3f} deg")  # fmt: skip
+    print(
+        f"best grid point on all nine (in-sample, the most optimistic; {describe(i_best)}): "
+        f"mean {err[i_best].mean():.3f} deg"
+    )
     print(f"LOTO choices that equal the defaults: {int(np.sum(chosen == i_def))} of {len(trials)}")
-    plot(names, {"EKF defaults (in-sample)": d, "EKF LOTO, held-out trial (out-of-sample)":
-                 held_out, "VQF defaults (out-of-sample)": vqf}, args.out)  # fmt: skip
+    plot(
+        names,
+        {
+            "EKF defaults (in-sample)": d,
+            "EKF LOTO, held-out trial (out-of-sample)": held_out,
+            "VQF defaults (out-of-sample)": vqf,
+        },
+        args.out,
+    )
     print(f"figure: {args.out}")
 
 

@@ -50,8 +50,11 @@ from estimators.io.broad import BroadTrial, broad_trials, load_broad
 from estimators.rotations import GRAVITY, quat_from_rotvec, quat_multiply
 
 NWU_TO_ENU = quat_from_rotvec([0.0, 0.0, np.pi / 2])
-METRICS = (("total", "total_rmse_deg"), ("heading", "heading_rmse_deg"),
-           ("inclination", "inclination_rmse_deg"))  # fmt: skip
+METRICS = (
+    ("total", "total_rmse_deg"),
+    ("heading", "heading_rmse_deg"),
+    ("inclination", "inclination_rmse_deg"),
+)
 
 
 def ours(t: BroadTrial) -> np.ndarray:
@@ -118,19 +121,28 @@ def methods(madgwick_too: bool, ablations: bool) -> dict[str, Method]:
     """The columns, in print order."""
     out = {
         "EKF": Method(ours, "in", "estimate_attitude defaults, chosen on these nine trials"),
-        "EKF offline": Method(ours_offline, "in", "estimate_attitude(offline=True), same "
-                              "defaults: the forward-backward smoother"),
+        "EKF offline": Method(
+            ours_offline,
+            "in",
+            "estimate_attitude(offline=True), same defaults: the forward-backward smoother",
+        ),
         "VQF": Method(vqf_online, "out", "vqf.VQF.updateBatch, package defaults"),
         "VQF offline": Method(vqf_offline, "out", "vqf.offlineVQF, package defaults"),
-    }  # fmt: skip
+    }
     if madgwick_too:
         out["Madgwick"] = Method(madgwick, "out", "ahrs.filters.Madgwick, beta 0.041")
     out["imufusion"] = Method(imufusion_ahrs, "out", "imufusion.Ahrs, default settings")
     if ablations:
-        out["EKF 6D"] = Method(ours_6d, "in", "no magnetometer; inclination only",
-                               scored=("inclination",), in_wins=False)  # fmt: skip
-        out["EKF printed"] = Method(ours_paper_literal, "in", "model='paper_literal'",
-                                    in_wins=False)  # fmt: skip
+        out["EKF 6D"] = Method(
+            ours_6d,
+            "in",
+            "no magnetometer; inclination only",
+            scored=("inclination",),
+            in_wins=False,
+        )
+        out["EKF printed"] = Method(
+            ours_paper_literal, "in", "model='paper_literal'", in_wins=False
+        )
     return out
 
 
@@ -157,8 +169,10 @@ def print_tables(trials: list[BroadTrial], table: dict[str, Method], err: dict) 
         competing = [table[n].in_wins for n in names]
         print(f"\n{label} RMSE (deg)")
         print(f"{'trial':<36}" + "".join(f"{n:>{w}}" for n in names))
-        print(f"{'(parameters: in-/out-of-sample)':<36}"
-              + "".join(f"{table[n].sample:>{w}}" for n in names))  # fmt: skip
+        print(
+            f"{'(parameters: in-/out-of-sample)':<36}"
+            + "".join(f"{table[n].sample:>{w}}" for n in names)
+        )
         rmse = np.array([err[n][key] for n in names])  # (columns, trials)
         for j, trial in enumerate(trials):
             print(f"{trial.name[:35]:<36}" + "".join(f"{v:{w}.2f}" for v in rmse[:, j]))
@@ -175,18 +189,26 @@ def head_to_head(err: dict, a: str, b: str) -> str:
     parts = []
     for label, key in METRICS:
         x, y = np.array(err[a][key]), np.array(err[b][key])
-        parts.append(f"{label} {int(np.sum(x < y))}:{int(np.sum(y < x))} "
-                     f"(mean {x.mean():.2f} vs {y.mean():.2f})")  # fmt: skip
+        parts.append(
+            f"{label} {int(np.sum(x < y))}:{int(np.sum(y < x))} "
+            f"(mean {x.mean():.2f} vs {y.mean():.2f})"
+        )
     return f"{a} vs {b}, trials won: " + "; ".join(parts)
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--data", type=Path, help="BROAD folder (default: the one $VRLOCO_DATA "
-                        "or `vrloco data fetch broad` provides)")  # fmt: skip
+    parser.add_argument(
+        "--data",
+        type=Path,
+        help="BROAD folder (default: the one $VRLOCO_DATA or `vrloco data fetch broad` provides)",
+    )
     parser.add_argument("--no-madgwick", action="store_true", help="skip ahrs Madgwick (slow)")
-    parser.add_argument("--ablations", action="store_true",
-                        help="add EKF 6D and EKF as printed (outside the win counts)")  # fmt: skip
+    parser.add_argument(
+        "--ablations",
+        action="store_true",
+        help="add EKF 6D and EKF as printed (outside the win counts)",
+    )
     args = parser.parse_args()
     if args.data is None:
         try:
@@ -209,11 +231,15 @@ def main() -> None:
     print(head_to_head(err, "EKF offline", "VQF offline"))
     for on, off in (("EKF", "EKF offline"), ("VQF", "VQF offline")):
         tot = np.array(err[off]["total_rmse_deg"]) - np.array(err[on]["total_rmse_deg"])
-        print(f"{off} minus {on}, total RMSE: mean {tot.mean():+.2f} deg, lower on "
-              f"{int(np.sum(tot < 0))} of {tot.size} trials")  # fmt: skip
+        print(
+            f"{off} minus {on}, total RMSE: mean {tot.mean():+.2f} deg, lower on "
+            f"{int(np.sum(tot < 0))} of {tot.size} trials"
+        )
     w = max(12, *(len(n) + 2 for n in table))
-    print(f"\n{'wall time per sample (us)':<36}"
-          + "".join(f"{1e6 * seconds[n] / samples:{w}.3f}" for n in table))  # fmt: skip
+    print(
+        f"\n{'wall time per sample (us)':<36}"
+        + "".join(f"{1e6 * seconds[n] / samples:{w}.3f}" for n in table)
+    )
     print(f"({samples} samples in all, one stream per trial)")
 
 

@@ -46,16 +46,21 @@ def pair_tasks(pair: Pair) -> list[str]:
     """The tasks on which the default run compares ``pair`` with the baseline."""
     tasks: list[str] = []
     for g in DEFAULT_GRIDS:
-        if (pair.technique in g.techniques and BASELINE in g.techniques
-                and pair.policy in g.policies and pair.condition in g.conditions):  # fmt: skip
+        if (
+            pair.technique in g.techniques
+            and BASELINE in g.techniques
+            and pair.policy in g.policies
+            and pair.condition in g.conditions
+        ):
             tasks += [t for t in g.tasks if t not in tasks]
     return tasks
 
 
 def _values(args: tuple[Cell, list[int]]) -> tuple[Cell, list[dict[str, float]]]:
     cell, seeds = args
-    return cell, [episode_values(s) for s, _ in run_cell_batched(cell, seeds,
-                                                                 batch_size=DEFAULT_BATCH_SIZE)]
+    return cell, [
+        episode_values(s) for s, _ in run_cell_batched(cell, seeds, batch_size=DEFAULT_BATCH_SIZE)
+    ]
 
 
 def main() -> None:
@@ -63,29 +68,48 @@ def main() -> None:
     ap.add_argument("--pairs", nargs="+", help="techniques of the pairs (default: every pair)")
     ap.add_argument("--seed", type=int, default=1000, help="first development seed")
     ap.add_argument("--episodes", type=int, default=80, help="development episodes per cell")
-    ap.add_argument("--sizes", type=int, nargs="+", default=[20, 40, 60, 80, 120],
-                    help="cell sizes N to estimate the power at")  # fmt: skip
+    ap.add_argument(
+        "--sizes",
+        type=int,
+        nargs="+",
+        default=[20, 40, 60, 80, 120],
+        help="cell sizes N to estimate the power at",
+    )
     ap.add_argument("--resamples", type=int, default=400)
     ap.add_argument("--workers", type=int, default=2)
     args = ap.parse_args()
-    for name, value, low in (("--episodes", args.episodes, 2), ("--resamples", args.resamples, 1),
-                             ("--workers", args.workers, 1), ("--sizes", min(args.sizes), 1)):
+    for name, value, low in (
+        ("--episodes", args.episodes, 2),
+        ("--resamples", args.resamples, 1),
+        ("--workers", args.workers, 1),
+        ("--sizes", min(args.sizes), 1),
+    ):
         if value < low:
             ap.error(f"{name} must be >= {low}, got {value}")
     pairs = [p for p in PAIRS if args.pairs is None or p.technique in args.pairs]
     if not pairs:
-        ap.error(f"--pairs: none of {args.pairs} is a pair; pairs: "
-                 f"{', '.join(p.technique for p in PAIRS)}")  # fmt: skip
+        ap.error(
+            f"--pairs: none of {args.pairs} is a pair; pairs: "
+            f"{', '.join(p.technique for p in PAIRS)}"
+        )
     seeds = list(range(args.seed, args.seed + args.episodes))
-    cells = list(dict.fromkeys(Cell(t, p.policy, k, p.condition) for p in pairs
-                               for t in pair_tasks(p) for k in (BASELINE, p.technique)))
+    cells = list(
+        dict.fromkeys(
+            Cell(t, p.policy, k, p.condition)
+            for p in pairs
+            for t in pair_tasks(p)
+            for k in (BASELINE, p.technique)
+        )
+    )
     t0 = time.perf_counter()
     with ProcessPoolExecutor(max_workers=args.workers) as pool:
         values = dict(pool.map(_values, [(c, seeds) for c in cells]))
-    print(f"{len(cells)} cells x {args.episodes} development episodes (seeds {seeds[0]}.."
-          f"{seeds[-1]}) in {time.perf_counter() - t0:.0f} s; power = share of "
-          f"{args.resamples} resamples of N paired episodes in which the pair separates "
-          "(on an outcome)")  # fmt: skip
+    print(
+        f"{len(cells)} cells x {args.episodes} development episodes (seeds {seeds[0]}.."
+        f"{seeds[-1]}) in {time.perf_counter() - t0:.0f} s; power = share of "
+        f"{args.resamples} resamples of N paired episodes in which the pair separates "
+        "(on an outcome)"
+    )
     rng = np.random.default_rng(args.seed)
     # every resample draws one set of seed indices for every pair and task, as a run uses the
     # same seeds in every cell: sep[n][pair] and out[n][pair] hold a flag per resample
@@ -95,14 +119,16 @@ def main() -> None:
         for r in range(args.resamples):
             idx = rng.integers(0, args.episodes, n)
             for pair in pairs:
-                res = pair_results([_resampled_row(values, pair, t, idx)
-                                    for t in pair_tasks(pair)], (pair,))[0]  # fmt: skip
+                res = pair_results(
+                    [_resampled_row(values, pair, t, idx) for t in pair_tasks(pair)], (pair,)
+                )[0]
                 sep[n][pair.name][r], out[n][pair.name][r] = res["separates"], res["on_outcome"]
     head = "".join(f"{'N=' + str(n):>14}" for n in args.sizes)
     print(f"{'pair':<46}{head}")
     for pair in pairs:
-        cols = [f"{sep[n][pair.name].mean():.2f} ({out[n][pair.name].mean():.2f})"
-                for n in args.sizes]  # fmt: skip
+        cols = [
+            f"{sep[n][pair.name].mean():.2f} ({out[n][pair.name].mean():.2f})" for n in args.sizes
+        ]
         print(f"{pair.name:<46}" + "".join(f"{c:>14}" for c in cols))
     # the run's claim: every pair the scenario tells apart separates, >= 3 on an outcome
     largest = max(args.sizes)
@@ -112,8 +138,10 @@ def main() -> None:
         every = np.all([sep[n][name] for name in apart], axis=0)
         outcomes = np.sum([out[n][p.name] for p in pairs], axis=0)
         joint.append(f"{np.mean(every & (outcomes >= 3)):.2f}")
-    print(f"{'all of ' + str(len(apart)) + ' told apart, >= 3 on an outcome':<46}"
-          + "".join(f"{c:>14}" for c in joint))
+    print(
+        f"{'all of ' + str(len(apart)) + ' told apart, >= 3 on an outcome':<46}"
+        + "".join(f"{c:>14}" for c in joint)
+    )
     print(f"(told apart: the pairs with power >= 0.5 at N={largest}: {', '.join(apart)})")
 
 
@@ -122,9 +150,13 @@ def _resampled_row(values: dict, pair: Pair, task: str, idx: np.ndarray) -> dict
     ``idx`` (repeats kept)."""
     base = values[Cell(task, pair.policy, BASELINE, pair.condition)]
     other = values[Cell(task, pair.policy, pair.technique, pair.condition)]
-    return {"task": task, "technique": pair.technique, "policy": pair.policy,
-            "condition": pair.condition,
-            "vs_baseline": compare_values([base[i] for i in idx], [other[i] for i in idx])}
+    return {
+        "task": task,
+        "technique": pair.technique,
+        "policy": pair.policy,
+        "condition": pair.condition,
+        "vs_baseline": compare_values([base[i] for i in idx], [other[i] for i in idx]),
+    }
 
 
 if __name__ == "__main__":

@@ -133,12 +133,16 @@ class TakesUsers:
                 parts cannot drop users (:func:`takes_users`); nothing is changed.
         """
         if not TakesUsers.declares(type(self)):
-            raise TypeError(f"{type(self).__name__} does not declare its per-user attributes "
-                            "(per_user_fields), so it cannot drop users")  # fmt: skip
+            raise TypeError(
+                f"{type(self).__name__} does not declare its per-user attributes "
+                "(per_user_fields), so it cannot drop users"
+            )
         unable = [type(p).__name__ for p in self.user_parts() if not takes_users(p)]
         if unable:
-            raise TypeError(f"{type(self).__name__} cannot drop users: a part of it "
-                            f"({', '.join(unable)}) has no take_users")  # fmt: skip
+            raise TypeError(
+                f"{type(self).__name__} cannot drop users: a part of it "
+                f"({', '.join(unable)}) has no take_users"
+            )
         rows = np.asarray(rows, dtype=np.intp)
         for name in self.per_user_fields:
             setattr(self, name, take_rows(getattr(self, name), rows))

@@ -151,12 +151,18 @@ def quat_to_matrix(q: ArrayLike) -> NDArray[np.float64]:
     wx, wy, wz = w * x, w * y, w * z
     m = np.stack(
         [
-            1 - 2 * (yy + zz), 2 * (xy - wz), 2 * (xz + wy),
-            2 * (xy + wz), 1 - 2 * (xx + zz), 2 * (yz - wx),
-            2 * (xz - wy), 2 * (yz + wx), 1 - 2 * (xx + yy),
+            1 - 2 * (yy + zz),
+            2 * (xy - wz),
+            2 * (xz + wy),
+            2 * (xy + wz),
+            1 - 2 * (xx + zz),
+            2 * (yz - wx),
+            2 * (xz - wy),
+            2 * (yz + wx),
+            1 - 2 * (xx + yy),
         ],
         axis=-1,
-    )  # fmt: skip
+    )
     return m.reshape(*m.shape[:-1], 3, 3)
 
 

@@ -304,8 +304,12 @@ def _pack_gait(a: dict[str, NDArray[np.float64]], out: Any) -> Any:
     sample_time = getattr(out, "sample_time", None)
     if sample_time is None:
         sample_time = np.full(a["steps"].shape[1], np.nan)
-    return GaitChunk(state=a["state"].astype(np.int8), steps=a["steps"].astype(np.int8),
-                     peak_time=a["peak_time"], sample_time=sample_time)  # fmt: skip
+    return GaitChunk(
+        state=a["state"].astype(np.int8),
+        steps=a["steps"].astype(np.int8),
+        peak_time=a["peak_time"],
+        sample_time=sample_time,
+    )
 
 
 def _peak_slots_broken(a: dict[str, NDArray[np.float64]], c: dict[str, Any]) -> NDArray[np.bool_]:
@@ -576,8 +580,9 @@ ATTITUDE = StageRegistry(
     ATTITUDE_CONTRACT,
     home="estimators.stages:ATTITUDE",
 )
-ATTITUDE.register("ekf", "estimators.attitude.ekf:EkfStage",
-                  "Zhang 2021 error-state EKF (corrected)")  # fmt: skip
+ATTITUDE.register(
+    "ekf", "estimators.attitude.ekf:EkfStage", "Zhang 2021 error-state EKF (corrected)"
+)
 ATTITUDE.register(
     "ekf_paper_literal", "estimators.attitude.ekf:paper_literal_ekf", "Zhang 2021 EKF as printed"
 )
@@ -595,14 +600,16 @@ STEPS = StageRegistry(
     STEPS_CONTRACT,
     home="estimators.stages:STEPS",
 )
-STEPS.register("zhang2021", "estimators.steps.zhang2021:Zhang2021Steps",
-               "Zhang 2021 eqs 15-16 on |f|")  # fmt: skip
+STEPS.register(
+    "zhang2021", "estimators.steps.zhang2021:Zhang2021Steps", "Zhang 2021 eqs 15-16 on |f|"
+)
 STEPS.rename("seed000", "zhang2021")
 STEPS.register("threshold", "estimators.steps.threshold:ThresholdSteps", "naive |f| peak picker")
 STEPS.register(
-    "nod_robust", "estimators.steps.nod_robust:NodRobustSteps",
+    "nod_robust",
+    "estimators.steps.nod_robust:NodRobustSteps",
     "world-vertical specific force, gated by head rotation",
-)  # fmt: skip
+)
 
 #: Hand filters: ``factory(batch_size, fs)`` with fs the Kinect frame rate (Hz).
 HAND = StageRegistry(
@@ -616,8 +623,11 @@ HAND.register("yao2023", "estimators.hand.pipeline_stages:Yao2023Hand", "Yao 202
 HAND.rename("seed003", "yao2023")
 HAND.register("one_euro", "estimators.hand.one_euro:OneEuroHand", "One Euro filter on the angles")
 HAND.register("raw", "estimators.hand.pipeline_stages:RawHand", "the unfiltered eq (1)/(2) angles")
-HAND.register("adaptive_kalman", "estimators.hand.adaptive:AdaptiveKalmanHand",
-              "motion-adaptive Kalman, no median")  # fmt: skip
+HAND.register(
+    "adaptive_kalman",
+    "estimators.hand.adaptive:AdaptiveKalmanHand",
+    "motion-adaptive Kalman, no median",
+)
 
 #: Steering: ``factory(batch_size)``.
 STEERING = StageRegistry(
@@ -646,10 +656,12 @@ LOCOMOTION.register(
     "eq17", "estimators.locomotion.dead_reckoning:DeadReckoning", "Zhang 2021 eq 17 jumps"
 )
 LOCOMOTION.register(
-    "smooth", "estimators.locomotion.smooth:SmoothLocomotion",
+    "smooth",
+    "estimators.locomotion.smooth:SmoothLocomotion",
     "the smooth-locomotion paper's filter",
 )
 LOCOMOTION.register(
-    "cadence_speed", "estimators.locomotion.cadence_speed:CadenceSpeed",
+    "cadence_speed",
+    "estimators.locomotion.cadence_speed:CadenceSpeed",
     "speed proportional to the estimated cadence",
-)  # fmt: skip
+)

@@ -87,10 +87,20 @@ def _in(v: float, lo: float, hi: float, lo_open: bool, hi_open: bool) -> bool:
     return (lo < v if lo_open else lo <= v) and (v < hi if hi_open else v <= hi)
 
 
-def check_value(label: str, v: object, lo: float, hi: float, unit: str = "", *,
-                lo_open: bool = False, hi_open: bool = False, integer: bool = False,
-                whole: bool = False, allow_inf: bool = False,
-                allowed: str | None = None) -> None:  # fmt: skip
+def check_value(
+    label: str,
+    v: object,
+    lo: float,
+    hi: float,
+    unit: str = "",
+    *,
+    lo_open: bool = False,
+    hi_open: bool = False,
+    integer: bool = False,
+    whole: bool = False,
+    allow_inf: bool = False,
+    allowed: str | None = None,
+) -> None:
     """Raise a ValueError naming ``label`` unless ``v`` is a number with ``lo <= v <= hi``.
 
     Args:
@@ -124,15 +134,35 @@ def check_value(label: str, v: object, lo: float, hi: float, unit: str = "", *,
     raise ValueError(f"{label}={value_repr(v)}: must be {allowed}")
 
 
-def check_in_range(obj: object, name: str, lo: float, hi: float, unit: str = "",
-                   lo_open: bool = False, integer: bool = False,
-                   allowed: str | None = None, *, hi_open: bool = False, whole: bool = False,
-                   allow_inf: bool = False) -> None:  # fmt: skip
+def check_in_range(
+    obj: object,
+    name: str,
+    lo: float,
+    hi: float,
+    unit: str = "",
+    lo_open: bool = False,
+    integer: bool = False,
+    allowed: str | None = None,
+    *,
+    hi_open: bool = False,
+    whole: bool = False,
+    allow_inf: bool = False,
+) -> None:
     """Raise a ValueError naming ``Class.name`` unless the field is a number in ``[lo, hi]``
     (the options as :func:`check_value`)."""
-    check_value(f"{type(obj).__name__}.{name}", getattr(obj, name), lo, hi, unit,
-                lo_open=lo_open, hi_open=hi_open, integer=integer, whole=whole,
-                allow_inf=allow_inf, allowed=allowed)  # fmt: skip
+    check_value(
+        f"{type(obj).__name__}.{name}",
+        getattr(obj, name),
+        lo,
+        hi,
+        unit,
+        lo_open=lo_open,
+        hi_open=hi_open,
+        integer=integer,
+        whole=whole,
+        allow_inf=allow_inf,
+        allowed=allowed,
+    )
 
 
 def check_bool(obj: object, name: str) -> None:
@@ -173,10 +203,21 @@ def check_instance(obj: object, name: str, kind: type | tuple[type, ...]) -> Non
         raise ValueError(f"{where}: must be of type {allowed}, got {type(v).__name__}")
 
 
-def check_numbers(obj: object, name: str, lo: float, hi: float, unit: str = "",
-                  length: int | None = None, min_length: int = 1,
-                  ordered: bool = False, *, strict: bool = False, lo_open: bool = False,
-                  hi_open: bool = False, whole: bool = False) -> None:  # fmt: skip
+def check_numbers(
+    obj: object,
+    name: str,
+    lo: float,
+    hi: float,
+    unit: str = "",
+    length: int | None = None,
+    min_length: int = 1,
+    ordered: bool = False,
+    *,
+    strict: bool = False,
+    lo_open: bool = False,
+    hi_open: bool = False,
+    whole: bool = False,
+) -> None:
     """Raise a ValueError naming ``Class.name`` unless the field is a tuple, a list or a 1-D
     array of finite numbers in ``[lo, hi]`` (round where ``lo_open`` / ``hi_open``): exactly
     ``length`` of them if given, else at least ``min_length``; with ``whole``, each an int or a
@@ -214,8 +255,9 @@ def check_numbers(obj: object, name: str, lo: float, hi: float, unit: str = "",
 # ------------------------------------------------------------------------------ stage arguments
 def check_batch_size(batch_size: object, who: str = "") -> int:
     """``batch_size`` as an int >= 1, or a ValueError naming it (and ``who``, where given)."""
-    check_value(f"{who}: batch_size" if who else "batch_size", batch_size, 1, math.inf,
-                integer=True)  # fmt: skip
+    check_value(
+        f"{who}: batch_size" if who else "batch_size", batch_size, 1, math.inf, integer=True
+    )
     return int(batch_size)  # type: ignore[call-overload]
 
 
@@ -310,8 +352,9 @@ def check_samples(
                 )
             shape = arr.shape
         elif arr.shape != shape:
-            raise ValueError(f"{who}.update: {name} must have the shape of gyr {shape}, got "
-                             f"{arr.shape}")  # fmt: skip
+            raise ValueError(
+                f"{who}.update: {name} must have the shape of gyr {shape}, got {arr.shape}"
+            )
         out.append(arr)
     return out[0], out[1], out[2]
 
@@ -347,8 +390,9 @@ def check_step_intervals(params: object) -> None:
     ``default_step_interval`` between the two (a ValueError naming the field otherwise)."""
     check_in_range(params, "min_step_interval", 0.05, 2.0, "s")
     lo = float(params.min_step_interval)  # type: ignore[attr-defined]
-    check_in_range(params, "max_step_interval", lo, 10.0,
-                   allowed=f"in [min_step_interval={lo:g}, 10] s")  # fmt: skip
+    check_in_range(
+        params, "max_step_interval", lo, 10.0, allowed=f"in [min_step_interval={lo:g}, 10] s"
+    )
     hi = float(params.max_step_interval)  # type: ignore[attr-defined]
     between = f"in [min_step_interval={lo:g}, max_step_interval={hi:g}] s"
     check_in_range(params, "default_step_interval", lo, hi, allowed=between)
@@ -368,8 +412,9 @@ def check_step_length(step_length: ArrayLike, shape: tuple[int, ...]) -> NDArray
     return sl
 
 
-def check_per_user(value: ArrayLike | None, b: int, name: str, default: float,
-                   unit: str) -> NDArray[np.float64]:  # fmt: skip
+def check_per_user(
+    value: ArrayLike | None, b: int, name: str, default: float, unit: str
+) -> NDArray[np.float64]:
     """A (B,) float array from a scalar or (B,) input (``default`` where None); NaN and inf are
     rejected, the ValueError naming ``name`` and ``unit``."""
     if value is None:

@@ -82,6 +82,8 @@ if __name__ == "__main__":
             if terminated or truncated:
                 break
         name = env.unwrapped.technique
-        print(f"{name:>14}: attitude error {np.sqrt(np.mean(np.square(errors))):.2f} deg RMS, "
-              f"success {info['is_success']}, {info['collisions']} collisions")
+        print(
+            f"{name:>14}: attitude error {np.sqrt(np.mean(np.square(errors))):.2f} deg RMS, "
+            f"success {info['is_success']}, {info['collisions']} collisions"
+        )
         env.close()

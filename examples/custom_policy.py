@@ -56,9 +56,17 @@ class CautiousWalker(TakesUsers):
     batched = True
     per_user_fields = ("walking",)
 
-    def __init__(self, env, stop_m: float = 1.6, go_m: float = 2.2, front_deg: float = 20.0,
-                 aligned_deg: float = 15.0, walk: float = 0.5, turn_gain: float = 1.2,
-                 goal_margin_m: float = 0.5) -> None:  # fmt: skip
+    def __init__(
+        self,
+        env,
+        stop_m: float = 1.6,
+        go_m: float = 2.2,
+        front_deg: float = 20.0,
+        aligned_deg: float = 15.0,
+        walk: float = 0.5,
+        turn_gain: float = 1.2,
+        goal_margin_m: float = 0.5,
+    ) -> None:
         if not 0.0 < stop_m <= go_m:
             raise ValueError(f"need 0 < stop_m <= go_m, got stop_m={stop_m}, go_m={go_m}")
         self.layout = ObservationLayout.from_env(env)
@@ -113,6 +121,8 @@ if __name__ == "__main__":
         collisions = info["collisions"]
     ahead = ObsView.decode(obs.astype(np.float64), policy.layout).rays[:, policy.front].min(1)
     for i in range(3):
-        print(f"user {i}: walked {info['position'][i][0] - start[i][0]:.2f} m down the corridor, "
-              f"stopped {ahead[i]:.2f} m short of the obstacle, {collisions[i]} collisions")
+        print(
+            f"user {i}: walked {info['position'][i][0] - start[i][0]:.2f} m down the corridor, "
+            f"stopped {ahead[i]:.2f} m short of the obstacle, {collisions[i]} collisions"
+        )
     env.close()

@@ -43,8 +43,11 @@ if __name__ == "__main__":
 
     blended = f"{__file__}:BlendedSteering"
     for name, steering in (("head", "head"), ("torso", "torso"), ("BlendedSteering", blended)):
-        env = gym.make("VRLoco-Approach-v0", estimators=EstimatorConfig(steering=steering),
-                       population="gaze_scanners")  # fmt: skip
+        env = gym.make(
+            "VRLoco-Approach-v0",
+            estimators=EstimatorConfig(steering=steering),
+            population="gaze_scanners",
+        )
         env.reset(seed=0)
         off = []
         for _ in range(100):  # walk straight while the head scans around

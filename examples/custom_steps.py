@@ -30,8 +30,14 @@ class PeakSteps(TakesUsers):
     per_user_fields = ("clock", "prev", "last_step")
     batch_size_field = "batch_size"
 
-    def __init__(self, batch_size: int, fs: float, threshold: float = 1.5,
-                 min_interval: float = 0.3, walk_hold: float = 1.0) -> None:  # fmt: skip
+    def __init__(
+        self,
+        batch_size: int,
+        fs: float,
+        threshold: float = 1.5,
+        min_interval: float = 0.3,
+        walk_hold: float = 1.0,
+    ) -> None:
         self.batch_size, self.fs = batch_size, fs
         self.threshold, self.min_interval, self.walk_hold = threshold, min_interval, walk_hold
         self.report_delay_s = 1.0 / fs  # a peak is known at the next sample
@@ -52,8 +58,12 @@ class PeakSteps(TakesUsers):
         for k in range(n):  # the N samples of the step; all users at once
             before, peak, now = self.prev[:, 1], self.prev[:, 0], norm[:, k]
             t_peak = (self.clock + k - 1) / self.fs  # the previous sample's time
-            step = ((peak > before) & (peak >= now) & (peak > GRAVITY + self.threshold)
-                    & (t_peak - self.last_step >= self.min_interval))  # fmt: skip
+            step = (
+                (peak > before)
+                & (peak >= now)
+                & (peak > GRAVITY + self.threshold)
+                & (t_peak - self.last_step >= self.min_interval)
+            )
             steps[step, k], peak_time[step, k, 0] = 1, t_peak[step]
             self.last_step[step] = t_peak[step]
             state[:, k] = (self.clock + k) / self.fs - self.last_step < self.walk_hold

@@ -69,8 +69,10 @@ class TurnAroundConfig:
         if not 0.0 < lo <= hi:
             raise ValueError(f"pillar_radius_range={self.pillar_radius_range}: need 0 < lo <= hi")
         if not 0.0 <= self.pillar_lateral_jitter < lo:
-            raise ValueError(f"pillar_lateral_jitter={self.pillar_lateral_jitter}: must be in "
-                             f"[0, pillar_radius_range[0] = {lo})")  # fmt: skip
+            raise ValueError(
+                f"pillar_lateral_jitter={self.pillar_lateral_jitter}: must be in "
+                f"[0, pillar_radius_range[0] = {lo})"
+            )
         if not 0.0 < 2.0 * self.margin + 2.0 * hi < self.corridor_length:
             raise ValueError("corridor_length must exceed 2 * margin + the pillar's diameter")
 
@@ -90,8 +92,9 @@ class TurnAround(Task):
         return turn_around_layout(room, rng, self.config)
 
 
-def turn_around_layout(room: RoomConfig, rng: np.random.Generator,
-                       task: TurnAroundConfig | None = None) -> Layout:  # fmt: skip
+def turn_around_layout(
+    room: RoomConfig, rng: np.random.Generator, task: TurnAroundConfig | None = None
+) -> Layout:
     """A TurnAround corridor: interior ``corridor_length`` along x by ``corridor_width``,
     centred on the origin. The start is ``margin`` from the +x end wall, facing it (yaw 0); the
     goal point ``margin`` from the -x end wall, on the centre line, with ``room.goal_radius``.
@@ -112,8 +115,7 @@ def turn_around_layout(room: RoomConfig, rng: np.random.Generator,
         x = float(rng.uniform(goal[0] + third, start[0] - third))  # the middle third of the way
         y = float(rng.uniform(-1.0, 1.0)) * t.pillar_lateral_jitter
         pillar = Cylinder((x, y), float(rng.uniform(*t.pillar_radius_range)), cfg.wall_height)
-        layout = finish_layout(cfg, TurnAround.name, bounds, [pillar], start, 0.0, goal, None,
-                               None)  # fmt: skip
+        layout = finish_layout(cfg, TurnAround.name, bounds, [pillar], start, 0.0, goal, None, None)
         if layout is not None:
             return layout
     raise no_layout_error(cfg, TurnAround.name)
@@ -145,8 +147,12 @@ if __name__ == "__main__":
     while not done:
         obs, _, terminated, truncated, info = env.step(policy.act(obs))
         done = terminated or truncated
-    print(f"TurnAround, goal_seeker: success {bool(info['is_success'])}, "
-          f"{info['elapsed_time']:.1f} s, {info['collisions']} collisions")
-    print(f"  from {np.round(start, 2)} to {np.round(info['position'], 2)}, goal "
-          f"{np.round(env.unwrapped.core.task.goal[0], 2)}")
+    print(
+        f"TurnAround, goal_seeker: success {bool(info['is_success'])}, "
+        f"{info['elapsed_time']:.1f} s, {info['collisions']} collisions"
+    )
+    print(
+        f"  from {np.round(start, 2)} to {np.round(info['position'], 2)}, goal "
+        f"{np.round(env.unwrapped.core.task.goal[0], 2)}"
+    )
     env.close()

@@ -44,8 +44,12 @@ if __name__ == "__main__":
         if terminated or truncated:
             break
     tracker = env.unwrapped.core.users.tracker
-    print(f"{condition}: success={info['is_success']} after {info['elapsed_time']:.1f} s, "
-          f"collisions={info['collisions']}")  # fmt: skip
-    print(f"avatar vs real head: RMS {np.sqrt(np.mean(np.square(errors))):.3f} m, "
-          f"max {np.max(errors):.3f} m; frames used {tracker.filter.updates[0]}, "
-          f"refused {tracker.filter.rejected[0]}")  # fmt: skip
+    print(
+        f"{condition}: success={info['is_success']} after {info['elapsed_time']:.1f} s, "
+        f"collisions={info['collisions']}"
+    )
+    print(
+        f"avatar vs real head: RMS {np.sqrt(np.mean(np.square(errors))):.3f} m, "
+        f"max {np.max(errors):.3f} m; frames used {tracker.filter.updates[0]}, "
+        f"refused {tracker.filter.rejected[0]}"
+    )

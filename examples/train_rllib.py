@@ -31,9 +31,13 @@ def main() -> None:
 
     ray.init(include_dashboard=False, logging_level=logging.WARNING)
     register_rllib_env()
-    config = ppo_config("approach", num_env_runners=args.env_runners,
-                        num_envs_per_env_runner=args.num_envs, seed=args.seed,
-                        rollout_fragment_length=256)  # fmt: skip
+    config = ppo_config(
+        "approach",
+        num_env_runners=args.env_runners,
+        num_envs_per_env_runner=args.num_envs,
+        seed=args.seed,
+        rollout_fragment_length=256,
+    )
     algo = config.build_algo()
     try:
         for i in range(args.iterations):
@@ -41,8 +45,10 @@ def main() -> None:
             runners = result["env_runners"]
             episodes = int(runners.get("num_episodes_lifetime", 0))
             mean = runners.get("episode_return_mean", float("nan"))  # none yet: nan
-            print(f"iteration {i + 1}: {int(runners['num_env_steps_sampled_lifetime']):,} steps, "
-                  f"{episodes} episodes finished, mean return {mean:.2f}")
+            print(
+                f"iteration {i + 1}: {int(runners['num_env_steps_sampled_lifetime']):,} steps, "
+                f"{episodes} episodes finished, mean return {mean:.2f}"
+            )
     finally:
         algo.stop()
         ray.shutdown()

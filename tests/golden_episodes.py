@@ -49,9 +49,9 @@ def _single(env_id: str, seed: int, **kwargs) -> np.ndarray:
         rows = [obs]
         for a in _actions(env, seed, STEPS):
             obs, reward, terminated, truncated, info = env.step(a)
-            rows.append(np.concatenate(
-                [obs, [reward, terminated, truncated], np.ravel(info["position"])]
-            ))  # fmt: skip
+            rows.append(
+                np.concatenate([obs, [reward, terminated, truncated], np.ravel(info["position"])])
+            )
             if terminated or truncated:
                 obs, _ = env.reset()
                 rows.append(obs)
@@ -112,10 +112,12 @@ def cases() -> dict[str, callable]:
         "interact_one_euro_s9": lambda: _single("VRLoco-Interact-v0", 9, technique="one_euro_hand"),
         "doorway_typical_s10": lambda: _single("VRLoco-Doorway-v0", 10, population="typical"),
         "reach_nodders_s11": lambda: _single("VRLoco-Reach-v0", 11, population="nodders"),
-        "approach_seeker_s12": lambda: _seeker("VRLoco-Approach-v0", 12, "goal_seeker+typical",
-                                               population="typical"),
-        "avoid_smooth_seeker_s13": lambda: _seeker("VRLoco-Avoid-v0", 13, "goal_seeker",
-                                                   technique="smooth"),
+        "approach_seeker_s12": lambda: _seeker(
+            "VRLoco-Approach-v0", 12, "goal_seeker+typical", population="typical"
+        ),
+        "avoid_smooth_seeker_s13": lambda: _seeker(
+            "VRLoco-Avoid-v0", 13, "goal_seeker", technique="smooth"
+        ),
     }
 
 
@@ -123,8 +125,11 @@ def record() -> None:
     GOLDEN.parent.mkdir(parents=True, exist_ok=True)
     import cv2
 
-    np.savez_compressed(GOLDEN, **{name: play() for name, play in cases().items()},
-                        **{OPENCV_KEY: np.array(cv2.__version__)})  # fmt: skip
+    np.savez_compressed(
+        GOLDEN,
+        **{name: play() for name, play in cases().items()},
+        **{OPENCV_KEY: np.array(cv2.__version__)},
+    )
     print(f"recorded {len(cases())} cases into {GOLDEN}")
 
 

@@ -56,9 +56,12 @@ def test_the_steps_example_counts_the_steps_taken_and_none_standing():
     for _ in range(10):  # the last step's report
         env.step(STAND)
     assert sum(env.step(STAND)[-1]["detected_steps"] for _ in range(30)) == 0
-    batch = VRLocoVectorEnv(3, task="approach", autoreset_mode=AutoresetMode.DISABLED,
-                            estimators=EstimatorConfig(steps=_plugin("custom_steps.py",
-                                                                     "PeakSteps")))  # fmt: skip
+    batch = VRLocoVectorEnv(
+        3,
+        task="approach",
+        autoreset_mode=AutoresetMode.DISABLED,
+        estimators=EstimatorConfig(steps=_plugin("custom_steps.py", "PeakSteps")),
+    )
     assert batch.can_take_users
     batch.reset(seed=[0, 1, 2])
     for _ in range(20):
@@ -73,8 +76,11 @@ def test_the_hand_example_smooths_the_raw_angles_and_follows_the_hand():
     to step), and a turning hand is followed within 12 deg RMS."""
     jitter = {}
     for name, hand in (("mine", _plugin("custom_hand.py", "SmoothedHand")), ("raw", "raw")):
-        env = _make("VRLoco-Interact-v0", hand=hand) if name == "mine" else gym.make(
-            "VRLoco-Interact-v0", estimators=EstimatorConfig(hand=hand))  # fmt: skip
+        env = (
+            _make("VRLoco-Interact-v0", hand=hand)
+            if name == "mine"
+            else gym.make("VRLoco-Interact-v0", estimators=EstimatorConfig(hand=hand))
+        )
         env.reset(seed=0)
         ypr = np.array([env.step(STAND)[-1]["est_hand_ypr"] for _ in range(50)])[10:]
         jitter[name] = np.std(np.diff(ypr, axis=0), axis=0)
@@ -82,8 +88,10 @@ def test_the_hand_example_smooths_the_raw_angles_and_follows_the_hand():
     env = _make("VRLoco-Interact-v0", hand=_plugin("custom_hand.py", "SmoothedHand"))
     env.reset(seed=0)
     rng = np.random.default_rng(0)
-    errors = [env.step(np.array([0, 0, *rng.uniform(-0.6, 0.6, 3)], np.float32))[-1]
-              ["hand_error_deg"] for _ in range(80)]  # fmt: skip
+    errors = [
+        env.step(np.array([0, 0, *rng.uniform(-0.6, 0.6, 3)], np.float32))[-1]["hand_error_deg"]
+        for _ in range(80)
+    ]
     assert np.sqrt(np.mean(np.square(errors))) < 12.0
 
 
@@ -94,9 +102,15 @@ def test_the_steering_example_walks_between_head_and_torso():
     off = {}
     blended = _plugin("custom_steering.py", "BlendedSteering")
     for name in ("head", "torso", blended):
-        env = (_make(steering=name, population="gaze_scanners") if name == blended else
-               gym.make("VRLoco-Approach-v0", estimators=EstimatorConfig(steering=name),
-                        population="gaze_scanners"))  # fmt: skip
+        env = (
+            _make(steering=name, population="gaze_scanners")
+            if name == blended
+            else gym.make(
+                "VRLoco-Approach-v0",
+                estimators=EstimatorConfig(steering=name),
+                population="gaze_scanners",
+            )
+        )
         env.reset(seed=0)
         infos = [env.step(WALK)[-1] for _ in range(100)]
         d = np.array([i["walk_yaw_deg"] - i["true_body_yaw_deg"] for i in infos])
@@ -121,9 +135,14 @@ def test_the_locomotion_example_glides_every_detected_step():
 
 @pytest.mark.parametrize(
     "example",
-    ["custom_estimator.py", "custom_steps.py", "custom_hand.py", "custom_steering.py",
-     "custom_locomotion.py"],
-)  # fmt: skip
+    [
+        "custom_estimator.py",
+        "custom_steps.py",
+        "custom_hand.py",
+        "custom_steering.py",
+        "custom_locomotion.py",
+    ],
+)
 def test_each_example_runs_as_a_script(example, capsys):
     """``python examples/<example>`` compares the plug-in with the built-in stage: it runs and
     prints a line for each."""
@@ -221,9 +240,16 @@ def test_the_task_and_policy_examples_run_in_the_benchmark(turn_around):
     walker, which goes round nothing, stops in front of it in both, without a collision."""
     from agents.benchmark import run_benchmark
 
-    rows = run_benchmark(tasks=[turn_around], policies=["goal_seeker", _walker()],
-                         techniques=["zhang2021"], episodes=2, workers=1, out_dir=None,
-                         progress=False, print_table=False)  # fmt: skip
+    rows = run_benchmark(
+        tasks=[turn_around],
+        policies=["goal_seeker", _walker()],
+        techniques=["zhang2021"],
+        episodes=2,
+        workers=1,
+        out_dir=None,
+        progress=False,
+        print_table=False,
+    )
     by_policy = {r["policy"]: r for r in rows}
     assert set(by_policy) == {"goal_seeker", _walker()}
     assert all(r["task"] == "turn_around" and r["episodes"] == 2 for r in rows)
@@ -246,8 +272,17 @@ def test_the_task_and_policy_examples_run_from_the_command_line(tmp_path, capsys
 
     args = ["--techniques", "zhang2021", "--episodes", "2", "--workers", "1"]
     argv = sys.argv
-    sys.argv = [str(EXAMPLES / "custom_task.py"), "benchmark", "--tasks", "turn_around",
-                "--policies", "goal_seeker", *args, "--out", str(tmp_path / "task")]  # fmt: skip
+    sys.argv = [
+        str(EXAMPLES / "custom_task.py"),
+        "benchmark",
+        "--tasks",
+        "turn_around",
+        "--policies",
+        "goal_seeker",
+        *args,
+        "--out",
+        str(tmp_path / "task"),
+    ]
     try:
         with pytest.raises(SystemExit) as done:
             runpy.run_path(sys.argv[0], run_name="__main__")
@@ -257,11 +292,26 @@ def test_the_task_and_policy_examples_run_from_the_command_line(tmp_path, capsys
         ENV_IDS.pop(env_id("turn_around"), None)
         gym.registry.pop(env_id("turn_around"), None)
     assert done.value.code == 0
-    assert main(["benchmark", "--tasks", "approach", "--policies", _walker(), *args,
-                 "--out", str(tmp_path / "policy")]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "benchmark",
+                "--tasks",
+                "approach",
+                "--policies",
+                _walker(),
+                *args,
+                "--out",
+                str(tmp_path / "policy"),
+            ]
+        )
+        == 0
+    )
     capsys.readouterr()
-    for folder, task, policy in (("task", "turn_around", "goal_seeker"),
-                                 ("policy", "approach", _walker())):  # fmt: skip
+    for folder, task, policy in (
+        ("task", "turn_around", "goal_seeker"),
+        ("policy", "approach", _walker()),
+    ):
         with open(tmp_path / folder / "benchmark.csv", newline="") as f:
             (row,) = csv.DictReader(f)
         assert (row["task"], row["policy"], row["episodes"]) == (task, policy, "2")

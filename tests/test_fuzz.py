@@ -28,8 +28,7 @@ from vrloco_env.tasks.avoid import AvoidConfig
 from vrloco_env.tasks.interact import InteractConfig
 from vrloco_env.world import RoomConfig
 
-FAST = settings(max_examples=60, deadline=None,
-                suppress_health_check=[HealthCheck.too_slow])  # fmt: skip
+FAST = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
 # ------------------------------------------------------------------------------------------------
 # (1) Actions.
@@ -230,9 +229,7 @@ KNOWN: dict = {}
 @pytest.mark.parametrize(
     "cls",
     [
-        pytest.param(c, marks=pytest.mark.xfail(reason=KNOWN[c], strict=True))
-        if c in KNOWN
-        else c
+        pytest.param(c, marks=pytest.mark.xfail(reason=KNOWN[c], strict=True)) if c in KNOWN else c
         for c in CONFIGS
     ],
     ids=lambda c: c.__name__,
@@ -258,8 +255,12 @@ def test_a_config_of_numbers_builds_or_names_the_field(cls, data):
 def test_the_shared_checks_refuse_the_wrong_kind_of_value():
     with pytest.raises(ValueError, match=r"EnvConfig.terminate_on_collision='yes': must be True"):
         config.EnvConfig(terminate_on_collision="yes")
-    for name, value in (("ray_count", 2.5), ("ray_count", 1.5), ("max_episode_steps", "600"),
-                        ("max_episode_steps", 600.0)):  # fmt: skip
+    for name, value in (
+        ("ray_count", 2.5),
+        ("ray_count", 1.5),
+        ("max_episode_steps", "600"),
+        ("max_episode_steps", 600.0),
+    ):
         with pytest.raises(ValueError, match=rf"EnvConfig.{name}=.*: must be an integer in"):
             config.EnvConfig(**{name: value})
     with pytest.raises(ValueError, match=r"RoomConfig.room_width='8': must be in \(0, 1000\] m"):
@@ -274,8 +275,11 @@ def test_the_shared_checks_refuse_the_wrong_kind_of_value():
         config.SensorConfig(earth_field=None)
     with pytest.raises(ValueError, match=r"EnvConfig.motion=.*: must be of type MotionParams"):
         config.EnvConfig(motion={})
-    with pytest.raises(ValueError, match=r"InteractConfig.target_range_deg=\(1, 2\): must be a "
-                                         r"tuple of 3 numbers in \[0, 90\] deg"):  # fmt: skip
+    with pytest.raises(
+        ValueError,
+        match=r"InteractConfig.target_range_deg=\(1, 2\): must be a "
+        r"tuple of 3 numbers in \[0, 90\] deg",
+    ):
         InteractConfig(target_range_deg=(1, 2))
     with pytest.raises(ValueError, match=r"PolicyParams.tight_margin_m=0.5: must be in \[0, 0.1"):
         PolicyParams(margin_m=Fraction(1, 10), tight_margin_m=0.5)
@@ -285,8 +289,11 @@ def test_the_shared_checks_refuse_the_wrong_kind_of_value():
 def env_kwargs(draw):
     """Accepted configurations of the Approach env, drawn near the defaults."""
     kw = {}
-    for cls, key in ((config.EnvConfig, "config"), (config.RewardConfig, "reward"),
-                     (RoomConfig, "room")):  # fmt: skip
+    for cls, key in (
+        (config.EnvConfig, "config"),
+        (config.RewardConfig, "reward"),
+        (RoomConfig, "room"),
+    ):
         flds = [f for f in dataclasses.fields(cls) if f.init and f.name != "motion"]
         chosen = draw(st.lists(st.sampled_from(flds), max_size=2, unique=True))
         values = {f.name: draw(_near(_default(f))) for f in chosen}
@@ -401,8 +408,13 @@ def damaged_walks(draw):
     t = 0.01 * np.arange(n) + draw(st.sampled_from([0.0, 0.002])) * rng.uniform(-1, 1, n)
     t = np.sort(t)
     bounce = 1.5 * np.sin(2 * np.pi * 1.8 * t)  # stepping in place, 1.8 steps/s
-    acc = np.column_stack([0.2 * rng.standard_normal(n), 0.2 * rng.standard_normal(n),
-                           9.81 + bounce + 0.2 * rng.standard_normal(n)])  # fmt: skip
+    acc = np.column_stack(
+        [
+            0.2 * rng.standard_normal(n),
+            0.2 * rng.standard_normal(n),
+            9.81 + bounce + 0.2 * rng.standard_normal(n),
+        ]
+    )
     gyr = 0.05 * rng.standard_normal((n, 3)) + [0.0, 0.0, 0.3]
     mag = np.tile([20.0, 0.0, -40.0], (n, 1)) + rng.standard_normal((n, 3))
     table = np.column_stack([t, gyr, acc, mag])
@@ -427,9 +439,7 @@ def damaged_walks(draw):
 
 @settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(data=damaged_walks())
-def test_estimate_on_a_damaged_recording_gives_finite_outputs_or_one_error(
-    tmp_path_factory, data
-):
+def test_estimate_on_a_damaged_recording_gives_finite_outputs_or_one_error(tmp_path_factory, data):
     from agents.recordings.estimate import estimate_recording
 
     folder = tmp_path_factory.mktemp("est")

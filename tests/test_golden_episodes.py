@@ -29,11 +29,21 @@ def test_case_replays_bit_for_bit(name, recorded):
     assert got.shape == want.shape, f"{name}: {got.size} numbers, recorded {want.size}"
     if name in OPENCV_CASES:
         again = CASES[name]()
-        np.testing.assert_array_equal(got.view(np.uint64), again.view(np.uint64),
-                                      err_msg=f"{name}: two replays on this machine differ")
-        np.testing.assert_allclose(got, want, rtol=0.0, atol=OPENCV_ATOL, err_msg=(
-            f"{name}: recorded under OpenCV {recorded.get(OPENCV_KEY, 'unknown')}, replayed "
-            f"under {cv2.__version__} on this CPU"))  # fmt: skip
+        np.testing.assert_array_equal(
+            got.view(np.uint64),
+            again.view(np.uint64),
+            err_msg=f"{name}: two replays on this machine differ",
+        )
+        np.testing.assert_allclose(
+            got,
+            want,
+            rtol=0.0,
+            atol=OPENCV_ATOL,
+            err_msg=(
+                f"{name}: recorded under OpenCV {recorded.get(OPENCV_KEY, 'unknown')}, replayed "
+                f"under {cv2.__version__} on this CPU"
+            ),
+        )
         return
     differ = np.flatnonzero(got.view(np.uint64) != want.view(np.uint64))
     assert differ.size == 0, (

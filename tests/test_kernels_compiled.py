@@ -34,5 +34,11 @@ def test_compiled_equals_python_source(name):
         python = _arrays(CASES[name]())
     assert compiled.keys() == python.keys()
     for key in compiled:
-        np.testing.assert_allclose(compiled[key], python[key], rtol=1e-12, atol=1e-12,
-                                   equal_nan=True, err_msg=f"{name}: {key}")  # fmt: skip
+        np.testing.assert_allclose(
+            compiled[key],
+            python[key],
+            rtol=1e-12,
+            atol=1e-12,
+            equal_nan=True,
+            err_msg=f"{name}: {key}",
+        )

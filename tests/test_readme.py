@@ -33,7 +33,8 @@ def test_readme_python_example_runs():
     blocks = re.findall(r"```python\n(.*?)```", README, re.S)
     assert blocks, "the README shows a gym.make example"
     code = "\n".join(blocks)
-    done = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True,
-                          text=True, timeout=600)  # fmt: skip
+    done = subprocess.run(
+        [sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=600
+    )
     assert done.returncode == 0, done.stderr[-3000:]
     assert "'rays'" in done.stdout  # the decoded observation was printed

@@ -75,8 +75,9 @@ def _observe(est, virtual_yaw, goal_points, position, distance, rays, fresh, at,
         for k in range(3):
             v[j_hand + k] = _unit(hand_est[i, k] / scales[j_hand + k]) if ok else 0.0
         v[j_hand_valid] = 1.0 if ok else 0.0
-        bearing = math.atan2(goal_points[i, 1] - position[i, 1],
-                             goal_points[i, 0] - position[i, 0]) - yaw  # fmt: skip
+        bearing = (
+            math.atan2(goal_points[i, 1] - position[i, 1], goal_points[i, 0] - position[i, 0]) - yaw
+        )
         v[j_bearing] = _unit(math.sin(bearing) / scales[j_bearing])
         v[j_bearing + 1] = _unit(math.cos(bearing) / scales[j_bearing + 1])
         v[j_distance] = _unit(distance[i] / scales[j_distance])
@@ -93,8 +94,9 @@ def _attitude_error(q_true, ypr_est, out):
     (B, 3): ``angle(conj(q_true) * q(ypr_est))``."""
     for i in numba.prange(q_true.shape[0]):
         ew, ex, ey, ez = quat_from_ypr(ypr_est[i, 0], ypr_est[i, 1], ypr_est[i, 2])
-        w, x, y, z = quat_mul(q_true[i, 0], -q_true[i, 1], -q_true[i, 2], -q_true[i, 3],
-                              ew, ex, ey, ez)  # fmt: skip
+        w, x, y, z = quat_mul(
+            q_true[i, 0], -q_true[i, 1], -q_true[i, 2], -q_true[i, 3], ew, ex, ey, ez
+        )
         out[i] = rotation_angle(w, x, y, z)
 
 

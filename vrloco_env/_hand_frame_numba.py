@@ -42,12 +42,25 @@ def _hand_relative_to_torso(ypr, valid, shoulder_left, shoulder_right, cam_q, sd
             continue
         qc = quat_from_ypr(ypr[b, 0], ypr[b, 1], ypr[b, 2])
         qw = quat_mul(cam_q[0], cam_q[1], cam_q[2], cam_q[3], qc[0], qc[1], qc[2], qc[3])
-        qh = quat_mul(qw[0], qw[1], qw[2], qw[3], sdk_to_hand[0], sdk_to_hand[1], sdk_to_hand[2],
-                      sdk_to_hand[3])  # fmt: skip
-        d = quat_rotate(cam_q[0], cam_q[1], cam_q[2], cam_q[3],
-                        shoulder_left[b, 0] - shoulder_right[b, 0],
-                        shoulder_left[b, 1] - shoulder_right[b, 1],
-                        shoulder_left[b, 2] - shoulder_right[b, 2])  # fmt: skip
+        qh = quat_mul(
+            qw[0],
+            qw[1],
+            qw[2],
+            qw[3],
+            sdk_to_hand[0],
+            sdk_to_hand[1],
+            sdk_to_hand[2],
+            sdk_to_hand[3],
+        )
+        d = quat_rotate(
+            cam_q[0],
+            cam_q[1],
+            cam_q[2],
+            cam_q[3],
+            shoulder_left[b, 0] - shoulder_right[b, 0],
+            shoulder_left[b, 1] - shoulder_right[b, 1],
+            shoulder_left[b, 2] - shoulder_right[b, 2],
+        )
         half = 0.5 * (math.atan2(d[1], d[0]) - 0.5 * math.pi)  # torso yaw / 2
         rel = quat_mul(math.cos(half), 0.0, 0.0, -math.sin(half), qh[0], qh[1], qh[2], qh[3])
         y, p, r = quat_to_ypr(rel[0], rel[1], rel[2], rel[3])

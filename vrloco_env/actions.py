@@ -68,9 +68,13 @@ def _as_numbers(actions: ArrayLike, batch_size: int | None) -> NDArray[np.float6
     """``actions`` as a float64 array, or a ValueError saying what an action is."""
     try:
         a = np.asarray(actions)
-        ok = a.dtype.kind in "iuf" or (a.dtype.kind == "O" and not any(
-            isinstance(x, bool | complex | str | bytes | np.bool_ | np.complexfloating)
-            for x in a.flat))  # fmt: skip
+        ok = a.dtype.kind in "iuf" or (
+            a.dtype.kind == "O"
+            and not any(
+                isinstance(x, bool | complex | str | bytes | np.bool_ | np.complexfloating)
+                for x in a.flat
+            )
+        )
         if ok:
             return a.astype(np.float64, copy=False)
     except (TypeError, ValueError, OverflowError):

@@ -86,8 +86,14 @@ class SensorConfig:
         check_instance(self, "head_camera", CameraSpec)
         imu_hz = float(self.imu_rate_hz)
         triggered = f"<= imu_rate_hz ({imu_hz:g} Hz); frames are triggered by IMU samples"
-        check_value("SensorConfig.head_camera.rate_hz", self.head_camera.rate_hz, 0.0, imu_hz,
-                    lo_open=True, allowed=triggered)  # fmt: skip
+        check_value(
+            "SensorConfig.head_camera.rate_hz",
+            self.head_camera.rate_hz,
+            0.0,
+            imu_hz,
+            lo_open=True,
+            allowed=triggered,
+        )
 
     @property
     def imu_spec(self) -> ImuSpec:

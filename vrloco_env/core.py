@@ -114,8 +114,16 @@ class LocoCore(TakesUsers):
         task_config: the task's own configuration (its ``Config``; defaults if None).
     """
 
-    per_user_fields = ("generators", "layouts", "ep", "last", "last_rays", "_head_on_torso",
-                       "_zeros", "_standing")  # fmt: skip
+    per_user_fields = (
+        "generators",
+        "layouts",
+        "ep",
+        "last",
+        "last_rays",
+        "_head_on_torso",
+        "_zeros",
+        "_standing",
+    )
     # the random streams, the users (motion, sensors, stages), the task, the head behaviour and
     # the rooms
     per_user_parts = ("rng", "users", "task", "behaviour", "rooms")
@@ -140,19 +148,21 @@ class LocoCore(TakesUsers):
         self.room, self.reward = room, reward
         self.generators = [np.random.default_rng() for _ in range(b)]
         self.rng = BatchRng([np.random.default_rng(0) for _ in range(b)])
-        self.stages = build_stages(
-            estimators, b, sensors.imu_rate_hz, sensors.kinect.frame_rate_hz
-        )
+        self.stages = build_stages(estimators, b, sensors.imu_rate_hz, sensors.kinect.frame_rate_hz)
         self.users = SimulatedUsers(
-            b, self.rng, config.motion, sensors, estimators, self.stages,
-            pose_source=config.pose_source, play_area=config.play_area,
-        )  # fmt: skip
+            b,
+            self.rng,
+            config.motion,
+            sensors,
+            estimators,
+            self.stages,
+            pose_source=config.pose_source,
+            play_area=config.play_area,
+        )
         self.dt = self.users.dt
         self.task: Task = task_class(b, self.dt, task_config)
         #: the user population (None: the idealised user) and its head behaviour
-        self.population = (
-            None if config.population is None else get_population(config.population)
-        )
+        self.population = None if config.population is None else get_population(config.population)
         self.behaviour: GazeBehaviour | None = None
         self.layouts: list[Layout | None] = [None] * b
         self.rooms: RoomBatch | None = None
@@ -160,15 +170,19 @@ class LocoCore(TakesUsers):
         self.ray_offsets = ray_offsets(config.ray_count, config.ray_fov_deg)
         #: the population's users drift in the play area while stepping in place
         self._drifts = (
-            self.population is not None and self.population.wip_drift_mps[1] > 0.0
+            self.population is not None
+            and self.population.wip_drift_mps[1] > 0.0
             and config.pose_source == "walk_in_place"
-        )  # fmt: skip
+        )
         if self.population is not None and (self.population.moves_head or self._drifts):
             self.behaviour = GazeBehaviour(
-                self.population, self.rng, self.dt, self.ray_offsets,
+                self.population,
+                self.rng,
+                self.dt,
+                self.ray_offsets,
                 max_turn_rate=self.users.motion_params.max_turn_rate,
                 walk_in_place=config.pose_source == "walk_in_place",
-            )  # fmt: skip
+            )
         self._head_on_torso = np.zeros(b)  # the head's true yaw on the torso (rad)
         self._hand_task = any(f.name == "hand_error" for f in self.task.fields())
         extra = population_fields(self.population)
@@ -184,9 +198,12 @@ class LocoCore(TakesUsers):
         self._zeros = np.zeros(b)
         # What observe() reads before a user's first step: nothing estimated yet.
         self._standing = SimpleNamespace(
-            ypr_est=np.zeros((b, 3)), walking=np.zeros(b, bool), steps=self._zeros,
-            cadence=self._zeros, hand_est=np.full((b, 3), np.nan),
-        )  # fmt: skip
+            ypr_est=np.zeros((b, 3)),
+            walking=np.zeros(b, bool),
+            steps=self._zeros,
+            cadence=self._zeros,
+            hand_est=np.full((b, 3), np.nan),
+        )
         self.last_rays = np.full((b, config.ray_count), config.ray_range_m)
         #: the longest delay (s) from a heel strike to its step being reported (the step
         #: stage's ``report_delay_s``; its ``latency``, or 0, for a stage that gives none)
@@ -230,8 +247,9 @@ class LocoCore(TakesUsers):
             assert self.behaviour is not None
             forward = self.behaviour.values["wip_drift_mps"][rows]
             side = 2.0 * self.rng.uniform((), rows=rows) - 1.0
-            self.users.set_drift(rows, forward, side * self.config.play_area.lateral_ratio
-                                 * forward)  # fmt: skip
+            self.users.set_drift(
+                rows, forward, side * self.config.play_area.lateral_ratio * forward
+            )
         self._head_on_torso[rows] = 0.0
         ep = self.ep
         ep.position[rows] = start[:, :2]
@@ -336,8 +354,9 @@ class LocoCore(TakesUsers):
         to_goal = self.task.goal_point(ep.position) - ep.position
         bearing = np.arctan2(to_goal[:, 1], to_goal[:, 0]) - ep.virtual_yaw
         interacting = (ep.distance <= 0.0) & self._hand_task
-        return self.behaviour.intent(intent, self._head_on_torso, bearing, self.last_rays,
-                                     interacting)  # fmt: skip
+        return self.behaviour.intent(
+            intent, self._head_on_torso, bearing, self.last_rays, interacting
+        )
 
     # ------------------------------------------------------------------------------ views
     def _rays(self, rows: NDArray[np.intp] | None = None) -> NDArray[np.float64]:
@@ -362,10 +381,17 @@ class LocoCore(TakesUsers):
         src = last if last is not None else self._standing
         out = np.empty((b, self.obs_size), np.float32)
         observation_kernel(b)(
-            (src.ypr_est, src.walking, src.steps, src.cadence, src.hand_est), ep.virtual_yaw,
-            self.task.goal_point(ep.position), ep.position, ep.distance, self.last_rays, fresh,
-            self._obs_at, self.spec.scales, out,
-        )  # fmt: skip
+            (src.ypr_est, src.walking, src.steps, src.cadence, src.hand_est),
+            ep.virtual_yaw,
+            self.task.goal_point(ep.position),
+            ep.position,
+            ep.distance,
+            self.last_rays,
+            fresh,
+            self._obs_at,
+            self.spec.scales,
+            out,
+        )
         if self._task_fields:
             values = self.task.observe(last, fresh)
             for name in self._task_fields:

@@ -201,9 +201,18 @@ class VRLocoEnv(gym.Env):
                 f"{', '.join(self.metadata['render_modes'])}"
             )
         cfgs = make_configs(
-            config, sensors, estimators, room, reward, sensor_preset, locomotion,
-            max_episode_steps, pose_source, technique, population,
-        )  # fmt: skip
+            config,
+            sensors,
+            estimators,
+            room,
+            reward,
+            sensor_preset,
+            locomotion,
+            max_episode_steps,
+            pose_source,
+            technique,
+            population,
+        )
         self.config, self.sensors, self.estimators, self.room, self.reward = cfgs
         #: the technique's name (``"custom"`` for an unregistered combination)
         self.technique = (
@@ -222,8 +231,11 @@ class VRLocoEnv(gym.Env):
         from vrloco_env.world.sim import display_available
 
         modes = [m for m in self.metadata["render_modes"] if m != "human" or display_available()]
-        self.metadata = {**self.metadata, "render_modes": modes,
-                         "render_fps": round(1.0 / self.core.dt)}  # fmt: skip
+        self.metadata = {
+            **self.metadata,
+            "render_modes": modes,
+            "render_fps": round(1.0 / self.core.dt),
+        }
         self.action_space = spaces.Box(-1.0, 1.0, (ACTION_SIZE,), np.float32)
         self.observation_space = spaces.Box(-1.0, 1.0, (self.core.obs_size,), np.float32)
         self._sim = None

@@ -155,8 +155,9 @@ def solve_frames(
         for j in range(m):
             sel = frames.extracted[i, j]
             per_frame.append((landmarks[i, frames.matched_id[i, j, sel]], frames.pixels[i, j, sel]))
-        res = solve_poses(per_frame, intr, pnp.min_landmarks, pnp.reprojection_px,
-                          mount_quat=mq, mount_offset=mo)  # fmt: skip
+        res = solve_poses(
+            per_frame, intr, pnp.min_landmarks, pnp.reprojection_px, mount_quat=mq, mount_offset=mo
+        )
         out.position[i], out.quat[i], out.ok[i] = res.position, res.quat, res.ok
         out.reason[i], out.n_inliers[i] = res.reason, res.n_inliers
     return out
@@ -257,13 +258,23 @@ class VisualInertialTracker:
         b, m = self.batch_size, idx.size
         if m:
             frames = self.camera.capture(
-                t[idx], pos[:, idx], quat[:, idx], omega[:, idx], self.landmarks,
-                mask=self.mask, normals=self.normals,
-            )  # fmt: skip
+                t[idx],
+                pos[:, idx],
+                quat[:, idx],
+                omega[:, idx],
+                self.landmarks,
+                mask=self.mask,
+                normals=self.normals,
+            )
             poses = solve_frames(frames, self.landmarks, self.spec, self.pnp)
         else:
             frames = None
-            poses = VisualPoses(np.zeros((b, 0, 3)), np.zeros((b, 0, 4)), np.zeros((b, 0), bool),
-                                np.zeros((b, 0), np.int8), np.zeros((b, 0), np.int64))  # fmt: skip
+            poses = VisualPoses(
+                np.zeros((b, 0, 3)),
+                np.zeros((b, 0, 4)),
+                np.zeros((b, 0), bool),
+                np.zeros((b, 0), np.int8),
+                np.zeros((b, 0), np.int64),
+            )
         p, q, status = self.filter.process(gyr, acc, idx, poses.position, poses.quat, poses.ok)
         return TrackedChunk(p, q, idx, frames, poses, status)

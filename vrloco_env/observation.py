@@ -140,16 +140,27 @@ class ObservationSpec:
         lines = []
         for f in self.fields:
             span = f.entries[0] if f.size == 1 else f"{f.entries[0]}..{f.entries[-1]}"
-            lines.append(f"{f.name:<14} [{self.offset(f.name):>2}] {span:<28} "
-                         f"x {f.scale:g} {f.unit:<8} {f.doc}")  # fmt: skip
+            lines.append(
+                f"{f.name:<14} [{self.offset(f.name):>2}] {span:<28} "
+                f"x {f.scale:g} {f.unit:<8} {f.doc}"
+            )
         return "\n".join(lines)
 
 
 #: The fields every task observes, in order (the compiled kernel's layout, by name).
 COMMON_FIELDS = (
-    "heading", "pitch", "roll", "walking", "steps", "cadence", "hand", "hand_valid",
-    "goal_bearing", "goal_distance", "rays",
-)  # fmt: skip
+    "heading",
+    "pitch",
+    "roll",
+    "walking",
+    "steps",
+    "cadence",
+    "hand",
+    "hand_valid",
+    "goal_bearing",
+    "goal_distance",
+    "rays",
+)
 
 
 def env_spec(
@@ -158,31 +169,59 @@ def env_spec(
     """The env's observation: the common fields for ``ray_count`` rays of ``ray_range_m``, then
     the task's ``task_fields``."""
     common = (
-        Field("heading", ("heading_sin", "heading_cos"), 1.0, "",
-              "virtual heading (the estimated yaw in the room) as sin, cos"),
+        Field(
+            "heading",
+            ("heading_sin", "heading_cos"),
+            1.0,
+            "",
+            "virtual heading (the estimated yaw in the room) as sin, cos",
+        ),
         Field("pitch", scale=math.pi / 2, unit="rad", doc="estimated head pitch"),
         Field("roll", scale=math.pi, unit="rad", doc="estimated head roll"),
         Field("walking", doc="the step detector's still (0) / walk (1) state"),
         Field("steps", scale=3.0, unit="steps", doc="steps detected in the last control step"),
         Field("cadence", scale=3.0, unit="steps/s", doc="estimated cadence"),
-        Field("hand", ("hand_yaw", "hand_pitch", "hand_roll"), math.pi, "rad",
-              "estimated hand orientation relative to the torso (0 without estimate)"),
+        Field(
+            "hand",
+            ("hand_yaw", "hand_pitch", "hand_roll"),
+            math.pi,
+            "rad",
+            "estimated hand orientation relative to the torso (0 without estimate)",
+        ),
         Field("hand_valid", doc="a hand estimate exists (1) or not (0)"),
-        Field("goal_bearing", ("goal_bearing_sin", "goal_bearing_cos"), 1.0, "",
-              "goal direction relative to the virtual heading as sin, cos"),
-        Field("goal_distance", scale=MAX_GOAL_DISTANCE, unit="m",
-              doc="distance from the virtual body to the goal region"),
-        Field("rays", tuple(f"ray_{k}" for k in range(ray_count)), float(ray_range_m), "m",
-              "ranges along the rays from the virtual head"),
-    )  # fmt: skip
+        Field(
+            "goal_bearing",
+            ("goal_bearing_sin", "goal_bearing_cos"),
+            1.0,
+            "",
+            "goal direction relative to the virtual heading as sin, cos",
+        ),
+        Field(
+            "goal_distance",
+            scale=MAX_GOAL_DISTANCE,
+            unit="m",
+            doc="distance from the virtual body to the goal region",
+        ),
+        Field(
+            "rays",
+            tuple(f"ray_{k}" for k in range(ray_count)),
+            float(ray_range_m),
+            "m",
+            "ranges along the rays from the virtual head",
+        ),
+    )
     assert tuple(f.name for f in common) == COMMON_FIELDS
     return ObservationSpec((*common, *task_fields))
 
 
 #: The head's true yaw on the torso: what a user knows by proprioception of where their head
 #: points relative to their body (the view turns with the head; the turn action turns the body).
-HEAD_ON_TORSO = Field("head_on_torso", scale=math.pi / 2, unit="rad",
-                      doc="the head's yaw relative to the torso (proprioception)")  # fmt: skip
+HEAD_ON_TORSO = Field(
+    "head_on_torso",
+    scale=math.pi / 2,
+    unit="rad",
+    doc="the head's yaw relative to the torso (proprioception)",
+)
 
 
 def population_fields(population: object) -> tuple[Field, ...]:

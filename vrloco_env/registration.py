@@ -73,7 +73,6 @@ def make_env(**kwargs: Any) -> gym.Env:
     return VRLocoEnv(**kwargs)
 
 
-
 def register_id(env_id: str, task: str) -> None:
     """Register the Gymnasium id ``env_id`` for task ``task`` (replacing an earlier one)."""
     ENV_IDS[env_id] = task

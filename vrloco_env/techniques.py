@@ -74,26 +74,35 @@ def _chain(name: str, description: str, preset: str = "ig500n", **stages: Any) -
     register(Technique(name, description, preset, replace(EstimatorConfig(), **stages)))
 
 
-_chain("zhang2021", "Zhang, Chen & Gao 2021 as published (EKF, |f| steps, head steering, eq 17 "
-       "jumps)")  # fmt: skip
+_chain(
+    "zhang2021", "Zhang, Chen & Gao 2021 as published (EKF, |f| steps, head steering, eq 17 jumps)"
+)
 _chain("zhang2021_consumer", "Zhang 2021's chain on a consumer MEMS IMU", preset="consumer_mems")
 _chain("zhang2021_as_printed", "Zhang 2021 with the EKF as printed", attitude="ekf_paper_literal")
 _chain("vqf", "VQF attitude (Laidig & Seel) in Zhang 2021's chain", attitude="vqf")
 _chain("madgwick", "Madgwick attitude in Zhang 2021's chain", attitude="madgwick")
 _chain("mahony", "Mahony attitude in Zhang 2021's chain", attitude="mahony")
-_chain("threshold_steps", "a naive |f| peak picker instead of Zhang 2021's detector",
-       steps="threshold")  # fmt: skip
-_chain("nod_robust", "steps from world-vertical force, gated by head rotation",
-       steps="nod_robust")  # fmt: skip
+_chain(
+    "threshold_steps", "a naive |f| peak picker instead of Zhang 2021's detector", steps="threshold"
+)
+_chain("nod_robust", "steps from world-vertical force, gated by head rotation", steps="nod_robust")
 _chain("torso_steering", "walk where the torso points (Kinect shoulders)", steering="torso")
-_chain("smooth", "the smooth-locomotion paper's filter instead of eq 17 jumps",
-       locomotion="smooth")  # fmt: skip
-_chain("cadence_speed", "speed proportional to the estimated cadence (GUD-WIP style)",
-       locomotion="cadence_speed")  # fmt: skip
-_chain("one_euro_hand", "One Euro filter on the hand angles instead of Kalman + median",
-       hand="one_euro")  # fmt: skip
-_chain("adaptive_kalman_hand", "motion-adaptive Kalman filter on the hand angles, no median",
-       hand="adaptive_kalman")  # fmt: skip
+_chain("smooth", "the smooth-locomotion paper's filter instead of eq 17 jumps", locomotion="smooth")
+_chain(
+    "cadence_speed",
+    "speed proportional to the estimated cadence (GUD-WIP style)",
+    locomotion="cadence_speed",
+)
+_chain(
+    "one_euro_hand",
+    "One Euro filter on the hand angles instead of Kalman + median",
+    hand="one_euro",
+)
+_chain(
+    "adaptive_kalman_hand",
+    "motion-adaptive Kalman filter on the hand angles, no median",
+    hand="adaptive_kalman",
+)
 
 #: The technique of an env built without one.
 DEFAULT_TECHNIQUE = "zhang2021"

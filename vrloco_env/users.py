@@ -57,7 +57,6 @@ from vrloco_env.world import Layout
 __all__ = ["SimulatedUsers", "UserStep"]
 
 
-
 @dataclass
 class UserStep:
     """What one control step produced for B users (truth and estimates).
@@ -157,12 +156,34 @@ class SimulatedUsers(TakesUsers):
     """
 
     # each user's offsets and start; the random streams (``rng``) belong to the caller
-    per_user_fields = ("yaw_offset", "true_yaw_offset", "_last_loco", "_start_yaw", "_recentre",
-                       "_track_start", "_track_origin", "_tracked_xy", "_last_true",
-                       "last_tracked", "_start_xy3", "_drift")  # fmt: skip
+    per_user_fields = (
+        "yaw_offset",
+        "true_yaw_offset",
+        "_last_loco",
+        "_start_yaw",
+        "_recentre",
+        "_track_start",
+        "_track_origin",
+        "_tracked_xy",
+        "_last_true",
+        "last_tracked",
+        "_start_xy3",
+        "_drift",
+    )
     # the motion, the sensors and every stage (each once, also where two names share one)
-    per_user_parts = ("motion", "imu", "kinect", "hand_pipeline", "cadence", "attitude", "gait",
-                      "hand_filter", "steering", "locomotion", "tracker")  # fmt: skip
+    per_user_parts = (
+        "motion",
+        "imu",
+        "kinect",
+        "hand_pipeline",
+        "cadence",
+        "attitude",
+        "gait",
+        "hand_filter",
+        "steering",
+        "locomotion",
+        "tracker",
+    )
     batch_size_field = "batch_size"
 
     def __init__(
@@ -186,8 +207,9 @@ class SimulatedUsers(TakesUsers):
         self.rng = rng
         self.sensors = sensors
         self.estimator_config = estimators
-        self._summary_prm = param_record(step_length=estimators.step_length,
-                                         in_place=float(not self.overground))  # fmt: skip
+        self._summary_prm = param_record(
+            step_length=estimators.step_length, in_place=float(not self.overground)
+        )
         fs = sensors.imu_rate_hz
         self.motion_params = _derived_motion(motion, sensors, self.overground)
         self.motion = UserMotion(self.motion_params, rng)
@@ -274,8 +296,11 @@ class SimulatedUsers(TakesUsers):
         physical_yaw = np.broadcast_to(np.asarray(physical_yaw, np.float64), (u,))
         if self.overground:  # the tracked space is the room: start at the room's start pose
             physical_yaw = start_yaw
-            self.motion.reset(yaw=physical_yaw, base=np.broadcast_to(
-                np.asarray(start_xy, np.float64), (u, 2)), users=None if every else rows)
+            self.motion.reset(
+                yaw=physical_yaw,
+                base=np.broadcast_to(np.asarray(start_xy, np.float64), (u, 2)),
+                users=None if every else rows,
+            )
             self._track_start[rows] = True
             self._start_xy3[rows, :2] = np.broadcast_to(np.asarray(start_xy, np.float64), (u, 2))
         else:
@@ -448,10 +473,13 @@ class SimulatedUsers(TakesUsers):
         virtual_yaw, true_virtual_yaw = np.empty(b), np.empty(b)
         true_displacement = np.zeros((b, 2))
         step_summary_kernel(b)(
-            gait_steps, true_step, (yaw_est, yaw_true), (self.yaw_offset, self.true_yaw_offset),
-            self._summary_prm, (steps, true_steps, virtual_yaw, true_virtual_yaw,
-                                true_displacement),
-        )  # fmt: skip
+            gait_steps,
+            true_step,
+            (yaw_est, yaw_true),
+            (self.yaw_offset, self.true_yaw_offset),
+            self._summary_prm,
+            (steps, true_steps, virtual_yaw, true_virtual_yaw, true_displacement),
+        )
         return steps, true_steps, virtual_yaw, true_virtual_yaw, true_displacement
 
     def _hand_relative_to_torso(self, hand: HandFrame) -> NDArray[np.float64]:
@@ -461,9 +489,12 @@ class SimulatedUsers(TakesUsers):
         out = np.empty((self.batch_size, 3))
         joints = hand.joints
         hand_relative_to_torso(self.batch_size)(
-            np.ascontiguousarray(hand.ypr), np.ascontiguousarray(hand.valid),
+            np.ascontiguousarray(hand.ypr),
+            np.ascontiguousarray(hand.valid),
             np.ascontiguousarray(joints[:, Joint.SHOULDER_LEFT]),
-            np.ascontiguousarray(joints[:, Joint.SHOULDER_RIGHT]), self._camera_q,
-            self._sdk_to_hand, out,
-        )  # fmt: skip
+            np.ascontiguousarray(joints[:, Joint.SHOULDER_RIGHT]),
+            self._camera_q,
+            self._sdk_to_hand,
+            out,
+        )
         return out

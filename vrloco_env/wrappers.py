@@ -68,8 +68,9 @@ class StackedFrames:
         """Append every user's new observation (B, size), dropping its oldest."""
         obs = self._rows(obs)
         if obs.shape[0] != self.batch_size:
-            raise ValueError(f"push: {obs.shape[0]} observations for a batch of "
-                             f"{self.batch_size} users")  # fmt: skip
+            raise ValueError(
+                f"push: {obs.shape[0]} observations for a batch of {self.batch_size} users"
+            )
         self.frames[:, :-1] = self.frames[:, 1:]  # numpy copies overlapping slices first
         self.frames[:, -1] = obs
 

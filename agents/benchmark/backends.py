@@ -28,17 +28,28 @@ import socket
 from collections.abc import Iterator, Sequence
 from typing import Any
 
-__all__ = ["CONNECT_TIMEOUT_S", "MAX_RETRIES", "RAY_HINT", "BackendError", "describe_job",
-           "import_ray", "run_jobs_ray"]  # fmt: skip
+__all__ = [
+    "CONNECT_TIMEOUT_S",
+    "MAX_RETRIES",
+    "RAY_HINT",
+    "BackendError",
+    "describe_job",
+    "import_ray",
+    "run_jobs_ray",
+]
 
 #: Times Ray runs a task again after its worker process or node was lost.
 MAX_RETRIES = 2
 #: Seconds to wait for the cluster at a ``HOST:PORT`` address to accept a connection.
 CONNECT_TIMEOUT_S = 5.0
-TOKEN_HINT = ("no cluster there, or it wants a token: RAY_AUTH_MODE=token and "
-              "RAY_AUTH_TOKEN=<`ray get-auth-token` on its head>")  # fmt: skip
-RAY_HINT = ("--backend ray needs Ray: pip install 'vrloco[ray]' (or pip install 'ray>=2.9') "
-            "in this environment and on every machine of the cluster")  # fmt: skip
+TOKEN_HINT = (
+    "no cluster there, or it wants a token: RAY_AUTH_MODE=token and "
+    "RAY_AUTH_TOKEN=<`ray get-auth-token` on its head>"
+)
+RAY_HINT = (
+    "--backend ray needs Ray: pip install 'vrloco[ray]' (or pip install 'ray>=2.9') "
+    "in this environment and on every machine of the cluster"
+)
 
 
 class BackendError(RuntimeError):
@@ -85,8 +96,12 @@ def run_jobs_ray(jobs: list, address: str | None, progress: bool) -> Iterator[li
     if not jobs:  # every episode was found in .resume: no cluster needed
         return
     started = _connect(ray, address)
-    columns = ("[progress.description]{task.description}", BarColumn(), MofNCompleteColumn(),
-               TimeElapsedColumn())  # the local backend's  # fmt: skip
+    columns = (
+        "[progress.description]{task.description}",
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+    )  # the local backend's
     pending: dict[Any, tuple] = {}
     try:
         with Progress(*columns, disable=not progress, transient=False) as bar:
@@ -98,8 +113,11 @@ def run_jobs_ray(jobs: list, address: str | None, progress: bool) -> Iterator[li
                 try:
                     ready, _ = ray.wait(list(pending), num_returns=1)
                 except ray.exceptions.RaySystemError as err:
-                    raise BackendError(f"lost the Ray cluster mid-run ({_first_line(err)}); "
-                                       f"{_lost(pending.values())}", partial=True) from err
+                    raise BackendError(
+                        f"lost the Ray cluster mid-run ({_first_line(err)}); "
+                        f"{_lost(pending.values())}",
+                        partial=True,
+                    ) from err
                 for ref in ready:
                     job = pending.pop(ref)
                     try:
@@ -111,9 +129,11 @@ def run_jobs_ray(jobs: list, address: str | None, progress: bool) -> Iterator[li
                     bar.advance(task, len(done))
         if failed:
             lines = [f"  {describe_job(job)}: {_cause(err)}" for job, err in failed]
-            raise BackendError(f"{len(failed)} of {len(jobs)} Ray jobs failed (the other "
-                               f"{len(jobs) - len(failed)} finished):\n" + "\n".join(lines),
-                               partial=True)  # fmt: skip
+            raise BackendError(
+                f"{len(failed)} of {len(jobs)} Ray jobs failed (the other "
+                f"{len(jobs) - len(failed)} finished):\n" + "\n".join(lines),
+                partial=True,
+            )
     finally:  # Ctrl-C or an error: stop what still runs
         for ref in pending:
             try:
@@ -130,9 +150,11 @@ def describe_job(job: tuple) -> str:
     seeds: dict[Any, list[int]] = {}
     for cell, _, seed, _ in job[0]:
         seeds.setdefault(cell, []).append(int(seed))
-    return "; ".join(f"cell ({c.task}, {c.policy}, {c.technique_name}) "
-                     f"seed{'s' if len(s) > 1 else ''} {_ranges(s)}"
-                     for c, s in seeds.items())  # fmt: skip
+    return "; ".join(
+        f"cell ({c.task}, {c.policy}, {c.technique_name}) "
+        f"seed{'s' if len(s) > 1 else ''} {_ranges(s)}"
+        for c, s in seeds.items()
+    )
 
 
 def _ranges(values: Sequence[int]) -> str:
@@ -192,15 +214,21 @@ def _connect(ray: Any, address: str | None) -> bool:
     try:
         ray.init(address=address, include_dashboard=False, logging_level=logging.WARNING)
     except refused as err:
-        raise BackendError(f"the Ray cluster at {address!r} refused the connection: "
-                           f"{_first_line(err)} ({TOKEN_HINT})") from err  # fmt: skip
+        raise BackendError(
+            f"the Ray cluster at {address!r} refused the connection: "
+            f"{_first_line(err)} ({TOKEN_HINT})"
+        ) from err
     except ConnectionError as err:
-        raise BackendError(f"could not connect to the Ray cluster at {address!r}: "
-                           f"{_first_line(err)} ({TOKEN_HINT})") from err  # fmt: skip
+        raise BackendError(
+            f"could not connect to the Ray cluster at {address!r}: "
+            f"{_first_line(err)} ({TOKEN_HINT})"
+        ) from err
     res = ray.cluster_resources()
     nodes = sum(1 for n in ray.nodes() if n.get("Alive"))
-    print(f"ray: the cluster at {ray.get_runtime_context().gcs_address}, {nodes} "
-          f"node{'s' if nodes != 1 else ''}, {int(res.get('CPU', 0))} CPUs")  # fmt: skip
+    print(
+        f"ray: the cluster at {ray.get_runtime_context().gcs_address}, {nodes} "
+        f"node{'s' if nodes != 1 else ''}, {int(res.get('CPU', 0))} CPUs"
+    )
     return True
 
 
@@ -215,9 +243,11 @@ def _resolve(address: str | None) -> str | None:
     try:
         return canonicalize_bootstrap_address(address)
     except ConnectionError as err:  # "auto" and no cluster
-        raise BackendError(f"no Ray cluster found for address 'auto': {_first_line(err)} "
-                           "(start one with `ray start --head`, or leave out --address for a "
-                           "local instance)") from err  # fmt: skip
+        raise BackendError(
+            f"no Ray cluster found for address 'auto': {_first_line(err)} "
+            "(start one with `ray start --head`, or leave out --address for a "
+            "local instance)"
+        ) from err
     except ValueError as err:
         raise ValueError(f"address must be 'auto' or 'HOST:PORT', got {address!r}") from err
 
@@ -233,9 +263,11 @@ def _probe(target: str, address: str | None) -> None:
     except OSError as err:
         if address in (None, "auto"):
             given = "the default address" if address is None else "address 'auto'"
-            raise BackendError(f"cannot reach the Ray cluster at {target}: {err} (found for "
-                               f"{given} in RAY_ADDRESS or the last `ray start` of this "
-                               "machine; `ray stop` forgets a cluster that went away)") from err
+            raise BackendError(
+                f"cannot reach the Ray cluster at {target}: {err} (found for "
+                f"{given} in RAY_ADDRESS or the last `ray start` of this "
+                "machine; `ray stop` forgets a cluster that went away)"
+            ) from err
         named = address if address == target else f"{address} ({target})"
         hint = f"is `ray start --head --port={port}` running there, and the port open?"
         raise BackendError(f"cannot reach a Ray cluster at {named}: {err} ({hint})") from err

@@ -37,8 +37,9 @@ def wilson_interval(successes: int, n: int, z: float = 1.959963984540054) -> tup
     return max(0.0, centre - half), min(1.0, centre + half)
 
 
-def bootstrap_interval(values: ArrayLike, resamples: int = 2000,
-                       seed: int = 0) -> tuple[float, float]:  # fmt: skip
+def bootstrap_interval(
+    values: ArrayLike, resamples: int = 2000, seed: int = 0
+) -> tuple[float, float]:
     """The 95 % percentile bootstrap interval of the mean of ``values`` (NaN entries left out;
     NaN, NaN without values). Seeded: the same values give the same interval."""
     x = np.asarray(values, dtype=np.float64).ravel()

@@ -24,8 +24,9 @@ def load_pairs(folder: str | Path) -> dict[str, dict[str, Any]]:
     if not path.is_file():
         raise FileNotFoundError(f"{path}: no pairs.json (is {folder} a benchmark output folder?)")
     entries = json.loads(path.read_text(encoding="utf-8"))
-    if not isinstance(entries, list) or not all(isinstance(e, dict) and "pair" in e
-                                                  for e in entries):  # fmt: skip
+    if not isinstance(entries, list) or not all(
+        isinstance(e, dict) and "pair" in e for e in entries
+    ):
         raise ValueError(f"{path}: expected a list of pairs, each with a 'pair' name")
     return {e["pair"]: e for e in entries}
 
@@ -55,19 +56,25 @@ def compare_pairs(a: dict[str, dict], b: dict[str, dict]) -> list[dict[str, Any]
                 va, vb = ma.get(key, {}), mb.get(key, {})
                 if not (va.get("verdict") or vb.get("verdict")):
                     continue
-                metrics.append({
-                    "metric": f"{task}:{key}",
-                    "a": {k: va.get(k) for k in ("diff", "p", "verdict")},
-                    "b": {k: vb.get(k) for k in ("diff", "p", "verdict")},
-                })  # fmt: skip
-        out.append({
-            "pair": name,
-            "a": None if pa is None else {"separates": pa["separates"],
-                                          "on_outcome": pa["on_outcome"]},
-            "b": None if pb is None else {"separates": pb["separates"],
-                                          "on_outcome": pb["on_outcome"]},
-            "metrics": metrics,
-        })  # fmt: skip
+                metrics.append(
+                    {
+                        "metric": f"{task}:{key}",
+                        "a": {k: va.get(k) for k in ("diff", "p", "verdict")},
+                        "b": {k: vb.get(k) for k in ("diff", "p", "verdict")},
+                    }
+                )
+        out.append(
+            {
+                "pair": name,
+                "a": None
+                if pa is None
+                else {"separates": pa["separates"], "on_outcome": pa["on_outcome"]},
+                "b": None
+                if pb is None
+                else {"separates": pb["separates"], "on_outcome": pb["on_outcome"]},
+                "metrics": metrics,
+            }
+        )
     return out
 
 
@@ -87,8 +94,10 @@ def render(records: list[dict], label_a: str, label_b: str, markdown: bool = Fal
     """The comparison as plain text or a Markdown table."""
     lines = []
     if markdown:
-        lines += [f"| pair | metric | {label_a}: diff (p) | {label_b}: diff (p) |",
-                  "|---|---|---|---|"]  # fmt: skip
+        lines += [
+            f"| pair | metric | {label_a}: diff (p) | {label_b}: diff (p) |",
+            "|---|---|---|---|",
+        ]
     for r in records:
         head = f"{_verdict(r['a'])} -> {_verdict(r['b'])}"
         if markdown:
@@ -111,8 +120,9 @@ def render(records: list[dict], label_a: str, label_b: str, markdown: bool = Fal
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m agents.benchmark.compare_runs",
-                                     description=__doc__.splitlines()[0])  # fmt: skip
+    parser = argparse.ArgumentParser(
+        prog="python -m agents.benchmark.compare_runs", description=__doc__.splitlines()[0]
+    )
     parser.add_argument("a", help="the first run's output folder (holding pairs.json)")
     parser.add_argument("b", help="the second run's output folder")
     parser.add_argument("--labels", default="A,B", help="names of the two runs (default: A,B)")

@@ -90,19 +90,30 @@ def register(condition: Condition) -> Condition:
 
 
 register(Condition("lab", "nothing near the play area"))
-register(Condition(
-    "beside_metal",
-    "a steel cabinet at the play area's left edge (a magnetic dipole, 20 uT at 0.8 m)",
-    (MagneticDisturbance.with_field_at((0.0, 1.3, 1.0), field_ut=20.0, distance_m=0.8),),
-))  # fmt: skip
+register(
+    Condition(
+        "beside_metal",
+        "a steel cabinet at the play area's left edge (a magnetic dipole, 20 uT at 0.8 m)",
+        (MagneticDisturbance.with_field_at((0.0, 1.3, 1.0), field_ut=20.0, distance_m=0.8),),
+    )
+)
 
 
-register(Condition(
-    "trolley_passing",
-    "a steel trolley wheeled past the play area's left edge at 1 m/s, 2-8 s into the episode",
-    (MagneticDisturbance.with_field_at((-3.0, 1.3, 1.0), field_ut=20.0, distance_m=0.8,
-                                       velocity=(1.0, 0.0, 0.0), moving=(2.0, 8.0)),),
-))  # fmt: skip
+register(
+    Condition(
+        "trolley_passing",
+        "a steel trolley wheeled past the play area's left edge at 1 m/s, 2-8 s into the episode",
+        (
+            MagneticDisturbance.with_field_at(
+                (-3.0, 1.3, 1.0),
+                field_ut=20.0,
+                distance_m=0.8,
+                velocity=(1.0, 0.0, 0.0),
+                moving=(2.0, 8.0),
+            ),
+        ),
+    )
+)
 
 
 def get_condition(name: str | Condition, field: str = "condition") -> Condition:

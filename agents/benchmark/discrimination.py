@@ -62,32 +62,65 @@ class Pair:
 
 #: The pairs the default run (:data:`agents.benchmark.DEFAULT_GRIDS`) should separate.
 PAIRS = (
-    Pair("zhang2021_as_printed", "goal_seeker+typical",
-         (("yaw_drift_deg_per_min", +1), ("heading_error_rmse_deg", +1),
-          ("yaw_rate_mismatch_deg_s", +1)),
-         why="the EKF as printed does not estimate the gyro bias: the heading drifts"),
-    Pair("zhang2021_consumer", "goal_seeker+typical",
-         (("heading_error_rmse_deg", +1), ("attitude_rmse_deg", +1),
-          ("yaw_drift_deg_per_min", +1), ("yaw_rate_mismatch_deg_s", +1)),
-         why="a consumer MEMS IMU: more gyro bias, noise and magnetometer error"),
-    Pair("threshold_steps", "goal_seeker+typical",
-         (("phantom_steps_per_min", +1), ("false_motion_m_per_min", +1)),
-         why="a naive |f| peak picker counts head bob, nods and glances as steps"),
-    Pair("nod_robust", "goal_seeker+nodders",
-         (("phantom_steps_per_min", -1), ("false_motion_m_per_min", -1)), better=True,
-         why="steps from world-vertical force, gated by head rotation: nods are not steps"),
-    Pair("torso_steering", "goal_seeker+gaze_scanners",
-         (("steering_error_deg", -1), ("heading_error_rmse_deg", -1),
-          ("path_length_ratio", -1)), better=True,
-         why="head steering walks where the head looks; the torso keeps the body's line"),
-    Pair("smooth", "goal_seeker+typical",
-         (("virtual_jerk_m_s3", -1), ("stop_latency_s", +1)),
-         why="the smooth-locomotion paper's filter spreads each step: less jerk, a later stop"),
-    Pair("madgwick", "goal_seeker+typical",
-         (("heading_error_rmse_deg", +1), ("yaw_drift_deg_per_min", +1),
-          ("yaw_rate_mismatch_deg_s", +1)), condition="beside_metal",
-         why="an ungated magnetometer follows the cabinet's field; Zhang 2021's EKF gates it"),
-)  # fmt: skip
+    Pair(
+        "zhang2021_as_printed",
+        "goal_seeker+typical",
+        (
+            ("yaw_drift_deg_per_min", +1),
+            ("heading_error_rmse_deg", +1),
+            ("yaw_rate_mismatch_deg_s", +1),
+        ),
+        why="the EKF as printed does not estimate the gyro bias: the heading drifts",
+    ),
+    Pair(
+        "zhang2021_consumer",
+        "goal_seeker+typical",
+        (
+            ("heading_error_rmse_deg", +1),
+            ("attitude_rmse_deg", +1),
+            ("yaw_drift_deg_per_min", +1),
+            ("yaw_rate_mismatch_deg_s", +1),
+        ),
+        why="a consumer MEMS IMU: more gyro bias, noise and magnetometer error",
+    ),
+    Pair(
+        "threshold_steps",
+        "goal_seeker+typical",
+        (("phantom_steps_per_min", +1), ("false_motion_m_per_min", +1)),
+        why="a naive |f| peak picker counts head bob, nods and glances as steps",
+    ),
+    Pair(
+        "nod_robust",
+        "goal_seeker+nodders",
+        (("phantom_steps_per_min", -1), ("false_motion_m_per_min", -1)),
+        better=True,
+        why="steps from world-vertical force, gated by head rotation: nods are not steps",
+    ),
+    Pair(
+        "torso_steering",
+        "goal_seeker+gaze_scanners",
+        (("steering_error_deg", -1), ("heading_error_rmse_deg", -1), ("path_length_ratio", -1)),
+        better=True,
+        why="head steering walks where the head looks; the torso keeps the body's line",
+    ),
+    Pair(
+        "smooth",
+        "goal_seeker+typical",
+        (("virtual_jerk_m_s3", -1), ("stop_latency_s", +1)),
+        why="the smooth-locomotion paper's filter spreads each step: less jerk, a later stop",
+    ),
+    Pair(
+        "madgwick",
+        "goal_seeker+typical",
+        (
+            ("heading_error_rmse_deg", +1),
+            ("yaw_drift_deg_per_min", +1),
+            ("yaw_rate_mismatch_deg_s", +1),
+        ),
+        condition="beside_metal",
+        why="an ungated magnetometer follows the cabinet's field; Zhang 2021's EKF gates it",
+    ),
+)
 
 
 def _hit(test: dict[str, Any] | None, sign: int) -> str | None:
@@ -112,9 +145,14 @@ def pair_results(rows: list[dict[str, Any]], pairs: tuple[Pair, ...] = PAIRS) ->
     """
     out = []
     for pair in pairs:
-        found = [r for r in rows if r["technique"] == pair.technique and r["policy"] == pair.policy
-                 and r.get("condition", DEFAULT_CONDITION) == pair.condition
-                 and r.get("vs_baseline")]  # fmt: skip
+        found = [
+            r
+            for r in rows
+            if r["technique"] == pair.technique
+            and r["policy"] == pair.policy
+            and r.get("condition", DEFAULT_CONDITION) == pair.condition
+            and r.get("vs_baseline")
+        ]
         if not found:
             continue
         sign_better = 1 if pair.better else -1
@@ -128,16 +166,29 @@ def pair_results(rows: list[dict[str, Any]], pairs: tuple[Pair, ...] = PAIRS) ->
                 t = tests.get(metric)
                 verdict = _hit(t, sign)
                 t = t or {}
-                per[metric] = {"diff": t.get("diff"), "p": t.get("p"),
-                               "expected": "+" if sign > 0 else "-", "verdict": verdict}
+                per[metric] = {
+                    "diff": t.get("diff"),
+                    "p": t.get("p"),
+                    "expected": "+" if sign > 0 else "-",
+                    "verdict": verdict,
+                }
                 if verdict == "for":
                     hits.append(f"{r['task']}:{metric}")
                     outcome_hit = outcome_hit or metric in OUTCOMES
             tasks[r["task"]] = per
-        out.append({"pair": pair.name, "technique": pair.technique, "policy": pair.policy,
-                    "condition": pair.condition, "why": pair.why, "tasks": tasks,
-                    "separates": bool(hits), "on_outcome": outcome_hit,
-                    "metrics": hits})  # fmt: skip
+        out.append(
+            {
+                "pair": pair.name,
+                "technique": pair.technique,
+                "policy": pair.policy,
+                "condition": pair.condition,
+                "why": pair.why,
+                "tasks": tasks,
+                "separates": bool(hits),
+                "on_outcome": outcome_hit,
+                "metrics": hits,
+            }
+        )
     return out
 
 
@@ -152,32 +203,53 @@ def show_pairs(results: list[dict], baseline: str = "zhang2021", width: int | No
     if not results:
         return
     console = terminal_console(width)
-    title = (f"discriminating power: each technique vs {baseline} (paired, p < {ALPHA}, "
-             "expected direction)")  # fmt: skip
+    title = (
+        f"discriminating power: each technique vs {baseline} (paired, p < {ALPHA}, "
+        "expected direction)"
+    )
     rows = []
     for res in results:
-        against = [f"{task}:{m}" for task, per in res["tasks"].items()
-                   for m, v in per.items() if v["verdict"] == "against"]  # fmt: skip
-        rows.append((res["pair"], "yes" if res["separates"] else "NO",
-                     "yes" if res["on_outcome"] else "no", ", ".join(res["metrics"]) or "–",
-                     ", ".join(against) or "–"))  # fmt: skip
+        against = [
+            f"{task}:{m}"
+            for task, per in res["tasks"].items()
+            for m, v in per.items()
+            if v["verdict"] == "against"
+        ]
+        rows.append(
+            (
+                res["pair"],
+                "yes" if res["separates"] else "NO",
+                "yes" if res["on_outcome"] else "no",
+                ", ".join(res["metrics"]) or "–",
+                ", ".join(against) or "–",
+            )
+        )
     if console.width < _TABLE_WIDTH:
         console.print(title, overflow="fold")
         for pair, sep, out, differs, against in rows:
-            console.print(f"- {pair}: separates {sep}, on an outcome {out}; differs on: "
-                          f"{differs}; against expectation: {against}")  # fmt: skip
+            console.print(
+                f"- {pair}: separates {sep}, on an outcome {out}; differs on: "
+                f"{differs}; against expectation: {against}"
+            )
     else:
         table = Table(title=title)
-        for head in ("technique (users, room)", "separates", "on outcome", "differs on",
-                     "against expectation"):  # fmt: skip
+        for head in (
+            "technique (users, room)",
+            "separates",
+            "on outcome",
+            "differs on",
+            "against expectation",
+        ):
             table.add_column(head)
         for r in rows:
             table.add_row(*r)
         console.print(table)
     n_sep = sum(r["separates"] for r in results)
     n_out = sum(r["on_outcome"] for r in results)
-    console.print(f"{n_sep} of {len(results)} pairs separate, {n_out} on an outcome (success, "
-                  "collisions, SPL or time to goal)")  # fmt: skip
+    console.print(
+        f"{n_sep} of {len(results)} pairs separate, {n_out} on an outcome (success, "
+        "collisions, SPL or time to goal)"
+    )
 
 
 #: Consoles at least this wide get the pairs as a table (narrower: a paragraph per pair).

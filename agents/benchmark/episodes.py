@@ -31,23 +31,36 @@ from agents.scripted import is_batched
 from vrloco_env.actions import ACTION_NAMES
 from vrloco_env.tasks import env_id
 
-__all__ = ["DEFAULT_BATCH_SIZE", "play_claimed", "policy_actions", "policy_label", "run_batched",
-           "run_cell_batched", "run_cell_episode", "run_episode"]  # fmt: skip
+__all__ = [
+    "DEFAULT_BATCH_SIZE",
+    "play_claimed",
+    "policy_actions",
+    "policy_label",
+    "run_batched",
+    "run_cell_batched",
+    "run_cell_episode",
+    "run_episode",
+]
 
 
 _ENVS: dict[tuple, Any] = {}  # per process: one env per (task, technique, population, condition)
 
 
-def _env(task: str, technique: Any, population: str | None = None,
-         condition: str = DEFAULT_CONDITION) -> Any:  # fmt: skip
+def _env(
+    task: str, technique: Any, population: str | None = None, condition: str = DEFAULT_CONDITION
+) -> Any:
     import gymnasium as gym
 
     import vrloco_env  # noqa: F401  (registers the ids)
 
     key = (task, technique, population, condition)
     if key not in _ENVS:
-        _ENVS[key] = gym.make(env_id(task), technique=technique, population=population,
-                              sensors=get_condition(condition).sensors())  # fmt: skip
+        _ENVS[key] = gym.make(
+            env_id(task),
+            technique=technique,
+            population=population,
+            sensors=get_condition(condition).sensors(),
+        )
     return _ENVS[key]
 
 
@@ -112,7 +125,9 @@ def run_cell_episode(cell: Cell, seed: int, trace: bool = False) -> tuple[Episod
 
 
 def run_cell_batched(
-    cell: Cell, seeds: Sequence[int], trace: Sequence[bool] | None = None,
+    cell: Cell,
+    seeds: Sequence[int],
+    trace: Sequence[bool] | None = None,
     batch_size: int = DEFAULT_BATCH_SIZE,
 ) -> list[tuple[EpisodeStats, dict]]:
     """Episodes ``seeds`` of ``cell`` as users of one vector env (:func:`run_batched`).
@@ -145,9 +160,10 @@ def run_batched(
 
 
 def play_claimed(
-    episodes: Sequence[tuple[Cell, int, bool]], batch_size: int,
+    episodes: Sequence[tuple[Cell, int, bool]],
+    batch_size: int,
     claim: Callable[[int], list[int]],
-) -> dict[int, tuple[EpisodeStats, dict]]:  # fmt: skip
+) -> dict[int, tuple[EpisodeStats, dict]]:
     """The episodes ``(cell, seed, trace)`` that ``claim`` hands out, of cells that share a task
     and a technique, as users of one native vector env.
 
@@ -193,17 +209,26 @@ def play_claimed(
     task, tech, population = first.task, get_technique(first.technique), first.population
     condition = first.condition
     for c, _, _ in jobs:
-        if (c.task != task or get_technique(c.technique) != tech or c.population != population
-                or c.condition != condition):  # fmt: skip
+        if (
+            c.task != task
+            or get_technique(c.technique) != tech
+            or c.population != population
+            or c.condition != condition
+        ):
             raise ValueError(
                 "run_batched: every episode must share one task, technique, population and "
                 f"condition, got {c.task!r}/{c.technique_name!r}/{c.population!r}/"
                 f"{c.condition!r} beside {task!r}/{tech.name!r}/{population!r}/{condition!r}"
             )
     n = min(batch_size, len(jobs))
-    env = VRLocoVectorEnv(n, task=task, technique=first.technique, population=population,
-                          sensors=get_condition(condition).sensors(),
-                          autoreset_mode=AutoresetMode.DISABLED)  # fmt: skip
+    env = VRLocoVectorEnv(
+        n,
+        task=task,
+        technique=first.technique,
+        population=population,
+        sensors=get_condition(condition).sensors(),
+        autoreset_mode=AutoresetMode.DISABLED,
+    )
     done: dict[int, tuple[EpisodeStats, dict]] = {}
     alone_jobs: list[int] = []  # claimed episodes of policies written for the single env
     try:
@@ -232,8 +257,9 @@ def play_claimed(
     return done
 
 
-def _play_batch(env: Any, policies: dict, jobs: list,
-                take: Callable[[int], list[int]]) -> dict[int, tuple]:  # fmt: skip
+def _play_batch(
+    env: Any, policies: dict, jobs: list, take: Callable[[int], list[int]]
+) -> dict[int, tuple]:
     """The loop of :func:`play_claimed` over the episodes of ``jobs`` that ``take(n)`` hands out
     (up to ``n``; ``env`` with autoreset disabled); returns ``{episode index: (stats,
     reset_info)}``."""
@@ -271,12 +297,14 @@ def _play_batch(env: Any, policies: dict, jobs: list,
         for k, cell in enumerate(cells):
             mine = rows[owner[rows] == k]
             if reset_all:  # every policy learns the batch size; rows not its own are idle
-                rngs = [np.random.default_rng([seeds[i] if owner[i] == k else 0, 1])
-                        for i in range(n)]  # fmt: skip
+                rngs = [
+                    np.random.default_rng([seeds[i] if owner[i] == k else 0, 1]) for i in range(n)
+                ]
                 policies[cell].reset(rngs, None)
             elif mine.size:
-                policies[cell].reset([np.random.default_rng([jobs[job[i]][1], 1]) for i in mine],
-                                     mine)  # fmt: skip
+                policies[cell].reset(
+                    [np.random.default_rng([jobs[job[i]][1], 1]) for i in mine], mine
+                )
         for i in rows:
             first[i] = len(steps)
             start_info[i] = _row_info(info, i)
@@ -301,8 +329,14 @@ def _play_batch(env: Any, policies: dict, jobs: list,
             per_step = steps.user(i, first[i])
             last = {k: info[k][i] for k in ("is_success", "collisions", "elapsed_time", "walked")}
             tr = {k: per_step[k] for k in TRACE_KEYS} if jobs[j][2] else None
-            stats = episode_stats(jobs[j][1], start_info[i]["shortest_path"], per_step, last, tr,
-                                  start_info[i]["position"])  # fmt: skip
+            stats = episode_stats(
+                jobs[j][1],
+                start_info[i]["shortest_path"],
+                per_step,
+                last,
+                tr,
+                start_info[i]["position"],
+            )
             if stats.trace is not None:
                 stats.trace["layout"] = env.core.layouts[i]
             done[j] = (stats, start_info[i])
@@ -348,15 +382,18 @@ class _StepLog:
         """Log one control step's ``info`` (each key's array of the same shape and dtype at
         every step)."""
         if not self.log:
-            self.log = {k: np.empty((64, *np.shape(info[k])), np.asarray(info[k]).dtype)
-                        for k in self.keys}  # fmt: skip
+            self.log = {
+                k: np.empty((64, *np.shape(info[k])), np.asarray(info[k]).dtype) for k in self.keys
+            }
         cols = self.columns
         for k, log in self.log.items():
             value = np.asarray(info[k])
             shape = log.shape[1:] if cols is None else (cols.size, *log.shape[2:])
             if value.dtype != log.dtype or value.shape != shape:
-                raise RuntimeError(f"internal error: info[{k!r}] changed from {log.dtype}"
-                                   f"{shape} to {value.dtype}{value.shape}")  # fmt: skip
+                raise RuntimeError(
+                    f"internal error: info[{k!r}] changed from {log.dtype}"
+                    f"{shape} to {value.dtype}{value.shape}"
+                )
             if self.size == log.shape[0]:
                 log = self.log[k] = np.concatenate([log, np.empty_like(log)])
             if cols is None:

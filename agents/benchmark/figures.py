@@ -58,8 +58,11 @@ def _draw_room(ax: Any, layout: Any) -> None:
         (x0, y0), (x1, y1) = layout.goal_line
         ax.plot([x0, x1], [y0, y1], "--", color="tab:green", lw=1.5, label="end line")
     else:
-        ax.add_patch(Circle(layout.goal, layout.goal_radius, fill=False, color="tab:green",
-                            lw=1.5, label="goal"))  # fmt: skip
+        ax.add_patch(
+            Circle(
+                layout.goal, layout.goal_radius, fill=False, color="tab:green", lw=1.5, label="goal"
+            )
+        )
     xmin, xmax, ymin, ymax = layout.bounds
     t = 2.0 * min(min(w.half_extents) for w in layout.walls) if layout.walls else 0.2
     ax.set_xlim(xmin - 1.5 * t, xmax + 1.5 * t)
@@ -88,10 +91,10 @@ def draw_cell(out_dir: Path, cell: Cell, stats: EpisodeStats) -> list[Path]:
 
     fig, ax = plt.subplots(figsize=(7.5, 6.5), constrained_layout=True)
     _draw_room(ax, tr["layout"])
-    ax.plot(*tr["true_position"].T, color="0.2", lw=2.5, alpha=0.5,
-            label="true steps and heading")  # fmt: skip
-    ax.plot(*tr["position"].T, "o-", color="tab:red", ms=2.5, lw=1.0,
-            label="virtual body (estimated)")  # fmt: skip
+    ax.plot(*tr["true_position"].T, color="0.2", lw=2.5, alpha=0.5, label="true steps and heading")
+    ax.plot(
+        *tr["position"].T, "o-", color="tab:red", ms=2.5, lw=1.0, label="virtual body (estimated)"
+    )
     ax.plot(*tr["position"][0], "s", color="k", ms=6, label="start")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
@@ -117,13 +120,25 @@ def draw_cell(out_dir: Path, cell: Cell, stats: EpisodeStats) -> list[Path]:
 
     fig, ax = plt.subplots(figsize=(9, 3.6), constrained_layout=True)
     times = tr["true_step_times"]
-    det_t = stats.detected_step_times if stats.detected_step_times is not None else np.repeat(
-        t, stats.detected_counts
+    det_t = (
+        stats.detected_step_times
+        if stats.detected_step_times is not None
+        else np.repeat(t, stats.detected_counts)
     )
-    ax.step(np.concatenate([[0.0], np.sort(times)]), np.arange(times.size + 1), where="post",
-            color="tab:red", label=f"true heel strikes ({times.size})")  # fmt: skip
-    ax.step(np.concatenate([[0.0], det_t]), np.arange(det_t.size + 1), where="post",
-            color="tab:blue", label=f"detected steps ({det_t.size})")  # fmt: skip
+    ax.step(
+        np.concatenate([[0.0], np.sort(times)]),
+        np.arange(times.size + 1),
+        where="post",
+        color="tab:red",
+        label=f"true heel strikes ({times.size})",
+    )
+    ax.step(
+        np.concatenate([[0.0], det_t]),
+        np.arange(det_t.size + 1),
+        where="post",
+        color="tab:blue",
+        label=f"detected steps ({det_t.size})",
+    )
     ax.plot(times, np.zeros_like(times) - 0.5, "|", color="tab:red", ms=8)
     ax.plot(det_t, np.zeros_like(det_t) - 1.2, "|", color="tab:blue", ms=8)
     ax.set_xlabel("time (s)")
@@ -160,11 +175,13 @@ def cell_name(row: dict[str, Any]) -> str:
     """A row's name in the figures: task · policy · technique (· condition outside the default)."""
     where = row.get("condition", DEFAULT_CONDITION)
     return f"{row['task']} · {row['policy']} · {row['technique']}" + (
-        "" if where == DEFAULT_CONDITION else f" · {where}")
+        "" if where == DEFAULT_CONDITION else f" · {where}"
+    )
 
 
-def draw_grid(out_dir: Path, rows: list[dict[str, Any]],
-              episodes: dict[str, list[EpisodeStats]]) -> list[Path]:
+def draw_grid(
+    out_dir: Path, rows: list[dict[str, Any]], episodes: dict[str, list[EpisodeStats]]
+) -> list[Path]:
     """The figures of the whole grid: every metric of :data:`GRID_METRICS` per cell with its
     95 % interval (``metrics.png``), the collisions of each cell by cause
     (``collision_causes.png``) and the distributions of the start and stop latencies over each
@@ -192,28 +209,43 @@ def draw_grid(out_dir: Path, rows: list[dict[str, Any]],
 
     cols = 3
     lines = math.ceil(len(GRID_METRICS) / cols)
-    fig, axes = plt.subplots(lines, cols, figsize=(15, height * lines), sharey=True,
-                             constrained_layout=True, squeeze=False)  # fmt: skip
+    fig, axes = plt.subplots(
+        lines,
+        cols,
+        figsize=(15, height * lines),
+        sharey=True,
+        constrained_layout=True,
+        squeeze=False,
+    )
     for ax, (key, label) in zip(axes.flat, GRID_METRICS, strict=False):
         v = np.array([np.nan if r.get(key) is None else r[key] for r in rows], dtype=float)
         ci = [r.get(f"{key}_ci") for r in rows]
         lo = np.array([np.nan if c is None or c[0] is None else c[0] for c in ci], dtype=float)
         hi = np.array([np.nan if c is None or c[1] is None else c[1] for c in ci], dtype=float)
-        err = np.stack([np.where(np.isfinite(lo), v - lo, 0.0), np.where(np.isfinite(hi),
-                                                                         hi - v, 0.0)])  # fmt: skip
-        ax.barh(y, np.nan_to_num(v), xerr=np.clip(np.nan_to_num(err), 0.0, None), color="tab:blue",
-                alpha=0.7, ecolor="k", capsize=2)  # fmt: skip
+        err = np.stack(
+            [np.where(np.isfinite(lo), v - lo, 0.0), np.where(np.isfinite(hi), hi - v, 0.0)]
+        )
+        ax.barh(
+            y,
+            np.nan_to_num(v),
+            xerr=np.clip(np.nan_to_num(err), 0.0, None),
+            color="tab:blue",
+            alpha=0.7,
+            ecolor="k",
+            capsize=2,
+        )
         for i in np.flatnonzero(~np.isfinite(v)):
             ax.text(0.0, i, " n/a", va="center", fontsize=7, color="0.4")
         ax.set_xlabel(label, fontsize=8)
         ax.grid(axis="x", alpha=0.3)
-    for ax in axes.flat[len(GRID_METRICS):]:
+    for ax in axes.flat[len(GRID_METRICS) :]:
         ax.set_visible(False)
     for ax in axes[:, 0]:
         ax.set_yticks(y, names, fontsize=7)
         ax.invert_yaxis()
-    fig.suptitle("Benchmark metrics per cell (bars: mean or rate; whiskers: 95 % interval)",
-                 fontsize=10)  # fmt: skip
+    fig.suptitle(
+        "Benchmark metrics per cell (bars: mean or rate; whiskers: 95 % interval)", fontsize=10
+    )
     written.append(out_dir / "metrics.png")
     _save(fig, written[-1])
 
@@ -221,8 +253,13 @@ def draw_grid(out_dir: Path, rows: list[dict[str, Any]],
     left = np.zeros(len(rows))
     colours = ("tab:red", "tab:orange", "tab:purple", "tab:green", "0.6")
     for cause, colour in zip(COLLISION_CAUSES, colours, strict=True):
-        n = np.array([0 if r.get("collision_causes") is None else r["collision_causes"][cause]
-                      for r in rows], dtype=float)  # fmt: skip
+        n = np.array(
+            [
+                0 if r.get("collision_causes") is None else r["collision_causes"][cause]
+                for r in rows
+            ],
+            dtype=float,
+        )
         ax.barh(y, n, left=left, color=colour, label=cause.replace("_", " "))
         left += n
     ax.set_yticks(y, names, fontsize=7)
@@ -233,10 +270,13 @@ def draw_grid(out_dir: Path, rows: list[dict[str, Any]],
     written.append(out_dir / "collision_causes.png")
     _save(fig, written[-1])
 
-    fig, axes = plt.subplots(1, 2, figsize=(12, height + 0.8), sharey=True,
-                             constrained_layout=True)  # fmt: skip
-    for ax, key, label in zip(axes, ("start_latency_s", "stop_latency_s"),
-                              ("start latency (s)", "stop latency (s)"), strict=True):  # fmt: skip
+    fig, axes = plt.subplots(1, 2, figsize=(12, height + 0.8), sharey=True, constrained_layout=True)
+    for ax, key, label in zip(
+        axes,
+        ("start_latency_s", "stop_latency_s"),
+        ("start latency (s)", "stop latency (s)"),
+        strict=True,
+    ):
         for i, name in enumerate(names):
             vals = np.array([e.motion[key] for e in episodes[name] if e.motion is not None])
             vals = vals[np.isfinite(vals)]

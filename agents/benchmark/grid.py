@@ -30,8 +30,14 @@ __all__ = [
 #: The main grid's tasks, users and techniques.
 DEFAULT_TASKS = ("approach", "avoid")
 DEFAULT_POLICIES = ("goal_seeker+typical",)
-DEFAULT_TECHNIQUES = ("zhang2021", "zhang2021_as_printed", "zhang2021_consumer", "threshold_steps",
-                      "nod_robust", "smooth")  # fmt: skip
+DEFAULT_TECHNIQUES = (
+    "zhang2021",
+    "zhang2021_as_printed",
+    "zhang2021_consumer",
+    "threshold_steps",
+    "nod_robust",
+    "smooth",
+)
 #: The IMU presets of ``--sensors`` (Zhang 2021's chain on each).
 DEFAULT_SENSORS = ("ig500n", "consumer_mems")
 #: Episodes per cell: the smallest size at which, on development seeds 1000-1159, every technique
@@ -112,8 +118,13 @@ class Grid:
 
     def cells(self) -> list[Cell]:
         """The grid's cells, condition by condition, then task, policy and technique."""
-        return [Cell(t, p, k, w) for w in self.conditions for t in self.tasks
-                for p in self.policies for k in self.techniques]  # fmt: skip
+        return [
+            Cell(t, p, k, w)
+            for w in self.conditions
+            for t in self.tasks
+            for p in self.policies
+            for k in self.techniques
+        ]
 
 
 #: The default run: the main grid, and the scenarios that put a technique where it is meant to

@@ -294,8 +294,7 @@ def episode_stats(
         heading_error_deg=np.asarray(steps["heading_error_deg"], dtype=np.float64),
         trace=trace,
         motion=motion_measures(steps, start_position) if "intent_walk" in steps else None,
-        causes=collision_causes(steps) if "collision" in steps and "intent_walk" in steps
-        else None,
+        causes=collision_causes(steps) if "collision" in steps and "intent_walk" in steps else None,
         play_area=play_area_measures(steps) if "play_area_outside" in steps else None,
     )
 
@@ -342,13 +341,19 @@ def summarize(
     has_hand = np.isfinite(hand)
 
     minutes = np.array([e.elapsed_s / 60.0 for e in episodes])
-    per_min = {"phantom_steps_per_min": np.asarray(fps) / minutes,
-               "missed_steps_per_min": np.asarray(fns) / minutes}  # fmt: skip
-    motion = {k: np.array([math.nan if e.motion is None else e.motion[k] for e in episodes])
-              for k in MOTION_KEYS}  # fmt: skip
+    per_min = {
+        "phantom_steps_per_min": np.asarray(fps) / minutes,
+        "missed_steps_per_min": np.asarray(fns) / minutes,
+    }
+    motion = {
+        k: np.array([math.nan if e.motion is None else e.motion[k] for e in episodes])
+        for k in MOTION_KEYS
+    }
     times = np.array([e.elapsed_s for e in episodes])[succ]
-    area = {k: np.array([math.nan if e.play_area is None else e.play_area[k] for e in episodes])
-            for k in PLAY_AREA_KEYS}  # fmt: skip
+    area = {
+        k: np.array([math.nan if e.play_area is None else e.play_area[k] for e in episodes])
+        for k in PLAY_AREA_KEYS
+    }
     row: dict[str, Any] = {
         "episodes": n,
         "success_rate": exact_mean(succ),
@@ -371,15 +376,20 @@ def summarize(
         **{k: finite_mean(v) for k, v in area.items()},
     }
     causes = [e.causes for e in episodes if e.causes is not None]
-    row["collision_causes"] = ({c: sum(x[c] for x in causes) for c in COLLISION_CAUSES}
-                               if causes else None)  # fmt: skip
+    row["collision_causes"] = (
+        {c: sum(x[c] for x in causes) for c in COLLISION_CAUSES} if causes else None
+    )
     row["success_rate_ci"] = wilson_interval(int(succ.sum()), n)
     row["collision_rate_ci"] = wilson_interval(int((coll > 0).sum()), n)
     spl_each = succ * shortest / np.maximum(shortest, walked)
     row["spl_ci"] = bootstrap_interval(spl_each)
     row["time_to_goal_s_ci"] = bootstrap_interval(times)
-    hand_each = np.array([np.isfinite(e.hand_error_deg).mean() if e.hand_error_deg.size else
-                          math.nan for e in episodes])  # fmt: skip
+    hand_each = np.array(
+        [
+            np.isfinite(e.hand_error_deg).mean() if e.hand_error_deg.size else math.nan
+            for e in episodes
+        ]
+    )
     row["hand_tracking_availability_ci"] = bootstrap_interval(hand_each)
     for k, v in (*per_min.items(), *motion.items(), *area.items()):
         row[f"{k}_ci"] = bootstrap_interval(v)

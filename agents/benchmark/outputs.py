@@ -72,9 +72,20 @@ ROW_KEYS = (
     *PLAY_AREA_KEYS,
     "collision_causes",
     "vs_baseline",
-    *(f"{k}_ci" for k in ("success_rate", "collision_rate", "spl", "time_to_goal_s",
-                          "hand_tracking_availability", "phantom_steps_per_min",
-                          "missed_steps_per_min", *MOTION_KEYS, *PLAY_AREA_KEYS)),
+    *(
+        f"{k}_ci"
+        for k in (
+            "success_rate",
+            "collision_rate",
+            "spl",
+            "time_to_goal_s",
+            "hand_tracking_availability",
+            "phantom_steps_per_min",
+            "missed_steps_per_min",
+            *MOTION_KEYS,
+            *PLAY_AREA_KEYS,
+        )
+    ),
 )
 
 
@@ -89,49 +100,89 @@ def _fmt(v: Any, digits: int = 3) -> str:
 
 
 #: The table's columns (row key, heading); :data:`_COMPACT` those kept on a narrow terminal.
-_COLUMNS = (("task", "task"), ("policy", "policy"), ("technique", "technique"),
-            ("sensors", "sensors"), ("episodes", "n"),
-            ("success_rate", "success"), ("collision_rate", "collision"),
-            ("collision_free_success_rate", "coll.-free succ."), ("spl", "SPL"),
-            ("time_to_goal_s", "time to goal (s)"), ("path_length_ratio", "path ratio"),
-            ("step_f1", "step F1"), ("attitude_rmse_deg", "attitude RMSE (°)"),
-            ("hand_error_deg", "hand err (°)"),
-            ("collision_causes", "collision causes"))  # fmt: skip
-_COMPACT = ("success_rate", "collision_rate", "spl", "time_to_goal_s", "step_f1",
-            "attitude_rmse_deg")  # fmt: skip
+_COLUMNS = (
+    ("task", "task"),
+    ("policy", "policy"),
+    ("technique", "technique"),
+    ("sensors", "sensors"),
+    ("episodes", "n"),
+    ("success_rate", "success"),
+    ("collision_rate", "collision"),
+    ("collision_free_success_rate", "coll.-free succ."),
+    ("spl", "SPL"),
+    ("time_to_goal_s", "time to goal (s)"),
+    ("path_length_ratio", "path ratio"),
+    ("step_f1", "step F1"),
+    ("attitude_rmse_deg", "attitude RMSE (°)"),
+    ("hand_error_deg", "hand err (°)"),
+    ("collision_causes", "collision causes"),
+)
+_COMPACT = (
+    "success_rate",
+    "collision_rate",
+    "spl",
+    "time_to_goal_s",
+    "step_f1",
+    "attitude_rmse_deg",
+)
 #: The compact tables' short headings, and what each means (printed under the tables).
-_COMPACT_HEADS = {"success_rate": "succ.", "collision_rate": "coll.", "time_to_goal_s": "time",
-                  "step_f1": "F1", "attitude_rmse_deg": "att.°",
-                  "heading_error_rmse_deg": "head.°", "stop_latency_s": "stop",
-                  "false_motion_m_per_min": "false", "phantom_steps_per_min": "phant.",
-                  "yaw_drift_deg_per_min": "drift", "virtual_jerk_m_s3": "jerk"}  # fmt: skip
-_LEGEND = {"success_rate": "success rate", "collision_rate": "episodes with a collision",
-           "time_to_goal_s": "time to goal (s)", "step_f1": "step F1",
-           "attitude_rmse_deg": "attitude RMSE (deg)", "heading_error_rmse_deg":
-           "heading error RMSE (deg)", "stop_latency_s": "stop latency (s)",
-           "false_motion_m_per_min": "false motion (m/min)", "phantom_steps_per_min":
-           "phantom steps/min", "yaw_drift_deg_per_min": "yaw drift (deg/min)",
-           "virtual_jerk_m_s3": "jerk (m/s^3)"}  # fmt: skip
+_COMPACT_HEADS = {
+    "success_rate": "succ.",
+    "collision_rate": "coll.",
+    "time_to_goal_s": "time",
+    "step_f1": "F1",
+    "attitude_rmse_deg": "att.°",
+    "heading_error_rmse_deg": "head.°",
+    "stop_latency_s": "stop",
+    "false_motion_m_per_min": "false",
+    "phantom_steps_per_min": "phant.",
+    "yaw_drift_deg_per_min": "drift",
+    "virtual_jerk_m_s3": "jerk",
+}
+_LEGEND = {
+    "success_rate": "success rate",
+    "collision_rate": "episodes with a collision",
+    "time_to_goal_s": "time to goal (s)",
+    "step_f1": "step F1",
+    "attitude_rmse_deg": "attitude RMSE (deg)",
+    "heading_error_rmse_deg": "heading error RMSE (deg)",
+    "stop_latency_s": "stop latency (s)",
+    "false_motion_m_per_min": "false motion (m/min)",
+    "phantom_steps_per_min": "phantom steps/min",
+    "yaw_drift_deg_per_min": "yaw drift (deg/min)",
+    "virtual_jerk_m_s3": "jerk (m/s^3)",
+}
 #: The columns that name a row (left-aligned, never dropped to fit).
 _NAME_KEYS = ("task", "policy", "technique", "condition", "sensors")
 #: Narrower terminals than this get the compact table (the files keep every column).
 _FULL_WIDTH = 180
 #: The second table's columns: how walking in place felt (row key, heading).
-_WIP_COLUMNS = (("task", "task"), ("policy", "policy"), ("technique", "technique"),
-                ("heading_error_rmse_deg", "heading err (°)"),
-                ("start_latency_s", "start lat. (s)"), ("stop_latency_s", "stop lat. (s)"),
-                ("stop_overshoot_m", "overshoot (m)"),
-                ("false_motion_m_per_min", "false motion (m/min)"),
-                ("phantom_steps_per_min", "phantom /min"), ("missed_steps_per_min", "missed /min"),
-                ("yaw_drift_deg_per_min", "yaw drift (°/min)"),
-                ("yaw_rate_mismatch_deg_s", "yaw-rate mism. (°/s)"),
-                ("virtual_jerk_m_s3", "jerk (m/s³)"),
-                ("steering_error_deg", "steering err (°)"),
-                ("hand_tracking_availability", "hand avail."),
-                ("boundary_violations", "boundary viol."))  # fmt: skip
-_WIP_COMPACT = ("heading_error_rmse_deg", "stop_latency_s",
-                "false_motion_m_per_min", "phantom_steps_per_min", "yaw_drift_deg_per_min",
-                "virtual_jerk_m_s3")  # fmt: skip
+_WIP_COLUMNS = (
+    ("task", "task"),
+    ("policy", "policy"),
+    ("technique", "technique"),
+    ("heading_error_rmse_deg", "heading err (°)"),
+    ("start_latency_s", "start lat. (s)"),
+    ("stop_latency_s", "stop lat. (s)"),
+    ("stop_overshoot_m", "overshoot (m)"),
+    ("false_motion_m_per_min", "false motion (m/min)"),
+    ("phantom_steps_per_min", "phantom /min"),
+    ("missed_steps_per_min", "missed /min"),
+    ("yaw_drift_deg_per_min", "yaw drift (°/min)"),
+    ("yaw_rate_mismatch_deg_s", "yaw-rate mism. (°/s)"),
+    ("virtual_jerk_m_s3", "jerk (m/s³)"),
+    ("steering_error_deg", "steering err (°)"),
+    ("hand_tracking_availability", "hand avail."),
+    ("boundary_violations", "boundary viol."),
+)
+_WIP_COMPACT = (
+    "heading_error_rmse_deg",
+    "stop_latency_s",
+    "false_motion_m_per_min",
+    "phantom_steps_per_min",
+    "yaw_drift_deg_per_min",
+    "virtual_jerk_m_s3",
+)
 
 
 def terminal_console(width: int | None = None) -> Any:
@@ -158,8 +209,12 @@ def _users(rows: list[dict[str, Any]]) -> tuple[dict[str, str], str | None]:
     return {r["policy"]: r["policy"].partition("+")[2] or "–" for r in rows}, bases.pop()
 
 
-def show_table(rows: list[dict[str, Any]], seed: int, width: int | None = None,
-               baseline: str = BASELINE_TECHNIQUE) -> None:
+def show_table(
+    rows: list[dict[str, Any]],
+    seed: int,
+    width: int | None = None,
+    baseline: str = BASELINE_TECHNIQUE,
+) -> None:
     """The rows as two tables fitted to the terminal (``width``: its columns; None: the
     terminal's, or ``COLUMNS`` when piped, see :func:`terminal_console`).
 
@@ -173,8 +228,11 @@ def show_table(rows: list[dict[str, Any]], seed: int, width: int | None = None,
     console = terminal_console(width)
     compact = console.width < _FULL_WIDTH
     users, policy = _users(rows)
-    names = [("task", "task"), ("policy", "users" if compact else "policy"),
-             ("technique", "technique")]  # fmt: skip
+    names = [
+        ("task", "task"),
+        ("policy", "users" if compact else "policy"),
+        ("technique", "technique"),
+    ]
     if any(r.get("condition", DEFAULT_CONDITION) != DEFAULT_CONDITION for r in rows):
         names.append(("condition", "condition"))
     if compact:
@@ -188,32 +246,51 @@ def show_table(rows: list[dict[str, Any]], seed: int, width: int | None = None,
     seeds = f"seeds {seed}..{seed + rows[0]['episodes'] - 1}"
     left_out: list[str] = []
     marked = False
-    for title, measures in ((f"vrloco benchmark: outcomes ({seeds})", outcome),
-                            (f"walking in place ({seeds})", wip)):  # fmt: skip
+    for title, measures in (
+        (f"vrloco benchmark: outcomes ({seeds})", outcome),
+        (f"walking in place ({seeds})", wip),
+    ):
         m, dropped = _print_table(console, rows, names, measures, title, compact, shown)
         marked |= m
         left_out += dropped
     if compact and policy is not None:
         console.print(f"users: {policy} with the population shown")
     if compact:
-        console.print("; ".join(f"{h}: {_LEGEND[k]}" for k, h in (*outcome, *wip)
-                                if k in _LEGEND and h not in left_out))  # fmt: skip
+        console.print(
+            "; ".join(
+                f"{h}: {_LEGEND[k]}"
+                for k, h in (*outcome, *wip)
+                if k in _LEGEND and h not in left_out
+            )
+        )
     else:
-        console.print("collision causes: " + "/".join(c.replace("_", " ")
-                                                      for c in COLLISION_CAUSES))  # fmt: skip
+        console.print(
+            "collision causes: " + "/".join(c.replace("_", " ") for c in COLLISION_CAUSES)
+        )
     if marked:
-        console.print(f"* differs from {baseline} (same task, policy, condition and seeds) at "
-                      f"p < {ALPHA}: exact McNemar test for rates, Wilcoxon signed-rank for means "
-                      "(agents.benchmark.paired)")  # fmt: skip
+        console.print(
+            f"* differs from {baseline} (same task, policy, condition and seeds) at "
+            f"p < {ALPHA}: exact McNemar test for rates, Wilcoxon signed-rank for means "
+            "(agents.benchmark.paired)"
+        )
     if compact or left_out:
         view = "a compact view" if compact else "a view"
         more = f"; not shown at this width: {', '.join(left_out)}" if left_out else ""
-        console.print(f"({view} for {console.width} columns{more}: every column is in "
-                      "benchmark.csv, benchmark.json and report.html)")  # fmt: skip
+        console.print(
+            f"({view} for {console.width} columns{more}: every column is in "
+            "benchmark.csv, benchmark.json and report.html)"
+        )
 
 
-def _print_table(console: Any, rows: list[dict[str, Any]], names: list, measures: list,
-                 title: str, compact: bool, shown: dict[str, str]) -> tuple[bool, list[str]]:
+def _print_table(
+    console: Any,
+    rows: list[dict[str, Any]],
+    names: list,
+    measures: list,
+    title: str,
+    compact: bool,
+    shown: dict[str, str],
+) -> tuple[bool, list[str]]:
     """Print one table of ``rows``: the ``names`` columns, then as many of ``measures`` as fit
     the console without wrapping a value (dropped from the right). True where some shown value
     is marked as differing, and the headings of the measures left out."""
@@ -231,8 +308,13 @@ def _print_table(console: Any, rows: list[dict[str, Any]], names: list, measures
 
     keep = list(measures)
     while True:
-        table = Table(title=title, pad_edge=False, padding=(0, 1), collapse_padding=compact,
-                      box=box.SIMPLE_HEAD if compact else box.HEAVY_HEAD)
+        table = Table(
+            title=title,
+            pad_edge=False,
+            padding=(0, 1),
+            collapse_padding=compact,
+            box=box.SIMPLE_HEAD if compact else box.HEAVY_HEAD,
+        )
         for key, head in (*names, *keep):
             left = key in _NAME_KEYS
             table.add_column(head, justify="left" if left else "right", no_wrap=True)
@@ -319,6 +401,7 @@ def write_csv(path: Path, rows: list[dict[str, Any]]) -> Path:
     """One column per metric; an interval ``<key>_ci`` as ``<key>_ci_low`` and ``_ci_high``, the
     collision causes as ``collision_causes_<cause>``, the paired test against the baseline as
     ``p_vs_baseline_<metric>`` (its p-value). Written atomically (:func:`atomic_path`)."""
+
     def columns_of(k: str) -> tuple[str, ...]:
         if k.endswith("_ci"):
             return f"{k}_low", f"{k}_high"

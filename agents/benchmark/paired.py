@@ -53,9 +53,17 @@ ALPHA = 0.01
 #: Per-episode 0/1 metrics (compared with the exact McNemar test).
 BINARY_METRICS = ("success_rate", "collision_rate")
 #: Per-episode continuous metrics (compared with the Wilcoxon signed-rank test).
-MEAN_METRICS = ("spl", "time_to_goal_s", "path_length_ratio", "phantom_steps_per_min",
-                "missed_steps_per_min", "attitude_rmse_deg", "heading_error_rmse_deg",
-                "hand_tracking_availability", *MOTION_KEYS)  # fmt: skip
+MEAN_METRICS = (
+    "spl",
+    "time_to_goal_s",
+    "path_length_ratio",
+    "phantom_steps_per_min",
+    "missed_steps_per_min",
+    "attitude_rmse_deg",
+    "heading_error_rmse_deg",
+    "hand_tracking_availability",
+    *MOTION_KEYS,
+)
 
 
 def episode_values(e: EpisodeStats, late: int = 2, early: int = 2) -> dict[str, float]:
@@ -198,14 +206,19 @@ def compare_values(
         ValueError: lists of different lengths.
     """
     if len(baseline) != len(other):
-        raise ValueError(f"paired comparison needs as many baseline episodes ({len(baseline)}) "
-                         f"as others ({len(other)})")  # fmt: skip
+        raise ValueError(
+            f"paired comparison needs as many baseline episodes ({len(baseline)}) "
+            f"as others ({len(other)})"
+        )
     out: dict[str, dict[str, Any]] = {}
     for key in (*BINARY_METRICS, *MEAN_METRICS):
         a = np.array([v[key] for v in baseline], dtype=np.float64)
         b = np.array([v[key] for v in other], dtype=np.float64)
         ok = np.isfinite(a) & np.isfinite(b)
         p = _mcnemar(a, b) if key in BINARY_METRICS else _wilcoxon(a, b)
-        out[key] = {"p": p, "diff": float(np.mean(b[ok] - a[ok])) if ok.any() else math.nan,
-                    "n": int(ok.sum())}  # fmt: skip
+        out[key] = {
+            "p": p,
+            "diff": float(np.mean(b[ok] - a[ok])) if ok.any() else math.nan,
+            "n": int(ok.sum()),
+        }
     return out

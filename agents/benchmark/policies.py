@@ -31,8 +31,14 @@ from estimators.batching import TakesUsers
 from vrloco_env.user.population import POPULATIONS
 from vrloco_env.wrappers import StackedFrames
 
-__all__ = ["HUMAN_SUFFIX", "LearnedPolicy", "build_policy", "check_policy", "env_population",
-           "load_ppo"]  # fmt: skip
+__all__ = [
+    "HUMAN_SUFFIX",
+    "LearnedPolicy",
+    "build_policy",
+    "check_policy",
+    "env_population",
+    "load_ppo",
+]
 
 HUMAN_SUFFIX = "+human"
 
@@ -122,8 +128,12 @@ class LearnedPolicy(TakesUsers):
         self.model = _load_ppo(self.path)
         settings = getattr(self.model, "vrloco_env", None)
         task = getattr(env.unwrapped, "task_name", None)
-        if (isinstance(settings, dict) and task is not None and settings.get("task") != task
-                and not allow_mismatch):  # fmt: skip
+        if (
+            isinstance(settings, dict)
+            and task is not None
+            and settings.get("task") != task
+            and not allow_mismatch
+        ):
             raise ValueError(
                 f"policy {str(self.path)!r} was trained on task {settings.get('task')!r}, not "
                 f"{task!r}"
@@ -197,9 +207,9 @@ class LearnedPolicy(TakesUsers):
         states = []
         for i, row in enumerate(seen):
             state = None if self._state is None else (self._state[i, 0], self._state[i, 1])
-            action, (h, c) = self.model.predict(row[None], state=state,
-                                                episode_start=fresh[i:i + 1],
-                                                deterministic=True)  # fmt: skip
+            action, (h, c) = self.model.predict(
+                row[None], state=state, episode_start=fresh[i : i + 1], deterministic=True
+            )
             actions.append(action[0])
             states.append(np.stack([h, c]))
         self._state = np.asarray(states, dtype=np.float32)
@@ -229,8 +239,9 @@ def load_ppo(path: str | Path) -> Any:
 
     path = Path(path)
     if not path.is_file():
-        hint = (f"; did you mean {str(path) + '.zip'!r}?"
-                if Path(str(path) + ".zip").is_file() else "")  # fmt: skip
+        hint = (
+            f"; did you mean {str(path) + '.zip'!r}?" if Path(str(path) + ".zip").is_file() else ""
+        )
         raise ValueError(f"{str(path)!r}: no such model file{hint}")
     try:
         with zipfile.ZipFile(path) as z:
@@ -249,8 +260,10 @@ def load_ppo(path: str | Path) -> Any:
         try:
             from sb3_contrib import RecurrentPPO
         except ImportError:
-            raise ValueError(f"{str(path)!r} is a recurrent model (RecurrentPPO): loading it "
-                             "needs sb3-contrib (pip install sb3-contrib)") from None  # fmt: skip
+            raise ValueError(
+                f"{str(path)!r} is a recurrent model (RecurrentPPO): loading it "
+                "needs sb3-contrib (pip install sb3-contrib)"
+            ) from None
         algorithm = RecurrentPPO
     try:
         return algorithm.load(path)

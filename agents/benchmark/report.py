@@ -65,15 +65,24 @@ MAX_FRAMES = 300
 PNG_COLOURS = 64
 
 #: The columns that name a row: (row key, heading).
-NAME_COLUMNS = (("task", "task"), ("policy", "policy"), ("technique", "technique"),
-                ("condition", "condition"), ("sensors", "sensors"))  # fmt: skip
+NAME_COLUMNS = (
+    ("task", "task"),
+    ("policy", "policy"),
+    ("technique", "technique"),
+    ("condition", "condition"),
+    ("sensors", "sensors"),
+)
 #: The outcome table's measures: (row key, heading, decimals, meaning).
 OUTCOME_COLUMNS = (
     ("episodes", "n", 0, "episodes in the cell"),
     ("success_rate", "success", 3, "success rate"),
     ("collision_rate", "collision", 3, "share of episodes with a collision"),
-    ("collision_free_success_rate", "coll.-free succ.", 3,
-     "share of episodes that succeed with no collision"),
+    (
+        "collision_free_success_rate",
+        "coll.-free succ.",
+        3,
+        "share of episodes that succeed with no collision",
+    ),
     ("spl", "SPL", 3, "success weighted by path length (Anderson et al. 2018)"),
     ("time_to_goal_s", "time to goal (s)", 1, "mean time of the successful episodes (s)"),
     ("path_length_ratio", "path ratio", 3, "walked / shortest path, successful episodes"),
@@ -84,9 +93,13 @@ OUTCOME_COLUMNS = (
     ("hand_error_deg", "hand err (°)", 3, "mean hand orientation error (deg)"),
     ("hand_coverage", "hand cov.", 3, "share of control steps with a hand estimate"),
     ("mean_collisions", "collisions/ep.", 3, "collisions per episode"),
-    ("collision_causes", "collision causes", None,
-     "collisions by cause: " + "/".join(c.replace("_", " ") for c in COLLISION_CAUSES)),
-)  # fmt: skip
+    (
+        "collision_causes",
+        "collision causes",
+        None,
+        "collisions by cause: " + "/".join(c.replace("_", " ") for c in COLLISION_CAUSES),
+    ),
+)
 #: The walking-in-place table's measures: (row key, heading, decimals, meaning).
 WIP_COLUMNS = (
     ("heading_error_rmse_deg", "heading err (°)", 3, "virtual minus true head yaw, RMS (deg)"),
@@ -97,28 +110,58 @@ WIP_COLUMNS = (
     ("phantom_steps_per_min", "phantom /min", 3, "detected steps with no true heel strike"),
     ("missed_steps_per_min", "missed /min", 3, "true heel strikes never detected"),
     ("yaw_drift_deg_per_min", "yaw drift (°/min)", 3, "virtual yaw drift standing still"),
-    ("yaw_rate_mismatch_deg_s", "yaw-rate mism. (°/s)", 3,
-     "virtual minus true head yaw rate, RMS (deg/s)"),
+    (
+        "yaw_rate_mismatch_deg_s",
+        "yaw-rate mism. (°/s)",
+        3,
+        "virtual minus true head yaw rate, RMS (deg/s)",
+    ),
     ("virtual_jerk_m_s3", "jerk (m/s³)", 3, "virtual body jerk (m/s^3)"),
-    ("steering_error_deg", "steering err (°)", 3,
-     "walking direction minus true torso direction, RMS (deg)"),
+    (
+        "steering_error_deg",
+        "steering err (°)",
+        3,
+        "walking direction minus true torso direction, RMS (deg)",
+    ),
     ("hand_tracking_availability", "hand avail.", 3, "share of steps with hand tracking"),
-    ("boundary_violations", "boundary viol.", 3, "times per episode the user left the 2 x 2 m "
-     "play area"),
+    (
+        "boundary_violations",
+        "boundary viol.",
+        3,
+        "times per episode the user left the 2 x 2 m play area",
+    ),
     ("min_boundary_m", "min boundary (m)", 3, "closest approach to the play area's edge (m)"),
-)  # fmt: skip
+)
 #: Each collision cause's colour (as in ``collision_causes.png``).
-CAUSE_COLOURS = {"phantom_step": "#d62728", "stop_latency": "#ff7f0e",
-                 "heading_error": "#9467bd", "steering": "#2ca02c", "policy": "#999999"}
+CAUSE_COLOURS = {
+    "phantom_step": "#d62728",
+    "stop_latency": "#ff7f0e",
+    "heading_error": "#9467bd",
+    "steering": "#2ca02c",
+    "policy": "#999999",
+}
 #: The trace keys :func:`collision_events` reads.
-_CAUSE_KEYS = ("elapsed_time", "intent_walk", "heading_error_deg", "true_step_times",
-               "detected_step_times", "walk_yaw_deg", "true_body_yaw_deg")  # fmt: skip
+_CAUSE_KEYS = (
+    "elapsed_time",
+    "intent_walk",
+    "heading_error_deg",
+    "true_step_times",
+    "detected_step_times",
+    "walk_yaw_deg",
+    "true_body_yaw_deg",
+)
 
 
-def write_report(path: Path | str, rows: list[dict[str, Any]], meta: dict[str, Any],
-                 pairs: list[dict[str, Any]], cells: Sequence[Cell],
-                 results: dict[tuple[Cell, int], EpisodeStats], figures: Sequence[Path | str],
-                 baseline: str = BASELINE_TECHNIQUE) -> Path:  # fmt: skip
+def write_report(
+    path: Path | str,
+    rows: list[dict[str, Any]],
+    meta: dict[str, Any],
+    pairs: list[dict[str, Any]],
+    cells: Sequence[Cell],
+    results: dict[tuple[Cell, int], EpisodeStats],
+    figures: Sequence[Path | str],
+    baseline: str = BASELINE_TECHNIQUE,
+) -> Path:
     """Write :func:`report_html` to ``path`` atomically
     (:func:`agents.benchmark.outputs.atomic_path`: a full disk is a WriteError naming it).
 
@@ -132,10 +175,15 @@ def write_report(path: Path | str, rows: list[dict[str, Any]], meta: dict[str, A
     return path
 
 
-def report_html(rows: list[dict[str, Any]], meta: dict[str, Any], pairs: list[dict[str, Any]],
-                cells: Sequence[Cell], results: dict[tuple[Cell, int], EpisodeStats],
-                figures: Sequence[Path | str],
-                baseline: str = BASELINE_TECHNIQUE) -> str:  # fmt: skip
+def report_html(
+    rows: list[dict[str, Any]],
+    meta: dict[str, Any],
+    pairs: list[dict[str, Any]],
+    cells: Sequence[Cell],
+    results: dict[tuple[Cell, int], EpisodeStats],
+    figures: Sequence[Path | str],
+    baseline: str = BASELINE_TECHNIQUE,
+) -> str:
     """The report of a run as one HTML page (see the module docstring).
 
     Args:
@@ -193,18 +241,20 @@ def report_html(rows: list[dict[str, Any]], meta: dict[str, Any], pairs: list[di
         "</section>",
     ]
     data = json.dumps(replays, separators=(",", ":"), allow_nan=False).replace("</", "<\\/")
-    return "\n".join([
-        "<!DOCTYPE html>",
-        '<html lang="en"><head><meta charset="utf-8">',
-        '<meta name="viewport" content="width=device-width, initial-scale=1">',
-        "<title>vrloco benchmark report</title>",
-        f"<style>{_CSS}</style></head><body>",
-        *body,
-        f'<script id="replay-data" type="application/json">{data}</script>',
-        f"<script>{_JS}</script>",
-        "</body></html>",
-        "",
-    ])  # fmt: skip
+    return "\n".join(
+        [
+            "<!DOCTYPE html>",
+            '<html lang="en"><head><meta charset="utf-8">',
+            '<meta name="viewport" content="width=device-width, initial-scale=1">',
+            "<title>vrloco benchmark report</title>",
+            f"<style>{_CSS}</style></head><body>",
+            *body,
+            f'<script id="replay-data" type="application/json">{data}</script>',
+            f"<script>{_JS}</script>",
+            "</body></html>",
+            "",
+        ]
+    )
 
 
 # --------------------------------------------------------------------------- replays
@@ -253,11 +303,18 @@ def replay_data(stats: EpisodeStats) -> dict[str, Any]:
     def cm(a: np.ndarray) -> list[int]:
         return np.rint(a * 100.0).astype(np.int64).ravel().tolist()
 
-    hits = [[round(float(t[k + lead]) * 100), *cm(pos[k + lead]), COLLISION_CAUSES.index(cause)]
-            for k, cause in collision_events(tr)]  # fmt: skip
-    return {"t": cm(t[idx]), "v": cm(pos[idx]), "r": cm(true[idx]),
-            "vy": np.rint(yaw[idx]).astype(np.int64).tolist(),
-            "ry": np.rint(true_yaw[idx]).astype(np.int64).tolist(), "c": hits}  # fmt: skip
+    hits = [
+        [round(float(t[k + lead]) * 100), *cm(pos[k + lead]), COLLISION_CAUSES.index(cause)]
+        for k, cause in collision_events(tr)
+    ]
+    return {
+        "t": cm(t[idx]),
+        "v": cm(pos[idx]),
+        "r": cm(true[idx]),
+        "vy": np.rint(yaw[idx]).astype(np.int64).tolist(),
+        "ry": np.rint(true_yaw[idx]).astype(np.int64).tolist(),
+        "c": hits,
+    }
 
 
 def _room_svg(layout: Any, paths: Sequence[np.ndarray] = ()) -> tuple[str, str]:
@@ -278,15 +335,21 @@ def _room_svg(layout: Any, paths: Sequence[np.ndarray] = ()) -> tuple[str, str]:
             points = " ".join(f"{x:.3f},{-y:.3f}" for x, y in pts)
             parts.append(f'<polygon class="{kind}" points="{points}"/>')
         else:
-            parts.append(f'<circle class="{kind}" cx="{s.center[0]:.3f}" '
-                         f'cy="{-s.center[1]:.3f}" r="{s.radius:.3f}"/>')  # fmt: skip
+            parts.append(
+                f'<circle class="{kind}" cx="{s.center[0]:.3f}" '
+                f'cy="{-s.center[1]:.3f}" r="{s.radius:.3f}"/>'
+            )
     if layout.goal_line is not None:
         (x0, y0), (x1, y1) = layout.goal_line
-        parts.append(f'<line class="goal" x1="{x0:.3f}" y1="{-y0:.3f}" x2="{x1:.3f}" '
-                     f'y2="{-y1:.3f}"><title>end line</title></line>')  # fmt: skip
+        parts.append(
+            f'<line class="goal" x1="{x0:.3f}" y1="{-y0:.3f}" x2="{x1:.3f}" '
+            f'y2="{-y1:.3f}"><title>end line</title></line>'
+        )
     else:
-        parts.append(f'<circle class="goal" cx="{layout.goal[0]:.3f}" cy="{-layout.goal[1]:.3f}" '
-                     f'r="{layout.goal_radius:.3f}"><title>goal</title></circle>')  # fmt: skip
+        parts.append(
+            f'<circle class="goal" cx="{layout.goal[0]:.3f}" cy="{-layout.goal[1]:.3f}" '
+            f'r="{layout.goal_radius:.3f}"><title>goal</title></circle>'
+        )
     wall = 2.0 * min(min(w.half_extents) for w in layout.walls) if layout.walls else 0.2
     m = 1.5 * wall
     xmin, xmax, ymin, ymax = layout.bounds
@@ -306,46 +369,58 @@ def _replay_block(key: str, st: EpisodeStats) -> str:
     box, room = _room_svg(st.trace["layout"], (st.trace["position"], st.trace["true_position"]))
     outcome = "success" if st.success else "failure"
     n = st.collisions
-    return (f'<figure class="replay" data-key="{key}"><figcaption>seed {st.seed} · {outcome} · '
-            f"{n} collision{'s' if n != 1 else ''} · {st.elapsed_s:.1f} s</figcaption>"
-            f'<svg class="room" viewBox="{box}" preserveAspectRatio="xMidYMid meet" role="img">'
-            f'<g class="static">{room}</g><g class="dyn"></g></svg>'
-            '<div class="ctl"><button type="button" class="play">play</button>'
-            '<input type="range" class="slider" min="0" max="0" value="0" step="1" '
-            'aria-label="time">'
-            '<select class="speed" aria-label="speed"><option value="1">1x</option>'
-            '<option value="2" selected>2x</option><option value="4">4x</option></select>'
-            '<span class="time"></span></div></figure>')  # fmt: skip
+    return (
+        f'<figure class="replay" data-key="{key}"><figcaption>seed {st.seed} · {outcome} · '
+        f"{n} collision{'s' if n != 1 else ''} · {st.elapsed_s:.1f} s</figcaption>"
+        f'<svg class="room" viewBox="{box}" preserveAspectRatio="xMidYMid meet" role="img">'
+        f'<g class="static">{room}</g><g class="dyn"></g></svg>'
+        '<div class="ctl"><button type="button" class="play">play</button>'
+        '<input type="range" class="slider" min="0" max="0" value="0" step="1" '
+        'aria-label="time">'
+        '<select class="speed" aria-label="speed"><option value="1">1x</option>'
+        '<option value="2" selected>2x</option><option value="4">4x</option></select>'
+        '<span class="time"></span></div></figure>'
+    )
 
 
 def _replay_legend() -> str:
-    causes = "".join(f'<span class="sw" style="background:{CAUSE_COLOURS[c]}"></span>'
-                     f"{_e(c.replace('_', ' '))} " for c in COLLISION_CAUSES)  # fmt: skip
-    return ('<p class="legend"><span class="ln true"></span>true path (perfect sensing) '
-            '<span class="ln virt"></span>virtual body (estimated); the dots with a line: where '
-            "each is and faces; collisions by cause: " + causes + "(the rule of "
-            "<code>agents.benchmark.collision_causes</code>). Walls and obstacles grey, the goal "
-            "green.</p>")
+    causes = "".join(
+        f'<span class="sw" style="background:{CAUSE_COLOURS[c]}"></span>{_e(c.replace("_", " "))} '
+        for c in COLLISION_CAUSES
+    )
+    return (
+        '<p class="legend"><span class="ln true"></span>true path (perfect sensing) '
+        '<span class="ln virt"></span>virtual body (estimated); the dots with a line: where '
+        "each is and faces; collisions by cause: " + causes + "(the rule of "
+        "<code>agents.benchmark.collision_causes</code>). Walls and obstacles grey, the goal "
+        "green.</p>"
+    )
 
 
 def _cell_section(k: int, row: dict[str, Any], blocks: list[str], figures: list[Path]) -> str:
     name = cell_name(row)
     causes = row.get("collision_causes")
-    summary = (f"all {row['episodes']} episodes: success {_fmt(row['success_rate'], 3)}, "
-               f"collision {_fmt(row['collision_rate'], 3)}, SPL {_fmt(row['spl'], 3)}")
+    summary = (
+        f"all {row['episodes']} episodes: success {_fmt(row['success_rate'], 3)}, "
+        f"collision {_fmt(row['collision_rate'], 3)}, SPL {_fmt(row['spl'], 3)}"
+    )
     if causes is not None and any(causes.values()):
         summary += ", collisions by cause: " + ", ".join(
-            f"{c.replace('_', ' ')} {n}" for c, n in causes.items() if n)
-    out = [f'<section class="cell" id="cell-{k}"><h3>{_e(name)}</h3>',
-           f'<p class="summary">{_e(summary)}</p>']  # fmt: skip
+            f"{c.replace('_', ' ')} {n}" for c, n in causes.items() if n
+        )
+    out = [
+        f'<section class="cell" id="cell-{k}"><h3>{_e(name)}</h3>',
+        f'<p class="summary">{_e(summary)}</p>',
+    ]
     if blocks:
         out.append('<div class="replays">' + "".join(blocks) + "</div>")
     else:
         out.append("<p>No episode of this cell kept its trace.</p>")
     if figures:
         imgs = "".join(_img(p) for p in figures)
-        out.append(f"<details><summary>figures of episode 0 ({len(figures)})</summary>{imgs}"
-                   "</details>")  # fmt: skip
+        out.append(
+            f"<details><summary>figures of episode 0 ({len(figures)})</summary>{imgs}</details>"
+        )
     out.append("</section>")
     return "".join(out)
 
@@ -378,21 +453,31 @@ def _num(v: Any) -> str:
 
 def _config_section(meta: dict[str, Any], baseline: str, n_cells: int) -> str:
     seed, episodes = meta["seed"], meta["episodes"]
-    items = [("episodes per cell", episodes),
-             ("seeds", f"{seed}..{seed + episodes - 1} (episode i is seeded {seed} + i)"),
-             ("cells", n_cells), ("baseline", baseline),
-             ("workers", meta.get("workers", "–")), ("batch size", meta.get("batch_size", "–")),
-             ("replayed", f"the first {REPLAY_EPISODES} episodes of each cell")]  # fmt: skip
+    items = [
+        ("episodes per cell", episodes),
+        ("seeds", f"{seed}..{seed + episodes - 1} (episode i is seeded {seed} + i)"),
+        ("cells", n_cells),
+        ("baseline", baseline),
+        ("workers", meta.get("workers", "–")),
+        ("batch size", meta.get("batch_size", "–")),
+        ("replayed", f"the first {REPLAY_EPISODES} episodes of each cell"),
+    ]
     dl = "".join(f"<dt>{_e(k)}</dt><dd>{_e(v)}</dd>" for k, v in items)
     grids = "".join(
-        f"<tr><td>{g}</td>" + "".join(f"<td>{_e(', '.join(map(str, grid.get(axis, ()))))}</td>"
-                                      for axis in ("tasks", "policies", "techniques",
-                                                   "conditions")) + "</tr>"
-        for g, grid in enumerate(meta.get("grids", []), 1))  # fmt: skip
-    return (f'<section id="config"><h2>Configuration</h2><dl>{dl}</dl>'
-            '<table class="grids"><thead><tr><th>grid</th><th>tasks</th><th>policies</th>'
-            f"<th>techniques</th><th>conditions</th></tr></thead><tbody>{grids}</tbody></table>"
-            "</section>")  # fmt: skip
+        f"<tr><td>{g}</td>"
+        + "".join(
+            f"<td>{_e(', '.join(map(str, grid.get(axis, ()))))}</td>"
+            for axis in ("tasks", "policies", "techniques", "conditions")
+        )
+        + "</tr>"
+        for g, grid in enumerate(meta.get("grids", []), 1)
+    )
+    return (
+        f'<section id="config"><h2>Configuration</h2><dl>{dl}</dl>'
+        '<table class="grids"><thead><tr><th>grid</th><th>tasks</th><th>policies</th>'
+        f"<th>techniques</th><th>conditions</th></tr></thead><tbody>{grids}</tbody></table>"
+        "</section>"
+    )
 
 
 def _tooltip(row: dict[str, Any], key: str, baseline: str) -> str:
@@ -412,10 +497,12 @@ def _tooltip(row: dict[str, Any], key: str, baseline: str) -> str:
     return "; ".join(parts)
 
 
-def _table_section(sid: str, title: str, rows: list[dict[str, Any]], columns: tuple,
-                   baseline: str) -> str:  # fmt: skip
+def _table_section(
+    sid: str, title: str, rows: list[dict[str, Any]], columns: tuple, baseline: str
+) -> str:
     head = "".join(f'<th class="name">{_e(h)}</th>' for _, h in NAME_COLUMNS) + "".join(
-        f'<th class="num" title="{_e(meaning)}">{_e(h)}</th>' for _, h, _, meaning in columns)
+        f'<th class="num" title="{_e(meaning)}">{_e(h)}</th>' for _, h, _, meaning in columns
+    )
     body = []
     marked = False
     for k, r in enumerate(rows):
@@ -433,58 +520,81 @@ def _table_section(sid: str, title: str, rows: list[dict[str, Any]], columns: tu
             tip = _tooltip(r, key, baseline)
             hover = f' title="{_e(tip)}"' if tip else ""
             cls = "num star" if star else "num"
-            cells.append(f'<td class="{cls}" data-v="{_num(v)}"{hover}>{_e(_fmt(v, digits))}'
-                         f"{'*' if star else ''}</td>")  # fmt: skip
+            cells.append(
+                f'<td class="{cls}" data-v="{_num(v)}"{hover}>{_e(_fmt(v, digits))}'
+                f"{'*' if star else ''}</td>"
+            )
         body.append(f'<tr data-cell="{k}">' + "".join(cells) + "</tr>")
-    legend = [f"* differs from {baseline} (same task, policy, condition and seeds) at p < "
-              f"{ALPHA}: exact McNemar test for rates, Wilcoxon signed-rank for means "
-              "(agents.benchmark.paired)" + ("" if marked else "; no value here does")]  # fmt: skip
+    legend = [
+        f"* differs from {baseline} (same task, policy, condition and seeds) at p < "
+        f"{ALPHA}: exact McNemar test for rates, Wilcoxon signed-rank for means "
+        "(agents.benchmark.paired)" + ("" if marked else "; no value here does")
+    ]
     if any(key == "collision_causes" for key, *_ in columns):
-        legend.append("collision causes: " + "/".join(c.replace("_", " ")
-                                                      for c in COLLISION_CAUSES))  # fmt: skip
-    legend.append("click a heading to sort; hover a value for its 95 % interval and its test "
-                  "against the baseline, a heading for its meaning")
-    notes = "".join(f"<p class=\"note\">{_e(x)}</p>" for x in legend)
-    return (f'<section id="{sid}"><h2>{_e(title)}</h2><div class="scroll">'
-            f'<table class="sortable data"><thead><tr>{head}</tr></thead><tbody>'
-            + "".join(body) + f"</tbody></table></div>{notes}</section>")  # fmt: skip
+        legend.append(
+            "collision causes: " + "/".join(c.replace("_", " ") for c in COLLISION_CAUSES)
+        )
+    legend.append(
+        "click a heading to sort; hover a value for its 95 % interval and its test "
+        "against the baseline, a heading for its meaning"
+    )
+    notes = "".join(f'<p class="note">{_e(x)}</p>' for x in legend)
+    return (
+        f'<section id="{sid}"><h2>{_e(title)}</h2><div class="scroll">'
+        f'<table class="sortable data"><thead><tr>{head}</tr></thead><tbody>'
+        + "".join(body)
+        + f"</tbody></table></div>{notes}</section>"
+    )
 
 
 def _pairs_section(pairs: list[dict[str, Any]], baseline: str) -> str:
     if not pairs:
-        return ('<section id="pairs"><h2>Discriminating power</h2><p>No technique pair of '
-                "<code>agents.benchmark.discrimination</code> has its cells in this "
-                "run.</p></section>")
+        return (
+            '<section id="pairs"><h2>Discriminating power</h2><p>No technique pair of '
+            "<code>agents.benchmark.discrimination</code> has its cells in this "
+            "run.</p></section>"
+        )
     rows = []
     for res in pairs:
-        against = [f"{task}:{m}" for task, per in res["tasks"].items()
-                   for m, v in per.items() if v["verdict"] == "against"]  # fmt: skip
+        against = [
+            f"{task}:{m}"
+            for task, per in res["tasks"].items()
+            for m, v in per.items()
+            if v["verdict"] == "against"
+        ]
         tip = "; ".join(
             f"{task}:{m} {v['expected']} diff {_fmt(v['diff'], 4)} p {_fmt(v['p'], 4)}"
-            for task, per in res["tasks"].items() for m, v in per.items())  # fmt: skip
+            for task, per in res["tasks"].items()
+            for m, v in per.items()
+        )
         rows.append(
             f'<tr><td class="name">{_e(res["pair"])}</td><td>{_e(res["why"])}</td>'
             f'<td data-v="{int(res["separates"])}">{"yes" if res["separates"] else "NO"}</td>'
             f'<td data-v="{int(res["on_outcome"])}">{"yes" if res["on_outcome"] else "no"}</td>'
             f'<td title="{_e(tip)}">{_e(", ".join(res["metrics"]) or "–")}</td>'
-            f"<td>{_e(', '.join(against) or '–')}</td></tr>")  # fmt: skip
+            f"<td>{_e(', '.join(against) or '–')}</td></tr>"
+        )
     n_sep = sum(r["separates"] for r in pairs)
     n_out = sum(r["on_outcome"] for r in pairs)
-    return ('<section id="pairs"><h2>Discriminating power</h2>'
-            f"<p>Each technique vs {_e(baseline)} (paired, p &lt; {ALPHA}, expected direction)"
-            '</p><div class="scroll"><table class="sortable data"><thead><tr>'
-            "<th>technique (users, room)</th><th>why</th><th>separates</th><th>on outcome</th>"
-            "<th>differs on</th><th>against expectation</th></tr></thead><tbody>"
-            + "".join(rows) + "</tbody></table></div>"
-            f'<p class="note">{n_sep} of {len(pairs)} pairs separate, {n_out} on an outcome '
-            "(success, collisions, SPL or time to goal)</p></section>")  # fmt: skip
+    return (
+        '<section id="pairs"><h2>Discriminating power</h2>'
+        f"<p>Each technique vs {_e(baseline)} (paired, p &lt; {ALPHA}, expected direction)"
+        '</p><div class="scroll"><table class="sortable data"><thead><tr>'
+        "<th>technique (users, room)</th><th>why</th><th>separates</th><th>on outcome</th>"
+        "<th>differs on</th><th>against expectation</th></tr></thead><tbody>"
+        + "".join(rows)
+        + "</tbody></table></div>"
+        f'<p class="note">{n_sep} of {len(pairs)} pairs separate, {n_out} on an outcome '
+        "(success, collisions, SPL or time to goal)</p></section>"
+    )
 
 
 def _figures_section(figures: list[Path]) -> str:
     if not figures:
         return '<section id="figures"><h2>Figures</h2><p>No figure.</p></section>'
-    return ('<section id="figures"><h2>Figures</h2>' + "".join(_img(p) for p in figures)
-            + "</section>")
+    return (
+        '<section id="figures"><h2>Figures</h2>' + "".join(_img(p) for p in figures) + "</section>"
+    )
 
 
 def _img(path: Path) -> str:
@@ -492,13 +602,16 @@ def _img(path: Path) -> str:
     from PIL import Image
 
     with Image.open(path) as im:
-        small = im.convert("RGB").quantize(PNG_COLOURS, method=Image.Quantize.FASTOCTREE,
-                                           dither=Image.Dither.NONE)  # fmt: skip
+        small = im.convert("RGB").quantize(
+            PNG_COLOURS, method=Image.Quantize.FASTOCTREE, dither=Image.Dither.NONE
+        )
     buf = io.BytesIO()
     small.save(buf, format="PNG")
     data = base64.b64encode(buf.getvalue()).decode("ascii")
-    return (f'<figure class="fig"><img alt="{_e(path.name)}" src="data:image/png;base64,{data}">'
-            f"<figcaption>{_e(path.name)}</figcaption></figure>")
+    return (
+        f'<figure class="fig"><img alt="{_e(path.name)}" src="data:image/png;base64,{data}">'
+        f"<figcaption>{_e(path.name)}</figcaption></figure>"
+    )
 
 
 # --------------------------------------------------------------------------- style, script
@@ -673,4 +786,5 @@ _JS = r"""
   document.body.setAttribute("data-ready", "1");
 })();
 """.replace("%CAUSES%", json.dumps(list(COLLISION_CAUSES))).replace(
-    "%COLOURS%", json.dumps([CAUSE_COLOURS[c] for c in COLLISION_CAUSES]))
+    "%COLOURS%", json.dumps([CAUSE_COLOURS[c] for c in COLLISION_CAUSES])
+)

@@ -71,9 +71,16 @@ def source_fingerprint() -> str:
     return h.hexdigest()[:16]
 
 
-def episode_key(fingerprint: str, task: str, policy: str, technique: Any, seed: int,
-                trace: bool, condition: str = DEFAULT_CONDITION,
-                inputs: str = "") -> str:  # fmt: skip
+def episode_key(
+    fingerprint: str,
+    task: str,
+    policy: str,
+    technique: Any,
+    seed: int,
+    trace: bool,
+    condition: str = DEFAULT_CONDITION,
+    inputs: str = "",
+) -> str:
     """The key of one episode (see the module docstring); ``technique`` a Technique object,
     ``condition`` the physical room's (:mod:`agents.benchmark.conditions`; the default adds
     nothing), ``inputs`` the cell's :func:`cell_inputs` (empty adds nothing)."""
@@ -114,8 +121,7 @@ def cell_inputs(cells: Iterable[Any]) -> dict[Any, str]:
     for c, (texts, roots, blobs) in parts.items():
         lines = list(texts)
         for root in sorted(roots):
-            lines += [f"{f.relative_to(root)} {digest(f)}" for f in files
-                      if f.is_relative_to(root)]  # fmt: skip
+            lines += [f"{f.relative_to(root)} {digest(f)}" for f in files if f.is_relative_to(root)]
         lines += [f"{p} {digest(p)}" for p in sorted(blobs)]
         out[c] = hashlib.sha256("\n".join(lines).encode()).hexdigest()
     return out
@@ -182,8 +188,9 @@ def _roots(origin: Any) -> list[Path]:
 def _own(folders: list[Path]) -> list[Path]:
     """``folders`` less installed ones and this project's packages."""
     project = [_ROOT / p for p in _PACKAGES]
-    return [f for f in folders if not _installed(f)
-            and not any(f.is_relative_to(p) for p in project)]  # fmt: skip
+    return [
+        f for f in folders if not _installed(f) and not any(f.is_relative_to(p) for p in project)
+    ]
 
 
 def _installed(path: Path) -> bool:
@@ -202,8 +209,11 @@ def _stdlib() -> tuple[Path, ...]:
 def _module_files() -> list[Path]:
     """The files of the modules imported in this process (resolved), but those of installed
     packages and this project's."""
-    files = {Path(f).resolve() for m in list(sys.modules.values())
-             if isinstance(f := getattr(m, "__file__", None), str)}  # fmt: skip
+    files = {
+        Path(f).resolve()
+        for m in list(sys.modules.values())
+        if isinstance(f := getattr(m, "__file__", None), str)
+    }
     return sorted(f for f in files if _own([f]))
 
 
@@ -254,8 +264,9 @@ def encode_episodes(entries: dict[str, Any]) -> dict[str, np.ndarray]:
             return {"dict": {k: enc(x) for k, x in v.items()}}
         name = type(v).__name__
         if classes.get(name) is type(v):
-            return {"object": [name, {f.name: enc(getattr(v, f.name))
-                                      for f in dataclasses.fields(v)}]}  # fmt: skip
+            return {
+                "object": [name, {f.name: enc(getattr(v, f.name)) for f in dataclasses.fields(v)}]
+            }
         raise TypeError(f"cannot keep a {name} in .resume")
 
     doc = {"episodes": enc(entries), "arrays": table}
@@ -281,16 +292,23 @@ def decode_episodes(members: Any) -> dict[str, Any]:
         doc = json.loads(tree.tobytes().decode("utf-8"))
     except ValueError as err:
         raise BadEntry(f"its structure is not JSON ({err})") from None
-    if not (isinstance(doc, dict) and doc.keys() == {"episodes", "arrays"}
-            and isinstance(doc["arrays"], list)):  # fmt: skip
+    if not (
+        isinstance(doc, dict)
+        and doc.keys() == {"episodes", "arrays"}
+        and isinstance(doc["arrays"], list)
+    ):
         raise BadEntry("its structure is not that of an entry")
     blobs: dict[int, np.ndarray] = {}
 
     def array(i: Any, where: str) -> np.ndarray:
         ok = isinstance(i, int) and not isinstance(i, bool) and 0 <= i < len(doc["arrays"])
         spec = doc["arrays"][i] if ok else None
-        if not (isinstance(spec, list) and len(spec) == 3 and isinstance(spec[2], list)
-                and all(_natural(x) for x in (spec[0], spec[1], *spec[2]))):  # fmt: skip
+        if not (
+            isinstance(spec, list)
+            and len(spec) == 3
+            and isinstance(spec[2], list)
+            and all(_natural(x) for x in (spec[0], spec[1], *spec[2]))
+        ):
             raise BadEntry(f"{where}: array {str(i)[:20]} is not described")
         b, offset, shape = spec
         if b not in blobs:
@@ -369,34 +387,61 @@ def _check_episode(value: Any) -> None:
             raise BadEntry(f"reset info {k}: {_describe(info.get(k))}")
     if st.steps < 1 or st.collisions < 0:
         raise BadEntry(f"EpisodeStats.steps={st.steps}, collisions={st.collisions}")
-    for k in ("true_counts", "detected_counts", "attitude_error_deg", "hand_error_deg",
-              "heading_error_deg"):  # fmt: skip
+    for k in (
+        "true_counts",
+        "detected_counts",
+        "attitude_error_deg",
+        "hand_error_deg",
+        "heading_error_deg",
+    ):
         if getattr(st, k).shape != (st.steps,):
-            raise BadEntry(f"EpisodeStats.{k} of shape {getattr(st, k).shape}, not "
-                           f"({st.steps},)")  # fmt: skip
+            raise BadEntry(f"EpisodeStats.{k} of shape {getattr(st, k).shape}, not ({st.steps},)")
     for k in ("true_step_times", "detected_step_times"):
         if getattr(st, k) is not None and getattr(st, k).ndim != 1:
             raise BadEntry(f"EpisodeStats.{k} of shape {getattr(st, k).shape}")
     if st.trace is not None:
         if set(st.trace) != {*TRACE_KEYS, "layout"} or not isinstance(st.trace["layout"], Layout):
             raise BadEntry(f"EpisodeStats.trace with keys {sorted(st.trace)}")
-        tails = {"position": (2,), "true_position": (2,), "true_ypr": (3,), "est_ypr": (3,),
-                 "true_step_times": None, "elapsed_time": None}  # fmt: skip
+        tails = {
+            "position": (2,),
+            "true_position": (2,),
+            "true_ypr": (3,),
+            "est_ypr": (3,),
+            "true_step_times": None,
+            "elapsed_time": None,
+        }
         for k, tail in tails.items():
             a = st.trace[k]
-            ok = isinstance(a, np.ndarray) and a.dtype == np.float64 and (
-                a.shape[1:] == tail if tail else a.ndim == 1)  # fmt: skip
+            ok = (
+                isinstance(a, np.ndarray)
+                and a.dtype == np.float64
+                and (a.shape[1:] == tail if tail else a.ndim == 1)
+            )
             if not ok:
                 raise BadEntry(f"EpisodeStats.trace[{k!r}]: {_describe(a)}")
-        for k in ("virtual_yaw", "heading_error_deg", "collision", "intent_walk", "walk_yaw_deg",
-                  "true_body_yaw_deg", "detected_step_times"):  # one entry per control step
+        for k in (
+            "virtual_yaw",
+            "heading_error_deg",
+            "collision",
+            "intent_walk",
+            "walk_yaw_deg",
+            "true_body_yaw_deg",
+            "detected_step_times",
+        ):  # one entry per control step
             a = st.trace[k]
-            ok = isinstance(a, np.ndarray) and a.dtype == np.float64 and a.shape[:1] == (
-                st.steps,) and a.ndim == (2 if k == "detected_step_times" else 1)  # fmt: skip
+            ok = (
+                isinstance(a, np.ndarray)
+                and a.dtype == np.float64
+                and a.shape[:1] == (st.steps,)
+                and a.ndim == (2 if k == "detected_step_times" else 1)
+            )
             if not ok:
                 raise BadEntry(f"EpisodeStats.trace[{k!r}]: {_describe(a)}")
-    for k, need in (("motion", MOTION_KEYS), ("play_area", PLAY_AREA_KEYS),
-                    ("causes", COLLISION_CAUSES)):  # fmt: skip
+    for k, need in (
+        ("motion", MOTION_KEYS),
+        ("play_area", PLAY_AREA_KEYS),
+        ("causes", COLLISION_CAUSES),
+    ):
         d = getattr(st, k)
         if d is not None and not set(need) <= set(d):
             raise BadEntry(f"EpisodeStats.{k} without {sorted(set(need) - set(d))}")
@@ -423,7 +468,8 @@ def _conforms(value: Any, hint: Any) -> bool:
         return len(value) == len(args) and all(map(_conforms, value, args))
     if origin is dict:
         return isinstance(value, dict) and all(
-            _conforms(k, args[0]) and _conforms(v, args[1]) for k, v in value.items())
+            _conforms(k, args[0]) and _conforms(v, args[1]) for k, v in value.items()
+        )
     if isinstance(value, bool | np.bool_):
         return hint is bool
     if hint is float:
@@ -463,8 +509,7 @@ class EpisodeStore:
                 found.update(self._read(path))
             except Exception as err:  # nothing here runs code: whatever fails, those run again
                 why = str(err) if isinstance(err, BadEntry) else f"{type(err).__name__}: {err}"
-                print(f"resume: skipping unreadable {path} ({why[:300]}); its episodes run "
-                      "again")  # fmt: skip
+                print(f"resume: skipping unreadable {path} ({why[:300]}); its episodes run again")
         return found
 
     @staticmethod
@@ -491,8 +536,10 @@ class EpisodeStore:
             tmp.unlink(missing_ok=True)
             if not self._warned:
                 self._warned = True
-                print(f"resume: cannot keep finished episodes in {self.folder} "
-                      f"({err.strerror or err}); an interrupted run would run them again")
+                print(
+                    f"resume: cannot keep finished episodes in {self.folder} "
+                    f"({err.strerror or err}); an interrupted run would run them again"
+                )
             return None
         return path
 

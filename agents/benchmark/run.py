@@ -92,6 +92,7 @@ __all__ = [
     "step_window",
 ]
 
+
 def technique_for_preset(preset: str) -> Any:
     """Zhang 2021's chain on the IMU ``preset`` (the ``--sensors`` shorthand): the registered
     technique if one is exactly that, else an unregistered one named ``zhang2021_<preset>``."""
@@ -196,20 +197,24 @@ def run_benchmark(
     baseline = canonical_name(baseline)
     axes = (tasks, policies, sensors, techniques, conditions)
     if grids is not None and any(a is not None for a in axes):
-        raise ValueError("grids replaces tasks, policies, sensors, techniques and conditions: "
-                         "give one or the other")  # fmt: skip
+        raise ValueError(
+            "grids replaces tasks, policies, sensors, techniques and conditions: "
+            "give one or the other"
+        )
     if grids is None:
         if all(a is None for a in axes):
             grids = DEFAULT_GRIDS
         else:
             if sensors is None and techniques is None:
                 techniques = DEFAULT_TECHNIQUES
-            grids = [Grid(tuple(DEFAULT_TASKS if tasks is None else tasks),
-                          tuple(DEFAULT_POLICIES if policies is None else policies),
-                          (*(technique_for_preset(s) for s in sensors or ()),
-                           *(techniques or ())),
-                          tuple((DEFAULT_CONDITION,) if conditions is None
-                                else conditions))]  # fmt: skip
+            grids = [
+                Grid(
+                    tuple(DEFAULT_TASKS if tasks is None else tasks),
+                    tuple(DEFAULT_POLICIES if policies is None else policies),
+                    (*(technique_for_preset(s) for s in sensors or ()), *(techniques or ())),
+                    tuple((DEFAULT_CONDITION,) if conditions is None else conditions),
+                )
+            ]
     grids = list(grids)
     if not grids:
         raise ValueError("grids must hold at least one Grid")
@@ -222,8 +227,9 @@ def run_benchmark(
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
     if isinstance(batch_size, bool) or not isinstance(batch_size, int) or batch_size < 0:
-        raise ValueError(f"batch_size must be an integer >= 0 (0: one episode at a time), "
-                         f"got {batch_size!r}")  # fmt: skip
+        raise ValueError(
+            f"batch_size must be an integer >= 0 (0: one episode at a time), got {batch_size!r}"
+        )
     if backend not in ("local", "ray"):
         raise ValueError(f"backend must be 'local' or 'ray', got {backend!r}")
     if address is not None and backend != "ray":
@@ -235,23 +241,52 @@ def run_benchmark(
 
     cells = list(dict.fromkeys(c for g in grids for c in g.cells()))
     keys = {} if out_dir is None else _episode_keys(cells, episodes, seed, True)
-    meta = {"seed": seed, "episodes": episodes, "workers": workers, "batch_size": batch_size,
-            "grids": [{"tasks": list(g.tasks), "policies": list(g.policies),
-                       "techniques": [get_technique(t).name for t in g.techniques],
-                       "conditions": list(g.conditions)} for g in grids]}  # fmt: skip
-    how = {"workers": workers, "batch_size": batch_size, "progress": progress,
-           "print_table": print_table, "backend": backend, "address": address,
-           "baseline": baseline, "json_path": json_path}  # fmt: skip
+    meta = {
+        "seed": seed,
+        "episodes": episodes,
+        "workers": workers,
+        "batch_size": batch_size,
+        "grids": [
+            {
+                "tasks": list(g.tasks),
+                "policies": list(g.policies),
+                "techniques": [get_technique(t).name for t in g.techniques],
+                "conditions": list(g.conditions),
+            }
+            for g in grids
+        ],
+    }
+    how = {
+        "workers": workers,
+        "batch_size": batch_size,
+        "progress": progress,
+        "print_table": print_table,
+        "backend": backend,
+        "address": address,
+        "baseline": baseline,
+        "json_path": json_path,
+    }
     if out_dir is None:
         return _play(cells, keys, meta, None, **how)
     with RunFolder(out_dir, *_run_identity(cells, episodes, seed), force=force) as folder:
         return _play(cells, keys, meta, folder, **how)
 
 
-def _play(cells: list[Cell], keys: dict[tuple[Cell, int], str], meta: dict[str, Any],
-          folder: RunFolder | None, *, workers: int, batch_size: int, progress: bool,
-          print_table: bool, backend: str, address: str | None, baseline: str,
-          json_path: Path | str | None) -> list[dict[str, Any]]:  # fmt: skip
+def _play(
+    cells: list[Cell],
+    keys: dict[tuple[Cell, int], str],
+    meta: dict[str, Any],
+    folder: RunFolder | None,
+    *,
+    workers: int,
+    batch_size: int,
+    progress: bool,
+    print_table: bool,
+    backend: str,
+    address: str | None,
+    baseline: str,
+    json_path: Path | str | None,
+) -> list[dict[str, Any]]:
     """Play the grid's episodes that ``folder``'s ``.resume`` lacks, keeping each job's there
     as it finishes; then the rows, the tables and the outputs (see :func:`run_benchmark`)."""
     episodes, seed = meta["episodes"], meta["seed"]
@@ -265,8 +300,7 @@ def _play(cells: list[Cell], keys: dict[tuple[Cell, int], str], meta: dict[str, 
                 results[ci], infos[ci] = found[key]
         if results:
             print(f"resuming: {len(results)} of {len(keys)} episodes found in {store.folder}")
-    jobs = _split_jobs(cells, episodes, seed, folder is not None, batch_size, workers,
-                       set(results))  # fmt: skip
+    jobs = _split_jobs(cells, episodes, seed, folder is not None, batch_size, workers, set(results))
     base = {(c.task, c.policy, c.condition): c for c in cells if c.technique_name == baseline}
     rows_of = _CellRows(episodes, results, infos, base)
     interrupted = False
@@ -285,9 +319,15 @@ def _play(cells: list[Cell], keys: dict[tuple[Cell, int], str], meta: dict[str, 
     all_cells = cells
     cells = [c for c in cells if all((c, i) in results for i in range(episodes))]
     if interrupted:
-        print(f"interrupted: {len(cells)} of {len(all_cells)} cells finished; writing those"
-              + ("" if store is None else f" (rerun with the same --out to resume: "
-                 f"{len(results)} episodes kept in {store.folder})"))  # fmt: skip
+        print(
+            f"interrupted: {len(cells)} of {len(all_cells)} cells finished; writing those"
+            + (
+                ""
+                if store is None
+                else f" (rerun with the same --out to resume: "
+                f"{len(results)} episodes kept in {store.folder})"
+            )
+        )
 
     rows = []
     order = {name: k for k, name in enumerate(dict.fromkeys(c.technique_name for c in cells))}
@@ -301,7 +341,7 @@ def _play(cells: list[Cell], keys: dict[tuple[Cell, int], str], meta: dict[str, 
             "sensors": c.sensors,
             **rows_of.summary(c),
             "vs_baseline": rows_of.versus(c),
-        }  # fmt: skip
+        }
         rows.append({k: _round(row[k]) for k in ROW_KEYS})
     pairs = pair_results(rows) if baseline == BASELINE_TECHNIQUE else []
     if print_table and rows:
@@ -309,8 +349,9 @@ def _play(cells: list[Cell], keys: dict[tuple[Cell, int], str], meta: dict[str, 
         show_pairs(pairs, baseline)
     written = []
     if folder is not None:
-        written = folder.replace(lambda out: _write_outputs(out, rows, meta, pairs, cells,
-                                                            results, baseline))  # fmt: skip
+        written = folder.replace(
+            lambda out: _write_outputs(out, rows, meta, pairs, cells, results, baseline)
+        )
     if json_path is not None:
         written.append(write_json(Path(json_path), rows, meta))
     for line in written_summary(written):
@@ -334,15 +375,23 @@ def _compile_shared_kernels(job: tuple) -> None:
     run_cell_episode(cell, seed, False)
 
 
-def _write_outputs(out: Path, rows: list[dict[str, Any]], meta: dict[str, Any], pairs: list,
-                   cells: list[Cell], results: dict,
-                   baseline: str = BASELINE_TECHNIQUE) -> list[Path]:  # fmt: skip
+def _write_outputs(
+    out: Path,
+    rows: list[dict[str, Any]],
+    meta: dict[str, Any],
+    pairs: list,
+    cells: list[Cell],
+    results: dict,
+    baseline: str = BASELINE_TECHNIQUE,
+) -> list[Path]:
     """The run's files in ``out``: the CSV, the JSON, ``pairs.json`` where there are pairs, the
     figures of each cell's first episode and of the grid, and ``report.html``
     (:func:`agents.benchmark.report.write_report`: all of these in one page, with each cell's traced
     episodes replayed)."""
-    written = [write_csv(out / "benchmark.csv", rows),
-               write_json(out / "benchmark.json", rows, meta)]  # fmt: skip
+    written = [
+        write_csv(out / "benchmark.csv", rows),
+        write_json(out / "benchmark.json", rows, meta),
+    ]
     if pairs:
         with atomic_path(out / "pairs.json") as tmp:
             write_pairs(tmp, pairs)
@@ -350,11 +399,17 @@ def _write_outputs(out: Path, rows: list[dict[str, Any]], meta: dict[str, Any], 
     for c in cells:
         written += draw_cell(out, c, results[(c, 0)])
     if rows:
-        written += draw_grid(out, rows, {
-            cell_name(row): [results[(c, i)] for i in range(meta["episodes"])]
-            for c, row in zip(cells, rows, strict=True)})  # fmt: skip
-    written.append(write_report(out / "report.html", rows, meta, pairs, cells, results,
-                                written, baseline))  # fmt: skip
+        written += draw_grid(
+            out,
+            rows,
+            {
+                cell_name(row): [results[(c, i)] for i in range(meta["episodes"])]
+                for c, row in zip(cells, rows, strict=True)
+            },
+        )
+    written.append(
+        write_report(out / "report.html", rows, meta, pairs, cells, results, written, baseline)
+    )
     return written
 
 
@@ -366,8 +421,10 @@ def _run_identity(cells: list[Cell], episodes: int, seed: int) -> tuple[str, str
     run = hashlib.sha256(json.dumps([names, episodes, seed]).encode()).hexdigest()[:16]
     techniques = list(dict.fromkeys(c.technique_name for c in cells))
     shown = ", ".join(techniques[:4]) + (", ..." if len(techniques) > 4 else "")
-    return run, (f"{len(cells)} cell{'s' if len(cells) > 1 else ''} of {shown}; {episodes} "
-                 f"episode{'s' if episodes > 1 else ''} from seed {seed}")
+    return run, (
+        f"{len(cells)} cell{'s' if len(cells) > 1 else ''} of {shown}; {episodes} "
+        f"episode{'s' if episodes > 1 else ''} from seed {seed}"
+    )
 
 
 class _CellRows:
@@ -469,13 +526,29 @@ def _episode_keys(
 
     fp = source_fingerprint()
     inputs = cell_inputs(cells)
-    return {(c, i): episode_key(fp, c.task, c.policy, get_technique(c.technique), seed + i,
-                                figures and i < REPLAY_EPISODES, c.condition, inputs[c])
-            for c in cells for i in range(episodes)}  # fmt: skip
+    return {
+        (c, i): episode_key(
+            fp,
+            c.task,
+            c.policy,
+            get_technique(c.technique),
+            seed + i,
+            figures and i < REPLAY_EPISODES,
+            c.condition,
+            inputs[c],
+        )
+        for c in cells
+        for i in range(episodes)
+    }
 
 
 def _split_jobs(
-    cells: list[Cell], episodes: int, seed: int, figures: bool, batch_size: int, workers: int,
+    cells: list[Cell],
+    episodes: int,
+    seed: int,
+    figures: bool,
+    batch_size: int,
+    workers: int,
     skip: set[tuple[Cell, int]] = frozenset(),  # type: ignore[assignment]
 ) -> list[tuple]:
     """The grid's jobs. One episode per job for ``batch_size`` 0; else the episodes of the cells
@@ -484,6 +557,7 @@ def _split_jobs(
     would be fewer jobs than workers. A ``module:attr`` policy's cells form groups of their own.
     With ``figures`` the first :data:`agents.benchmark.report.REPLAY_EPISODES` episodes of each cell
     keep their trace (the figures draw the first, the report replays them all)."""
+
     def ep(c: Cell, i: int) -> tuple[Cell, int, int, bool]:
         return (c, i, seed + i, figures and i < REPLAY_EPISODES)
 
@@ -492,8 +566,7 @@ def _split_jobs(
     groups: dict[tuple, list[Cell]] = {}
     for c in cells:  # a user's own policy gets jobs of its own: it may not take batches
         own = c.policy if ":" in c.policy else ""
-        groups.setdefault((c.task, c.technique_name, c.population, c.condition, own),
-                          []).append(c)  # fmt: skip
+        groups.setdefault((c.task, c.technique_name, c.population, c.condition, own), []).append(c)
     per_job = 4 * batch_size
     total = max(1, len(cells) * episodes - len(skip))
     per_job = max(1, min(per_job, math.ceil(total / workers)))
@@ -505,8 +578,9 @@ def _split_jobs(
     return jobs
 
 
-def _run_jobs(jobs: list, workers: int, progress: bool, backend: str = "local",
-              address: str | None = None):  # fmt: skip
+def _run_jobs(
+    jobs: list, workers: int, progress: bool, backend: str = "local", address: str | None = None
+):
     """Yield each job's ``[(cell, index, stats, reset_info), ...]`` as it finishes, in any order,
     with a progress bar over the episodes: in ``workers`` local processes, or for ``backend``
     ``"ray"`` as Ray tasks on the cluster at ``address``
@@ -518,8 +592,12 @@ def _run_jobs(jobs: list, workers: int, progress: bool, backend: str = "local",
         return
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeElapsedColumn
 
-    columns = ("[progress.description]{task.description}", BarColumn(), MofNCompleteColumn(),
-               TimeElapsedColumn())  # fmt: skip
+    columns = (
+        "[progress.description]{task.description}",
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+    )
     with Progress(*columns, disable=not progress, transient=False) as bar:
         task = bar.add_task("episodes", total=sum(len(job[0]) for job in jobs))
         if not jobs:
@@ -533,9 +611,12 @@ def _run_jobs(jobs: list, workers: int, progress: bool, backend: str = "local",
         n_workers = min(workers, len(jobs))
         context = _pool_context()
         claimed = context.Array("q", len(jobs))  # episodes claimed per job, all 0
-        pool = ProcessPoolExecutor(max_workers=n_workers, mp_context=context,
-                                   initializer=_init_worker,
-                                   initargs=(claimed, _worker_threads(n_workers)))  # fmt: skip
+        pool = ProcessPoolExecutor(
+            max_workers=n_workers,
+            mp_context=context,
+            initializer=_init_worker,
+            initargs=(claimed, _worker_threads(n_workers)),
+        )
         try:
             # every batched job once, then helpers: a worker with nothing left to start joins
             # the jobs still running, the last started first (a finished one returns at once)

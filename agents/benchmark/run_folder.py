@@ -24,9 +24,11 @@ from typing import Any
 __all__ = ["OUTPUT_NAME", "FolderBusy", "RunFolder"]
 
 #: The names of the files a run writes into its folder: those that ``--force`` may remove.
-OUTPUT_NAME = re.compile(r"(benchmark\.csv|benchmark\.json|pairs\.json|report\.html|metrics\.png|"
-                         r"collision_causes\.png|latency\.png|"
-                         r"(trajectory|attitude|gait)_[A-Za-z0-9_-]+\.png)\Z")  # fmt: skip
+OUTPUT_NAME = re.compile(
+    r"(benchmark\.csv|benchmark\.json|pairs\.json|report\.html|metrics\.png|"
+    r"collision_causes\.png|latency\.png|"
+    r"(trajectory|attitude|gait)_[A-Za-z0-9_-]+\.png)\Z"
+)
 
 
 class FolderBusy(RuntimeError):
@@ -98,8 +100,10 @@ class RunFolder:
             except OSError:  # Windows: a locked byte cannot be read
                 holder = "unknown"
             os.close(fd)
-            raise FolderBusy(f"{self.path} is in use by another vrloco benchmark (pid "
-                             f"{holder}); wait for it to end, or give another --out") from None
+            raise FolderBusy(
+                f"{self.path} is in use by another vrloco benchmark (pid "
+                f"{holder}); wait for it to end, or give another --out"
+            ) from None
         os.ftruncate(fd, 0)
         os.lseek(fd, 0, os.SEEK_SET)
         os.write(fd, f"{os.getpid()}\n".encode())
@@ -115,8 +119,9 @@ class RunFolder:
         """Refuse (or, forced, remove) another run's files; forget a dead run's staging."""
         shutil.rmtree(self.path / self.STAGING, ignore_errors=True)
         record = self._record()
-        theirs = {p.name for p in self.path.iterdir()
-                  if OUTPUT_NAME.match(p.name) and not p.is_dir()}  # fmt: skip
+        theirs = {
+            p.name for p in self.path.iterdir() if OUTPUT_NAME.match(p.name) and not p.is_dir()
+        }
         if record is not None and record["run"] == self.run:
             self._previous = set(record["files"]) | theirs
             return
@@ -125,10 +130,15 @@ class RunFolder:
         if not theirs:
             return
         if not self.force:
-            whose = (f"another run's results ({record['about']}, written {record['written']})"
-                     if record is not None else "benchmark results with no record of their run")
-            raise ValueError(f"--out {self.path} holds {whose}; give another --out, or --force "
-                             "to remove them and write this run's")  # fmt: skip
+            whose = (
+                f"another run's results ({record['about']}, written {record['written']})"
+                if record is not None
+                else "benchmark results with no record of their run"
+            )
+            raise ValueError(
+                f"--out {self.path} holds {whose}; give another --out, or --force "
+                "to remove them and write this run's"
+            )
         for name in sorted(theirs):
             (self.path / name).unlink(missing_ok=True)
         (self.path / self.RECORD).unlink(missing_ok=True)
@@ -139,11 +149,13 @@ class RunFolder:
             record = json.loads((self.path / self.RECORD).read_text())
         except (OSError, ValueError):
             return None
-        if not (isinstance(record, dict) and all(isinstance(record.get(k), str)
-                                                 for k in ("run", "about", "written"))
-                and isinstance(record.get("files"), list)
-                and all(isinstance(n, str) and OUTPUT_NAME.match(n) for n in record["files"])):
-            return None  # fmt: skip
+        if not (
+            isinstance(record, dict)
+            and all(isinstance(record.get(k), str) for k in ("run", "about", "written"))
+            and isinstance(record.get("files"), list)
+            and all(isinstance(n, str) and OUTPUT_NAME.match(n) for n in record["files"])
+        ):
+            return None
         return record
 
     def replace(self, write: Callable[[Path], list[Path]]) -> list[Path]:
@@ -168,8 +180,12 @@ class RunFolder:
             except WriteError as err:  # name the file as it would have been
                 raise WriteError(self.path / err.path.name, err.reason) from None
             names = [p.name for p in staged]
-            record = {"run": self.run, "about": self.about, "files": sorted(names),
-                      "written": time.strftime("%Y-%m-%d %H:%M:%S")}  # fmt: skip
+            record = {
+                "run": self.run,
+                "about": self.about,
+                "files": sorted(names),
+                "written": time.strftime("%Y-%m-%d %H:%M:%S"),
+            }
             with atomic_path(stage / self.RECORD) as tmp:
                 tmp.write_text(json.dumps(record, indent=1) + "\n")
             for p in staged:
@@ -179,8 +195,9 @@ class RunFolder:
             os.replace(stage / self.RECORD, self.path / self.RECORD)
         except OSError as err:
             where = Path(err.filename) if isinstance(err.filename, str) else self.path
-            raise WriteError(self.path / where.name if where.parent == stage else where,
-                             err) from None  # fmt: skip
+            raise WriteError(
+                self.path / where.name if where.parent == stage else where, err
+            ) from None
         finally:
             shutil.rmtree(stage, ignore_errors=True)
         self._previous = set(names)

@@ -107,8 +107,14 @@ class VariabilityParams:
         from vrloco_env.user.population import get_population
 
         p = get_population(population)
-        names = ("reaction_delay_s", "reaction_delay_sd_s", "overshoot", "overshoot_sd",
-                 "cadence_bias_sd", "cadence_jitter_sd")  # fmt: skip
+        names = (
+            "reaction_delay_s",
+            "reaction_delay_sd_s",
+            "overshoot",
+            "overshoot_sd",
+            "cadence_bias_sd",
+            "cadence_jitter_sd",
+        )
         return cls(**{**{n: getattr(p, n) for n in names}, **overrides})
 
     @property
@@ -165,8 +171,9 @@ class HumanVariability(TakesUsers):
         if callable(getattr(self.policy, "set_active", None)):
             self.policy.set_active(mask)
 
-    def __init__(self, policy: Policy, params: VariabilityParams | None = None,
-                 population: str = "human") -> None:  # fmt: skip
+    def __init__(
+        self, policy: Policy, params: VariabilityParams | None = None, population: str = "human"
+    ) -> None:
         methods = (getattr(policy, "act", None), getattr(policy, "reset", None))
         if not all(callable(m) for m in methods):
             raise TypeError("policy must have reset(rng, rows) and act(obs) methods")
@@ -194,8 +201,10 @@ class HumanVariability(TakesUsers):
             ValueError: no generator, or the wrong number of them.
         """
         if rng is None:
-            raise ValueError("HumanVariability.reset needs rng (a numpy.random.Generator or one "
-                             "per user): all its randomness comes from there")  # fmt: skip
+            raise ValueError(
+                "HumanVariability.reset needs rng (a numpy.random.Generator or one "
+                "per user): all its randomness comes from there"
+            )
         if rows is None:
             self._rng = _as_batch_rng(rng)
             self._b = self._rng.batch_size
@@ -208,8 +217,9 @@ class HumanVariability(TakesUsers):
         r = np.asarray(rows, dtype=np.intp).ravel()
         sub = _as_batch_rng(rng)
         if sub.batch_size != r.size:
-            raise ValueError(f"rng must hold one generator per reset row ({r.size}), "
-                             f"got {sub.batch_size}")  # fmt: skip
+            raise ValueError(
+                f"rng must hold one generator per reset row ({r.size}), got {sub.batch_size}"
+            )
         for k, i in enumerate(r):
             self._rng.reseed(int(i), sub.generators[k])
         self._draw_episode(r)
@@ -272,8 +282,10 @@ class HumanVariability(TakesUsers):
         single = o.ndim == 1
         o2 = o[None] if single else o
         if o2.ndim != 2 or o2.shape[0] != self._b:
-            raise ValueError(f"obs must hold {self._b} row(s) (one per generator given to "
-                             f"reset), got shape {np.shape(obs)}")  # fmt: skip
+            raise ValueError(
+                f"obs must hold {self._b} row(s) (one per generator given to "
+                f"reset), got shape {np.shape(obs)}"
+            )
         p = self.params
         b = self._b
         # reaction delay: a history of observations, newest first

@@ -53,8 +53,9 @@ def kernel_fingerprint() -> str:
     import numba
 
     h = hashlib.sha256()
-    h.update(repr((sys.version, numba.__version__, platform.machine(),
-                   platform.processor())).encode())  # fmt: skip
+    h.update(
+        repr((sys.version, numba.__version__, platform.machine(), platform.processor())).encode()
+    )
     for path in _kernel_sources():
         h.update(str(path.relative_to(_ROOT)).encode())
         h.update(path.read_bytes())
@@ -64,8 +65,11 @@ def kernel_fingerprint() -> str:
 def _stamp() -> Path:
     import numba
 
-    folder = Path(numba.config.CACHE_DIR) if numba.config.CACHE_DIR else (
-        _ROOT / "estimators" / "kernels" / "__pycache__")  # fmt: skip
+    folder = (
+        Path(numba.config.CACHE_DIR)
+        if numba.config.CACHE_DIR
+        else (_ROOT / "estimators" / "kernels" / "__pycache__")
+    )
     return folder / f"vrloco-compiled-{kernel_fingerprint()}"
 
 
@@ -90,6 +94,9 @@ def announce() -> bool:
     about how long that takes; True where it printed."""
     if is_compiled() or os.environ.get("NUMBA_DISABLE_JIT") == "1":
         return False
-    print(f"compiling kernels (first run only, about {COLD_START_MINUTES} min on 2 cores; later "
-          "runs load them from the cache)", flush=True)  # fmt: skip
+    print(
+        f"compiling kernels (first run only, about {COLD_START_MINUTES} min on 2 cores; later "
+        "runs load them from the cache)",
+        flush=True,
+    )
     return True

@@ -32,9 +32,16 @@ __all__ = [
 ]
 
 #: The per-episode walking-in-place measures a row averages (:func:`motion_measures`).
-MOTION_KEYS = ("start_latency_s", "stop_latency_s", "stop_overshoot_m", "false_motion_m_per_min",
-               "yaw_drift_deg_per_min", "yaw_rate_mismatch_deg_s", "virtual_jerk_m_s3",
-               "steering_error_deg")  # fmt: skip
+MOTION_KEYS = (
+    "start_latency_s",
+    "stop_latency_s",
+    "stop_overshoot_m",
+    "false_motion_m_per_min",
+    "yaw_drift_deg_per_min",
+    "yaw_rate_mismatch_deg_s",
+    "virtual_jerk_m_s3",
+    "steering_error_deg",
+)
 
 
 #: A user counts as standing this long (s) after their last true heel strike: the stop itself
@@ -92,10 +99,19 @@ def motion_measures(
     t_end = np.asarray(steps["elapsed_time"], dtype=np.float64).ravel()
     n = intent.size
     nan = math.nan
-    out = dict.fromkeys(("start_latency_s", "stop_latency_s", "stop_overshoot_m",
-                         "false_motion_m_per_min", "yaw_drift_deg_per_min",
-                         "yaw_rate_mismatch_deg_s", "virtual_jerk_m_s3", "steering_error_deg"),
-                        nan)  # fmt: skip
+    out = dict.fromkeys(
+        (
+            "start_latency_s",
+            "stop_latency_s",
+            "stop_overshoot_m",
+            "false_motion_m_per_min",
+            "yaw_drift_deg_per_min",
+            "yaw_rate_mismatch_deg_s",
+            "virtual_jerk_m_s3",
+            "steering_error_deg",
+        ),
+        nan,
+    )
     out["standing_min"] = 0.0
     if n == 0:
         return out
@@ -130,8 +146,11 @@ def motion_measures(
             stops.append(t_end[stopping[-1]] - mine[-1])
         over = moved[stop_window].sum() - true_moved[stop_window].sum()
         overshoots.append(max(0.0, float(over)))
-    for key, vals in (("start_latency_s", starts), ("stop_latency_s", stops),
-                      ("stop_overshoot_m", overshoots)):  # fmt: skip
+    for key, vals in (
+        ("start_latency_s", starts),
+        ("stop_latency_s", stops),
+        ("stop_overshoot_m", overshoots),
+    ):
         if vals:
             out[key] = exact_mean(vals)
     # standing: no intent, the last true heel strike long enough ago

@@ -41,8 +41,11 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
         print(f"vrloco benchmark: {err}", file=sys.stderr)
         return 1
     except BackendError as err:  # no Ray cluster, or Ray jobs lost: what and where, no traceback
-        kept = (f"\nthe finished episodes are kept: rerun with --out {args.out} to resume"
-                if args.out and err.partial else "")  # fmt: skip
+        kept = (
+            f"\nthe finished episodes are kept: rerun with --out {args.out} to resume"
+            if args.out and err.partial
+            else ""
+        )
         print(f"vrloco benchmark: {err}{kept}", file=sys.stderr)
         return 1
     return 0

@@ -56,8 +56,12 @@ def _cmd_head_motions(args: argparse.Namespace) -> int:
 def _cmd_step_envelope(args: argparse.Namespace) -> int:
     from agents.experiments.step_envelope import run_step_envelope
 
-    run_step_envelope(json_path=Path(args.json) if args.json else None, seed=args.seed,
-                      dev=args.dev, users=args.users)  # fmt: skip
+    run_step_envelope(
+        json_path=Path(args.json) if args.json else None,
+        seed=args.seed,
+        dev=args.dev,
+        users=args.users,
+    )
     return 0
 
 
@@ -65,9 +69,12 @@ def _cmd_head_behaviour(args: argparse.Namespace) -> int:
     from agents.experiments.head_behaviour import run_head_behaviour
 
     try:
-        run_head_behaviour(json_path=Path(args.json) if args.json else None,
-                           episodes=args.episodes, seed=args.seed,
-                           out_dir=Path(args.out) if args.out else None)  # fmt: skip
+        run_head_behaviour(
+            json_path=Path(args.json) if args.json else None,
+            episodes=args.episodes,
+            seed=args.seed,
+            out_dir=Path(args.out) if args.out else None,
+        )
     except (FileNotFoundError, ValueError) as err:  # no head traces, a bad file: one line
         print(f"vrloco experiment head-behaviour: {err}", file=sys.stderr)
         return 2
@@ -79,7 +86,8 @@ def _cmd_population_sensitivity(args: argparse.Namespace) -> int:
 
     try:
         run_population_sensitivity(
-            json_path=Path(args.json) if args.json else None, episodes=args.episodes,
+            json_path=Path(args.json) if args.json else None,
+            episodes=args.episodes,
             fields=args.fields.split(",") if args.fields else None,
             out_dir=Path(args.out) if args.out else None,
         )

@@ -12,9 +12,14 @@ def _cmd_train(args: argparse.Namespace) -> int:
     from agents.benchmark.backends import BackendError
 
     seeds = args.seeds if args.seeds is not None else [args.seed]
-    common = dict(steps=args.steps, sensor_preset=args.sensors, eval_every=args.eval_every,
-                  technique=args.technique, population=args.population,
-                  condition=args.condition)  # fmt: skip
+    common = dict(
+        steps=args.steps,
+        sensor_preset=args.sensors,
+        eval_every=args.eval_every,
+        technique=args.technique,
+        population=args.population,
+        condition=args.condition,
+    )
     if args.address is not None and args.backend == "local":
         print("vrloco train: --address needs --backend ray or rllib", file=sys.stderr)
         return 2
@@ -22,25 +27,39 @@ def _cmd_train(args: argparse.Namespace) -> int:
         print("vrloco train: --env-runners needs --backend rllib", file=sys.stderr)
         return 2
     if args.backend == "rllib" and (args.frame_stack != 1 or args.recurrent):
-        print("vrloco train: --frame-stack and --recurrent need --backend local or ray",
-              file=sys.stderr)  # fmt: skip
+        print(
+            "vrloco train: --frame-stack and --recurrent need --backend local or ray",
+            file=sys.stderr,
+        )
         return 2
     try:
         if args.backend == "rllib":
             from agents.learned.rllib import train_rllib_seeds
 
             runners = 2 if args.env_runners is None else args.env_runners
-            paths = train_rllib_seeds(args.task, seeds, Path(args.out), address=args.address,
-                                      num_env_runners=runners,
-                                      num_envs_per_env_runner=args.num_envs,
-                                      **common)  # fmt: skip
+            paths = train_rllib_seeds(
+                args.task,
+                seeds,
+                Path(args.out),
+                address=args.address,
+                num_env_runners=runners,
+                num_envs_per_env_runner=args.num_envs,
+                **common,
+            )
         else:
             from agents.learned.train import train_seeds
 
-            paths = train_seeds(args.task, seeds, Path(args.out), backend=args.backend,
-                                address=args.address, num_envs=args.num_envs,
-                                frame_stack=args.frame_stack, recurrent=args.recurrent,
-                                **common)  # fmt: skip
+            paths = train_seeds(
+                args.task,
+                seeds,
+                Path(args.out),
+                backend=args.backend,
+                address=args.address,
+                num_envs=args.num_envs,
+                frame_stack=args.frame_stack,
+                recurrent=args.recurrent,
+                **common,
+            )
     except BackendError as err:  # no Ray cluster, or runs lost: what and where, no traceback
         print(f"vrloco train: {err}", file=sys.stderr)
         return 1
@@ -49,8 +68,10 @@ def _cmd_train(args: argparse.Namespace) -> int:
         print(f"wrote {paths[0]}; learning curve in {curve}")
     else:
         where = "checkpoints" if args.backend == "rllib" else "models"
-        print(f"wrote {len(paths)} {where} in {Path(args.out)}/seed_*; learning curves (each "
-              f"seed, mean and std) in {curve} and {curve.with_suffix('.png')}")  # fmt: skip
+        print(
+            f"wrote {len(paths)} {where} in {Path(args.out)}/seed_*; learning curves (each "
+            f"seed, mean and std) in {curve} and {curve.with_suffix('.png')}"
+        )
     return 0
 
 
@@ -77,8 +98,10 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     cell = ", ".join(f"{k} {row[k]}" for k in ("task", "technique", "population", "condition"))
     trained = row.get("trained_on")
     if trained:
-        print(f"cell: {cell}; the model was trained on "
-              + ", ".join(f"{k} {v}" for k, v in trained.items()))  # fmt: skip
+        print(
+            f"cell: {cell}; the model was trained on "
+            + ", ".join(f"{k} {v}" for k, v in trained.items())
+        )
     else:
         print(f"cell: {cell} (the model's own)")
     show_table([row], args.seed)

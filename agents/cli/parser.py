@@ -168,8 +168,12 @@ def build_parser() -> argparse.ArgumentParser:
         "and on the Oxford neck-pouch walk (in-sample and two-fold held-out)",
     )
     se.add_argument("--json", type=_out_file, help="write the results to this JSON file")
-    se.add_argument("--seed", type=_int_at_least(0), default=1000,
-                    help="first of three held-out seeds (seeds 0-2 are development seeds)")
+    se.add_argument(
+        "--seed",
+        type=_int_at_least(0),
+        default=1000,
+        help="first of three held-out seeds (seeds 0-2 are development seeds)",
+    )
     se.add_argument("--dev", action="store_true", help="development seeds 0-2 instead")
     se.add_argument("--users", type=_int_at_least(1), default=8, help="simulated users per case")
     se.set_defaults(func=_cmd_step_envelope)
@@ -179,11 +183,18 @@ def build_parser() -> argparse.ArgumentParser:
         "held-out real head traces of people viewing 360-degree video (not walking)",
     )
     hb.add_argument("--json", type=_out_file, help="write the results to this JSON file")
-    hb.add_argument("--episodes", type=_int_at_least(1), default=16,
-                    help="simulated users per population and condition")
+    hb.add_argument(
+        "--episodes",
+        type=_int_at_least(1),
+        default=16,
+        help="simulated users per population and condition",
+    )
     hb.add_argument("--seed", type=_int_at_least(0), default=0, help="first episode's seed")
-    hb.add_argument("--out", type=_out_dir,
-                    help="folder for the figure (default: beside --json; neither: no figure)")
+    hb.add_argument(
+        "--out",
+        type=_out_dir,
+        help="folder for the figure (default: beside --json; neither: no figure)",
+    )
     hb.set_defaults(func=_cmd_head_behaviour)
     ps = exp_sub.add_parser(
         "population-sensitivity",
@@ -191,11 +202,18 @@ def build_parser() -> argparse.ArgumentParser:
         "in its doc) collapsed to its low or high end",
     )
     ps.add_argument("--json", type=_out_file, help="write the results to this JSON file")
-    ps.add_argument("--episodes", type=_int_at_least(1), default=60,
-                    help="episodes per cell (seeds 0 to N-1, as the default benchmark)")
+    ps.add_argument(
+        "--episodes",
+        type=_int_at_least(1),
+        default=60,
+        help="episodes per cell (seeds 0 to N-1, as the default benchmark)",
+    )
     ps.add_argument("--fields", help="comma-separated choice fields (default: every one)")
-    ps.add_argument("--out", type=_out_dir,
-                    help="folder for each run's rows, reused by a rerun (default: a temp folder)")
+    ps.add_argument(
+        "--out",
+        type=_out_dir,
+        help="folder for each run's rows, reused by a rerun (default: a temp folder)",
+    )
     ps.set_defaults(func=_cmd_population_sensitivity)
     hv = exp_sub.add_parser(
         "hand-variance",
@@ -211,14 +229,10 @@ def build_parser() -> argparse.ArgumentParser:
         "adaptive vs fixed R",
     )
     vio.add_argument("--json", type=_out_file, help="write the results to this JSON file")
-    vio.add_argument(
-        "--duration", type=float, default=120.0, help="length of every run, s"
-    )
+    vio.add_argument("--duration", type=float, default=120.0, help="length of every run, s")
     vio.add_argument("--seed", type=int, default=0, help="random seed")
     vio.add_argument("--out", type=_out_dir, help="folder for the error-vs-time figure")
-    vio.add_argument(
-        "--workers", type=int, default=2, help="threads for the PnP solves"
-    )
+    vio.add_argument("--workers", type=int, default=2, help="threads for the PnP solves")
     vio.set_defaults(func=_cmd_vio)
     loco = exp_sub.add_parser(
         "locomotion",
@@ -237,8 +251,8 @@ def build_parser() -> argparse.ArgumentParser:
         "the main grid.",
     )
     bench.add_argument(
-        "--tasks", help=f"comma-separated tasks: {', '.join(TASKS)} "
-        f"(main grid: {','.join(DEFAULT_TASKS)})",
+        "--tasks",
+        help=f"comma-separated tasks: {', '.join(TASKS)} (main grid: {','.join(DEFAULT_TASKS)})",
     )
     bench.add_argument(
         "--policies",
@@ -262,21 +276,30 @@ def build_parser() -> argparse.ArgumentParser:
         "lab (nothing near the play area), beside_metal (a steel cabinet at its edge); each a grid "
         "axis (main grid: lab)",
     )
-    bench.add_argument("--episodes", type=_int_at_least(1), default=DEFAULT_EPISODES,
-                       help="episodes per cell")  # fmt: skip
-    bench.add_argument("--seed", type=_int_at_least(0), default=0, help="episode i uses seed + i")
-    bench.add_argument("--workers", type=_int_at_least(1), default=2,
-                       help="worker processes (--backend ray: the CPUs to cut jobs for)")
     bench.add_argument(
-        "--batch-size", type=_int_at_least(0), default=DEFAULT_BATCH_SIZE,
+        "--episodes", type=_int_at_least(1), default=DEFAULT_EPISODES, help="episodes per cell"
+    )
+    bench.add_argument("--seed", type=_int_at_least(0), default=0, help="episode i uses seed + i")
+    bench.add_argument(
+        "--workers",
+        type=_int_at_least(1),
+        default=2,
+        help="worker processes (--backend ray: the CPUs to cut jobs for)",
+    )
+    bench.add_argument(
+        "--batch-size",
+        type=_int_at_least(0),
+        default=DEFAULT_BATCH_SIZE,
         help="users stepped together in one vector env (cells sharing a task and technique "
         "mix); 0: every episode alone in a single env (the same results)",
-    )  # fmt: skip
+    )
     bench.add_argument(
-        "--backend", choices=("local", "ray"), default="local",
+        "--backend",
+        choices=("local", "ray"),
+        default="local",
         help="where the episodes run: local worker processes, or Ray tasks on a Ray cluster "
         "(pip install 'vrloco[ray]'; the same results)",
-    )  # fmt: skip
+    )
     bench.add_argument(
         "--address",
         help="with --backend ray: the cluster, 'auto' (one started with `ray start` here) or "
@@ -285,16 +308,19 @@ def build_parser() -> argparse.ArgumentParser:
     )
     bench.add_argument("--json", type=_out_file, help="also write the rows to this JSON file")
     bench.add_argument(
-        "--out", default="out/benchmark", type=_out_dir,
+        "--out",
+        default="out/benchmark",
+        type=_out_dir,
         help="folder for CSV, JSON, figures, one run's alone: a folder holding another run's "
         "results (another grid, episode count or seed) is refused, and so is a folder another "
         "run is writing to; the same command again resumes its interrupted run from "
         "OUT/.resume and replaces its own files",
-    )  # fmt: skip
+    )
     bench.add_argument(
-        "--force", action="store_true",
+        "--force",
+        action="store_true",
         help="remove another run's results from --out first, then write this run's",
-    )  # fmt: skip
+    )
     bench.set_defaults(func=_cmd_benchmark)
 
     techniques = sub.add_parser(
@@ -303,45 +329,69 @@ def build_parser() -> argparse.ArgumentParser:
     techniques.set_defaults(func=_cmd_techniques)
 
     train = sub.add_parser("train", help="train a PPO user (stable-baselines3 or RLlib) on a task")
-    train.add_argument("--task", default="approach", type=_task,
-                       help=f"one of {', '.join(TASKS)}")  # fmt: skip
-    train.add_argument("--steps", type=_int_at_least(1), default=2_000_000,
-                       help="environment steps, rounded up to whole PPO rollouts (rllib: "
-                       "whole training iterations)")  # fmt: skip
-    train.add_argument("--num-envs", type=_int_at_least(1), default=32,
-                       help="users stepped together (rllib: in each env runner)")  # fmt: skip
-    train.add_argument("--sensors", type=_preset,
-                       help="IMU preset (default: the technique's; ig500n)")  # fmt: skip
-    train.add_argument("--technique",
-                       help="a registered technique (vrloco techniques) or 'module:attr' "
-                       "(default: Zhang 2021's chain)")  # fmt: skip
-    train.add_argument("--population",
-                       help="the users' head behaviour in the env: a user population (default: "
-                       "none, the head straight on the torso)")  # fmt: skip
+    train.add_argument("--task", default="approach", type=_task, help=f"one of {', '.join(TASKS)}")
+    train.add_argument(
+        "--steps",
+        type=_int_at_least(1),
+        default=2_000_000,
+        help="environment steps, rounded up to whole PPO rollouts (rllib: "
+        "whole training iterations)",
+    )
+    train.add_argument(
+        "--num-envs",
+        type=_int_at_least(1),
+        default=32,
+        help="users stepped together (rllib: in each env runner)",
+    )
+    train.add_argument(
+        "--sensors", type=_preset, help="IMU preset (default: the technique's; ig500n)"
+    )
+    train.add_argument(
+        "--technique",
+        help="a registered technique (vrloco techniques) or 'module:attr' "
+        "(default: Zhang 2021's chain)",
+    )
+    train.add_argument(
+        "--population",
+        help="the users' head behaviour in the env: a user population (default: "
+        "none, the head straight on the torso)",
+    )
     train.add_argument("--condition", help="the physical room's condition (default: lab)")
-    train.add_argument("--frame-stack", type=_int_at_least(1), default=1, metavar="K",
-                       help="the policy sees each user's last K observations side by side")
-    train.add_argument("--recurrent", action="store_true",
-                       help="an LSTM policy (sb3-contrib's RecurrentPPO) instead of PPO's "
-                       "feed-forward one")  # fmt: skip
-    train.add_argument("--eval-every", type=_int_at_least(1), default=100_000,
-                       help="steps between evals")  # fmt: skip
+    train.add_argument(
+        "--frame-stack",
+        type=_int_at_least(1),
+        default=1,
+        metavar="K",
+        help="the policy sees each user's last K observations side by side",
+    )
+    train.add_argument(
+        "--recurrent",
+        action="store_true",
+        help="an LSTM policy (sb3-contrib's RecurrentPPO) instead of PPO's feed-forward one",
+    )
+    train.add_argument(
+        "--eval-every", type=_int_at_least(1), default=100_000, help="steps between evals"
+    )
     seeding = train.add_mutually_exclusive_group()
     seeding.add_argument("--seed", type=_int_at_least(0), default=0, help="random seed")
     seeding.add_argument(
-        "--seeds", type=_seed_list, metavar="S,S,...",
+        "--seeds",
+        type=_seed_list,
+        metavar="S,S,...",
         help="comma-separated distinct seeds >= 0: one run per seed, each in OUT/seed_<s>/, "
         "in parallel worker processes (one per seed, at most one per core; --backend ray: "
         "Ray tasks; rllib: one after the other), and their curves with the mean and std in "
         "OUT/learning_curve.json and .png (default: one run, --seed)",
-    )  # fmt: skip
+    )
     train.add_argument(
-        "--backend", choices=("local", "ray", "rllib"), default="local",
+        "--backend",
+        choices=("local", "ray", "rllib"),
+        default="local",
         help="local: stable-baselines3 PPO, several seeds in local worker processes; ray: "
         "the same, each seed a Ray task on a Ray cluster (pip install 'vrloco[ray]'); rllib: "
         "RLlib's PPO on --env-runners env runners of --num-envs users each, seeds one after "
         "the other (pip install 'vrloco[rllib]')",
-    )  # fmt: skip
+    )
     train.add_argument(
         "--address",
         help="with --backend ray or rllib: the cluster, 'auto' (one started with `ray start` "
@@ -349,12 +399,15 @@ def build_parser() -> argparse.ArgumentParser:
         "Ray instance on this machine's cores",
     )
     train.add_argument(
-        "--env-runners", type=_int_at_least(0), default=None,
+        "--env-runners",
+        type=_int_at_least(0),
+        default=None,
         help="with --backend rllib: RLlib env runners (processes sampling in parallel; 0: "
         "sample in this process) (default: 2)",
-    )  # fmt: skip
-    train.add_argument("--out", default="runs/ppo", type=_out_dir,
-                       help="folder for logs and models")  # fmt: skip
+    )
+    train.add_argument(
+        "--out", default="runs/ppo", type=_out_dir, help="folder for logs and models"
+    )
     train.set_defaults(func=_cmd_train)
 
     evaluate = sub.add_parser(
@@ -368,17 +421,20 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument(
         "--task", help=f"one of {', '.join(TASKS)} (default: the task the model was trained on)"
     )
-    evaluate.add_argument("--episodes", type=_int_at_least(1), default=100,
-                          help="seeded episodes")  # fmt: skip
+    evaluate.add_argument("--episodes", type=_int_at_least(1), default=100, help="seeded episodes")
     evaluate.add_argument("--sensors", type=_preset, help="IMU preset (default: the model's own)")
     for name in ("technique", "population", "condition"):
         evaluate.add_argument(f"--{name}", help=f"the {name} (default: the model's own)")
-    evaluate.add_argument("--allow-mismatch", action="store_true",
-                          help="evaluate on a task, technique, population, condition or sensors "
-                          "other than the model's (else an error naming what differs)")
+    evaluate.add_argument(
+        "--allow-mismatch",
+        action="store_true",
+        help="evaluate on a task, technique, population, condition or sensors "
+        "other than the model's (else an error naming what differs)",
+    )
     evaluate.add_argument("--seed", type=_int_at_least(0), default=0, help="random seed")
-    evaluate.add_argument("--json", type=_out_file,
-                          help="also write the row (every metric) to this JSON file")  # fmt: skip
+    evaluate.add_argument(
+        "--json", type=_out_file, help="also write the row (every metric) to this JSON file"
+    )
     evaluate.set_defaults(func=_cmd_evaluate)
     rec = sub.add_parser(
         "record",
@@ -392,21 +448,35 @@ def build_parser() -> argparse.ArgumentParser:
     )
     rec.add_argument("--task", required=True, type=_task, help=f"one of {', '.join(TASKS)}")
     rec.add_argument(
-        "--policy", required=True,
+        "--policy",
+        required=True,
         help="goal_seeker, avoid_manoeuvre, reactive_avoider, a stable-baselines3 model (.zip) "
         f"or 'module:attr'; append +<population> ({', '.join(POPULATIONS)}) for a human "
         "population",
-    )  # fmt: skip
-    rec.add_argument("--technique", default="zhang2021",
-                     help="a technique (vrloco techniques lists them) or 'module:attr'")
+    )
+    rec.add_argument(
+        "--technique",
+        default="zhang2021",
+        help="a technique (vrloco techniques lists them) or 'module:attr'",
+    )
     rec.add_argument("--episodes", type=_int_at_least(1), default=100, help="seeded episodes")
     rec.add_argument("--seed", type=_int_at_least(0), default=0, help="episode i uses seed + i")
-    rec.add_argument("--max-episode-steps", type=_int_at_least(1),
-                     help="the env's horizon in control steps (default: the env's own)")
-    rec.add_argument("--minari", required=True, metavar="DATASET_ID",
-                     help="the dataset's id, (namespace/)name-v<version>")
-    rec.add_argument("--force", action="store_true",
-                     help="replace an existing dataset of that id (once the episodes are played)")
+    rec.add_argument(
+        "--max-episode-steps",
+        type=_int_at_least(1),
+        help="the env's horizon in control steps (default: the env's own)",
+    )
+    rec.add_argument(
+        "--minari",
+        required=True,
+        metavar="DATASET_ID",
+        help="the dataset's id, (namespace/)name-v<version>",
+    )
+    rec.add_argument(
+        "--force",
+        action="store_true",
+        help="replace an existing dataset of that id (once the episodes are played)",
+    )
     rec.set_defaults(func=_cmd_record)
     est = sub.add_parser(
         "estimate",
@@ -422,20 +492,27 @@ def build_parser() -> argparse.ArgumentParser:
     est.add_argument("path", help="a CSV file, a BROAD trial or an Oxford folder")
     est.add_argument("--out", default="out", type=_out_dir, help="output folder")
     est.add_argument("--step-length", type=float, default=0.7, help="eq (17) SL in m")
-    est.add_argument("--offline", action="store_true",
-                     help="attitude from the forward-backward smoother")  # fmt: skip
     est.add_argument(
-        "--time-unit", choices=("auto", "s", "ms", "us", "ns"), default="auto",
+        "--offline", action="store_true", help="attitude from the forward-backward smoother"
+    )
+    est.add_argument(
+        "--time-unit",
+        choices=("auto", "s", "ms", "us", "ns"),
+        default="auto",
         help="unit of a CSV's t; auto: the one in which the median interval is 5 Hz to 10 kHz "
         "(an error where none or two are)",
-    )  # fmt: skip
+    )
     est.add_argument(
-        "--acc-unit", choices=("auto", "m/s2", "g"), default="auto",
+        "--acc-unit",
+        choices=("auto", "m/s2", "g"),
+        default="auto",
         help="unit of a CSV's ax ay az; auto: the one in which the median norm of the 1 s "
         "means is 0.5 g to 2 g (gravity; an error where neither is)",
-    )  # fmt: skip
+    )
     est.add_argument(
-        "--gyro-unit", choices=("auto", "rad/s", "deg/s"), default="auto",
+        "--gyro-unit",
+        choices=("auto", "rad/s", "deg/s"),
+        default="auto",
         help="unit of a CSV's gx gy gz. auto, in order: deg/s where at least 10 samples and "
         "1%% exceed 35 rad/s (2000 deg/s); else the magnetometer's verdict (its field turns "
         "0.5-2 times (rad/s) or 35-95 times (deg/s) slower than the gyro's numbers say); else "
@@ -443,7 +520,7 @@ def build_parser() -> argparse.ArgumentParser:
         "least 2 times and 2 deg less in one unit than in the other); with no verdict, rad/s "
         "where the gyro read as rad/s turns the sensor under 10 deg in every 4 s window, else "
         "an error asking for this option. Evidence against the unit read is a one-line warning",
-    )  # fmt: skip
+    )
     est.set_defaults(func=_cmd_estimate)
     dat = sub.add_parser(
         "data",
@@ -459,12 +536,16 @@ def build_parser() -> argparse.ArgumentParser:
     )
     dat_sub = dat.add_subparsers(dest="data_command", metavar="ACTION", required=True)
     dat_sub.add_parser("list", help="each set: where it is found, its size and licence")
-    where = dat_sub.add_parser("where", help="the path the readers take for NAME (without "
-                               "NAME: the cache folder)")  # fmt: skip
+    where = dat_sub.add_parser(
+        "where", help="the path the readers take for NAME (without NAME: the cache folder)"
+    )
     where.add_argument("name", nargs="?", help="a set (broad, oxford, kinect, head_traces)")
     fetch = dat_sub.add_parser("fetch", help="download sets into the cache, checking each hash")
     fetch.add_argument("names", nargs="+", metavar="NAME", help="broad, oxford or kinect")
-    fetch.add_argument("--url", help="download BASE/RELPATH from this base URL instead of the "
-                       "canonical sources (default: $VRLOCO_DATA_URL)")  # fmt: skip
+    fetch.add_argument(
+        "--url",
+        help="download BASE/RELPATH from this base URL instead of the "
+        "canonical sources (default: $VRLOCO_DATA_URL)",
+    )
     dat.set_defaults(func=_cmd_data)
     return parser

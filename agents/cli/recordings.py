@@ -14,10 +14,16 @@ def _cmd_record(args: argparse.Namespace) -> int:
 
     try:
         dataset = record_dataset(
-            args.task, args.policy, args.minari, technique=args.technique,
-            episodes=args.episodes, seed=args.seed, max_episode_steps=args.max_episode_steps,
-            force=args.force, progress=True,
-        )  # fmt: skip
+            args.task,
+            args.policy,
+            args.minari,
+            technique=args.technique,
+            episodes=args.episodes,
+            seed=args.seed,
+            max_episode_steps=args.max_episode_steps,
+            force=args.force,
+            progress=True,
+        )
     except ValueError as err:  # an unknown policy or technique, a bad id: one line
         print(f"vrloco record: {err}", file=sys.stderr)
         return 2
@@ -25,9 +31,11 @@ def _cmd_record(args: argparse.Namespace) -> int:
         print(f"vrloco record: {err}", file=sys.stderr)
         return 1
     n = dataset.total_episodes
-    print(f"wrote {n} episode{'s' * (n != 1)} ({dataset.total_steps} steps) to Minari "
-          f"dataset {args.minari} at {dataset_path(args.minari)}; read it with "
-          f"minari.load_dataset({args.minari!r})")  # fmt: skip
+    print(
+        f"wrote {n} episode{'s' * (n != 1)} ({dataset.total_steps} steps) to Minari "
+        f"dataset {args.minari} at {dataset_path(args.minari)}; read it with "
+        f"minari.load_dataset({args.minari!r})"
+    )
     return 0
 
 
@@ -79,8 +87,12 @@ def _cmd_data(args: argparse.Namespace) -> int:
                 raise ValueError(f"{ds.name}: {ds.why_not_fetched}")
         data.mirror_url(args.url, origin="--url")
         for ds in sets:
-            path = data.fetch(ds.name, base_url=args.url, progressbar=sys.stderr.isatty(),
-                              report=lambda line: print(f"  {line}"))  # fmt: skip
+            path = data.fetch(
+                ds.name,
+                base_url=args.url,
+                progressbar=sys.stderr.isatty(),
+                report=lambda line: print(f"  {line}"),
+            )
             print(f"{ds.name}: {path}")
             print(f"  licence {ds.licence}; cite: {ds.citation}; source: {ds.source}")
     except ValueError as err:  # an unknown name, a set that is not downloadable, a bad URL

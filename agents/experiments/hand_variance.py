@@ -89,8 +89,13 @@ DEV_MOVING_SEEDS = (101, 102)
 COMPETITORS = ("one_euro", "adaptive_kalman")
 #: Every filter the experiment reports: the pipeline's own outputs, then the competitors.
 FILTERS = ("raw", "kalman", "kalman_median", *COMPETITORS)
-_LABELS = {"raw": "raw", "kalman": "Kalman", "kalman_median": "Kalman + median",
-           "one_euro": "One Euro", "adaptive_kalman": "adaptive Kalman"}  # fmt: skip
+_LABELS = {
+    "raw": "raw",
+    "kalman": "Kalman",
+    "kalman_median": "Kalman + median",
+    "one_euro": "One Euro",
+    "adaptive_kalman": "adaptive Kalman",
+}
 _WARMUP_FRAMES = 30  # filter start-up left out of the statistics (1 s)
 _FS = 30.0
 
@@ -171,8 +176,9 @@ def hand_variance_experiment(
     if not 0 <= warmup_frames < m - 1:
         raise ValueError(f"warmup_frames must be in [0, {m - 1}), got {warmup_frames}")
     out = OrientationFilter(a * r, params).update_frames(q.reshape(a * r, m, 4))
-    var = [_pooled_variance(x[:, warmup_frames:], a) for x in (out.ypr_raw, out.ypr_kalman,
-                                                              out.ypr)]  # fmt: skip
+    var = [
+        _pooled_variance(x[:, warmup_frames:], a) for x in (out.ypr_raw, out.ypr_kalman, out.ypr)
+    ]
     total = [v.sum(axis=0) for v in var]
     return HandVarianceResult(
         var_raw=var[0],
@@ -246,8 +252,9 @@ def simulate_trial(
             pipe.update_frames(fr.body_id, fr.body_tracked, fr.joints, fr.joint_state, fr.hand_quat)
         )
         truth.append(quat_to_euler_paper(fr.truth.hand_quat)[..., ::-1])
-    frames = HandFrame(*(np.concatenate([getattr(o, f.name) for o in out], axis=1)
-                         for f in fields(HandFrame)))  # fmt: skip
+    frames = HandFrame(
+        *(np.concatenate([getattr(o, f.name) for o in out], axis=1) for f in fields(HandFrame))
+    )
     return HandTrial(frames, [o.ypr.shape[1] for o in out], np.concatenate(truth, axis=1))
 
 
@@ -279,8 +286,9 @@ def static_trial(repeats: int, seed: int, seconds: float = 10.0) -> HandTrial:
     return simulate_trial(angles, None, seconds, seed)
 
 
-def moving_trial(users: int, seed: int, seconds: float = 10.0, rate_deg_s: float = 90.0
-                 ) -> HandTrial:  # fmt: skip
+def moving_trial(
+    users: int, seed: int, seconds: float = 10.0, rate_deg_s: float = 90.0
+) -> HandTrial:
     """The hand sweeping about the forearm at ``rate_deg_s`` from a random start in +-60 deg."""
     start = np.deg2rad(np.random.default_rng(seed).uniform(-60, 60, users))
     return simulate_trial(start, np.full(users, np.deg2rad(rate_deg_s)), seconds, seed)
@@ -312,11 +320,19 @@ def moving_scores(trial: HandTrial, outputs: dict[str, NDArray]) -> dict:
     for name, x in outputs.items():
         rmse = _rmse_deg(x, trial.truth)
         est = x[:, _WARMUP_FRAMES:]
-        lags = [estimate_lag(unwrap_angles(est[i, :, axis], axis=0),
-                             unwrap_angles(truth[i, :, axis], axis=0), _FS, 0.5)
-                for i in range(est.shape[0])]  # fmt: skip  (a loop over users of a metric)
-        res[name] = {"rmse_deg": {PAPER_AXIS_NAMES[i]: float(rmse[i]) for i in range(3)},
-                     "lag_ms": float(1e3 * np.mean(lags))}  # fmt: skip
+        lags = [
+            estimate_lag(
+                unwrap_angles(est[i, :, axis], axis=0),
+                unwrap_angles(truth[i, :, axis], axis=0),
+                _FS,
+                0.5,
+            )
+            for i in range(est.shape[0])
+        ]  # a loop over users of a metric
+        res[name] = {
+            "rmse_deg": {PAPER_AXIS_NAMES[i]: float(rmse[i]) for i in range(3)},
+            "lag_ms": float(1e3 * np.mean(lags)),
+        }
     return res
 
 
@@ -326,15 +342,22 @@ def static_variance(repeats: int = 10, seconds: float = 10.0, seed: int = 0) -> 
     trial = static_trial(repeats, seed, seconds)
     res = static_scores(trial, filter_outputs(trial))
     red = res["reduction_pct"]
-    res["median_share_pp"] = {a: red["kalman_median"][a] - red["kalman"][a]
-                              for a in PAPER_AXIS_NAMES}  # fmt: skip
-    res.update(angles_deg=list(PAPER_ANGLES_DEG), repeats=repeats, seconds=seconds, seed=seed,
-               paper=PAPER_REDUCTION)  # fmt: skip
+    res["median_share_pp"] = {
+        a: red["kalman_median"][a] - red["kalman"][a] for a in PAPER_AXIS_NAMES
+    }
+    res.update(
+        angles_deg=list(PAPER_ANGLES_DEG),
+        repeats=repeats,
+        seconds=seconds,
+        seed=seed,
+        paper=PAPER_REDUCTION,
+    )
     return res
 
 
-def moving_accuracy(repeats: int = 10, seconds: float = 10.0, rate_deg_s: float = 90.0,
-                    seed: int = 1) -> dict:  # fmt: skip
+def moving_accuracy(
+    repeats: int = 10, seconds: float = 10.0, rate_deg_s: float = 90.0, seed: int = 1
+) -> dict:
     """RMSE (deg) against the truth and lag (ms) while the hand sweeps at ``rate_deg_s``."""
     trial = moving_trial(repeats, seed, seconds, rate_deg_s)
     res = moving_scores(trial, filter_outputs(trial))
@@ -369,16 +392,22 @@ def recording_jitter(path: Path | None = None) -> dict | None:
         return None
     rec = read_kinect_csv(path)
     holt = HoltSmoother(1, rec.joints.shape[1])
-    smooth = np.array([holt.update(rec.joints[None, k], rec.state[None, k])[0]
-                       for k in range(rec.t.size)])  # fmt: skip
+    smooth = np.array(
+        [holt.update(rec.joints[None, k], rec.state[None, k])[0] for k in range(rec.t.size)]
+    )
     out = {"file": path.name, "frames": int(rec.t.size)}
     for name, j in (("wrist_right", 10), ("hand_right", 11)):
         raw, sm = rec.joints[:, j], smooth[:, j]
-        jit = [float(np.sqrt(np.nanmean(np.sum(np.diff(a, 2, axis=0) ** 2, axis=-1)))) for a in
-               (raw, sm)]  # fmt: skip
+        jit = [
+            float(np.sqrt(np.nanmean(np.sum(np.diff(a, 2, axis=0) ** 2, axis=-1))))
+            for a in (raw, sm)
+        ]
         lag = estimate_lag(sm, raw, rec.rate_hz)
-        out[name] = {"jitter_raw_mm": 1e3 * jit[0], "jitter_smoothed_mm": 1e3 * jit[1],
-                     "lag_ms": float(1e3 * np.max(lag))}  # fmt: skip
+        out[name] = {
+            "jitter_raw_mm": 1e3 * jit[0],
+            "jitter_smoothed_mm": 1e3 * jit[1],
+            "lag_ms": float(1e3 * np.max(lag)),
+        }
     return out
 
 
@@ -410,11 +439,18 @@ def variogram_split(x: ArrayLike, rate_hz: float, max_lag: int = 40) -> dict:
         n, s, tau, c = p
         return (n + s * (1.0 - np.exp(-k * dt / tau)) + c * k**2 - gamma) / gamma
 
-    fit = least_squares(misfit, [0.5 * gamma[0], gamma[-1], 0.3, 0.0],
-                        bounds=([0.0, 0.0, dt, 0.0], [np.inf, np.inf, 5.0, np.inf]))  # fmt: skip
+    fit = least_squares(
+        misfit,
+        [0.5 * gamma[0], gamma[-1], 0.3, 0.0],
+        bounds=([0.0, 0.0, dt, 0.0], [np.inf, np.inf, 5.0, np.inf]),
+    )
     n, s, tau, _ = fit.x
-    return {"white_var": float(n), "correlated_var": float(s), "tau_s": float(tau),
-            "white_share": float(n / (n + s)) if n + s > 0 else float("nan")}  # fmt: skip
+    return {
+        "white_var": float(n),
+        "correlated_var": float(s),
+        "tau_s": float(tau),
+        "white_share": float(n / (n + s)) if n + s > 0 else float("nan"),
+    }
 
 
 def recording_orientation_noise(path: Path | None = None) -> dict | None:
@@ -443,8 +479,11 @@ def recording_orientation_noise(path: Path | None = None) -> dict | None:
     mean /= np.linalg.norm(mean)  # the mean orientation (chordal; the spread is a few deg)
     rel = quat_multiply(quat_conjugate(mean), q)  # deviation in the frame's own axes
     rv = np.rad2deg(quat_to_rotvec(rel))
-    out: dict = {"file": path.name, "frames": int(rec.t.size),
-                 "frame": "x ElbowLeft->WristLeft, y toward ThumbLeft"}  # fmt: skip
+    out: dict = {
+        "file": path.name,
+        "frames": int(rec.t.size),
+        "frame": "x ElbowLeft->WristLeft, y toward ThumbLeft",
+    }
     for i, name in enumerate(("about_forearm", "about_thumb_axis", "about_normal")):
         out[name] = variogram_split(rv[:, i], rec.rate_hz)
         out[name]["std_deg"] = float(np.std(rv[:, i]))
@@ -462,8 +501,10 @@ def run_hand_variance(json_path: Path | None = None, repeats: int = 10, seed: in
     result = static_variance(repeats=repeats, seed=seed)
     result["moving"] = moving_accuracy(repeats=repeats, seed=seed + 1)
     result["label"] = "held-out" if held_out else "in-sample (a development seed)"
-    result["development_seeds"] = {"static": list(DEV_STATIC_SEEDS),
-                                   "moving": list(DEV_MOVING_SEEDS)}  # fmt: skip
+    result["development_seeds"] = {
+        "static": list(DEV_STATIC_SEEDS),
+        "moving": list(DEV_MOVING_SEEDS),
+    }
     result["real_recording"] = recording_jitter()
     result["real_orientation_noise"] = recording_orientation_noise()
     print(format_table(result))
@@ -492,36 +533,55 @@ def format_table(result: dict) -> str:
         err = "".join(f"{rmse[name][a]:8.2f}" for a in axes)
         lines.append(f"  {_LABELS[name]:<37}{row}   | {'':19}{err}")
         if name in result["paper"]:
-            lines.append(f"  {'  paper: ' + _LABELS[name]:<37}"
-                         + "".join(f"{result['paper'][name][a]:8.1f}" for a in axes))  # fmt: skip
-    lines.append(f"  {'median share (K+M minus K), points':<37}"
-                 + "".join(f"{result['median_share_pp'][a]:8.1f}" for a in axes))  # fmt: skip
+            lines.append(
+                f"  {'  paper: ' + _LABELS[name]:<37}"
+                + "".join(f"{result['paper'][name][a]:8.1f}" for a in axes)
+            )
+    lines.append(
+        f"  {'median share (K+M minus K), points':<37}"
+        + "".join(f"{result['median_share_pp'][a]:8.1f}" for a in axes)
+    )
     raw = result["variance_deg2"]["raw"]
-    lines.append(f"  {'raw variance, deg^2 (mean of poses)':<37}"
-                 + "".join(f"{np.mean(raw[a]):8.2f}" for a in axes))  # fmt: skip
-    lines.append(f"hand sweeping about the forearm at {mv['rate_deg_s']:.0f} deg/s (swept: "
-                 f"{mv['swept_axis']}): RMSE vs truth (deg) {cols}   lag")  # fmt: skip
+    lines.append(
+        f"  {'raw variance, deg^2 (mean of poses)':<37}"
+        + "".join(f"{np.mean(raw[a]):8.2f}" for a in axes)
+    )
+    lines.append(
+        f"hand sweeping about the forearm at {mv['rate_deg_s']:.0f} deg/s (swept: "
+        f"{mv['swept_axis']}): RMSE vs truth (deg) {cols}   lag"
+    )
     for name in FILTERS:
         r = mv[name]
-        lines.append(f"  {_LABELS[name]:<51}" + "".join(f"{r['rmse_deg'][a]:8.2f}" for a in axes)
-                     + f"   {r['lag_ms']:5.0f} ms")  # fmt: skip
+        lines.append(
+            f"  {_LABELS[name]:<51}"
+            + "".join(f"{r['rmse_deg'][a]:8.2f}" for a in axes)
+            + f"   {r['lag_ms']:5.0f} ms"
+        )
     real = result.get("real_recording")
     if real is None:
-        lines.append("real Kinect v2 recording (kinect_laban): not found, skipped (`vrloco data "
-                     "fetch kinect` downloads it)")  # fmt: skip
+        lines.append(
+            "real Kinect v2 recording (kinect_laban): not found, skipped (`vrloco data "
+            "fetch kinect` downloads it)"
+        )
         return "\n".join(lines)
-    lines.append(f"real Kinect v2 recording {real['file']} ({real['frames']} frames), Holt "
-                 "smoothing: jitter = RMS 2nd difference")  # fmt: skip
+    lines.append(
+        f"real Kinect v2 recording {real['file']} ({real['frames']} frames), Holt "
+        "smoothing: jitter = RMS 2nd difference"
+    )
     for name in ("wrist_right", "hand_right"):
         r = real[name]
-        lines.append(f"  {name:<12} {r['jitter_raw_mm']:6.1f} -> {r['jitter_smoothed_mm']:5.1f}"
-                     f" mm   lag {r['lag_ms']:4.0f} ms")  # fmt: skip
+        lines.append(
+            f"  {name:<12} {r['jitter_raw_mm']:6.1f} -> {r['jitter_smoothed_mm']:5.1f}"
+            f" mm   lag {r['lag_ms']:4.0f} ms"
+        )
     ori = result["real_orientation_noise"]
     lines.append(f"  still left forearm's orientation ({ori['frame']}): white share of the jitter")
     for name in ("about_forearm", "about_thumb_axis", "about_normal"):
         r = ori[name]
-        lines.append(f"    {name:<17} std {r['std_deg']:5.2f} deg, white {r['white_share']:5.0%}"
-                     f", correlated part tau {r['tau_s']:4.2f} s")  # fmt: skip
+        lines.append(
+            f"    {name:<17} std {r['std_deg']:5.2f} deg, white {r['white_share']:5.0%}"
+            f", correlated part tau {r['tau_s']:4.2f} s"
+        )
     return "\n".join(lines)
 
 
@@ -533,8 +593,10 @@ def development_trials() -> tuple[list[HandTrial], list[HandTrial]]:
     """The development trials: static (11 angles x 5 repeats x 10 s) for each of
     :data:`DEV_STATIC_SEEDS`, moving (10 users x 10 s at 90 deg/s) for each of
     :data:`DEV_MOVING_SEEDS`."""
-    return ([static_trial(5, s) for s in DEV_STATIC_SEEDS],
-            [moving_trial(10, s) for s in DEV_MOVING_SEEDS])  # fmt: skip
+    return (
+        [static_trial(5, s) for s in DEV_STATIC_SEEDS],
+        [moving_trial(10, s) for s in DEV_MOVING_SEEDS],
+    )
 
 
 def development_scores(static: list[HandTrial], moving: list[HandTrial], run) -> dict:
@@ -552,54 +614,76 @@ def development_scores(static: list[HandTrial], moving: list[HandTrial], run) ->
         raw = np.array(list(sc["raw"]["rmse_deg"].values()))
         mov.append(np.array(list(sc["f"]["rmse_deg"].values())) / raw)
     rest_a, mov_a = np.array(rest), np.array(mov)
-    return {"rest_ratio": rest_a, "moving_ratio": mov_a, "rest_reduction": np.array(red),
-            "mean_ratio": float(np.mean(np.concatenate([rest_a, mov_a])))}  # fmt: skip
+    return {
+        "rest_ratio": rest_a,
+        "moving_ratio": mov_a,
+        "rest_reduction": np.array(red),
+        "mean_ratio": float(np.mean(np.concatenate([rest_a, mov_a]))),
+    }
 
 
 def _angles(trial: HandTrial, params: HandParams, output: str = "ypr") -> NDArray[np.float64]:
     fr = trial.frames
-    out = OrientationFilter(fr.ypr.shape[0], params).update_angles(fr.ypr_raw, fr.quat_valid,
-                                                                   fr.reselected)  # fmt: skip
+    out = OrientationFilter(fr.ypr.shape[0], params).update_angles(
+        fr.ypr_raw, fr.quat_valid, fr.reselected
+    )
     return getattr(out, output)
 
 
-def tune_yao2023_accel_psd(static: list[HandTrial], moving: list[HandTrial],
-                           grid: tuple[float, ...] = (0.03, 0.1, 0.3, 1.0, 3.0, 10.0)
-                           ) -> list[tuple[float, dict]]:  # fmt: skip
+def tune_yao2023_accel_psd(
+    static: list[HandTrial],
+    moving: list[HandTrial],
+    grid: tuple[float, ...] = (0.03, 0.1, 0.3, 1.0, 3.0, 10.0),
+) -> list[tuple[float, dict]]:
     """Yao 2023's ``KalmanParams.accel_psd``: the development scores of the Kalman output (the
     other fields at their defaults, ``max_accel_psd`` raised to ``accel_psd`` where below it);
     the rule takes the smallest ``mean_ratio``."""
     rows = []
     for q in grid:
         params = HandParams(kalman=KalmanParams(accel_psd=q, max_accel_psd=max(10.0, q)))
-        rows.append((q, development_scores(static, moving,
-                                           lambda tr, p=params: _angles(tr, p, "ypr_kalman"))))
+        rows.append(
+            (
+                q,
+                development_scores(
+                    static, moving, lambda tr, p=params: _angles(tr, p, "ypr_kalman")
+                ),
+            )
+        )
     return rows
 
 
-def tune_adaptive_kalman(static: list[HandTrial], moving: list[HandTrial]
-                         ) -> list[tuple[tuple[float, float, float], dict]]:  # fmt: skip
+def tune_adaptive_kalman(
+    static: list[HandTrial], moving: list[HandTrial]
+) -> list[tuple[tuple[float, float, float], dict]]:
     """:class:`estimators.hand.adaptive.AdaptiveKalmanHandParams`: development scores over its
     grid; the rule takes the smallest ``mean_ratio`` among settings with every ratio below 1."""
     rows = []
-    for q, q_max, tau in itertools.product((0.3, 1.0, 3.0, 10.0), (30.0, 100.0, 1000.0),
-                                           (1.0 / 30.0, 0.05, 0.1)):  # fmt: skip
+    for q, q_max, tau in itertools.product(
+        (0.3, 1.0, 3.0, 10.0), (30.0, 100.0, 1000.0), (1.0 / 30.0, 0.05, 0.1)
+    ):
         stage = AdaptiveKalmanHandParams(accel_psd=q, max_accel_psd=q_max, adapt_time=tau)
         params = stage.hand_params(_FS)
-        rows.append(((q, q_max, tau), development_scores(static, moving,
-                                                         lambda tr, p=params: _angles(tr, p))))
+        rows.append(
+            (
+                (q, q_max, tau),
+                development_scores(static, moving, lambda tr, p=params: _angles(tr, p)),
+            )
+        )
     return rows
 
 
-def tune_one_euro(static: list[HandTrial], moving: list[HandTrial]
-                  ) -> list[tuple[tuple[float, float, float], dict]]:  # fmt: skip
+def tune_one_euro(
+    static: list[HandTrial], moving: list[HandTrial]
+) -> list[tuple[tuple[float, float, float], dict]]:
     """:class:`estimators.hand.one_euro.OneEuroHandParams`: development scores over its grid;
     the rule (module docstring there) takes the largest worst-axis mean ``rest_reduction`` among
     settings whose swept-axis ``moving_ratio`` is below 0.97 on every seed."""
     rows = []
-    grid = itertools.product((0.3, 0.5, 0.7, 1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 6.0),
-                             (0.5, 1.0, 2.0, 5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 40.0),
-                             (0.15, 0.25, 0.35, 0.5, 1.0, 2.0))  # fmt: skip
+    grid = itertools.product(
+        (0.3, 0.5, 0.7, 1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 6.0),
+        (0.5, 1.0, 2.0, 5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 40.0),
+        (0.15, 0.25, 0.35, 0.5, 1.0, 2.0),
+    )
     for mc, beta, dc in grid:
         p = OneEuroHandParams(min_cutoff=mc, beta=beta, d_cutoff=dc)
 
@@ -621,8 +705,10 @@ def run_tuning(which: tuple[str, ...] = ("yao2023", "adaptive_kalman", "one_euro
         rows = tune_yao2023_accel_psd(static, moving)
         print("Yao 2023 KalmanParams.accel_psd: mean RMSE ratio of the Kalman output")
         for q, sc in rows:
-            print(f"  {q:8.3f}  {sc['mean_ratio']:.4f}  rest reduction "
-                  f"{np.round(sc['rest_reduction'].mean(axis=0), 1)}")  # fmt: skip
+            print(
+                f"  {q:8.3f}  {sc['mean_ratio']:.4f}  rest reduction "
+                f"{np.round(sc['rest_reduction'].mean(axis=0), 1)}"
+            )
         chosen["yao2023"] = min(rows, key=lambda r: r[1]["mean_ratio"])[0]
     if "adaptive_kalman" in which:
         rows = tune_adaptive_kalman(static, moving)
@@ -637,8 +723,10 @@ def run_tuning(which: tuple[str, ...] = ("yao2023", "adaptive_kalman", "one_euro
         print("One Euro (min_cutoff, beta, d_cutoff): worst-axis rest reduction, swept ratio")
         best = sorted(ok, key=lambda r: -r[1]["rest_reduction"].mean(axis=0).min())
         for key, sc in best[:5]:
-            print(f"  {key}  {sc['rest_reduction'].mean(axis=0).min():.2f} %  "
-                  f"{sc['moving_ratio'][:, 0].max():.3f}")  # fmt: skip
+            print(
+                f"  {key}  {sc['rest_reduction'].mean(axis=0).min():.2f} %  "
+                f"{sc['moving_ratio'][:, 0].max():.3f}"
+            )
         chosen["one_euro"] = best[0][0]
     print(f"chosen: {chosen}")
     return chosen
@@ -648,6 +736,10 @@ if __name__ == "__main__":
     import argparse
 
     parser = argparse.ArgumentParser(description="tune the hand filters on the development seeds")
-    parser.add_argument("--only", nargs="+", default=["yao2023", "adaptive_kalman", "one_euro"],
-                        choices=["yao2023", "adaptive_kalman", "one_euro"])  # fmt: skip
+    parser.add_argument(
+        "--only",
+        nargs="+",
+        default=["yao2023", "adaptive_kalman", "one_euro"],
+        choices=["yao2023", "adaptive_kalman", "one_euro"],
+    )
     run_tuning(tuple(parser.parse_args().only))

@@ -93,10 +93,17 @@ HORIZON_STEPS = 600  # 60 s at the 10 Hz control rate
 RATE_HZ = 10.0
 #: The room of both conditions: 16 x 16 m, 4x the default area with 4x its obstacles, the goal
 #: at least 12 m away (an engineering choice for walks longer than 10 s).
-ROOM = RoomConfig(room_width=16.0, room_depth=16.0, n_obstacles_min=16, n_obstacles_max=28,
-                  min_start_goal_distance=12.0)  # fmt: skip
-REAL_NOTE = ("free viewing of 360-degree videos, seated or standing: not walking; held-out "
-             "files (odd video numbers)")  # fmt: skip
+ROOM = RoomConfig(
+    room_width=16.0,
+    room_depth=16.0,
+    n_obstacles_min=16,
+    n_obstacles_max=28,
+    min_start_goal_distance=12.0,
+)
+REAL_NOTE = (
+    "free viewing of 360-degree videos, seated or standing: not walking; held-out "
+    "files (odd video numbers)"
+)
 
 
 def is_held_out(path: str | Path) -> bool:
@@ -121,9 +128,14 @@ def simulate_heads(
 
     if condition not in CONDITIONS:
         raise ValueError(f"condition={condition!r}: must be one of {', '.join(CONDITIONS)}")
-    env = VRLocoVectorEnv(episodes, task="approach", population=population, room=ROOM,
-                          max_episode_steps=max_steps,
-                          autoreset_mode=AutoresetMode.DISABLED)  # fmt: skip
+    env = VRLocoVectorEnv(
+        episodes,
+        task="approach",
+        population=population,
+        room=ROOM,
+        max_episode_steps=max_steps,
+        autoreset_mode=AutoresetMode.DISABLED,
+    )
     try:
         obs, _ = env.reset(seed=seed)
         policy = None
@@ -199,10 +211,14 @@ def distances(sim: HeadMotionSamples, real: HeadMotionSamples) -> dict[str, Any]
 
 
 def run_head_behaviour(
-    json_path: Path | None = None, episodes: int = DEFAULT_EPISODES, seed: int = 0,
-    out_dir: Path | None = None, populations: tuple[str, ...] | None = None,
-    max_steps: int = HORIZON_STEPS, traces_folder: Path | None = None,
-) -> dict[str, Any]:  # fmt: skip
+    json_path: Path | None = None,
+    episodes: int = DEFAULT_EPISODES,
+    seed: int = 0,
+    out_dir: Path | None = None,
+    populations: tuple[str, ...] | None = None,
+    max_steps: int = HORIZON_STEPS,
+    traces_folder: Path | None = None,
+) -> dict[str, Any]:
     """Simulate every population standing and walking, read the held-out real traces, compare;
     print the tables, write the JSON (``json_path``) and the figure (``out_dir``, else beside
     the JSON; neither: no figure).
@@ -221,8 +237,11 @@ def run_head_behaviour(
     """
     from vrloco_env.user.population import get_population, population_names
 
-    for name, value, lo in (("episodes", episodes, 1), ("seed", seed, 0),
-                            ("max_steps", max_steps, 100)):  # fmt: skip
+    for name, value, lo in (
+        ("episodes", episodes, 1),
+        ("seed", seed, 0),
+        ("max_steps", max_steps, 100),
+    ):
         if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < lo:
             raise ValueError(f"run_head_behaviour: {name}={value!r} must be an integer >= {lo}")
     names = tuple(populations) if populations is not None else population_names()
@@ -235,9 +254,11 @@ def run_head_behaviour(
     for ds, paths in files.items():
         held = [p for p in paths if is_held_out(p)]
         real[ds], excluded = real_samples(held)
-        split[ds] = {"held_out": [p.name for p in held],
-                     "tuning": [p.name for p in paths if not is_held_out(p)],
-                     "excluded_viewings": excluded}  # fmt: skip
+        split[ds] = {
+            "held_out": [p.name for p in held],
+            "tuning": [p.name for p in paths if not is_held_out(p)],
+            "excluded_viewings": excluded,
+        }
 
     sim: dict[str, dict[str, HeadMotionSamples | None]] = {}
     short: dict[str, dict[str, int]] = {}
@@ -250,7 +271,9 @@ def run_head_behaviour(
             sim[name][cond] = None
             if keep:
                 sim[name][cond] = head_motion_samples(
-                    [yaw[i] for i in keep], [pitch[i] for i in keep], rate_hz=rate,
+                    [yaw[i] for i in keep],
+                    [pitch[i] for i in keep],
+                    rate_hz=rate,
                     resample_hz=RATE_HZ,
                 )
 
@@ -269,8 +292,11 @@ def run_head_behaviour(
         },
         "split": split,
         "settings": {
-            "rate_hz": RATE_HZ, "episodes": episodes, "seeds": [seed, seed + episodes - 1],
-            "horizon_s": max_steps / RATE_HZ, "task": "approach",
+            "rate_hz": RATE_HZ,
+            "episodes": episodes,
+            "seeds": [seed, seed + episodes - 1],
+            "horizon_s": max_steps / RATE_HZ,
+            "task": "approach",
             "room_m": [ROOM.room_width, ROOM.room_depth],
             "head": "true head yaw and pitch in the world (info['true_ypr'])",
             "excluded_episodes": short,
@@ -283,8 +309,8 @@ def run_head_behaviour(
         json_path.parent.mkdir(parents=True, exist_ok=True)
         json_path.write_text(json.dumps(result, indent=2))
         print(f"wrote {json_path}")
-    figure_dir = out_dir if out_dir is not None else (
-        json_path.parent if json_path is not None else None
+    figure_dir = (
+        out_dir if out_dir is not None else (json_path.parent if json_path is not None else None)
     )
     if figure_dir is not None:
         path = plot_head_behaviour(sim, real, Path(figure_dir))
@@ -298,8 +324,10 @@ def _fmt(v: Any, spec: str = ".0f") -> str:
 
 def format_tables(result: dict[str, Any]) -> str:
     """The statistics of every source and the KS distances, as text."""
-    head = (f"{'source':<30}{'yaw speed p50/90/99':>21}{'turns/min >=10/30/60':>22}"
-            f"{'amp p50':>8}{'iv p50':>7}{'iv cv':>6}{'still':>6}{'pitch':>6}{'nods':>6}")
+    head = (
+        f"{'source':<30}{'yaw speed p50/90/99':>21}{'turns/min >=10/30/60':>22}"
+        f"{'amp p50':>8}{'iv p50':>7}{'iv cv':>6}{'still':>6}{'pitch':>6}{'nods':>6}"
+    )
 
     def row(label: str, s: dict[str, Any] | None) -> str:
         if s is None:
@@ -308,28 +336,38 @@ def format_tables(result: dict[str, Any]) -> str:
         amp, iv = s["turn_amplitude_p25_p50_p75"], s["interval_p10_p25_p50_p75_p90"]
         speeds = f"{v[0]:.1f}/{v[2]:.0f}/{v[4]:.0f}"
         turns = f"{t[0]:.1f}/{t[2]:.1f}/{t[3]:.1f}"
-        return (f"{label:<30}{speeds:>21}{turns:>22}{_fmt(amp and amp[1]):>8}"
-                f"{_fmt(iv and iv[2], '.1f'):>7}{_fmt(s['interval_cv'], '.2f'):>6}"
-                f"{s['still_fraction']:>6.2f}{s['pitch_range_5_95_deg']:>6.0f}"
-                f"{s['nods_per_min']:>6.1f}")  # fmt: skip
+        return (
+            f"{label:<30}{speeds:>21}{turns:>22}{_fmt(amp and amp[1]):>8}"
+            f"{_fmt(iv and iv[2], '.1f'):>7}{_fmt(s['interval_cv'], '.2f'):>6}"
+            f"{s['still_fraction']:>6.2f}{s['pitch_range_5_95_deg']:>6.0f}"
+            f"{s['nods_per_min']:>6.1f}"
+        )
 
-    lines = ["Head-motion statistics at 10 Hz (deg/s, deg, s; world-frame head). Real: "
-             + REAL_NOTE + ".", head]  # fmt: skip
+    lines = [
+        "Head-motion statistics at 10 Hz (deg/s, deg, s; world-frame head). Real: "
+        + REAL_NOTE
+        + ".",
+        head,
+    ]
     for name, conds in result["populations"].items():
         for cond, s in conds.items():
             lines.append(row(f"{name} {cond}", s))
     for ds, s in result["real"].items():
         lines.append(row(f"{ds} (held-out)", s))
     datasets = list(result["real"])
-    lines += ["", "KS distance, |yaw speed| / inter-turn intervals, vs held-out real:",
-              f"{'':<30}" + "".join(f"{ds:>16}" for ds in datasets)]  # fmt: skip
+    lines += [
+        "",
+        "KS distance, |yaw speed| / inter-turn intervals, vs held-out real:",
+        f"{'':<30}" + "".join(f"{ds:>16}" for ds in datasets),
+    ]
     for name, conds in result["distances"].items():
         for cond, per in conds.items():
             cells = "".join(
-                f"{'-':>16}" if d is None else
-                f"{_fmt(d['yaw_speed_ks'], '.2f') + ' / ' + _fmt(d['interval_ks'], '.2f'):>16}"
+                f"{'-':>16}"
+                if d is None
+                else f"{_fmt(d['yaw_speed_ks'], '.2f') + ' / ' + _fmt(d['interval_ks'], '.2f'):>16}"
                 for d in per.values()
-            )  # fmt: skip
+            )
             lines.append(f"{name + ' ' + cond:<30}{cells}")
     return "\n".join(lines)
 
@@ -350,8 +388,11 @@ def plot_head_behaviour(
     out_dir.mkdir(parents=True, exist_ok=True)
     colours = {n: plt.get_cmap("tab10")(k % 10) for k, n in enumerate(sim)}
     real_styles = [("black", "--"), ("dimgray", "-."), ("darkgray", ":")]
-    real_items = [(f"{ds} (real, held-out)", s, real_styles[k % 3])
-                  for k, (ds, s) in enumerate(real.items()) if s is not None]  # fmt: skip
+    real_items = [
+        (f"{ds} (real, held-out)", s, real_styles[k % 3])
+        for k, (ds, s) in enumerate(real.items())
+        if s is not None
+    ]
     fig, axes = plt.subplots(2, 3, figsize=(17, 9))
     q = np.linspace(0.0, 100.0, 201)
     bins = np.arange(0.0, 62.0, 2.0)
@@ -363,46 +404,73 @@ def plot_head_behaviour(
             if s is None:
                 continue
             lw = 2.0 if "real" in label else 1.3
-            ax.plot(np.percentile(s.yaw_speed, q), q / 100.0, style, color=colour, lw=lw,
-                    label=label)  # fmt: skip
+            ax.plot(
+                np.percentile(s.yaw_speed, q), q / 100.0, style, color=colour, lw=lw, label=label
+            )
             rates = np.clip(s.turn_rates(), 0.0, 60.0)
             share, _ = np.histogram(rates, bins=bins)
             share = share / rates.size
             hx.stairs(share, bins, color=colour, linestyle=style, lw=lw, label=label)
             if rates.any():  # a source that never turns (a spike at 0) does not set the scale
                 top = max(top, share.max())
-        ax.set(xscale="symlog", xlim=(0, 500), xlabel="|yaw speed| (deg/s)",
-               ylabel="share of samples at or below",
-               title=f"|yaw speed|: simulated {cond} vs real viewing")  # fmt: skip
+        ax.set(
+            xscale="symlog",
+            xlim=(0, 500),
+            xlabel="|yaw speed| (deg/s)",
+            ylabel="share of samples at or below",
+            title=f"|yaw speed|: simulated {cond} vs real viewing",
+        )
         ax.legend(fontsize=7, loc="lower right")  # a fixed place: "best" is slow to find
-        hx.set(ylim=(0, 1.15 * top if top > 0 else 1.0),
-               xlabel="turns of >= 10 deg per minute, per trace (clipped at 60)",
-               ylabel="share of traces", title=f"turn rate per trace: simulated {cond} vs real")
+        hx.set(
+            ylim=(0, 1.15 * top if top > 0 else 1.0),
+            xlabel="turns of >= 10 deg per minute, per trace (clipped at 60)",
+            ylabel="share of traces",
+            title=f"turn rate per trace: simulated {cond} vs real",
+        )
         hx.legend(fontsize=7, loc="upper right")
     ax = axes[0, 2]
-    sources = [(f"{n} {c}", s, colours[n], "//" if c == "walking" else None)
-               for n, conds in sim.items() for c, s in conds.items()]  # fmt: skip
+    sources = [
+        (f"{n} {c}", s, colours[n], "//" if c == "walking" else None)
+        for n, conds in sim.items()
+        for c, s in conds.items()
+    ]
     sources += [(label, s, colour, None) for label, s, (colour, _) in real_items]
     sources = [x for x in sources if x[1] is not None]
     width = 0.8 / max(len(sources), 1)
     for k, (label, s, colour, hatch) in enumerate(sources):
-        ax.bar(np.arange(len(TURN_CLASSES_DEG)) + k * width, s.stats().turns_per_min, width,
-               color=colour, hatch=hatch, edgecolor="white", label=label)  # fmt: skip
-    ax.set_xticks(np.arange(len(TURN_CLASSES_DEG)) + 0.4 - width / 2,
-                  [f">= {c:.0f} deg" for c in TURN_CLASSES_DEG])  # fmt: skip
+        ax.bar(
+            np.arange(len(TURN_CLASSES_DEG)) + k * width,
+            s.stats().turns_per_min,
+            width,
+            color=colour,
+            hatch=hatch,
+            edgecolor="white",
+            label=label,
+        )
+    ax.set_xticks(
+        np.arange(len(TURN_CLASSES_DEG)) + 0.4 - width / 2,
+        [f">= {c:.0f} deg" for c in TURN_CLASSES_DEG],
+    )
     ax.set(ylabel="turns per minute", title="turns by amplitude (hatched: walking)")
     ax.legend(fontsize=6, ncol=2, loc="upper right")
     axes[1, 2].axis("off")
-    axes[1, 2].text(0.0, 0.95, "Real: head traces of people seated or standing, freely\n"
-                    "viewing 360-degree videos (nobody walked): Corbillon et al.,\n"
-                    "Lo et al., Wu et al., ACM MMSys 2017 (via 360VidStr).\n"
-                    "Held-out files only (odd video numbers).\n\n"
-                    "Simulated: true head yaw and pitch in the world,\n"
-                    "10 Hz, Approach room 16 x 16 m; standing = never walks,\n"
-                    "walking = goal seeker walking in place to the goal.",
-                    va="top", fontsize=9, transform=axes[1, 2].transAxes)  # fmt: skip
-    fig.suptitle("Head motion: simulated populations vs people freely viewing 360-degree video "
-                 "(not walking)")  # fmt: skip
+    axes[1, 2].text(
+        0.0,
+        0.95,
+        "Real: head traces of people seated or standing, freely\n"
+        "viewing 360-degree videos (nobody walked): Corbillon et al.,\n"
+        "Lo et al., Wu et al., ACM MMSys 2017 (via 360VidStr).\n"
+        "Held-out files only (odd video numbers).\n\n"
+        "Simulated: true head yaw and pitch in the world,\n"
+        "10 Hz, Approach room 16 x 16 m; standing = never walks,\n"
+        "walking = goal seeker walking in place to the goal.",
+        va="top",
+        fontsize=9,
+        transform=axes[1, 2].transAxes,
+    )
+    fig.suptitle(
+        "Head motion: simulated populations vs people freely viewing 360-degree video (not walking)"
+    )
     fig.tight_layout()
     path = out_dir / "head_behaviour.png"
     fig.savefig(path, dpi=100)

@@ -67,8 +67,9 @@ def sense_record(record: MotionRecord, rng: BatchRng, preset: str, fs: float) ->
     return Trial(record, s, q_est, detected, out.steps.astype(np.int64), out.state)
 
 
-def run_trial(name: str, preset: str, users: int, seed: int, cadence: float = 1.7,
-              fs: float = 100.0) -> Trial:  # fmt: skip
+def run_trial(
+    name: str, preset: str, users: int, seed: int, cadence: float = 1.7, fs: float = 100.0
+) -> Trial:
     """Scripted motion ``name`` (see :func:`vrloco_env.user.motion.script_intents`) for
     ``users``."""
     rng = BatchRng([np.random.default_rng([seed, i]) for i in range(users)])
@@ -77,15 +78,19 @@ def run_trial(name: str, preset: str, users: int, seed: int, cadence: float = 1.
     return sense_record(rec, rng, preset, fs)
 
 
-def stepping_with_head_scan(preset: str, users: int, seed: int, cadence: float,
-                            fs: float = 100.0) -> Trial:  # fmt: skip
+def stepping_with_head_scan(
+    preset: str, users: int, seed: int, cadence: float, fs: float = 100.0
+) -> Trial:
     """Stepping in place while looking around (head yaw +-30 deg at 0.3 Hz, pitch +-10 deg)."""
     rng = BatchRng([np.random.default_rng([seed, 7, i]) for i in range(users)])
     params = MotionParams(imu_rate_hz=fs)
     motion = UserMotion(params, rng)
     motion.reset()
-    scan = Intent(cadence=cadence, gesture_amplitude=(np.deg2rad(30.0), np.deg2rad(10.0), 0.0),
-                  gesture_frequency=(0.3, 0.2, 0.3))  # fmt: skip
+    scan = Intent(
+        cadence=cadence,
+        gesture_amplitude=(np.deg2rad(30.0), np.deg2rad(10.0), 0.0),
+        gesture_frequency=(0.3, 0.2, 0.3),
+    )
     still = Intent(gesture_frequency=(0.3, 0.2, 0.3))
     plan = [still] * 20 + [scan] * 160 + [still] * 20
     rec = MotionRecord.concatenate([motion.advance(i) for i in plan])
@@ -112,8 +117,12 @@ def vqf_deviation(trial: Trial, fs: float = 100.0) -> float | None:
     devs = []
     for i in range(trial.q_est.shape[0]):  # VQF takes one stream at a time
         s = trial.imu
-        ref = offlineVQF(np.ascontiguousarray(s.gyr[i]), np.ascontiguousarray(s.acc[i]),
-                         np.ascontiguousarray(s.mag[i]), 1.0 / fs)["quat9D"]  # fmt: skip
+        ref = offlineVQF(
+            np.ascontiguousarray(s.gyr[i]),
+            np.ascontiguousarray(s.acc[i]),
+            np.ascontiguousarray(s.mag[i]),
+            1.0 / fs,
+        )["quat9D"]
         d = angle_diff(quat_to_ypr(trial.q_est[i, keep]), quat_to_ypr(ref[keep]))
         devs.append(np.mean(np.abs(np.rad2deg(d))))
     return float(np.mean(devs))
@@ -130,8 +139,13 @@ def step_scores(trial: Trial) -> dict[str, float]:
     precision = tp / n_det if n_det else 1.0
     recall = tp / n_true if n_true else 1.0
     f1 = 2 * precision * recall / (precision + recall) if precision + recall else 0.0
-    return {"precision": precision, "recall": recall, "f1": f1, "true_steps": int(n_true),
-            "detected_steps": int(n_det)}  # fmt: skip
+    return {
+        "precision": precision,
+        "recall": recall,
+        "f1": f1,
+        "true_steps": int(n_true),
+        "detected_steps": int(n_det),
+    }
 
 
 def trajectories(trial: Trial, fs: float = 100.0) -> dict[str, np.ndarray]:
@@ -148,8 +162,9 @@ def trajectories(trial: Trial, fs: float = 100.0) -> dict[str, np.ndarray]:
     return {"true": true, "eq17": eq17, "smooth": path}
 
 
-def run_head_motions(out_dir: Path | None = None, json_path: Path | None = None, users: int = 8,
-                     seed: int = 0) -> dict:  # fmt: skip
+def run_head_motions(
+    out_dir: Path | None = None, json_path: Path | None = None, users: int = 8, seed: int = 0
+) -> dict:
     """All of the above; prints tables, writes figures and JSON."""
     result: dict = {"users": users, "seed": seed, "attitude": {}, "steps": {}, "phantom": {}}
     fig3_trials = {}
@@ -188,21 +203,26 @@ def run_head_motions(out_dir: Path | None = None, json_path: Path | None = None,
 
 
 def format_tables(result: dict) -> str:
-    lines = [f"Zhang 2021 head motions, simulated ({result['users']} users each), attitude RMSE vs "
-             "truth (deg) and mean deviation from VQF (deg; the paper: 1.1e-2 vs the IMU's "
-             "own filter)"]  # fmt: skip
+    lines = [
+        f"Zhang 2021 head motions, simulated ({result['users']} users each), attitude RMSE vs "
+        "truth (deg) and mean deviation from VQF (deg; the paper: 1.1e-2 vs the IMU's "
+        "own filter)"
+    ]
     lines.append(f"  {'preset':<14}{'motion':<12}{'yaw':>7}{'pitch':>7}{'roll':>7}{'vs VQF':>9}")
     for preset, rows in result["attitude"].items():
         for name, row in rows.items():
             r = row["rmse_deg"]
             dev = row["vqf_mean_deviation_deg"]
             dev_s = f"{dev:9.3f}" if dev is not None else "      n/a"
-            lines.append(f"  {preset:<14}{name:<12}{r['yaw']:7.2f}{r['pitch']:7.2f}"
-                         f"{r['roll']:7.2f}{dev_s}")  # fmt: skip
+            lines.append(
+                f"  {preset:<14}{name:<12}{r['yaw']:7.2f}{r['pitch']:7.2f}{r['roll']:7.2f}{dev_s}"
+            )
     lines.append("Step detection, F1 vs true heel strikes (+-0.2 s): straight / with head scan")
     for preset, rows in result["steps"].items():
-        cells = "  ".join(f"{c} Hz {v['straight']['f1']:.3f} / {v['head_scan']['f1']:.3f}"
-                          for c, v in rows.items())  # fmt: skip
+        cells = "  ".join(
+            f"{c} Hz {v['straight']['f1']:.3f} / {v['head_scan']['f1']:.3f}"
+            for c, v in rows.items()
+        )
         lines.append(f"  {preset:<14}{cells}")
     for preset, rows in result["phantom"].items():
         cells = ", ".join(f"{k} {v}" for k, v in rows.items())
@@ -214,8 +234,12 @@ def format_tables(result: dict) -> str:
     return "\n".join(lines)
 
 
-def draw_figures(out_dir: Path, fig3: dict[str, Trial], walks: dict[str, Trial],
-                 paths: dict[str, dict[str, np.ndarray]]) -> list[Path]:  # fmt: skip
+def draw_figures(
+    out_dir: Path,
+    fig3: dict[str, Trial],
+    walks: dict[str, Trial],
+    paths: dict[str, dict[str, np.ndarray]],
+) -> list[Path]:
     """Fig. 3 (attitude traces), Fig. 2 (gait) and Figs. 4/5 (paths) analogues."""
     import matplotlib
 
@@ -225,8 +249,9 @@ def draw_figures(out_dir: Path, fig3: dict[str, Trial], walks: dict[str, Trial],
     out_dir.mkdir(parents=True, exist_ok=True)
     written = []
 
-    fig, axes = plt.subplots(3, len(fig3), figsize=(16, 7), sharex="col", squeeze=False,
-                             constrained_layout=True)  # fmt: skip
+    fig, axes = plt.subplots(
+        3, len(fig3), figsize=(16, 7), sharex="col", squeeze=False, constrained_layout=True
+    )
     for j, (name, trial) in enumerate(fig3.items()):
         t = trial.record.t
         true = np.rad2deg(np.unwrap(trial.record.ypr[0], axis=0))
@@ -241,8 +266,9 @@ def draw_figures(out_dir: Path, fig3: dict[str, Trial], walks: dict[str, Trial],
                 ax.set_title(name)
         axes[-1, j].set_xlabel("time (s)")
     axes[0, 0].legend(fontsize=8)
-    fig.suptitle("Head attitude during Zhang 2021's five motions (ig500n, 100 Hz): estimate vs "
-                 "truth")
+    fig.suptitle(
+        "Head attitude during Zhang 2021's five motions (ig500n, 100 Hz): estimate vs truth"
+    )
     written.append(out_dir / "fig3_attitude.png")
     fig.savefig(written[-1], dpi=110)
     plt.close(fig)
@@ -252,13 +278,21 @@ def draw_figures(out_dir: Path, fig3: dict[str, Trial], walks: dict[str, Trial],
     fnorm = np.linalg.norm(trial.imu.acc[0], axis=-1)
     fig, ax = plt.subplots(figsize=(12, 3.8), constrained_layout=True)
     ax.plot(t, fnorm, lw=0.8, color="k", label="|f| (m/s²)")
-    ax.fill_between(t, fnorm.min(), fnorm.max(), where=trial.state[0] > 0, color="tab:green",
-                    alpha=0.12, label="detected: walk")  # fmt: skip
+    ax.fill_between(
+        t,
+        fnorm.min(),
+        fnorm.max(),
+        where=trial.state[0] > 0,
+        color="tab:green",
+        alpha=0.12,
+        label="detected: walk",
+    )
     true = trial.record.step_times[0]
     ax.plot(true, np.interp(true, t, fnorm) + 0.4, "v", color="tab:red", ms=5, label="true steps")
     det = trial.steps_detected[0]
-    ax.plot(det, np.interp(det, t, fnorm) + 0.9, "v", color="tab:blue", ms=5,
-            label="detected steps")  # fmt: skip
+    ax.plot(
+        det, np.interp(det, t, fnorm) + 0.9, "v", color="tab:blue", ms=5, label="detected steps"
+    )
     ax.set_xlabel("time (s)")
     ax.set_ylabel("|f| (m/s²)")
     ax.set_ylim(fnorm.min() - 0.3, fnorm.max() + 1.6)
@@ -269,8 +303,10 @@ def draw_figures(out_dir: Path, fig3: dict[str, Trial], walks: dict[str, Trial],
     plt.close(fig)
 
     fig, axes = plt.subplots(1, 2, figsize=(12, 5), constrained_layout=True)
-    titles = (("straight", "Fig. 4: straight walk in place"),
-              ("avoid", "Fig. 5: turn away and back"))  # fmt: skip
+    titles = (
+        ("straight", "Fig. 4: straight walk in place"),
+        ("avoid", "Fig. 5: turn away and back"),
+    )
     for ax, (name, title) in zip(axes, titles, strict=True):
         ps = paths[name]
         ax.plot(*ps["true"].T, color="0.6", lw=3, label="true steps and heading")

@@ -44,19 +44,37 @@ def run_imu_trace(out_dir: Path, seed: int = 0, preset: str = "ig500n") -> Path:
     fnorm = np.linalg.norm(acc, axis=-1) / rot.GRAVITY
 
     fig, axes = plt.subplots(4, 1, figsize=(11, 9), sharex=True, constrained_layout=True)
-    phases = [(0, 3, "standing"), (3, 8, "stepping in place"), (8, 12, "stepping + turning 45°/s"),
-              (12, 15, "stepping"), (15, 18, "standing")]  # fmt: skip
+    phases = [
+        (0, 3, "standing"),
+        (3, 8, "stepping in place"),
+        (8, 12, "stepping + turning 45°/s"),
+        (12, 15, "stepping"),
+        (15, 18, "standing"),
+    ]
     for ax in axes:
         for k, (a, b, _) in enumerate(phases):
             if k % 2:
                 ax.axvspan(a, b, color="0.93", lw=0)
     for a, b, label in phases:
-        axes[0].text((a + b) / 2, 1.02, label, transform=axes[0].get_xaxis_transform(),
-                     ha="center", va="bottom", fontsize=8)  # fmt: skip
+        axes[0].text(
+            (a + b) / 2,
+            1.02,
+            label,
+            transform=axes[0].get_xaxis_transform(),
+            ha="center",
+            va="bottom",
+            fontsize=8,
+        )
 
     axes[0].plot(t, fnorm, lw=0.8, color="k", label="|f| (g)")
-    axes[0].plot(steps, np.interp(steps, t, fnorm), "v", color="tab:red", ms=5,
-                 label=f"true heel strikes ({steps.size})")  # fmt: skip
+    axes[0].plot(
+        steps,
+        np.interp(steps, t, fnorm),
+        "v",
+        color="tab:red",
+        ms=5,
+        label=f"true heel strikes ({steps.size})",
+    )
     axes[0].set_ylabel("|specific force| (g)")
     axes[0].legend(loc="upper left", fontsize=8)
     for i, c in enumerate("xyz"):

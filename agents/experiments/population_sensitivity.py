@@ -104,8 +104,9 @@ def collapse(population: Population, field: str, end: str) -> Population:
     if lo == hi:
         return population
     value = lo if end == "lo" else hi
-    return dataclasses.replace(population, name=derived_name(population.name, field, end),
-                               **{field: (value, value)})  # fmt: skip
+    return dataclasses.replace(
+        population, name=derived_name(population.name, field, end), **{field: (value, value)}
+    )
 
 
 def _suffix(policy: str) -> str | None:
@@ -159,21 +160,28 @@ def _local_workers(workers: int) -> int:
     return workers if _pool_context().get_start_method() == "fork" else 1
 
 
-def _run_row(grids: Sequence[Grid], copies: dict[str, Population], episodes: int,
-             workers: int) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:  # fmt: skip
+def _run_row(
+    grids: Sequence[Grid], copies: dict[str, Population], episodes: int, workers: int
+) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
     """The benchmark rows of ``grids`` with each population of ``copies`` (original name ->
     copy) in place of the original, and the pair results under the original pairs' names."""
     from agents.benchmark import run_benchmark
 
     names = {k: p.name for k, p in copies.items() if p.name != k}
-    run_grids = [dataclasses.replace(g, policies=tuple(_rename(p, names) for p in g.policies))
-                 for g in grids]  # fmt: skip
+    run_grids = [
+        dataclasses.replace(g, policies=tuple(_rename(p, names) for p in g.policies)) for g in grids
+    ]
     pairs = [dataclasses.replace(pair, policy=_rename(pair.policy, names)) for pair in PAIRS]
     original: dict[str, Pair] = {p.name: o for p, o in zip(pairs, PAIRS, strict=True)}
     with registered(p for k, p in copies.items() if p.name != k):
-        rows = run_benchmark(grids=run_grids, episodes=episodes, seed=SEED,
-                             workers=_local_workers(workers), progress=False,
-                             print_table=False)  # fmt: skip
+        rows = run_benchmark(
+            grids=run_grids,
+            episodes=episodes,
+            seed=SEED,
+            workers=_local_workers(workers),
+            progress=False,
+            print_table=False,
+        )
         results = pair_results(rows, tuple(pairs))
     for r in results:
         pair = original[r["pair"]]
@@ -186,19 +194,40 @@ def _row_key(grids: Sequence[Grid], copies: dict[str, Population], episodes: int
     (their definitions) and the episodes."""
     from agents.benchmark.resume import source_fingerprint
 
-    text = repr((source_fingerprint(), [repr(g) for g in grids],
-                 sorted((k, repr(p)) for k, p in copies.items()), episodes, SEED))  # fmt: skip
+    text = repr(
+        (
+            source_fingerprint(),
+            [repr(g) for g in grids],
+            sorted((k, repr(p)) for k, p in copies.items()),
+            episodes,
+            SEED,
+        )
+    )
     return hashlib.sha256(text.encode()).hexdigest()
 
 
-def _summary(field: str | None, end: str | None, values: dict[str, list[float]],
-             results: list[dict[str, Any]]) -> dict[str, Any]:  # fmt: skip
+def _summary(
+    field: str | None,
+    end: str | None,
+    values: dict[str, list[float]],
+    results: list[dict[str, Any]],
+) -> dict[str, Any]:
     """A row of the JSON (see the module docstring), without ``differs``."""
-    return {"field": field, "end": end, "values": values,
-            "separate": sum(r["separates"] for r in results),
-            "on_outcome": sum(r["on_outcome"] for r in results),
-            "pairs": {r["pair"]: {"separates": r["separates"], "on_outcome": r["on_outcome"],
-                                  "metrics": list(r["metrics"])} for r in results}}  # fmt: skip
+    return {
+        "field": field,
+        "end": end,
+        "values": values,
+        "separate": sum(r["separates"] for r in results),
+        "on_outcome": sum(r["on_outcome"] for r in results),
+        "pairs": {
+            r["pair"]: {
+                "separates": r["separates"],
+                "on_outcome": r["on_outcome"],
+                "metrics": list(r["metrics"]),
+            }
+            for r in results
+        },
+    }
 
 
 def _differs(row: dict[str, Any], reference: dict[str, Any]) -> list[str]:
@@ -221,10 +250,13 @@ def _differs(row: dict[str, Any], reference: dict[str, Any]) -> list[str]:
 
 
 def run_population_sensitivity(
-    json_path: Path | None = None, episodes: int = DEFAULT_EPISODES,
-    fields: Sequence[str] | None = None, out_dir: Path | None = None, workers: int = 2,
+    json_path: Path | None = None,
+    episodes: int = DEFAULT_EPISODES,
+    fields: Sequence[str] | None = None,
+    out_dir: Path | None = None,
+    workers: int = 2,
     grids: Sequence[Grid] = DEFAULT_GRIDS,
-) -> dict[str, Any]:  # fmt: skip
+) -> dict[str, Any]:
     """Run the reference and every (field, end) row, print the table, write the JSON.
 
     Args:
@@ -250,8 +282,10 @@ def run_population_sensitivity(
     fields = tuple(CHOICE_FIELDS if fields is None else fields)
     for f in fields:
         if f not in CHOICE_FIELDS:
-            raise ValueError(f"fields: {f!r} is no choice field; the choice fields are "
-                             f"{', '.join(CHOICE_FIELDS)}")  # fmt: skip
+            raise ValueError(
+                f"fields: {f!r} is no choice field; the choice fields are "
+                f"{', '.join(CHOICE_FIELDS)}"
+            )
     if not fields or len(set(fields)) != len(fields):
         raise ValueError(f"fields={','.join(fields)!r}: must name at least one field, each once")
     grids = list(grids)
@@ -263,8 +297,7 @@ def run_population_sensitivity(
     out.mkdir(parents=True, exist_ok=True)
 
     plan: list[tuple[str | None, str | None, dict[str, Population]]] = [(None, None, base)]
-    plan += [(f, e, {n: collapse(p, f, e) for n, p in base.items()})
-             for f in fields for e in ENDS]  # fmt: skip
+    plan += [(f, e, {n: collapse(p, f, e) for n, p in base.items()}) for f in fields for e in ENDS]
     done: dict[str, tuple[list, list]] = {}  # row key -> (rows, pair results)
     summaries = []
     for k, (field, end, copies) in enumerate(plan):
@@ -285,16 +318,29 @@ def run_population_sensitivity(
         else:
             rows, results = _run_row(grids, copies, episodes, workers)
             how = f"{time.monotonic() - start:.0f} s"
-            path.write_text(json.dumps(json_safe({"key": key, "field": field, "end": end,
-                                                  "populations": {n: repr(p) for n, p in
-                                                                  copies.items()},
-                                                  "benchmark_rows": rows, "pairs": results}),
-                                       indent=1))  # fmt: skip
+            path.write_text(
+                json.dumps(
+                    json_safe(
+                        {
+                            "key": key,
+                            "field": field,
+                            "end": end,
+                            "populations": {n: repr(p) for n, p in copies.items()},
+                            "benchmark_rows": rows,
+                            "pairs": results,
+                        }
+                    ),
+                    indent=1,
+                )
+            )
         done.setdefault(key, (rows, results))
         values = {n: list(getattr(p, field)) for n, p in copies.items()} if field else {}
         summaries.append(_summary(field, end, values, results))
-        print(f"population-sensitivity: {k + 1}/{len(plan)} {label} ({how})", file=sys.stderr,
-              flush=True)  # fmt: skip
+        print(
+            f"population-sensitivity: {k + 1}/{len(plan)} {label} ({how})",
+            file=sys.stderr,
+            flush=True,
+        )
     reference, rows = summaries[0], summaries[1:]
     reference["differs"] = []
     for row in rows:
@@ -303,15 +349,19 @@ def run_population_sensitivity(
         "reference": reference,
         "rows": rows,
         "settings": {
-            "episodes": episodes, "seeds": [SEED, SEED + episodes - 1],
+            "episodes": episodes,
+            "seeds": [SEED, SEED + episodes - 1],
             "grids": [dataclasses.asdict(g) for g in grids],
-            "default_grid": grids == list(DEFAULT_GRIDS), "populations": list(pops),
-            "fields": list(fields), "ends": list(ENDS), "out_dir": str(out),
+            "default_grid": grids == list(DEFAULT_GRIDS),
+            "populations": list(pops),
+            "fields": list(fields),
+            "ends": list(ENDS),
+            "out_dir": str(out),
             "pairs_of": len(reference["pairs"]),
             "note": "seeds from 0 are the benchmark's reporting seeds; nothing is tuned on this "
-                    "experiment; verdicts as agents.benchmark.discrimination.pair_results",
+            "experiment; verdicts as agents.benchmark.discrimination.pair_results",
         },
-    }  # fmt: skip
+    }
     print(format_table(result))
     if json_path is not None:
         json_path.parent.mkdir(parents=True, exist_ok=True)
@@ -338,31 +388,39 @@ def format_table(result: dict[str, Any], width: int = WIDTH) -> str:
     cols = (15, 4, 18, 5, 5)  # field, end, values, separate, on outcome
     rest = max(20, width - sum(cols))
     grid = "the default benchmark grid" if settings["default_grid"] else "the given grid"
-    intro = (f"Population sensitivity: {grid} on seeds {seeds[0]}-{seeds[1]} "
-             f"(the benchmark's reporting seeds; nothing is tuned on this experiment), each "
-             f"choice range collapsed to its low or high end in every population; values: "
-             f"{'/'.join(pops)}; sep and out: pairs that separate (on an outcome) of {n_pairs}; "
-             f"differs: verdicts unlike the reference row's (outcome: on an outcome).")
+    intro = (
+        f"Population sensitivity: {grid} on seeds {seeds[0]}-{seeds[1]} "
+        f"(the benchmark's reporting seeds; nothing is tuned on this experiment), each "
+        f"choice range collapsed to its low or high end in every population; values: "
+        f"{'/'.join(pops)}; sep and out: pairs that separate (on an outcome) of {n_pairs}; "
+        f"differs: verdicts unlike the reference row's (outcome: on an outcome)."
+    )
     lines = textwrap.wrap(intro, width)
-    head = (f"{'field':<{cols[0]}}{'end':<{cols[1]}}{'values':<{cols[2]}}{'sep':>{cols[3]}}"
-            f"{'out':>{cols[4]}}  differs")  # fmt: skip
+    head = (
+        f"{'field':<{cols[0]}}{'end':<{cols[1]}}{'values':<{cols[2]}}{'sep':>{cols[3]}}"
+        f"{'out':>{cols[4]}}  differs"
+    )
     lines += [head, "-" * width]
 
     def add(field: str, end: str, values: str, row: dict[str, Any], differs: list[str]) -> None:
         text = ", ".join(differs) or "-"
         wrapped = textwrap.wrap(text, rest - 2, break_on_hyphens=False) or ["-"]
-        lines.append(f"{field:<{cols[0]}}{end:<{cols[1]}}{values:<{cols[2]}}"
-                     f"{row['separate']:>{cols[3]}}{row['on_outcome']:>{cols[4]}}  {wrapped[0]}")
+        lines.append(
+            f"{field:<{cols[0]}}{end:<{cols[1]}}{values:<{cols[2]}}"
+            f"{row['separate']:>{cols[3]}}{row['on_outcome']:>{cols[4]}}  {wrapped[0]}"
+        )
         lines.extend(" " * (sum(cols) + 2) + w for w in wrapped[1:])
 
     add("reference", "-", "as defined", reference, [])
     for row in result["rows"]:
         values = "/".join(_value(row["values"][p][0]) for p in pops)
-        differs = [_short(d) + d[d.index(":"):] for d in row["differs"]]
+        differs = [_short(d) + d[d.index(":") :] for d in row["differs"]]
         add(row["field"], row["end"], values, row, differs)
     lines.append("")
     lines.append("reference verdicts (separates / on an outcome):")
-    ref = [f"{_short(name)} {'yes' if v['separates'] else 'no'}/"
-           f"{'yes' if v['on_outcome'] else 'no'}" for name, v in reference["pairs"].items()]
+    ref = [
+        f"{_short(name)} {'yes' if v['separates'] else 'no'}/{'yes' if v['on_outcome'] else 'no'}"
+        for name, v in reference["pairs"].items()
+    ]
     lines += textwrap.wrap(", ".join(ref), width, initial_indent="  ", subsequent_indent="  ")
     return "\n".join(lines)

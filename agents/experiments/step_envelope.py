@@ -155,10 +155,15 @@ class Counts:
 
     def as_dict(self) -> dict:
         f1 = self.f1
-        return {"tp": self.tp, "fp": self.fp, "misses": self.misses,
-                "true_steps": self.true_steps, "f1": None if f1 is None else round(f1, 4),
-                "false_steps_per_min": round(self.fp_per_min, 2),
-                "user_minutes": round(self.minutes, 3)}  # fmt: skip
+        return {
+            "tp": self.tp,
+            "fp": self.fp,
+            "misses": self.misses,
+            "true_steps": self.true_steps,
+            "f1": None if f1 is None else round(f1, 4),
+            "false_steps_per_min": round(self.fp_per_min, 2),
+            "user_minutes": round(self.minutes, 3),
+        }
 
 
 def _seg(seconds: float, **kw) -> list[Intent]:
@@ -175,9 +180,11 @@ def _gesture(amp_deg, freq_hz, cadence: float, seconds: float = 16.0):
 
     def plan(users: int, gen: np.random.Generator):
         f = tuple(freq_hz)
-        return (_seg(2.0, gesture_frequency=f)
-                + _seg(seconds, cadence=cadence, gesture_amplitude=amp, gesture_frequency=f)
-                + _seg(2.0, gesture_frequency=f)), None  # fmt: skip
+        return (
+            _seg(2.0, gesture_frequency=f)
+            + _seg(seconds, cadence=cadence, gesture_amplitude=amp, gesture_frequency=f)
+            + _seg(2.0, gesture_frequency=f)
+        ), None
 
     return plan
 
@@ -202,17 +209,19 @@ def _look_at_hand(cadence: float):
 
     def plan(users: int, gen: np.random.Generator):
         hand = (0.6, 0.4, 0.0)  # rad/s: the hand turning while the user watches it
-        follow = dict(gesture_amplitude=(_deg(10.0), _deg(5.0), 0.0),
-                      gesture_frequency=(0.2, 0.3, 0.5))  # fmt: skip
+        follow = dict(
+            gesture_amplitude=(_deg(10.0), _deg(5.0), 0.0), gesture_frequency=(0.2, 0.3, 0.5)
+        )
         c = cadence
-        return (_seg(2.0)
-                + _seg(4.0, cadence=c, lean=_deg(35.0), hand_rates=hand)
-                + _seg(5.0, cadence=c, lean=_deg(45.0), hand_rates=tuple(-h for h in hand),
-                       **follow)
-                + _seg(3.0, cadence=c, lean=_deg(30.0), hand_rates=hand)
-                + _seg(2.0, cadence=c)
-                + _seg(3.0, cadence=c, lean=_deg(40.0), hand_rates=tuple(-h for h in hand))
-                + _seg(2.0)), None  # fmt: skip
+        return (
+            _seg(2.0)
+            + _seg(4.0, cadence=c, lean=_deg(35.0), hand_rates=hand)
+            + _seg(5.0, cadence=c, lean=_deg(45.0), hand_rates=tuple(-h for h in hand), **follow)
+            + _seg(3.0, cadence=c, lean=_deg(30.0), hand_rates=hand)
+            + _seg(2.0, cadence=c)
+            + _seg(3.0, cadence=c, lean=_deg(40.0), hand_rates=tuple(-h for h in hand))
+            + _seg(2.0)
+        ), None
 
     return plan
 
@@ -246,8 +255,7 @@ CASES: tuple[Case, ...] = (
 )
 
 
-def add_squats(record: MotionRecord, depth: float, rate: float, start: float,
-               cycles: int) -> None:  # fmt: skip
+def add_squats(record: MotionRecord, depth: float, rate: float, start: float, cycles: int) -> None:
     """Add ``cycles`` squats to ``record`` in place: from ``start`` s the head's vertical
     position gains ``z = -depth (1 - cos(2 pi rate tau)) / 2`` (tau = t - start) and its
     acceleration ``z'' = -depth (2 pi rate)^2 cos(2 pi rate tau) / 2``, for every user.
@@ -257,8 +265,10 @@ def add_squats(record: MotionRecord, depth: float, rate: float, start: float,
     rising like a heel strike.
     """
     if not (0.0 < depth <= 1.0 and 0.0 < rate <= 2.0 and cycles >= 1):
-        raise ValueError(f"squats: depth={depth!r} must be in (0, 1] m, rate={rate!r} in "
-                         f"(0, 2] Hz, cycles={cycles!r} >= 1")  # fmt: skip
+        raise ValueError(
+            f"squats: depth={depth!r} must be in (0, 1] m, rate={rate!r} in "
+            f"(0, 2] Hz, cycles={cycles!r} >= 1"
+        )
     tau = record.t - start
     inside = (tau >= 0.0) & (tau <= cycles / rate)
     w = 2.0 * np.pi * rate
@@ -302,13 +312,16 @@ def count_steps(spec: object, trials: list[Trial]) -> Counts:
 
 
 def seed_label(seeds: tuple[int, ...]) -> str:
-    """"development" if any seed is one of :data:`DEV_SEEDS`, else "held-out"."""
+    """ "development" if any seed is one of :data:`DEV_SEEDS`, else "held-out"."""
     return "development" if set(seeds) & set(DEV_SEEDS) else "held-out"
 
 
-def simulated_table(seeds: tuple[int, ...], users: int,
-                    detectors: tuple[str, ...] | None = None,
-                    cases: tuple[Case, ...] = CASES) -> dict:  # fmt: skip
+def simulated_table(
+    seeds: tuple[int, ...],
+    users: int,
+    detectors: tuple[str, ...] | None = None,
+    cases: tuple[Case, ...] = CASES,
+) -> dict:
     """``{preset: {case: {detector: Counts.as_dict()}}}`` over ``seeds``."""
     names = tuple(STEPS.names()) if detectors is None else detectors
     out: dict = {}
@@ -321,8 +334,9 @@ def simulated_table(seeds: tuple[int, ...], users: int,
 
 
 # ------------------------------------------------------------------------- the Oxford recording
-def tilt_quaternions(acc: NDArray[np.float64], fs: float, window_s: float = 1.0
-                     ) -> NDArray[np.float64]:  # fmt: skip
+def tilt_quaternions(
+    acc: NDArray[np.float64], fs: float, window_s: float = 1.0
+) -> NDArray[np.float64]:
     """Sensor -> world quaternions (n, 4) that turn the running mean of the specific force over
     the last ``window_s`` seconds onto world up (yaw 0): an accelerometer-only attitude."""
     n = max(1, round(window_s * fs))
@@ -337,8 +351,9 @@ def tilt_quaternions(acc: NDArray[np.float64], fs: float, window_s: float = 1.0
     return quat_from_rotvec(unit * angle[:, None])
 
 
-def _uniform(t: NDArray[np.float64], acc: NDArray[np.float64], fs: float
-             ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
+def _uniform(
+    t: NDArray[np.float64], acc: NDArray[np.float64], fs: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The irregular samples averaged onto a uniform grid at ``fs`` (per axis, the bin mean of
     the linearly interpolated signal, as :func:`estimators.steps.offline.detect_steps` does for the
     norm)."""
@@ -346,13 +361,14 @@ def _uniform(t: NDArray[np.float64], acc: NDArray[np.float64], fs: float
     return grid, np.stack([bin_average(t, acc[:, j], grid, fs) for j in range(3)], -1)
 
 
-def oxford_detections(spec: object, t: NDArray[np.float64], acc: NDArray[np.float64]
-                      ) -> NDArray[np.float64]:  # fmt: skip
+def oxford_detections(
+    spec: object, t: NDArray[np.float64], acc: NDArray[np.float64]
+) -> NDArray[np.float64]:
     """Step times (s) of stage ``spec`` on irregular samples ``(t, acc)``: the uniform 100 Hz
     grid, the tilt attitude, zero angular rate; one second of the final mean force appended so
     that peaks near the end are judged."""
     grid, a = _uniform(t, acc, FS)
-    pad = np.repeat(a[-round(FS):].mean(axis=0, keepdims=True), round(FS), axis=0)
+    pad = np.repeat(a[-round(FS) :].mean(axis=0, keepdims=True), round(FS), axis=0)
     a = np.vstack([a, pad])
     q = tilt_quaternions(a, FS)
     stage = STEPS.build(spec, 1, FS)
@@ -381,9 +397,12 @@ def _score(true: NDArray[np.float64], det: NDArray[np.float64]) -> dict:
     return out
 
 
-def two_fold_gamma(t: NDArray[np.float64], acc: NDArray[np.float64],
-                   step_times: NDArray[np.float64],
-                   grid_g: tuple[float, ...] = GAMMA_GRID_G) -> dict:  # fmt: skip
+def two_fold_gamma(
+    t: NDArray[np.float64],
+    acc: NDArray[np.float64],
+    step_times: NDArray[np.float64],
+    grid_g: tuple[float, ...] = GAMMA_GRID_G,
+) -> dict:
     """Choose the neck-pouch preset's gamma on one half of the recording, score it on the other.
 
     For each half: Zhang 2021's detector (``GaitParams.neck_pouch(gamma=...)``, offline
@@ -399,8 +418,9 @@ def two_fold_gamma(t: NDArray[np.float64], acc: NDArray[np.float64],
     scores: list[list[dict]] = [[], []]
     for h in range(2):
         for j, g in enumerate(grid_g):
-            det = detect_steps(t[halves[h]], acc[halves[h]],
-                               params=GaitParams.neck_pouch(gamma=g * GRAVITY)).step_times
+            det = detect_steps(
+                t[halves[h]], acc[halves[h]], params=GaitParams.neck_pouch(gamma=g * GRAVITY)
+            ).step_times
             s = _score(truth[h], det)
             scores[h].append(s)
             f1[h, j] = s["f1"]
@@ -411,11 +431,12 @@ def two_fold_gamma(t: NDArray[np.float64], acc: NDArray[np.float64],
         ev = 1 - tune
         best = min(range(len(grid_g)), key=lambda j: (-f1[tune, j], grid_g[j]))
         fold = {
-            "tuned_on": f"half {tune}", "evaluated_on": f"half {ev}",
+            "tuned_on": f"half {tune}",
+            "evaluated_on": f"half {ev}",
             "tuning_f1": {f"{g:.2f}": round(float(f1[tune, j]), 4) for j, g in enumerate(grid_g)},
             "chosen_gamma_g": grid_g[best],
             "held_out": scores[ev][best],
-        }  # fmt: skip
+        }
         if preset_j is not None:
             fold["preset_0.15g_on_evaluation_half"] = scores[ev][preset_j]
         if head_j is not None:
@@ -428,8 +449,13 @@ def two_fold_gamma(t: NDArray[np.float64], acc: NDArray[np.float64],
         pooled.fp += h["fp"]
         pooled.misses += h["misses"]
         pooled.true_steps += h["true_steps"]
-    out["pooled_held_out"] = {"tp": pooled.tp, "fp": pooled.fp, "misses": pooled.misses,
-                              "true_steps": pooled.true_steps, "f1": round(pooled.f1, 4)}
+    out["pooled_held_out"] = {
+        "tp": pooled.tp,
+        "fp": pooled.fp,
+        "misses": pooled.misses,
+        "true_steps": pooled.true_steps,
+        "f1": round(pooled.f1, 4),
+    }
     return out
 
 
@@ -448,8 +474,10 @@ def oxford_table(folder: Path | None = None) -> dict | None:
     truth = rec.step_times
     rows: dict = {}
     for name in STEPS.names():
-        rows[name] = {"label": "not tuned on this recording",
-                      **_score(truth, oxford_detections(name, rec.t, rec.acc))}  # fmt: skip
+        rows[name] = {
+            "label": "not tuned on this recording",
+            **_score(truth, oxford_detections(name, rec.t, rec.acc)),
+        }
     rows["zhang2021 neck_pouch"] = {
         "label": "in-sample (preset tuned on this recording)",
         **_score(truth, oxford_detections(GaitParams.neck_pouch(), rec.t, rec.acc)),
@@ -458,16 +486,22 @@ def oxford_table(folder: Path | None = None) -> dict | None:
         "label": "in-sample (preset tuned on this recording); vrloco estimate's path",
         **_score(truth, detect_steps(rec.t, rec.acc, params=GaitParams.neck_pouch()).step_times),
     }
-    return {"recording": folder.name, "true_steps": int(truth.size),
-            "duration_s": round(rec.duration, 2), "detectors": rows,
-            "two_fold_gamma": two_fold_gamma(rec.t, rec.acc, truth)}  # fmt: skip
+    return {
+        "recording": folder.name,
+        "true_steps": int(truth.size),
+        "duration_s": round(rec.duration, 2),
+        "detectors": rows,
+        "two_fold_gamma": two_fold_gamma(rec.t, rec.acc, truth),
+    }
 
 
 # ------------------------------------------------------------------------------------ reporting
 def format_tables(result: dict) -> str:
-    lines = [f"Step detectors outside the design envelope: {result['seed_label']} seeds "
-             f"{tuple(result['seeds'])}, {result['users']} users each, EKF attitude, +-0.2 s "
-             "matching; TP / FP / misses, F1, false steps per minute"]  # fmt: skip
+    lines = [
+        f"Step detectors outside the design envelope: {result['seed_label']} seeds "
+        f"{tuple(result['seeds'])}, {result['users']} users each, EKF attitude, +-0.2 s "
+        "matching; TP / FP / misses, F1, false steps per minute"
+    ]
     for preset, cases in result["simulated"].items():
         lines.append(f"[{preset}]")
         for case, rows in cases.items():
@@ -475,38 +509,52 @@ def format_tables(result: dict) -> str:
             lines.append(f"  {case} ({kind})")
             for name, r in rows.items():
                 f1 = "  n/a" if r["f1"] is None else f"{r['f1']:.3f}"
-                lines.append(f"    {name:<12}{r['tp']:>5}{r['fp']:>5}{r['misses']:>5}   F1 {f1}"
-                             f"   {r['false_steps_per_min']:6.1f}/min")  # fmt: skip
+                lines.append(
+                    f"    {name:<12}{r['tp']:>5}{r['fp']:>5}{r['misses']:>5}   F1 {f1}"
+                    f"   {r['false_steps_per_min']:6.1f}/min"
+                )
     ox = result.get("oxford")
     if ox is None:
-        lines.append("Oxford recording absent: its figures skipped (`vrloco data fetch oxford` "
-                     "downloads it)")  # fmt: skip
+        lines.append(
+            "Oxford recording absent: its figures skipped (`vrloco data fetch oxford` downloads it)"
+        )
         return "\n".join(lines)
-    lines.append(f"Oxford {ox['recording']} (CC-BY-4.0), {ox['true_steps']} foot-switch steps in "
-                 f"{ox['duration_s']:.0f} s; accelerometer only (tilt attitude, no gyro veto)")
+    lines.append(
+        f"Oxford {ox['recording']} (CC-BY-4.0), {ox['true_steps']} foot-switch steps in "
+        f"{ox['duration_s']:.0f} s; accelerometer only (tilt attitude, no gyro veto)"
+    )
     for name, r in ox["detectors"].items():
-        lines.append(f"  {name:<36}TP {r['tp']:>4} FP {r['fp']:>4} misses {r['misses']:>4} "
-                     f"F1 {r['f1']:.3f}  [{r['label']}]")  # fmt: skip
+        lines.append(
+            f"  {name:<36}TP {r['tp']:>4} FP {r['fp']:>4} misses {r['misses']:>4} "
+            f"F1 {r['f1']:.3f}  [{r['label']}]"
+        )
     tf = ox["two_fold_gamma"]
     lines.append(f"  two-fold gamma of neck_pouch (split at {tf['split_s']} s), held-out half:")
     for fold in tf["folds"]:
         h = fold["held_out"]
         p = fold.get("preset_0.15g_on_evaluation_half")
-        line = (f"    tuned on {fold['tuned_on']}: gamma {fold['chosen_gamma_g']:.2f} g -> "
-                f"{fold['evaluated_on']} TP {h['tp']} FP {h['fp']} misses {h['misses']} "
-                f"F1 {h['f1']:.3f}")  # fmt: skip
+        line = (
+            f"    tuned on {fold['tuned_on']}: gamma {fold['chosen_gamma_g']:.2f} g -> "
+            f"{fold['evaluated_on']} TP {h['tp']} FP {h['fp']} misses {h['misses']} "
+            f"F1 {h['f1']:.3f}"
+        )
         if p is not None:
             line += f" (preset 0.15 g there: F1 {p['f1']:.3f}, in-sample)"
         lines.append(line)
     p = tf["pooled_held_out"]
-    lines.append(f"    both held-out halves: TP {p['tp']} FP {p['fp']} misses {p['misses']} "
-                 f"F1 {p['f1']:.3f}")
+    lines.append(
+        f"    both held-out halves: TP {p['tp']} FP {p['fp']} misses {p['misses']} F1 {p['f1']:.3f}"
+    )
     return "\n".join(lines)
 
 
-def run_step_envelope(json_path: Path | None = None, seed: int = HELD_OUT_SEEDS[0],
-                      dev: bool = False, users: int = 8,
-                      oxford: Path | None = None) -> dict:  # fmt: skip
+def run_step_envelope(
+    json_path: Path | None = None,
+    seed: int = HELD_OUT_SEEDS[0],
+    dev: bool = False,
+    users: int = 8,
+    oxford: Path | None = None,
+) -> dict:
     """The simulated cases and the Oxford tables (on ``oxford``, default the recording
     :func:`oxford_table` finds); prints them, writes JSON if asked.
 
@@ -517,9 +565,13 @@ def run_step_envelope(json_path: Path | None = None, seed: int = HELD_OUT_SEEDS[
         if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < lo:
             raise ValueError(f"run_step_envelope: {name}={value!r} must be an integer >= {lo}")
     seeds = DEV_SEEDS if dev else (seed, seed + 1, seed + 2)
-    result: dict = {"seeds": list(seeds), "seed_label": seed_label(seeds), "users": users,
-                    "stepping": {c.name: c.stepping for c in CASES},
-                    "simulated": simulated_table(seeds, users)}  # fmt: skip
+    result: dict = {
+        "seeds": list(seeds),
+        "seed_label": seed_label(seeds),
+        "users": users,
+        "stepping": {c.name: c.stepping for c in CASES},
+        "simulated": simulated_table(seeds, users),
+    }
     result["oxford"] = oxford_table(oxford)
     print(format_tables(result))
     if json_path is not None:

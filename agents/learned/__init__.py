@@ -52,6 +52,16 @@ from agents.learned.models import (
 )
 from agents.learned.train import RolloutThreads, SB3VecEnv, make_model, train_ppo, train_seeds
 
-__all__ = ["CELL_KEYS", "RolloutThreads", "SB3VecEnv", "env_settings", "evaluate_model",
-           "make_model", "model_cell", "model_env_settings", "model_policy", "train_ppo",
-           "train_seeds"]  # fmt: skip
+__all__ = [
+    "CELL_KEYS",
+    "RolloutThreads",
+    "SB3VecEnv",
+    "env_settings",
+    "evaluate_model",
+    "make_model",
+    "model_cell",
+    "model_env_settings",
+    "model_policy",
+    "train_ppo",
+    "train_seeds",
+]

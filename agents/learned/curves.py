@@ -50,8 +50,12 @@ def write_seed_curves(
     """``out_dir/learning_curve.json`` and ``.png`` of a :func:`~agents.learned.train.train_seeds`
     run; returns the JSON's content (the png only where the seeds share an evaluation step)."""
     mean = seed_curves_summary(curves)
-    data = {"task": task, "seeds": sorted(curves), "per_seed": {str(s): c for s, c in
-            sorted(curves.items())}, "mean": mean}  # fmt: skip
+    data = {
+        "task": task,
+        "seeds": sorted(curves),
+        "per_seed": {str(s): c for s, c in sorted(curves.items())},
+        "mean": mean,
+    }
     (out_dir / "learning_curve.json").write_text(json.dumps(data, indent=2))
     if mean:
         plot_seed_curves(curves, mean, out_dir / "learning_curve.png", title=f"PPO on {task}")
@@ -73,8 +77,13 @@ def plot_seed_curves(
 
     fig, ax = plt.subplots(figsize=(7, 4), constrained_layout=True)
     for s, curve in sorted(curves.items()):
-        ax.plot([c["steps"] for c in curve], [c["success_rate"] for c in curve], lw=0.8,
-                alpha=0.6, label=f"seed {s}")  # fmt: skip
+        ax.plot(
+            [c["steps"] for c in curve],
+            [c["success_rate"] for c in curve],
+            lw=0.8,
+            alpha=0.6,
+            label=f"seed {s}",
+        )
     steps = np.array([m["steps"] for m in mean])
     mu = np.array([m["success_rate"] for m in mean])
     sd = np.array([m["success_rate_std"] for m in mean])

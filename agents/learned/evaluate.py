@@ -38,8 +38,9 @@ def run_policy_episodes(model: Any, env: VRLocoVectorEnv, seed: int) -> dict[str
     state, starts = None, np.ones(n, bool)
     while not done.all():
         if recurrent:
-            action, state = model.predict(obs, state=state, episode_start=starts,
-                                          deterministic=True)  # fmt: skip
+            action, state = model.predict(
+                obs, state=state, episode_start=starts, deterministic=True
+            )
         else:
             action, _ = model.predict(obs, deterministic=True)
         if np.shape(action) != want:
@@ -64,15 +65,22 @@ def run_policy_episodes(model: Any, env: VRLocoVectorEnv, seed: int) -> dict[str
 
 def _cell_text(cell: dict[str, Any], sensors: str) -> str:
     """A cell in words, for messages."""
-    return (f"task {cell['task']!r}, technique {cell['technique']!r}, population "
-            f"{cell['population']!r}, condition {cell['condition']!r}, sensors "
-            f"{sensors!r}")  # fmt: skip
+    return (
+        f"task {cell['task']!r}, technique {cell['technique']!r}, population "
+        f"{cell['population']!r}, condition {cell['condition']!r}, sensors "
+        f"{sensors!r}"
+    )
 
 
 def _asked_cell(
-    cell: dict[str, Any], sensors: str, task: str | None, technique: Any, population: Any,
-    condition: str | None, sensor_preset: str | None,
-) -> dict[str, tuple[Any, Any]]:  # fmt: skip
+    cell: dict[str, Any],
+    sensors: str,
+    task: str | None,
+    technique: Any,
+    population: Any,
+    condition: str | None,
+    sensor_preset: str | None,
+) -> dict[str, tuple[Any, Any]]:
     """The parts of the cell asked for that differ from the model's: ``{name: (trained,
     asked)}``; unknown names raise the registries' errors."""
     from agents.benchmark.conditions import get_condition
@@ -94,14 +102,17 @@ def _asked_cell(
         asked["sensors"] = sensor_preset
     trained = {**cell, "sensors": sensors}
     none_is = {"population": "idealised"}  # no population: the idealised user's head
-    return {k: (trained[k], v) for k, v in asked.items()
-            if (trained[k] or none_is.get(k)) != v}  # fmt: skip
+    return {k: (trained[k], v) for k, v in asked.items() if (trained[k] or none_is.get(k)) != v}
 
 
 def _settings_for(
-    settings: dict[str, Any], task: str | None, technique: Any, population: Any,
-    condition: str | None, sensor_preset: str | None,
-) -> dict[str, Any]:  # fmt: skip
+    settings: dict[str, Any],
+    task: str | None,
+    technique: Any,
+    population: Any,
+    condition: str | None,
+    sensor_preset: str | None,
+) -> dict[str, Any]:
     """The model's env ``settings`` with the parts of the cell asked for replaced, the rest
     (room, reward, rates, ...) as trained."""
     from dataclasses import replace
@@ -114,15 +125,18 @@ def _settings_for(
     if technique is not None:
         tech = get_technique(technique)
         if sensor_preset is not None and sensor_preset != tech.sensor_preset:
-            raise ValueError(f"sensors={sensor_preset!r} contradicts technique={tech.name!r} "
-                             f"(sensor preset {tech.sensor_preset!r}); give one")  # fmt: skip
+            raise ValueError(
+                f"sensors={sensor_preset!r} contradicts technique={tech.name!r} "
+                f"(sensor preset {tech.sensor_preset!r}); give one"
+            )
         out["estimators"] = tech.estimators
         sensors = replace(sensors, imu=tech.sensor_preset)
     if sensor_preset is not None:
         sensors = replace(sensors, imu=sensor_preset)
     if condition is not None:
-        sensors = replace(sensors,
-                          magnetic_disturbances=get_condition(condition).magnetic_disturbances)
+        sensors = replace(
+            sensors, magnetic_disturbances=get_condition(condition).magnetic_disturbances
+        )
     out["sensors"] = sensors
     if population is not None:
         out["config"] = replace(out["config"], population=population)
@@ -198,8 +212,7 @@ def evaluate_model(
     else:
         here = model_cell(model, settings)
         preset = settings["sensors"].preset_name
-        differs = _asked_cell(here, preset, task, technique, population, condition,
-                              sensor_preset)  # fmt: skip
+        differs = _asked_cell(here, preset, task, technique, population, condition, sensor_preset)
         if differs and not allow_mismatch:
             what = ", ".join(f"{k}={v!r} (trained: {t!r})" for k, (t, v) in differs.items())
             them = "it" if len(differs) == 1 else "them"
@@ -210,8 +223,9 @@ def evaluate_model(
             )
         if differs:
             trained_on = {**here, "sensors": preset}
-            settings = _settings_for(settings, task, technique, population, condition,
-                                     sensor_preset)  # fmt: skip
+            settings = _settings_for(
+                settings, task, technique, population, condition, sensor_preset
+            )
             played = cell_of(settings, technique)
             replaced = set(differs) | ({"technique"} if "sensors" in differs else set())
             here = {k: played[k] if k in replaced else here[k] for k in CELL_KEYS}
@@ -220,8 +234,12 @@ def evaluate_model(
     env = gym.make(env_id(task), **settings)
     try:
         policy = LearnedPolicy(path, env, allow_mismatch=trained_on is not None)
-        columns = ("[progress.description]{task.description}", BarColumn(),
-                   MofNCompleteColumn(), TimeElapsedColumn())  # fmt: skip
+        columns = (
+            "[progress.description]{task.description}",
+            BarColumn(),
+            MofNCompleteColumn(),
+            TimeElapsedColumn(),
+        )
         played = []
         with Progress(*columns, disable=not progress, transient=False) as bar:
             job = bar.add_task("episodes", total=episodes)

@@ -63,16 +63,22 @@ def env_settings(
         room_sensors = get_condition(condition).sensors()
         if room_sensors is not None:
             if configs.get("sensors") is not None:
-                raise ValueError(f"condition={condition!r} sets the sensors' magnetic "
-                                 "disturbances; give the condition or sensors=, not both")
+                raise ValueError(
+                    f"condition={condition!r} sets the sensors' magnetic "
+                    "disturbances; give the condition or sensors=, not both"
+                )
             configs["sensors"] = room_sensors
     config, sensors, estimators, room, reward = make_configs(
         sensor_preset=sensor_preset, technique=technique, population=population, **configs
     )
     return {
-        "task": task, "config": config, "sensors": sensors, "estimators": estimators,
-        "room": room, "reward": reward,
-    }  # fmt: skip
+        "task": task,
+        "config": config,
+        "sensors": sensors,
+        "estimators": estimators,
+        "room": room,
+        "reward": reward,
+    }
 
 
 def cell_of(settings: dict[str, Any], technique: Any = None) -> dict[str, Any]:
@@ -91,8 +97,10 @@ def cell_of(settings: dict[str, Any], technique: Any = None) -> dict[str, Any]:
     else:
         tech = technique_name(sensors, settings["estimators"])
     disturbances = tuple(getattr(sensors, "magnetic_disturbances", ()) or ())
-    condition = next((c.name for c in CONDITIONS.values()
-                      if tuple(c.magnetic_disturbances) == disturbances), "custom")  # fmt: skip
+    condition = next(
+        (c.name for c in CONDITIONS.values() if tuple(c.magnetic_disturbances) == disturbances),
+        "custom",
+    )
     population = config.population
     return {
         "task": settings["task"],

@@ -40,8 +40,14 @@ from numpy.typing import NDArray
 
 from agents.benchmark.metrics import STEP_KEYS, EpisodeStats, episode_stats
 
-__all__ = ["INSTALL_HINT", "LAST_KEYS", "MinariMissing", "dataset_episode_stats",
-           "dataset_path", "record_dataset"]  # fmt: skip
+__all__ = [
+    "INSTALL_HINT",
+    "LAST_KEYS",
+    "MinariMissing",
+    "dataset_episode_stats",
+    "dataset_path",
+    "record_dataset",
+]
 
 INSTALL_HINT = "pip install 'vrloco[minari]' (in a checkout: pip install -e '.[minari]')"
 
@@ -98,17 +104,26 @@ class _Tape(gym.Wrapper):
 
     def reset(self, *, seed: int | None = None, options: dict | None = None) -> tuple[Any, dict]:
         obs, info = self.env.reset(seed=seed, options=options)
-        self.episodes.append({"seed": seed, "observations": [np.array(obs)], "actions": [],
-                              "rewards": [], "terminations": [], "truncations": [],
-                              "infos": [_copy(info)]})  # fmt: skip
+        self.episodes.append(
+            {
+                "seed": seed,
+                "observations": [np.array(obs)],
+                "actions": [],
+                "rewards": [],
+                "terminations": [],
+                "truncations": [],
+                "infos": [_copy(info)],
+            }
+        )
         return obs, info
 
     def step(self, action: Any) -> tuple[Any, Any, bool, bool, dict]:
         from vrloco_env.actions import check_action
 
         space = self.action_space
-        applied = np.minimum(np.maximum(check_action(action).astype(space.dtype), space.low),
-                             space.high)  # fmt: skip
+        applied = np.minimum(
+            np.maximum(check_action(action).astype(space.dtype), space.low), space.high
+        )
         obs, reward, terminated, truncated, info = self.env.step(applied)
         ep = self.episodes[-1]
         ep["observations"].append(np.array(obs))
@@ -146,10 +161,10 @@ def _info_columns(episodes: list[dict]) -> dict[str, tuple[np.dtype, tuple[int, 
         if a is None:
             continue
         same = all(
-            (b := _numeric(info.get(key))) is not None and b.dtype == a.dtype
-            and b.shape == a.shape
-            for ep in episodes for info in ep["infos"][1:]
-        )  # fmt: skip
+            (b := _numeric(info.get(key))) is not None and b.dtype == a.dtype and b.shape == a.shape
+            for ep in episodes
+            for info in ep["infos"][1:]
+        )
         if same:
             columns[key] = (a.dtype, a.shape)
     return columns
@@ -262,8 +277,11 @@ def record_dataset(
             "env spec stores it as text)"
         )
     get_technique(technique)
-    for name, value, lo in (("episodes", episodes, 1), ("seed", seed, 0),
-                            ("max_episode_steps", max_episode_steps, 1)):  # fmt: skip
+    for name, value, lo in (
+        ("episodes", episodes, 1),
+        ("seed", seed, 0),
+        ("max_episode_steps", max_episode_steps, 1),
+    ):
         if value is None and name == "max_episode_steps":
             continue
         if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < lo:
@@ -298,10 +316,14 @@ def record_dataset(
             with warnings.catch_warnings():  # Minari's reminders of the fields left out
                 warnings.filterwarnings("ignore", message=r"`\w+` is set to None")
                 return minari.create_dataset_from_buffers(
-                    dataset_id, _buffers(env.episodes), env=env.env, algorithm_name=policy,
-                    description=description, requirements=[f"vrloco=={__version__}"],
+                    dataset_id,
+                    _buffers(env.episodes),
+                    env=env.env,
+                    algorithm_name=policy,
+                    description=description,
+                    requirements=[f"vrloco=={__version__}"],
                     data_format="hdf5",
-                )  # fmt: skip
+                )
         except BaseException:  # a full disk, Ctrl-C: no half-written dataset left behind
             shutil.rmtree(path, ignore_errors=True)
             raise
@@ -332,6 +354,13 @@ def dataset_episode_stats(dataset: Any) -> list[EpisodeStats]:
         last = {k: infos[k][-1] for k in LAST_KEYS}
         if meta.get("seed") is None:
             raise ValueError(f"episode {ep.id} of the dataset has no seed in its metadata")
-        out.append(episode_stats(meta["seed"], float(infos["shortest_path"][0]), steps, last,
-                                 start_position=infos["position"][0]))  # fmt: skip
+        out.append(
+            episode_stats(
+                meta["seed"],
+                float(infos["shortest_path"][0]),
+                steps,
+                last,
+                start_position=infos["position"][0],
+            )
+        )
     return out

@@ -39,17 +39,37 @@ from gymnasium.vector import AutoresetMode, VectorWrapper
 from estimators.validation import check_in_range
 from vrloco_env.vector import VRLocoVectorEnv
 
-__all__ = ["ENV_NAME", "RLLIB_HINT", "RLlibPolicy", "RLlibRun", "RLlibVectorEnv",
-           "defaults_rllib", "make_rllib_env", "ppo_config", "register_rllib_env",
-           "train_rllib", "train_rllib_seeds"]  # fmt: skip
+__all__ = [
+    "ENV_NAME",
+    "RLLIB_HINT",
+    "RLlibPolicy",
+    "RLlibRun",
+    "RLlibVectorEnv",
+    "defaults_rllib",
+    "make_rllib_env",
+    "ppo_config",
+    "register_rllib_env",
+    "train_rllib",
+    "train_rllib_seeds",
+]
 
 #: The name :func:`register_rllib_env` registers :func:`make_rllib_env` under.
 ENV_NAME = "vrloco"
-RLLIB_HINT = ("--backend rllib needs RLlib: pip install 'vrloco[rllib]' in this environment "
-              "(and on every machine of the cluster)")  # fmt: skip
+RLLIB_HINT = (
+    "--backend rllib needs RLlib: pip install 'vrloco[rllib]' in this environment "
+    "(and on every machine of the cluster)"
+)
 #: The env config keys :func:`make_rllib_env` reads (RLlib adds ``num_envs``).
-_ENV_KEYS = ("task", "sensor_preset", "seed", "num_envs", "max_episode_steps", "technique",
-             "population", "condition")  # fmt: skip
+_ENV_KEYS = (
+    "task",
+    "sensor_preset",
+    "seed",
+    "num_envs",
+    "max_episode_steps",
+    "technique",
+    "population",
+    "condition",
+)
 #: Training iterations in a row without a sampled step after which :func:`train_rllib` stops.
 MAX_IDLE_ITERATIONS = 3
 #: Seeds are below 2**31 (torch's and RLlib's seeding take them).
@@ -94,8 +114,9 @@ class RLlibVectorEnv(VectorWrapper):
 
     def __init__(self, env: VRLocoVectorEnv, seed: int = 0) -> None:
         if env.autoreset_mode is not AutoresetMode.DISABLED:
-            raise ValueError("RLlibVectorEnv needs a VRLocoVectorEnv with "
-                             "autoreset_mode=AutoresetMode.DISABLED")  # fmt: skip
+            raise ValueError(
+                "RLlibVectorEnv needs a VRLocoVectorEnv with autoreset_mode=AutoresetMode.DISABLED"
+            )
         super().__init__(env)
         self.base_seed = seed
         check_in_range(self, "base_seed", 0, MAX_SEED, integer=True, allowed=_SEEDS)
@@ -134,8 +155,12 @@ class RLlibVectorEnv(VectorWrapper):
 
     def _infos(self, success: np.ndarray, collision: np.ndarray) -> dict[str, np.ndarray]:
         every = np.ones(self.num_envs, bool)
-        return {"is_success": success, "_is_success": every,
-                "collision": collision, "_collision": every}  # fmt: skip
+        return {
+            "is_success": success,
+            "_is_success": every,
+            "collision": collision,
+            "_collision": every,
+        }
 
 
 def make_rllib_env(env_config: dict[str, Any]) -> RLlibVectorEnv:
@@ -152,20 +177,24 @@ def make_rllib_env(env_config: dict[str, Any]) -> RLlibVectorEnv:
     config = dict(env_config)
     unknown = sorted(set(config) - set(_ENV_KEYS))
     if unknown:
-        raise ValueError(f"env_config: unknown keys {', '.join(unknown)}; "
-                         f"allowed: {', '.join(_ENV_KEYS)}")  # fmt: skip
+        raise ValueError(
+            f"env_config: unknown keys {', '.join(unknown)}; allowed: {', '.join(_ENV_KEYS)}"
+        )
     if "num_envs" not in config:
-        raise ValueError("env_config has no num_envs: RLlib passes it to a vector env creator "
-                         "only with .env_runners(gym_env_vectorize_mode="
-                         "gymnasium.VectorizeMode.VECTOR_ENTRY_POINT) (ppo_config sets it)")
+        raise ValueError(
+            "env_config has no num_envs: RLlib passes it to a vector env creator "
+            "only with .env_runners(gym_env_vectorize_mode="
+            "gymnasium.VectorizeMode.VECTOR_ENTRY_POINT) (ppo_config sets it)"
+        )
     num_envs = config["num_envs"]
     if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
         raise ValueError(f"env_config num_envs={num_envs!r}: must be an integer >= 1")
     from agents.learned.models import env_settings
 
     cell = {k: config.get(k) for k in ("sensor_preset", "technique", "population", "condition")}
-    settings = env_settings(config.get("task", "approach"), **cell,
-                            max_episode_steps=config.get("max_episode_steps"))  # fmt: skip
+    settings = env_settings(
+        config.get("task", "approach"), **cell, max_episode_steps=config.get("max_episode_steps")
+    )
     env = VRLocoVectorEnv(num_envs, autoreset_mode=AutoresetMode.DISABLED, **settings)
     return RLlibVectorEnv(env, seed=config.get("seed", 0))
 
@@ -233,20 +262,25 @@ def ppo_config(
 
     cell = {"technique": technique, "population": population, "condition": condition}
     env_settings(task, sensor_preset, **cell)  # raises with the registered names
-    RLlibRun(num_env_runners=num_env_runners, num_envs_per_env_runner=num_envs_per_env_runner,
-             seed=seed)  # fmt: skip
+    RLlibRun(
+        num_env_runners=num_env_runners, num_envs_per_env_runner=num_envs_per_env_runner, seed=seed
+    )
     settings = {**defaults_rllib(), **ppo}
     unknown = sorted(set(settings) - set(defaults_rllib()))
     if unknown:
-        raise ValueError(f"unknown PPO settings {', '.join(unknown)}; "
-                         f"allowed: {', '.join(defaults_rllib())}")  # fmt: skip
+        raise ValueError(
+            f"unknown PPO settings {', '.join(unknown)}; allowed: {', '.join(defaults_rllib())}"
+        )
     fragment = settings.pop("rollout_fragment_length")
     if isinstance(fragment, bool) or not isinstance(fragment, int) or fragment < 1:
         raise ValueError(f"rollout_fragment_length={fragment!r}: must be an integer >= 1")
     batch = max(num_env_runners, 1) * num_envs_per_env_runner * fragment
     settings["minibatch_size"] = min(settings["minibatch_size"], batch)
-    env_config = {"task": task, "seed": seed, **{k: v for k, v in
-                  {"sensor_preset": sensor_preset, **cell}.items() if v is not None}}  # fmt: skip
+    env_config = {
+        "task": task,
+        "seed": seed,
+        **{k: v for k, v in {"sensor_preset": sensor_preset, **cell}.items() if v is not None},
+    }
     ppo_mod = _import_rllib("ray.rllib.algorithms.ppo")
     model = _import_rllib("ray.rllib.core.rl_module.default_model_config")
     return (
@@ -260,11 +294,14 @@ def ppo_config(
             sample_timeout_s=None,  # a slow runner is waited for, not left out of the batch
         )
         .training(train_batch_size_per_learner=batch, **settings)
-        .rl_module(model_config=model.DefaultModelConfig(
-            fcnet_hiddens=[64, 64], fcnet_activation="tanh", vf_share_layers=False))
+        .rl_module(
+            model_config=model.DefaultModelConfig(
+                fcnet_hiddens=[64, 64], fcnet_activation="tanh", vf_share_layers=False
+            )
+        )
         .debugging(seed=seed, log_level="ERROR")
         .reporting(metrics_num_episodes_for_smoothing=100)
-    )  # fmt: skip
+    )
 
 
 class RLlibPolicy:
@@ -334,8 +371,9 @@ def train_rllib(
 
     RLlibRun(steps, num_env_runners, num_envs_per_env_runner, seed, eval_every, eval_episodes)
     cell = {"technique": technique, "population": population, "condition": condition}
-    config = ppo_config(task, num_env_runners, num_envs_per_env_runner, seed, sensor_preset,
-                        **cell, **ppo)  # fmt: skip
+    config = ppo_config(
+        task, num_env_runners, num_envs_per_env_runner, seed, sensor_preset, **cell, **ppo
+    )
     ray = _import_rllib("ray")
     out_dir = Path(out_dir).resolve()
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -361,8 +399,10 @@ def train_rllib(
             algo.save_to_path(str(out_dir / "best_checkpoint"))
         (out_dir / "learning_curve.json").write_text(json.dumps(curve, indent=2))
         if progress:
-            print(f"{done:>12,} steps  {result['wall_s']:7.1f} s  success "
-                  f"{result['success_rate']:.0%}  return {result['mean_return']:.2f}")
+            print(
+                f"{done:>12,} steps  {result['wall_s']:7.1f} s  success "
+                f"{result['success_rate']:.0%}  return {result['mean_return']:.2f}"
+            )
 
     try:
         register_rllib_env()
@@ -374,10 +414,13 @@ def train_rllib(
             done = int(result.get("env_runners", {}).get("num_env_steps_sampled_lifetime", done))
             idle = idle + 1 if done == before else 0
             if idle >= MAX_IDLE_ITERATIONS:
-                raise BackendError(f"the env runners sampled nothing in {idle} training "
-                                   f"iterations in a row (lost, and not restarted?), after "
-                                   f"{done:,} of {steps:,} steps; the learning curve so far is "
-                                   f"in {out_dir / 'learning_curve.json'}", partial=True)
+                raise BackendError(
+                    f"the env runners sampled nothing in {idle} training "
+                    f"iterations in a row (lost, and not restarted?), after "
+                    f"{done:,} of {steps:,} steps; the learning curve so far is "
+                    f"in {out_dir / 'learning_curve.json'}",
+                    partial=True,
+                )
             if done >= next_eval or done >= steps:
                 next_eval = done + eval_every
                 evaluate()
@@ -389,16 +432,23 @@ def train_rllib(
         if algo is not None:
             algo.save_to_path(str(out_dir / "checkpoint"))
         (out_dir / "learning_curve.json").write_text(json.dumps(curve, indent=2))
-        print(f"interrupted after {done:,} steps: saved the checkpoint and the learning curve "
-              f"so far in {out_dir}")  # fmt: skip
+        print(
+            f"interrupted after {done:,} steps: saved the checkpoint and the learning curve "
+            f"so far in {out_dir}"
+        )
         raise
     except ray.exceptions.RayError as err:
         cause = getattr(err, "cause", None)
-        what = (f"an env runner raised {type(cause).__name__}: {_first_line(cause)}"
-                if isinstance(cause, BaseException)
-                else f"lost the Ray cluster ({_first_line(err)})")  # fmt: skip
-        raise BackendError(f"{what}, after {done:,} of {steps:,} steps; the learning curve so "
-                           f"far is in {out_dir / 'learning_curve.json'}", partial=True) from err
+        what = (
+            f"an env runner raised {type(cause).__name__}: {_first_line(cause)}"
+            if isinstance(cause, BaseException)
+            else f"lost the Ray cluster ({_first_line(err)})"
+        )
+        raise BackendError(
+            f"{what}, after {done:,} of {steps:,} steps; the learning curve so "
+            f"far is in {out_dir / 'learning_curve.json'}",
+            partial=True,
+        ) from err
     finally:
         eval_env.close()
         if algo is not None:
@@ -427,8 +477,7 @@ def train_rllib_seeds(
     paths = []
     try:
         for s in seeds:
-            paths.append(train_rllib(task, seed=s, out_dir=folders[s], address=address,
-                                     **kwargs))  # fmt: skip
+            paths.append(train_rllib(task, seed=s, out_dir=folders[s], address=address, **kwargs))
     finally:
         if len(seeds) > 1:
             curves = _read_curves(folders)
@@ -445,4 +494,3 @@ def _import_rllib(module: str) -> Any:
         return importlib.import_module(module)
     except ImportError as err:
         raise ValueError(f"{RLLIB_HINT} ({err})") from err
-

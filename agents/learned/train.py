@@ -171,11 +171,14 @@ def train_ppo(
     if _TORCH_SPINS:
         import warnings
 
-        warnings.warn("torch was imported before agents.learned set OMP_WAIT_POLICY=PASSIVE: "
-                      "its OpenMP threads spin on the cores the env's kernels need, and training "
-                      "runs slower (several times, on a machine whose cores are busy); import "
-                      "agents.learned first or set OMP_WAIT_POLICY=PASSIVE before starting "
-                      "Python", stacklevel=2)  # fmt: skip
+        warnings.warn(
+            "torch was imported before agents.learned set OMP_WAIT_POLICY=PASSIVE: "
+            "its OpenMP threads spin on the cores the env's kernels need, and training "
+            "runs slower (several times, on a machine whose cores are busy); import "
+            "agents.learned first or set OMP_WAIT_POLICY=PASSIVE before starting "
+            "Python",
+            stacklevel=2,
+        )
     settings = {**defaults_ppo(), **ppo_kwargs}
     env_kwargs = env_settings(task, sensor_preset, technique, population, condition)
     policy_kwargs = _policy_settings(frame_stack, recurrent)
@@ -211,8 +214,9 @@ def train_ppo(
             (out_dir / "learning_curve.json").write_text(json.dumps(curve, indent=2))
             return True
 
-    model = make_model(venv, seed=seed, recurrent=recurrent,
-                       tensorboard_log=str(out_dir / "tb"), **settings)  # fmt: skip
+    model = make_model(
+        venv, seed=seed, recurrent=recurrent, tensorboard_log=str(out_dir / "tb"), **settings
+    )
     # Saved with every checkpoint, the best and the final model: what the policy was trained on.
     model.vrloco_env = env_kwargs
     model.vrloco_cell = cell_of(env_kwargs, technique)
@@ -230,8 +234,10 @@ def train_ppo(
         if curve:
             plot_learning_curve(curve, out_dir / "learning_curve.png", title=f"PPO on {task}")
         venv.close()
-        print(f"interrupted after {model.num_timesteps:,} steps: saved {final}.zip and the "
-              f"learning curve so far in {out_dir}")  # fmt: skip
+        print(
+            f"interrupted after {model.num_timesteps:,} steps: saved {final}.zip and the "
+            f"learning curve so far in {out_dir}"
+        )
         raise
     finally:
         callbacks[0].restore()
@@ -280,9 +286,12 @@ class RolloutThreads(BaseCallback):
 
 
 def make_model(
-    venv: Any, seed: int = 0, recurrent: bool = False, tensorboard_log: str | None = None,
+    venv: Any,
+    seed: int = 0,
+    recurrent: bool = False,
+    tensorboard_log: str | None = None,
     **settings: Any,
-) -> Any:  # fmt: skip
+) -> Any:
     """The untrained model :func:`train_ppo` trains on ``venv``: stable-baselines3's PPO with
     its feed-forward ``MlpPolicy``, or with ``recurrent`` sb3-contrib's ``RecurrentPPO`` with
     ``MlpLstmPolicy``; ``settings`` are PPO's keywords (:func:`defaults_ppo`)."""
@@ -292,8 +301,9 @@ def make_model(
         from stable_baselines3 import PPO
 
         algorithm, policy = PPO, "MlpPolicy"
-    return algorithm(policy, venv, seed=seed, verbose=0, tensorboard_log=tensorboard_log,
-                     **settings)  # fmt: skip
+    return algorithm(
+        policy, venv, seed=seed, verbose=0, tensorboard_log=tensorboard_log, **settings
+    )
 
 
 def _recurrent_ppo() -> Any:
@@ -301,8 +311,9 @@ def _recurrent_ppo() -> Any:
     try:
         from sb3_contrib import RecurrentPPO
     except ImportError as err:
-        raise ValueError(f"recurrent=True (--recurrent) needs sb3-contrib: pip install "
-                         f"sb3-contrib ({err})") from None  # fmt: skip
+        raise ValueError(
+            f"recurrent=True (--recurrent) needs sb3-contrib: pip install sb3-contrib ({err})"
+        ) from None
     return RecurrentPPO
 
 
@@ -393,8 +404,9 @@ def train_seeds(
         initializer=_ignore_sigint,
     )
     try:
-        futures = [pool.submit(train_ppo, task, seed=s, out_dir=folders[s], **kwargs)
-                   for s in seeds]  # fmt: skip
+        futures = [
+            pool.submit(train_ppo, task, seed=s, out_dir=folders[s], **kwargs) for s in seeds
+        ]
         paths = [f.result() for f in futures]
     except BaseException as err:  # Ctrl-C (or a failed seed): stop the workers now
         for process in list(getattr(pool, "_processes", {}).values()):
@@ -404,8 +416,10 @@ def train_seeds(
         if curves:
             write_seed_curves(task, curves, out_dir)
         why = "interrupted" if isinstance(err, KeyboardInterrupt) else "a seed run failed"
-        print(f"{why}: stopped {len(seeds)} seed runs; kept what each saved (checkpoints, best "
-              f"model, learning curve so far) in {out_dir}/seed_*")  # fmt: skip
+        print(
+            f"{why}: stopped {len(seeds)} seed runs; kept what each saved (checkpoints, best "
+            f"model, learning curve so far) in {out_dir}/seed_*"
+        )
         raise
     pool.shutdown()
     write_seed_curves(task, _read_curves(folders), out_dir)
@@ -414,8 +428,10 @@ def train_seeds(
 
 def _check_run(task: str, train_kwargs: dict[str, Any]) -> None:
     """The cell and the policy settings of :func:`train_ppo`'s keywords, checked (its errors)."""
-    env_settings(task, *(train_kwargs.get(k) for k in
-                         ("sensor_preset", "technique", "population", "condition")))  # fmt: skip
+    env_settings(
+        task,
+        *(train_kwargs.get(k) for k in ("sensor_preset", "technique", "population", "condition")),
+    )
     _policy_settings(train_kwargs.get("frame_stack", 1), train_kwargs.get("recurrent", False))
 
 
@@ -424,8 +440,9 @@ def _worker_kwargs(train_kwargs: dict[str, Any]) -> dict[str, Any]:
     checked) once here rather than in every worker."""
     n_steps = train_kwargs.get("n_steps", defaults_ppo()["n_steps"])
     kwargs = dict(train_kwargs, progress=False)
-    kwargs["steps"] = rollout_steps(kwargs.get("steps", 2_000_000), n_steps,
-                                    kwargs.get("num_envs", 32))  # fmt: skip
+    kwargs["steps"] = rollout_steps(
+        kwargs.get("steps", 2_000_000), n_steps, kwargs.get("num_envs", 32)
+    )
     return kwargs
 
 
@@ -472,9 +489,12 @@ def _train_seeds_ray(
             try:
                 ready, _ = ray.wait(list(pending), num_returns=1)
             except ray.exceptions.RaySystemError as err:
-                raise BackendError(f"lost the Ray cluster mid-run ({_first_line(err)}); seeds "
-                                   f"{', '.join(map(str, sorted(pending.values())))} "
-                                   "unfinished", partial=True) from err  # fmt: skip
+                raise BackendError(
+                    f"lost the Ray cluster mid-run ({_first_line(err)}); seeds "
+                    f"{', '.join(map(str, sorted(pending.values())))} "
+                    "unfinished",
+                    partial=True,
+                ) from err
             for ref in ready:
                 s = pending.pop(ref)
                 try:
@@ -494,8 +514,10 @@ def _train_seeds_ray(
             except Exception:  # the cluster may be gone already
                 pass
         if isinstance(err, KeyboardInterrupt):
-            print(f"interrupted: cancelled {len(pending)} seed runs on Ray; kept the "
-                  f"{len(paths)} finished seeds' files in {out_dir}")  # fmt: skip
+            print(
+                f"interrupted: cancelled {len(pending)} seed runs on Ray; kept the "
+                f"{len(paths)} finished seeds' files in {out_dir}"
+            )
         raise
     finally:
         if len(seeds) > 1 and paths:
@@ -504,9 +526,11 @@ def _train_seeds_ray(
             ray.shutdown()
     if failed:
         lines = [f"  seed {s}: {_cause(err)}" for s, err in sorted(failed, key=lambda f: f[0])]
-        raise BackendError(f"{len(failed)} of {len(seeds)} seed runs failed on Ray (the other "
-                           f"{len(seeds) - len(failed)} finished, in {out_dir}):\n"
-                           + "\n".join(lines), partial=True)  # fmt: skip
+        raise BackendError(
+            f"{len(failed)} of {len(seeds)} seed runs failed on Ray (the other "
+            f"{len(seeds) - len(failed)} finished, in {out_dir}):\n" + "\n".join(lines),
+            partial=True,
+        )
     return [paths[s] for s in seeds]
 
 
@@ -524,8 +548,9 @@ def _train_seed_task(
     with tempfile.TemporaryDirectory(prefix=f"vrloco_seed{seed}_") as tmp:
         root = Path(tmp)
         path = train_ppo(task, seed=seed, out_dir=root, **kwargs)
-        files = {str(p.relative_to(root)): p.read_bytes() for p in sorted(root.rglob("*"))
-                 if p.is_file()}  # fmt: skip
+        files = {
+            str(p.relative_to(root)): p.read_bytes() for p in sorted(root.rglob("*")) if p.is_file()
+        }
     return path.name, files
 
 

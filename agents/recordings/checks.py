@@ -94,9 +94,12 @@ def check_recording(rec: Recording, path: Path, units: Units | None = None) -> R
                 f"{path}: {n_bad} of {n} rows hold values no IMU can read ({what}; {limits}): "
                 "not IMU data in the documented units"
             )
-        warn(path, f"{n_bad} of {n} rows hold values beyond any IMU's range ({what}; "
-                    f"{limits}, the first at {_where(rec, int(np.argmax(any_bad)))}); treated "
-                    "them as missing (NaN)")  # fmt: skip
+        warn(
+            path,
+            f"{n_bad} of {n} rows hold values beyond any IMU's range ({what}; "
+            f"{limits}, the first at {_where(rec, int(np.argmax(any_bad)))}); treated "
+            "them as missing (NaN)",
+        )
         for name, arr in (("acc", rec.acc), ("gyro", rec.gyr), ("mag", rec.mag)):
             if name in bad:
                 arr[bad[name]] = np.nan
@@ -140,8 +143,11 @@ def check_recording(rec: Recording, path: Path, units: Units | None = None) -> R
                 f"{path}: {said}, over the {MAX_GAP_S / 3600:g} h limit: the file holds more "
                 "than one session; split it at the gap"
             )
-        warn(path, f"{said}; nothing is estimated inside them (the attitude filter treats "
-                    "them as missing samples, the step detector finds no step there)")  # fmt: skip
+        warn(
+            path,
+            f"{said}; nothing is estimated inside them (the attitude filter treats "
+            "them as missing samples, the step detector finds no step there)",
+        )
     if t[-1] - t[0] > MAX_SPAN_S:
         raise ValueError(
             f"{path}: the recording spans {t[-1] - t[0]:.6g} s, over the {MAX_SPAN_S / 3600:g} h "

@@ -130,31 +130,60 @@ class Dataset:
 
 # (file name, SHA-256, bytes) of the nine BROAD trials; trial 21 is its .mat, the others .hdf5
 _BROAD_TRIALS = (
-    ("02_undisturbed_slow_rotation_B.hdf5",
-     "33ed3432ece89cfbd8c5c069a176106a05dad019302759353244c71d70d7e5f5", 3926925),
-    ("07_undisturbed_fast_rotation_B.hdf5",
-     "bff6444d38b836482040a328d6060741816ed0150cf2640db94550c6a796b3d8", 4080123),
-    ("11_undisturbed_slow_translation_B.hdf5",
-     "ea4ecb8a27d040cecdfb97cdee45023ea461e065bfc402ce7fe6a7c9a0f325e0", 3710735),
-    ("16_undisturbed_fast_translation_B.hdf5",
-     "eebc009755c4fc53c49369a19bae942cf093342a13a51a1ca0eeb23b2cc74abc", 3994996),
-    ("21_undisturbed_fast_combined.mat",
-     "cb7be66ffc50d7d2b23abaf72a85a76925ea2db36a3fd575998811fcf68c219a", 4043263),
-    ("25_disturbed_tapping_B.hdf5",
-     "d6d9b55c5c84821eaaae96d93cc857b852af24fcb7c93a5fa98b7e6c1e9cae5d", 3651796),
-    ("27_disturbed_phone_vibration_B.hdf5",
-     "9041093636cd2c2e992651f4cd7f7f25c4b585971fd5d4821b020ca3c5d15dff", 3684968),
-    ("30_disturbed_stationary_magnet_C.hdf5",
-     "a4e14a8671c7d0a38c4d41c1883ea2ea471937dfe61ad1bdbee042cea3040808", 3962196),
-    ("33_disturbed_attached_magnet_2cm.hdf5",
-     "b81855b453629e023635d966f77c87cd17b195c919888d725b57b1cca037962d", 3316402),
-)  # fmt: skip
+    (
+        "02_undisturbed_slow_rotation_B.hdf5",
+        "33ed3432ece89cfbd8c5c069a176106a05dad019302759353244c71d70d7e5f5",
+        3926925,
+    ),
+    (
+        "07_undisturbed_fast_rotation_B.hdf5",
+        "bff6444d38b836482040a328d6060741816ed0150cf2640db94550c6a796b3d8",
+        4080123,
+    ),
+    (
+        "11_undisturbed_slow_translation_B.hdf5",
+        "ea4ecb8a27d040cecdfb97cdee45023ea461e065bfc402ce7fe6a7c9a0f325e0",
+        3710735,
+    ),
+    (
+        "16_undisturbed_fast_translation_B.hdf5",
+        "eebc009755c4fc53c49369a19bae942cf093342a13a51a1ca0eeb23b2cc74abc",
+        3994996,
+    ),
+    (
+        "21_undisturbed_fast_combined.mat",
+        "cb7be66ffc50d7d2b23abaf72a85a76925ea2db36a3fd575998811fcf68c219a",
+        4043263,
+    ),
+    (
+        "25_disturbed_tapping_B.hdf5",
+        "d6d9b55c5c84821eaaae96d93cc857b852af24fcb7c93a5fa98b7e6c1e9cae5d",
+        3651796,
+    ),
+    (
+        "27_disturbed_phone_vibration_B.hdf5",
+        "9041093636cd2c2e992651f4cd7f7f25c4b585971fd5d4821b020ca3c5d15dff",
+        3684968,
+    ),
+    (
+        "30_disturbed_stationary_magnet_C.hdf5",
+        "a4e14a8671c7d0a38c4d41c1883ea2ea471937dfe61ad1bdbee042cea3040808",
+        3962196,
+    ),
+    (
+        "33_disturbed_attached_magnet_2cm.hdf5",
+        "b81855b453629e023635d966f77c87cd17b195c919888d725b57b1cca037962d",
+        3316402,
+    ),
+)
 _OXFORD_FILES = (
-    ("accelerometer.csv",
-     "43a53351d01e6b8d8e491e56002c612f6bc1d634b91c23b5b7e8bbb96528708b", 2735577),
-    ("stepcounter.csv",
-     "3284bd8d22d14e4d1f893b7f2c6bc6fadbefeecc7e75c0df6216990e53fa1ca5", 30975),
-)  # fmt: skip
+    (
+        "accelerometer.csv",
+        "43a53351d01e6b8d8e491e56002c612f6bc1d634b91c23b5b7e8bbb96528708b",
+        2735577,
+    ),
+    ("stepcounter.csv", "3284bd8d22d14e4d1f893b7f2c6bc6fadbefeecc7e75c0df6216990e53fa1ca5", 30975),
+)
 _LABAN_SHA256 = "3f1677de9a0e7b1ce61d899300b96f1e162351b84f1a4d69f0ab9e0901a6e7cd"
 
 #: The sets, by name.
@@ -247,8 +276,9 @@ def get_dataset(name: str) -> Dataset:
     try:
         return DATASETS[name]
     except (KeyError, TypeError):
-        raise ValueError(f"unknown dataset {name!r}: the datasets are "
-                         f"{', '.join(DATASETS)}") from None  # fmt: skip
+        raise ValueError(
+            f"unknown dataset {name!r}: the datasets are {', '.join(DATASETS)}"
+        ) from None
 
 
 def data_folder() -> Path | None:
@@ -272,8 +302,10 @@ def _cache_problem(ds: Dataset, root: Path) -> str | None:
     for f in ds.files:
         size = (root / f.relpath).stat().st_size
         if size != f.size:
-            return (f"{root / f.relpath} is {size} bytes, {f.size} expected: run "
-                    f"`vrloco data fetch {ds.name}` to download it again")  # fmt: skip
+            return (
+                f"{root / f.relpath} is {size} bytes, {f.size} expected: run "
+                f"`vrloco data fetch {ds.name}` to download it again"
+            )
     return None
 
 
@@ -316,8 +348,10 @@ def data_path(name: str) -> Path:
         at = f"at {str(env / ds.path)!r}" if env is not None else "(VRLOCO_DATA is not set)"
         raise DataMissing(f"{ds.name.replace('_', ' ')} not found {at}: {ds.why_not_fetched}")
     looked = f"in neither VRLOCO_DATA={str(env)!r} nor" if env is not None else "not in"
-    raise DataMissing(f"{ds.name} ({ds.title}) is {looked} the cache {str(cache_folder())!r}: "
-                      f"run `vrloco data fetch {ds.name}`")  # fmt: skip
+    raise DataMissing(
+        f"{ds.name} ({ds.title}) is {looked} the cache {str(cache_folder())!r}: "
+        f"run `vrloco data fetch {ds.name}`"
+    )
 
 
 def mirror_url(given: str | None = None, origin: str = "base_url") -> str | None:
@@ -409,8 +443,12 @@ def _reason(err: Exception) -> str:
     return _one_line(err)
 
 
-def fetch(name: str, base_url: str | None = None, progressbar: bool = False,
-          report: Callable[[str], None] | None = None) -> Path:  # fmt: skip
+def fetch(
+    name: str,
+    base_url: str | None = None,
+    progressbar: bool = False,
+    report: Callable[[str], None] | None = None,
+) -> Path:
     """Download the set ``name`` into the cache (the files not already there with the pinned
     hash) and return :func:`data_path`'s answer for it in the cache.
 
@@ -445,8 +483,13 @@ def fetch(name: str, base_url: str | None = None, progressbar: bool = False,
             existed = target.is_file()
             downloader = _HashingDownloader(progressbar)
             try:
-                pooch.retrieve(url, known_hash=f"sha256:{f.sha256}", fname=target.name,
-                               path=target.parent, downloader=downloader)  # fmt: skip
+                pooch.retrieve(
+                    url,
+                    known_hash=f"sha256:{f.sha256}",
+                    fname=target.name,
+                    path=target.parent,
+                    downloader=downloader,
+                )
             except ValueError as err:
                 got = downloader.received
                 if got is not None and got != f.sha256:
@@ -458,9 +501,11 @@ def fetch(name: str, base_url: str | None = None, progressbar: bool = False,
                     f"{f.relpath}: download from {url} failed: {_one_line(err)}"
                 ) from None
             except requests.exceptions.RequestException as err:
-                raise FetchError(f"{f.relpath}: download from {url} failed ({_reason(err)}); "
-                                 f"nothing partial was kept: run `vrloco data fetch {ds.name}` "
-                                 "again") from None  # fmt: skip
+                raise FetchError(
+                    f"{f.relpath}: download from {url} failed ({_reason(err)}); "
+                    f"nothing partial was kept: run `vrloco data fetch {ds.name}` "
+                    "again"
+                ) from None
             except OSError as err:
                 space = " (the disk is full)" if err.errno == errno.ENOSPC else ""
                 raise FetchError(

@@ -118,9 +118,12 @@ def _compare_steps(rec: Recording, step_times: NDArray[np.float64], tol: float =
 
 
 def estimate_recording(
-    path: Path, out_dir: Path, step_length: float = 0.7, offline: bool = False,
+    path: Path,
+    out_dir: Path,
+    step_length: float = 0.7,
+    offline: bool = False,
     units: Units | None = None,
-) -> dict:  # fmt: skip
+) -> dict:
     """Run the estimators on ``path``; write ``NAME_estimates.csv`` and ``.png`` in ``out_dir``.
 
     ``offline=True`` estimates the attitude with the forward-backward smoother of
@@ -143,8 +146,10 @@ def estimate_recording(
             or ``step_length`` outside [0.2, 1.5] m (the range of a person's step, as
             :class:`vrloco_env.config.EstimatorConfig` allows).
     """
-    if isinstance(step_length, bool) or not isinstance(step_length, int | float) or not (
-        0.2 <= step_length <= 1.5
+    if (
+        isinstance(step_length, bool)
+        or not isinstance(step_length, int | float)
+        or not (0.2 <= step_length <= 1.5)
     ):
         raise ValueError(f"step_length={step_length!r}: must be in [0.2, 1.5] m")
     rec = read_recording(path, units)
@@ -153,8 +158,12 @@ def estimate_recording(
     steps = np.zeros(n)
     np.add.at(steps, gait.step_index, 1.0)
     walking = gait.state.astype(bool)
-    result: dict = {"name": rec.name, "samples": n, "units": dict(rec.units or {}),
-                    "steps": int(gait.step_times.size)}  # fmt: skip
+    result: dict = {
+        "name": rec.name,
+        "samples": n,
+        "units": dict(rec.units or {}),
+        "steps": int(gait.step_times.size),
+    }
     if rec.gyr is not None:
         q = _attitude(rec, offline)
         ypr = quat_to_ypr(q)
@@ -162,8 +171,11 @@ def estimate_recording(
         table = np.column_stack([rec.t, q, np.rad2deg(ypr), walking, steps, path_xy])
         header = "t,qw,qx,qy,qz,yaw_deg,pitch_deg,roll_deg,walking,step,x,y"
     else:
-        warn(path, "no gyroscope: no attitude (the output has no attitude columns or plot); "
-                    "steps as usual, the path drawn along +x")  # fmt: skip
+        warn(
+            path,
+            "no gyroscope: no attitude (the output has no attitude columns or plot); "
+            "steps as usual, the path drawn along +x",
+        )
         q = ypr = None
         path_xy = dead_reckon(steps, np.zeros(n), step_length)
         table = np.column_stack([rec.t, walking, steps, path_xy])
@@ -184,8 +196,9 @@ def estimate_recording(
     return result
 
 
-def _plot(rec: Recording, ypr: NDArray | None, step_times: NDArray, path_xy: NDArray,
-          png: Path) -> None:  # fmt: skip
+def _plot(
+    rec: Recording, ypr: NDArray | None, step_times: NDArray, path_xy: NDArray, png: Path
+) -> None:
     import matplotlib
 
     matplotlib.use("Agg")

@@ -214,9 +214,13 @@ def _floats(values: NDArray[np.float64]) -> tuple[float, ...]:
 
 
 def head_motion_stats(
-    yaw: Any, pitch: Any, *, times: Any = None, rate_hz: float | None = None,
+    yaw: Any,
+    pitch: Any,
+    *,
+    times: Any = None,
+    rate_hz: float | None = None,
     resample_hz: float = 10.0,
-) -> HeadMotionStats:  # fmt: skip
+) -> HeadMotionStats:
     """The statistics of head traces (see the module docstring).
 
     Args:
@@ -238,9 +242,13 @@ def head_motion_stats(
 
 
 def head_motion_samples(
-    yaw: Any, pitch: Any, *, times: Any = None, rate_hz: float | None = None,
+    yaw: Any,
+    pitch: Any,
+    *,
+    times: Any = None,
+    rate_hz: float | None = None,
     resample_hz: float = 10.0,
-) -> HeadMotionSamples:  # fmt: skip
+) -> HeadMotionSamples:
     """The pooled samples and events of head traces (arguments as :func:`head_motion_stats`)."""
     traces, unwraps = prepare_traces(
         yaw, pitch, times=times, rate_hz=rate_hz, resample_hz=resample_hz
@@ -286,9 +294,13 @@ def head_motion_samples(
 
 
 def prepare_traces(
-    yaw: Any, pitch: Any, *, times: Any = None, rate_hz: float | None = None,
+    yaw: Any,
+    pitch: Any,
+    *,
+    times: Any = None,
+    rate_hz: float | None = None,
     resample_hz: float = 10.0,
-) -> tuple[list[tuple[NDArray[np.float64], NDArray[np.float64]]], NDArray[np.intp]]:  # fmt: skip
+) -> tuple[list[tuple[NDArray[np.float64], NDArray[np.float64]]], NDArray[np.intp]]:
     """Check head traces, unwrap their yaw and resample them to ``resample_hz`` (arguments as
     :func:`head_motion_stats`; the checks are the module docstring's).
 
@@ -306,8 +318,9 @@ def prepare_traces(
     if len(ps) != len(ys):
         raise ValueError(f"pitch: {len(ps)} traces, yaw has {len(ys)}: give one pitch per yaw")
     if (times is None) == (rate_hz is None):
-        raise ValueError("give the sample times (times=...) or the sampling rate (rate_hz=...), "
-                         "one of them")  # fmt: skip
+        raise ValueError(
+            "give the sample times (times=...) or the sampling rate (rate_hz=...), one of them"
+        )
     if rate_hz is not None:
         check_value("rate_hz", rate_hz, MIN_RATE_HZ, np.inf, "Hz")
         ts = [np.arange(y.size) / float(rate_hz) for y in ys]
@@ -316,6 +329,7 @@ def prepare_traces(
     out = []
     unwraps = np.zeros(len(ys), np.intp)
     for i, (t, y, p) in enumerate(zip(ts, ys, ps, strict=True)):
+
         def name(arg: str, i: int = i) -> str:
             return arg if single else f"{arg}[{i}]"
 
@@ -388,20 +402,20 @@ def prepare_traces(
 
 def _as_traces(arg: str, x: Any) -> tuple[list[NDArray[np.float64]], bool]:
     """``x`` as a list of 1-D float arrays, and whether it was one trace (T,)."""
-    if isinstance(x, np.ndarray) or not isinstance(x, Sequence) or (
-        len(x) and np.ndim(x[0]) == 0
-    ):
+    if isinstance(x, np.ndarray) or not isinstance(x, Sequence) or (len(x) and np.ndim(x[0]) == 0):
         try:
             a = np.asarray(x, dtype=np.float64)
         except (TypeError, ValueError):
-            raise ValueError(f"{arg}: must be numbers (rad), (T,), (B, T) or a list of (T_i,) "
-                             "traces") from None  # fmt: skip
+            raise ValueError(
+                f"{arg}: must be numbers (rad), (T,), (B, T) or a list of (T_i,) traces"
+            ) from None
         if a.ndim == 1:
             return [a], True
         if a.ndim == 2 and a.shape[0] > 0:
             return list(a), False
-        raise ValueError(f"{arg}: shape {a.shape}: must be (T,) or (B, T) with B >= 1 (or a list "
-                         "of traces)")  # fmt: skip
+        raise ValueError(
+            f"{arg}: shape {a.shape}: must be (T,) or (B, T) with B >= 1 (or a list of traces)"
+        )
     if len(x) == 0:
         raise ValueError(f"{arg}: no traces: give at least one")
     out = []
@@ -426,10 +440,14 @@ def _as_times(times: Any, ys: list[NDArray[np.float64]]) -> list[NDArray[np.floa
             return [t] * len(ys)
         if t.ndim == 2 and t.shape[0] == len(ys):
             return list(t)
-        raise ValueError(f"times: shape {t.shape}: must be (T,) shared by the {len(ys)} traces, "
-                         f"({len(ys)}, T) or a list of one array per trace")  # fmt: skip
+        raise ValueError(
+            f"times: shape {t.shape}: must be (T,) shared by the {len(ys)} traces, "
+            f"({len(ys)}, T) or a list of one array per trace"
+        )
     ts, _ = _as_traces("times", times)
     if len(ts) != len(ys):
-        raise ValueError(f"times: {len(ts)} arrays for {len(ys)} traces: give one per trace "
-                         "(or one shared array)")  # fmt: skip
+        raise ValueError(
+            f"times: {len(ts)} arrays for {len(ys)} traces: give one per trace "
+            "(or one shared array)"
+        )
     return ts

@@ -46,9 +46,8 @@ __all__ = [
 DATASETS: dict[str, tuple[str, tuple[int, ...]]] = {
     "corbillon2017": ("Corbillon, De Simone & Simon, ACM MMSys 2017", tuple(range(0, 7))),
     "lo2017": ("Lo, Fan, Lee, Huang, Hsu & Chen, ACM MMSys 2017", tuple(range(7, 17))),
-    "wu2017": ("Wu, Tan, Wang & Yang, ACM MMSys 2017",
-               tuple(n for n in range(33, 42) if n != 38)),
-}  # fmt: skip
+    "wu2017": ("Wu, Tan, Wang & Yang, ACM MMSys 2017", tuple(n for n in range(33, 42) if n != 38)),
+}
 
 
 def head_traces_folder() -> Path:
@@ -73,8 +72,9 @@ def dataset_of(path: str | Path) -> str:
             if n in numbers:
                 return name
     allowed = "; ".join(f"{k}: {v[1][0]}-{v[1][-1]}" for k, v in DATASETS.items())
-    raise ValueError(f"{str(p)!r}: not a head-trace file of a known dataset (<number>.txt, "
-                     f"{allowed})")  # fmt: skip
+    raise ValueError(
+        f"{str(p)!r}: not a head-trace file of a known dataset (<number>.txt, {allowed})"
+    )
 
 
 def dataset_files(folder: str | Path | None = None) -> dict[str, list[Path]]:
@@ -170,11 +170,17 @@ def read_head_traces(path: str | Path) -> HeadTraceFile:
         return values
 
     if len(lines) < 3:
-        raise fail(len(lines) or 1, f"{len(lines)} line(s): a file holds the times and at least "
-                   "one viewing (a pitch and a yaw line)")  # fmt: skip
+        raise fail(
+            len(lines) or 1,
+            f"{len(lines)} line(s): a file holds the times and at least "
+            "one viewing (a pitch and a yaw line)",
+        )
     if len(lines) % 2 == 0:
-        raise fail(len(lines), f"{len(lines)} lines: after the times line come two lines per "
-                   "viewing (pitch, yaw), so the count must be odd")  # fmt: skip
+        raise fail(
+            len(lines),
+            f"{len(lines)} lines: after the times line come two lines per "
+            "viewing (pitch, yaw), so the count must be odd",
+        )
     times = parse(1)
     if times.size < 2 or (np.diff(times) <= 0).any():
         j = int(np.argmax(np.diff(times) <= 0)) + 2 if times.size >= 2 else 1
@@ -187,8 +193,11 @@ def read_head_traces(path: str | Path) -> HeadTraceFile:
         lp = HeadTraceFile.pitch_line(v)
         p, y = parse(lp), parse(lp + 1)
         if p.size != y.size:
-            raise fail(lp + 1, f"{y.size} yaw values after {p.size} pitch values on line {lp}: "
-                       "a viewing's two lines have one value per sample each")  # fmt: skip
+            raise fail(
+                lp + 1,
+                f"{y.size} yaw values after {p.size} pitch values on line {lp}: "
+                "a viewing's two lines have one value per sample each",
+            )
         if p.size > times.size:
             raise fail(lp, f"{p.size} values, more than the {times.size} sample times of line 1")
         if p.size < 2:

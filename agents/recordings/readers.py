@@ -139,17 +139,25 @@ def read_csv_recording(path: Path, units: Units | None = None) -> Recording:
             data = np.stack([np.bincount(inverse, weights=v) / counts for v in data.T], -1)
         data[:, 0] = t_u
         line = line[first]
-        warn(path, f"{repeated} rows repeat the previous row's timestamp; merged them into "
-                    "the mean of the rows sharing it")  # fmt: skip
+        warn(
+            path,
+            f"{repeated} rows repeat the previous row's timestamp; merged them into "
+            "the mean of the rows sharing it",
+        )
     get = {c: data[:, k] for k, c in enumerate(cols)}
 
     def xyz(names: tuple[str, ...]) -> NDArray[np.float64] | None:
         return np.stack([get[c] for c in names], -1) if names[0] in get else None
 
     rec = Recording(
-        path.stem, data[:, 0], xyz(("ax", "ay", "az")), xyz(GYRO), xyz(MAGNETOMETER),
-        GaitParams(), line=line,
-    )  # fmt: skip
+        path.stem,
+        data[:, 0],
+        xyz(("ax", "ay", "az")),
+        xyz(GYRO),
+        xyz(MAGNETOMETER),
+        GaitParams(),
+        line=line,
+    )
     return check_recording(rec, path, units)
 
 
@@ -191,8 +199,7 @@ def read_recording(path: Path, units: Units | None = None) -> Recording:
             t, acc, _ = read_accelerometer(path)
             ref_steps = None
         fixed = _format_units(path, units, "an Oxford step-counter recording")
-        rec = Recording(path.name, t, acc, None, None, GaitParams.neck_pouch(),
-                        ref_steps=ref_steps)  # fmt: skip
+        rec = Recording(path.name, t, acc, None, None, GaitParams.neck_pouch(), ref_steps=ref_steps)
         return check_recording(rec, path, fixed)
     if not path.is_file():
         raise ValueError(f"{path}: no such file or folder")
@@ -202,7 +209,15 @@ def read_recording(path: Path, units: Units | None = None) -> Recording:
         fixed = _format_units(path, units, "a BROAD trial")
         trial = load_broad(path)
         t = np.arange(trial.acc.shape[0]) / trial.fs
-        rec = Recording(trial.name, t, trial.acc, trial.gyr, trial.mag, GaitParams(),
-                        ref_quat=trial.quat, ref_mask=trial.movement)  # fmt: skip
+        rec = Recording(
+            trial.name,
+            t,
+            trial.acc,
+            trial.gyr,
+            trial.mag,
+            GaitParams(),
+            ref_quat=trial.quat,
+            ref_mask=trial.movement,
+        )
         return check_recording(rec, path, fixed)
     return read_csv_recording(path, units)

@@ -153,9 +153,12 @@ def _time_unit(rec: Recording, path: Path, unit: str) -> float:
             )
         unit = fits[0]
         if unit != "s":
-            warn(path, f"read t in {unit} (its median interval {raw:.6g} is "
-                        f"{1.0 / (raw * TIME_UNITS[unit]):.4g} Hz in {unit}, "
-                        f"{rate} in s); pass --time-unit {unit} to say so")  # fmt: skip
+            warn(
+                path,
+                f"read t in {unit} (its median interval {raw:.6g} is "
+                f"{1.0 / (raw * TIME_UNITS[unit]):.4g} Hz in {unit}, "
+                f"{rate} in s); pass --time-unit {unit} to say so",
+            )
     elif unit not in fits:
         dt = raw * TIME_UNITS[unit]
         hint = f": t looks like {' or '.join(fits)} (--time-unit {fits[0]})" if fits else ""
@@ -245,9 +248,12 @@ def _acc_unit(rec: Recording, path: Path, unit: str) -> None:
             )
         unit = fits[0]
         if unit != "m/s2":
-            warn(path, f"read ax, ay, az in {unit} (the median norm of their {ACC_MEAN_S:g} s "
-                        f"means, {median:.4g}, is gravity in {unit}); pass --acc-unit {unit} to "
-                        "say so")  # fmt: skip
+            warn(
+                path,
+                f"read ax, ay, az in {unit} (the median norm of their {ACC_MEAN_S:g} s "
+                f"means, {median:.4g}, is gravity in {unit}); pass --acc-unit {unit} to "
+                "say so",
+            )
     elif unit not in fits:
         hint = f": ax, ay, az look like {fits[0]} (--acc-unit {fits[0]})" if fits else ""
         raise ValueError(
@@ -275,8 +281,10 @@ def _integrate_windows(t: NDArray, gyr: NDArray, dt_gap: float) -> NDArray[np.fl
 
 
 def tilt_spreads(
-    t: NDArray[np.float64], gyr: NDArray[np.float64], acc: NDArray[np.float64],
-) -> dict[str, float] | None:  # fmt: skip
+    t: NDArray[np.float64],
+    gyr: NDArray[np.float64],
+    acc: NDArray[np.float64],
+) -> dict[str, float] | None:
     """The accelerometer's tilt against the gyro read in each unit of :data:`GYRO_UNITS`.
 
     The recording is cut into windows of :data:`TILT_WINDOW_S`; in each, the gyro (its numbers
@@ -343,13 +351,21 @@ def _gyro_evidence(
     gyr_norm = np.linalg.norm(rec.gyr, axis=1)
     big = int(np.sum(possible & (gyr_norm > MAX_GYR_NORM)))
     if big >= UNIT_MIN_COUNT and 100 * big >= rec.t.size:
-        found.append(("gyro's magnitude", "deg/s", f"{big} of {rec.t.size} samples exceed "
-                      f"{MAX_GYR_NORM:g} rad/s (2000 deg/s, beyond any head's turn)"))  # fmt: skip
+        found.append(
+            (
+                "gyro's magnitude",
+                "deg/s",
+                f"{big} of {rec.t.size} samples exceed "
+                f"{MAX_GYR_NORM:g} rad/s (2000 deg/s, beyond any head's turn)",
+            )
+        )
     if rec.mag is not None:  # fitted on the samples possible in rad/s
         ok = np.all(np.abs(rec.gyr) <= MAX_GYR_AXIS, axis=1)
         ratio, rms = gyro_to_field_ratio(rec.t, np.where(ok[:, None], rec.gyr, np.nan), rec.mag)
-        why = (f"its field turns {ratio:.3g} times slower than the gyro's numbers say (1 for "
-               "rad/s, 57.3 for deg/s)")  # fmt: skip
+        why = (
+            f"its field turns {ratio:.3g} times slower than the gyro's numbers say (1 for "
+            "rad/s, 57.3 for deg/s)"
+        )
         mag_said = "the magnetometer's field turns too little to compare"
         if rms > MIN_FIT_TURNING:
             mag_said = f"the magnetometer fits neither unit ({why})"
@@ -360,12 +376,21 @@ def _gyro_evidence(
     tilt = tilt_spreads(rec.t, np.where(possible[:, None], rec.gyr, np.nan), acc)
     if tilt is not None:
         for unit, other in (("rad/s", "deg/s"), ("deg/s", "rad/s")):
-            if (tilt[other] >= TILT_RATIO * tilt[unit]
-                    and tilt[other] - tilt[unit] >= TILT_MARGIN_DEG):  # fmt: skip
-                found.append(("accelerometer's tilt", unit, (
-                    f"gravity, carried {TILT_WINDOW_S:g} s at a time by the gyro, spreads "
-                    f"{tilt[unit]:.1f} deg read in {unit} but {tilt[other]:.1f} deg read in "
-                    f"{other}")))  # fmt: skip
+            if (
+                tilt[other] >= TILT_RATIO * tilt[unit]
+                and tilt[other] - tilt[unit] >= TILT_MARGIN_DEG
+            ):
+                found.append(
+                    (
+                        "accelerometer's tilt",
+                        unit,
+                        (
+                            f"gravity, carried {TILT_WINDOW_S:g} s at a time by the gyro, spreads "
+                            f"{tilt[unit]:.1f} deg read in {unit} but {tilt[other]:.1f} deg "
+                            f"read in {other}"
+                        ),
+                    )
+                )
     return found, tilt, mag_said
 
 
@@ -380,14 +405,19 @@ def _gyro_unit(rec: Recording, path: Path, unit: str, possible: NDArray[np.bool_
         if found:
             source, unit, why = found[0]
             if unit != "rad/s":
-                warn(path, f"read gx, gy, gz in {unit}, as the {source} says ({why}); pass "
-                            f"--gyro-unit {unit} to say so")  # fmt: skip
+                warn(
+                    path,
+                    f"read gx, gy, gz in {unit}, as the {source} says ({why}); pass "
+                    f"--gyro-unit {unit} to say so",
+                )
         elif tilt is not None and tilt["turn_deg"] >= UNDECIDED_TURN_DEG:
             fits = f"the recording is too short for the tilt ({2 * TILT_SMOOTH_S:g} s)"
             if np.isfinite(tilt["rad/s"]):
-                fits = (f"the accelerometer's tilt fits both (gravity spreads "
-                        f"{tilt['rad/s']:.1f} deg read in rad/s, {tilt['deg/s']:.1f} deg in "
-                        "deg/s: the sensor hardly tilts)")  # fmt: skip
+                fits = (
+                    f"the accelerometer's tilt fits both (gravity spreads "
+                    f"{tilt['rad/s']:.1f} deg read in rad/s, {tilt['deg/s']:.1f} deg in "
+                    "deg/s: the sensor hardly tilts)"
+                )
             raise ValueError(
                 f"{path}: cannot tell whether gx, gy, gz are in rad/s or deg/s: none exceeds "
                 f"{MAX_GYR_NORM:g} rad/s, {mag_said}, and {fits}, while read as rad/s the gyro "
@@ -396,11 +426,15 @@ def _gyro_unit(rec: Recording, path: Path, unit: str, possible: NDArray[np.bool_
             )
         else:
             unit = "rad/s"
-    against = [f"the {source} says {other} ({why})" for source, other, why in found
-               if other != unit]  # fmt: skip
+    against = [
+        f"the {source} says {other} ({why})" for source, other, why in found if other != unit
+    ]
     if against:
-        warn(path, f"gx, gy, gz are read in {unit} ({'given' if given else 'found'}), but "
-                    f"{' and '.join(against)}; check --gyro-unit")  # fmt: skip
+        warn(
+            path,
+            f"gx, gy, gz are read in {unit} ({'given' if given else 'found'}), but "
+            f"{' and '.join(against)}; check --gyro-unit",
+        )
     if GYRO_UNITS[unit] != 1.0:
         rec.gyr = rec.gyr * GYRO_UNITS[unit]
     rec.units = {**(rec.units or {}), "gyro": unit}

@@ -127,8 +127,7 @@ def _cell(text: Any) -> str:
 
 def _table(headers: Sequence[str], rows: Iterable[Sequence[Any]]) -> str:
     """A GitHub-style pipe table."""
-    lines = ["| " + " | ".join(_cell(h) for h in headers) + " |",
-             "|" + "---|" * len(headers)]  # fmt: skip
+    lines = ["| " + " | ".join(_cell(h) for h in headers) + " |", "|" + "---|" * len(headers)]
     for row in rows:
         lines.append("| " + " | ".join(_cell(c) if str(c) else " " for c in row) + " |")
     return "\n".join(lines)

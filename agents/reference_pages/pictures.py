@@ -24,8 +24,10 @@ def _picture_layout(name: str) -> tuple[Any, str]:
     if layout.goal_line is not None:
         goal = "the end line (green, dashed)"
     elif hasattr(config, "standoff_range") and hasattr(config, "band_half_width"):
-        goal = ("the standing band, the goal region (orange, dashed), with the disc the planned "
-                "path ends in (green circle)")  # fmt: skip
+        goal = (
+            "the standing band, the goal region (orange, dashed), with the disc the planned "
+            "path ends in (green circle)"
+        )
     else:
         goal = "the goal region (green circle)"
     pedestal = ", the pedestal in dark grey" if layout.target is not None else ""
@@ -75,8 +77,12 @@ def write_pictures(out: Path) -> list[Path]:
         ax.plot(*np.asarray(layout.path).T, ":", color="tab:blue", lw=1.5, label="planned path")
         x, y, yaw = layout.start
         ax.plot(x, y, "s", color="k", ms=6, label="start")
-        ax.annotate("", (x + 0.8 * math.cos(yaw), y + 0.8 * math.sin(yaw)), (x, y),
-                    arrowprops={"arrowstyle": "->", "color": "k", "lw": 1.5})  # fmt: skip
+        ax.annotate(
+            "",
+            (x + 0.8 * math.cos(yaw), y + 0.8 * math.sin(yaw)),
+            (x, y),
+            arrowprops={"arrowstyle": "->", "color": "k", "lw": 1.5},
+        )
         ax.set_xlabel("x (m)", fontsize=8)
         ax.set_ylabel("y (m)", fontsize=8)
         ax.tick_params(labelsize=7)
@@ -84,8 +90,9 @@ def write_pictures(out: Path) -> list[Path]:
         ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
         path = out / rel
         path.parent.mkdir(parents=True, exist_ok=True)
-        fig.savefig(path, dpi=PICTURE_DPI, format="png", bbox_inches="tight",
-                    metadata={"Software": None})  # fmt: skip
+        fig.savefig(
+            path, dpi=PICTURE_DPI, format="png", bbox_inches="tight", metadata={"Software": None}
+        )
         plt.close(fig)
         written.append(path)
     return written
@@ -101,12 +108,27 @@ def _draw_target(ax: Any, layout: Any, config: Any) -> None:
     rot = np.array([[c, s], [-s, c]])
     hx, hy = box.half_extents
     corners = np.array([[hx, hy], [-hx, hy], [-hx, -hy], [hx, -hy]])
-    ax.add_patch(Polygon(corners @ rot + np.asarray(box.center), closed=True, color="0.25",
-                         lw=0, label="pedestal"))  # fmt: skip
+    ax.add_patch(
+        Polygon(
+            corners @ rot + np.asarray(box.center),
+            closed=True,
+            color="0.25",
+            lw=0,
+            label="pedestal",
+        )
+    )
     if hasattr(config, "standoff_range") and hasattr(config, "band_half_width"):
         near, far = (hx + layout.avatar_radius + g for g in config.standoff_range)
         w = config.band_half_width
         band = np.array([[near, -w], [far, -w], [far, w], [near, w]])
-        ax.add_patch(Polygon(band @ rot + np.asarray(box.center), closed=True, fill=False,
-                             color="tab:orange", lw=1.2, ls="--",
-                             label="standing band (body centre)"))  # fmt: skip
+        ax.add_patch(
+            Polygon(
+                band @ rot + np.asarray(box.center),
+                closed=True,
+                fill=False,
+                color="tab:orange",
+                lw=1.2,
+                ls="--",
+                label="standing band (body centre)",
+            )
+        )

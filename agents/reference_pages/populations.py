@@ -53,9 +53,16 @@ def _populations() -> list[str]:
     names = list(POPULATIONS)
     docs = _field_docs(Population)
     agent = _field_docs(VariabilityParams)
-    overview = [(f"`{n}`", _md(p.description), "yes" if p.moves_head else "no",
-                 "yes" if p.gaze else "no", "yes" if p.variability else "no")
-                for n, p in POPULATIONS.items()]  # fmt: skip
+    overview = [
+        (
+            f"`{n}`",
+            _md(p.description),
+            "yes" if p.moves_head else "no",
+            "yes" if p.gaze else "no",
+            "yes" if p.variability else "no",
+        )
+        for n, p in POPULATIONS.items()
+    ]
     rows = []
     for f in dataclasses.fields(Population):
         if f.name in ("name", "description"):
@@ -103,15 +110,25 @@ def _conditions() -> list[str]:
     for name, c in conditions.CONDITIONS.items():
         dipoles = []
         for d in c.magnetic_disturbances:
-            text = (f"dipole at ({', '.join(f'{v:g}' for v in d.position)}) m, moment "
-                    f"{float(np.linalg.norm(d.moment)):.3g} A m^2")  # fmt: skip
+            text = (
+                f"dipole at ({', '.join(f'{v:g}' for v in d.position)}) m, moment "
+                f"{float(np.linalg.norm(d.moment)):.3g} A m^2"
+            )
             if any(d.velocity):
-                text += (f", moving at ({', '.join(f'{v:g}' for v in d.velocity)}) m/s "
-                         f"from {d.moving[0]:g} s to {d.moving[1]:g} s")  # fmt: skip
+                text += (
+                    f", moving at ({', '.join(f'{v:g}' for v in d.velocity)}) m/s "
+                    f"from {d.moving[0]:g} s to {d.moving[1]:g} s"
+                )
             dipoles.append(text)
         default = " (default)" if name == conditions.DEFAULT_CONDITION else ""
-        rows.append((f"`{name}`{default}", _md(c.description), "; ".join(dipoles) or "none",
-                     _md(notes.get(name, ""))))  # fmt: skip
+        rows.append(
+            (
+                f"`{name}`{default}",
+                _md(c.description),
+                "; ".join(dipoles) or "none",
+                _md(notes.get(name, "")),
+            )
+        )
     ideal = CameraSpec(name="ideal")
     camera_docs = _field_docs(CameraSpec)
     changed: list[str] = []
@@ -124,9 +141,16 @@ def _conditions() -> list[str]:
             if f.name != "name" and getattr(spec, f.name) != getattr(ideal, f.name)
         ]
         changed += [d for d in diffs if d not in changed]
-        camera_rows.append((f"`{name}`", ", ".join(
-            f"`{d}` = {_value(getattr(spec, d))} (ideal {_value(getattr(ideal, d))})"
-            for d in diffs) or "the default `CameraSpec`"))  # fmt: skip
+        camera_rows.append(
+            (
+                f"`{name}`",
+                ", ".join(
+                    f"`{d}` = {_value(getattr(spec, d))} (ideal {_value(getattr(ideal, d))})"
+                    for d in diffs
+                )
+                or "the default `CameraSpec`",
+            )
+        )
     return [
         "## Conditions",
         "### Physical room (`vrloco benchmark --conditions`)",
@@ -147,8 +171,10 @@ def _policies() -> list[str]:
     import agents.benchmark.policies as policies
     from agents.scripted import POLICIES
 
-    rows = [(f"`{name}`", f"`{_qualname(cls)}`", _md(_first(_doc(cls))))
-            for name, cls in POLICIES.items()]  # fmt: skip
+    rows = [
+        (f"`{name}`", f"`{_qualname(cls)}`", _md(_first(_doc(cls))))
+        for name, cls in POLICIES.items()
+    ]
     return [
         "## Scripted policies",
         _md(_first(_doc(sys.modules["agents.scripted"]))),

@@ -90,12 +90,27 @@ def _observation_rows(spec: Any, source: dict[str, str]) -> list[tuple[str, ...]
     for f in spec.fields:
         sl = spec.slice(f.name)
         index = str(sl.start) if f.size == 1 else f"{sl.start}-{sl.stop - 1}"
-        entries = (f"`{f.entries[0]}`" if f.size == 1
-                   else f"`{f.entries[0]}` ... `{f.entries[-1]}`" if f.size > 3
-                   else ", ".join(f"`{e}`" for e in f.entries))  # fmt: skip
+        entries = (
+            f"`{f.entries[0]}`"
+            if f.size == 1
+            else f"`{f.entries[0]}` ... `{f.entries[-1]}`"
+            if f.size > 3
+            else ", ".join(f"`{e}`" for e in f.entries)
+        )
         reads = f"{f.scale:.6g} {f.unit}".strip()
-        rows.append((index, f"`{f.name}`", entries, f"({f.size},)", "float32", "[-1, 1]",
-                     reads, _md(f.doc), source[f.name]))  # fmt: skip
+        rows.append(
+            (
+                index,
+                f"`{f.name}`",
+                entries,
+                f"({f.size},)",
+                "float32",
+                "[-1, 1]",
+                reads,
+                _md(f.doc),
+                source[f.name],
+            )
+        )
     return rows
 
 
@@ -112,8 +127,17 @@ def _observation(task_cls: type) -> list[str]:
     source.update({f.name: f"this task (`{task_cls.__name__}.fields`)" for f in task.fields()})
     source[HEAD_ON_TORSO.name] = "a population whose head turns (below)"
     gaze = [f"`{n}`" for n, p in POPULATIONS.items() if p.gaze]
-    headers = ("index", "field", "entries", "shape", "dtype", "bounds", "1.0 reads",
-               "meaning", "from")  # fmt: skip
+    headers = (
+        "index",
+        "field",
+        "entries",
+        "shape",
+        "dtype",
+        "bounds",
+        "1.0 reads",
+        "meaning",
+        "from",
+    )
     return [
         "## Observation",
         f"`Box(-1.0, 1.0, ({spec.size},), float32)` with the default `EnvConfig` "
@@ -145,15 +169,17 @@ def _action_rows() -> list[tuple[str, ...]]:
     limits = {
         "walk": f"cadence {lo:g}-{hi:g} steps/s (`MotionParams.cadence_range_hz`)",
         "turn": f"+-{turn:g} deg/s (`MotionParams.max_turn_rate` = "
-                f"{motion.max_turn_rate:.4g} rad/s)",
-    }  # fmt: skip
+        f"{motion.max_turn_rate:.4g} rad/s)",
+    }
     rows = []
     for k, name in enumerate(actions.ACTION_NAMES):
         if name.startswith("hand_"):
             axis = name.split("_")[1]
             text = bullets["hand rates"] + f" (this entry: the {axis} axis)"
-            limit = (f"+-{hand:g} deg/s (`MotionParams.max_hand_rate` = "
-                     f"{motion.max_hand_rate:.4g} rad/s)")  # fmt: skip
+            limit = (
+                f"+-{hand:g} deg/s (`MotionParams.max_hand_rate` = "
+                f"{motion.max_hand_rate:.4g} rad/s)"
+            )
         else:
             text, limit = bullets[name], limits[name]
         rows.append((str(k), f"`{name}`", "[-1, 1]", _md(text), limit))
@@ -181,8 +207,10 @@ def _reward() -> list[str]:
 
     _, room, reward, _ = _env_defaults()
     docs = _field_docs(RewardConfig)
-    rows = [(f"`{f.name}`", _value(getattr(reward, f.name)), _md(docs.get(f.name, "")))
-            for f in dataclasses.fields(RewardConfig)]  # fmt: skip
+    rows = [
+        (f"`{f.name}`", _value(getattr(reward, f.name)), _md(docs.get(f.name, "")))
+        for f in dataclasses.fields(RewardConfig)
+    ]
     return [
         "## Reward",
         _md(_first(_doc(RewardConfig))) + " As `LocoCore.step` (`vrloco_env/core.py`) computes it:",
@@ -203,19 +231,23 @@ def _reward() -> list[str]:
 
 def _ending(cls: type, rule: str) -> list[str]:
     env, _, _, _ = _env_defaults()
-    free = ("without a single collision in the episode (`collision_free_success = True`)"
-            if cls.collision_free_success else
-            "collisions or not (`collision_free_success = False`)")  # fmt: skip
+    free = (
+        "without a single collision in the episode (`collision_free_success = True`)"
+        if cls.collision_free_success
+        else "collisions or not (`collision_free_success = False`)"
+    )
     owner = next(b for b in cls.__mro__ if "finished" in vars(b))
     config = cls.Config()
     if owner.__name__ == "Task":
         done = "the virtual body is in the goal region, goal distance 0"
     elif hasattr(config, "hand_tolerance_deg") and hasattr(config, "dwell_s"):
         # Written from the code of Interact.finished, which has no docstring of its own.
-        done = (f"`{owner.__name__}.finished`: in the goal region, the estimated hand has stayed "
-                f"within `hand_tolerance_deg` ({config.hand_tolerance_deg:g} deg) of its target "
-                f"for `dwell_s` ({config.dwell_s:g} s); leaving the region or the tolerance "
-                "restarts the dwell")  # fmt: skip
+        done = (
+            f"`{owner.__name__}.finished`: in the goal region, the estimated hand has stayed "
+            f"within `hand_tolerance_deg` ({config.hand_tolerance_deg:g} deg) of its target "
+            f"for `dwell_s` ({config.dwell_s:g} s); leaving the region or the tolerance "
+            "restarts the dwell"
+        )
     else:
         done = f"`{owner.__name__}.finished`: {_md(_first(_doc(owner.finished)))}"
     return [
@@ -303,8 +335,7 @@ def task_page(name: str) -> str:
     func = _layout_function(cls)
     if func is not None:
         blocks += ["### The room", f"`{_qualname(func)}`:", *_md_blocks(_doc(func), cls.Config)]
-    blocks += [*_observation(cls), *_action(), *_reward(), *_ending(cls, rule),
-               *_task_config(cls)]  # fmt: skip
+    blocks += [*_observation(cls), *_action(), *_reward(), *_ending(cls, rule), *_task_config(cls)]
     info = _task_info(cls)
     blocks.append("## Task `info` keys")
     if info:
@@ -317,8 +348,9 @@ def task_page(name: str) -> str:
             ),
         ]
     else:
-        blocks.append("None beyond the keys every task reports "
-                      "([task index](index.md#shared-by-every-task)).")  # fmt: skip
+        blocks.append(
+            "None beyond the keys every task reports ([task index](index.md#shared-by-every-task))."
+        )
     return _page(blocks)
 
 
@@ -333,9 +365,17 @@ def tasks_index() -> str:
     for name in tasks.task_names():
         cls = tasks.get_task(name)
         _, rule = _task_text(cls)
-        rows.append((f"`{name}`", f"`{_env_id(cls)}`", _md(cls.description),
-                     _md(rule, cls.Config), "yes" if cls.collision_free_success else "no",
-                     _horizon(), f"[{cls.__name__}]({name}.md)"))  # fmt: skip
+        rows.append(
+            (
+                f"`{name}`",
+                f"`{_env_id(cls)}`",
+                _md(cls.description),
+                _md(rule, cls.Config),
+                "yes" if cls.collision_free_success else "no",
+                _horizon(),
+                f"[{cls.__name__}]({name}.md)",
+            )
+        )
     new_task = next(p for p in _paragraphs(_doc(tasks)) if p.startswith("A new task"))
     info = next(p for p in _paragraphs(_doc(env_module)) if p.startswith("``info``"))
     return _page(

@@ -25,8 +25,10 @@ def _papers(description: str, factory: Any) -> str:
     or a parenthesised citation in the module's opening paragraphs."""
     module = _module_doc(factory)
     text = " ".join([description, _first(_doc(factory)), _first(module)])
-    found = [f"seed {n} ({SEED_PAPERS.get(n, 'a source paper')})"
-             for n in sorted(set(re.findall(r"\b[Ss]eed (\d{3})", text)))]  # fmt: skip
+    found = [
+        f"seed {n} ({SEED_PAPERS.get(n, 'a source paper')})"
+        for n in sorted(set(re.findall(r"\b[Ss]eed (\d{3})", text)))
+    ]
     paragraphs = [" ".join(p.split()) for p in _paragraphs(module)]
     source = next((p for p in paragraphs if re.match(r"Sources?: ", p)), None)
     cite = None
@@ -62,8 +64,14 @@ def _stage_table(field: str) -> list[str]:
             else (_md(description) + ". " + sentence)
         )
         mark = " (default)" if name == default else ""
-        rows.append((f"`{name}`{mark}", f"`{_qualname(factory)}` ({kind})", what,
-                     _papers(description, factory)))  # fmt: skip
+        rows.append(
+            (
+                f"`{name}`{mark}",
+                f"`{_qualname(factory)}` ({kind})",
+                what,
+                _papers(description, factory),
+            )
+        )
     protocol = registry.protocol
     return [
         f"### `{field}`",
@@ -78,8 +86,11 @@ def _iron_fields() -> list[str]:
     sensors: the magnetometer's calibration residuals."""
     from vrloco_env.sensors.imu.spec import ImuSpec, SensorSpec
 
-    return [f.name for f in dataclasses.fields(ImuSpec)
-            if f.name != "name" and f.type not in ("SensorSpec", SensorSpec)]  # fmt: skip
+    return [
+        f.name
+        for f in dataclasses.fields(ImuSpec)
+        if f.name != "name" and f.type not in ("SensorSpec", SensorSpec)
+    ]
 
 
 def _imu_tables() -> tuple[str, str]:
@@ -96,8 +107,10 @@ def _imu_tables() -> tuple[str, str]:
             s = getattr(spec, sensor)
             rows.append((f"`{name}`", sensor, s.unit, *(f"{getattr(s, k):.4g}" for k in numeric)))
         iron_rows.append((f"`{name}`", *(f"{getattr(spec, k):.4g}" for k in iron)))
-    return (_table(("preset", "sensor", "unit", *numeric), rows),
-            _table(("preset", *iron), iron_rows))  # fmt: skip
+    return (
+        _table(("preset", "sensor", "unit", *numeric), rows),
+        _table(("preset", *iron), iron_rows),
+    )
 
 
 def techniques_page() -> str:
@@ -125,8 +138,15 @@ def techniques_page() -> str:
         ]
         extra = f" (also changes {', '.join(other)})" if other else ""
         default = " (default)" if name == techniques.DEFAULT_TECHNIQUE else ""
-        rows.append((f"`{name}`{default}", preset, *cells, f"{e.step_length:g} m",
-                     _md(tech.description) + extra))  # fmt: skip
+        rows.append(
+            (
+                f"`{name}`{default}",
+                preset,
+                *cells,
+                f"{e.step_length:g} m",
+                _md(tech.description) + extra,
+            )
+        )
     pose_doc = _field_docs(EnvConfig)["pose_source"]
     papers = _table(("seed", "paper"), [(f"seed {k}", v) for k, v in SEED_PAPERS.items()])
     blocks = [

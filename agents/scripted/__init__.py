@@ -63,18 +63,27 @@ __all__ = [
 
 #: The scripted users, by name (each class's ``name``).
 POLICIES: Registry[type[ScriptedPolicy]] = Registry("policy")
-POLICIES.register(GoalSeeker.name, GoalSeeker, "turn toward the goal, step when aligned, along "
-                  "the shortest way around what it has seen")  # fmt: skip
-POLICIES.register(AvoidManoeuvre.name, AvoidManoeuvre, "Zhang 2021's Fig. 5 manoeuvre: turn "
-                  "away from an obstacle ahead, step, turn back")  # fmt: skip
-POLICIES.register(ReactiveAvoider.name, ReactiveAvoider, "a potential field on the current "
-                  "rays, no memory")  # fmt: skip
+POLICIES.register(
+    GoalSeeker.name,
+    GoalSeeker,
+    "turn toward the goal, step when aligned, along the shortest way around what it has seen",
+)
+POLICIES.register(
+    AvoidManoeuvre.name,
+    AvoidManoeuvre,
+    "Zhang 2021's Fig. 5 manoeuvre: turn away from an obstacle ahead, step, turn back",
+)
+POLICIES.register(
+    ReactiveAvoider.name, ReactiveAvoider, "a potential field on the current rays, no memory"
+)
 
 
 def make_policy(
-    name: str, layout: ObservationLayout | None = None, params: PolicyParams | None = None,
+    name: str,
+    layout: ObservationLayout | None = None,
+    params: PolicyParams | None = None,
     **kwargs: Any,
-) -> ScriptedPolicy:  # fmt: skip
+) -> ScriptedPolicy:
     """A scripted user by name: ``goal_seeker``, ``avoid_manoeuvre`` or ``reactive_avoider``.
 
     Raises:

@@ -187,9 +187,13 @@ class PolicyParams:
         check_in_range(self, "hand_deadband_deg", 0.0, 45.0, "deg")
         check_bool(self, "walks_with_torso")
         cells = self.map_size_m / self.map_cell_m
-        check_condition(self, "map_size_m", cells <= 2000,
-                        f"at most 2000 map cells a side (map_cell_m={float(self.map_cell_m):g} "
-                        f"gives {cells:.0f})")  # fmt: skip
+        check_condition(
+            self,
+            "map_size_m",
+            cells <= 2000,
+            f"at most 2000 map cells a side (map_cell_m={float(self.map_cell_m):g} "
+            f"gives {cells:.0f})",
+        )
 
 
 def params_from_env(env: Any, **overrides: Any) -> PolicyParams:
@@ -201,7 +205,8 @@ def params_from_env(env: Any, **overrides: Any) -> PolicyParams:
     if bad:
         raise ValueError(f"unknown PolicyParams fields: {', '.join(sorted(bad))}")
     base = PolicyParams(
-        step_length_m=float(u.estimators.step_length), avatar_radius_m=float(u.room.avatar_radius),
+        step_length_m=float(u.estimators.step_length),
+        avatar_radius_m=float(u.room.avatar_radius),
         walks_with_torso=u.estimators.steering == "torso",
     )
     return replace(base, **overrides)

@@ -78,14 +78,20 @@ class GoalSeeker(ScriptedPolicy):
         self._cells = round(p.map_size_m / p.map_cell_m)
         r = p.avatar_radius_m
         self._plan_prm = param_record(
-            cell=p.map_cell_m, half=0.5 * self._cells * p.map_cell_m,
-            look=p.go_steps * p.step_length_m, goal_tol=p.goal_depth_m,
-            r_tight=r + p.tight_margin_m, r_block=self._half_width,
-            r_comfort=self._half_width + p.comfort_m, comfort_cost=p.comfort_cost,
-            tight_cost=p.tight_cost, turn_cost=p.turn_cost_m,
-            step_a=np.deg2rad(p.candidate_step_deg) * 1.01, tight_penalty=p.tight_penalty_m,
+            cell=p.map_cell_m,
+            half=0.5 * self._cells * p.map_cell_m,
+            look=p.go_steps * p.step_length_m,
+            goal_tol=p.goal_depth_m,
+            r_tight=r + p.tight_margin_m,
+            r_block=self._half_width,
+            r_comfort=self._half_width + p.comfort_m,
+            comfort_cost=p.comfort_cost,
+            tight_cost=p.tight_cost,
+            turn_cost=p.turn_cost_m,
+            step_a=np.deg2rad(p.candidate_step_deg) * 1.01,
+            tight_penalty=p.tight_penalty_m,
             hold=p.hold_m,
-        )  # fmt: skip
+        )
         n = int(np.floor(180.0 / p.candidate_step_deg))
         self.candidates = wrap_angle(np.deg2rad(p.candidate_step_deg) * np.arange(-n, n + 1))
         self.candidates = np.unique(np.round(self.candidates, 12))
@@ -194,18 +200,32 @@ class GoalSeeker(ScriptedPolicy):
         active = np.ones(b, bool) if self._active is None else self._active
         if self._memo is None or self._memo[0].shape[0] != b:
             n = (self._cells + 2) ** 2  # the planner's box, padded all round
-            self._memo = (np.empty((b, n)), np.empty((b, n)), np.empty((b, n)),
-                          np.empty((b, n), np.int8), np.zeros(b, np.int64))  # fmt: skip
+            self._memo = (
+                np.empty((b, n)),
+                np.empty((b, n)),
+                np.empty((b, n)),
+                np.empty((b, n), np.int8),
+                np.zeros(b, np.int64),
+            )
         if not self.reuse_plans:
             state["plan_key"][:] = -1
         key = state["plan_key"].copy()
         plan_kernel(b)(
             (state["occ"], state["lo"], state["hi"], state["version"], prior, news),
-            state["pos"], walk, target, keep_len, land, state["aim"], active, self.candidates,
+            state["pos"],
+            walk,
+            target,
+            keep_len,
+            land,
+            state["aim"],
+            active,
+            self.candidates,
             self._plan_prm,
-            (state["plan_key"], *self._memo), (aim, valid, can_go, can_keep),
-        )  # fmt: skip
-        self.plans_reused += int(np.count_nonzero(np.all(key == state["plan_key"], axis=1)
-                                                  & active & (key[:, 0] >= 0)))
+            (state["plan_key"], *self._memo),
+            (aim, valid, can_go, can_keep),
+        )
+        self.plans_reused += int(
+            np.count_nonzero(np.all(key == state["plan_key"], axis=1) & active & (key[:, 0] >= 0))
+        )
         state["aim"] = np.where(valid, walk + aim, np.nan)
         return np.where(valid, aim, v.bearing + offset), valid, can_go, can_keep

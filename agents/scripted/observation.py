@@ -51,8 +51,10 @@ class ObservationLayout:
         from vrloco_env.tasks import get_task
 
         config = config or EnvConfig()
-        fields = (*get_task(task)(1, 0.1, task_config).fields(),
-                  *population_fields(config.population))  # fmt: skip
+        fields = (
+            *get_task(task)(1, 0.1, task_config).fields(),
+            *population_fields(config.population),
+        )
         spec = env_spec(config.ray_count, config.ray_range_m, fields)
         return cls(spec, ray_offsets(config.ray_count, config.ray_fov_deg))
 

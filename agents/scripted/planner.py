@@ -313,8 +313,7 @@ def _repair(mult, cost, parent, changed, n_changed, ti, tj, box, level, cell, no
             nodes[2 * used], nodes[2 * used + 1] = cells[q], head[s]
             head[s] = used
             used += 1
-    return _settle(mult, cost, parent, head, nodes, used, used, lo, mask, cell, need, level,
-                   floor)  # fmt: skip
+    return _settle(mult, cost, parent, head, nodes, used, used, lo, mask, cell, need, level, floor)
 
 
 @numba.njit(cache=True)
@@ -345,8 +344,7 @@ def _multiplier(cl, prm):
     return m if cl > r_tight else np.inf
 
 
-def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cands, prm, memo,
-              out):  # fmt: skip
+def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cands, prm, memo, out):
     """Per user: clearance map, cost to go from the target, best heading, the walk gate.
 
     ``seen`` = ``(occ, lo, hi, version, prior, news)``: ``occ`` (B, N, N) marks map cells with a
@@ -460,8 +458,7 @@ def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cand
                                 n_near += 1
                 for q in range(news.shape[0]):
                     oi, oj = news[q, 1], news[q, 2]
-                    if (news[q, 0] == b and i0 - w <= oi <= i1 + w
-                            and j0 - w <= oj <= j1 + w):  # fmt: skip
+                    if news[q, 0] == b and i0 - w <= oi <= i1 + w and j0 - w <= oj <= j1 + w:
                         _stamp(clear, oi, oj, i0, i1, j0, j1, w, ring)
                 m = 0
                 for q in range(n_near):  # their new multipliers; keep those that changed
@@ -483,18 +480,34 @@ def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cand
             # the cost to go from the target, dearer close to obstacles. Only the cells the rays
             # below can read are needed: a square of ``reach`` cells around the user. A search
             # on the same box and target is brought up to date instead when it can be.
-            box = (max(pi - reach - i0, 0) + 1, min(pi + reach - i0, ni - 1) + 1,
-                   max(pj - reach - j0, 0) + 1, min(pj + reach - j0, nj - 1) + 1)  # fmt: skip
+            box = (
+                max(pi - reach - i0, 0) + 1,
+                min(pi + reach - i0, ni - 1) + 1,
+                max(pj - reach - j0, 0) + 1,
+                min(pj + reach - j0, nj - 1) + 1,
+            )
             known = False
             if same_target:
                 if n_near:
-                    level_memo[b] = _repair(mult, cost, parent, near, n_near, ti - i0 + 1,
-                                            tj - j0 + 1, box, level_memo[b], cell, nodes,
-                                            (flag, cells, seed))  # fmt: skip
+                    level_memo[b] = _repair(
+                        mult,
+                        cost,
+                        parent,
+                        near,
+                        n_near,
+                        ti - i0 + 1,
+                        tj - j0 + 1,
+                        box,
+                        level_memo[b],
+                        cell,
+                        nodes,
+                        (flag, cells, seed),
+                    )
                 known = _known(mult, cost, box, level_memo[b], cell)
             if not known:
-                level_memo[b] = _cost_to_go(mult, cost, parent, ti - i0 + 1, tj - j0 + 1, box,
-                                            cell, nodes)  # fmt: skip
+                level_memo[b] = _cost_to_go(
+                    mult, cost, parent, ti - i0 + 1, tj - j0 + 1, box, cell, nodes
+                )
         # every heading with the full margin, and with the tight one at a penalty; the aim of
         # the last step gets a bonus (hysteresis). The user may always move away from, or
         # along, what it already stands closer to. The best is the least score, the first
@@ -542,8 +555,11 @@ def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cand
                 bound = low + turn_cost * abs(a) + tier * tight_penalty
                 if abs(a - prev) <= step_a:
                     bound -= hold
-                if not bound < np.inf or bound > best or (
-                        bound == best and (tier, q) > (best_tier, best_q)):  # fmt: skip
+                if (
+                    not bound < np.inf
+                    or bound > best
+                    or (bound == best and (tier, q) > (best_tier, best_q))
+                ):
                     continue
                 ok, end_cost = _march(
                     clear, cost, i0, j0, x, y, heading[b] + a, look, thr, land[b], geom, goal
@@ -562,8 +578,7 @@ def _plan_run(seen, pos, heading, target, keep_len, land, prev_aim, active, cand
         aim_out[b] = best_a
         h = heading[b]
         go_out[b] = _march(clear, cost, i0, j0, x, y, h, look, thr, land[b], geom, goal)[0]
-        keep_out[b] = _march(clear, cost, i0, j0, x, y, h, keep_len[b], thr, land[b], geom,
-                             goal)[0]  # fmt: skip
+        keep_out[b] = _march(clear, cost, i0, j0, x, y, h, keep_len[b], thr, land[b], geom, goal)[0]
 
 
 #: The goal seeker's planner: ``plan_kernel(batch_size)(...)`` (see ``_plan_run``).

@@ -306,10 +306,21 @@ class AttitudeParams:
     def __post_init__(self) -> None:
         check_choice(self, "model", _MODELS)
         positive = (
-            "gyr_noise", "bias_walk", "att_init_std", "bias_init_std", "acc_noise",
-            "acc_motion_ref", "motion_tau", "mag_noise", "mag_norm_tol", "mag_dip_tol",
-            "gyr_gap_rate", "rest_gyr", "rest_acc", "rest_time",
-        )  # fmt: skip
+            "gyr_noise",
+            "bias_walk",
+            "att_init_std",
+            "bias_init_std",
+            "acc_noise",
+            "acc_motion_ref",
+            "motion_tau",
+            "mag_noise",
+            "mag_norm_tol",
+            "mag_dip_tol",
+            "gyr_gap_rate",
+            "rest_gyr",
+            "rest_acc",
+            "rest_time",
+        )
         for name in positive:
             check_in_range(self, name, 0.0, math.inf, lo_open=True)
         for name in ("mag_learn_time", "mag_ok_time"):
@@ -318,12 +329,14 @@ class AttitudeParams:
         check_in_range(self, "gravity", 9.0, 10.5, "m/s^2")
         check_in_range(self, "declination", -math.pi, math.pi, allowed="in [-pi, pi] rad")
         together = (self.mag_ref_norm is None) == (self.mag_ref_dip is None)
-        check_condition(self, "mag_ref_norm", together,
-                        "given together with mag_ref_dip (or neither)")  # fmt: skip
+        check_condition(
+            self, "mag_ref_norm", together, "given together with mag_ref_dip (or neither)"
+        )
         if self.mag_ref_norm is not None:
             check_in_range(self, "mag_ref_norm", 0.0, math.inf, lo_open=True)
-            check_in_range(self, "mag_ref_dip", -math.pi / 2, math.pi / 2,
-                           allowed="in [-pi/2, pi/2] rad")  # fmt: skip
+            check_in_range(
+                self, "mag_ref_dip", -math.pi / 2, math.pi / 2, allowed="in [-pi/2, pi/2] rad"
+            )
 
     def replace(self, **changes: Any) -> AttitudeParams:
         """A copy with some fields changed (validated like the original)."""
@@ -375,12 +388,15 @@ def _kernel_params(params: AttitudeParams, dt: float) -> NDArray:
     ``printed_meas`` (1.0: the printed measurement update, 0.0: the corrected one), the sample
     interval ``dt`` (s) and the unit guard's limits (squared norms)."""
     return param_record(
-        params, exclude=("mag_ref_norm", "mag_ref_dip"),
+        params,
+        exclude=("mag_ref_norm", "mag_ref_dip"),
         trawny=1.0 if params.model == "trawny" else 0.0,
-        printed_meas=1.0 if params.model == "paper_literal" else 0.0, dt=dt,
-        max_gyr_norm2=MAX_GYR_NORM**2, min_acc_norm2=MIN_ACC_NORM**2,
+        printed_meas=1.0 if params.model == "paper_literal" else 0.0,
+        dt=dt,
+        max_gyr_norm2=MAX_GYR_NORM**2,
+        min_acc_norm2=MIN_ACC_NORM**2,
         unit_min_count=_UNIT_MIN_COUNT,
-    )  # fmt: skip
+    )
 
 
 def _raise_units(flag: int, state: NDArray) -> None:
@@ -505,10 +521,14 @@ class AttitudeEKF(TakesUsers):
     def _run(self, g: NDArray, a: NDArray, m: NDArray) -> NDArray[np.float64]:
         out = np.empty((self.n_streams, g.shape[1], 4))
         flag = _k.ekf_kernel(self.n_streams)(
-            self._state, self._scratch,
-            np.ascontiguousarray(g), np.ascontiguousarray(a), np.ascontiguousarray(m),
-            self._prm, out,
-        )  # fmt: skip
+            self._state,
+            self._scratch,
+            np.ascontiguousarray(g),
+            np.ascontiguousarray(a),
+            np.ascontiguousarray(m),
+            self._prm,
+            out,
+        )
         if flag >= 0:
             _raise_units(flag, self._state)
         return out
@@ -556,9 +576,11 @@ class AttitudeEKF(TakesUsers):
         if flag >= 0:
             _raise_units(flag, state)
         return (
-            np.moveaxis(out[:, :, 0], 0, 1), np.moveaxis(cov, 0, 1),
-            np.moveaxis(flags[:, 0], 0, 1) != 0.0, np.moveaxis(flags[:, 1], 0, 1) != 0.0,
-        )  # fmt: skip
+            np.moveaxis(out[:, :, 0], 0, 1),
+            np.moveaxis(cov, 0, 1),
+            np.moveaxis(flags[:, 0], 0, 1) != 0.0,
+            np.moveaxis(flags[:, 1], 0, 1) != 0.0,
+        )
 
     @property
     def state(self) -> np.recarray:

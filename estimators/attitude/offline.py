@@ -48,11 +48,9 @@ def _world_cov(q: NDArray, p_att: NDArray, printed: bool) -> NDArray:
         cp, sp = np.cos(ypr[..., 1]), np.sin(ypr[..., 1])
         zero, one = np.zeros_like(cy), np.ones_like(cy)
         j = np.stack(
-            [-sy, cy * cp, zero,
-             cy, sy * cp, zero,
-             zero, -sp, one],
+            [-sy, cy * cp, zero, cy, sy * cp, zero, zero, -sp, one],
             axis=-1,
-        ).reshape(*cy.shape, 3, 3)  # fmt: skip
+        ).reshape(*cy.shape, 3, 3)
     else:
         j = quat_to_matrix(q)
     w = j @ p_att @ np.swapaxes(j, -1, -2)

@@ -84,4 +84,3 @@ __all__ = [
 
 #: The earlier name, importable for one release with a deprecation warning.
 __getattr__ = renamed_attributes(globals(), {"Seed003Hand": "Yao2023Hand"})
-

@@ -95,8 +95,12 @@ class HoltParams:
         check_in_range(self, "max_deviation_radius", 0.0, math.inf, "m", lo_open=True)
         check_in_range(self, "inferred_radius_scale", 0.0, math.inf, lo_open=True)
         check_numbers(self, "average_weights", 0.0, math.inf)
-        check_condition(self, "average_weights", self.average_weights[0] > 0,
-                        "weights whose newest (first) one is > 0")  # fmt: skip
+        check_condition(
+            self,
+            "average_weights",
+            self.average_weights[0] > 0,
+            "weights whose newest (first) one is > 0",
+        )
 
     @classmethod
     def sdk_default(cls) -> HoltParams:
@@ -220,8 +224,9 @@ class HoltSmoother:
             self.reset(reset)
         out = np.empty(shape)
         holt = np.empty(shape)
-        holt_kernel(self.batch_size)(x, state, self._prm, self._weights, self._head, self._joint,
-                                     self._ring, out, holt)  # fmt: skip
+        holt_kernel(self.batch_size)(
+            x, state, self._prm, self._weights, self._head, self._joint, self._ring, out, holt
+        )
         n = self._weights.size
         if n > 1:  # the ring advances once per frame
             self._head = (self._head - 1) % n

@@ -74,9 +74,7 @@ class OrientationFilter(TakesUsers):
         self.batch_size = check_batch_size(batch_size, "OrientationFilter")
         self.params = params if params is not None else HandParams()
         if not isinstance(self.params, HandParams):
-            raise ValueError(
-                f"OrientationFilter: params must be a HandParams, got {self.params!r}"
-            )
+            raise ValueError(f"OrientationFilter: params must be a HandParams, got {self.params!r}")
         self._prm, self._axes = kernel_params(self.params)
         self._state = new_filter_state(self.batch_size, self.params.median_window)
         self._pending = np.zeros(self.batch_size, bool)  # streams to forget before next frame
@@ -107,8 +105,7 @@ class OrientationFilter(TakesUsers):
         a = np.asarray(x, dtype=np.float64)
         if a.ndim != 3 or a.shape[0] != self.batch_size or a.shape[2] != width or a.shape[1] < 1:
             raise ValueError(
-                f"{name} must have shape ({self.batch_size}, M, {width}) with M >= 1, "
-                f"got {a.shape}"
+                f"{name} must have shape ({self.batch_size}, M, {width}) with M >= 1, got {a.shape}"
             )
         if np.isinf(a).any():
             raise ValueError(f"{name} contains infinite entries; use NaN for a dropout")
@@ -187,9 +184,15 @@ class OrientationFilter(TakesUsers):
         raw, kalman, ypr = np.empty((rows, 3)), np.empty((rows, 3)), np.empty((rows, 3))
         valid = np.empty(rows, bool)
         filter_kernel(b)(
-            np.ascontiguousarray(z.reshape(rows, 3)), ok.reshape(rows), restart.reshape(rows), m,
-            self._prm, self._axes, self._state, (raw, kalman, ypr, valid),
-        )  # fmt: skip
+            np.ascontiguousarray(z.reshape(rows, 3)),
+            ok.reshape(rows),
+            restart.reshape(rows),
+            m,
+            self._prm,
+            self._axes,
+            self._state,
+            (raw, kalman, ypr, valid),
+        )
         return OrientationFrame(
             ypr_raw=raw.reshape(b, m, 3),
             ypr_kalman=kalman.reshape(b, m, 3),

@@ -105,24 +105,33 @@ class KalmanParams:
     def __post_init__(self) -> None:
         inf = math.inf
         check_in_range(self, "rate_hz", 0.0, inf, "Hz", lo_open=True)
-        per_axis = (("measurement_std", "rad"), ("accel_psd", "rad^2/s^3"),
-                    ("max_accel_psd", "rad^2/s^3"), ("init_rate_std", "rad/s"))  # fmt: skip
+        per_axis = (
+            ("measurement_std", "rad"),
+            ("accel_psd", "rad^2/s^3"),
+            ("max_accel_psd", "rad^2/s^3"),
+            ("init_rate_std", "rad/s"),
+        )
         for name, unit in per_axis:  # a number, or one per axis
             if isinstance(getattr(self, name), numbers.Real):
                 check_in_range(self, name, 0.0, inf, unit, lo_open=True)
             else:
                 check_numbers(self, name, 0.0, inf, unit, length=3, lo_open=True)
         lo, hi = _per_axis(self.accel_psd), _per_axis(self.max_accel_psd)
-        check_condition(self, "max_accel_psd", bool(np.all(hi >= lo)),
-                        f">= accel_psd={value_repr(self.accel_psd)} on every axis")  # fmt: skip
+        check_condition(
+            self,
+            "max_accel_psd",
+            bool(np.all(hi >= lo)),
+            f">= accel_psd={value_repr(self.accel_psd)} on every axis",
+        )
         check_in_range(self, "adapt_time", 0.0, inf, "s", lo_open=True)
         check_in_range(self, "max_coast_frames", 0, inf, "frames", whole=True)
 
 
 def kalman_constants(
     p: KalmanParams,
-) -> tuple[float, NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
-           NDArray[np.float64], float]:  # fmt: skip
+) -> tuple[
+    float, NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], float
+]:
     """The filter's constants: frame period dt (s); per axis the measurement variance, the
     acceleration PSD at rest and its cap, the initial rate variance; the gain per frame of the
     innovation low-pass, ``1 - exp(-dt / adapt_time)``."""
@@ -172,8 +181,14 @@ class HandParams:
         check_instance(self, "kalman", KalmanParams)
         check_in_range(self, "median_window", 1, math.inf, "frames", whole=True)
         check_in_range(self, "singularity_threshold", 0.0, 0.5, lo_open=True)
-        check_in_range(self, "min_wrist_state", INFERRED, TRACKED, whole=True,
-                       allowed="1 (inferred) or 2 (tracked)")  # fmt: skip
+        check_in_range(
+            self,
+            "min_wrist_state",
+            INFERRED,
+            TRACKED,
+            whole=True,
+            allowed="1 (inferred) or 2 (tracked)",
+        )
         check_in_range(self, "wrist_joint", 0, math.inf, "(a joint index)", whole=True)
         check_numbers(self, "center_joints", 0, math.inf, "(joint indices)", whole=True)
 

@@ -290,9 +290,16 @@ class HandPipeline(TakesUsers):
         if code:
             raise ValueError(_KERNEL_ERRORS[code] + where.format(t=t))
         _k.hand_kernel(b)(
-            frames, m, self._prm, self._axes, self._center, self._weights, self._head,
-            self._state, out,
-        )  # fmt: skip
+            frames,
+            m,
+            self._prm,
+            self._axes,
+            self._center,
+            self._weights,
+            self._head,
+            self._state,
+            out,
+        )
         n_hist = self._weights.size
         if n_hist > 1:  # the ring advances once per frame
             self._head = (self._head - m) % n_hist

@@ -95,6 +95,6 @@ class RawHand(_PipelineOutputHand):
         ypr = np.array(frames.ypr_raw, dtype=np.float64)
         return ypr, np.isfinite(ypr).all(axis=-1)
 
+
 #: The earlier name, importable for one release with a deprecation warning.
 __getattr__ = renamed_attributes(globals(), {"Seed003Hand": "Yao2023Hand"})
-

@@ -281,8 +281,7 @@ def _predict(state, prm, gyr, acc, dt, out_p, out_q, work):
         P = s.P
         q = _process_noise(s.q_scale, dt, p)
         for k in range(gyr.shape[1]):
-            _mech_step(x, s.has_prev != 0.0, gyr[i, k], acc[i, k], dt, p.gravity, w.r0, w.r1,
-                       w.af)  # fmt: skip
+            _mech_step(x, s.has_prev != 0.0, gyr[i, k], acc[i, k], dt, p.gravity, w.r0, w.r1, w.af)
             s.has_prev = 1.0
             _propagate_cov(P, w.r1, w.af, dt, q, w.m, w.n)
             for j in range(3):

@@ -324,9 +324,15 @@ def _ransac(x: NDArray, u: NDArray, k: NDArray, threshold: float, flags: int) ->
     degenerate input."""
     try:
         return cv2.solvePnPRansac(
-            x, u, k, None, iterationsCount=200, reprojectionError=threshold, confidence=0.999,
+            x,
+            u,
+            k,
+            None,
+            iterationsCount=200,
+            reprojectionError=threshold,
+            confidence=0.999,
             flags=flags,
-        )  # fmt: skip
+        )
     except cv2.error:
         return False, None, None, None
 
@@ -375,8 +381,14 @@ def solve_pose(
         ValueError: malformed input (shapes, non-finite values, bad parameters).
     """
     x, u = _check_correspondences(landmarks_world, pixels)
-    check_value("min_landmarks", min_landmarks, 4, math.inf, integer=True,
-                allowed="an integer >= 4 (EPnP needs 4)")  # fmt: skip
+    check_value(
+        "min_landmarks",
+        min_landmarks,
+        4,
+        math.inf,
+        integer=True,
+        allowed="an integer >= 4 (EPnP needs 4)",
+    )
     n_min = int(min_landmarks)
     check_value("reprojection_px", reprojection_px, 0.0, math.inf, "px", lo_open=True)
     _mount(mount_quat, mount_offset)  # validate before any work
@@ -384,8 +396,11 @@ def solve_pose(
     if n < n_min:
         raise NotEnoughLandmarks(
             f"saw {n} landmarks, need at least {n_min} for a pose",
-            n, 0, n_min, REASON_TOO_FEW_LANDMARKS,
-        )  # fmt: skip
+            n,
+            0,
+            n_min,
+            REASON_TOO_FEW_LANDMARKS,
+        )
     k = intrinsics.matrix
     centred = x - x.mean(axis=0)
     sv = np.linalg.svd(centred, compute_uv=False)
@@ -403,14 +418,20 @@ def solve_pose(
     if not found or inl is None:
         raise NotEnoughLandmarks(
             f"RANSAC found no consensus among {n} landmarks (need {n_min} inliers)",
-            n, 0, n_min, REASON_RANSAC_FAILED,
-        )  # fmt: skip
+            n,
+            0,
+            n_min,
+            REASON_RANSAC_FAILED,
+        )
     inliers = np.sort(inl.ravel().astype(np.intp))
     if inliers.size < n_min:
         raise NotEnoughLandmarks(
             f"only {inliers.size} of {n} landmarks are RANSAC inliers, need at least {n_min}",
-            n, inliers.size, n_min, REASON_TOO_FEW_INLIERS,
-        )  # fmt: skip
+            n,
+            inliers.size,
+            n_min,
+            REASON_TOO_FEW_INLIERS,
+        )
     rvec = rvec.astype(np.float64)
     tvec = tvec.astype(np.float64)
     if refine:
@@ -423,8 +444,11 @@ def solve_pose(
                 raise NotEnoughLandmarks(
                     f"only {again.size} of {n} landmarks are inliers after refinement, "
                     f"need at least {n_min}",
-                    n, again.size, n_min, REASON_TOO_FEW_INLIERS,
-                )  # fmt: skip
+                    n,
+                    again.size,
+                    n_min,
+                    REASON_TOO_FEW_INLIERS,
+                )
             if np.array_equal(again, inliers):
                 break
             inliers = again
@@ -435,8 +459,11 @@ def solve_pose(
         raise NotEnoughLandmarks(
             f"the pose puts {np.count_nonzero(depth <= 0)} of {inliers.size} inliers behind the "
             f"camera ({n} landmarks seen, need {n_min} in front)",
-            n, inliers.size, n_min, REASON_BEHIND_CAMERA,
-        )  # fmt: skip
+            n,
+            inliers.size,
+            n_min,
+            REASON_BEHIND_CAMERA,
+        )
     res = _residuals(x[inliers], u[inliers], k, rvec, tvec)
     position, quat = camera_pose_to_body(r_cw, t_cw, mount_quat, mount_offset)
     return VisualPose(

@@ -243,9 +243,16 @@ class Strapdown:
         out_v = np.empty((b, n, 3))
         out_p = np.empty((b, n, 3))
         _k.strapdown_run(
-            x, self._has_prev, np.ascontiguousarray(g), np.ascontiguousarray(a),
-            self.dt, self.gravity, out_q, out_v, out_p,
-        )  # fmt: skip
+            x,
+            self._has_prev,
+            np.ascontiguousarray(g),
+            np.ascontiguousarray(a),
+            self.dt,
+            self.gravity,
+            out_q,
+            out_v,
+            out_p,
+        )
         return StrapdownTrajectory(out_q, out_v, out_p)
 
     @property

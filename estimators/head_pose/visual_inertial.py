@@ -128,10 +128,16 @@ _DEG = math.pi / 180.0
 #: Numeric fields of :class:`VioConfig` the kernels do not read (``reset`` and the derived
 #: record values use them).
 _NOT_IN_KERNEL = (
-    "init_position_sigma", "init_velocity_sigma", "init_attitude_sigma", "init_accel_bias_sigma",
-    "init_gyro_bias_sigma", "position_sigma", "attitude_sigma", "r_prior_frames",
+    "init_position_sigma",
+    "init_velocity_sigma",
+    "init_attitude_sigma",
+    "init_accel_bias_sigma",
+    "init_gyro_bias_sigma",
+    "position_sigma",
+    "attitude_sigma",
+    "r_prior_frames",
     "gate_probability",
-)  # fmt: skip
+)
 
 
 @dataclass(frozen=True)
@@ -211,10 +217,18 @@ class VioConfig:
 
     def __post_init__(self) -> None:
         positive = (
-            "accel_noise_density", "gyro_noise_density", "accel_bias_walk", "gyro_bias_walk",
-            "init_position_sigma", "init_velocity_sigma", "init_attitude_sigma",
-            "init_accel_bias_sigma", "init_gyro_bias_sigma", "position_sigma", "attitude_sigma",
-        )  # fmt: skip
+            "accel_noise_density",
+            "gyro_noise_density",
+            "accel_bias_walk",
+            "gyro_bias_walk",
+            "init_position_sigma",
+            "init_velocity_sigma",
+            "init_attitude_sigma",
+            "init_accel_bias_sigma",
+            "init_gyro_bias_sigma",
+            "position_sigma",
+            "attitude_sigma",
+        )
         inf = math.inf
         for name in positive:
             check_in_range(self, name, 0.0, inf, lo_open=True)
@@ -239,17 +253,29 @@ class VioConfig:
         check_in_range(self, "attitude_sigma", f_att, c_att, allowed=att)
         gp = self.gate_probability
         if gp is not None:
-            check_in_range(self, "gate_probability", 0.5, 1.0, lo_open=True, hi_open=True,
-                           allowed="in (0.5, 1) or None")  # fmt: skip
+            check_in_range(
+                self,
+                "gate_probability",
+                0.5,
+                1.0,
+                lo_open=True,
+                hi_open=True,
+                allowed="in (0.5, 1) or None",
+            )
         prm = param_record(
-            self, exclude=_NOT_IN_KERNEL,
+            self,
+            exclude=_NOT_IN_KERNEL,
             sage_husa_diagonal=1.0 if self.sage_husa_diagonal else 0.0,
             adapt_q=1.0 if self.adapt_q else 0.0,
             sage_husa=1.0 if self.adaptive == "sage_husa" else 0.0,
-            q_min=lo, q_max=hi,
+            q_min=lo,
+            q_max=hi,
             gate=math.inf if gp is None else float(chi2.ppf(gp, 6)),
-            r_floor_pos=f_pos**2, r_floor_att=f_att**2, r_ceil_pos=c_pos**2, r_ceil_att=c_att**2,
-        )  # fmt: skip
+            r_floor_pos=f_pos**2,
+            r_floor_att=f_att**2,
+            r_ceil_pos=c_pos**2,
+            r_ceil_att=c_att**2,
+        )
         prm = prm.view(np.dtype((np.record, prm.dtype)))
         prm.flags.writeable = False
         object.__setattr__(self, "_record", prm)
@@ -403,9 +429,15 @@ class VisualInertialFilter(TakesUsers):
         out_p = np.empty((b, n, 3))
         out_q = np.empty((b, n, 4))
         _k.predict_kernel(b)(
-            self.state, self._prm, np.ascontiguousarray(g), np.ascontiguousarray(a), self.dt,
-            out_p, out_q, self._work,
-        )  # fmt: skip
+            self.state,
+            self._prm,
+            np.ascontiguousarray(g),
+            np.ascontiguousarray(a),
+            self.dt,
+            out_p,
+            out_q,
+            self._work,
+        )
         return out_p, out_q
 
     def update(self, pos: ArrayLike, quat: ArrayLike, valid: ArrayLike) -> NDArray[np.int8]:
@@ -437,9 +469,14 @@ class VisualInertialFilter(TakesUsers):
             raise ValueError("quat contains a zero-norm quaternion in a valid row")
         status = np.empty(b, dtype=np.int8)
         _k.update_kernel(b)(
-            self.state, self._prm, np.ascontiguousarray(pm), np.ascontiguousarray(qm),
-            np.ascontiguousarray(ok), status, self._work,
-        )  # fmt: skip
+            self.state,
+            self._prm,
+            np.ascontiguousarray(pm),
+            np.ascontiguousarray(qm),
+            np.ascontiguousarray(ok),
+            status,
+            self._work,
+        )
         return status
 
     def process(

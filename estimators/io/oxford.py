@@ -78,8 +78,9 @@ def _read_csv(path: Path, n_cols: int) -> tuple[NDArray[np.int64], NDArray[np.fl
         t_ns = np.loadtxt(path, usecols=0, dtype=np.int64, ndmin=1, **kw)
         vals = np.loadtxt(path, usecols=range(1, n_cols), dtype=np.float64, ndmin=2, **kw)
     except ValueError as err:  # UnicodeDecodeError included: binary data
-        raise ValueError(f"{path}: expected {n_cols} comma-separated numeric columns "
-                         f"({err})") from None  # fmt: skip
+        raise ValueError(
+            f"{path}: expected {n_cols} comma-separated numeric columns ({err})"
+        ) from None
     if t_ns.size < 2:
         raise ValueError(f"{path}: needs at least 2 rows, got {t_ns.size}")
     if np.any(np.diff(t_ns) < 0):

@@ -98,9 +98,12 @@ class BatchKernel:
         if not parallel:
             return
         clone = types.FunctionType(
-            func.__code__, func.__globals__, func.__name__ + "_parallel", func.__defaults__,
+            func.__code__,
+            func.__globals__,
+            func.__name__ + "_parallel",
+            func.__defaults__,
             func.__closure__,
-        )  # fmt: skip
+        )
         clone.__qualname__ = func.__qualname__ + "_parallel"
         clone.__module__ = func.__module__
         clone.__doc__ = func.__doc__

@@ -30,11 +30,26 @@ MAX_RING = 17
 #: (m), distance ``dist`` (m) and the ``speed`` at the end of the last update (m/s); ``clock``:
 #: the time since the reset (s).
 CADENCE_SPEED_STATE = {
-    "v0": (), "a0": (), "target": (), "elapsed": (), "active": (), "interval": (),
-    "last_event": (), "cum": (), "ring_t": (MAX_RING,), "ring_c": (MAX_RING,), "ring_len": (),
-    "ring_head": (), "bearing": (), "yaw": (), "yaw_known": (), "pos": (2,), "dist": (),
-    "speed": (), "clock": (),
-}  # fmt: skip
+    "v0": (),
+    "a0": (),
+    "target": (),
+    "elapsed": (),
+    "active": (),
+    "interval": (),
+    "last_event": (),
+    "cum": (),
+    "ring_t": (MAX_RING,),
+    "ring_c": (MAX_RING,),
+    "ring_len": (),
+    "ring_head": (),
+    "bearing": (),
+    "yaw": (),
+    "yaw_known": (),
+    "pos": (2,),
+    "dist": (),
+    "speed": (),
+    "clock": (),
+}
 
 
 @numba.njit(cache=True)

@@ -225,7 +225,12 @@ class CadenceSpeed(TakesUsers):
         """
         st, y, dtf, br = check_locomotion_update(steps, yaw, dt, bearing, self.batch_size)
         cadence_kernel(self.batch_size)(
-            np.ascontiguousarray(st), np.ascontiguousarray(y), np.ascontiguousarray(br),
-            self.step_length, dtf, self._prm, self._state,
-        )  # fmt: skip
+            np.ascontiguousarray(st),
+            np.ascontiguousarray(y),
+            np.ascontiguousarray(br),
+            self.step_length,
+            dtf,
+            self._prm,
+            self._state,
+        )
         return self._state["pos"].copy()

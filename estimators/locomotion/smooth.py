@@ -120,9 +120,15 @@ class SmoothParams:
 
 
 def _cv_step(
-    x0: NDArray, x1: NDArray, p: NDArray, z: NDArray, dt: float, q: float, r: float,
+    x0: NDArray,
+    x1: NDArray,
+    p: NDArray,
+    z: NDArray,
+    dt: float,
+    q: float,
+    r: float,
     wrap: bool,
-) -> None:  # fmt: skip
+) -> None:
     """One predict + update of B constant-velocity Kalman filters, in place.
 
     Args:
@@ -166,9 +172,23 @@ class SmoothLocomotion(TakesUsers):
     """
 
     per_user_fields = (
-        "step_length", "_time", "_pos", "_s", "_v", "_ps", "_psi", "_omega", "_ph", "_head_init",
-        "_travelled", "_target", "_ref", "_rate", "_last_event", "_bearing",
-    )  # fmt: skip
+        "step_length",
+        "_time",
+        "_pos",
+        "_s",
+        "_v",
+        "_ps",
+        "_psi",
+        "_omega",
+        "_ph",
+        "_head_init",
+        "_travelled",
+        "_target",
+        "_ref",
+        "_rate",
+        "_last_event",
+        "_bearing",
+    )
     batch_size_field = "batch_size"
 
     def __init__(
@@ -242,8 +262,16 @@ class SmoothLocomotion(TakesUsers):
         b = self.batch_size
         sel = check_mask(mask, b)
         self._pos[sel] = check_positions(position, b)[sel]
-        for arr in (self._s, self._v, self._travelled, self._target, self._ref, self._rate,
-                    self._omega, self._bearing):  # fmt: skip
+        for arr in (
+            self._s,
+            self._v,
+            self._travelled,
+            self._target,
+            self._ref,
+            self._rate,
+            self._omega,
+            self._bearing,
+        ):
             arr[sel] = 0.0
         self._ps[sel] = 0.0
         self._ph[sel] = 0.0
@@ -324,5 +352,3 @@ def make_locomotion(
     if kind == "smooth":
         return SmoothLocomotion(batch_size, step_length, **kwargs)
     raise ValueError(f"unknown locomotion kind {kind!r}; choose 'eq17' or 'smooth'")
-
-

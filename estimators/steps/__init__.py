@@ -38,4 +38,3 @@ __all__ = [
 
 #: The earlier name, importable for one release with a deprecation warning.
 __getattr__ = renamed_attributes(globals(), {"Seed000Steps": "Zhang2021Steps"})
-

@@ -50,8 +50,11 @@ __all__ = [
 
 def empty_chunk(batch_size: int, n: int) -> tuple[NDArray[np.int8], ...]:
     """Zeroed ``state`` and ``steps`` (B, n) int8 and a NaN ``peak_time`` (B, n, 2)."""
-    return (np.zeros((batch_size, n), np.int8), np.zeros((batch_size, n), np.int8),
-            np.full((batch_size, n, 2), np.nan))  # fmt: skip
+    return (
+        np.zeros((batch_size, n), np.int8),
+        np.zeros((batch_size, n), np.int8),
+        np.full((batch_size, n, 2), np.nan),
+    )
 
 
 # ------------------------------------------------------------------------------------------------
@@ -64,9 +67,13 @@ def empty_chunk(batch_size: int, n: int) -> tuple[NDArray[np.int8], ...]:
 #: (m/s^2), the samples seen, the last peak, the pending first peak of a bout and the last step
 #: (s; -inf / NaN: none).
 GAIT_STATE = {
-    "last_valid": (), "baseline": (), "n_seen": (), "last_peak": (), "pending": (),
+    "last_valid": (),
+    "baseline": (),
+    "n_seen": (),
+    "last_peak": (),
+    "pending": (),
     "last_step": (),
-}  # fmt: skip
+}
 
 
 def forget_streams(

@@ -24,6 +24,7 @@ from estimators.steps._kernel import CADENCE_STATE, cadence_kernel
 
 __all__ = ["CadenceEstimator"]
 
+
 class CadenceEstimator(TakesUsers):
     """The cadence of B users from their detected steps per control step.
 
@@ -64,6 +65,7 @@ class CadenceEstimator(TakesUsers):
 
     def update(self, steps: NDArray[np.float64], dt: float) -> NDArray[np.float64]:
         """Advance by ``dt`` s with ``steps`` (B,) new steps; returns the cadence (B,) (a copy)."""
-        cadence_kernel(self.batch_size)(np.asarray(steps, dtype=np.float64), float(dt), self._prm,
-                                        self._state)  # fmt: skip
+        cadence_kernel(self.batch_size)(
+            np.asarray(steps, dtype=np.float64), float(dt), self._prm, self._state
+        )
         return self._state["cadence"].copy()

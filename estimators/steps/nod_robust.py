@@ -125,8 +125,14 @@ class NodRobustParams:
         g = self.gravity
         check_in_range(self, "gamma", 0.0, 3.0 * g, lo_open=True, allowed="in (0, 3 g] m/s^2")
         check_in_range(self, "min_step_interval", 0.0, 2.0, allowed="in [0, 2] s")
-        check_in_range(self, "gamma_t", self.min_step_interval, 10.0, lo_open=True,
-                       allowed="in (min_step_interval, 10] s")  # fmt: skip
+        check_in_range(
+            self,
+            "gamma_t",
+            self.min_step_interval,
+            10.0,
+            lo_open=True,
+            allowed="in (min_step_interval, 10] s",
+        )
         check_in_range(self, "mean_window", 0.0, 1.0, lo_open=True, allowed="in (0, 1] s")
         check_in_range(self, "peak_half_window", 0.0, 1.0, lo_open=True, allowed="in (0, 1] s")
         check_in_range(self, "baseline_tau", 0.0, 600.0, allowed="in [0, 600] s (0: fixed g)")
@@ -174,8 +180,9 @@ class NodRobustSteps(TakesUsers):
         self.latency = p.latency(self.fs)
         self.report_delay_s = p.gamma_t + self.latency  # a bout's first step waits for the second
         """Delay (s) from a heel strike to the sample that confirms its step."""
-        self._prm = param_record(p, fs=self.fs, latency=self.latency,
-                                 base_n=p.baseline_tau * self.fs)  # fmt: skip
+        self._prm = param_record(
+            p, fs=self.fs, latency=self.latency, base_n=p.baseline_tau * self.fs
+        )
         self.samples_seen = 0
         b, w = self.batch_size, 2 * self.h + 1
         self._clock = np.zeros(b, np.int64)  # samples since each stream's reset
@@ -199,8 +206,9 @@ class NodRobustSteps(TakesUsers):
         a, g, q = check_chunk(acc, gyr, quat, self.batch_size, "NodRobustSteps")
         n = a.shape[1]
         out = empty_chunk(self.batch_size, n)
-        nod_robust_kernel(self.batch_size)(a, g, q, self._clock, self._prm, self._state,
-                                           self._v, self._sm, self._rot, self._w, out)  # fmt: skip
+        nod_robust_kernel(self.batch_size)(
+            a, g, q, self._clock, self._prm, self._state, self._v, self._sm, self._rot, self._w, out
+        )
         state, steps, peak_t = out
         t = (self.samples_seen + np.arange(n)) / self.fs
         self.samples_seen += n

@@ -44,8 +44,9 @@ class GaitResult:
     params: GaitParams
 
 
-def bin_average(t: NDArray[np.float64], x: NDArray[np.float64], grid: NDArray[np.float64],
-                 fs: float) -> NDArray[np.float64]:  # fmt: skip
+def bin_average(
+    t: NDArray[np.float64], x: NDArray[np.float64], grid: NDArray[np.float64], fs: float
+) -> NDArray[np.float64]:
     """Mean of the linearly interpolated x(t) over the bins [grid - 0.5/fs, grid + 0.5/fs]."""
     if t.size == 1:
         return np.full(grid.shape, x[0])
@@ -146,8 +147,9 @@ def detect_steps(
     )
 
 
-def _bout_state(t: NDArray[np.float64], steps: NDArray[np.float64], gamma_t: float
-                ) -> NDArray[np.int8]:  # fmt: skip
+def _bout_state(
+    t: NDArray[np.float64], steps: NDArray[np.float64], gamma_t: float
+) -> NDArray[np.int8]:
     """Non-causal walk mask over times ``t`` from sorted step times (see GaitResult.state)."""
     state = np.zeros(t.size, dtype=np.int8)
     if steps.size < 2:

@@ -62,8 +62,9 @@ class ThresholdParams:
 
     def __post_init__(self) -> None:
         check_in_range(self, "gravity", 9.0, 10.5, allowed="in [9, 10.5] m/s^2")
-        check_in_range(self, "threshold", 0.0, 3.0 * self.gravity, lo_open=True,
-                       allowed="in (0, 3 g] m/s^2")  # fmt: skip
+        check_in_range(
+            self, "threshold", 0.0, 3.0 * self.gravity, lo_open=True, allowed="in (0, 3 g] m/s^2"
+        )
         check_in_range(self, "refractory", 0.0, 2.0, allowed="in [0, 2] s")
         check_in_range(self, "hold", 0.0, 10.0, lo_open=True, allowed="in (0, 10] s")
 

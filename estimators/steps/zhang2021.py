@@ -137,8 +137,14 @@ class GaitParams:
         g = self.gravity
         check_in_range(self, "gamma", 0.0, 3.0 * g, lo_open=True, allowed="in (0, 3 g] m/s^2")
         check_in_range(self, "min_step_interval", 0.0, 2.0, "s")
-        check_in_range(self, "gamma_t", self.min_step_interval, 10.0, lo_open=True,
-                       allowed="in (min_step_interval, 10] s")  # fmt: skip
+        check_in_range(
+            self,
+            "gamma_t",
+            self.min_step_interval,
+            10.0,
+            lo_open=True,
+            allowed="in (min_step_interval, 10] s",
+        )
         check_in_range(self, "mean_window", 0.0, 1.0, "s", lo_open=True)
         check_in_range(self, "peak_half_window", 0.0, 1.0, "s", lo_open=True)
         check_in_range(self, "baseline_tau", 0.0, 600.0, allowed="in [0, 600] s (0: fixed g)")
@@ -216,8 +222,9 @@ class StepDetector(TakesUsers):
         self.samples_seen = 0
         b = self.batch_size
         self._clock = np.zeros(b, np.int64)  # samples since each stream's reset
-        self._prm = param_record(self.params, fs=fs, latency=self.latency,
-                                 base_n=self.params.baseline_tau * fs)  # fmt: skip
+        self._prm = param_record(
+            self.params, fs=fs, latency=self.latency, base_n=self.params.baseline_tau * fs
+        )
         self._raw = np.zeros((b, self.m))
         self._sm = np.zeros((b, 2 * self.h + 1))
         self._state = state_records(GAIT_STATE, b)
@@ -340,6 +347,6 @@ class Zhang2021Steps(TakesUsers):
             raise ValueError(f"acc must have shape ({self.batch_size}, N, 3), got {a.shape}")
         return self.detector.update(a)
 
+
 #: The earlier name, importable for one release with a deprecation warning.
 __getattr__ = renamed_attributes(globals(), {"Seed000Steps": "Zhang2021Steps"})
-

@@ -21,8 +21,10 @@ def _run(name: str):
     def play():
         t, gyr, acc, mag = _stream(len(name))
         stage = ATTITUDE.build(name, gyr.shape[0], 100.0)
-        out = [stage.update(gyr[:, i : i + 10], acc[:, i : i + 10], mag[:, i : i + 10])
-               for i in range(0, t.size, 10)]  # fmt: skip
+        out = [
+            stage.update(gyr[:, i : i + 10], acc[:, i : i + 10], mag[:, i : i + 10])
+            for i in range(0, t.size, 10)
+        ]
         return np.concatenate([np.asarray(o, dtype=np.float64).ravel() for o in out])
 
     return play

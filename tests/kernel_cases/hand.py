@@ -64,8 +64,9 @@ def _pipeline(params: HandParams | None):
             if t == 27:
                 pipe.reset(np.arange(b) == 1)
             if t % 2:
-                frames = [pipe.update(**{k: v[:, u] for k, v in seq.items()})
-                          for u in range(t, t + 3)]  # fmt: skip
+                frames = [
+                    pipe.update(**{k: v[:, u] for k, v in seq.items()}) for u in range(t, t + 3)
+                ]
             else:
                 chunk = pipe.update_frames(**{k: v[:, t : t + 3] for k, v in seq.items()})
                 frames = [chunk.at(i) for i in range(3)]
@@ -91,10 +92,13 @@ def _orientation(params: HandParams | None):
         second = f.update_frames(q[:, 18:], valid[:, 18:], reset[:, 18:])
         again = OrientationFilter(b, params).update_angles(
             np.concatenate([first.ypr_raw, second.ypr_raw], axis=1),
-            np.concatenate([first.quat_valid, second.quat_valid], axis=1), reset,
-        )  # fmt: skip
-        out = {name: np.concatenate([getattr(first, name), getattr(second, name)], axis=1)
-               for name in ("ypr_raw", "ypr_kalman", "ypr", "quat_valid", "singular", "valid")}
+            np.concatenate([first.quat_valid, second.quat_valid], axis=1),
+            reset,
+        )
+        out = {
+            name: np.concatenate([getattr(first, name), getattr(second, name)], axis=1)
+            for name in ("ypr_raw", "ypr_kalman", "ypr", "quat_valid", "singular", "valid")
+        }
         out.update({f"angles_{k}": getattr(again, k) for k in ("ypr_kalman", "ypr", "valid")})
         return {k: np.asarray(v, dtype=np.float64) for k, v in out.items()}
 
@@ -135,19 +139,26 @@ def _hand_frame():
 
 CASES = {
     "hand_pipeline_default": _pipeline(None),
-    "hand_pipeline_window4_tracked_wrist": _pipeline(HandParams(median_window=4,
-                                                                min_wrist_state=2)),
-    "hand_pipeline_no_average_plain_kalman": _pipeline(HandParams(
-        holt=HoltParams(average_weights=(1.0,)),
-        kalman=KalmanParams(max_coast_frames=0, accel_psd=0.01, max_accel_psd=0.01),
-        median_window=1, singularity_threshold=0.45,
-    )),
+    "hand_pipeline_window4_tracked_wrist": _pipeline(
+        HandParams(median_window=4, min_wrist_state=2)
+    ),
+    "hand_pipeline_no_average_plain_kalman": _pipeline(
+        HandParams(
+            holt=HoltParams(average_weights=(1.0,)),
+            kalman=KalmanParams(max_coast_frames=0, accel_psd=0.01, max_accel_psd=0.01),
+            median_window=1,
+            singularity_threshold=0.45,
+        )
+    ),
     "hand_orientation_default": _orientation(None),
-    "hand_orientation_window4_plain_kalman": _orientation(HandParams(
-        kalman=KalmanParams(max_coast_frames=0, accel_psd=0.01, max_accel_psd=0.01),
-        median_window=4, singularity_threshold=0.45,
-    )),
+    "hand_orientation_window4_plain_kalman": _orientation(
+        HandParams(
+            kalman=KalmanParams(max_coast_frames=0, accel_psd=0.01, max_accel_psd=0.01),
+            median_window=4,
+            singularity_threshold=0.45,
+        )
+    ),
     "hand_holt_default": _holt(None),
     "hand_holt_no_average": _holt(HoltParams(average_weights=(1.0,))),
     "hand_frame": _hand_frame,
-}  # fmt: skip
+}

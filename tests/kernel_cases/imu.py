@@ -12,8 +12,9 @@ from vrloco_env.sensors.imu import HeadImu, MagneticDisturbance, get_imu_spec
 _DIPOLES = (
     MagneticDisturbance.with_field_at((1.0, 0.5, 1.5), 20.0, 0.8),
     MagneticDisturbance((0.3, 0.0, 1.6), (0.0, 0.0, 5.0), min_distance=0.2),
-    MagneticDisturbance((-1.0, 0.5, 1.0), (0.0, 0.0, 40.0), velocity=(1.0, 0.2, 0.0),
-                        moving=(0.02, 0.05)),  # wheeled past during the stream
+    MagneticDisturbance(
+        (-1.0, 0.5, 1.0), (0.0, 0.0, 40.0), velocity=(1.0, 0.2, 0.0), moving=(0.02, 0.05)
+    ),  # wheeled past during the stream
 )
 _CHUNKS = (6, 0, 1, 9)
 
@@ -50,8 +51,12 @@ def _inputs(b: int, n: int):
 def _run(spec, dipoles: bool):
     def play():
         b = 3
-        imu = HeadImu(spec, BatchRng.from_seeds([11, 22, 33][:b]), rate_hz=250.0,
-                      disturbances=_DIPOLES if dipoles else ())  # fmt: skip
+        imu = HeadImu(
+            spec,
+            BatchRng.from_seeds([11, 22, 33][:b]),
+            rate_hz=250.0,
+            disturbances=_DIPOLES if dipoles else (),
+        )
         q, w, a, pos = _inputs(b, sum(_CHUNKS))
         out, start = {}, 0
         for i, c in enumerate(_CHUNKS):

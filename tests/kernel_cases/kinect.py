@@ -12,9 +12,12 @@ from vrloco_env.batch_rng import BatchRng
 from vrloco_env.sensors.kinect import KinectSpec, KinectV2, standing_skeleton
 
 SPEC = KinectSpec(
-    n_bystanders=3, burst_prob=0.1, random_inferred_prob=0.02, bystander_dwell_s=0.3,
+    n_bystanders=3,
+    burst_prob=0.1,
+    random_inferred_prob=0.02,
+    bystander_dwell_s=0.3,
     latency_frames=1,
-)  # fmt: skip
+)
 FRAMES = 40
 
 

@@ -32,11 +32,23 @@ def _run(b: int, steps: int, **params):
                 motion.rng.reseed(1, np.random.default_rng(99))
                 motion.reset(yaw=0.5, base=(1.0, 2.0), users=[1])
         rec = MotionRecord.concatenate(chunks)
-        out = {name: np.asarray(getattr(rec, name), dtype=np.float64)
-               for name in ("quat", "omega", "pos", "acc", "ypr", "body_yaw", "step", "step_time",
-                            "walking")}  # fmt: skip
-        out.update(joints=rec.kinect.joints, hand_quat=rec.kinect.hand_quat,
-                   hand_ypr=rec.kinect.hand_ypr)  # fmt: skip
+        out = {
+            name: np.asarray(getattr(rec, name), dtype=np.float64)
+            for name in (
+                "quat",
+                "omega",
+                "pos",
+                "acc",
+                "ypr",
+                "body_yaw",
+                "step",
+                "step_time",
+                "walking",
+            )
+        }
+        out.update(
+            joints=rec.kinect.joints, hand_quat=rec.kinect.hand_quat, hand_ypr=rec.kinect.hand_ypr
+        )
         return out
 
     return play

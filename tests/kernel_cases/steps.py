@@ -46,8 +46,11 @@ def _stage(make):
             if k == 3:
                 stage.reset([1])
             chunk = stage.update(acc[:, a:b], gyr[:, a:b], quat[:, a:b])
-            out |= {f"state_{k}": chunk.state, f"steps_{k}": chunk.steps,
-                    f"peak_time_{k}": chunk.peak_time}  # fmt: skip
+            out |= {
+                f"state_{k}": chunk.state,
+                f"steps_{k}": chunk.steps,
+                f"peak_time_{k}": chunk.peak_time,
+            }
         return out
 
     return play
@@ -64,8 +67,12 @@ def _zhang2021():
             chunk = det.update(acc[:, a:b])
         else:  # the norms of the same samples
             chunk = det.update_norm(np.linalg.norm(acc[:, a:b], axis=-1))
-        out |= {f"state_{k}": chunk.state, f"steps_{k}": chunk.steps,
-                f"peak_time_{k}": chunk.peak_time, f"baseline_{k}": det.baseline}  # fmt: skip
+        out |= {
+            f"state_{k}": chunk.state,
+            f"steps_{k}": chunk.steps,
+            f"peak_time_{k}": chunk.peak_time,
+            f"baseline_{k}": det.baseline,
+        }
     return out
 
 

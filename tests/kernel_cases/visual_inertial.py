@@ -26,13 +26,24 @@ def _run(config: VioConfig, seed: int):
         pos[1, ::3] = np.nan
         f = VisualInertialFilter(b, 1000.0, config)
         held = seed % 2 == 1  # the IMU sample at the reset instant given, or not
-        f.reset([0.0, 0.0, 1.7], [0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0],
-                gyr=gyr[:, 0] if held else None, acc=acc[:, 0] if held else None)  # fmt: skip
+        f.reset(
+            [0.0, 0.0, 1.7],
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0, 0.0],
+            gyr=gyr[:, 0] if held else None,
+            acc=acc[:, 0] if held else None,
+        )
         p, q, status = f.process(gyr, acc, frames, pos, quat, valid)
         return {
-            "p": p, "q": q, "status": status, "P": f.P, "R": f.R, "q_scale": f.q_scale,
-            "nis": f.nis, "counters": np.stack([f.updates, f.rejected, f.forced]),
-        }  # fmt: skip
+            "p": p,
+            "q": q,
+            "status": status,
+            "P": f.P,
+            "R": f.R,
+            "q_scale": f.q_scale,
+            "nis": f.nis,
+            "counters": np.stack([f.updates, f.rejected, f.forced]),
+        }
 
     return play
 

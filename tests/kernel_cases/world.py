@@ -9,8 +9,12 @@ from vrloco_env.world.geometry import _segments_clear
 
 
 def _queries():
-    lays = [make_layout(("approach", "avoid", "interact")[s % 3], RoomConfig(),
-                        np.random.default_rng(s)) for s in range(6)]  # fmt: skip
+    lays = [
+        make_layout(
+            ("approach", "avoid", "interact")[s % 3], RoomConfig(), np.random.default_rng(s)
+        )
+        for s in range(6)
+    ]
     batch = RoomBatch(lays)
     rng = np.random.default_rng(1)
     o = rng.uniform(-4.0, 4.0, (6, 30, 2))  # inside solids, outside, beyond the walls

@@ -27,8 +27,10 @@ def generated(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def _markdown(folder: Path) -> dict[str, str]:
-    return {str(p.relative_to(folder)): p.read_text(encoding="utf-8")
-            for p in sorted(folder.rglob("*.md"))}  # fmt: skip
+    return {
+        str(p.relative_to(folder)): p.read_text(encoding="utf-8")
+        for p in sorted(folder.rglob("*.md"))
+    }
 
 
 def test_committed_pages_are_the_generated_ones(generated: Path) -> None:
@@ -36,8 +38,7 @@ def test_committed_pages_are_the_generated_ones(generated: Path) -> None:
     assert set(pages) == set(rp.pages())
     missing = [rel for rel in pages if not (DOCS / rel).is_file()]
     assert not missing, f"generated pages missing from docs/: {missing}; {REGENERATE}"
-    stale = [rel for rel, text in pages.items()
-             if (DOCS / rel).read_text(encoding="utf-8") != text]  # fmt: skip
+    stale = [rel for rel, text in pages.items() if (DOCS / rel).read_text(encoding="utf-8") != text]
     assert not stale, f"docs/ pages differ from the generator's: {stale}; {REGENERATE}"
     for rel, text in pages.items():
         assert text.startswith(rp.HEADER + "\n"), rel

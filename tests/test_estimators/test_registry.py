@@ -80,8 +80,9 @@ def test_registering_checks_names_kinds_and_strings():
 
 
 def test_a_module_attr_entry_is_imported_on_first_use_only(tmp_path):
-    path, module = _plugin(tmp_path, "class Teal:\n    name, description = 'teal', 'blue-green'\n"
-                                     "TEAL = Teal()\n")  # fmt: skip
+    path, module = _plugin(
+        tmp_path, "class Teal:\n    name, description = 'teal', 'blue-green'\nTEAL = Teal()\n"
+    )
     reg = Registry("colour")
     reg.register("teal", f"{path}:TEAL")
     assert module not in sys.modules and "teal" in reg and reg.names()[-1] == "teal"
@@ -96,8 +97,11 @@ def test_a_module_attr_entry_is_imported_on_first_use_only(tmp_path):
 def test_a_bad_module_attr_entry_fails_when_used_naming_the_collection():
     reg = _colours()
     reg.register("ghost", "no_such_package_xyz.colours:GHOST")
-    with pytest.raises(StageError, match=r"colour='no_such_package_xyz.colours:GHOST': cannot "
-                                         r"import"):  # fmt: skip
+    with pytest.raises(
+        StageError,
+        match=r"colour='no_such_package_xyz.colours:GHOST': cannot "
+        r"import",
+    ):
         reg["ghost"]
 
 
@@ -185,8 +189,11 @@ def test_a_stage_registry_is_a_registry_that_builds_and_pickles_by_home():
     assert pickle.loads(pickle.dumps(reg)) is reg
     assert reg["ekf"] is load_attr("estimators.attitude.ekf:EkfStage", "attitude")
     assert reg.factory("ekf") is reg["ekf"] and list(reg) == reg.names()
-    with pytest.raises(StageError, match=r"^attitude='nope': unknown; valid names: ekf, "
-                                         r".*, or 'package.module:attr'"):  # fmt: skip
+    with pytest.raises(
+        StageError,
+        match=r"^attitude='nope': unknown; valid names: ekf, "
+        r".*, or 'package.module:attr'",
+    ):
         reg.build("nope", 1, 100.0)
     with pytest.raises(ValueError, match=r"must be 'package\.module:attr'"):
         reg.register("x", "no_colon", "")
@@ -204,8 +211,15 @@ def _collections():
     from vrloco_env.techniques import TECHNIQUES
     from vrloco_env.user.population import POPULATIONS
 
-    return {"task": TASKS, "technique": TECHNIQUES, "population": POPULATIONS,
-            "condition": CONDITIONS, "policy": POLICIES, "imu": PRESETS, "lighting": LIGHTING}
+    return {
+        "task": TASKS,
+        "technique": TECHNIQUES,
+        "population": POPULATIONS,
+        "condition": CONDITIONS,
+        "policy": POLICIES,
+        "imu": PRESETS,
+        "lighting": LIGHTING,
+    }
 
 
 @pytest.mark.parametrize("collection", sorted(_collections()))
@@ -213,8 +227,11 @@ def test_every_named_collection_is_a_registry_with_the_one_error_format(collecti
     reg = _collections()[collection]
     assert isinstance(reg, Registry) and reg.names() == list(reg)
     assert set(reg.describe()) == set(reg) and all(reg.describe().values())
-    with pytest.raises(ValueError, match=rf"^{reg.what}='nope': unknown; valid names: "
-                                         rf"{reg.names()[0]}, "):  # fmt: skip
+    with pytest.raises(
+        ValueError,
+        match=rf"^{reg.what}='nope': unknown; valid names: "
+        rf"{reg.names()[0]}, ",
+    ):
         reg.get("nope")
 
 

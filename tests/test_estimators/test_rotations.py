@@ -16,7 +16,7 @@ def random_quats(rng, n):
 def test_product_matches_scipy(rng):
     p, q = random_quats(rng, 500), random_quats(rng, 500)
     ours = rot.quat_canonical(rot.quat_multiply(p, q))
-    ref = (Rotation.from_quat(p, scalar_first=True) * Rotation.from_quat(q, scalar_first=True))
+    ref = Rotation.from_quat(p, scalar_first=True) * Rotation.from_quat(q, scalar_first=True)
     np.testing.assert_allclose(ours, rot.quat_canonical(ref.as_quat(scalar_first=True)), atol=TOL)
 
 
@@ -97,8 +97,9 @@ def test_integrate_constant_rate(rng):
     q = rot.quat_identity((8,))
     for _ in range(100):
         q = rot.quat_integrate(q, w, 0.01)
-    np.testing.assert_allclose(rot.quat_canonical(q), rot.quat_canonical(rot.quat_from_rotvec(w)),
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        rot.quat_canonical(q), rot.quat_canonical(rot.quat_from_rotvec(w)), atol=1e-12
+    )
 
 
 def test_wrap_and_rotation_angle(rng):
@@ -110,8 +111,9 @@ def test_wrap_and_rotation_angle(rng):
     assert rot.angle_diff(np.deg2rad(179), np.deg2rad(-179)) == pytest.approx(np.deg2rad(-2))
     r = rng.normal(size=(100, 3))
     r *= (rng.uniform(0, np.pi, 100) / np.linalg.norm(r, axis=1))[:, None]
-    np.testing.assert_allclose(rot.rotation_angle(rot.quat_from_rotvec(r)),
-                               np.linalg.norm(r, axis=1), atol=1e-12)
+    np.testing.assert_allclose(
+        rot.rotation_angle(rot.quat_from_rotvec(r)), np.linalg.norm(r, axis=1), atol=1e-12
+    )
 
 
 def test_skew_is_cross_product(rng):
@@ -134,14 +136,17 @@ def test_compiled_scalar_helpers_match_the_numpy_module(rng):
     ypr = rot.quat_to_ypr(q)
     for i in range(50):
         np.testing.assert_allclose(nb.quat_from_ypr(*ypr[i]), rot.quat_from_ypr(ypr[i]), atol=TOL)
-        np.testing.assert_allclose(nb.quat_mul(*p[i], *q[i]), rot.quat_multiply(p[i], q[i]),
-                                   atol=TOL)  # fmt: skip
-        np.testing.assert_allclose(nb.quat_rotate(*q[i], *v[i]), rot.quat_rotate(q[i], v[i]),
-                                   atol=TOL)  # fmt: skip
+        np.testing.assert_allclose(
+            nb.quat_mul(*p[i], *q[i]), rot.quat_multiply(p[i], q[i]), atol=TOL
+        )
+        np.testing.assert_allclose(
+            nb.quat_rotate(*q[i], *v[i]), rot.quat_rotate(q[i], v[i]), atol=TOL
+        )
         np.testing.assert_allclose(nb.quat_to_ypr(*q[i]), ypr[i], atol=1e-12)
         assert nb.rotation_angle(*q[i]) == pytest.approx(rot.rotation_angle(q[i]), abs=TOL)
         for scale in (1.0, 1e-9):  # the series branch too
-            np.testing.assert_allclose(nb.quat_from_rotvec(*(scale * v[i])),
-                                       rot.quat_from_rotvec(scale * v[i]), atol=TOL)  # fmt: skip
+            np.testing.assert_allclose(
+                nb.quat_from_rotvec(*(scale * v[i])), rot.quat_from_rotvec(scale * v[i]), atol=TOL
+            )
     lock = rot.quat_from_ypr([0.7, np.pi / 2, 0.0])
     np.testing.assert_allclose(nb.quat_to_ypr(*lock), rot.quat_to_ypr(lock), atol=1e-7)

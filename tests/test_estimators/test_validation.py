@@ -42,8 +42,16 @@ def test_closed_and_open_bounds():
     raises(r"^Cfg\.x=0\.0: must be in \(0, 1\]$", check_in_range, 0.0, 0.0, 1.0, lo_open=True)
     raises(r"^Cfg\.x=1\.0: must be in \[0, 1\)$", check_in_range, 1.0, 0.0, 1.0, hi_open=True)
     accepts(check_in_range, 0.999, 0.0, 1.0, hi_open=True)
-    raises(r"^Cfg\.x=-90: must be in \(-90, 90\) deg$", check_in_range, -90, -90, 90, "deg",
-           lo_open=True, hi_open=True)  # fmt: skip
+    raises(
+        r"^Cfg\.x=-90: must be in \(-90, 90\) deg$",
+        check_in_range,
+        -90,
+        -90,
+        90,
+        "deg",
+        lo_open=True,
+        hi_open=True,
+    )
     raises(r"^Cfg\.x=nan: must be in \[0, 1\]$", check_in_range, math.nan, 0.0, 1.0)
 
 
@@ -56,14 +64,28 @@ def test_infinite_upper_bound_message_and_inf_values():
     # allow_inf: inf is a value (a constant bias, no blur effect); the bracket says so
     accepts(check_in_range, math.inf, 0.0, math.inf, lo_open=True, allow_inf=True)
     accepts(check_in_range, np.float64(math.inf), 0.0, math.inf, lo_open=True, allow_inf=True)
-    raises(r"^Cfg\.x=0\.0: must be in \(0, inf\] px$", check_in_range, 0.0, 0.0, math.inf, "px",
-           lo_open=True, allow_inf=True)  # fmt: skip
+    raises(
+        r"^Cfg\.x=0\.0: must be in \(0, inf\] px$",
+        check_in_range,
+        0.0,
+        0.0,
+        math.inf,
+        "px",
+        lo_open=True,
+        allow_inf=True,
+    )
     raises(r"^Cfg\.x=-inf: ", check_in_range, -math.inf, 0.0, math.inf, allow_inf=True)
     raises(r"^Cfg\.x=nan: ", check_in_range, math.nan, 0.0, math.inf, allow_inf=True)
     # both bounds infinite: "finite" is the whole rule
     accepts(check_in_range, -1e9, -math.inf, math.inf)
-    raises(r"^Cfg\.x=inf: must be a finite number rad$", check_in_range, math.inf, -math.inf,
-           math.inf, "rad")  # fmt: skip
+    raises(
+        r"^Cfg\.x=inf: must be a finite number rad$",
+        check_in_range,
+        math.inf,
+        -math.inf,
+        math.inf,
+        "rad",
+    )
 
 
 def test_bools_and_numeric_strings_are_not_numbers():
@@ -82,64 +104,155 @@ def test_bools_and_numeric_strings_are_not_numbers():
 def test_integers_and_whole_numbers():
     accepts(check_in_range, 3, 1, 10, integer=True)
     accepts(check_in_range, np.int32(3), 1, 10, integer=True)
-    raises(r"^Cfg\.x=3\.0: must be an integer in \[1, 10\]$", check_in_range, 3.0, 1, 10,
-           integer=True)  # fmt: skip
+    raises(
+        r"^Cfg\.x=3\.0: must be an integer in \[1, 10\]$", check_in_range, 3.0, 1, 10, integer=True
+    )
     raises(r"^Cfg\.x=True: must be an integer", check_in_range, True, 0, 10, integer=True)
-    raises(r"^Cfg\.x=0: must be an integer in \[1, inf\) frames$", check_in_range, 0, 1, math.inf,
-           "frames", integer=True)  # fmt: skip
+    raises(
+        r"^Cfg\.x=0: must be an integer in \[1, inf\) frames$",
+        check_in_range,
+        0,
+        1,
+        math.inf,
+        "frames",
+        integer=True,
+    )
     # a whole number: an int or a float without a fractional part (a count given as 5.0)
     for v in (5, 5.0, np.float64(5.0), np.int8(5)):
         accepts(check_in_range, v, 0, math.inf, whole=True)
-    raises(r"^Cfg\.x=2\.5: must be a whole number in \[0, inf\)$", check_in_range, 2.5, 0,
-           math.inf, whole=True)  # fmt: skip
+    raises(
+        r"^Cfg\.x=2\.5: must be a whole number in \[0, inf\)$",
+        check_in_range,
+        2.5,
+        0,
+        math.inf,
+        whole=True,
+    )
     raises(r"^Cfg\.x=True: must be a whole number", check_in_range, True, 0, 9, whole=True)
-    raises(r"^Cfg\.x=inf: must be a whole number", check_in_range, math.inf, 0, math.inf,
-           whole=True, allow_inf=True)  # fmt: skip
+    raises(
+        r"^Cfg\.x=inf: must be a whole number",
+        check_in_range,
+        math.inf,
+        0,
+        math.inf,
+        whole=True,
+        allow_inf=True,
+    )
     accepts(check_numbers, (2.0, 8), 1, math.inf, length=2, ordered=True, whole=True)
-    raises(r"^Cfg\.x=\(2, 8\.5\): must be a tuple of 2 whole numbers in \[1, inf\), low <= high$",
-           check_numbers, (2, 8.5), 1, math.inf, length=2, ordered=True, whole=True)  # fmt: skip
+    raises(
+        r"^Cfg\.x=\(2, 8\.5\): must be a tuple of 2 whole numbers in \[1, inf\), low <= high$",
+        check_numbers,
+        (2, 8.5),
+        1,
+        math.inf,
+        length=2,
+        ordered=True,
+        whole=True,
+    )
 
 
 def test_sequences_lengths_and_one_dimensional_arrays():
     accepts(check_numbers, [0.5, 0.6], 0.0, 1.0, length=2)
     accepts(check_numbers, np.array([0.5, 0.6]), 0.0, 1.0, length=2)
     accepts(check_numbers, np.array([1, 2, 3]), -math.inf, math.inf, "m", length=3)
-    raises(r"^Cfg\.x=array\(\[\[0\.5\], \[0\.6\]\]\): must be a tuple of 2 numbers in \[0, 1\]$",
-           check_numbers, np.array([[0.5], [0.6]]), 0.0, 1.0, length=2)  # fmt: skip
-    raises(r"^Cfg\.x=\(0\.5,\): must be a tuple of 2 numbers", check_numbers, (0.5,), 0, 1,
-           length=2)  # fmt: skip
+    raises(
+        r"^Cfg\.x=array\(\[\[0\.5\], \[0\.6\]\]\): must be a tuple of 2 numbers in \[0, 1\]$",
+        check_numbers,
+        np.array([[0.5], [0.6]]),
+        0.0,
+        1.0,
+        length=2,
+    )
+    raises(
+        r"^Cfg\.x=\(0\.5,\): must be a tuple of 2 numbers", check_numbers, (0.5,), 0, 1, length=2
+    )
     raises(r"^Cfg\.x=\(\): must be a tuple of one or more numbers", check_numbers, (), 0, 1)
     raises(r"^Cfg\.x='ab': must be a tuple", check_numbers, "ab", 0, 1)
-    raises(r"^Cfg\.x=\(0, nan, 0\): must be a tuple of 3 finite numbers m$", check_numbers,
-           (0, math.nan, 0), -math.inf, math.inf, "m", length=3)  # fmt: skip
-    raises(r"^Cfg\.x=\(0\.0, 90\.0\): must be a tuple of 2 numbers in \(0, 180\) deg$",
-           check_numbers, (0.0, 90.0), 0.0, 180.0, "deg", length=2, lo_open=True,
-           hi_open=True)  # fmt: skip
-    raises(r"^Cfg\.x=\(90\.0, 180\.0\): ", check_numbers, (90.0, 180.0), 0.0, 180.0, length=2,
-           hi_open=True)  # fmt: skip
+    raises(
+        r"^Cfg\.x=\(0, nan, 0\): must be a tuple of 3 finite numbers m$",
+        check_numbers,
+        (0, math.nan, 0),
+        -math.inf,
+        math.inf,
+        "m",
+        length=3,
+    )
+    raises(
+        r"^Cfg\.x=\(0\.0, 90\.0\): must be a tuple of 2 numbers in \(0, 180\) deg$",
+        check_numbers,
+        (0.0, 90.0),
+        0.0,
+        180.0,
+        "deg",
+        length=2,
+        lo_open=True,
+        hi_open=True,
+    )
+    raises(
+        r"^Cfg\.x=\(90\.0, 180\.0\): ",
+        check_numbers,
+        (90.0, 180.0),
+        0.0,
+        180.0,
+        length=2,
+        hi_open=True,
+    )
 
 
 def test_ordering_non_decreasing_and_strict():
     accepts(check_numbers, (1.0, 1.0), 0.0, 5.0, length=2, ordered=True)
-    raises(r"^Cfg\.x=\(2\.0, 1\.0\): must be a tuple of 2 numbers in \[0, 5\] m, low <= high$",
-           check_numbers, (2.0, 1.0), 0.0, 5.0, "m", length=2, ordered=True)  # fmt: skip
+    raises(
+        r"^Cfg\.x=\(2\.0, 1\.0\): must be a tuple of 2 numbers in \[0, 5\] m, low <= high$",
+        check_numbers,
+        (2.0, 1.0),
+        0.0,
+        5.0,
+        "m",
+        length=2,
+        ordered=True,
+    )
     # strict: a (near, far) depth range or a cadence band must have width
     accepts(check_numbers, np.array([0.5, 4.5]), 0.0, 10.0, length=2, ordered=True, strict=True)
-    raises(r"^Cfg\.x=\(1\.0, 1\.0\): must be a tuple of 2 numbers in \[0, 5\] Hz, low < high$",
-           check_numbers, (1.0, 1.0), 0.0, 5.0, "Hz", length=2, ordered=True,
-           strict=True)  # fmt: skip
+    raises(
+        r"^Cfg\.x=\(1\.0, 1\.0\): must be a tuple of 2 numbers in \[0, 5\] Hz, low < high$",
+        check_numbers,
+        (1.0, 1.0),
+        0.0,
+        5.0,
+        "Hz",
+        length=2,
+        ordered=True,
+        strict=True,
+    )
     raises(r", increasing$", check_numbers, (1, 2, 2), 0, 5, ordered=True, strict=True)
     accepts(check_numbers, (1, 2, 2), 0, 5, ordered=True)
 
 
 def test_bounds_from_other_fields_and_custom_rules():
     # a bound may be another field's value (an int, a Fraction, numpy) and the message may say so
-    raises(r"^Cfg\.x=3: must be in \[0, width=2\] px$", check_in_range, 3, 0, Fraction(2),
-           allowed="in [0, width=2] px")  # fmt: skip
-    raises(r"^Cfg\.x=True: must be in \[0, width=2\] px$", check_in_range, True, 0, 2,
-           allowed="in [0, width=2] px")  # fmt: skip
-    raises(r"^Cfg\.x=7: must be a divisor of 100$", check_condition, 7, 100 % 7 == 0,
-           "a divisor of 100")  # fmt: skip
+    raises(
+        r"^Cfg\.x=3: must be in \[0, width=2\] px$",
+        check_in_range,
+        3,
+        0,
+        Fraction(2),
+        allowed="in [0, width=2] px",
+    )
+    raises(
+        r"^Cfg\.x=True: must be in \[0, width=2\] px$",
+        check_in_range,
+        True,
+        0,
+        2,
+        allowed="in [0, width=2] px",
+    )
+    raises(
+        r"^Cfg\.x=7: must be a divisor of 100$",
+        check_condition,
+        7,
+        100 % 7 == 0,
+        "a divisor of 100",
+    )
     accepts(check_condition, 5, 100 % 5 == 0, "a divisor of 100")
 
 

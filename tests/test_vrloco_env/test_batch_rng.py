@@ -60,8 +60,15 @@ def test_one_user_drawing_alone_keeps_every_stream_equal_to_its_single_run():
     seeds = [4, 5, 6]
     batch = BatchRng.from_seeds(seeds, block=32)
     singles = [BatchRng.from_seeds([s], block=32) for s in seeds]
-    plan = [((10,), None), ((7,), [1]), ((25, 2), None), ((40,), [0, 2]), ((3,), None),
-            ((100,), [2]), ((9,), None)]  # fmt: skip
+    plan = [
+        ((10,), None),
+        ((7,), [1]),
+        ((25, 2), None),
+        ((40,), [0, 2]),
+        ((3,), None),
+        ((100,), [2]),
+        ((9,), None),
+    ]
     for shape, rows in plan:
         got = batch.normal(shape, rows=rows)
         users = range(3) if rows is None else rows

@@ -68,8 +68,11 @@ def _assert_same(a: Any, b: Any, where: str) -> None:
     np.testing.assert_array_equal(x, y, err_msg=where, strict=True)  # shape and dtype too
 
 
-def _run_side_by_side(make: Callable[[], Any], copy_of: Callable[[Any], Any] = lambda e: e,
-                      num_envs: int | None = None) -> list[dict]:  # fmt: skip
+def _run_side_by_side(
+    make: Callable[[], Any],
+    copy_of: Callable[[Any], Any] = lambda e: e,
+    num_envs: int | None = None,
+) -> list[dict]:
     """Reset, step BEFORE steps, copy ``copy_of(env)`` three ways, step all AFTER steps and
     compare each copy's step with the original's. Returns the original's infos after the copy."""
     env = make()
@@ -87,8 +90,9 @@ def _run_side_by_side(make: Callable[[], Any], copy_of: Callable[[Any], Any] = l
         infos.append(ref[4])
         for name, c in copies.items():
             out = c.step(acts[k])
-            for part, x, y in zip(("obs", "reward", "terminated", "truncated", "info"), ref, out,
-                                  strict=True):  # fmt: skip
+            for part, x, y in zip(
+                ("obs", "reward", "terminated", "truncated", "info"), ref, out, strict=True
+            ):
                 _assert_same(x, y, f"{name} copy, step {k}, {part}")
     return infos
 
@@ -112,8 +116,9 @@ def _techniques_by_task() -> list[tuple[str, str]]:
 
 @pytest.mark.parametrize(("task", "technique"), _techniques_by_task())
 def test_single_env_copies_go_on_like_the_original(task, technique):
-    infos = _run_side_by_side(lambda: gym.make(env_id(task), technique=technique),
-                              copy_of=lambda env: env.unwrapped)  # fmt: skip
+    infos = _run_side_by_side(
+        lambda: gym.make(env_id(task), technique=technique), copy_of=lambda env: env.unwrapped
+    )
     _assert_walked_and_turned(infos)
 
 
@@ -136,8 +141,10 @@ def test_wrapped_env_deep_copies_go_on_like_the_original(task):
 
 @pytest.mark.parametrize("population", ["typical", "nodders"])
 def test_copies_of_a_population_with_head_behaviour_go_on_like_the_original(population):
-    infos = _run_side_by_side(lambda: gym.make("VRLoco-Interact-v0", population=population),
-                              copy_of=lambda env: env.unwrapped)  # fmt: skip
+    infos = _run_side_by_side(
+        lambda: gym.make("VRLoco-Interact-v0", population=population),
+        copy_of=lambda env: env.unwrapped,
+    )
     _assert_walked_and_turned(infos)
     head = np.array([i["true_ypr"][0] - i["true_body_yaw_deg"] for i in infos])
     head = (head + 180.0) % 360.0 - 180.0  # the head's yaw on the torso (deg)
@@ -176,8 +183,9 @@ def test_vector_env_copies_go_on_after_take_users():
     from gymnasium.vector import AutoresetMode
 
     def make():
-        return VRLocoVectorEnv(4, task="interact", population="typical",
-                               autoreset_mode=AutoresetMode.DISABLED)  # fmt: skip
+        return VRLocoVectorEnv(
+            4, task="interact", population="typical", autoreset_mode=AutoresetMode.DISABLED
+        )
 
     envs = make()
     envs.reset(seed=SEED)

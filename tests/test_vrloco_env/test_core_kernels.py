@@ -71,16 +71,20 @@ def test_step_summary_counts_steps_and_turns_the_yaws_into_virtual_ones():
         yaw_est, off_est, yaw_true, off_true = rng.uniform(-4, 4, (4, b))
         out = (np.empty(b), np.empty(b), np.empty(b), np.empty(b), np.zeros((b, 2)))
         prm = param_record(step_length=0.7, in_place=float(in_place))
-        step_summary_kernel(b)(gait_steps, true_step, (yaw_est, yaw_true), (off_est, off_true),
-                               prm, out)  # fmt: skip
+        step_summary_kernel(b)(
+            gait_steps, true_step, (yaw_est, yaw_true), (off_est, off_true), prm, out
+        )
         steps, true_steps, virtual_yaw, true_virtual_yaw, displacement = out
         np.testing.assert_array_equal(steps, gait_steps.sum(axis=1))
         np.testing.assert_array_equal(true_steps, true_step.sum(axis=1))
         np.testing.assert_allclose(virtual_yaw, rot.wrap_angle(yaw_est + off_est), atol=1e-12)
-        np.testing.assert_allclose(true_virtual_yaw, rot.wrap_angle(yaw_true + off_true),
-                                   atol=1e-12)  # fmt: skip
-        expect = 0.7 * true_steps[:, None] * np.stack(
-            [np.cos(true_virtual_yaw), np.sin(true_virtual_yaw)], -1
+        np.testing.assert_allclose(
+            true_virtual_yaw, rot.wrap_angle(yaw_true + off_true), atol=1e-12
+        )
+        expect = (
+            0.7
+            * true_steps[:, None]
+            * np.stack([np.cos(true_virtual_yaw), np.sin(true_virtual_yaw)], -1)
         )
         np.testing.assert_allclose(displacement, expect if in_place else 0.0, atol=1e-12)
 
@@ -106,7 +110,6 @@ def test_cadence_is_the_step_rate_and_decays_at_rest():
     assert c[0] == 4.0  # 2 steps in 0.4 s: 5 steps/s, capped at 4
     assert c[1] == 0.0  # a bout's first step: no interval, no rate
     np.testing.assert_array_equal(est.since_step, [0.0, 0.0])
-
 
 
 def test_one_thread_keeps_every_batch_on_the_serial_build(monkeypatch):

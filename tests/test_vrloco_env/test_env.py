@@ -214,8 +214,9 @@ def test_config_types_are_checked(kwargs, match):
     assert EnvConfig(max_episode_steps=np.int64(50)).max_episode_steps == 50
 
 
-@pytest.mark.parametrize("bad", ["abc", {"walk": 1.0}, np.full(5, 1j), np.ones(5, bool),
-                                 np.ones(4)])  # fmt: skip
+@pytest.mark.parametrize(
+    "bad", ["abc", {"walk": 1.0}, np.full(5, 1j), np.ones(5, bool), np.ones(4)]
+)
 def test_an_action_that_is_not_five_real_numbers_is_refused_by_name(bad):
     env = gym.make("VRLoco-Approach-v0")
     env.reset(seed=0)

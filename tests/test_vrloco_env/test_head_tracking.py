@@ -34,15 +34,17 @@ def test_tracker_follows_a_walking_head_better_than_its_camera(condition, availa
     motion = UserMotion(MotionParams(imu_rate_hz=200.0, overground=True), rng)
     motion.reset(yaw=[0.0, np.pi / 2], base=[(-1.0, -2.5), (2.5, -1.0)])
     imu = HeadImu("ig500n", rng, rate_hz=200.0)
-    tracker = VisualInertialTracker(2, 200.0, camera_spec(condition, rate_hz=40.0),
-                                    VioConfig(adaptive="sage_husa"), rng)  # fmt: skip
+    tracker = VisualInertialTracker(
+        2, 200.0, camera_spec(condition, rate_hz=40.0), VioConfig(adaptive="sage_husa"), rng
+    )
     for user in range(2):
         tracker.set_landmarks(user, points, normals)
     pos_err, att_err, cam_err, poses = [], [], [], np.zeros(2)
     for k in range(150):  # 15 s: stand 1 s, then walk a circle
         walking = k >= 10
-        chunk = motion.advance(Intent(cadence=1.6 if walking else 0.0,
-                                      turn_rate=0.4 if walking else 0.0))  # fmt: skip
+        chunk = motion.advance(
+            Intent(cadence=1.6 if walking else 0.0, turn_rate=0.4 if walking else 0.0)
+        )
         s = imu.sample(chunk.quat, chunk.omega, chunk.acc, chunk.pos)
         if k == 0:
             tracker.reset(None, chunk.pos[:, 0], chunk.quat[:, 0])
@@ -66,5 +68,6 @@ def test_tracker_follows_a_walking_head_better_than_its_camera(condition, availa
 
 def test_tracker_rejects_a_camera_faster_than_the_imu():
     with pytest.raises(ValueError, match="must not exceed the IMU rate"):
-        VisualInertialTracker(1, 100.0, camera_spec("ideal", rate_hz=120.0), VioConfig(),
-                              BatchRng.from_seeds([0]))  # fmt: skip
+        VisualInertialTracker(
+            1, 100.0, camera_spec("ideal", rate_hz=120.0), VioConfig(), BatchRng.from_seeds([0])
+        )

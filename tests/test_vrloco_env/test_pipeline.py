@@ -47,8 +47,13 @@ def test_unknown_names_list_the_valid_ones(field):
 
 
 def test_every_registered_stage_builds_and_satisfies_its_protocol():
-    args = {"attitude": (2, 100.0), "steps": (2, 100.0), "hand": (2, 30.0),
-            "steering": (2,), "locomotion": (2, 0.7)}  # fmt: skip
+    args = {
+        "attitude": (2, 100.0),
+        "steps": (2, 100.0),
+        "hand": (2, 30.0),
+        "steering": (2,),
+        "locomotion": (2, 0.7),
+    }
     for field, a in args.items():
         registry = getattr(stages, field.upper())
         for name in registry.names():
@@ -61,8 +66,7 @@ def test_a_plugin_is_found_by_module_attr_and_by_file_path(tmp_path):
     assert isinstance(stages.ATTITUDE.build(cfg.attitude, 1, 100.0), EkfStage)
     plugin = tmp_path / "my_filter.py"
     plugin.write_text(
-        "from estimators.attitude import EkfStage\n"
-        "class Mine(EkfStage):\n    name = 'mine'\n"
+        "from estimators.attitude import EkfStage\nclass Mine(EkfStage):\n    name = 'mine'\n"
     )
     stage = stages.ATTITUDE.build(f"{plugin}:Mine", 2, 100.0)
     assert type(stage).__name__ == "Mine"
@@ -122,8 +126,11 @@ class _Raises(EkfStage):
     ("plugin", "message"),
     [
         (_Shape, r"plug-in '_Shape' returned quat of shape \(1, 9, 4\); expected \(1, 10, 4\)"),
-        (_Nan, r"attitude plug-in '_Nan' returned quat at user 0, sample 3: "
-               r"\[nan, nan, nan, nan\], which breaks the rule: finite \(no NaN or inf\)"),
+        (
+            _Nan,
+            r"attitude plug-in '_Nan' returned quat at user 0, sample 3: "
+            r"\[nan, nan, nan, nan\], which breaks the rule: finite \(no NaN or inf\)",
+        ),
         (_Raises, r"attitude plug-in '_Raises' raised in update.*ZeroDivisionError: oops"),
     ],
 )
@@ -275,24 +282,57 @@ _RULE = "which breaks the rule: "
 @pytest.mark.parametrize(
     ("field", "toy", "message"),
     [
-        ("attitude", "ZeroQuat", r"returned quat at user 0, sample 4: \[0, 0, 0, 0\], "
-         + _RULE + r"not the zero quaternion"),
-        ("attitude", "LongQuat", r"returned quat at user 0, sample 0: \[.*\], "
-         + _RULE + r"unit length: \| \|q\| - 1 \| <= 0\.001"),
-        ("steps", "FutureStep", r"returned peak_time at user 0, sample 9: \[0\.59, nan\], "
-         + _RULE + r"on the stream's own clock .* no step before the reset or from the future"),
-        ("steps", "NegativeSteps", r"returned steps at user 0, sample 0: -1, "
-         + _RULE + r"an integer 0, 1 or 2"),
-        ("hand", "PitchHand", r"returned ypr at user 0, frame 0: \[[-.\d]+, 4, [-.\d]+\], "
-         + _RULE + r"every angle in \[-pi, pi\] where finite"),
-        ("hand", "NanHand", r"returned ypr at user 0, frame 0: \[nan, nan, nan\], "
-         + _RULE + r"finite where `valid` is True"),
+        (
+            "attitude",
+            "ZeroQuat",
+            r"returned quat at user 0, sample 4: \[0, 0, 0, 0\], "
+            + _RULE
+            + r"not the zero quaternion",
+        ),
+        (
+            "attitude",
+            "LongQuat",
+            r"returned quat at user 0, sample 0: \[.*\], "
+            + _RULE
+            + r"unit length: \| \|q\| - 1 \| <= 0\.001",
+        ),
+        (
+            "steps",
+            "FutureStep",
+            r"returned peak_time at user 0, sample 9: \[0\.59, nan\], "
+            + _RULE
+            + r"on the stream's own clock .* no step before the reset or from the future",
+        ),
+        (
+            "steps",
+            "NegativeSteps",
+            r"returned steps at user 0, sample 0: -1, " + _RULE + r"an integer 0, 1 or 2",
+        ),
+        (
+            "hand",
+            "PitchHand",
+            r"returned ypr at user 0, frame 0: \[[-.\d]+, 4, [-.\d]+\], "
+            + _RULE
+            + r"every angle in \[-pi, pi\] where finite",
+        ),
+        (
+            "hand",
+            "NanHand",
+            r"returned ypr at user 0, frame 0: \[nan, nan, nan\], "
+            + _RULE
+            + r"finite where `valid` is True",
+        ),
         ("steering", "NanSteering", r"returned yaw at user 0: nan, " + _RULE + r"finite"),
-        ("locomotion", "FarAway", r"returned position at user 0: \[1e\+09, 1e\+09\], "
-         + _RULE + r"within 10000 m of the room's origin"),
+        (
+            "locomotion",
+            "FarAway",
+            r"returned position at user 0: \[1e\+09, 1e\+09\], "
+            + _RULE
+            + r"within 10000 m of the room's origin",
+        ),
         ("locomotion", "LostHeading", r"returned heading at user 0: nan, " + _RULE + r"finite"),
     ],
-)  # fmt: skip
+)
 def test_a_plugin_output_without_meaning_names_stage_plugin_value_and_rule(
     toys, field, toy, message
 ):
@@ -311,8 +351,9 @@ def test_plugins_inside_the_rules_run_and_their_outputs_reach_the_env(toys):
     estimated attitude as the EKF they scale. A step at every chunk's last sample, its heel
     strike right there (on the stream's clock, reset with the episode): one step per control
     step, episode after episode."""
-    scaled = gym.make("VRLoco-Approach-v0",
-                      estimators=EstimatorConfig(attitude=f"{toys}:AlmostUnitQuat"))  # fmt: skip
+    scaled = gym.make(
+        "VRLoco-Approach-v0", estimators=EstimatorConfig(attitude=f"{toys}:AlmostUnitQuat")
+    )
     plain = gym.make("VRLoco-Approach-v0")
     for env in (scaled, plain):
         env.reset(seed=0)
@@ -328,8 +369,9 @@ def test_plugins_inside_the_rules_run_and_their_outputs_reach_the_env(toys):
 def test_a_step_plugin_that_ignores_reset_reports_steps_from_the_future(toys):
     """The proxy keeps each user's clock since its reset: a detector whose clock runs on through
     the reset reports, in the second episode, heel strikes the new stream has not lived yet."""
-    env = gym.make("VRLoco-Approach-v0",
-                   estimators=EstimatorConfig(steps=f"{toys}:ClockNeverResets"))  # fmt: skip
+    env = gym.make(
+        "VRLoco-Approach-v0", estimators=EstimatorConfig(steps=f"{toys}:ClockNeverResets")
+    )
     _steps_until_error(env, steps=10)  # the first episode: both clocks agree
     with pytest.raises(StageError, match=r"peak_time at user 0, sample 9: \[1\.09, nan\].*future"):
         _steps_until_error(env, steps=1)
@@ -343,8 +385,9 @@ def test_only_plugins_are_wrapped_and_each_once():
     for field in ("attitude", "steps", "hand", "steering", "locomotion"):
         assert not isinstance(getattr(users.stages, field), CheckedStage)
         assert users.stages.trusted[field]
-    cfg = EstimatorConfig(attitude="estimators.attitude:EkfStage", steps=stages.STEPS.factory(
-        "zhang2021"))  # fmt: skip
+    cfg = EstimatorConfig(
+        attitude="estimators.attitude:EkfStage", steps=stages.STEPS.factory("zhang2021")
+    )
     users = gym.make("VRLoco-Approach-v0", estimators=cfg).unwrapped.core.users
     for field, inner in (("attitude", "EkfStage"), ("steps", "Zhang2021Steps")):
         stage = getattr(users.stages, field)
@@ -357,8 +400,11 @@ def test_only_plugins_are_wrapped_and_each_once():
     assert type(copied.attitude.wrapped).__name__ == "EkfStage"
 
 
-_EVERY_NAME = [(f, n) for f in ("attitude", "steps", "hand", "steering", "locomotion")
-               for n in getattr(stages, f.upper()).names()]  # fmt: skip
+_EVERY_NAME = [
+    (f, n)
+    for f in ("attitude", "steps", "hand", "steering", "locomotion")
+    for n in getattr(stages, f.upper()).names()
+]
 
 
 @pytest.mark.parametrize(("field", "name"), _EVERY_NAME)
@@ -398,8 +444,9 @@ def test_a_batch_of_wrapped_stages_sheds_users_as_the_whole_batch_goes_on(monkey
     b, rows = 7, np.array([5, 0, 3])  # 7: no size of the rest of the env is B by chance
 
     def make(**kw):
-        return VRLocoVectorEnv(b, task="approach", technique="nod_robust",
-                               autoreset_mode=AutoresetMode.DISABLED, **kw)  # fmt: skip
+        return VRLocoVectorEnv(
+            b, task="approach", technique="nod_robust", autoreset_mode=AutoresetMode.DISABLED, **kw
+        )
 
     whole = make()
     monkeypatch.setattr(pipeline, "_is_ours", lambda spec, registry: False)
@@ -421,10 +468,15 @@ def test_a_batch_of_wrapped_stages_sheds_users_as_the_whole_batch_goes_on(monkey
         sel = rows if t >= 15 else slice(None)
         for w, k in zip(out_w[:4], out_k[:4], strict=True):
             np.testing.assert_array_equal(w[sel], k, err_msg=f"step {t}")
-        np.testing.assert_array_equal(out_w[4]["detected_step_times"][sel],
-                                      out_k[4]["detected_step_times"])  # fmt: skip
-    stuck = VRLocoVectorEnv(2, task="approach", autoreset_mode=AutoresetMode.DISABLED,
-                            estimators=EstimatorConfig(steering=_NoTakeSteering))  # fmt: skip
+        np.testing.assert_array_equal(
+            out_w[4]["detected_step_times"][sel], out_k[4]["detected_step_times"]
+        )
+    stuck = VRLocoVectorEnv(
+        2,
+        task="approach",
+        autoreset_mode=AutoresetMode.DISABLED,
+        estimators=EstimatorConfig(steering=_NoTakeSteering),
+    )
     assert not hasattr(stuck.core.users.steering, "take_users") and not stuck.can_take_users
 
 
@@ -450,13 +502,21 @@ class _RowsLocomotion(_HalfLocomotion):
 def test_missing_members_are_named_from_the_protocol_itself():
     """A plug-in missing members of its protocol gets them named, on Python 3.11 as on 3.12
     (the members are read from the protocol class, not from 3.12's ``__protocol_attrs__``)."""
-    with pytest.raises(StageError, match=r"locomotion plug-in '_HalfLocomotion' built a "
-                       r"_HalfLocomotion, which lacks batch_size, position, heading, distance of "
-                       r"the Locomotion protocol"):  # fmt: skip
+    with pytest.raises(
+        StageError,
+        match=r"locomotion plug-in '_HalfLocomotion' built a "
+        r"_HalfLocomotion, which lacks batch_size, position, heading, distance of "
+        r"the Locomotion protocol",
+    ):
         gym.make("VRLoco-Approach-v0", estimators=EstimatorConfig(locomotion=_HalfLocomotion))
     assert protocol_members(Locomotion) == [
-        "batch_size", "update", "reset", "position", "heading", "distance"
-    ]  # fmt: skip
+        "batch_size",
+        "update",
+        "reset",
+        "position",
+        "heading",
+        "distance",
+    ]
     for registry in (stages.ATTITUDE, stages.STEPS, stages.HAND, stages.STEERING):
         assert protocol_members(registry.protocol) == ["reset", "update"]
 
@@ -480,8 +540,11 @@ def test_a_method_that_cannot_take_the_environment_s_call_is_named():
     """``reset(rows=None)`` for a locomotion stage, which the environment resets with
     ``reset(mask, position=..., heading=...)``: an error at ``gym.make``, not a TypeError at
     ``env.reset``."""
-    with pytest.raises(StageError, match=r"has reset\(rows=None\), which cannot be called as "
-                       r"reset\(mask, position=\.\.\., heading=\.\.\.\)"):  # fmt: skip
+    with pytest.raises(
+        StageError,
+        match=r"has reset\(rows=None\), which cannot be called as "
+        r"reset\(mask, position=\.\.\., heading=\.\.\.\)",
+    ):
         gym.make("VRLoco-Approach-v0", estimators=EstimatorConfig(locomotion=_RowsLocomotion))
 
 
@@ -503,8 +566,13 @@ def test_the_reference_states_every_member_call_and_rule_that_is_checked():
     import subprocess
 
     doc = stage_docs.protocol_reference()
-    for registry in (stages.ATTITUDE, stages.STEPS, stages.HAND, stages.STEERING,
-                     stages.LOCOMOTION):  # fmt: skip
+    for registry in (
+        stages.ATTITUDE,
+        stages.STEPS,
+        stages.HAND,
+        stages.STEERING,
+        stages.LOCOMOTION,
+    ):
         section = doc.split(f"## `{registry.stage}`")[1].split("\n## ")[0]
         for name in protocol_members(registry.protocol):
             assert f"- `{name}" in section, (registry.stage, name)
@@ -515,8 +583,13 @@ def test_the_reference_states_every_member_call_and_rule_that_is_checked():
             assert f"| `{out.name}` | ({', '.join(map(str, out.shape))}" in section
         for rule in registry.contract.rules:
             assert rule.text.replace("|", "\\|") in section, (registry.stage, rule.text)
-    run = subprocess.run([sys.executable, "-m", "estimators.stage_docs"], cwd=REPO,
-                         capture_output=True, text=True, check=True)  # fmt: skip
+    run = subprocess.run(
+        [sys.executable, "-m", "estimators.stage_docs"],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     assert run.stdout == doc
 
 
@@ -532,8 +605,9 @@ def test_the_default_env_is_the_zhang2021_technique_bit_for_bit():
 def test_a_technique_equals_its_estimator_config(name):
     tech = TECHNIQUES[name]
     a = _episode(gym.make("VRLoco-Avoid-v0", technique=name))
-    b = _episode(gym.make("VRLoco-Avoid-v0", estimators=tech.estimators,
-                          sensor_preset=tech.sensor_preset))  # fmt: skip
+    b = _episode(
+        gym.make("VRLoco-Avoid-v0", estimators=tech.estimators, sensor_preset=tech.sensor_preset)
+    )
     np.testing.assert_array_equal(a, b)
     assert not np.array_equal(a, _episode(gym.make("VRLoco-Avoid-v0")))  # and it changes things
 
@@ -548,8 +622,9 @@ def test_the_consumer_technique_is_the_consumer_preset():
 
 
 def test_an_unregistered_technique_object_and_the_vector_env():
-    tech = Technique("mine", "smooth on consumer", "consumer_mems",
-                     EstimatorConfig(locomotion="smooth"))  # fmt: skip
+    tech = Technique(
+        "mine", "smooth on consumer", "consumer_mems", EstimatorConfig(locomotion="smooth")
+    )
     env = gym.make("VRLoco-Approach-v0", technique=tech)
     assert env.unwrapped.technique == "mine"
     envs = gym.make_vec("VRLoco-Approach-v0", num_envs=2, technique=tech)
@@ -563,17 +638,25 @@ def test_an_unregistered_technique_object_and_the_vector_env():
     [
         ({"technique": "vqf", "estimators": EstimatorConfig()}, "contradicts technique='vqf'"),
         ({"technique": "zhang2021", "sensor_preset": "consumer_mems"}, "contradicts technique"),
-        ({"technique": "zhang2021_consumer", "sensors": SensorConfig(imu="ig500n")},
-         "sensors.imu='ig500n' contradicts technique='zhang2021_consumer'"),
-        ({"sensors": SensorConfig(imu="ig500n"), "technique": "zhang2021_consumer"},
-         "sensors.imu='ig500n' contradicts technique='zhang2021_consumer'"),
+        (
+            {"technique": "zhang2021_consumer", "sensors": SensorConfig(imu="ig500n")},
+            "sensors.imu='ig500n' contradicts technique='zhang2021_consumer'",
+        ),
+        (
+            {"sensors": SensorConfig(imu="ig500n"), "technique": "zhang2021_consumer"},
+            "sensors.imu='ig500n' contradicts technique='zhang2021_consumer'",
+        ),
         ({"technique": "zhang2021_consumer", "sensors": SensorConfig(imu_rate_hz=200.0)}, None),
         ({"technique": "smooth", "locomotion": "eq17"}, "locomotion='eq17' contradicts"),
-        ({"sensors": SensorConfig(imu="consumer_mems"), "sensor_preset": "ig500n"},
-         "sensor_preset='ig500n' contradicts"),
+        (
+            {"sensors": SensorConfig(imu="consumer_mems"), "sensor_preset": "ig500n"},
+            "sensor_preset='ig500n' contradicts",
+        ),
         ({"technique": "nope"}, "technique='nope': unknown; valid names: zhang2021"),
-        ({"config": EnvConfig(motion=MotionParams(imu_rate_hz=200.0))},
-         "MotionParams.imu_rate_hz=200.0 contradicts SensorConfig.imu_rate_hz"),
+        (
+            {"config": EnvConfig(motion=MotionParams(imu_rate_hz=200.0))},
+            "MotionParams.imu_rate_hz=200.0 contradicts SensorConfig.imu_rate_hz",
+        ),
     ],
 )
 def test_contradicting_arguments_are_an_error(kwargs, message):
@@ -589,8 +672,11 @@ def test_contradicting_arguments_are_an_error(kwargs, message):
 def test_motion_params_follow_the_sensors_without_overwriting_a_choice():
     env = gym.make("VRLoco-Approach-v0", sensors=SensorConfig(imu_rate_hz=200.0))
     assert env.unwrapped.core.users.motion_params.imu_rate_hz == 200.0
-    env = gym.make("VRLoco-Approach-v0", sensors=SensorConfig(imu_rate_hz=200.0),
-                   config=EnvConfig(motion=MotionParams(imu_rate_hz=200.0)))  # fmt: skip
+    env = gym.make(
+        "VRLoco-Approach-v0",
+        sensors=SensorConfig(imu_rate_hz=200.0),
+        config=EnvConfig(motion=MotionParams(imu_rate_hz=200.0)),
+    )
     assert env.unwrapped.core.users.motion_params.imu_rate_hz == 200.0
 
 
@@ -614,10 +700,13 @@ def test_torso_steering_walks_straight_while_the_head_looks_around():
         positions = []
         for _ in range(80):
             intent = Intent(
-                cadence=np.full(3, 1.8), turn_rate=np.zeros(3), hand_rates=np.zeros((3, 3)),
+                cadence=np.full(3, 1.8),
+                turn_rate=np.zeros(3),
+                hand_rates=np.zeros((3, 3)),
                 gesture_amplitude=np.tile([np.deg2rad(35.0), 0.0, 0.0], (3, 1)),
-                gesture_frequency=np.tile([0.3, 0.3, 0.3], (3, 1)), lean=np.zeros(3),
-            )  # fmt: skip
+                gesture_frequency=np.tile([0.3, 0.3, 0.3], (3, 1)),
+                lean=np.zeros(3),
+            )
             position = position + users.step(intent).displacement
             positions.append(position)
         path = np.diff(np.array(positions), axis=0)  # (T, B, 2)

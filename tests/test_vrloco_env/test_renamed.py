@@ -38,8 +38,9 @@ def test_an_old_technique_name_warns_and_runs_the_new_technique(old, new):
         assert r1 == r2
 
 
-@pytest.mark.parametrize(("field", "old", "new"), [("steps", "seed000", "zhang2021"),
-                                                   ("hand", "seed003", "yao2023")])  # fmt: skip
+@pytest.mark.parametrize(
+    ("field", "old", "new"), [("steps", "seed000", "zhang2021"), ("hand", "seed003", "yao2023")]
+)
 def test_an_old_stage_name_warns_and_becomes_the_new_one(field, old, new):
     with pytest.warns(DeprecationWarning, match=f"'{old}' is now called '{new}'"):
         config = EstimatorConfig(**{field: old})

@@ -25,8 +25,14 @@ def _room_tuples(path: str) -> bool:
 
 
 def _env(task: str, technique: str, population: str | None, **kw) -> VRLocoVectorEnv:
-    return VRLocoVectorEnv(B, task=task, technique=technique, population=population,
-                           autoreset_mode=AutoresetMode.DISABLED, **kw)  # fmt: skip
+    return VRLocoVectorEnv(
+        B,
+        task=task,
+        technique=technique,
+        population=population,
+        autoreset_mode=AutoresetMode.DISABLED,
+        **kw,
+    )
 
 
 def _check_kept_users_go_on(task: str, technique: str, population: str | None) -> None:
@@ -60,8 +66,9 @@ def _check_kept_users_go_on(task: str, technique: str, population: str | None) -
         for k, (w, c) in enumerate(zip(out_w[:4], out_k[:4], strict=True)):
             np.testing.assert_array_equal(w[sel], c, err_msg=f"step {t}, output {k}")
         for key, w in out_w[4].items():
-            np.testing.assert_array_equal(np.asarray(w)[sel], out_k[4][key],
-                                          err_msg=f"step {t}, info {key}")  # fmt: skip
+            np.testing.assert_array_equal(
+                np.asarray(w)[sel], out_k[4][key], err_msg=f"step {t}, info {key}"
+            )
 
 
 @pytest.mark.parametrize("task", ["approach", "avoid", "doorway", "interact", "reach"])

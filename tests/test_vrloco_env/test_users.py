@@ -28,12 +28,15 @@ def test_hand_relative_to_torso_removes_the_torso_heading(rng):
     # by minus the torso's heading (that of the left-to-right shoulder line, -90 deg), so the
     # ZYX yaw drops by the heading and pitch and roll stay.
     b = 200
-    ypr = np.stack([rng.uniform(-np.pi, np.pi, b), rng.uniform(-1.4, 1.4, b),
-                    rng.uniform(-np.pi, np.pi, b)], axis=-1)  # fmt: skip
+    ypr = np.stack(
+        [rng.uniform(-np.pi, np.pi, b), rng.uniform(-1.4, 1.4, b), rng.uniform(-np.pi, np.pi, b)],
+        axis=-1,
+    )
     heading = rng.uniform(-np.pi, np.pi, b)
     right = rng.normal(size=(b, 3))
-    left = right + np.stack([np.cos(heading + np.pi / 2), np.sin(heading + np.pi / 2),
-                             rng.normal(0.0, 0.1, b)], axis=-1)  # fmt: skip
+    left = right + np.stack(
+        [np.cos(heading + np.pi / 2), np.sin(heading + np.pi / 2), rng.normal(0.0, 0.1, b)], axis=-1
+    )
     valid = rng.random(b) > 0.1
     left[3, 1] = np.nan
     identity = np.array([1.0, 0.0, 0.0, 0.0])
@@ -51,8 +54,9 @@ def test_hand_error_is_the_rotation_angle_between_the_orientations():
     est = rng.uniform(-np.pi, np.pi, (50, 3))
     est[::7] = np.nan
     target = rng.uniform(-1, 1, (50, 3))
-    q = rot.quat_multiply(rot.quat_conjugate(rot.quat_from_ypr(target)),
-                          rot.quat_from_ypr(np.nan_to_num(est)))  # fmt: skip
+    q = rot.quat_multiply(
+        rot.quat_conjugate(rot.quat_from_ypr(target)), rot.quat_from_ypr(np.nan_to_num(est))
+    )
     truth = np.where(np.isnan(est[:, 0]), np.nan, rot.rotation_angle(q))
     np.testing.assert_allclose(hand_error(est, target), truth, atol=1e-12)
     assert np.isnan(hand_error(est, target)[0])

@@ -77,8 +77,9 @@ def test_disabled_autoreset_leaves_resets_to_the_caller_with_a_mask():
 
     from vrloco_env.vector import VRLocoVectorEnv
 
-    envs = VRLocoVectorEnv(3, task="avoid", max_episode_steps=4,
-                           autoreset_mode=AutoresetMode.DISABLED)  # fmt: skip
+    envs = VRLocoVectorEnv(
+        3, task="avoid", max_episode_steps=4, autoreset_mode=AutoresetMode.DISABLED
+    )
     assert envs.metadata["autoreset_mode"] is AutoresetMode.DISABLED
     envs.reset(seed=[7, 8, 9])
     for _ in range(4):
@@ -104,11 +105,17 @@ def test_reset_options_of_a_wrong_type_or_key_are_one_clear_error():
     envs = VRLocoVectorEnv(2, task="avoid")
     envs.reset(seed=0)
     for bad in ([True, False], "reset_mask", 3):
-        with pytest.raises(ValueError, match=r"options=.*: must be None or a dict \(key "
-                                             r"'reset_mask': a boolean array of shape \(2,\)\)"):
+        with pytest.raises(
+            ValueError,
+            match=r"options=.*: must be None or a dict \(key "
+            r"'reset_mask': a boolean array of shape \(2,\)\)",
+        ):
             envs.reset(options=bad)
-    with pytest.raises(ValueError, match=r"options: unknown key\(s\) 'mask'; the one option is "
-                                         r"'reset_mask'"):  # fmt: skip
+    with pytest.raises(
+        ValueError,
+        match=r"options: unknown key\(s\) 'mask'; the one option is "
+        r"'reset_mask'",
+    ):
         envs.reset(options={"mask": np.ones(2, bool)})
     obs, _ = envs.reset(seed=5, options={})  # an empty dict is no option
     np.testing.assert_array_equal(obs, VRLocoVectorEnv(2, task="avoid").reset(seed=5)[0])

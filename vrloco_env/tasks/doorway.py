@@ -131,8 +131,18 @@ class Doorway(Task):
     description = "pass a sequence of doorways 0.8-1.2 m wide, collision-free"
     collision_free_success = True
     Config = DoorwayConfig
-    per_user_fields = (*Task.per_user_fields, "door_x", "door_y", "door_w", "through_x", "aim",
-                       "rest", "avatar_radius", "passed", "position")  # fmt: skip
+    per_user_fields = (
+        *Task.per_user_fields,
+        "door_x",
+        "door_y",
+        "door_w",
+        "through_x",
+        "aim",
+        "rest",
+        "avatar_radius",
+        "passed",
+        "position",
+    )
 
     def __init__(self, batch_size: int, dt: float, config: Any = None) -> None:
         super().__init__(batch_size, dt, config)
@@ -190,10 +200,14 @@ class Doorway(Task):
 
     def fields(self) -> tuple[Field, ...]:
         return (
-            Field("waypoint_distance", scale=MAX_GOAL_DISTANCE, unit="m",
-                  doc="distance from the virtual body to the next doorway's aim point (then "
-                  "to the goal region)"),
-        )  # fmt: skip
+            Field(
+                "waypoint_distance",
+                scale=MAX_GOAL_DISTANCE,
+                unit="m",
+                doc="distance from the virtual body to the next doorway's aim point (then "
+                "to the goal region)",
+            ),
+        )
 
     def observe(self, user_step: Any, fresh: NDArray[np.bool_]) -> dict[str, NDArray]:
         k, point = self._next(self.position)

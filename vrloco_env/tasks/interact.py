@@ -103,11 +103,16 @@ class Interact(Task):
 
     def fields(self) -> tuple[Field, ...]:
         return (
-            Field("hand_error", ("hand_error_yaw", "hand_error_pitch", "hand_error_roll"),
-                  math.pi, "rad", "target minus estimated hand [yaw, pitch, roll] (0 without "
-                  "estimate; the target itself just after a reset)"),
+            Field(
+                "hand_error",
+                ("hand_error_yaw", "hand_error_pitch", "hand_error_roll"),
+                math.pi,
+                "rad",
+                "target minus estimated hand [yaw, pitch, roll] (0 without "
+                "estimate; the target itself just after a reset)",
+            ),
             Field("dwell", doc="fraction of the dwell time held so far"),
-        )  # fmt: skip
+        )
 
     def observe(self, user_step: Any, fresh: NDArray[np.bool_]) -> dict[str, Any]:
         target = self.hand_target

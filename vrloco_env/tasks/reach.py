@@ -95,8 +95,13 @@ class Reach(Interact):
     description = "stop 0.3-0.8 m from the pedestal without touching it, hold the hand on target"
     collision_free_success = True
     Config = ReachConfig
-    per_user_fields = (*Interact.per_user_fields, "pedestal", "pedestal_axes", "avatar_radius",
-                       "position")  # fmt: skip
+    per_user_fields = (
+        *Interact.per_user_fields,
+        "pedestal",
+        "pedestal_axes",
+        "avatar_radius",
+        "position",
+    )
 
     def __init__(self, batch_size: int, dt: float, config: Any = None) -> None:
         super().__init__(batch_size, dt, config)

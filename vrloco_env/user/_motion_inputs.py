@@ -57,9 +57,18 @@ _TORSO_OFFSET_ARRAY = np.array(list(_TORSO_OFFSETS.values()))
 _HEAD_OFFSET = np.array([0.02, 0.0, 0.10])  # head centre from the neck pivot, head frame
 #: Legs (left, right) x (hip, knee, ankle, foot) at rest, and the change at full knee lift.
 _LEG_JOINTS = np.array(
-    [Joint.HIP_LEFT, Joint.KNEE_LEFT, Joint.ANKLE_LEFT, Joint.FOOT_LEFT,
-     Joint.HIP_RIGHT, Joint.KNEE_RIGHT, Joint.ANKLE_RIGHT, Joint.FOOT_RIGHT], dtype=np.intp,
-)  # fmt: skip
+    [
+        Joint.HIP_LEFT,
+        Joint.KNEE_LEFT,
+        Joint.ANKLE_LEFT,
+        Joint.FOOT_LEFT,
+        Joint.HIP_RIGHT,
+        Joint.KNEE_RIGHT,
+        Joint.ANKLE_RIGHT,
+        Joint.FOOT_RIGHT,
+    ],
+    dtype=np.intp,
+)
 _LEG_REST = np.array(
     [[[0.0, y, -0.60], [0.0, y, -1.05], [0.0, y, -1.47], [0.12, y, -1.53]] for y in (0.09, -0.09)]
 )
@@ -86,16 +95,34 @@ def _record(base: NDArray | None = None, **values: ArrayLike) -> NDArray:
 #: The body geometry :data:`vrloco_env.user._motion_numba.skeleton_kernel` reads: torso-frame
 #: offsets (m) and the Kinect joints they place.
 _BODY = _record(
-    torso_offsets=_TORSO_OFFSET_ARRAY, torso_joints=_TORSO_JOINTS, head_offset=_HEAD_OFFSET,
-    head_joint=int(Joint.HEAD), leg_rest=_LEG_REST, leg_lift=_LEG_LIFT, leg_joints=_LEG_JOINTS,
-    floor_z=_FLOOR_CLEARANCE, forearm=_FOREARM, elbow_right=int(Joint.ELBOW_RIGHT),
-    wrist_right=int(Joint.WRIST_RIGHT), hand_offsets=_HAND_OFFSETS, hand_joints=_HAND_JOINTS,
-)  # fmt: skip
+    torso_offsets=_TORSO_OFFSET_ARRAY,
+    torso_joints=_TORSO_JOINTS,
+    head_offset=_HEAD_OFFSET,
+    head_joint=int(Joint.HEAD),
+    leg_rest=_LEG_REST,
+    leg_lift=_LEG_LIFT,
+    leg_joints=_LEG_JOINTS,
+    floor_z=_FLOOR_CLEARANCE,
+    forearm=_FOREARM,
+    elbow_right=int(Joint.ELBOW_RIGHT),
+    wrist_right=int(Joint.WRIST_RIGHT),
+    hand_offsets=_HAND_OFFSETS,
+    hand_joints=_HAND_JOINTS,
+)
 
 #: MotionParams fields :data:`vrloco_env.user._motion_numba.evaluate_kernel` does not read.
-_UNREAD_PARAMS = ("imu_rate_hz", "kinect_rate_hz", "control_rate_hz", "max_turn_rate",
-                  "max_hand_rate", "sway_roll_deg", "style_spread", "overground", "stride_m",
-                  "speed_lag_s")  # fmt: skip
+_UNREAD_PARAMS = (
+    "imu_rate_hz",
+    "kinect_rate_hz",
+    "control_rate_hz",
+    "max_turn_rate",
+    "max_hand_rate",
+    "sway_roll_deg",
+    "style_spread",
+    "overground",
+    "stride_m",
+    "speed_lag_s",
+)
 
 
 def _kernel_params(p: MotionParams) -> NDArray:
@@ -103,11 +130,16 @@ def _kernel_params(p: MotionParams) -> NDArray:
     fields of ``p`` it reads under their names, the sway roll in rad, gravity (m/s^2) and the
     heel-strike pulse's position weights ``pulse_pos`` with their value at a step boundary."""
     scalars = param_record(
-        p, exclude=_UNREAD_PARAMS, sway_roll=float(np.deg2rad(p.sway_roll_deg)),
-        gravity=rot.GRAVITY, pulse_z0=_PULSE_Z0,
-    )  # fmt: skip
+        p,
+        exclude=_UNREAD_PARAMS,
+        sway_roll=float(np.deg2rad(p.sway_roll_deg)),
+        gravity=rot.GRAVITY,
+        pulse_z0=_PULSE_Z0,
+    )
     return _record(
-        scalars, cadence_range_hz=np.asarray(p.cadence_range_hz, dtype=np.float64),
+        scalars,
+        cadence_range_hz=np.asarray(p.cadence_range_hz, dtype=np.float64),
         peak_accel_g=np.asarray(p.peak_accel_g, dtype=np.float64),
-        imu_offset_m=np.asarray(p.imu_offset_m, dtype=np.float64), pulse_pos=_PULSE_POS,
-    )  # fmt: skip
+        imu_offset_m=np.asarray(p.imu_offset_m, dtype=np.float64),
+        pulse_pos=_PULSE_POS,
+    )

@@ -33,27 +33,57 @@ from estimators.kernels.rotations import quat_from_ypr, quat_rotate
 #: the user's style factors (step impact, sway), the overground walking speed (m/s; 0 in place)
 #: and the head-on-torso yaw (rad) and its rate (rad/s).
 STATE = {
-    "phase": (), "step_cadence": (), "yaw": (), "yaw_rate": (), "gesture_amp": (3,),
-    "gesture_amp_rate": (3,), "gesture_phase": (3,), "lean": (), "lean_rate": (),
-    "hand_ypr": (3,), "base": (2,), "impact_scale": (), "sway_scale": (), "speed": (),
-    "head_yaw": (), "head_yaw_rate": (),
-}  # fmt: skip
+    "phase": (),
+    "step_cadence": (),
+    "yaw": (),
+    "yaw_rate": (),
+    "gesture_amp": (3,),
+    "gesture_amp_rate": (3,),
+    "gesture_phase": (3,),
+    "lean": (),
+    "lean_rate": (),
+    "hand_ypr": (3,),
+    "base": (2,),
+    "impact_scale": (),
+    "sway_scale": (),
+    "speed": (),
+    "head_yaw": (),
+    "head_yaw_rate": (),
+}
 
 #: Planes of :data:`evaluate_kernel`'s per-time outputs ``scalars`` (S, B, T) and ``vectors`` (V, B,
 #: T, 3), by name: step phase, cadence (steps/s), body yaw (rad) and rate (rad/s), lean (rad) and
 #: rate (rad/s), head-on-torso yaw (rad) and rate (rad/s); head [yaw, pitch, roll] (rad) and their
 #: rates (rad/s), the head's body-frame rate (rad/s), neck pivot and IMU position (m), gesture
 #: amplitudes (rad), their rates (rad/s) and phases (rad).
-SCALARS = ("phase", "cadence", "yaw", "yaw_rate", "lean", "lean_rate", "head_yaw",
-           "head_yaw_rate")  # fmt: skip
-VECTORS = ("head_ypr", "d_head_ypr", "omega", "neck", "imu_pos", "gesture_amp",
-           "gesture_amp_rate", "g_phase")  # fmt: skip
+SCALARS = ("phase", "cadence", "yaw", "yaw_rate", "lean", "lean_rate", "head_yaw", "head_yaw_rate")
+VECTORS = (
+    "head_ypr",
+    "d_head_ypr",
+    "omega",
+    "neck",
+    "imu_pos",
+    "gesture_amp",
+    "gesture_amp_rate",
+    "g_phase",
+)
 S_PHASE, S_CADENCE, S_YAW, S_YAW_RATE, S_LEAN, S_LEAN_RATE, S_HEAD, S_HEAD_RATE = map(
-    SCALARS.index, ("phase", "cadence", "yaw", "yaw_rate", "lean", "lean_rate", "head_yaw",
-                    "head_yaw_rate"))  # fmt: skip
-V_YPR, V_D_YPR, V_OMEGA, V_NECK, V_IMU, V_GAMP, V_GAMP_RATE, V_GPHASE = map(VECTORS.index, (
-    "head_ypr", "d_head_ypr", "omega", "neck", "imu_pos", "gesture_amp", "gesture_amp_rate",
-    "g_phase"))  # fmt: skip
+    SCALARS.index,
+    ("phase", "cadence", "yaw", "yaw_rate", "lean", "lean_rate", "head_yaw", "head_yaw_rate"),
+)
+V_YPR, V_D_YPR, V_OMEGA, V_NECK, V_IMU, V_GAMP, V_GAMP_RATE, V_GPHASE = map(
+    VECTORS.index,
+    (
+        "head_ypr",
+        "d_head_ypr",
+        "omega",
+        "neck",
+        "imu_pos",
+        "gesture_amp",
+        "gesture_amp_rate",
+        "g_phase",
+    ),
+)
 
 _TWO_PI = 2.0 * math.pi
 
@@ -107,8 +137,9 @@ def _sway(p, phase, cad, scale):
     s3 = sin_p * sin_p * sin_p
     sway = p["sway_m"] * scale * s3
     roll = p["sway_roll"] * scale * s3
-    d_roll = (p["sway_roll"] * scale * 3.0 * sin_p * sin_p * math.cos(math.pi * phase) * math.pi
-              * cad)  # fmt: skip
+    d_roll = (
+        p["sway_roll"] * scale * 3.0 * sin_p * sin_p * math.cos(math.pi * phase) * math.pi * cad
+    )
     return sway, roll, d_roll
 
 
@@ -127,8 +158,9 @@ def _gestures(s, amp_cmd, freq, lag, tt, row):
     oscillation phases; and into the head-angle rows the gesture angles ``amp sin(phase)`` (rad)
     and their rates (rad/s), to which the body's angles are added after."""
     for a in range(3):
-        ga, dga = _critically_damped(s["gesture_amp"][a], s["gesture_amp_rate"][a], amp_cmd[a],
-                                     lag, tt)  # fmt: skip
+        ga, dga = _critically_damped(
+            s["gesture_amp"][a], s["gesture_amp_rate"][a], amp_cmd[a], lag, tt
+        )
         om = _TWO_PI * freq[a]
         gp = s["gesture_phase"][a] + om * tt
         sg, cg = math.sin(gp), math.cos(gp)
@@ -161,8 +193,21 @@ def _set3(out, x, y, z):
     out[2] = z
 
 
-def _evaluate(state, cadence, turn_rate, gesture_amplitude, gesture_frequency, lean, head_yaw,
-              prm, tau, t_boundary, scalars, vectors, quat):  # fmt: skip
+def _evaluate(
+    state,
+    cadence,
+    turn_rate,
+    gesture_amplitude,
+    gesture_frequency,
+    lean,
+    head_yaw,
+    prm,
+    tau,
+    t_boundary,
+    scalars,
+    vectors,
+    quat,
+):
     """Head and body of B users at the times ``tau`` (T,) s after the control step's start.
 
     Args:
@@ -192,8 +237,9 @@ def _evaluate(state, cadence, turn_rate, gesture_amplitude, gesture_frequency, l
             row = vectors[:, b, t]
             _gestures(s, gesture_amplitude[b], gesture_frequency[b], lag, tt, row)
             ln, d_ln = _critically_damped(s["lean"], s["lean_rate"], lean[b], lag, tt)
-            hy, d_hy = _critically_damped(s["head_yaw"], s["head_yaw_rate"], head_yaw[b],
-                                          p["head_turn_lag_s"], tt)  # fmt: skip
+            hy, d_hy = _critically_damped(
+                s["head_yaw"], s["head_yaw_rate"], head_yaw[b], p["head_turn_lag_s"], tt
+            )
             # Head angles and their rates: body yaw, lean and sway roll plus the gestures, and
             # the head-on-torso yaw (added only where it moves, so a straight head leaves the
             # sums bit for bit as they were without it).

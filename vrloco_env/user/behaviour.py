@@ -70,8 +70,9 @@ GOAL, GLANCE, SCAN, HAND = 0, 1, 2, 3
 _DONE = 1e-9  # s: a timer this close to 0 has run out (sums of dt carry rounding)
 
 
-def _hinge(gaze: NDArray[np.float64], eye: NDArray[np.float64],
-           limit: float) -> NDArray[np.float64]:  # fmt: skip
+def _hinge(
+    gaze: NDArray[np.float64], eye: NDArray[np.float64], limit: float
+) -> NDArray[np.float64]:
     """The head's part of a gaze direction on the torso (rad): the eyes take the first ``eye``,
     the head the rest, within +-``limit``."""
     head = np.sign(gaze) * np.maximum(np.abs(gaze) - eye, 0.0)
@@ -97,22 +98,38 @@ class GazeBehaviour(TakesUsers):
     """
 
     # each user's drawn behaviour and gaze state (the random streams belong to the core)
-    per_user_fields = ("values", "mode", "_timer", "_scan_dir", "_nod_left", "_elapsed",
-                       "_stride_hz", "head_target", "_cmd", "_cmd_rate")
+    per_user_fields = (
+        "values",
+        "mode",
+        "_timer",
+        "_scan_dir",
+        "_nod_left",
+        "_elapsed",
+        "_stride_hz",
+        "head_target",
+        "_cmd",
+        "_cmd_rate",
+    )
     batch_size_field = "batch_size"
 
     def __init__(
-        self, population: str | Population, rng: BatchRng, dt: float, ray_offsets: ArrayLike,
-        max_turn_rate: float = MotionParams.max_turn_rate, walk_in_place: bool = True,
-    ) -> None:  # fmt: skip
+        self,
+        population: str | Population,
+        rng: BatchRng,
+        dt: float,
+        ray_offsets: ArrayLike,
+        max_turn_rate: float = MotionParams.max_turn_rate,
+        walk_in_place: bool = True,
+    ) -> None:
         self.population = get_population(population)
         if not isinstance(rng, BatchRng):
             raise TypeError(f"rng must be a BatchRng, got {type(rng).__name__}")
         if not (isinstance(dt, int | float) and 0.0 < dt <= 10.0):
             raise ValueError(f"GazeBehaviour dt={dt!r}: must be in (0, 10] s")
         if not (isinstance(max_turn_rate, int | float) and 0.0 < max_turn_rate <= 2 * np.pi):
-            raise ValueError(f"GazeBehaviour max_turn_rate={max_turn_rate!r}: must be in "
-                             "(0, 2 pi] rad/s")  # fmt: skip
+            raise ValueError(
+                f"GazeBehaviour max_turn_rate={max_turn_rate!r}: must be in (0, 2 pi] rad/s"
+            )
         self.rng, self.dt = rng, float(dt)
         self.max_turn_rate, self.walk_in_place = float(max_turn_rate), bool(walk_in_place)
         self.ray_offsets = np.asarray(ray_offsets, dtype=np.float64)
@@ -228,13 +245,17 @@ class GazeBehaviour(TakesUsers):
         # Walking, a look or glance turns the head at most walking_head_deg from the goal's.
         at_goal = _hinge(goal_dir, eye, self._max_head)
         away = stepping & ((self.mode == GLANCE) | (self.mode == SCAN))
-        head = np.where(away, np.clip(head, at_goal - self._walk_head, at_goal + self._walk_head),
-                        head)  # fmt: skip
+        head = np.where(
+            away, np.clip(head, at_goal - self._walk_head, at_goal + self._walk_head), head
+        )
         seen = self._elapsed >= v["gaze_onset_s"] - 1e-9
         self._elapsed += dt
         self.head_target = np.where(seen, head, 0.0) if p.gaze else np.zeros(b)
-        head = self._turn_head(self.head_target, np.deg2rad(v["head_accel_deg_s2"])) if p.gaze \
-            else np.zeros(b)  # fmt: skip
+        head = (
+            self._turn_head(self.head_target, np.deg2rad(v["head_accel_deg_s2"]))
+            if p.gaze
+            else np.zeros(b)
+        )
 
         # Nod bouts.
         self._nod_left = np.maximum(self._nod_left - dt, 0.0)
@@ -261,8 +282,11 @@ class GazeBehaviour(TakesUsers):
         turn_rate = intent.turn_rate
         if self.walk_in_place and p.wip_turn_deg_per_step != (0.0, 0.0):
             drift = turning_drift(v["wip_turn_deg_per_step"], cadence)  # 0 standing
-            turn_rate = np.clip(np.asarray(turn_rate, dtype=np.float64) + drift,
-                                -self.max_turn_rate, self.max_turn_rate)  # fmt: skip
+            turn_rate = np.clip(
+                np.asarray(turn_rate, dtype=np.float64) + drift,
+                -self.max_turn_rate,
+                self.max_turn_rate,
+            )
         return Intent(
             cadence=intent.cadence,
             turn_rate=turn_rate,
@@ -273,8 +297,9 @@ class GazeBehaviour(TakesUsers):
             head_yaw=head,
         )
 
-    def _turn_head(self, target: NDArray[np.float64],
-                   accel: NDArray[np.float64]) -> NDArray[np.float64]:  # fmt: skip
+    def _turn_head(
+        self, target: NDArray[np.float64], accel: NDArray[np.float64]
+    ) -> NDArray[np.float64]:
         """The head-on-torso yaw commanded this step (rad), moved toward ``target`` with peak
         angular acceleration ``accel`` (rad/s^2): its rate changes by at most ``accel * dt`` per
         step, no faster than it can still stop on the target, so that a turn of amplitude A
@@ -283,8 +308,9 @@ class GazeBehaviour(TakesUsers):
         dt, x, rate = self.dt, self._cmd, self._cmd_rate
         err = target - x
         # the fastest rate from which steps of falling rate (by accel * dt) stop within err
-        brake = np.sign(err) * accel * (np.sqrt(0.25 * dt * dt + 2.0 * np.abs(err) / accel)
-                                        - 0.5 * dt)  # fmt: skip
+        brake = (
+            np.sign(err) * accel * (np.sqrt(0.25 * dt * dt + 2.0 * np.abs(err) / accel) - 0.5 * dt)
+        )
         rate = rate + np.clip(brake - rate, -accel * dt, accel * dt)
         step = rate * dt
         arrive = (np.abs(step) >= np.abs(err)) & (step * err >= 0.0)

@@ -246,12 +246,15 @@ class UserMotion(TakesUsers):
             raise ValueError(
                 f"Intent.cadence={float(c[bad][0])!r}: must be 0 (stand) or in [{lo}, {hi}] steps/s"
             )
-        _check_range(out["turn_rate"], -p.max_turn_rate, p.max_turn_rate, "Intent.turn_rate",
-                     "rad/s")  # fmt: skip
-        _check_range(out["hand_rates"], -p.max_hand_rate, p.max_hand_rate, "Intent.hand_rates",
-                     "rad/s")  # fmt: skip
-        _check_range(out["gesture_amplitude"], 0.0, np.deg2rad(80.0), "Intent.gesture_amplitude",
-                     "rad")  # fmt: skip
+        _check_range(
+            out["turn_rate"], -p.max_turn_rate, p.max_turn_rate, "Intent.turn_rate", "rad/s"
+        )
+        _check_range(
+            out["hand_rates"], -p.max_hand_rate, p.max_hand_rate, "Intent.hand_rates", "rad/s"
+        )
+        _check_range(
+            out["gesture_amplitude"], 0.0, np.deg2rad(80.0), "Intent.gesture_amplitude", "rad"
+        )
         _check_range(out["gesture_frequency"], 0.0, 3.0, "Intent.gesture_frequency", "Hz")
         _check_range(out["lean"], -np.deg2rad(45.0), np.deg2rad(45.0), "Intent.lean", "rad")
         _check_range(out["head_yaw"], -MAX_HEAD_YAW, MAX_HEAD_YAW, "Intent.head_yaw", "rad")
@@ -270,11 +273,20 @@ class UserMotion(TakesUsers):
         quat = np.empty((b, t, 4))
         t_boundary = np.empty(b)
         evaluate_kernel(b)(
-            s.rec, cmd["cadence"], cmd["turn_rate"], cmd["gesture_amplitude"],
-            cmd["gesture_frequency"], cmd["lean"], cmd["head_yaw"], self._kernel_params, tau,
-            t_boundary, scalars,
-            vectors, quat,
-        )  # fmt: skip
+            s.rec,
+            cmd["cadence"],
+            cmd["turn_rate"],
+            cmd["gesture_amplitude"],
+            cmd["gesture_frequency"],
+            cmd["lean"],
+            cmd["head_yaw"],
+            self._kernel_params,
+            tau,
+            t_boundary,
+            scalars,
+            vectors,
+            quat,
+        )
         out = dict(zip(SCALARS, scalars, strict=True))
         out.update(zip(VECTORS, vectors, strict=True))
         out["quat"] = quat
@@ -390,8 +402,10 @@ class UserMotion(TakesUsers):
         vc = (p.stride_m * cmd["cadence"])[:, None, None]
         speed = vc + (v0 - vc) * np.exp(-tq / p.speed_lag_s)  # (B, T, Q)
         r0, rc = s.yaw_rate[:, None, None], cmd["turn_rate"][:, None, None]
-        yaw = s.yaw[:, None, None] + rc * tq + (r0 - rc) * p.turn_lag_s * (
-            1.0 - np.exp(-tq / p.turn_lag_s)
+        yaw = (
+            s.yaw[:, None, None]
+            + rc * tq
+            + (r0 - rc) * p.turn_lag_s * (1.0 - np.exp(-tq / p.turn_lag_s))
         )
         w = 0.5 * t_all[None, :, None] * _GL_WEIGHTS * speed  # (B, T, Q)
         off = np.stack([(w * np.cos(yaw)).sum(-1), (w * np.sin(yaw)).sum(-1)], -1)  # (B, T, 2)
@@ -414,8 +428,9 @@ class UserMotion(TakesUsers):
         if times is None:
             n, h = p.samples_per_step, _DIFF_H
             tau = np.arange(1, n + 1) / p.imu_rate_hz
-            times = np.concatenate([tau - h, tau, tau + h, tau[-1] - np.array([2 * h, h, 0.0]),
-                                    tau_k])  # fmt: skip
+            times = np.concatenate(
+                [tau - h, tau, tau + h, tau[-1] - np.array([2 * h, h, 0.0]), tau_k]
+            )
             self._grids[key] = times
         return tau_k, t_k, times
 
@@ -439,19 +454,30 @@ class UserMotion(TakesUsers):
         ypr = s.hand_ypr[:, None, :] + cmd["hand_rates"][:, None, :] * tau[None, :, None]
         return np.minimum(np.maximum(ypr, -lim), lim)
 
-    def _skeleton(self, s: _State, cmd: dict, ev: dict, tau: NDArray[np.float64],
-                  t_abs: NDArray[np.float64]) -> KinectChunk:  # fmt: skip
+    def _skeleton(
+        self, s: _State, cmd: dict, ev: dict, tau: NDArray[np.float64], t_abs: NDArray[np.float64]
+    ) -> KinectChunk:
         """True Kinect v2 skeleton (world frame) at times ``tau`` after the step start, from the
         body evaluated at those times (``ev``)."""
         b, m = self.batch_size, tau.shape[0]
         if m == 0:
-            return KinectChunk(t_abs, np.zeros((b, 0, NUM_JOINTS, 3)), np.zeros((b, 0, 4)),
-                               np.zeros((b, 0, 3)))  # fmt: skip
+            return KinectChunk(
+                t_abs, np.zeros((b, 0, NUM_JOINTS, 3)), np.zeros((b, 0, 4)), np.zeros((b, 0, 3))
+            )
         hand_ypr = self._hand_ypr(s, cmd, tau)
         joints = np.empty((b, m, NUM_JOINTS, 3))
         hand_q = np.empty((b, m, 4))
-        skeleton_kernel(b)(ev["neck"], ev["quat"], ev["yaw"], ev["phase"], ev["walking"], hand_ypr,
-                           _BODY, joints, hand_q)  # fmt: skip
+        skeleton_kernel(b)(
+            ev["neck"],
+            ev["quat"],
+            ev["yaw"],
+            ev["phase"],
+            ev["walking"],
+            hand_ypr,
+            _BODY,
+            joints,
+            hand_q,
+        )
         return KinectChunk(t=t_abs, joints=joints, hand_quat=hand_q, hand_ypr=hand_ypr)
 
 

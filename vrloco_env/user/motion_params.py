@@ -75,8 +75,13 @@ class MotionParams:
     def __post_init__(self) -> None:
         check_in_range(self, "imu_rate_hz", 10.0, 1000.0, "Hz")
         check_in_range(self, "kinect_rate_hz", 1.0, 120.0, "Hz")
-        check_in_range(self, "control_rate_hz", 0.5, self.imu_rate_hz,
-                       allowed=f"in [0.5, imu_rate_hz={float(self.imu_rate_hz):g}] Hz")  # fmt: skip
+        check_in_range(
+            self,
+            "control_rate_hz",
+            0.5,
+            self.imu_rate_hz,
+            allowed=f"in [0.5, imu_rate_hz={float(self.imu_rate_hz):g}] Hz",
+        )
         ratio = self.imu_rate_hz / self.control_rate_hz
         whole_samples = abs(ratio - round(ratio)) < 1e-9
         divisor = "a divisor of imu_rate_hz (whole IMU samples per control step)"

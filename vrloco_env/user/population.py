@@ -221,17 +221,25 @@ class Population:
         check_bool(self, "gaze")
         check_bool(self, "variability")
         limits = {
-            "eye_range_deg": (0.0, 45.0, "deg"), "gaze_onset_s": (0.0, 2.0, "s"),
+            "eye_range_deg": (0.0, 45.0, "deg"),
+            "gaze_onset_s": (0.0, 2.0, "s"),
             "head_accel_deg_s2": (10.0, 10000.0, "deg/s^2"),
             "glance_rate_hz": (0.0, 2.0, "Hz"),
-            "glance_s": (0.1, 5.0, "s"), "scan_rate_hz": (0.0, 2.0, "Hz"),
-            "scan_amplitude_deg": (0.0, 120.0, "deg"), "scan_s": (0.1, 10.0, "s"),
-            "scan_looks": (1.0, 20.0, "looks"), "stride_yaw_deg": (0.0, 10.0, "deg"),
-            "look_down_deg": (0.0, 45.0, "deg"), "nod_rate_hz": (0.0, 2.0, "Hz"),
-            "nod_amplitude_deg": (0.0, 30.0, "deg"), "nod_frequency_hz": (0.2, 3.0, "Hz"),
-            "nod_cycles": (0.5, 10.0, "cycles"), "bob_scale": (0.2, 3.0, ""),
-            "wip_drift_mps": (0.0, 0.5, "m/s"), "wip_turn_deg_per_step": (-1.0, 1.0, "deg/step"),
-        }  # fmt: skip
+            "glance_s": (0.1, 5.0, "s"),
+            "scan_rate_hz": (0.0, 2.0, "Hz"),
+            "scan_amplitude_deg": (0.0, 120.0, "deg"),
+            "scan_s": (0.1, 10.0, "s"),
+            "scan_looks": (1.0, 20.0, "looks"),
+            "stride_yaw_deg": (0.0, 10.0, "deg"),
+            "look_down_deg": (0.0, 45.0, "deg"),
+            "nod_rate_hz": (0.0, 2.0, "Hz"),
+            "nod_amplitude_deg": (0.0, 30.0, "deg"),
+            "nod_frequency_hz": (0.2, 3.0, "Hz"),
+            "nod_cycles": (0.5, 10.0, "cycles"),
+            "bob_scale": (0.2, 3.0, ""),
+            "wip_drift_mps": (0.0, 0.5, "m/s"),
+            "wip_turn_deg_per_step": (-1.0, 1.0, "deg/step"),
+        }
         for name, (lo, hi, unit) in limits.items():
             check_numbers(self, name, lo, hi, unit, length=2, ordered=True)
         check_in_range(self, "max_head_yaw_deg", 0.0, 80.0, "deg")
@@ -296,16 +304,32 @@ _TYPICAL_HEAD = dict(
 POPULATIONS: Registry[Population] = Registry("population", kind=Population, also="a Population")
 for _p in (
     Population("idealised", "no head behaviour, no variability: the idealised scripted user"),
-    Population("human", "reaction delay, turn overshoot and cadence variation; head straight",
-               variability=True),
-    Population("typical", "looks at the goal and at what is near, down at the hand; "
-               "occasional looks around and nods", **_TYPICAL_HEAD),
-    Population("gaze_scanners", "head-movers who look around often and widely",
-               **{**_TYPICAL_HEAD, "eye_range_deg": (5.0, 12.0), "scan_rate_hz": (0.06, 0.12),
-                  "scan_amplitude_deg": (20.0, 50.0)}),
-    Population("nodders", "typical gaze with frequent nod bouts",
-               **{**_TYPICAL_HEAD, "nod_rate_hz": (0.1, 0.25)}),
-):  # fmt: skip
+    Population(
+        "human",
+        "reaction delay, turn overshoot and cadence variation; head straight",
+        variability=True,
+    ),
+    Population(
+        "typical",
+        "looks at the goal and at what is near, down at the hand; occasional looks around and nods",
+        **_TYPICAL_HEAD,
+    ),
+    Population(
+        "gaze_scanners",
+        "head-movers who look around often and widely",
+        **{
+            **_TYPICAL_HEAD,
+            "eye_range_deg": (5.0, 12.0),
+            "scan_rate_hz": (0.06, 0.12),
+            "scan_amplitude_deg": (20.0, 50.0),
+        },
+    ),
+    Population(
+        "nodders",
+        "typical gaze with frequent nod bouts",
+        **{**_TYPICAL_HEAD, "nod_rate_hz": (0.1, 0.25)},
+    ),
+):
     POPULATIONS.register(_p.name, _p, _p.description)
 del _p
 

@@ -12,12 +12,25 @@ from vrloco_env.user.motion_records import MotionRecord
 
 __all__ = ["SCRIPTS", "run_script", "script_intents"]
 
-SCRIPTS = ("stand", "serpentine", "pitch", "shake", "spin", "backward", "straight", "avoid",
-           "stand_step_turn")  # fmt: skip
+SCRIPTS = (
+    "stand",
+    "serpentine",
+    "pitch",
+    "shake",
+    "spin",
+    "backward",
+    "straight",
+    "avoid",
+    "stand_step_turn",
+)
 
 
-def script_intents(name: str, params: MotionParams | None = None, cadence: float = 1.7,
-                   duration_s: float | None = None) -> list[Intent]:  # fmt: skip
+def script_intents(
+    name: str,
+    params: MotionParams | None = None,
+    cadence: float = 1.7,
+    duration_s: float | None = None,
+) -> list[Intent]:
     """Intent sequence of one of Zhang 2021's experiments (one :class:`Intent` per control step).
 
     Args:
@@ -88,8 +101,9 @@ def script_intents(name: str, params: MotionParams | None = None, cadence: float
     return seq
 
 
-def run_script(name: str, rng: BatchRng, params: MotionParams | None = None, yaw: float = 0.0,
-               **kwargs) -> MotionRecord:  # fmt: skip
+def run_script(
+    name: str, rng: BatchRng, params: MotionParams | None = None, yaw: float = 0.0, **kwargs
+) -> MotionRecord:
     """Run a scripted sequence (see :func:`script_intents`) for every user of ``rng``."""
     from vrloco_env.user.motion import UserMotion  # motion re-exports this module's names
 

@@ -43,8 +43,32 @@ NUM_JOINTS = len(Joint)
 
 #: Parent of each joint in the kinematic tree (SpineBase is the root, its parent is -1).
 PARENT = (
-    -1, 0, 20, 2, 20, 4, 5, 6, 20, 8, 9, 10, 0, 12, 13, 14, 0, 16, 17, 18, 1, 7, 6, 11, 10,
-)  # fmt: skip
+    -1,
+    0,
+    20,
+    2,
+    20,
+    4,
+    5,
+    6,
+    20,
+    8,
+    9,
+    10,
+    0,
+    12,
+    13,
+    14,
+    0,
+    16,
+    17,
+    18,
+    1,
+    7,
+    6,
+    11,
+    10,
+)
 
 #: Bones as (parent, child) pairs, for drawing.
 BONES = tuple((p, c) for c, p in enumerate(PARENT) if p >= 0)

@@ -90,8 +90,9 @@ class RoomConfig:
             check_in_range(self, name, 0.0, big, "m")
         check_in_range(self, "cylinder_probability", 0.0, 1.0)
         check_in_range(self, "n_obstacles_max", 0, 100, integer=True)
-        check_in_range(self, "n_obstacles_min", 0, self.n_obstacles_max,
-                       "(<= n_obstacles_max)", integer=True)  # fmt: skip
+        check_in_range(
+            self, "n_obstacles_min", 0, self.n_obstacles_max, "(<= n_obstacles_max)", integer=True
+        )
         check_in_range(self, "max_attempts", 1, 1_000_000, integer=True)
         check_numbers(self, "obstacle_size_range", 0.01, 100.0, "m", length=2, ordered=True)
         check_numbers(self, "obstacle_height_range", 0.01, 100.0, "m", length=2, ordered=True)
@@ -115,4 +116,3 @@ class RoomConfig:
                 "< the diagonal of the room (room_width x room_depth) shrunk by keepout_radius "
                 f"on every side, {float(math.hypot(free_w, free_d)):.2f} m",
             )
-

@@ -152,12 +152,12 @@ def _sdf_run(box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, p, out):
     n_rooms, n_pts = p.shape[0], p.shape[1]
     for n in numba.prange(n_rooms):
         for k in range(n_pts):
-            out[n, k] = _sdf_point(box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, n,
-                                   p[n, k, 0], p[n, k, 1])  # fmt: skip
+            out[n, k] = _sdf_point(
+                box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, n, p[n, k, 0], p[n, k, 1]
+            )
 
 
-def _segments_clear_run(box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, a, b, k, thr,
-                        out):  # fmt: skip
+def _segments_clear_run(box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, a, b, k, thr, out):
     """Whether each segment ``a[n, i] -> b[n, i]`` ((N, S, 2) each) of room n keeps a signed
     distance (:func:`_sdf_point`) of at least ``thr`` at its ``k`` (>= 2) evenly spaced samples,
     ends included: ``out`` (N, S). Sample m is ``a + (b - a) * t`` at ``t = m * (1 / (k - 1))``
@@ -171,8 +171,9 @@ def _segments_clear_run(box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, a, b
             ok = True
             for m in range(k):
                 t = 1.0 if m == k - 1 else m * step
-                d = _sdf_point(box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, n,
-                               ax + sx * t, ay + sy * t)  # fmt: skip
+                d = _sdf_point(
+                    box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, n, ax + sx * t, ay + sy * t
+                )
                 if not d >= thr:
                     ok = False
                     break
@@ -222,22 +223,45 @@ def _ray_run(box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, o, u, max_range
     for n in numba.prange(o.shape[0]):
         for k in range(o.shape[1]):
             ox, oy, ux, uy = o[n, k, 0], o[n, k, 1], u[n, k, 0], u[n, k, 1]
-            out[n, k] = _ray_one(box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, n,
-                                 ox, oy, ux, uy, max_range)  # fmt: skip
+            out[n, k] = _ray_one(
+                box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, n, ox, oy, ux, uy, max_range
+            )
 
 
 def _ray_fan_run(
-    box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, positions, headings, offsets, max_range,
+    box_c,
+    box_h,
+    box_cs,
+    box_ok,
+    cyl_c,
+    cyl_r,
+    cyl_ok,
+    positions,
+    headings,
+    offsets,
+    max_range,
     out,
-):  # fmt: skip
+):
     """:func:`_ray_run` for a fan of rays from one point per room: ``headings[n] +
     offsets[k]`` (rad) from ``positions[n]``."""
     for n in numba.prange(positions.shape[0]):
         for k in range(offsets.shape[0]):
             a = headings[n] + offsets[k]
-            out[n, k] = _ray_one(box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, n,
-                                 positions[n, 0], positions[n, 1], math.cos(a), math.sin(a),
-                                 max_range)  # fmt: skip
+            out[n, k] = _ray_one(
+                box_c,
+                box_h,
+                box_cs,
+                box_ok,
+                cyl_c,
+                cyl_r,
+                cyl_ok,
+                n,
+                positions[n, 0],
+                positions[n, 1],
+                math.cos(a),
+                math.sin(a),
+                max_range,
+            )
 
 
 #: The compiled queries: ``sdf_kernel(n_rooms)(...)`` etc. (their ``py_func`` is the reference).
@@ -265,9 +289,14 @@ def _segments_clear(
     """Whether each segment ``a[i] -> b[i]`` ((S, 2) each) of one room keeps a signed distance
     of at least ``thr`` at ``k`` evenly spaced samples (:func:`_segments_clear_run`)."""
     out = np.empty((1, a.shape[0]), np.bool_)
-    segments_clear_kernel(1)(*s.kernel_args, np.ascontiguousarray(a, np.float64)[None],
-                             np.ascontiguousarray(b, np.float64)[None], int(k), float(thr),
-                             out)  # fmt: skip
+    segments_clear_kernel(1)(
+        *s.kernel_args,
+        np.ascontiguousarray(a, np.float64)[None],
+        np.ascontiguousarray(b, np.float64)[None],
+        int(k),
+        float(thr),
+        out,
+    )
     return out[0]
 
 

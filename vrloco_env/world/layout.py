@@ -371,9 +371,17 @@ def finish_layout(
         avatar_height=cfg.avatar_height,
         wall_height=cfg.wall_height,
     )
-    key = (task, layout.bounds, tuple((type(s).__name__, astuple(s)) for s in layout.solids),
-           layout.start[:2], layout.goal, layout.goal_radius, goal_line, cfg.avatar_radius,
-           cfg.grid_resolution)  # fmt: skip
+    key = (
+        task,
+        layout.bounds,
+        tuple((type(s).__name__, astuple(s)) for s in layout.solids),
+        layout.start[:2],
+        layout.goal,
+        layout.goal_radius,
+        goal_line,
+        cfg.avatar_radius,
+        cfg.grid_resolution,
+    )
     if key in _PATHS:
         _PATHS.move_to_end(key)
         path = _PATHS[key]

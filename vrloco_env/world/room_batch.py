@@ -94,9 +94,12 @@ class RoomBatch(TakesUsers):
         return _ray_cast_fast(self._solids.above(z), o, u, r)
 
     def ray_fan(
-        self, positions: NDArray[np.float64], headings: NDArray[np.float64],
-        offsets: NDArray[np.float64], max_range: float,
-    ) -> NDArray[np.float64]:  # fmt: skip
+        self,
+        positions: NDArray[np.float64],
+        headings: NDArray[np.float64],
+        offsets: NDArray[np.float64],
+        max_range: float,
+    ) -> NDArray[np.float64]:
         """Ray distances ``(N, R)`` (m) from each room's point ``positions`` (N, 2) along
         ``headings`` (N,) + ``offsets`` (R,) (rad): :meth:`ray_cast` for the env's per-step fan
         of rays from the virtual head, with its checks reduced to finiteness (the env's arrays

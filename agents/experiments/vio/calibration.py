@@ -34,10 +34,13 @@ def _calibration_error(scale: float, runs: list) -> tuple[float, float, float]:
     ep, ea = [], []
     for traj, setup, seed in runs:
         spec = condition_spec("ideal", scale)
-        run = capture_visual(traj, spec, _camera_rng(seed, 0), setup, pnp_params(spec),
-                             workers=2)  # fmt: skip
-        e_p, e_a = error_series(run.position[run.ok], run.quat[run.ok],
-                                traj.pos[run.sample[run.ok]], traj.quat[run.sample[run.ok]])
+        run = capture_visual(traj, spec, _camera_rng(seed, 0), setup, pnp_params(spec), workers=2)
+        e_p, e_a = error_series(
+            run.position[run.ok],
+            run.quat[run.ok],
+            traj.pos[run.sample[run.ok]],
+            traj.quat[run.sample[run.ok]],
+        )
         good = (e_p <= GROSS_POS_M) & (e_a <= GROSS_ATT_DEG)
         ep.append(e_p[good])
         ea.append(e_a[good])
@@ -87,6 +90,8 @@ def calibrate_camera(
         "att_deg": att,
         "seeds": list(seeds),
         "duration_s": duration,
-        "steps": [{"scale": math.exp(x), "pos_m": f[0], "att_deg": f[1]} for x, f in zip(xs, fs,
-                                                                                      strict=True)],
-    }  # fmt: skip
+        "steps": [
+            {"scale": math.exp(x), "pos_m": f[0], "att_deg": f[1]}
+            for x, f in zip(xs, fs, strict=True)
+        ],
+    }

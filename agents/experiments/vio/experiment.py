@@ -86,26 +86,40 @@ def run_vio(
     noisy_pnp = pnp_params(noisy_spec)
     result: dict = {
         "config": {
-            "duration_s": duration, "seed": seed, "imu": IMU_PRESET, "imu_rate_hz": IMU_RATE_HZ,
-            "camera_rate_hz": CAMERA_RATE_HZ, "rotation_rate_deg_s": ROTATION_RATE_DEG_S,
-            "walk": {"radius_m": WALK_RADIUS_M, "cadence_hz": WALK_CADENCE,
-                     "speed_m_s": _STRIDE_M * WALK_CADENCE},
-            "room": "approach, 8 m x 8 m, 96 wall landmarks", "window_s": WINDOW_S,
+            "duration_s": duration,
+            "seed": seed,
+            "imu": IMU_PRESET,
+            "imu_rate_hz": IMU_RATE_HZ,
+            "camera_rate_hz": CAMERA_RATE_HZ,
+            "rotation_rate_deg_s": ROTATION_RATE_DEG_S,
+            "walk": {
+                "radius_m": WALK_RADIUS_M,
+                "cadence_hz": WALK_CADENCE,
+                "speed_m_s": _STRIDE_M * WALK_CADENCE,
+            },
+            "room": "approach, 8 m x 8 m, 96 wall landmarks",
+            "window_s": WINDOW_S,
             "pixel_noise_scale": pixel_noise_scale,
             "pixel_noise_px": {c: sp.pixel_noise_px for c, sp in specs.items()},
             "ransac_px": {c: pnp_params(sp).reprojection_px for c, sp in specs.items()},
             "calibration_seeds": list(CALIBRATION_SEEDS),
             "held_out": seed not in CALIBRATION_SEEDS,
-            "complex_camera": {"condition": "low_light", "occluder_fraction": 0.3,
-                               "match_prob": specs["complex"].match_prob},
-            "adaptive_noisy_camera": {"condition": "low_light", "pixel_noise_px": noisy_px,
-                                      "reprojection_px": noisy_pnp.reprojection_px,
-                                      "switch_s": duration / 2},
+            "complex_camera": {
+                "condition": "low_light",
+                "occluder_fraction": 0.3,
+                "match_prob": specs["complex"].match_prob,
+            },
+            "adaptive_noisy_camera": {
+                "condition": "low_light",
+                "pixel_noise_px": noisy_px,
+                "reprojection_px": noisy_pnp.reprojection_px,
+                "switch_s": duration / 2,
+            },
             "setup": setup.summary(),
             "errors": "visual/fused pos_m, att_deg: RMSE; imu_only: largest over the run",
         },
         "paper": PAPER,
-    }  # fmt: skip
+    }
     # IMU only.
     series: dict = {}
     result["imu_only"] = {}
@@ -115,9 +129,11 @@ def run_vio(
         result["imu_only"][kind] = r
     b = PAPER["imu_only"]["accel_accuracy_m_s2"]
     result["imu_only"]["paper_position_check"] = {
-        "accel_accuracy_m_s2": b, "duration_s": 120.0, "position_from_bias_m": 0.5 * b * 120.0**2,
+        "accel_accuracy_m_s2": b,
+        "duration_s": 120.0,
+        "position_from_bias_m": 0.5 * b * 120.0**2,
         "bias_for_0p2_m_m_s2": 2 * 0.2 / 120.0**2,
-    }  # fmt: skip
+    }
 
     # Visual and fused on the walk.
     traj = simulate("walk", duration, seed, setup)
@@ -157,11 +173,16 @@ def run_vio(
         overall, _ = _fused_stats(traj, p, q, counters["start"], samples=False)
         before, _ = _fused_stats(traj, p, q, counters["start"], hi=half, samples=False)
         result["adaptive"][adaptive] = {
-            "pos_m": after["pos_m"], "att_deg": after["att_deg"],
-            "pos_p95_m": after["pos_p95_m"], "att_p95_deg": after["att_p95_deg"],
-            "overall_pos_m": overall["pos_m"], "overall_att_deg": overall["att_deg"],
-            "before_pos_m": before["pos_m"], "before_att_deg": before["att_deg"], **counters,
-        }  # fmt: skip
+            "pos_m": after["pos_m"],
+            "att_deg": after["att_deg"],
+            "pos_p95_m": after["pos_p95_m"],
+            "att_p95_deg": after["att_p95_deg"],
+            "overall_pos_m": overall["pos_m"],
+            "overall_att_deg": overall["att_deg"],
+            "before_pos_m": before["pos_m"],
+            "before_att_deg": before["att_deg"],
+            **counters,
+        }
         series[f"adaptive_{adaptive}"] = ser
 
     # Targets.
@@ -169,8 +190,9 @@ def run_vio(
     for c, tgt in TARGETS.items():
         r = result["fused"][c]
         met[f"fused_{c}"] = bool(r["pos_m"] < tgt["pos_m"] and r["att_deg"] < tgt["att_deg"])
-        met[f"fused_{c}_bounded"] = bool(r["pos_window_max_m"] < tgt["pos_m"]
-                                         and r["att_window_max_deg"] < tgt["att_deg"])  # fmt: skip
+        met[f"fused_{c}_bounded"] = bool(
+            r["pos_window_max_m"] < tgt["pos_m"] and r["att_window_max_deg"] < tgt["att_deg"]
+        )
     a = result["adaptive"]
     met["adaptive_beats_fixed"] = bool(
         a["sage_husa"]["pos_m"] < a["fixed"]["pos_m"]

@@ -41,28 +41,43 @@ def fuse(traj: Trajectory, run: VisualRun, config: VioConfig) -> tuple[NDArray, 
     f.reset(run.position[j0], np.zeros(3), run.quat[j0], gyr=traj.gyr[s0], acc=traj.acc[s0])
     sel = run.sample > s0
     p, q, _ = f.process(
-        traj.gyr[None, s0 + 1 :], traj.acc[None, s0 + 1 :],
+        traj.gyr[None, s0 + 1 :],
+        traj.acc[None, s0 + 1 :],
         (run.sample[sel] - s0 - 1).astype(np.intp),
-        run.position[None, sel], run.quat[None, sel], run.ok[None, sel],
-    )  # fmt: skip
+        run.position[None, sel],
+        run.quat[None, sel],
+        run.ok[None, sel],
+    )
     pos[s0] = run.position[j0]
     quat[s0] = run.quat[j0]
     pos[s0 + 1 :] = p[0]
     quat[s0 + 1 :] = q[0]
-    counters = {"updates": int(f.updates[0]), "rejected": int(f.rejected[0]),
-                "forced": int(f.forced[0]), "start": s0}  # fmt: skip
+    counters = {
+        "updates": int(f.updates[0]),
+        "rejected": int(f.rejected[0]),
+        "forced": int(f.forced[0]),
+        "start": s0,
+    }
     return pos, quat, counters
 
 
-def _fused_stats(traj: Trajectory, pos: NDArray, quat: NDArray, start: int,
-                 lo: int = 0, hi: int | None = None, samples: bool = True) -> tuple:
+def _fused_stats(
+    traj: Trajectory,
+    pos: NDArray,
+    quat: NDArray,
+    start: int,
+    lo: int = 0,
+    hi: int | None = None,
+    samples: bool = True,
+) -> tuple:
     """Errors of a fused run over samples ``[max(lo, start), hi)``, and the full-length series
     (NaN before the start) for the figure."""
     n = traj.t.size
     hi = n if hi is None else hi
     ep, ea = np.full(n, np.nan), np.full(n, np.nan)
     if start < n:
-        ep[start:], ea[start:] = error_series(pos[start:], quat[start:], traj.pos[start:],
-                                              traj.quat[start:])  # fmt: skip
+        ep[start:], ea[start:] = error_series(
+            pos[start:], quat[start:], traj.pos[start:], traj.quat[start:]
+        )
     k = max(lo, start)
     return _error_stats(ep[k:hi], ea[k:hi], samples=samples), (ep, ea)

@@ -32,8 +32,14 @@ def _error_stats(ep: NDArray, ea: NDArray, samples: bool = True) -> dict:
     ``samples`` (1 kHz series over the whole run) also windowed and first/last RMS."""
     if ep.size == 0:
         nan = float("nan")
-        return {"pos_m": nan, "att_deg": nan, "pos_p95_m": nan, "att_p95_deg": nan,
-                "pos_max_m": nan, "att_max_deg": nan}  # fmt: skip
+        return {
+            "pos_m": nan,
+            "att_deg": nan,
+            "pos_p95_m": nan,
+            "att_p95_deg": nan,
+            "pos_max_m": nan,
+            "att_max_deg": nan,
+        }
     out = {
         "pos_m": _rms(ep),
         "att_deg": _rms(ea),
@@ -49,13 +55,15 @@ def _error_stats(ep: NDArray, ea: NDArray, samples: bool = True) -> dict:
         wp = [_rms(ep[i * w : (i + 1) * w]) for i in range(nw)]
         wa = [_rms(ea[i * w : (i + 1) * w]) for i in range(nw)]
         edge = min(round(30.0 * IMU_RATE_HZ), n // 4)
-        out.update({
-            "pos_window_max_m": float(max(wp)),
-            "att_window_max_deg": float(max(wa)),
-            "edge_s": edge / IMU_RATE_HZ,
-            "pos_first_m": _rms(ep[:edge]),
-            "pos_last_m": _rms(ep[-edge:]),
-            "att_first_deg": _rms(ea[:edge]),
-            "att_last_deg": _rms(ea[-edge:]),
-        })  # fmt: skip
+        out.update(
+            {
+                "pos_window_max_m": float(max(wp)),
+                "att_window_max_deg": float(max(wa)),
+                "edge_s": edge / IMU_RATE_HZ,
+                "pos_first_m": _rms(ep[:edge]),
+                "pos_last_m": _rms(ep[-edge:]),
+                "att_first_deg": _rms(ea[:edge]),
+                "att_last_deg": _rms(ea[-edge:]),
+            }
+        )
     return out

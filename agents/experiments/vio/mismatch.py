@@ -57,12 +57,16 @@ class Mismatch:
 
     def __post_init__(self) -> None:
         for name, hi, unit in (
-            ("gyro_scale", 0.05, ""), ("gyro_misalignment_deg", 2.0, "deg"),
-            ("accel_scale", 0.05, ""), ("accel_misalignment_deg", 2.0, "deg"),
-            ("noise_scatter", 1.0, ""), ("time_offset_s", 0.05, "s"),
-            ("landmark_sigma_m", 0.1, "m"), ("focal_sigma", 0.05, ""),
+            ("gyro_scale", 0.05, ""),
+            ("gyro_misalignment_deg", 2.0, "deg"),
+            ("accel_scale", 0.05, ""),
+            ("accel_misalignment_deg", 2.0, "deg"),
+            ("noise_scatter", 1.0, ""),
+            ("time_offset_s", 0.05, "s"),
+            ("landmark_sigma_m", 0.1, "m"),
+            ("focal_sigma", 0.05, ""),
             ("principal_sigma_px", 20.0, "px"),
-        ):  # fmt: skip
+        ):
             check_in_range(self, name, 0.0, hi, unit)
 
     @classmethod
@@ -98,16 +102,20 @@ class Setup:
     def true_camera(self, nominal: CameraSpec) -> CameraSpec:
         """The camera that takes the images: ``nominal`` with the drawn intrinsics error."""
         dfx, dfy, dcx, dcy = self.intrinsics_error
-        return nominal.with_(fx=nominal.fx + dfx, fy=nominal.fy + dfy, cx=nominal.cx + dcx,
-                             cy=nominal.cy + dcy)  # fmt: skip
+        return nominal.with_(
+            fx=nominal.fx + dfx, fy=nominal.fy + dfy, cx=nominal.cx + dcx, cy=nominal.cy + dcy
+        )
 
     def summary(self) -> dict:
         """The drawn values, for the result's JSON (scale factors, misalignments in deg)."""
-        out = {"mismatch": dataclasses.asdict(self.mismatch),
-               "offset_samples": self.offset_samples,
-               "map_error_rms_m": float(np.sqrt(np.mean(
-                   np.sum((self.map_landmarks - self.landmarks) ** 2, axis=1)))),
-               "intrinsics_error_px": list(self.intrinsics_error)}  # fmt: skip
+        out = {
+            "mismatch": dataclasses.asdict(self.mismatch),
+            "offset_samples": self.offset_samples,
+            "map_error_rms_m": float(
+                np.sqrt(np.mean(np.sum((self.map_landmarks - self.landmarks) ** 2, axis=1)))
+            ),
+            "intrinsics_error_px": list(self.intrinsics_error),
+        }
         nominal = get_imu_spec(IMU_PRESET)
         for name, m in (("gyro", self.gyro_matrix), ("accel", self.accel_matrix)):
             off = m - np.diag(np.diag(m))
@@ -142,11 +150,17 @@ def make_setup(seed: int, mismatch: Mismatch | None = None) -> Setup:
     nominal = get_imu_spec(IMU_PRESET)
     spec = dataclasses.replace(
         nominal,
-        accel=dataclasses.replace(nominal.accel, noise_density=nominal.accel.noise_density * f[0],
-                                  bias_stability=nominal.accel.bias_stability * f[2]),
-        gyro=dataclasses.replace(nominal.gyro, noise_density=nominal.gyro.noise_density * f[1],
-                                 bias_stability=nominal.gyro.bias_stability * f[3]),
-    )  # fmt: skip
+        accel=dataclasses.replace(
+            nominal.accel,
+            noise_density=nominal.accel.noise_density * f[0],
+            bias_stability=nominal.accel.bias_stability * f[2],
+        ),
+        gyro=dataclasses.replace(
+            nominal.gyro,
+            noise_density=nominal.gyro.noise_density * f[1],
+            bias_stability=nominal.gyro.bias_stability * f[3],
+        ),
+    )
     layout = make_layout("approach", RoomConfig(), np.random.default_rng(seed)).with_origin((0, 0))
     lm, nrm = layout_landmarks(layout)
     survey = rng.normal(0.0, 1.0, lm.shape) * mm.landmark_sigma_m
@@ -154,8 +168,13 @@ def make_setup(seed: int, mismatch: Mismatch | None = None) -> Setup:
     dfx, dfy = rng.normal(0.0, 1.0, 2) * mm.focal_sigma * np.array([cam.fx, cam.fy])
     dcx, dcy = rng.normal(0.0, 1.0, 2) * mm.principal_sigma_px
     return Setup(
-        mismatch=mm, gyro_matrix=gyro, accel_matrix=accel, imu_spec=spec,
-        offset_samples=round(mm.time_offset_s * IMU_RATE_HZ), landmarks=lm, normals=nrm,
-        map_landmarks=lm + survey, intrinsics_error=(float(dfx), float(dfy), float(dcx),
-                                                     float(dcy)),
-    )  # fmt: skip
+        mismatch=mm,
+        gyro_matrix=gyro,
+        accel_matrix=accel,
+        imu_spec=spec,
+        offset_samples=round(mm.time_offset_s * IMU_RATE_HZ),
+        landmarks=lm,
+        normals=nrm,
+        map_landmarks=lm + survey,
+        intrinsics_error=(float(dfx), float(dfy), float(dcx), float(dcy)),
+    )

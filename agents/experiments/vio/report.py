@@ -25,10 +25,12 @@ def _figure(series: dict, t: NDArray, out_dir: Path, switch_s: float) -> Path:
         for key, label in (("imu_static", "static"), ("imu_rotation", "rotation 10 deg/s")):
             ax[0, j].plot(t, series[key][j], label=label)
         ax[0, j].set_title(f"IMU only: {unit}")
-        for key, label in (("fused_ideal", "ideal, Sage-Husa"),
-                           ("fused_fixed_ideal", "ideal, fixed R"),
-                           ("fused_complex", "complex, Sage-Husa"),
-                           ("fused_fixed_complex", "complex, fixed R")):  # fmt: skip
+        for key, label in (
+            ("fused_ideal", "ideal, Sage-Husa"),
+            ("fused_fixed_ideal", "ideal, fixed R"),
+            ("fused_complex", "complex, Sage-Husa"),
+            ("fused_fixed_complex", "complex, fixed R"),
+        ):
             ax[1, j].plot(t, series[key][j], lw=0.6, label=label)
         ax[1, j].set_title(f"fused, walk: {unit}")
         for key, label in (("adaptive_fixed", "fixed R"), ("adaptive_sage_husa", "Sage-Husa")):
@@ -62,10 +64,13 @@ def format_table(result: dict) -> str:
         r = io[kind]
         pa = f"+-{pio[kind]['att_deg']:g}"
         pp = f"+-{pio[kind]['pos_m']:g} (*)" if "pos_m" in pio[kind] else "-"
-        lines.append(f"  {label:<19} attitude (deg) {r['att_deg']:10.2f} | {r['att_end_deg']:8.2f}"
-                     f"       {pa}")  # fmt: skip
-        lines.append(f"  {'':<19} position (m)   {r['pos_m']:10.1f} | {r['pos_end_m']:8.1f}"
-                     f"       {pp}")  # fmt: skip
+        lines.append(
+            f"  {label:<19} attitude (deg) {r['att_deg']:10.2f} | {r['att_end_deg']:8.2f}"
+            f"       {pa}"
+        )
+        lines.append(
+            f"  {'':<19} position (m)   {r['pos_m']:10.1f} | {r['pos_end_m']:8.1f}       {pp}"
+        )
     chk = io["paper_position_check"]
     lines.append(
         f"  (*) the paper's accelerometer accuracy {chk['accel_accuracy_m_s2']} m/s^2 alone gives "
@@ -129,8 +134,10 @@ def format_table(result: dict) -> str:
     lines.append("  filter     after switch: pos RMSE (m)  att RMSE (deg)   whole run: pos   att")
     for name in ("fixed", "sage_husa"):
         r = a[name]
-        lines.append(f"  {name:<10} {r['pos_m']:27.4f} {r['att_deg']:15.3f} "
-                     f"{r['overall_pos_m']:16.4f} {r['overall_att_deg']:6.3f}")  # fmt: skip
+        lines.append(
+            f"  {name:<10} {r['pos_m']:27.4f} {r['att_deg']:15.3f} "
+            f"{r['overall_pos_m']:16.4f} {r['overall_att_deg']:6.3f}"
+        )
     met = result["targets_met"]
     lines.append("targets met: " + ", ".join(f"{k} {'yes' if v else 'NO'}" for k, v in met.items()))
     return "\n".join(lines)

@@ -129,8 +129,9 @@ def imu_only(traj: Trajectory) -> dict:
     """
     nav = Strapdown(1, IMU_RATE_HZ)
     nav.reset(traj.pos[0], _start_velocity(traj), traj.quat[0], gyr=traj.gyr[0], acc=traj.acc[0])
-    out = nav.propagate(traj.gyr[None, 1:], traj.acc[None, 1:], gyro_bias=traj.gyro_bias,
-                        accel_bias=traj.accel_bias)  # fmt: skip
+    out = nav.propagate(
+        traj.gyr[None, 1:], traj.acc[None, 1:], gyro_bias=traj.gyro_bias, accel_bias=traj.accel_bias
+    )
     p = np.concatenate([traj.pos[:1], out.p[0]])
     q = np.concatenate([traj.quat[:1], out.q[0]])
     ep, ea = error_series(p, q, traj.pos, traj.quat)

@@ -61,8 +61,9 @@ class VisualRun:
     @staticmethod
     def concatenate(runs: list[VisualRun]) -> VisualRun:
         """The frames of several runs, in the given order."""
-        return VisualRun(*(np.concatenate([getattr(r, f) for r in runs])
-                           for f in VisualRun.__dataclass_fields__))  # fmt: skip
+        return VisualRun(
+            *(np.concatenate([getattr(r, f) for r in runs]) for f in VisualRun.__dataclass_fields__)
+        )
 
 
 def _solve_block(args: tuple) -> tuple:
@@ -73,8 +74,14 @@ def _solve_block(args: tuple) -> tuple:
     cuts = np.cumsum(per_frame)[:-1]
     frames = list(zip(np.split(landmarks[ids], cuts), np.split(pixels, cuts), strict=True))
     mq, mo = pnp_mount(spec)
-    res = solve_poses(frames, camera_intrinsics(spec), pnp.min_landmarks, pnp.reprojection_px,
-                      mount_quat=mq, mount_offset=mo)  # fmt: skip
+    res = solve_poses(
+        frames,
+        camera_intrinsics(spec),
+        pnp.min_landmarks,
+        pnp.reprojection_px,
+        mount_quat=mq,
+        mount_offset=mo,
+    )
     return res.position, res.quat, res.ok, res.reason
 
 
@@ -105,8 +112,14 @@ def _capture(
     jobs = []
     for a in range(0, m, _CAPTURE_BLOCK):
         j = idx[a : a + _CAPTURE_BLOCK] + setup.offset_samples  # the instant actually imaged
-        fr = cam.capture(traj.t[j], traj.pos[None, j], traj.quat[None, j], traj.omega[None, j],
-                         setup.landmarks, normals=setup.normals)  # fmt: skip
+        fr = cam.capture(
+            traj.t[j],
+            traj.pos[None, j],
+            traj.quat[None, j],
+            traj.omega[None, j],
+            setup.landmarks,
+            normals=setup.normals,
+        )
         counts[:, a : a + j.size] = fr.n_visible[0], fr.n_extracted[0], fr.n_correct[0]
         for b in range(0, j.size, _PNP_BLOCK):
             ext = fr.extracted[0, b : b + _PNP_BLOCK]
@@ -160,11 +173,19 @@ def capture_visual(
 
 def visual_stats(run: VisualRun, traj: Trajectory) -> dict:
     """Errors of the visual poses against the truth at their time stamps (package docstring)."""
-    ep, ea = error_series(run.position[run.ok], run.quat[run.ok], traj.pos[run.sample[run.ok]],
-                          traj.quat[run.sample[run.ok]])  # fmt: skip
-    names = {REASON_OK: "ok", REASON_TOO_FEW_LANDMARKS: "too_few_landmarks",
-             REASON_RANSAC_FAILED: "ransac_failed", REASON_TOO_FEW_INLIERS: "too_few_inliers",
-             REASON_BEHIND_CAMERA: "behind_camera"}  # fmt: skip
+    ep, ea = error_series(
+        run.position[run.ok],
+        run.quat[run.ok],
+        traj.pos[run.sample[run.ok]],
+        traj.quat[run.sample[run.ok]],
+    )
+    names = {
+        REASON_OK: "ok",
+        REASON_TOO_FEW_LANDMARKS: "too_few_landmarks",
+        REASON_RANSAC_FAILED: "ransac_failed",
+        REASON_TOO_FEW_INLIERS: "too_few_inliers",
+        REASON_BEHIND_CAMERA: "behind_camera",
+    }
     out = {
         "frames": int(run.ok.size),
         "availability": float(run.ok.mean()) if run.ok.size else 0.0,
@@ -176,13 +197,15 @@ def visual_stats(run: VisualRun, traj: Trajectory) -> dict:
     }
     out.update(_error_stats(ep, ea, samples=False))
     gross = (ep > GROSS_POS_M) | (ea > GROSS_ATT_DEG)
-    out.update({
-        "pos_median_m": float(np.median(ep)) if ep.size else float("nan"),
-        "att_median_deg": float(np.median(ea)) if ea.size else float("nan"),
-        "gross_fraction": float(gross.mean()) if ep.size else 0.0,
-        "pos_clean_m": _rms(ep[~gross]),
-        "att_clean_deg": _rms(ea[~gross]),
-    })  # fmt: skip
+    out.update(
+        {
+            "pos_median_m": float(np.median(ep)) if ep.size else float("nan"),
+            "att_median_deg": float(np.median(ea)) if ea.size else float("nan"),
+            "gross_fraction": float(gross.mean()) if ep.size else 0.0,
+            "pos_clean_m": _rms(ep[~gross]),
+            "att_clean_deg": _rms(ea[~gross]),
+        }
+    )
     return out
 
 

@@ -33,8 +33,12 @@ def _misfit_gradient(qw, qx, qy, qz, dx, dy, dz, sx, sy, sz):
         + 2.0 * dz * (qw * qx + qy * qz)
         - sy
     )
-    f3 = (2.0 * dx * (qw * qy + qx * qz) + 2.0 * dy * (qy * qz - qw * qx)
-          + 2.0 * dz * (0.5 - qx * qx - qy * qy) - sz)  # fmt: skip
+    f3 = (
+        2.0 * dx * (qw * qy + qx * qz)
+        + 2.0 * dy * (qy * qz - qw * qx)
+        + 2.0 * dz * (0.5 - qx * qx - qy * qy)
+        - sz
+    )
     # Rows of J: derivatives of f1, f2, f3 with respect to (qw, qx, qy, qz).
     gw = (
         (2.0 * dy * qz - 2.0 * dz * qy) * f1
@@ -51,9 +55,11 @@ def _misfit_gradient(qw, qx, qy, qz, dx, dy, dz, sx, sy, sz):
         + (2.0 * dx * qx + 2.0 * dz * qz) * f2
         + (2.0 * dx * qw + 2.0 * dy * qz - 4.0 * dz * qy) * f3
     )
-    gz = ((-4.0 * dx * qz + 2.0 * dy * qw + 2.0 * dz * qx) * f1
-          + (-2.0 * dx * qw - 4.0 * dy * qz + 2.0 * dz * qy) * f2
-          + (2.0 * dx * qx + 2.0 * dy * qy) * f3)  # fmt: skip
+    gz = (
+        (-4.0 * dx * qz + 2.0 * dy * qw + 2.0 * dz * qx) * f1
+        + (-2.0 * dx * qw - 4.0 * dy * qz + 2.0 * dz * qy) * f2
+        + (2.0 * dx * qx + 2.0 * dy * qy) * f3
+    )
     return gw, gx, gy, gz
 
 

@@ -64,8 +64,12 @@ def _mahony_run(q, bias, ready, gyr, acc, mag, dt, kp, ki, out):
             else:
                 wx, wy, wz = gx - bx, gy - by, gz - bz
             dw, dx, dy, dz = quat_mul(qw, qx, qy, qz, 0.0, wx, wy, wz)
-            qw, qx, qy, qz = (qw + 0.5 * dw * dt, qx + 0.5 * dx * dt, qy + 0.5 * dy * dt,
-                              qz + 0.5 * dz * dt)  # fmt: skip
+            qw, qx, qy, qz = (
+                qw + 0.5 * dw * dt,
+                qx + 0.5 * dx * dt,
+                qy + 0.5 * dy * dt,
+                qz + 0.5 * dz * dt,
+            )
             n = math.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
             qw, qx, qy, qz = qw / n, qx / n, qy / n, qz / n
             out[i, k, 0], out[i, k, 1], out[i, k, 2], out[i, k, 3] = qw, qx, qy, qz

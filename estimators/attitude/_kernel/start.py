@@ -29,9 +29,11 @@ __all__ = ["quat_from_acc", "quat_from_acc_mag", "usable3"]
 def usable3(x, y, z):
     """Whether a 3-vector sample can be used: finite and not all zero."""
     return (
-        math.isfinite(x) and math.isfinite(y) and math.isfinite(z)
+        math.isfinite(x)
+        and math.isfinite(y)
+        and math.isfinite(z)
         and (x != 0.0 or y != 0.0 or z != 0.0)
-    )  # fmt: skip
+    )
 
 
 @numba.njit(cache=True)

@@ -89,8 +89,15 @@ def test_summarize_rates_and_errors():
 
 
 def test_a_tiny_benchmark_writes_its_outputs_and_ignores_the_worker_count(tmp_path):
-    kw = {"tasks": ["approach"], "policies": ["goal_seeker"], "sensors": ["ig500n"],
-          "episodes": 2, "seed": 5, "progress": False, "print_table": False}  # fmt: skip
+    kw = {
+        "tasks": ["approach"],
+        "policies": ["goal_seeker"],
+        "sensors": ["ig500n"],
+        "episodes": 2,
+        "seed": 5,
+        "progress": False,
+        "print_table": False,
+    }
     one = run_benchmark(**kw, workers=1, out_dir=tmp_path / "one", json_path=tmp_path / "r.json")
     two = run_benchmark(**kw, workers=2)
     assert one == two
@@ -125,12 +132,16 @@ def _same_episode(a, b) -> None:
             assert x == y, f.name
 
 
-@pytest.mark.parametrize("cell", [
-    Cell("approach", "goal_seeker+human"),
-    Cell("avoid", "avoid_manoeuvre", "zhang2021_consumer"),
-    Cell("interact", "goal_seeker", "smooth"),
-    Cell("approach", "goal_seeker", "madgwick", "beside_metal"),
-], ids=lambda c: c.label)  # fmt: skip
+@pytest.mark.parametrize(
+    "cell",
+    [
+        Cell("approach", "goal_seeker+human"),
+        Cell("avoid", "avoid_manoeuvre", "zhang2021_consumer"),
+        Cell("interact", "goal_seeker", "smooth"),
+        Cell("approach", "goal_seeker", "madgwick", "beside_metal"),
+    ],
+    ids=lambda c: c.label,
+)
 def test_batched_episodes_are_the_single_env_episodes(cell):
     """Users of a batch end at their own step and take the cell's next seed: 5 episodes on 2
     users give each episode exactly what it gives alone (its trace and room too)."""
@@ -148,8 +159,9 @@ def test_batched_episodes_are_the_single_env_episodes(cell):
             assert stats.trace["layout"] == alone.trace["layout"]
 
 
-def test_a_batch_sheds_its_finished_users_and_still_gives_the_single_env_episodes(monkeypatch,
-                                                                                tmp_path):
+def test_a_batch_sheds_its_finished_users_and_still_gives_the_single_env_episodes(
+    monkeypatch, tmp_path
+):
     """Once no episode is left to claim, the users whose episode ended leave the batch (the env
     and the policy drop them) and the rest go on as alone; a user's batched policy that cannot
     drop users (no ``take_users``) keeps the whole batch, idle users and all."""
@@ -193,8 +205,11 @@ def test_a_batch_sheds_its_finished_users_and_still_gives_the_single_env_episode
 def test_cells_sharing_an_env_mix_in_one_batch():
     """Users move from one cell's episodes to another's (a scripted user, the same with human
     variability, a second scripted user) and each episode is still the single env's."""
-    cells = [Cell("avoid", "goal_seeker"), Cell("avoid", "goal_seeker+human"),
-             Cell("avoid", "avoid_manoeuvre")]  # fmt: skip
+    cells = [
+        Cell("avoid", "goal_seeker"),
+        Cell("avoid", "goal_seeker+human"),
+        Cell("avoid", "avoid_manoeuvre"),
+    ]
     episodes = [(c, seed, False) for seed in (1, 2) for c in cells]
     batched = run_batched(episodes, batch_size=2)
     for (cell, seed, _), (stats, _) in zip(episodes, batched, strict=True):
@@ -271,16 +286,24 @@ def test_local_workers_start_in_a_process_whose_kernels_ran_threads():
     import subprocess
     import sys
 
-    run = subprocess.run([sys.executable, "-c", _AFTER_THREADS], capture_output=True, text=True,
-                         timeout=600)  # fmt: skip
+    run = subprocess.run(
+        [sys.executable, "-c", _AFTER_THREADS], capture_output=True, text=True, timeout=600
+    )
     assert run.returncode == 0, run.stdout + run.stderr
     assert "threads: omp" in run.stdout and "same table: True" in run.stdout, run.stdout
 
 
 def test_the_batched_and_the_one_at_a_time_grid_give_one_table():
-    kw = {"tasks": ["approach", "avoid"], "policies": ["goal_seeker", "avoid_manoeuvre+human"],
-          "techniques": ["zhang2021"], "episodes": 3, "seed": 2, "progress": False,
-          "print_table": False, "workers": 1}  # fmt: skip
+    kw = {
+        "tasks": ["approach", "avoid"],
+        "policies": ["goal_seeker", "avoid_manoeuvre+human"],
+        "techniques": ["zhang2021"],
+        "episodes": 3,
+        "seed": 2,
+        "progress": False,
+        "print_table": False,
+        "workers": 1,
+    }
     assert run_benchmark(**kw, batch_size=2) == run_benchmark(**kw, batch_size=0)
 
 
@@ -327,14 +350,21 @@ def test_cells_take_techniques_and_a_users_own_policy(tmp_path):
         "        return -np.ones(self.n, np.float32)\n"
     )
     rows = run_benchmark(
-        tasks=["avoid"], policies=["goal_seeker", f"{plugin}:Stand"],
-        techniques=["zhang2021", "smooth"], episodes=1, seed=3, workers=1, progress=False,
+        tasks=["avoid"],
+        policies=["goal_seeker", f"{plugin}:Stand"],
+        techniques=["zhang2021", "smooth"],
+        episodes=1,
+        seed=3,
+        workers=1,
+        progress=False,
         print_table=False,
-    )  # fmt: skip
+    )
     assert [(r["policy"], r["technique"]) for r in rows] == [  # grouped by technique
-        ("goal_seeker", "zhang2021"), (f"{plugin}:Stand", "zhang2021"),
-        ("goal_seeker", "smooth"), (f"{plugin}:Stand", "smooth"),
-    ]  # fmt: skip
+        ("goal_seeker", "zhang2021"),
+        (f"{plugin}:Stand", "zhang2021"),
+        ("goal_seeker", "smooth"),
+        (f"{plugin}:Stand", "smooth"),
+    ]
     stand = [r for r in rows if r["policy"].endswith(":Stand")]
     assert all(r["success_rate"] == 0.0 and r["collision_rate"] == 0.0 for r in stand)
     assert all(r["sensors"] == "ig500n" for r in rows)
@@ -354,10 +384,16 @@ def test_the_table_fits_a_narrow_terminal(capsys):
     from agents.benchmark.collision_causes import COLLISION_CAUSES
 
     row = {k: 0.5 for k in ROW_KEYS}
-    row.update(task="approach", policy="goal_seeker+human", technique="zhang2021_consumer",
-               condition="lab", sensors="consumer_mems", episodes=40,
-               vs_baseline={"spl": {"p": 0.001}},
-               collision_causes=dict.fromkeys(COLLISION_CAUSES, 2))  # fmt: skip
+    row.update(
+        task="approach",
+        policy="goal_seeker+human",
+        technique="zhang2021_consumer",
+        condition="lab",
+        sensors="consumer_mems",
+        episodes=40,
+        vs_baseline={"spl": {"p": 0.001}},
+        collision_causes=dict.fromkeys(COLLISION_CAUSES, 2),
+    )
     show_table([row], 0, width=80)
     out = capsys.readouterr().out
     lines = out.splitlines()
@@ -400,10 +436,16 @@ def test_walking_in_place_measures_against_a_hand_made_episode():
     true_ypr = np.zeros((n, 3))
     true_ypr[50:60, 0] = np.arange(1, 11)
     true_ypr[60:, 0] = 10.0
-    steps = {"intent_walk": intent, "elapsed_time": t_end, "position": pos,
-             "true_position": true_pos, "true_step_times": strikes,
-             "heading_error_deg": heading_error, "virtual_yaw": np.zeros(n),
-             "true_ypr": true_ypr}  # fmt: skip
+    steps = {
+        "intent_walk": intent,
+        "elapsed_time": t_end,
+        "position": pos,
+        "true_position": true_pos,
+        "true_step_times": strikes,
+        "heading_error_deg": heading_error,
+        "virtual_yaw": np.zeros(n),
+        "true_ypr": true_ypr,
+    }
     m = motion_measures(steps, (0.0, 0.0))
     assert m["start_latency_s"] == pytest.approx(1.5 - 1.2)
     assert m["stop_latency_s"] == pytest.approx(3.4 - 3.0)
@@ -450,10 +492,16 @@ def test_each_collision_of_a_hand_made_episode_gets_its_cause():
     walk[75] = 20.0
     hit = np.zeros(n, bool)
     hit[[22, 42, 60, 75, 90]] = True
-    steps = {"collision": hit, "elapsed_time": t_end, "intent_walk": intent,
-             "heading_error_deg": heading, "true_step_times": strikes,
-             "detected_step_times": detected, "walk_yaw_deg": walk,
-             "true_body_yaw_deg": body}  # fmt: skip
+    steps = {
+        "collision": hit,
+        "elapsed_time": t_end,
+        "intent_walk": intent,
+        "heading_error_deg": heading,
+        "true_step_times": strikes,
+        "detected_step_times": detected,
+        "walk_yaw_deg": walk,
+        "true_body_yaw_deg": body,
+    }
     assert collision_causes(steps) == dict.fromkeys(COLLISION_CAUSES, 1)
     # the phantom step is out of the window 1 s later; without the steering keys, no steering
     hit[:] = False

@@ -10,9 +10,16 @@ from agents.benchmark.compare_runs import compare_pairs, load_pairs, main, rende
 
 
 def _pair(name, separates, on_outcome, metrics):
-    return {"pair": name, "technique": name, "policy": "goal_seeker", "condition": "lab",
-            "why": "", "separates": separates, "on_outcome": on_outcome,
-            "tasks": {"approach": metrics}}  # fmt: skip
+    return {
+        "pair": name,
+        "technique": name,
+        "policy": "goal_seeker",
+        "condition": "lab",
+        "why": "",
+        "separates": separates,
+        "on_outcome": on_outcome,
+        "tasks": {"approach": metrics},
+    }
 
 
 def _write(folder, pairs):
@@ -22,15 +29,35 @@ def _write(folder, pairs):
 
 
 def test_a_pair_that_stops_separating_shows_its_metrics_in_both_runs(tmp_path, capsys):
-    a = _write(tmp_path / "a", [
-        _pair("x", True, True, {"success_rate": {"diff": -0.2, "p": 0.001, "verdict": "for"},
-                                "spl": {"diff": 0.0, "p": 0.9, "verdict": None}}),
-        _pair("only_a", False, False, {}),
-    ])  # fmt: skip
-    b = _write(tmp_path / "b", [
-        _pair("x", False, False, {"success_rate": {"diff": -0.05, "p": 0.4, "verdict": None},
-                                  "spl": {"diff": 0.0, "p": 0.8, "verdict": None}}),
-    ])  # fmt: skip
+    a = _write(
+        tmp_path / "a",
+        [
+            _pair(
+                "x",
+                True,
+                True,
+                {
+                    "success_rate": {"diff": -0.2, "p": 0.001, "verdict": "for"},
+                    "spl": {"diff": 0.0, "p": 0.9, "verdict": None},
+                },
+            ),
+            _pair("only_a", False, False, {}),
+        ],
+    )
+    b = _write(
+        tmp_path / "b",
+        [
+            _pair(
+                "x",
+                False,
+                False,
+                {
+                    "success_rate": {"diff": -0.05, "p": 0.4, "verdict": None},
+                    "spl": {"diff": 0.0, "p": 0.8, "verdict": None},
+                },
+            ),
+        ],
+    )
     records = compare_pairs(load_pairs(a), load_pairs(b))
     assert [r["pair"] for r in records] == ["x", "only_a"]
     x = records[0]

@@ -20,13 +20,27 @@ def test_unknown_conditions_are_named():
     with pytest.raises(ValueError, match=r"condition=.kitchen.*lab, beside_metal"):
         get_condition("kitchen")
     with pytest.raises(ValueError, match="conditions='kitchen'"):
-        run_benchmark(tasks=["approach"], policies=["goal_seeker"], techniques=["zhang2021"],
-                      episodes=1, conditions=["kitchen"], progress=False, print_table=False)
+        run_benchmark(
+            tasks=["approach"],
+            policies=["goal_seeker"],
+            techniques=["zhang2021"],
+            episodes=1,
+            conditions=["kitchen"],
+            progress=False,
+            print_table=False,
+        )
     with pytest.raises(ValueError, match=r"Condition.magnetic_disturbances=.*MagneticDisturbance"):
         Condition("odd", "not a dipole", (1.0,))  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="conditions must not repeat"):
-        run_benchmark(tasks=["approach"], policies=["goal_seeker"], techniques=["zhang2021"],
-                      episodes=1, conditions=["lab", "lab"], progress=False, print_table=False)
+        run_benchmark(
+            tasks=["approach"],
+            policies=["goal_seeker"],
+            techniques=["zhang2021"],
+            episodes=1,
+            conditions=["lab", "lab"],
+            progress=False,
+            print_table=False,
+        )
 
 
 def test_the_default_condition_is_the_plain_env():
@@ -37,9 +51,11 @@ def test_the_default_condition_is_the_plain_env():
     assert cell.condition == "lab" and cell.label == "approach_goal_seeker_zhang2021"
     tech = get_technique("zhang2021")
     assert episode_key("fp", "approach", "goal_seeker", tech, 3, False) == episode_key(
-        "fp", "approach", "goal_seeker", tech, 3, False, "lab")
+        "fp", "approach", "goal_seeker", tech, 3, False, "lab"
+    )
     assert episode_key("fp", "approach", "goal_seeker", tech, 3, False) != episode_key(
-        "fp", "approach", "goal_seeker", tech, 3, False, "beside_metal")
+        "fp", "approach", "goal_seeker", tech, 3, False, "beside_metal"
+    )
 
 
 def test_beside_metal_adds_the_dipole_field_the_closed_form_gives():
@@ -85,17 +101,32 @@ def test_the_trolley_passes_along_the_cabinets_line_while_the_user_walks():
 
 
 def test_rows_compare_techniques_within_their_condition():
-    kw = dict(tasks=["approach"], policies=["goal_seeker"], techniques=["zhang2021", "madgwick"],
-              episodes=3, seed=5, conditions=["lab", "beside_metal"], progress=False,
-              print_table=False, workers=1)  # fmt: skip
+    kw = dict(
+        tasks=["approach"],
+        policies=["goal_seeker"],
+        techniques=["zhang2021", "madgwick"],
+        episodes=3,
+        seed=5,
+        conditions=["lab", "beside_metal"],
+        progress=False,
+        print_table=False,
+        workers=1,
+    )
     rows = run_benchmark(**kw)
     assert [(r["technique"], r["condition"]) for r in rows] == [
-        ("zhang2021", "lab"), ("zhang2021", "beside_metal"),
-        ("madgwick", "lab"), ("madgwick", "beside_metal")]  # fmt: skip
-    ref = [run_cell_episode(Cell("approach", "goal_seeker", "zhang2021", "beside_metal"), s)
-           for s in (5, 6, 7)]  # fmt: skip
-    own = [run_cell_episode(Cell("approach", "goal_seeker", "madgwick", "beside_metal"), s)[0]
-           for s in (5, 6, 7)]  # fmt: skip
+        ("zhang2021", "lab"),
+        ("zhang2021", "beside_metal"),
+        ("madgwick", "lab"),
+        ("madgwick", "beside_metal"),
+    ]
+    ref = [
+        run_cell_episode(Cell("approach", "goal_seeker", "zhang2021", "beside_metal"), s)
+        for s in (5, 6, 7)
+    ]
+    own = [
+        run_cell_episode(Cell("approach", "goal_seeker", "madgwick", "beside_metal"), s)[0]
+        for s in (5, 6, 7)
+    ]
     first = ref[0]
     late, early = step_window(first[1], first[0].elapsed_s / first[0].steps)
     ref = [stats for stats, _ in ref]
@@ -103,11 +134,15 @@ def test_rows_compare_techniques_within_their_condition():
     got = rows[3]["vs_baseline"]["yaw_rate_mismatch_deg_s"]
     assert got["n"] == want["n"] == 3
     assert got["p"] == pytest.approx(want["p"], rel=1e-6)
-    truth = [episode_values(b, late, early)["yaw_rate_mismatch_deg_s"]
-             - episode_values(a, late, early)["yaw_rate_mismatch_deg_s"]
-             for a, b in zip(ref, own, strict=True)]  # fmt: skip
+    truth = [
+        episode_values(b, late, early)["yaw_rate_mismatch_deg_s"]
+        - episode_values(a, late, early)["yaw_rate_mismatch_deg_s"]
+        for a, b in zip(ref, own, strict=True)
+    ]
     assert got["diff"] == pytest.approx(np.mean(truth), rel=1e-6)
     # the dipole changes the magnetometer, so the episodes differ between conditions
     lab = [run_cell_episode(Cell("approach", "goal_seeker", "madgwick"), s)[0] for s in (5, 6, 7)]
-    assert any(not np.array_equal(a.heading_error_deg, b.heading_error_deg)
-               for a, b in zip(lab, own, strict=True))
+    assert any(
+        not np.array_equal(a.heading_error_deg, b.heading_error_deg)
+        for a, b in zip(lab, own, strict=True)
+    )

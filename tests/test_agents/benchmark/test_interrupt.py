@@ -19,8 +19,10 @@ def _interrupt_after(argv: list[str], seconds: float) -> tuple[int, str, float]:
     how long it took to stop."""
     proc = subprocess.Popen(
         [sys.executable, "-m", "agents.cli", *argv],
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-    )  # fmt: skip
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
     time.sleep(seconds)
     assert proc.poll() is None, proc.communicate()[0]
     sent = time.monotonic()
@@ -41,9 +43,19 @@ def test_ctrl_c_stops_the_benchmark_in_seconds(tmp_path):
 @pytest.mark.slow
 def test_ctrl_c_stops_training_and_keeps_the_model(tmp_path):
     code, out, took = _interrupt_after(
-        ["train", "--steps", "100000000", "--num-envs", "4", "--eval-every", "4096",
-         "--out", str(tmp_path)], 20.0,
-    )  # fmt: skip
+        [
+            "train",
+            "--steps",
+            "100000000",
+            "--num-envs",
+            "4",
+            "--eval-every",
+            "4096",
+            "--out",
+            str(tmp_path),
+        ],
+        20.0,
+    )
     assert code == 130 and took < 10.0, (took, out)
     assert "interrupted after" in out and "Traceback" not in out
     assert (tmp_path / "ppo_approach_final.zip").is_file()
@@ -62,9 +74,16 @@ def test_an_interrupted_grid_writes_the_cells_that_finished(tmp_path):
         "        raise AssertionError\n"
     )
     with pytest.raises(KeyboardInterrupt):
-        run_benchmark(tasks=["approach"], policies=["goal_seeker", f"{plugin}:Impatient"],
-                      techniques=["zhang2021"], episodes=1, workers=1, progress=False,
-                      print_table=False, out_dir=tmp_path / "out")  # fmt: skip
+        run_benchmark(
+            tasks=["approach"],
+            policies=["goal_seeker", f"{plugin}:Impatient"],
+            techniques=["zhang2021"],
+            episodes=1,
+            workers=1,
+            progress=False,
+            print_table=False,
+            out_dir=tmp_path / "out",
+        )
     rows = json.loads((tmp_path / "out" / "benchmark.json").read_text())["rows"]
     assert [r["policy"] for r in rows] == ["goal_seeker"]
 
@@ -88,9 +107,15 @@ def test_an_interrupted_grid_resumes_where_it_stopped(tmp_path, capsys):
         "    def act(self, obs):\n"
         "        return -np.ones(5, np.float32)\n"
     )
-    kw = dict(tasks=["approach"], policies=["goal_seeker", f"{plugin}:Flaky"],
-              techniques=["zhang2021"], episodes=2, workers=1, progress=False,
-              print_table=False)  # fmt: skip
+    kw = dict(
+        tasks=["approach"],
+        policies=["goal_seeker", f"{plugin}:Flaky"],
+        techniques=["zhang2021"],
+        episodes=2,
+        workers=1,
+        progress=False,
+        print_table=False,
+    )
     out = tmp_path / "out"
     with pytest.raises(KeyboardInterrupt):
         run_benchmark(**kw, out_dir=out)

@@ -20,11 +20,22 @@ def _episode(seed, success=True, walked=10.0, elapsed=20.0, detected=()):
     true = np.arange(1.0, 11.0)  # ten heel strikes, one a second
     det = np.sort(np.concatenate([true, np.asarray(detected, dtype=float)]))
     z = np.zeros(200)
-    return EpisodeStats(seed=seed, success=success, collisions=0 if success else 1, steps=200,
-                        elapsed_s=elapsed, walked_m=walked, shortest_m=8.0,
-                        true_counts=z.astype(np.int64), detected_counts=z.astype(np.int64),
-                        attitude_error_deg=z, hand_error_deg=z, heading_error_deg=z,
-                        true_step_times=true, detected_step_times=det)  # fmt: skip
+    return EpisodeStats(
+        seed=seed,
+        success=success,
+        collisions=0 if success else 1,
+        steps=200,
+        elapsed_s=elapsed,
+        walked_m=walked,
+        shortest_m=8.0,
+        true_counts=z.astype(np.int64),
+        detected_counts=z.astype(np.int64),
+        attitude_error_deg=z,
+        hand_error_deg=z,
+        heading_error_deg=z,
+        true_step_times=true,
+        detected_step_times=det,
+    )
 
 
 def test_an_episode_gives_the_values_a_row_averages():
@@ -43,8 +54,7 @@ def test_paired_tests_find_a_consistent_difference_and_not_noise():
     assert res["spl"]["p"] == 1.0 and res["success_rate"]["p"] == 1.0
     # every episode walks 1-20 cm farther and has one phantom step: both differ at p < 0.01
     rng = np.random.default_rng(0)
-    worse = [_episode(s, walked=10.0 + rng.uniform(0.01, 0.2), detected=(5.5,))
-             for s in range(20)]  # fmt: skip
+    worse = [_episode(s, walked=10.0 + rng.uniform(0.01, 0.2), detected=(5.5,)) for s in range(20)]
     res = paired_p_values(base, worse)
     assert res["spl"]["p"] < 0.01 and res["spl"]["diff"] < 0
     assert res["phantom_steps_per_min"]["p"] < 0.01 and res["phantom_steps_per_min"]["diff"] > 0
@@ -71,8 +81,9 @@ def test_a_resample_of_the_values_counts_each_drawn_pair_once_per_draw():
     base = [_episode(s) for s in range(12)]
     other = [_episode(s, success=s % 3 > 0) for s in range(12)]
     idx = np.random.default_rng(1).integers(0, 12, 30)
-    got = compare_values([episode_values(base[i]) for i in idx],
-                         [episode_values(other[i]) for i in idx])  # fmt: skip
+    got = compare_values(
+        [episode_values(base[i]) for i in idx], [episode_values(other[i]) for i in idx]
+    )
     k = int(np.sum(idx % 3 == 0))
     assert k >= 3
     assert got["success_rate"]["p"] == pytest.approx(2 / 2**k)

@@ -15,8 +15,15 @@ from agents.cli import main
 NEEDS_RAY = "the Ray backend needs Ray: pip install 'vrloco[ray]'"
 
 QUIET = {"progress": False, "print_table": False}
-TINY = {"tasks": ["approach"], "techniques": ["zhang2021"], "episodes": 2, "seed": 4,
-        "batch_size": 2, "workers": 2, **QUIET}  # fmt: skip
+TINY = {
+    "tasks": ["approach"],
+    "techniques": ["zhang2021"],
+    "episodes": 2,
+    "seed": 4,
+    "batch_size": 2,
+    "workers": 2,
+    **QUIET,
+}
 
 PLUGIN = """\
 import os
@@ -73,8 +80,10 @@ def plugin(tmp_path):
 
 def _nan_free(rows):
     """Rows comparable with ==: NaN as None."""
-    return [{k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in r.items()}
-            for r in rows]  # fmt: skip
+    return [
+        {k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in r.items()}
+        for r in rows
+    ]
 
 
 def test_ray_tasks_give_the_local_rows(ray_local):
@@ -85,8 +94,9 @@ def test_ray_tasks_give_the_local_rows(ray_local):
     assert _nan_free(ray_rows) == _nan_free(local)
 
 
-def test_a_failed_job_is_named_by_cell_and_seed_and_the_rest_is_kept(ray_local, plugin,
-                                                                     tmp_path, capsys):  # fmt: skip
+def test_a_failed_job_is_named_by_cell_and_seed_and_the_rest_is_kept(
+    ray_local, plugin, tmp_path, capsys
+):
     from agents.benchmark.backends import BackendError
 
     out = tmp_path / "out"
@@ -95,8 +105,12 @@ def test_a_failed_job_is_named_by_cell_and_seed_and_the_rest_is_kept(ray_local, 
         run_benchmark(**TINY, policies=["goal_seeker", boom, crash], out_dir=out, backend="ray")
     lines = str(err.value).splitlines()
     assert f"  cell (approach, {boom}, zhang2021) seeds 4-5: RuntimeError: boom in reset" in lines
-    assert any(s.startswith(f"  cell (approach, {crash}, zhang2021) seeds 4-5: WorkerCrashedError "
-                            "after 2 retries") for s in lines)  # fmt: skip
+    assert any(
+        s.startswith(
+            f"  cell (approach, {crash}, zhang2021) seeds 4-5: WorkerCrashedError after 2 retries"
+        )
+        for s in lines
+    )
     assert err.value.partial
     assert not (out / "benchmark.csv").exists()  # no table from a part of the grid
     capsys.readouterr()
@@ -121,8 +135,22 @@ def test_an_unreachable_address_is_named_at_once(tmp_path, capsys):
     with pytest.raises(BackendError, match=r"cannot reach a Ray cluster at 127\.0\.0\.1:1"):
         run_benchmark(**TINY, policies=["goal_seeker"], backend="ray", address="127.0.0.1:1")
     assert time.perf_counter() - t0 < 10.0
-    assert main(["benchmark", "--backend", "ray", "--address", "127.0.0.1:1", "--episodes",
-                 "1", "--out", str(tmp_path)]) == 1  # fmt: skip
+    assert (
+        main(
+            [
+                "benchmark",
+                "--backend",
+                "ray",
+                "--address",
+                "127.0.0.1:1",
+                "--episodes",
+                "1",
+                "--out",
+                str(tmp_path),
+            ]
+        )
+        == 1
+    )
     err = capsys.readouterr().err
     assert err.startswith("vrloco benchmark: cannot reach a Ray cluster at 127.0.0.1:1")
     assert "Traceback" not in err

@@ -29,8 +29,15 @@ from agents.benchmark.report import (
 #: Avoid with Zhang 2021's chain and the smooth filter, seeds 0-2: both collide (Zhang 2021 once,
 #: a phantom step; smooth 29 times, phantom steps and stop latency), and every episode of a
 #: cell is replayed, so the replays' collisions are all the row counts.
-RUN = {"tasks": ["avoid"], "techniques": ["zhang2021", "smooth"], "episodes": REPLAY_EPISODES,
-       "seed": 0, "workers": 1, "progress": False, "print_table": False}  # fmt: skip
+RUN = {
+    "tasks": ["avoid"],
+    "techniques": ["zhang2021", "smooth"],
+    "episodes": REPLAY_EPISODES,
+    "seed": 0,
+    "workers": 1,
+    "progress": False,
+    "print_table": False,
+}
 
 
 @pytest.fixture(scope="module")
@@ -53,10 +60,24 @@ def _dump_dom(page: Path, profile: Path, *flags: str) -> tuple[str, str]:
     """The DOM of ``page`` after its scripts ran, in headless Chromium, and what the browser
     logged (the page's console messages are lines with ``:CONSOLE``)."""
     done = subprocess.run(
-        [_chromium(), "--headless=new", "--disable-gpu", "--no-sandbox", "--no-first-run",
-         f"--user-data-dir={profile}", "--enable-logging=stderr", "--v=0", *flags,
-         "--dump-dom", page.resolve().as_uri()],
-        capture_output=True, text=True, timeout=180, check=False)  # fmt: skip
+        [
+            _chromium(),
+            "--headless=new",
+            "--disable-gpu",
+            "--no-sandbox",
+            "--no-first-run",
+            f"--user-data-dir={profile}",
+            "--enable-logging=stderr",
+            "--v=0",
+            *flags,
+            "--dump-dom",
+            page.resolve().as_uri(),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=180,
+        check=False,
+    )
     assert done.returncode == 0, done.stderr[-2000:]
     return done.stdout, done.stderr
 
@@ -90,9 +111,13 @@ class _Elements(HTMLParser):
             self.found[-1][3] += data
 
     def select(self, tag: str, cls: str = "", section: str = "") -> list[list]:
-        return [e for e in self.found if e[0] == tag
-                and (not cls or cls in e[1].get("class", "").split())
-                and (not section or section in e[2])]  # fmt: skip
+        return [
+            e
+            for e in self.found
+            if e[0] == tag
+            and (not cls or cls in e[1].get("class", "").split())
+            and (not section or section in e[2])
+        ]
 
     def table(self, section: str) -> list[list[str]]:
         """The texts of each body row's cells in the table of ``section``."""
@@ -110,8 +135,9 @@ class _Elements(HTMLParser):
 
 
 def _replays(text: str) -> dict:
-    (data,) = re.findall(r'<script id="replay-data" type="application/json">(.*?)</script>', text,
-                         flags=re.S)  # fmt: skip
+    (data,) = re.findall(
+        r'<script id="replay-data" type="application/json">(.*?)</script>', text, flags=re.S
+    )
     return json.loads(data.replace("<\\/", "</"))
 
 
@@ -140,11 +166,13 @@ def test_the_replays_hold_each_cells_collisions_by_cause(run):
     by cause; each replay starts where the episode does and keeps at most MAX_FRAMES frames."""
     rows, page = run
     data = _replays(page.read_text(encoding="utf-8"))
-    assert sorted(data) == sorted(f"c{k}e{i}" for k in range(len(rows))
-                                  for i in range(REPLAY_EPISODES))  # fmt: skip
+    assert sorted(data) == sorted(
+        f"c{k}e{i}" for k in range(len(rows)) for i in range(REPLAY_EPISODES)
+    )
     for k, row in enumerate(rows):
-        causes = Counter(COLLISION_CAUSES[c[3]] for i in range(REPLAY_EPISODES)
-                         for c in data[f"c{k}e{i}"]["c"])  # fmt: skip
+        causes = Counter(
+            COLLISION_CAUSES[c[3]] for i in range(REPLAY_EPISODES) for c in data[f"c{k}e{i}"]["c"]
+        )
         assert {c: causes[c] for c in COLLISION_CAUSES} == row["collision_causes"]
         for i in range(REPLAY_EPISODES):
             d = data[f"c{k}e{i}"]

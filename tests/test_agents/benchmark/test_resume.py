@@ -21,8 +21,14 @@ from agents.benchmark.grid import Cell
 from agents.benchmark.resume import EpisodeStore
 from agents.cli import main
 
-TINY = {"tasks": ["approach"], "techniques": ["zhang2021"], "episodes": 1, "workers": 1,
-        "progress": False, "print_table": False}  # fmt: skip
+TINY = {
+    "tasks": ["approach"],
+    "techniques": ["zhang2021"],
+    "episodes": 1,
+    "workers": 1,
+    "progress": False,
+    "print_table": False,
+}
 
 
 def _fresh(folder: Path) -> None:
@@ -51,7 +57,8 @@ def _same_episode(a, b) -> None:
             np.testing.assert_array_equal(x, y, err_msg=f.name)
         elif isinstance(x, dict):
             assert {k: (type(v), repr(v)) for k, v in x.items()} == {
-                k: (type(v), repr(v)) for k, v in y.items()}, f.name  # fmt: skip
+                k: (type(v), repr(v)) for k, v in y.items()
+            }, f.name
         else:
             assert type(x) is type(y) and x == y, f.name
 
@@ -72,8 +79,9 @@ def keep_resume(monkeypatch):
 # --------------------------------------------------------------------------- resume keys
 
 
-def test_an_edited_plugin_or_a_module_it_imports_runs_again(tmp_path, monkeypatch, capsys,
-                                                            keep_resume):  # fmt: skip
+def test_an_edited_plugin_or_a_module_it_imports_runs_again(
+    tmp_path, monkeypatch, capsys, keep_resume
+):
     """A ``path/file.py:attr`` user and a ``package.module:attr`` user, each walking at the
     cadence its helper module sets: editing a helper, or the plug-in file itself, runs that
     user's cell again (with other numbers) and resumes every other cell."""
@@ -82,16 +90,18 @@ def test_an_edited_plugin_or_a_module_it_imports_runs_again(tmp_path, monkeypatc
     (plugins / "packages" / "walkpkg").mkdir(parents=True)
     monkeypatch.syspath_prepend(str(plugins / "files"))
     monkeypatch.syspath_prepend(str(plugins / "packages"))
-    user = ("import numpy as np\n"
-            "from {helper} import WALK\n"
-            "TURN = {turn}\n"
-            "class Walker:\n"
-            "    def __init__(self, env):\n"
-            "        self.n = env.action_space.shape[-1]\n"
-            "    def reset(self, rng=None, rows=None):\n"
-            "        pass\n"
-            "    def act(self, obs):\n"
-            "        return np.array([WALK, TURN] + [0.0] * (self.n - 2), np.float32)\n")
+    user = (
+        "import numpy as np\n"
+        "from {helper} import WALK\n"
+        "TURN = {turn}\n"
+        "class Walker:\n"
+        "    def __init__(self, env):\n"
+        "        self.n = env.action_space.shape[-1]\n"
+        "    def reset(self, rng=None, rows=None):\n"
+        "        pass\n"
+        "    def act(self, obs):\n"
+        "        return np.array([WALK, TURN] + [0.0] * (self.n - 2), np.float32)\n"
+    )
     files, package = plugins / "files", plugins / "packages" / "walkpkg"
     (files / "walker.py").write_text(user.format(helper="walk_speed", turn=0.3))
     (files / "walk_speed.py").write_text("WALK = 0.8\n")
@@ -108,8 +118,9 @@ def test_an_edited_plugin_or_a_module_it_imports_runs_again(tmp_path, monkeypatc
         capsys.readouterr()
         rows = run_benchmark(**kw)
         said = capsys.readouterr().out
-        assert (f"resuming: {found} of 3 episodes" in said) if found else (
-            "resuming" not in said), said  # fmt: skip
+        assert (
+            (f"resuming: {found} of 3 episodes" in said) if found else ("resuming" not in said)
+        ), said
         return {r["policy"]: r for r in rows}
 
     first = run(None, 0)
@@ -131,8 +142,11 @@ def test_a_changed_model_condition_or_population_changes_the_keys(tmp_path, monk
 
     model = tmp_path / "user.zip"
     model.write_bytes(b"a model")
-    cells = [Cell("approach", str(model)), Cell("approach", "goal_seeker+nodders"),
-             Cell("approach", "goal_seeker", "zhang2021", "beside_metal")]  # fmt: skip
+    cells = [
+        Cell("approach", str(model)),
+        Cell("approach", "goal_seeker+nodders"),
+        Cell("approach", "goal_seeker", "zhang2021", "beside_metal"),
+    ]
 
     def keys() -> list[str]:
         return list(_episode_keys(cells, 2, 0, False).values())
@@ -142,13 +156,17 @@ def test_a_changed_model_condition_or_population_changes_the_keys(tmp_path, monk
     model.write_bytes(b"another model")
     after_zip = keys()
     assert after_zip[:2] != before[:2] and after_zip[2:] == before[2:]
-    monkeypatch.setitem(POPULATIONS, "nodders", dataclasses.replace(
-        POPULATIONS["nodders"], nod_rate_hz=(0.3, 0.4)))  # fmt: skip
+    monkeypatch.setitem(
+        POPULATIONS, "nodders", dataclasses.replace(POPULATIONS["nodders"], nod_rate_hz=(0.3, 0.4))
+    )
     after_population = keys()
     assert after_population[2:4] != after_zip[2:4] and after_population[4:] == after_zip[4:]
     cabinet = CONDITIONS["beside_metal"]
-    monkeypatch.setitem(CONDITIONS, "beside_metal", Condition(
-        "beside_metal", cabinet.description, cabinet.magnetic_disturbances * 2))  # fmt: skip
+    monkeypatch.setitem(
+        CONDITIONS,
+        "beside_metal",
+        Condition("beside_metal", cabinet.description, cabinet.magnetic_disturbances * 2),
+    )
     assert keys()[4:] != after_population[4:] and keys()[:4] == after_population[:4]
 
 
@@ -160,10 +178,13 @@ def test_stored_episodes_come_back_bit_for_bit_from_a_file_without_pickles(tmp_p
     entry file read with ``allow_pickle=False``: every number, dtype and type the same."""
     from agents.benchmark.resume import EpisodeStore
 
-    single = [run_cell_episode(Cell(t, "goal_seeker"), 3, trace=True)
-              for t in ("approach", "avoid", "interact", "doorway", "reach")]  # fmt: skip
-    batched = run_cell_batched(Cell("avoid", "goal_seeker+human", "smooth"), [4, 5],
-                               [True, False], batch_size=2)  # fmt: skip
+    single = [
+        run_cell_episode(Cell(t, "goal_seeker"), 3, trace=True)
+        for t in ("approach", "avoid", "interact", "doorway", "reach")
+    ]
+    batched = run_cell_batched(
+        Cell("avoid", "goal_seeker+human", "smooth"), [4, 5], [True, False], batch_size=2
+    )
     entries = {f"{i:064x}": e for i, e in enumerate(single + batched)}
     store = EpisodeStore(tmp_path / ".resume")
     path = store.save(entries)
@@ -199,8 +220,11 @@ def test_a_crafted_file_in_resume_never_runs_code(tmp_path, capsys):
     (out / ".resume" / "entry.npz").write_bytes(evil)  # a pickle under an entry's name
     with (out / ".resume" / "objects.npz").open("wb") as f:  # an object array inside an npz
         tree = {"episodes": {"dict": {"0" * 64: {"array": 0}}}, "arrays": [[0, 0, [1]]]}
-        np.savez(f, tree=np.frombuffer(json.dumps(tree).encode(), np.uint8),
-                 b0=np.array([_Marker(marker)], dtype=object))  # fmt: skip
+        np.savez(
+            f,
+            tree=np.frombuffer(json.dumps(tree).encode(), np.uint8),
+            b0=np.array([_Marker(marker)], dtype=object),
+        )
     rows = run_benchmark(**TINY, policies=["goal_seeker"], out_dir=out)
     said = capsys.readouterr().out
     assert not marker.exists()
@@ -225,8 +249,7 @@ def test_corrupt_resume_entries_are_named_and_run_again(tmp_path, capsys, keep_r
     """A truncated entry, one of the right size but another structure, one whose array has the
     wrong dtype and shape, and an older vrloco's pickle of the wrong structure: each named in one
     line, its episodes run again, the table that of a run that never stopped."""
-    kw = {**TINY, "policies": ["goal_seeker", "avoid_manoeuvre"], "episodes": 2,
-          "batch_size": 0}  # fmt: skip
+    kw = {**TINY, "policies": ["goal_seeker", "avoid_manoeuvre"], "episodes": 2, "batch_size": 0}
     out = tmp_path / "out"
     clean = run_benchmark(**kw, out_dir=out)
     files = sorted((out / ".resume").glob("*.npz"))
@@ -263,8 +286,18 @@ def test_corrupt_resume_entries_are_named_and_run_again(tmp_path, capsys, keep_r
 
 
 def _bench(*args: str) -> list[str]:
-    return ["benchmark", "--tasks", "approach", "--policies", "goal_seeker", "--episodes", "1",
-            "--workers", "1", *args]  # fmt: skip
+    return [
+        "benchmark",
+        "--tasks",
+        "approach",
+        "--policies",
+        "goal_seeker",
+        "--episodes",
+        "1",
+        "--workers",
+        "1",
+        *args,
+    ]
 
 
 def test_a_folder_holding_another_runs_results_is_refused_unless_forced(tmp_path, capsys):
@@ -307,8 +340,9 @@ with open(os.path.join(sys.argv[1], ".lock"), "w") as lock:  # as a run holds it
 @pytest.mark.skipif(sys.platform == "win32", reason="fcntl")
 def test_a_folder_another_run_is_writing_to_is_refused(tmp_path, capsys):
     out = tmp_path / "out"
-    holder = subprocess.Popen([sys.executable, "-c", _HOLD, str(out)], stdout=subprocess.PIPE,
-                              text=True)  # fmt: skip
+    holder = subprocess.Popen(
+        [sys.executable, "-c", _HOLD, str(out)], stdout=subprocess.PIPE, text=True
+    )
     try:
         assert holder.stdout.readline().strip() == "held"
         assert main(_bench("--out", str(out))) == 1
@@ -326,7 +360,8 @@ def test_a_folder_another_run_is_writing_to_is_refused(tmp_path, capsys):
 
 
 def test_a_full_disk_while_writing_ends_in_one_line_and_keeps_the_earlier_files(
-        tmp_path, capsys, monkeypatch):  # fmt: skip
+    tmp_path, capsys, monkeypatch
+):
     import csv
 
     import matplotlib.figure
@@ -337,8 +372,10 @@ def test_a_full_disk_while_writing_ends_in_one_line_and_keeps_the_earlier_files(
     out = tmp_path / "out"
     assert main(_bench("--out", str(out))) == 0
     before = {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()}
-    for target, name, failing in ((matplotlib.figure.Figure, "savefig", "trajectory_"),
-                                  (csv.DictWriter, "writeheader", "benchmark.csv")):  # fmt: skip
+    for target, name, failing in (
+        (matplotlib.figure.Figure, "savefig", "trajectory_"),
+        (csv.DictWriter, "writeheader", "benchmark.csv"),
+    ):
         with monkeypatch.context() as m:
             m.setattr(target, name, full)
             capsys.readouterr()

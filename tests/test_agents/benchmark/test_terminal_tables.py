@@ -17,14 +17,19 @@ TECHNIQUES = ("zhang2021", "zhang2021_consumer", "threshold_steps", "torso_steer
 def _rows(policies=None):
     rows = []
     policies = policies or [f"goal_seeker+{p}" for p in POPULATIONS]
-    for k, (policy, technique) in enumerate(
-        (p, t) for p in policies for t in TECHNIQUES
-    ):
+    for k, (policy, technique) in enumerate((p, t) for p in policies for t in TECHNIQUES):
         row = {key: 0.5 + k / 1000 for key in ROW_KEYS}
-        row.update(task="approach", policy=policy, technique=technique, condition="beside_metal",
-                   sensors="consumer_mems", episodes=60, virtual_jerk_m_s3=532.125 + k,
-                   vs_baseline={"spl": {"p": 0.001}, "stop_latency_s": {"p": 0.002}},
-                   collision_causes=dict.fromkeys(COLLISION_CAUSES, 2))  # fmt: skip
+        row.update(
+            task="approach",
+            policy=policy,
+            technique=technique,
+            condition="beside_metal",
+            sensors="consumer_mems",
+            episodes=60,
+            virtual_jerk_m_s3=532.125 + k,
+            vs_baseline={"spl": {"p": 0.001}, "stop_latency_s": {"p": 0.002}},
+            collision_causes=dict.fromkeys(COLLISION_CAUSES, 2),
+        )
         rows.append(row)
     return rows
 
@@ -51,7 +56,7 @@ def test_narrow_tables_keep_the_users_and_whole_values(capsys, width):
     spl_shown = any(" SPL " in f" {line} " for line in out.splitlines()[:4])
     for line, row in zip(lines[: len(rows)], rows, strict=True):
         assert (f"{row['spl']:.3f}*" in line) == spl_shown, line
-    for line, row in zip(lines[len(rows):], rows, strict=True):
+    for line, row in zip(lines[len(rows) :], rows, strict=True):
         assert f"{row['stop_latency_s']:.3f}*" in line, line
     assert spl_shown or width < 100  # at 100 columns and wider the outcomes show SPL
     assert "users: goal_seeker" in out
@@ -80,10 +85,19 @@ def test_piped_output_honours_columns(capsys, monkeypatch):
 
 
 def test_the_pairs_table_wraps_between_names(capsys):
-    metrics = ["heading_error_rmse_deg", "attitude_rmse_deg", "yaw_rate_mismatch_deg_s",
-               "phantom_steps_per_min"]  # fmt: skip
-    res = {"pair": "zhang2021_consumer (typical, lab)", "separates": True, "on_outcome": False,
-           "metrics": metrics, "tasks": {}}  # fmt: skip
+    metrics = [
+        "heading_error_rmse_deg",
+        "attitude_rmse_deg",
+        "yaw_rate_mismatch_deg_s",
+        "phantom_steps_per_min",
+    ]
+    res = {
+        "pair": "zhang2021_consumer (typical, lab)",
+        "separates": True,
+        "on_outcome": False,
+        "metrics": metrics,
+        "tasks": {},
+    }
     show_pairs([res], width=100)
     out = capsys.readouterr().out
     assert max(len(line) for line in out.splitlines()) <= 100
@@ -99,10 +113,17 @@ def test_the_pairs_table_wraps_between_names(capsys):
 
 def test_written_files_are_summarised_by_kind(tmp_path):
     cells = [f"approach_goal_seeker_{t}" for t in TECHNIQUES]
-    paths = [tmp_path / "benchmark.csv", tmp_path / "benchmark.json", tmp_path / "pairs.json",
-             *(tmp_path / f"{kind}_{c}.png" for kind in ("trajectory", "attitude", "gait")
-               for c in cells),
-             tmp_path / "metrics.png"]  # fmt: skip
+    paths = [
+        tmp_path / "benchmark.csv",
+        tmp_path / "benchmark.json",
+        tmp_path / "pairs.json",
+        *(
+            tmp_path / f"{kind}_{c}.png"
+            for kind in ("trajectory", "attitude", "gait")
+            for c in cells
+        ),
+        tmp_path / "metrics.png",
+    ]
     lines = written_summary(paths)
     assert len(lines) == 7
     assert f"wrote 4 trajectory_*.png in {tmp_path}" in lines

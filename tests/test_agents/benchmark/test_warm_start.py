@@ -8,8 +8,14 @@ import pytest
 from agents.benchmark import run as benchmark
 from agents.benchmark import run_benchmark, warm_start
 
-KW = dict(tasks=["approach"], policies=["goal_seeker"], techniques=["zhang2021"], episodes=2,
-          progress=False, print_table=False)  # fmt: skip
+KW = dict(
+    tasks=["approach"],
+    policies=["goal_seeker"],
+    techniques=["zhang2021"],
+    episodes=2,
+    progress=False,
+    print_table=False,
+)
 
 
 @pytest.fixture
@@ -25,8 +31,9 @@ def test_a_first_run_announces_compiling_before_it_plays_and_a_later_run_does_no
 ):
     played = []
     real_job = benchmark._job
-    monkeypatch.setattr(benchmark, "_job", lambda job: played.append(capsys.readouterr().out)
-                        or real_job(job))  # fmt: skip
+    monkeypatch.setattr(
+        benchmark, "_job", lambda job: played.append(capsys.readouterr().out) or real_job(job)
+    )
     run_benchmark(**KW, workers=1)
     assert "compiling kernels (first run only, about" in played[0]  # before any episode
     assert stamp.exists()
@@ -54,8 +61,9 @@ def test_a_cold_run_with_workers_compiles_the_shared_kernels_here_before_forking
     stamp, monkeypatch
 ):
     order = []
-    monkeypatch.setattr(benchmark, "_compile_shared_kernels",
-                        lambda job: order.append(("here", job[0][0][0].task)))  # fmt: skip
+    monkeypatch.setattr(
+        benchmark, "_compile_shared_kernels", lambda job: order.append(("here", job[0][0][0].task))
+    )
     real = benchmark._run_jobs
 
     def run_jobs(*args, **kwargs):

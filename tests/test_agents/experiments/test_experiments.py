@@ -43,8 +43,21 @@ def test_locomotion_table_keeps_distance_and_removes_jerk(tmp_path):
 
 def test_head_motions_meet_seed_000_targets(tmp_path):
     path = tmp_path / "hm.json"
-    assert main(["experiment", "head-motions", "--users", "3", "--out", str(tmp_path),
-                 "--json", str(path)]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "experiment",
+                "head-motions",
+                "--users",
+                "3",
+                "--out",
+                str(tmp_path),
+                "--json",
+                str(path),
+            ]
+        )
+        == 0
+    )
     result = json.loads(path.read_text())
     for preset, rows in result["steps"].items():  # F1 >= 0.99 at 1.2-2.2 Hz
         for cadence, r in rows.items():

@@ -26,7 +26,14 @@ SEED = 4100  # seeds 4100 and up: used by this file only
 
 def test_held_out_files_are_the_odd_video_numbers():
     assert [is_held_out(f"{n}.txt") for n in (0, 1, 7, 16, 33, 40, 41)] == [
-        False, True, True, False, True, False, True]  # fmt: skip
+        False,
+        True,
+        True,
+        False,
+        True,
+        False,
+        True,
+    ]
 
 
 def test_a_standing_idealised_head_never_moves_and_a_walking_one_turns_with_the_body():
@@ -80,8 +87,10 @@ def test_a_tiny_run_writes_the_json_and_its_real_statistics_are_those_of_the_fil
             per = result["distances"][name][cond]
             assert list(per) == datasets
             for d in per.values():
-                assert d is None or (set(d) == {"yaw_speed_ks", "interval_ks", "relative"}
-                                     and list(d["relative"]) == list(STATS_KEYS))  # fmt: skip
+                assert d is None or (
+                    set(d) == {"yaw_speed_ks", "interval_ks", "relative"}
+                    and list(d["relative"]) == list(STATS_KEYS)
+                )
     # the idealised user standing: a head that never moves
     still = result["populations"]["idealised"]["standing"]
     assert still["still_fraction"] == 1.0 and still["turns_per_min"] == [0.0] * 4

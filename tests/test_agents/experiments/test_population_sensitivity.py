@@ -109,7 +109,8 @@ def test_a_run_with_a_failing_benchmark_restores_the_populations(monkeypatch):
 
 
 def test_the_json_has_the_stated_structure_and_the_workers_see_the_collapsed_users(
-        tmp_path, capsys, monkeypatch):  # fmt: skip
+    tmp_path, capsys, monkeypatch
+):
     import agents.benchmark.resume
 
     # the sources as they are now: an edit elsewhere in the tree while this runs changes nothing
@@ -117,15 +118,22 @@ def test_the_json_has_the_stated_structure_and_the_workers_see_the_collapsed_use
     monkeypatch.setattr(agents.benchmark.resume, "source_fingerprint", lambda: fingerprint)
     path = tmp_path / "s.json"
     # two workers: the benchmark's pool forks here and must see the derived populations
-    result = ps.run_population_sensitivity(json_path=path, episodes=2, fields=["nod_rate_hz"],
-                                           out_dir=tmp_path / "rows", workers=2,
-                                           grids=SMALL_GRID)  # fmt: skip
+    result = ps.run_population_sensitivity(
+        json_path=path,
+        episodes=2,
+        fields=["nod_rate_hz"],
+        out_dir=tmp_path / "rows",
+        workers=2,
+        grids=SMALL_GRID,
+    )
     assert json.loads(path.read_text()) == json.loads(json.dumps(result))
     data = json.loads(path.read_text())
     assert set(data) == {"reference", "rows", "settings"}
     pair = "nod_robust (goal_seeker+nodders)"
-    assert [(r["field"], r["end"]) for r in data["rows"]] == [("nod_rate_hz", "lo"),
-                                                              ("nod_rate_hz", "hi")]
+    assert [(r["field"], r["end"]) for r in data["rows"]] == [
+        ("nod_rate_hz", "lo"),
+        ("nod_rate_hz", "hi"),
+    ]
     assert data["rows"][0]["values"] == {"nodders": [0.1, 0.1]}
     assert data["rows"][1]["values"] == {"nodders": [0.25, 0.25]}
     for row in [data["reference"], *data["rows"]]:
@@ -138,29 +146,42 @@ def test_the_json_has_the_stated_structure_and_the_workers_see_the_collapsed_use
         assert row["on_outcome"] == int(verdict["on_outcome"])
     assert data["settings"]["seeds"] == [0, 1] and data["settings"]["pairs_of"] == 1
     # the collapsed nod rate reached the users (in the workers): the two ends' numbers differ
-    rows = {r: json.loads((tmp_path / "rows" / f"{r}.json").read_text())["benchmark_rows"]
-            for r in ("reference", "nod_rate_hz__lo", "nod_rate_hz__hi")}  # fmt: skip
+    rows = {
+        r: json.loads((tmp_path / "rows" / f"{r}.json").read_text())["benchmark_rows"]
+        for r in ("reference", "nod_rate_hz__lo", "nod_rate_hz__hi")
+    }
     assert [r["policy"] for r in rows["nod_rate_hz__hi"]] == [
-        "goal_seeker+nodders__nod_rate_hz__hi"] * 2
-    numbers = {k: [{m: x for m, x in r.items() if m != "policy"} for r in v]
-               for k, v in rows.items()}  # fmt: skip
+        "goal_seeker+nodders__nod_rate_hz__hi"
+    ] * 2
+    numbers = {
+        k: [{m: x for m, x in r.items() if m != "policy"} for r in v] for k, v in rows.items()
+    }
     assert numbers["nod_rate_hz__lo"] != numbers["nod_rate_hz__hi"]
     out = capsys.readouterr().out
-    table = out[:out.index("wrote")]
+    table = out[: out.index("wrote")]
     assert max(len(line) for line in table.splitlines()) <= ps.WIDTH
     assert "nod_rate_hz    hi" in table and "reference" in table
     # a rerun with the same folder reuses every row
-    again = ps.run_population_sensitivity(episodes=2, fields=["nod_rate_hz"],
-                                          out_dir=tmp_path / "rows", grids=SMALL_GRID)
+    again = ps.run_population_sensitivity(
+        episodes=2, fields=["nod_rate_hz"], out_dir=tmp_path / "rows", grids=SMALL_GRID
+    )
     assert again["rows"] == result["rows"]
     assert "reused" in capsys.readouterr().err
 
 
 def test_differs_names_each_changed_verdict():
-    ref = {"pairs": {"a (u)": {"separates": True, "on_outcome": False},
-                     "b (u)": {"separates": False, "on_outcome": False}}}  # fmt: skip
-    row = {"pairs": {"a (u)": {"separates": False, "on_outcome": False},
-                     "b (u)": {"separates": True, "on_outcome": True}}}  # fmt: skip
+    ref = {
+        "pairs": {
+            "a (u)": {"separates": True, "on_outcome": False},
+            "b (u)": {"separates": False, "on_outcome": False},
+        }
+    }
+    row = {
+        "pairs": {
+            "a (u)": {"separates": False, "on_outcome": False},
+            "b (u)": {"separates": True, "on_outcome": True},
+        }
+    }
     assert ps._differs(row, ref) == ["a (u): yes->no", "b (u): no->yes", "b (u): outcome no->yes"]
 
 

@@ -72,10 +72,12 @@ def test_tp_and_misses_make_the_true_steps_and_tp_and_fp_the_detections():
 def test_steps_below_the_threshold_are_missed_and_steps_above_it_found():
     """Zhang 2021's gamma is 0.07 g: heel strikes peaking at 0.06 g fall under it, 0.10 g clear
     it."""
-    soft = count_steps("zhang2021", [build_trial(CASE["light steps 0.06 g, 1.5/s"], "ig500n", 2,
-                                               SEED + 2)])  # fmt: skip
-    firm = count_steps("zhang2021", [build_trial(CASE["light steps 0.10 g, 1.5/s"], "ig500n", 2,
-                                               SEED + 2)])  # fmt: skip
+    soft = count_steps(
+        "zhang2021", [build_trial(CASE["light steps 0.06 g, 1.5/s"], "ig500n", 2, SEED + 2)]
+    )
+    firm = count_steps(
+        "zhang2021", [build_trial(CASE["light steps 0.10 g, 1.5/s"], "ig500n", 2, SEED + 2)]
+    )
     assert soft.true_steps == firm.true_steps > 40
     assert soft.tp <= 0.2 * soft.true_steps
     assert firm.tp >= 0.95 * firm.true_steps and firm.fp == 0
@@ -131,7 +133,9 @@ def test_the_two_fold_split_uses_disjoint_halves(real_data):
     out = two_fold_gamma(rec.t, rec.acc, rec.step_times)
     folds = out["folds"]
     assert [f["held_out"]["true_steps"] for f in folds] == [
-        int(np.sum(rec.step_times >= split)), int(np.sum(rec.step_times < split))]
+        int(np.sum(rec.step_times >= split)),
+        int(np.sum(rec.step_times < split)),
+    ]
     for f in folds:  # the chosen gamma is the best on the tuning half, not on the evaluated one
         best = max(f["tuning_f1"].values())
         assert f["tuning_f1"][f"{f['chosen_gamma_g']:.2f}"] == best
@@ -167,8 +171,10 @@ def test_the_cli_runs_every_case_and_labels_its_seeds(tmp_path, capsys):
         assert labels["zhang2021 neck_pouch"].startswith("in-sample")
 
 
-@pytest.mark.parametrize(("kw", "message"), [({"users": 0}, "users=0"), ({"seed": -2}, "seed=-2"),
-                                             ({"users": 2.5}, "users=2.5")])  # fmt: skip
+@pytest.mark.parametrize(
+    ("kw", "message"),
+    [({"users": 0}, "users=0"), ({"seed": -2}, "seed=-2"), ({"users": 2.5}, "users=2.5")],
+)
 def test_bad_arguments_are_refused_before_any_work(kw, message):
     from agents.experiments.step_envelope import run_step_envelope
 

@@ -22,8 +22,9 @@ DURATION = 15.0
 @pytest.fixture(scope="module")
 def result(tmp_path_factory) -> dict:
     path = tmp_path_factory.mktemp("vio") / "vio.json"
-    rc = main(["experiment", "vio", "--duration", str(DURATION), "--seed", "3",
-               "--json", str(path)])  # fmt: skip
+    rc = main(
+        ["experiment", "vio", "--duration", str(DURATION), "--seed", "3", "--json", str(path)]
+    )
     assert rc == 0
     return json.loads(path.read_text())
 
@@ -143,8 +144,12 @@ def test_pnp_in_worker_threads_equals_pnp_here(short_walk):
     """Two PnP blocks of 600 frames in two threads give the poses of one thread, bit for bit."""
     traj, setup = short_walk
     spec = vio.condition_spec("ideal")
-    a, b = (vio.capture_visual(traj, spec, BatchRng.from_seeds([2]), setup, vio.pnp_params(spec),
-                               workers=w) for w in (1, 2))  # fmt: skip
+    a, b = (
+        vio.capture_visual(
+            traj, spec, BatchRng.from_seeds([2]), setup, vio.pnp_params(spec), workers=w
+        )
+        for w in (1, 2)
+    )
     assert a.ok.size >= 719 and a.ok.mean() > 0.9
     np.testing.assert_array_equal(a.ok, b.ok)
     np.testing.assert_array_equal(a.position, b.position)

@@ -59,19 +59,46 @@ def test_tiny_ppo_run_writes_a_model_and_a_learning_curve(tmp_path, capsys):
     # The benchmark plays the same model through the same episode loop: the same numbers.
     from agents.benchmark import run_benchmark
 
-    (row,) = run_benchmark(tasks=["avoid"], policies=[str(path)], techniques=["zhang2021"],
-                           episodes=2, workers=1, progress=False, print_table=False)  # fmt: skip
+    (row,) = run_benchmark(
+        tasks=["avoid"],
+        policies=[str(path)],
+        techniques=["zhang2021"],
+        episodes=2,
+        workers=1,
+        progress=False,
+        print_table=False,
+    )
     # The same row, steps matched in the benchmark's window (step F1 too).
-    for key in ("success_rate", "spl", "attitude_rmse_deg", "mean_collisions", "step_f1",
-                "heading_error_rmse_deg", "phantom_steps_per_min"):  # fmt: skip
+    for key in (
+        "success_rate",
+        "spl",
+        "attitude_rmse_deg",
+        "mean_collisions",
+        "step_f1",
+        "heading_error_rmse_deg",
+        "phantom_steps_per_min",
+    ):
         assert row[key] == pytest.approx(result[key], nan_ok=True), key
     # Batched users play the model row by row: the same table as one episode at a time.
-    kw = dict(tasks=["avoid"], policies=[str(path)], techniques=["zhang2021"], episodes=3,
-              workers=1, progress=False, print_table=False)  # fmt: skip
+    kw = dict(
+        tasks=["avoid"],
+        policies=[str(path)],
+        techniques=["zhang2021"],
+        episodes=3,
+        workers=1,
+        progress=False,
+        print_table=False,
+    )
     assert run_benchmark(**kw, batch_size=2) == run_benchmark(**kw, batch_size=0)
     with pytest.raises(ValueError, match="trained on task 'avoid'"):
-        run_benchmark(tasks=["approach"], policies=[str(path)], episodes=1, workers=1,
-                      progress=False, print_table=False)  # fmt: skip
+        run_benchmark(
+            tasks=["approach"],
+            policies=[str(path)],
+            episodes=1,
+            workers=1,
+            progress=False,
+            print_table=False,
+        )
     with pytest.raises(ValueError, match="contradicts the model"):
         evaluate_model(path, task="approach", episodes=1)
     with pytest.raises(ValueError, match="contradicts the model"):
@@ -116,8 +143,7 @@ def test_tiny_runs_over_two_seeds_write_each_seed_and_their_mean(tmp_path):
 
     from agents.learned.train import train_seeds
 
-    kw = dict(steps=512, num_envs=4, eval_every=256, eval_episodes=2, n_steps=64,
-              batch_size=128)  # fmt: skip
+    kw = dict(steps=512, num_envs=4, eval_every=256, eval_episodes=2, n_steps=64, batch_size=128)
     paths = train_seeds("avoid", [0, 1], tmp_path / "two", **kw)
     assert paths == [tmp_path / "two" / f"seed_{s}" / "ppo_avoid_final.zip" for s in (0, 1)]
     assert all(p.is_file() for p in paths)
@@ -187,8 +213,10 @@ def test_seeds_on_ray_train_as_the_local_backend_and_a_failed_seed_is_named(tmp_
     finally:
         ray.shutdown()
     assert err.value.partial
-    assert (f"  seed {bad}: ValueError: Seed must be between 0 and 2**32 - 1"
-            in str(err.value).splitlines())  # fmt: skip
+    assert (
+        f"  seed {bad}: ValueError: Seed must be between 0 and 2**32 - 1"
+        in str(err.value).splitlines()
+    )
     assert not (out / f"seed_{bad}").exists()
     for s in (0, 1):  # the finished seeds' files came back from the workers
         folder = out / f"seed_{s}"
@@ -197,7 +225,8 @@ def test_seeds_on_ray_train_as_the_local_backend_and_a_failed_seed_is_named(tmp_
     data = json.loads((out / "learning_curve.json").read_text())
     assert data["seeds"] == [0, 1] and (out / "learning_curve.png").is_file()
     assert _policy(out / "seed_0" / "ppo_avoid_final.zip") != _policy(
-        out / "seed_1" / "ppo_avoid_final.zip")
+        out / "seed_1" / "ppo_avoid_final.zip"
+    )
     # A Ray task trains seed 0 exactly as this process does: torch's thread count is kept.
     (alone,) = train_seeds("avoid", [0], tmp_path / "one", progress=False, **TINY)
     assert _policy(alone) == _policy(out / "seed_0" / "ppo_avoid_final.zip")
@@ -218,8 +247,26 @@ def test_seeds_on_an_unreachable_ray_address_are_named_at_once(tmp_path, capsys)
         train_seeds("avoid", [0, 1], tmp_path, backend="ray", address="127.0.0.1:1", **TINY)
     assert time.perf_counter() - t0 < 10.0
     assert not list(tmp_path.glob("seed_*"))
-    assert main(["train", "--seeds", "0,1", "--backend", "ray", "--address", "127.0.0.1:1",
-                 "--steps", "1024", "--num-envs", "4", "--out", str(tmp_path)]) == 1  # fmt: skip
+    assert (
+        main(
+            [
+                "train",
+                "--seeds",
+                "0,1",
+                "--backend",
+                "ray",
+                "--address",
+                "127.0.0.1:1",
+                "--steps",
+                "1024",
+                "--num-envs",
+                "4",
+                "--out",
+                str(tmp_path),
+            ]
+        )
+        == 1
+    )
     err = capsys.readouterr().err
     assert err.startswith("vrloco train: cannot reach a Ray cluster at 127.0.0.1:1")
     assert "Traceback" not in err
@@ -288,7 +335,7 @@ def test_evaluate_names_a_file_that_is_not_a_model_in_one_line(tmp_path, capsys)
     cases = {
         "junk.zip": "is not a saved model: not a zip file",
         "notes.zip": "is not a saved stable-baselines3 model: the zip holds no data and no "
-                     "policy.pth",
+        "policy.pth",
         "broken.zip": "stable-baselines3 cannot load it as a PPO model (JSONDecodeError",
         "missing.zip": "no such model file",
         "model.zip": "no such model file; did you mean",
@@ -358,16 +405,25 @@ def test_a_policy_returning_actions_of_the_wrong_shape_is_named(tmp_path):
     plugin = tmp_path / "bad_users.py"
     plugin.write_text(_WRONG_WIDTH)
     narrow = Cell("avoid", f"{plugin}:Narrow")
-    with pytest.raises(ValueError, match=rf"policy '{plugin}:Narrow' returned actions of shape "
-                                         r"\(2, 3\) from act\(\); expected \(2, 5\) \(one row of "
-                                         r"5 per user\): \[walk, turn, "):  # fmt: skip
+    with pytest.raises(
+        ValueError,
+        match=rf"policy '{plugin}:Narrow' returned actions of shape "
+        r"\(2, 3\) from act\(\); expected \(2, 5\) \(one row of "
+        r"5 per user\): \[walk, turn, ",
+    ):
         run_batched([(narrow, 0, False), (narrow, 1, False)], batch_size=2)
-    with pytest.raises(ValueError, match=rf"policy '{plugin}:OneRow' returned actions of shape "
-                                         r"\(1, 5\) from act\(\); expected \(3, 5\)"):  # fmt: skip
+    with pytest.raises(
+        ValueError,
+        match=rf"policy '{plugin}:OneRow' returned actions of shape "
+        r"\(1, 5\) from act\(\); expected \(3, 5\)",
+    ):
         one = Cell("avoid", f"{plugin}:OneRow")
         run_batched([(one, s, False) for s in range(3)], batch_size=3)
-    with pytest.raises(ValueError, match=rf"policy '{plugin}:Short' returned actions of shape "
-                                         r"\(4,\) from act\(\); expected \(5,\)"):  # fmt: skip
+    with pytest.raises(
+        ValueError,
+        match=rf"policy '{plugin}:Short' returned actions of shape "
+        r"\(4,\) from act\(\); expected \(5,\)",
+    ):
         run_cell_episode(Cell("avoid", f"{plugin}:Short"), 0)
 
 
@@ -378,8 +434,11 @@ def test_a_model_predicting_the_wrong_shape_is_named():
         def predict(self, obs, deterministic=True):
             return np.zeros((len(obs), 6), np.float32), None
 
-    with pytest.raises(ValueError, match=r"model Wide returned actions of shape \(2, 6\) from "
-                                         r"predict\(\); expected \(2, 5\)"):  # fmt: skip
+    with pytest.raises(
+        ValueError,
+        match=r"model Wide returned actions of shape \(2, 6\) from "
+        r"predict\(\); expected \(2, 5\)",
+    ):
         run_policy_episodes(Wide(), VRLocoVectorEnv(2, task="avoid"), seed=0)
 
 
@@ -460,17 +519,21 @@ def test_importing_the_trainer_starts_torch_after_the_passive_thread_policy():
     import os
     import subprocess
 
-    code = ("import os, sys, agents.learned; m = list(sys.modules); "
-            "print(m.index('estimators.kernels.batch') < m.index('torch'), "
-            "os.environ['OMP_WAIT_POLICY'], agents.learned.threads._TORCH_SPINS)")  # fmt: skip
+    code = (
+        "import os, sys, agents.learned; m = list(sys.modules); "
+        "print(m.index('estimators.kernels.batch') < m.index('torch'), "
+        "os.environ['OMP_WAIT_POLICY'], agents.learned.threads._TORCH_SPINS)"
+    )
     env = {k: v for k, v in os.environ.items() if k != "OMP_WAIT_POLICY"}
-    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
-                         check=True)  # fmt: skip
+    out = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
+    )
     assert out.stdout.split() == ["True", "PASSIVE", "False"]
     # torch imported first (without the policy): the trainer knows, and warns.
     code = "import torch, agents.learned; print(agents.learned.threads._TORCH_SPINS)"
-    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
-                         check=True)  # fmt: skip
+    out = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
+    )
     assert out.stdout.split() == ["True"]
 
 
@@ -489,8 +552,22 @@ def test_an_unknown_technique_population_or_condition_is_one_error_naming_the_va
         with pytest.raises(ValueError, match=says.replace("(", r"\(")):
             train_ppo("avoid", steps=512, num_envs=4, out_dir=out, **{name: "nope"})
         assert not out.exists()  # refused before anything was written
-        assert main(["train", f"--{name}", "nope", "--steps", "1024", "--num-envs", "4",
-                     "--out", str(out)]) == 2  # fmt: skip
+        assert (
+            main(
+                [
+                    "train",
+                    f"--{name}",
+                    "nope",
+                    "--steps",
+                    "1024",
+                    "--num-envs",
+                    "4",
+                    "--out",
+                    str(out),
+                ]
+            )
+            == 2
+        )
         err = capsys.readouterr().err
         assert err.startswith(f"vrloco train: {says}") and err.count("\n") == 1, err
         assert not (out / "tb").exists()
@@ -511,14 +588,46 @@ def test_train_passes_the_cell_and_the_policy_options_on(tmp_path, monkeypatch, 
         return [out_dir / "ppo_final.zip"]
 
     monkeypatch.setattr(agents.learned.train, "train_seeds", fake)
-    assert main(["train", "--task", "reach", "--technique", "madgwick", "--population",
-                 "nodders", "--condition", "beside_metal", "--frame-stack", "4", "--recurrent",
-                 "--out", str(tmp_path)]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "train",
+                "--task",
+                "reach",
+                "--technique",
+                "madgwick",
+                "--population",
+                "nodders",
+                "--condition",
+                "beside_metal",
+                "--frame-stack",
+                "4",
+                "--recurrent",
+                "--out",
+                str(tmp_path),
+            ]
+        )
+        == 0
+    )
     assert seen["task"] == "reach" and seen["seeds"] == [0]
-    assert {k: seen[k] for k in ("technique", "population", "condition", "frame_stack",
-                                 "recurrent", "sensor_preset")} == {
-        "technique": "madgwick", "population": "nodders", "condition": "beside_metal",
-        "frame_stack": 4, "recurrent": True, "sensor_preset": None}  # fmt: skip
+    assert {
+        k: seen[k]
+        for k in (
+            "technique",
+            "population",
+            "condition",
+            "frame_stack",
+            "recurrent",
+            "sensor_preset",
+        )
+    } == {
+        "technique": "madgwick",
+        "population": "nodders",
+        "condition": "beside_metal",
+        "frame_stack": 4,
+        "recurrent": True,
+        "sensor_preset": None,
+    }
 
 
 @pytest.mark.slow  # about 10 s: a real PPO run
@@ -534,10 +643,23 @@ def test_a_model_trained_on_a_cell_carries_it_and_is_evaluated_on_it(tmp_path, c
     from vrloco_env.tasks import env_id
     from vrloco_env.techniques import TECHNIQUES
 
-    cell = {"task": "approach", "technique": "madgwick", "population": "typical",
-            "condition": "beside_metal"}  # fmt: skip
-    path = train_ppo(steps=256, num_envs=4, out_dir=tmp_path, eval_every=256, eval_episodes=2,
-                     progress=False, n_steps=64, batch_size=128, **cell)  # fmt: skip
+    cell = {
+        "task": "approach",
+        "technique": "madgwick",
+        "population": "typical",
+        "condition": "beside_metal",
+    }
+    path = train_ppo(
+        steps=256,
+        num_envs=4,
+        out_dir=tmp_path,
+        eval_every=256,
+        eval_episodes=2,
+        progress=False,
+        n_steps=64,
+        batch_size=128,
+        **cell,
+    )
     model = load_ppo(path)
     assert model.vrloco_cell == cell
     assert model.vrloco_policy == {"frame_stack": 1, "recurrent": False}
@@ -557,8 +679,12 @@ def test_a_model_trained_on_a_cell_carries_it_and_is_evaluated_on_it(tmp_path, c
     row = evaluate_model(path, episodes=2, progress=False)
     assert {k: row[k] for k in cell} == cell and row["trained_on"] is None
     # The episodes of the cell's own env, as the benchmark builds it.
-    env = gym.make(env_id("approach"), technique="madgwick", population="typical",
-                   sensors=get_condition("beside_metal").sensors())  # fmt: skip
+    env = gym.make(
+        env_id("approach"),
+        technique="madgwick",
+        population="typical",
+        sensors=get_condition("beside_metal").sensors(),
+    )
     policy = LearnedPolicy(path, env)
     played = [run_episode(env, policy, s)[0] for s in (0, 1)]
     ref = summarize(played)
@@ -566,25 +692,36 @@ def test_a_model_trained_on_a_cell_carries_it_and_is_evaluated_on_it(tmp_path, c
         assert row[key] == pytest.approx(ref[key], nan_ok=True), key
     # Repeating the model's own cell is no mismatch; another cell is refused, naming it.
     assert evaluate_model(path, episodes=2, progress=False, **cell) == row
-    with pytest.raises(ValueError, match=r"technique='zhang2021' \(trained: 'madgwick'\), "
-                                         r"condition='lab' \(trained: 'beside_metal'\) "
-                                         r"contradicts the model"):  # fmt: skip
+    with pytest.raises(
+        ValueError,
+        match=r"technique='zhang2021' \(trained: 'madgwick'\), "
+        r"condition='lab' \(trained: 'beside_metal'\) "
+        r"contradicts the model",
+    ):
         evaluate_model(path, episodes=1, technique="zhang2021", condition="lab")
     with pytest.raises(ValueError, match="condition='nope': unknown; valid names: lab"):
         evaluate_model(path, episodes=1, condition="nope")
     capsys.readouterr()
     assert main(["evaluate", str(path), "--episodes", "1", "--condition", "lab"]) == 2
     err = capsys.readouterr().err
-    assert err.startswith("vrloco evaluate: condition='lab' (trained: 'beside_metal') "
-                          "contradicts the model") and "--allow-mismatch" in err
+    assert (
+        err.startswith(
+            "vrloco evaluate: condition='lab' (trained: 'beside_metal') contradicts the model"
+        )
+        and "--allow-mismatch" in err
+    )
     assert err.count("\n") == 1
     # --allow-mismatch plays the cell asked for: the model's env, the condition replaced.
-    assert main(["evaluate", str(path), "--episodes", "2", "--condition", "lab",
-                 "--allow-mismatch"]) == 0  # fmt: skip
+    assert (
+        main(["evaluate", str(path), "--episodes", "2", "--condition", "lab", "--allow-mismatch"])
+        == 0
+    )
     out = capsys.readouterr().out
-    assert ("cell: task approach, technique madgwick, population typical, condition lab; the "
-            "model was trained on task approach, technique madgwick, population typical, "
-            "condition beside_metal, sensors ig500n") in out  # fmt: skip
+    assert (
+        "cell: task approach, technique madgwick, population typical, condition lab; the "
+        "model was trained on task approach, technique madgwick, population typical, "
+        "condition beside_metal, sensors ig500n"
+    ) in out
     moved = evaluate_model(path, episodes=2, progress=False, condition="lab", allow_mismatch=True)
     assert moved["condition"] == "lab" and moved["trained_on"]["condition"] == "beside_metal"
     env = gym.make(env_id("approach"), technique="madgwick", population="typical")
@@ -605,8 +742,7 @@ def _trained_actions(model, task, seed, steps, frame_stack):
     state, start, actions = None, np.ones(1, bool), []
     for _ in range(steps):
         if is_recurrent(model):
-            action, state = model.predict(obs, state=state, episode_start=start,
-                                          deterministic=True)  # fmt: skip
+            action, state = model.predict(obs, state=state, episode_start=start, deterministic=True)
         else:
             action, _ = model.predict(obs, deterministic=True)
         actions.append(action[0])
@@ -646,8 +782,15 @@ def test_frame_stacked_and_recurrent_models_play_as_they_were_trained(tmp_path):
     from agents.benchmark.policies import LearnedPolicy, load_ppo
     from vrloco_env.tasks import env_id
 
-    tiny = dict(steps=256, num_envs=4, eval_every=256, eval_episodes=2, progress=False,
-                n_steps=64, batch_size=128)  # fmt: skip
+    tiny = dict(
+        steps=256,
+        num_envs=4,
+        eval_every=256,
+        eval_episodes=2,
+        progress=False,
+        n_steps=64,
+        batch_size=128,
+    )
     stacked = train_ppo("avoid", out_dir=tmp_path / "stack", frame_stack=3, **tiny)
     recurrent = train_ppo("avoid", out_dir=tmp_path / "lstm", recurrent=True, **tiny)
     for path, frames, lstm in ((stacked, 3, False), (recurrent, 1, True)):
@@ -658,13 +801,23 @@ def test_frame_stacked_and_recurrent_models_play_as_they_were_trained(tmp_path):
         want = _trained_actions(model, "avoid", 11, 20, frames)
         np.testing.assert_array_equal(_played_actions(path, "avoid", 11, 20), want)
         # Batched users keep their own frames and LSTM states: the same table as one at a time.
-        kw = dict(tasks=["avoid"], policies=[str(path)], techniques=["zhang2021"], episodes=3,
-                  workers=1, progress=False, print_table=False)  # fmt: skip
+        kw = dict(
+            tasks=["avoid"],
+            policies=[str(path)],
+            techniques=["zhang2021"],
+            episodes=3,
+            workers=1,
+            progress=False,
+            print_table=False,
+        )
         assert run_benchmark(**kw, batch_size=2) == run_benchmark(**kw, batch_size=0)
         row = evaluate_model(path, episodes=1, progress=False)
         assert row["task"] == "avoid" and 0.0 <= row["success_rate"] <= 1.0
     # A stacked model in an env whose frames do not fit says how many it takes.
     env = gym.make(env_id("avoid"), population="typical")
-    with pytest.raises(ValueError, match=r"takes observations of shape \(87,\), the env gives "
-                                         r"\(90,\) \(3 frames of 30\)"):  # fmt: skip
+    with pytest.raises(
+        ValueError,
+        match=r"takes observations of shape \(87,\), the env gives "
+        r"\(90,\) \(3 frames of 30\)",
+    ):
         LearnedPolicy(stacked, env)

@@ -24,8 +24,7 @@ DATASET = "vrloco/test-avoid-v0"
 
 
 def _make_env() -> gym.Env:
-    return gym.make(ENV_ID, technique=TECHNIQUE, population=POPULATION,
-                    max_episode_steps=HORIZON)  # fmt: skip
+    return gym.make(ENV_ID, technique=TECHNIQUE, population=POPULATION, max_episode_steps=HORIZON)
 
 
 def _play(seed: int) -> dict:
@@ -35,16 +34,29 @@ def _play(seed: int) -> dict:
     policy = build_policy(POLICY, env)
     obs, reset_info = env.reset(seed=seed)
     policy.reset(np.random.default_rng([seed, 1]))
-    ep = {"observations": [obs], "actions": [], "rewards": [], "terminations": [],
-          "truncations": [], "infos": [], "reset_info": reset_info}  # fmt: skip
+    ep = {
+        "observations": [obs],
+        "actions": [],
+        "rewards": [],
+        "terminations": [],
+        "truncations": [],
+        "infos": [],
+        "reset_info": reset_info,
+    }
     while True:
         action = np.asarray(policy.act(obs))
         obs, reward, terminated, truncated, info = env.step(action)
-        for key, value in (("observations", obs), ("actions", action), ("rewards", reward),
-                           ("terminations", terminated), ("truncations", truncated),
-                           ("infos", info)):  # fmt: skip
-            ep[key].append({k: np.array(v) for k, v in info.items()} if key == "infos"
-                           else np.array(value))  # copies: an env may reuse its buffers
+        for key, value in (
+            ("observations", obs),
+            ("actions", action),
+            ("rewards", reward),
+            ("terminations", terminated),
+            ("truncations", truncated),
+            ("infos", info),
+        ):
+            ep[key].append(
+                {k: np.array(v) for k, v in info.items()} if key == "infos" else np.array(value)
+            )  # copies: an env may reuse its buffers
         if terminated or truncated:
             break
     env.close()
@@ -63,8 +75,15 @@ def minari_root(tmp_path_factory):
 def recorded(minari_root):
     import minari
 
-    record_dataset(TASK, POLICY, DATASET, technique=TECHNIQUE, episodes=EPISODES, seed=SEED,
-                   max_episode_steps=HORIZON)  # fmt: skip
+    record_dataset(
+        TASK,
+        POLICY,
+        DATASET,
+        technique=TECHNIQUE,
+        episodes=EPISODES,
+        seed=SEED,
+        max_episode_steps=HORIZON,
+    )
     return minari.load_dataset(DATASET)
 
 
@@ -100,8 +119,11 @@ def test_recover_environment_makes_the_same_env(recorded):
     original = _make_env()
     env = recorded.recover_environment()
     assert env.spec.id == original.spec.id == ENV_ID
-    assert env.spec.kwargs == original.spec.kwargs == {
-        "task": TASK, "technique": TECHNIQUE, "population": POPULATION}  # fmt: skip
+    assert (
+        env.spec.kwargs
+        == original.spec.kwargs
+        == {"task": TASK, "technique": TECHNIQUE, "population": POPULATION}
+    )
     assert env.spec.max_episode_steps == HORIZON
     assert env.unwrapped.config == original.unwrapped.config
     meta = list(recorded.storage.get_episode_metadata(recorded.episode_indices))
@@ -112,7 +134,10 @@ def test_recover_environment_makes_the_same_env(recorded):
             obs, reward, terminated, truncated, _ = env.step(action)
             np.testing.assert_array_equal(obs, ep.observations[t + 1], strict=True)
             assert (reward, terminated, truncated) == (
-                ep.rewards[t], ep.terminations[t], ep.truncations[t])  # fmt: skip
+                ep.rewards[t],
+                ep.terminations[t],
+                ep.truncations[t],
+            )
     env.close()
     original.close()
 
@@ -126,7 +151,13 @@ def test_benchmark_metrics_from_the_stored_episodes(recorded):
     assert [e.seed for e in got] == [e.seed for e in want] == [SEED, SEED + 1]
     for g, w in zip(got, want, strict=True):
         assert (g.success, g.collisions, g.steps, g.elapsed_s, g.walked_m, g.shortest_m) == (
-            w.success, w.collisions, w.steps, w.elapsed_s, w.walked_m, w.shortest_m)  # fmt: skip
+            w.success,
+            w.collisions,
+            w.steps,
+            w.elapsed_s,
+            w.walked_m,
+            w.shortest_m,
+        )
         np.testing.assert_array_equal(g.attitude_error_deg, w.attitude_error_deg)
         np.testing.assert_array_equal(g.true_step_times, w.true_step_times)
         assert g.motion.keys() == w.motion.keys()
@@ -144,8 +175,19 @@ def test_an_existing_dataset_is_refused_unless_forced(minari_root, capsys):
     import minari
 
     name = "vrloco/forced-v0"
-    argv = ["record", "--task", "approach", "--policy", "goal_seeker", "--episodes", "1",
-            "--max-episode-steps", "8", "--minari", name]  # fmt: skip
+    argv = [
+        "record",
+        "--task",
+        "approach",
+        "--policy",
+        "goal_seeker",
+        "--episodes",
+        "1",
+        "--max-episode-steps",
+        "8",
+        "--minari",
+        name,
+    ]
     assert main(argv) == 0
     capsys.readouterr()
     assert minari.load_dataset(name).total_steps == 8
@@ -163,8 +205,14 @@ def test_an_existing_dataset_is_refused_unless_forced(minari_root, capsys):
     (minari_root / "vrloco" / "nested-v0").mkdir()
     (minari_root / "vrloco" / "nested-v0" / "other-v0").mkdir()
     with pytest.raises(FileExistsError, match="not removed"):
-        record_dataset("approach", "goal_seeker", "vrloco/nested-v0", episodes=1,
-                       max_episode_steps=5, force=True)  # fmt: skip
+        record_dataset(
+            "approach",
+            "goal_seeker",
+            "vrloco/nested-v0",
+            episodes=1,
+            max_episode_steps=5,
+            force=True,
+        )
     assert (minari_root / "vrloco" / "nested-v0" / "other-v0").is_dir()
 
 
@@ -179,8 +227,17 @@ def test_an_existing_dataset_is_refused_unless_forced(minari_root, capsys):
     ],
 )
 def test_bad_input_gets_one_line(options, message, minari_root, capsys):
-    argv = ["record", "--task", "approach", "--policy", "goal_seeker", "--technique", "zhang2021",
-            "--minari", "bad/x-v0"]  # fmt: skip
+    argv = [
+        "record",
+        "--task",
+        "approach",
+        "--policy",
+        "goal_seeker",
+        "--technique",
+        "zhang2021",
+        "--minari",
+        "bad/x-v0",
+    ]
     for flag, value in zip(options[::2], options[1::2], strict=True):
         argv[argv.index(flag) + 1] = value
     before = sorted(minari_root.rglob("*"))

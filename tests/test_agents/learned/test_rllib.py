@@ -30,8 +30,8 @@ def test_the_creator_gives_rllib_next_step_autoreset_of_the_native_episodes():
     assert set(info) == {"is_success", "_is_success", "collision", "_collision"}
     actions = np.tile(np.array([0.8, 0.3, 0.0, 0.0, 0.0], np.float32), (2, 1))
     for t in range(4):  # the same episode as the native env, to its last observation
-        (obs, reward, term, trunc, info), (n_obs, n_reward, n_term, n_trunc, n_info) = (
-            _step_both(env, native, actions)
+        (obs, reward, term, trunc, info), (n_obs, n_reward, n_term, n_trunc, n_info) = _step_both(
+            env, native, actions
         )
         np.testing.assert_array_equal(reward, n_reward)
         np.testing.assert_array_equal(term, n_term)
@@ -114,8 +114,10 @@ def test_an_unreachable_address_is_named_at_once(tmp_path, capsys):
     with pytest.raises(BackendError, match=r"cannot reach a Ray cluster at 127\.0\.0\.1:1"):
         train_rllib(steps=64, out_dir=tmp_path, address="127.0.0.1:1")
     assert time.perf_counter() - t0 < 10.0
-    assert main(["train", "--backend", "rllib", "--address", "127.0.0.1:1", "--out",
-                 str(tmp_path)]) == 1  # fmt: skip
+    assert (
+        main(["train", "--backend", "rllib", "--address", "127.0.0.1:1", "--out", str(tmp_path)])
+        == 1
+    )
     err = capsys.readouterr().err
     assert err.startswith("vrloco train: cannot reach a Ray cluster at 127.0.0.1:1")
     assert "Traceback" not in err
@@ -128,9 +130,16 @@ def test_ppo_on_two_env_runners_trains_and_repeats_bit_for_bit(tmp_path):
 
     from agents.learned.rllib import train_rllib
 
-    kw = dict(steps=1024, num_env_runners=2, num_envs_per_env_runner=4, eval_every=512,
-              eval_episodes=2, rollout_fragment_length=64, minibatch_size=128,
-              progress=False)  # fmt: skip
+    kw = dict(
+        steps=1024,
+        num_env_runners=2,
+        num_envs_per_env_runner=4,
+        eval_every=512,
+        eval_episodes=2,
+        rollout_fragment_length=64,
+        minibatch_size=128,
+        progress=False,
+    )
     ray.init(num_cpus=2, include_dashboard=False, logging_level=logging.WARNING)
     try:
         final = train_rllib("approach", seed=3, out_dir=tmp_path / "a", **kw)

@@ -78,10 +78,11 @@ class _Server:
 @pytest.fixture
 def server(monkeypatch):
     if not SHARED.is_dir():
-        pytest.skip(f"the development copies of the recordings are not at {SHARED} (they are "
-                    "served to the fetch tests)")  # fmt: skip
-    for var in ("http_proxy", "https_proxy", "HTTP_PROXY", "HTTPS_PROXY", "ALL_PROXY",
-                "all_proxy"):  # fmt: skip
+        pytest.skip(
+            f"the development copies of the recordings are not at {SHARED} (they are "
+            "served to the fetch tests)"
+        )
+    for var in ("http_proxy", "https_proxy", "HTTP_PROXY", "HTTPS_PROXY", "ALL_PROXY", "all_proxy"):
         monkeypatch.delenv(var, raising=False)
     monkeypatch.setenv("NO_PROXY", "127.0.0.1,localhost")
     with _Server(SHARED) as srv:
@@ -111,8 +112,17 @@ def test_the_pinned_files_are_the_ones_the_readers_use():
     a canonical https URL at a pinned commit; the readers' path lies inside the set."""
     assert set(data.DATASETS) == {"broad", "oxford", "kinect", "head_traces"}
     broad = data.DATASETS["broad"].files
-    assert [f.relpath.split("/")[1][:2] for f in broad] == ["02", "07", "11", "16", "21", "25",
-                                                            "27", "30", "33"]  # fmt: skip
+    assert [f.relpath.split("/")[1][:2] for f in broad] == [
+        "02",
+        "07",
+        "11",
+        "16",
+        "21",
+        "25",
+        "27",
+        "30",
+        "33",
+    ]
     for ds in data.DATASETS.values():
         if not ds.fetchable:
             assert ds.name == "head_traces" and "no licence" in ds.why_not_fetched
@@ -127,9 +137,7 @@ def test_the_pinned_files_are_the_ones_the_readers_use():
             assert len(f.url.split("/raw/")[1].split("/")[0]) == 40  # a commit, not a branch
 
 
-def test_fetch_from_a_local_server_lands_each_set_in_the_cache_with_its_hash(
-    server, cache, capsys
-):
+def test_fetch_from_a_local_server_lands_each_set_in_the_cache_with_its_hash(server, cache, capsys):
     """`vrloco data fetch broad oxford kinect` from the server: every file arrives in the cache
     with the bytes served, the command names where and the licence and citation, and the
     finder then answers from the cache; a second fetch downloads nothing."""
@@ -187,8 +195,9 @@ def test_a_dropped_connection_keeps_nothing_and_a_rerun_succeeds(server, cache):
     with pytest.raises(data.FetchError) as info:
         data.fetch("oxford", base_url=server.url)
     msg = str(info.value)
-    assert msg.startswith(f"{OXFORD_ACC}: download from {server.url}/{OXFORD_ACC} failed (the "
-                          "connection broke off: ")  # fmt: skip
+    assert msg.startswith(
+        f"{OXFORD_ACC}: download from {server.url}/{OXFORD_ACC} failed (the connection broke off: "
+    )
     assert "vrloco data fetch oxford" in msg and "\n" not in msg
     assert not (cache / OXFORD_ACC).exists()
     assert all(not name.startswith("tmp") for name in _leftovers(cache))
@@ -208,8 +217,11 @@ def test_a_truncated_file_in_the_cache_is_not_used_and_a_fetch_replaces_it(serve
     path = data.fetch("kinect", base_url=server.url)
     full = path.read_bytes()
     path.write_bytes(full[: len(full) // 3])
-    with pytest.raises(data.DataMissing, match=r"Ges01_wavehand\.csv is 38263 bytes, 114790 "
-                       r"expected: run `vrloco data fetch kinect`"):  # fmt: skip
+    with pytest.raises(
+        data.DataMissing,
+        match=r"Ges01_wavehand\.csv is 38263 bytes, 114790 "
+        r"expected: run `vrloco data fetch kinect`",
+    ):
         data.data_path("kinect")
     lines = []
     data.fetch("kinect", base_url=server.url, report=lines.append)
@@ -229,8 +241,11 @@ def test_a_missing_set_names_the_places_and_the_command(cache, tmp_path, monkeyp
     (tmp_path / "mine" / "broad").mkdir(parents=True)  # a folder without the trials
     with pytest.raises(data.DataMissing, match=r"in neither VRLOCO_DATA='.*mine' nor the cache"):
         data.data_path("broad")
-    with pytest.raises(data.DataMissing, match=r"head traces not found at '.*head_traces': not "
-                       r"downloadable: .* set VRLOCO_DATA"):  # fmt: skip
+    with pytest.raises(
+        data.DataMissing,
+        match=r"head traces not found at '.*head_traces': not "
+        r"downloadable: .* set VRLOCO_DATA",
+    ):
         data.data_path("head_traces")
     monkeypatch.delenv("VRLOCO_DATA")
     with pytest.raises(data.DataMissing, match=r"VRLOCO_DATA is not set"):
@@ -264,18 +279,24 @@ def test_vrloco_data_is_looked_in_first_and_list_says_where_each_set_is(
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
-        (["data", "fetch", "nope"],
-         "vrloco data fetch: unknown dataset 'nope': the datasets are broad, oxford, kinect, "
-         "head_traces"),
+        (
+            ["data", "fetch", "nope"],
+            "vrloco data fetch: unknown dataset 'nope': the datasets are broad, oxford, kinect, "
+            "head_traces",
+        ),
         (["data", "fetch", "kinect", "nope"], "unknown dataset 'nope'"),  # checked before work
         (["data", "where", "nope"], "vrloco data where: unknown dataset 'nope'"),
-        (["data", "fetch", "head_traces"],
-         "vrloco data fetch: head_traces: not downloadable: the 360VidStr aggregation states no "
-         "licence; set VRLOCO_DATA to the folder holding head_traces/"),
-        (["data", "fetch", "kinect", "--url", "127.0.0.1:8000"],
-         "vrloco data fetch: --url='127.0.0.1:8000' is not an http:// or https:// URL"),
+        (
+            ["data", "fetch", "head_traces"],
+            "vrloco data fetch: head_traces: not downloadable: the 360VidStr aggregation states no "
+            "licence; set VRLOCO_DATA to the folder holding head_traces/",
+        ),
+        (
+            ["data", "fetch", "kinect", "--url", "127.0.0.1:8000"],
+            "vrloco data fetch: --url='127.0.0.1:8000' is not an http:// or https:// URL",
+        ),
     ],
-)  # fmt: skip
+)
 def test_bad_names_and_urls_are_one_line_before_any_download(cache, argv, message, capsys):
     assert main(argv) == 2
     err = capsys.readouterr().err
@@ -294,8 +315,11 @@ def test_a_bad_vrloco_data_url_and_a_missing_file_on_the_server_are_named(
     monkeypatch.setenv("VRLOCO_DATA_URL", "file:///tmp")
     with pytest.raises(ValueError, match=r"VRLOCO_DATA_URL='file:///tmp' is not an http"):
         data.fetch("kinect")
-    with pytest.raises(data.FetchError, match=rf"{KINECT}: download from {server.url}/nothing/"
-                       rf"{KINECT} failed \(HTTP 404 File not found\)"):  # fmt: skip
+    with pytest.raises(
+        data.FetchError,
+        match=rf"{KINECT}: download from {server.url}/nothing/"
+        rf"{KINECT} failed \(HTTP 404 File not found\)",
+    ):
         data.fetch("kinect", base_url=f"{server.url}/nothing")
     assert _leftovers(cache) == []
 
@@ -308,8 +332,11 @@ def test_a_cache_folder_that_cannot_be_written_is_named(server, tmp_path, monkey
     monkeypatch.setenv("VRLOCO_CACHE", str(blocker / "cache"))
     monkeypatch.delenv("VRLOCO_DATA", raising=False)
     folder = blocker / "cache" / "kinect_laban"
-    with pytest.raises(data.FetchError, match=rf"cannot write to the data cache '{folder}': Not a "
-                       r"directory \(set VRLOCO_CACHE"):  # fmt: skip
+    with pytest.raises(
+        data.FetchError,
+        match=rf"cannot write to the data cache '{folder}': Not a "
+        r"directory \(set VRLOCO_CACHE",
+    ):
         data.fetch("kinect", base_url=server.url)
     assert main(["data", "fetch", "kinect", "--url", server.url]) == 1
     err = capsys.readouterr().err
@@ -322,8 +349,10 @@ def test_a_read_only_cache_folder_is_named(server, cache):
     cache.chmod(0o500)
     try:
         if _writable(cache):
-            pytest.skip("this user writes to read-only folders (root): the read-only case is "
-                        "covered by the file-in-the-way test")  # fmt: skip
+            pytest.skip(
+                "this user writes to read-only folders (root): the read-only case is "
+                "covered by the file-in-the-way test"
+            )
         with pytest.raises(data.FetchError, match=rf"cannot write to the data cache '{cache}"):
             data.fetch("kinect", base_url=server.url)
     finally:
@@ -352,8 +381,11 @@ def test_a_full_disk_mid_download_is_named_and_leaves_nothing(server, cache, mon
         raise OSError(errno.ENOSPC, "No space left on device")
 
     monkeypatch.setattr(pooch.HTTPDownloader, "__call__", fill_up)
-    with pytest.raises(data.FetchError, match=r"cannot write to the data cache '.*kinect_laban'"
-                       r": No space left on device \(the disk is full\); nothing"):  # fmt: skip
+    with pytest.raises(
+        data.FetchError,
+        match=r"cannot write to the data cache '.*kinect_laban'"
+        r": No space left on device \(the disk is full\); nothing",
+    ):
         data.fetch("kinect", base_url=server.url)
     assert _leftovers(cache) == []
     monkeypatch.setattr(pooch.HTTPDownloader, "__call__", real_call)

@@ -49,7 +49,9 @@ def test_malformed_csv_names_the_line_and_column(tmp_path, capsys):
     bad.write_text("t,gx,gy,gz,ax,ay\n0,0,0,0,0,0\n")
     with pytest.raises(ValueError, match=r"line 1: missing column.*az"):
         read_csv_recording(bad)
-    bad.write_text("t,gx,gy,gz,ax,ay,az\n0,0,0,0,0,0,9.8\n0.01,0,0,0,0,0,9.8\n0.005,0,0,0,0,0,9.8\n")
+    bad.write_text(
+        "t,gx,gy,gz,ax,ay,az\n0,0,0,0,0,0,9.8\n0.01,0,0,0,0,0,9.8\n0.005,0,0,0,0,0,9.8\n"
+    )
     with pytest.raises(ValueError, match=r"line 4, column 1 \(t\): time 0.005 runs backwards"):
         read_csv_recording(bad)
     # Equal timestamps are one sample (the mean of the rows), said in one line.
@@ -146,8 +148,11 @@ def test_a_gyro_in_deg_per_s_is_found_read_and_said(walk, tmp_path, capsys):
     assert rec.units == {"time": "s", "acc": "m/s2", "gyro": "deg/s"}
     err = capsys.readouterr().err
     assert err.count("\n") == 1
-    assert re.search(r"read gx, gy, gz in deg/s, as the magnetometer says \(its field turns "
-                     r"5\d\.\d times slower .*pass --gyro-unit deg/s", err)  # fmt: skip
+    assert re.search(
+        r"read gx, gy, gz in deg/s, as the magnetometer says \(its field turns "
+        r"5\d\.\d times slower .*pass --gyro-unit deg/s",
+        err,
+    )
     # Without a magnetometer, fast turns give deg/s away: many samples beyond 2000 deg/s.
     rng = BatchRng.from_seeds([1])
     rec = run_script("shake", rng)
@@ -155,8 +160,10 @@ def test_a_gyro_in_deg_per_s_is_found_read_and_said(walk, tmp_path, capsys):
     six = np.column_stack([rec.t, np.degrees(s.gyr[0]), s.acc[0]])
     got = read_csv_recording(_write(tmp_path / "deg6.csv", six, "t,gx,gy,gz,ax,ay,az"))
     np.testing.assert_allclose(got.gyr, s.gyr[0], rtol=1e-8, atol=1e-12)
-    assert re.search(r"as the gyro's magnitude says \(\d+ of 2000 samples exceed 35 rad/s",
-                     capsys.readouterr().err)  # fmt: skip
+    assert re.search(
+        r"as the gyro's magnitude says \(\d+ of 2000 samples exceed 35 rad/s",
+        capsys.readouterr().err,
+    )
 
 
 def _turn(tmp_path, name, cadence=0.0, rate_deg_s=10.0):
@@ -176,7 +183,8 @@ def _turn(tmp_path, name, cadence=0.0, rate_deg_s=10.0):
     s = HeadImu(get_imu_spec("ig500n"), rng).sample(rec.quat, rec.omega, rec.acc, rec.pos)
     table = np.column_stack([rec.t, np.degrees(s.gyr[0]), s.acc[0]])
     return _write(tmp_path / f"{name}.csv", table, "t,gx,gy,gz,ax,ay,az"), np.degrees(
-        rec.ypr[0, -1, 0])
+        rec.ypr[0, -1, 0]
+    )
 
 
 def _final_yaw(path, out, capsys, *options):
@@ -204,8 +212,10 @@ def test_a_slow_turn_in_deg_per_s_gives_the_true_yaw_given_or_found_by_the_tilt(
     code, err, yaw = _final_yaw(path, tmp_path, capsys, "--gyro-unit", "rad/s")
     assert code == 0 and abs(yaw - true_yaw) > 10.0
     assert err.count("\n") == 1
-    assert ("gx, gy, gz are read in rad/s (given), but the accelerometer's tilt says deg/s "
-            "(gravity, carried 4 s at a time") in err and err.rstrip().endswith("check --gyro-unit")
+    assert (
+        "gx, gy, gz are read in rad/s (given), but the accelerometer's tilt says deg/s "
+        "(gravity, carried 4 s at a time"
+    ) in err and err.rstrip().endswith("check --gyro-unit")
 
 
 def test_a_level_turn_in_deg_per_s_with_nothing_to_tell_the_unit_is_an_error(tmp_path, capsys):
@@ -219,12 +229,17 @@ def test_a_level_turn_in_deg_per_s_with_nothing_to_tell_the_unit_is_an_error(tmp
     path = _write(tmp_path / "level.csv", np.column_stack([t, gyr, acc]), "t,gx,gy,gz,ax,ay,az")
     code, err, _ = _final_yaw(path, tmp_path, capsys)
     assert code == 2 and "Traceback" not in err and err.count("\n") == 1
-    assert err.startswith(f"vrloco estimate: {path}: cannot tell whether gx, gy, gz are in rad/s "
-                          "or deg/s: none exceeds 35 rad/s, no magnetometer, and the "
-                          "accelerometer's tilt fits both")  # fmt: skip
+    assert err.startswith(
+        f"vrloco estimate: {path}: cannot tell whether gx, gy, gz are in rad/s "
+        "or deg/s: none exceeds 35 rad/s, no magnetometer, and the "
+        "accelerometer's tilt fits both"
+    )
     # 2 s of the turn in the first 4 s window: 20 rad
-    assert re.search(r"read as rad/s the gyro turns the sensor 114\d deg within 4 s \(over 10 "
-                     r"deg\)", err)  # fmt: skip
+    assert re.search(
+        r"read as rad/s the gyro turns the sensor 114\d deg within 4 s \(over 10 "
+        r"deg\)",
+        err,
+    )
     assert err.rstrip().endswith("pass --gyro-unit rad/s or --gyro-unit deg/s")
     assert not (tmp_path / "level_estimates.csv").exists()
     code, err, yaw = _final_yaw(path, tmp_path, capsys, "--gyro-unit", "deg/s")
@@ -233,8 +248,12 @@ def test_a_level_turn_in_deg_per_s_with_nothing_to_tell_the_unit_is_an_error(tmp
     np.testing.assert_allclose(rec.gyr, np.radians(gyr), rtol=1e-8, atol=1e-12)
     # Standing still, both units give the same attitude: no unit needed.
     still = np.column_stack([t, noise * 0.1, acc])
-    assert read_csv_recording(_write(tmp_path / "still.csv", still, "t,gx,gy,gz,ax,ay,az")
-                              ).units["gyro"] == "rad/s"  # fmt: skip
+    assert (
+        read_csv_recording(_write(tmp_path / "still.csv", still, "t,gx,gy,gz,ax,ay,az")).units[
+            "gyro"
+        ]
+        == "rad/s"
+    )
 
 
 def test_a_magnetometer_against_the_gyro_unit_is_a_warning(walk, tmp_path, capsys):
@@ -242,10 +261,12 @@ def test_a_magnetometer_against_the_gyro_unit_is_a_warning(walk, tmp_path, capsy
     path = _write(tmp_path / "rad.csv", table)
     code, err, _ = _final_yaw(path, tmp_path, capsys, "--gyro-unit", "deg/s")
     assert code == 0 and err.count("\n") == 1
-    assert re.search(r"rad.csv: gx, gy, gz are read in deg/s \(given\), but the magnetometer "
-                     r"says rad/s \(its field turns (0\.9\d*|1|1\.0\d*) times slower than the "
-                     r"gyro's numbers say \(1 for rad/s, 57.3 for deg/s\)\); check --gyro-unit",
-                     err)  # fmt: skip
+    assert re.search(
+        r"rad.csv: gx, gy, gz are read in deg/s \(given\), but the magnetometer "
+        r"says rad/s \(its field turns (0\.9\d*|1|1\.0\d*) times slower than the "
+        r"gyro's numbers say \(1 for rad/s, 57.3 for deg/s\)\); check --gyro-unit",
+        err,
+    )
     # Found, not given: a few corrupt samples over 35 rad/s make the gyro look like deg/s, and
     # the magnetometer says otherwise.
     spiky = table.copy()
@@ -253,8 +274,11 @@ def test_a_magnetometer_against_the_gyro_unit_is_a_warning(walk, tmp_path, capsy
     code, err, _ = _final_yaw(_write(tmp_path / "spiky.csv", spiky), tmp_path, capsys)
     assert code == 0 and err.count("\n") == 2  # what was read, and what disagrees
     assert "read gx, gy, gz in deg/s, as the gyro's magnitude says (44 of 2200 samples" in err
-    assert re.search(r"gx, gy, gz are read in deg/s \(found\), but the magnetometer says rad/s "
-                     r"\(its field turns", err)  # fmt: skip
+    assert re.search(
+        r"gx, gy, gz are read in deg/s \(found\), but the magnetometer says rad/s "
+        r"\(its field turns",
+        err,
+    )
     # In agreement: no line.
     code, err, _ = _final_yaw(path, tmp_path, capsys, "--gyro-unit", "rad/s")
     assert code == 0 and err == ""
@@ -267,13 +291,18 @@ def test_time_and_accelerometer_units_are_found_read_and_said_or_given(walk, tmp
     rec = read_csv_recording(ms)
     np.testing.assert_allclose(rec.t, walk[0][:, 0], rtol=1e-12, atol=1e-12)
     assert rec.units["time"] == "ms"
-    assert ("ms.csv: read t in ms (its median interval 10 is 100 Hz in ms, 0.1 Hz in s); pass "
-            "--time-unit ms to say so") in capsys.readouterr().err  # fmt: skip
+    assert (
+        "ms.csv: read t in ms (its median interval 10 is 100 Hz in ms, 0.1 Hz in s); pass "
+        "--time-unit ms to say so"
+    ) in capsys.readouterr().err
     assert read_csv_recording(ms, Units(time="ms")).units["time"] == "ms"
     assert capsys.readouterr().err == ""
-    with pytest.raises(ValueError, match=r"ms.csv: read in s \(--time-unit s\), t's median "
-                                         r"interval is 10 s \(0.1 Hz\), but an IMU samples at 5 Hz "
-                                         r"to 10000 Hz: t looks like ms \(--time-unit ms\)"):
+    with pytest.raises(
+        ValueError,
+        match=r"ms.csv: read in s \(--time-unit s\), t's median "
+        r"interval is 10 s \(0.1 Hz\), but an IMU samples at 5 Hz "
+        r"to 10000 Hz: t looks like ms \(--time-unit ms\)",
+    ):
         read_csv_recording(ms, Units(time="s"))
     table[:, 0] *= 1e6
     assert read_csv_recording(_write(tmp_path / "ns.csv", table)).units["time"] == "ns"
@@ -281,43 +310,63 @@ def test_time_and_accelerometer_units_are_found_read_and_said_or_given(walk, tmp
     # A median interval of 0.15: 6.7 Hz in s, 6.7 kHz in ms: both IMU rates, so it is asked for.
     slow = walk[0][:200].copy()
     slow[:, 0] = 0.15 * np.arange(200)
-    with pytest.raises(ValueError, match=r"6.667 Hz in s, 6667 Hz in ms; both are IMU rates, so "
-                                         r"the unit cannot be told: pass --time-unit s or ms"):
+    with pytest.raises(
+        ValueError,
+        match=r"6.667 Hz in s, 6667 Hz in ms; both are IMU rates, so "
+        r"the unit cannot be told: pass --time-unit s or ms",
+    ):
         read_csv_recording(_write(tmp_path / "slow.csv", slow))
     # An accelerometer in g is read as g (said), with or without a gyro.
     g = walk[0][:, [0, 4, 5, 6]] / [1.0, 9.81, 9.81, 9.81]
     rec = read_csv_recording(_write(tmp_path / "g.csv", g, "t,ax,ay,az"))
     np.testing.assert_allclose(rec.acc, walk[0][:, 4:7] * (GRAVITY / 9.81), rtol=1e-8)
-    assert re.search(r"g.csv: read ax, ay, az in g \(the median norm of their 1 s means, "
-                     r"1.00\d*, is gravity in g\); pass --acc-unit g to say so",
-                     capsys.readouterr().err)  # fmt: skip
-    assert read_csv_recording(_write(tmp_path / "g.csv", g, "t,ax,ay,az"),
-                              Units(acc="g")).units["acc"] == "g"  # fmt: skip
-    with pytest.raises(ValueError, match=r"read in m/s2 \(--acc-unit m/s2\), the median norm "
-                                         r"of the specific force averaged over 1 s is 1.00\d* "
-                                         r"m/s\^2, not 0.5 g to 2 g \(gravity\): ax, ay, az "
-                                         r"look like g \(--acc-unit g\)"):  # fmt: skip
+    assert re.search(
+        r"g.csv: read ax, ay, az in g \(the median norm of their 1 s means, "
+        r"1.00\d*, is gravity in g\); pass --acc-unit g to say so",
+        capsys.readouterr().err,
+    )
+    assert (
+        read_csv_recording(_write(tmp_path / "g.csv", g, "t,ax,ay,az"), Units(acc="g")).units["acc"]
+        == "g"
+    )
+    with pytest.raises(
+        ValueError,
+        match=r"read in m/s2 \(--acc-unit m/s2\), the median norm "
+        r"of the specific force averaged over 1 s is 1.00\d* "
+        r"m/s\^2, not 0.5 g to 2 g \(gravity\): ax, ay, az "
+        r"look like g \(--acc-unit g\)",
+    ):
         read_csv_recording(tmp_path / "g.csv", Units(acc="m/s2"))
     # Gravity removed (a phone's linear acceleration): in no unit.
     linear = walk[0][:, [0, 4, 5, 6]] - [0.0, 0.0, 0.0, 9.81]
-    with pytest.raises(ValueError, match=r"the median norm of the specific force averaged over "
-                                         r"1 s is 0.\d+, neither in m/s\^2 nor in g within 0.5 g "
-                                         r"to 2 g \(gravity\): gravity removed"):  # fmt: skip
+    with pytest.raises(
+        ValueError,
+        match=r"the median norm of the specific force averaged over "
+        r"1 s is 0.\d+, neither in m/s\^2 nor in g within 0.5 g "
+        r"to 2 g \(gravity\): gravity removed",
+    ):
         read_csv_recording(_write(tmp_path / "lin.csv", linear, "t,ax,ay,az"))
 
 
-def test_units_are_checked_by_name_and_fixed_by_the_broad_and_oxford_formats(walk, tmp_path,
-                                                                            capsys):  # fmt: skip
+def test_units_are_checked_by_name_and_fixed_by_the_broad_and_oxford_formats(
+    walk, tmp_path, capsys
+):
     from agents.recordings.readers import read_recording
 
-    with pytest.raises(ValueError, match=r"Units.gyro='rpm': must be 'auto' or one of rad/s, "
-                                         r"deg/s"):  # fmt: skip
+    with pytest.raises(
+        ValueError,
+        match=r"Units.gyro='rpm': must be 'auto' or one of rad/s, "
+        r"deg/s",
+    ):
         Units(gyro="rpm")
     table, rec = walk
     trial = _broad_file(tmp_path / "sim.h5", table, rec.quat[0])
-    with pytest.raises(ValueError, match=r"sim.h5: a BROAD trial is in rad/s by its format; a "
-                                         r"gyro unit \('deg/s', --gyro-unit\) applies to CSV "
-                                         r"files only"):  # fmt: skip
+    with pytest.raises(
+        ValueError,
+        match=r"sim.h5: a BROAD trial is in rad/s by its format; a "
+        r"gyro unit \('deg/s', --gyro-unit\) applies to CSV "
+        r"files only",
+    ):
         read_recording(trial, Units(gyro="deg/s"))
     assert read_recording(trial, Units(gyro="rad/s")).units["gyro"] == "rad/s"
     assert main(["estimate", str(trial), "--out", str(tmp_path), "--time-unit", "ms"]) == 2
@@ -332,8 +381,10 @@ def test_the_help_states_the_unit_checks_limits():
     text = " ".join(sub.format_help().split())
     lo, hi = r.RATE_RANGE_HZ
     assert f"{lo:g} Hz to {hi / 1000:g} kHz" in text
-    assert (f"median norm of the {r.ACC_MEAN_S:g} s means is {r.ACC_MEDIAN_RANGE_G[0]:g} g to "
-            f"{r.ACC_MEDIAN_RANGE_G[1]:g} g") in text
+    assert (
+        f"median norm of the {r.ACC_MEAN_S:g} s means is {r.ACC_MEDIAN_RANGE_G[0]:g} g to "
+        f"{r.ACC_MEDIAN_RANGE_G[1]:g} g"
+    ) in text
     assert f"at least {r.UNIT_MIN_COUNT} samples and 1% exceed 35 rad/s" in text
     assert f"{r.RAD_RATIO_RANGE[0]:g}-{r.RAD_RATIO_RANGE[1]:g} times (rad/s)" in text
     assert f"{r.DEG_RATIO_RANGE[0]:g}-{r.DEG_RATIO_RANGE[1]:g} times (deg/s)" in text
@@ -349,8 +400,10 @@ def test_missing_samples_are_bridged_and_counted(walk, tmp_path, capsys):
     table[1500, 7] = np.nan
     code, err, est, _ = _estimate(_write(tmp_path / "holes.csv", table), tmp_path, capsys)
     assert code == 0
-    assert ("51 of 2200 rows have missing values (NaN: acc 50, gyro 50, mag 1); the longest run "
-            "of missing rows lasts 0.5 s from t = 8.01 s (line 802)") in err  # fmt: skip
+    assert (
+        "51 of 2200 rows have missing values (NaN: acc 50, gyro 50, mag 1); the longest run "
+        "of missing rows lasts 0.5 s from t = 8.01 s (line 802)"
+    ) in err
     assert abs(est["step"].sum() - rec.step_times[0].size) <= 1
     # The turn at 30 deg/s goes on unseen for 0.5 s; the field gives the heading back within 1 s.
     err_deg = _angle_error_deg(est["yaw_deg"], rec.ypr[0, :, 0])
@@ -364,8 +417,10 @@ def test_a_gap_in_the_timestamps_is_said_and_a_huge_one_refused(walk, tmp_path, 
     table[1200:, 0] += 3600.0  # an hour without samples after 12 s
     code, err, est, _ = _estimate(_write(tmp_path / "gap.csv", table), tmp_path, capsys)
     assert code == 0
-    assert ("1 gap(s) in the timestamps longer than 10 sample intervals; the longest lasts "
-            "3600.01 s, after t = 12 s (line 1201)") in err  # fmt: skip
+    assert (
+        "1 gap(s) in the timestamps longer than 10 sample intervals; the longest lasts "
+        "3600.01 s, after t = 12 s (line 1201)"
+    ) in err
     assert abs(est["step"].sum() - rec.step_times[0].size) <= 2
     # The attitude is re-found after the gap from gravity and the field, not lost to it.
     assert _angle_error_deg(est["yaw_deg"], rec.ypr[0, :, 0])[1300:].max() < 2.0

@@ -12,8 +12,15 @@ from agents.recordings.head_motion_stats import (
 FS = 10.0
 
 
-def steps_trace(step_deg=40.0, period_s=4.0, first_s=1.0, duration_s=60.0, ramp_s=0.4,
-                rate_hz=FS, offset_deg=0.0):  # fmt: skip
+def steps_trace(
+    step_deg=40.0,
+    period_s=4.0,
+    first_s=1.0,
+    duration_s=60.0,
+    ramp_s=0.4,
+    rate_hz=FS,
+    offset_deg=0.0,
+):
     """Yaw stepping ``step_deg`` every ``period_s`` from ``first_s``, each step a ramp at a
     constant speed ``step_deg / ramp_s``; pitch level. Returns (times, yaw rad, pitch rad)."""
     t = np.arange(round(duration_s * rate_hz) + 1) / rate_hz
@@ -136,8 +143,9 @@ def test_irregular_times_and_other_rates_resample_to_10_hz():
     t, yaw, pitch = steps_trace(rate_hz=50.0)
     jitter = np.random.default_rng(1).uniform(-0.004, 0.004, t.size)
     jitter[[0, -1]] = 0.0
-    s = head_motion_stats(np.interp(t + jitter, t, yaw), np.interp(t + jitter, t, pitch),
-                          times=t + jitter)  # fmt: skip
+    s = head_motion_stats(
+        np.interp(t + jitter, t, yaw), np.interp(t + jitter, t, pitch), times=t + jitter
+    )
     assert s.turns_per_min == pytest.approx((15.0, 15.0, 15.0, 0.0))
     assert s.interval_p10_p25_p50_p75_p90 == pytest.approx((4.0,) * 5, abs=1e-9)
     assert head_motion_samples(yaw, pitch, rate_hz=50.0).yaw_speed.size == 600
@@ -146,21 +154,37 @@ def test_irregular_times_and_other_rates_resample_to_10_hz():
 @pytest.mark.parametrize(
     ("change", "match"),
     [
-        (lambda t, y, p: (t, np.where(np.arange(t.size) == 7, np.nan, y), p),
-         r"yaw: sample 7 is nan: every sample must be finite"),
-        (lambda t, y, p: (t, y, np.where(np.arange(t.size) == 9, np.inf, p)),
-         r"pitch: sample 9 is inf"),
-        (lambda t, y, p: (np.delete(t, np.s_[100:110]), np.delete(y, np.s_[100:110]),
-                          np.delete(p, np.s_[100:110])),
-         r"times: a gap of 1.1 s after sample 99 .* more than 1.5 x the median step"),
+        (
+            lambda t, y, p: (t, np.where(np.arange(t.size) == 7, np.nan, y), p),
+            r"yaw: sample 7 is nan: every sample must be finite",
+        ),
+        (
+            lambda t, y, p: (t, y, np.where(np.arange(t.size) == 9, np.inf, p)),
+            r"pitch: sample 9 is inf",
+        ),
+        (
+            lambda t, y, p: (
+                np.delete(t, np.s_[100:110]),
+                np.delete(y, np.s_[100:110]),
+                np.delete(p, np.s_[100:110]),
+            ),
+            r"times: a gap of 1.1 s after sample 99 .* more than 1.5 x the median step",
+        ),
         (lambda t, y, p: (t * 2.5, y, p), r"times: a sampling rate of 4 Hz .* at least 5 Hz"),
         (lambda t, y, p: (t[:95], y[:95], p[:95]), r"yaw: 9.4 s long: .* at least 10 s"),
-        (lambda t, y, p: (t, y, np.where(t > 20, np.deg2rad(95.0), p)),
-         r"pitch: sample 201 is 95.0 deg: pitch must lie in \[-90, 90\] deg"),
-        (lambda t, y, p: (np.arange(2001) / 100.0, np.zeros(2001),  # 80 deg in 0.01 s
-                          np.where(np.arange(2001) > 500, np.deg2rad(80.0), 0.0)),
-         r"pitch: a jump of 80.0 deg between samples 500 and 501 \(8000 deg/s\): .* faster "
-         r"than 1000 deg/s"),
+        (
+            lambda t, y, p: (t, y, np.where(t > 20, np.deg2rad(95.0), p)),
+            r"pitch: sample 201 is 95.0 deg: pitch must lie in \[-90, 90\] deg",
+        ),
+        (
+            lambda t, y, p: (
+                np.arange(2001) / 100.0,
+                np.zeros(2001),  # 80 deg in 0.01 s
+                np.where(np.arange(2001) > 500, np.deg2rad(80.0), 0.0),
+            ),
+            r"pitch: a jump of 80.0 deg between samples 500 and 501 \(8000 deg/s\): .* faster "
+            r"than 1000 deg/s",
+        ),
         (lambda t, y, p: (t[::-1], y, p), r"times: sample 1 .* times must increase strictly"),
         (lambda t, y, p: (t, y, p[:-1]), r"yaw, pitch, times: 601, 600 and 601 samples"),
     ],

@@ -24,8 +24,9 @@ def write(tmp_path: Path, text: str, name: str = "3.txt") -> Path:
 
 
 def test_viewings_of_different_lengths_are_cut_to_their_own_length(tmp_path):
-    path = write(tmp_path, f"{TIMES}\n0.1 0.2 0.3 0.4 0.5\n3.1 -3.1 3.0 2.9 2.8\n"
-                           "-0.1 -0.2 -0.3\n1 2 3\n\n")  # fmt: skip
+    path = write(
+        tmp_path, f"{TIMES}\n0.1 0.2 0.3 0.4 0.5\n3.1 -3.1 3.0 2.9 2.8\n-0.1 -0.2 -0.3\n1 2 3\n\n"
+    )
     f = read_head_traces(path)
     np.testing.assert_allclose(f.times, [0.0, 0.1, 0.2, 0.3, 0.4])
     assert f.pitch.shape == f.yaw.shape == (2, 5) and f.lengths.tolist() == [5, 3]
@@ -64,8 +65,11 @@ def test_missing_files_and_folders_and_unknown_names_are_named(tmp_path, monkeyp
         read_head_traces(tmp_path / "0.txt")
     monkeypatch.setenv("VRLOCO_DATA", str(tmp_path))
     assert data_folder() == tmp_path
-    with pytest.raises(FileNotFoundError, match=r"head traces not found at .*head_traces'.* "
-                       r"VRLOCO_DATA"):  # fmt: skip
+    with pytest.raises(
+        FileNotFoundError,
+        match=r"head traces not found at .*head_traces'.* "
+        r"VRLOCO_DATA",
+    ):
         head_traces_folder()
     with pytest.raises(FileNotFoundError, match=r"head traces not found .* VRLOCO_DATA"):
         dataset_files()
@@ -79,8 +83,7 @@ def test_missing_files_and_folders_and_unknown_names_are_named(tmp_path, monkeyp
 def test_the_real_folder_holds_the_three_datasets(real_data):
     folder = real_data("head_traces")
     files = dataset_files(folder)
-    assert {k: len(v) for k, v in files.items()} == {"corbillon2017": 7, "lo2017": 10,
-                                                     "wu2017": 8}  # fmt: skip
+    assert {k: len(v) for k, v in files.items()} == {"corbillon2017": 7, "lo2017": 10, "wu2017": 8}
     for name, paths in files.items():
         assert all(dataset_of(p) == name for p in paths)
         assert [int(p.stem) for p in paths] == [n for n in DATASETS[name][1]]

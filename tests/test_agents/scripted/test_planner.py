@@ -126,8 +126,20 @@ def test_a_repaired_search_equals_a_search_on_the_raised_multipliers(seed):
         raised[rng.random(changed.size) < 0.3] = np.inf
         mult.ravel()[changed] = raised
         want = _scipy_costs(mult, start, cell)
-        level = _repair(mult, cost, parent, changed, changed.size, start[0], start[1], box,
-                        level, cell, _nodes(ni, nj), scratch)  # fmt: skip
+        level = _repair(
+            mult,
+            cost,
+            parent,
+            changed,
+            changed.size,
+            start[0],
+            start[1],
+            box,
+            level,
+            cell,
+            _nodes(ni, nj),
+            scratch,
+        )
         _assert_level(cost, want, level, cell)
         assert not scratch[0].any()
         if _known(mult, cost, box, level, cell):

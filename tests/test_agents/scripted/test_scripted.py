@@ -259,10 +259,15 @@ def test_the_wrapper_needs_a_generator():
         VariabilityParams(reaction_delay_s=-1.0)
 
 
-@pytest.mark.parametrize(("task", "spec"), [
-    ("approach", "goal_seeker+typical"), ("avoid", "goal_seeker"),
-    ("avoid", "avoid_manoeuvre+human"), ("approach", "reactive_avoider"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("task", "spec"),
+    [
+        ("approach", "goal_seeker+typical"),
+        ("avoid", "goal_seeker"),
+        ("avoid", "avoid_manoeuvre+human"),
+        ("approach", "reactive_avoider"),
+    ],
+)
 def test_a_policy_that_drops_users_acts_for_the_kept_ones_as_before(task, spec):
     """After 30 steps of 7 users a copy of the policy keeps users 5, 0, 3, 6: on their rows of
     the next observations it gives their rows of the whole batch's actions, to the bit; nothing
@@ -276,8 +281,13 @@ def test_a_policy_that_drops_users_acts_for_the_kept_ones_as_before(task, spec):
     from vrloco_env.vector import VRLocoVectorEnv
 
     b, rows = 7, np.array([5, 0, 3, 6])
-    env = VRLocoVectorEnv(b, task=task, technique="zhang2021", population="typical",
-                          autoreset_mode=AutoresetMode.DISABLED)  # fmt: skip
+    env = VRLocoVectorEnv(
+        b,
+        task=task,
+        technique="zhang2021",
+        population="typical",
+        autoreset_mode=AutoresetMode.DISABLED,
+    )
     whole = build_policy(spec, env)
     obs, _ = env.reset(seed=list(range(b)))
     whole.reset([np.random.default_rng([s, 1]) for s in range(b)], None)

@@ -484,10 +484,11 @@ def test_offline_smoother_beats_the_forward_filter_against_the_truth(rng, kind):
     assert rms[True, "early"] < 0.5 * rms[False, "early"]
     # 6D: no heading, but the inclination improves the same way (0.22 -> 0.07 deg).
     incl = [
-        orientation_errors(estimate_attitude(gyr, acc, None, FS, offline=o), q,
-                           align_heading=True)["inclination_rmse_deg"]
+        orientation_errors(estimate_attitude(gyr, acc, None, FS, offline=o), q, align_heading=True)[
+            "inclination_rmse_deg"
+        ]
         for o in (False, True)
-    ]  # fmt: skip
+    ]
     assert incl[1] < 0.5 * incl[0]
 
 

@@ -165,8 +165,9 @@ def test_gyro_only_constant_rotation_closed_form():
     q = GyroOnly(1, FS).update(g, a, m)[0]
     k = np.arange(n)[:, None]
     expected = quat_multiply(Q0, quat_from_rotvec(w * k / FS))
-    np.testing.assert_allclose(q * np.sign(q[:, :1]), expected * np.sign(expected[:, :1]),
-                               rtol=0, atol=1e-9)  # fmt: skip
+    np.testing.assert_allclose(
+        q * np.sign(q[:, :1]), expected * np.sign(expected[:, :1]), rtol=0, atol=1e-9
+    )
     assert _angle_deg(q, q[:1]).max() > 170.0
 
 
@@ -200,15 +201,23 @@ def test_gyro_only_holds_on_nan_gyro():
 #: "rotation": the head turns about the sensor (specific force = gravity only): the error is the
 #: filter's own (lag, Madgwick's beta*dt chatter). Measured: vqf 0.003, madgwick 0.29, mahony
 #: 0.21, gyro_only 0.0007 total.
-ROTATION_BOUNDS = {"vqf": (0.02, 0.02), "madgwick": (0.5, 0.3), "mahony": (0.35, 0.15),
-                   "gyro_only": (0.005, 0.005)}  # fmt: skip
+ROTATION_BOUNDS = {
+    "vqf": (0.02, 0.02),
+    "madgwick": (0.5, 0.3),
+    "mahony": (0.35, 0.15),
+    "gyro_only": (0.005, 0.005),
+}
 #: "circle": the full motion, a 3 m circle at 1 m/s: its constant 0.33 m/s^2 centripetal
 #: acceleration tilts the mean specific force by atan(0.33 / g) = 1.9 deg toward the centre,
 #: which no gravity-referenced filter can tell from a tilt; the heading error follows through
 #: the dip. Measured total / inclination: vqf 2.0 / 1.8, madgwick 3.4 / 2.1, mahony 2.4 / 1.8,
 #: gyro_only 4.3 / 1.9 (its start error, from that tilted first sample, is never corrected).
-CIRCLE_BOUNDS = {"vqf": (2.6, 2.3), "madgwick": (4.2, 2.6), "mahony": (3.0, 2.3),
-                 "gyro_only": (5.0, 2.4)}  # fmt: skip
+CIRCLE_BOUNDS = {
+    "vqf": (2.6, 2.3),
+    "madgwick": (4.2, 2.6),
+    "mahony": (3.0, 2.3),
+    "gyro_only": (5.0, 2.4),
+}
 
 
 def _trajectory(seconds: float = 120.0) -> dict[str, np.ndarray]:
@@ -335,8 +344,10 @@ def test_chunked_equals_whole(rng, name):
     gyr, acc, mag = (x[None] for x in _random_imu(rng, 90))
     whole = ATTITUDE.build(name, 1, FS).update(gyr, acc, mag)
     stage = ATTITUDE.build(name, 1, FS)
-    parts = [stage.update(gyr[:, s : s + 10], acc[:, s : s + 10], mag[:, s : s + 10])
-             for s in range(0, 90, 10)]  # fmt: skip
+    parts = [
+        stage.update(gyr[:, s : s + 10], acc[:, s : s + 10], mag[:, s : s + 10])
+        for s in range(0, 90, 10)
+    ]
     np.testing.assert_array_equal(np.concatenate(parts, axis=1), whole)
 
 
@@ -399,9 +410,12 @@ def test_registry_builds_protocol(rng, name):
 
 @pytest.mark.parametrize(
     "params, cls",
-    [(MadgwickParams(beta_marg=0.1), Madgwick), (MahonyParams(kp=2.0), Mahony),
-     (GyroOnlyParams(init_from_acc=False), GyroOnly)],
-)  # fmt: skip
+    [
+        (MadgwickParams(beta_marg=0.1), Madgwick),
+        (MahonyParams(kp=2.0), Mahony),
+        (GyroOnlyParams(init_from_acc=False), GyroOnly),
+    ],
+)
 def test_params_build(params, cls):
     """A params object is a plug-in: the registry and ``params.build`` make its stage."""
     stage = ATTITUDE.build(params, 3, 100.0)
@@ -446,8 +460,11 @@ def _vqf_params():
 )
 def test_bad_params_name_the_field(cls_name, field, value, allowed):
     """``Class.field=value: must be in <range>``."""
-    classes = {"MadgwickParams": MadgwickParams, "MahonyParams": MahonyParams,
-               "GyroOnlyParams": GyroOnlyParams}  # fmt: skip
+    classes = {
+        "MadgwickParams": MadgwickParams,
+        "MahonyParams": MahonyParams,
+        "GyroOnlyParams": GyroOnlyParams,
+    }
     cls = _vqf_params() if cls_name == "VqfParams" else classes[cls_name]
     with pytest.raises(ValueError, match=rf"{cls_name}\.{field}=.*{re.escape(allowed)}"):
         cls(**{field: value})

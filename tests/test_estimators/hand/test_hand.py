@@ -412,9 +412,14 @@ def test_sine_motion_error_stays_bounded(rng):
     _, kf_fixed, _ = run_orientation(q, hand.HandParams(kalman=fixed))
     err = {
         n: np.sqrt(np.mean(np.rad2deg(rot.angle_diff(a, truth))[30:, 2] ** 2))
-        for n, a in (("raw", raw), ("kf", kf), ("filt", filt), ("kf_calm", kf_calm),
-                     ("kf_fixed", kf_fixed))
-    }  # fmt: skip
+        for n, a in (
+            ("raw", raw),
+            ("kf", kf),
+            ("filt", filt),
+            ("kf_calm", kf_calm),
+            ("kf_fixed", kf_fixed),
+        )
+    }
     assert err["kf"] < err["raw"], err  # the default filter follows the sine
     assert err["filt"] < 9.0, err
     assert err["kf_fixed"] > 2.0 * err["kf_calm"], err  # adaptation is what follows it

@@ -69,10 +69,11 @@ def motion_errors(ypr, truth):
     rmse = np.sqrt(np.nanmean(err**2, axis=(0, 1)))
     axis = int(np.argmax(np.nanstd(tru, axis=(0, 1))))
     lags = [
-        estimate_lag(unwrap_angles(est[i, :, axis], axis=0),
-                     unwrap_angles(tru[i, :, axis], axis=0), FS, 0.5)
+        estimate_lag(
+            unwrap_angles(est[i, :, axis], axis=0), unwrap_angles(tru[i, :, axis], axis=0), FS, 0.5
+        )
         for i in range(est.shape[0])
-    ]  # fmt: skip
+    ]
     return rmse, float(np.mean(lags)), axis
 
 
@@ -150,8 +151,10 @@ def test_bad_params_and_frames_raise_value_errors():
 def test_yao2023_and_raw_are_the_pipelines_own_outputs_bit_for_bit():
     """On the hand-variance chain, step by step: the stages give exactly the pipeline's Kalman +
     median and raw angles."""
-    for roll, rate, seed in ((np.deg2rad([-90.0, 0.0, 45.0]), None, 11),
-                             (np.deg2rad([-30.0, 10.0, 60.0]), np.deg2rad(90.0), 12)):  # fmt: skip
+    for roll, rate, seed in (
+        (np.deg2rad([-90.0, 0.0, 45.0]), None, 11),
+        (np.deg2rad([-30.0, 10.0, 60.0]), np.deg2rad(90.0), 12),
+    ):
         rates = None if rate is None else np.full(3, rate)
         trial = simulate_trial(roll, rates, 3.0, seed)
         frames = trial.step_frames()
@@ -180,10 +183,16 @@ def test_adaptive_kalman_is_the_pipelines_kalman_filter_on_raw_angles():
     whole, _ = AdaptiveKalmanHand(3, FS).update(trial.frames)
     steps, _ = run(AdaptiveKalmanHand(3, FS), trial.step_frames())
     np.testing.assert_array_equal(whole, steps)
-    direct = OrientationFilter(3, HandParams(kalman=KalmanParams(
-        accel_psd=1.0, max_accel_psd=1000.0, adapt_time=1.0 / 30.0), median_window=1))  # fmt: skip
-    ref = direct.update_angles(trial.frames.ypr_raw, trial.frames.quat_valid,
-                               trial.frames.reselected)  # fmt: skip
+    direct = OrientationFilter(
+        3,
+        HandParams(
+            kalman=KalmanParams(accel_psd=1.0, max_accel_psd=1000.0, adapt_time=1.0 / 30.0),
+            median_window=1,
+        ),
+    )
+    ref = direct.update_angles(
+        trial.frames.ypr_raw, trial.frames.quat_valid, trial.frames.reselected
+    )
     np.testing.assert_array_equal(whole, ref.ypr_kalman)
 
 
@@ -252,12 +261,20 @@ def synthetic(ypr_raw, quat_valid=None, reselected=None):
     qv = np.ones((b, m), bool) if quat_valid is None else np.asarray(quat_valid, bool)
     rs = np.zeros((b, m), bool) if reselected is None else np.asarray(reselected, bool)
     return HandFrame(
-        slot=np.zeros((b, m), np.int64), body_id=np.ones((b, m), np.int64), reselected=rs,
-        has_target=np.ones((b, m), bool), joints=np.full((b, m, 25, 3), np.nan),
-        joint_state=np.zeros((b, m, 25), np.int8), all_inferred=np.zeros((b, m), bool),
-        ypr_raw=ypr_raw, ypr_kalman=ypr_raw.copy(), ypr=ypr_raw.copy(), quat_valid=qv,
-        singular=np.zeros((b, m), bool), valid=np.isfinite(ypr_raw).all(axis=-1),
-    )  # fmt: skip
+        slot=np.zeros((b, m), np.int64),
+        body_id=np.ones((b, m), np.int64),
+        reselected=rs,
+        has_target=np.ones((b, m), bool),
+        joints=np.full((b, m, 25, 3), np.nan),
+        joint_state=np.zeros((b, m, 25), np.int8),
+        all_inferred=np.zeros((b, m), bool),
+        ypr_raw=ypr_raw,
+        ypr_kalman=ypr_raw.copy(),
+        ypr=ypr_raw.copy(),
+        quat_valid=qv,
+        singular=np.zeros((b, m), bool),
+        valid=np.isfinite(ypr_raw).all(axis=-1),
+    )
 
 
 def noisy_angles(rng, b, m, base=0.3):

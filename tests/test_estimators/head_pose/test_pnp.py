@@ -214,8 +214,9 @@ def test_one_wall_seen_obliquely_still_gives_the_pose(rng):
     # p = (0.5, 0.3, 1.65), yaw = pi + 0.1 puts the camera ~0.9 m off.)
     errors = []
     for _ in range(20):
-        p, q = np.array([rng.uniform(-1, 2), rng.uniform(-2, 2), 1.65]), quat_from_ypr(
-            [np.pi + rng.uniform(-0.5, 0.5), rng.uniform(-0.1, 0.1), 0.0]
+        p, q = (
+            np.array([rng.uniform(-1, 2), rng.uniform(-2, 2), 1.65]),
+            quat_from_ypr([np.pi + rng.uniform(-0.5, 0.5), rng.uniform(-0.1, 0.1), 0.0]),
         )
         x, uv = visible(wall, p, q)
         if x.shape[0] < 8:

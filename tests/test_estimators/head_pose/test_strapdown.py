@@ -99,8 +99,9 @@ def test_biases_are_removed_from_both_ends_of_every_interval(rng):
     clean.reset(p0, v0, q0, gyr=gyr[:, 0], acc=acc[:, 0])
     biased.reset(p0, v0, q0, gyr=gyr[:, 0] + bg, acc=acc[:, 0] + ba)
     ref = clean.propagate(gyr[:, 1:], acc[:, 1:])
-    out = biased.propagate(gyr[:, 1:] + bg[:, None], acc[:, 1:] + ba[:, None], gyro_bias=bg,
-                           accel_bias=ba)  # fmt: skip
+    out = biased.propagate(
+        gyr[:, 1:] + bg[:, None], acc[:, 1:] + ba[:, None], gyro_bias=bg, accel_bias=ba
+    )
     np.testing.assert_allclose(out.q, ref.q, atol=1e-12)
     np.testing.assert_allclose(out.v, ref.v, atol=1e-10)
     np.testing.assert_allclose(out.p, ref.p, atol=1e-10)

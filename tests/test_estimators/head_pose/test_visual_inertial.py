@@ -182,9 +182,13 @@ def test_batch_of_three_equals_three_single_runs():
     valid = np.ones((3, len(meas[0][0])), dtype=bool)
     valid[1, ::7] = False
     pb, qb, sb = batch.process(
-        np.stack([r.gyr for r in runs]), np.stack([r.acc for r in runs]), runs[0].frame_sample,
-        np.stack([m[0] for m in meas]), np.stack([m[1] for m in meas]), valid,
-    )  # fmt: skip
+        np.stack([r.gyr for r in runs]),
+        np.stack([r.acc for r in runs]),
+        runs[0].frame_sample,
+        np.stack([m[0] for m in meas]),
+        np.stack([m[1] for m in meas]),
+        valid,
+    )
     for i, (r, m) in enumerate(zip(runs, meas, strict=True)):
         f = VisualInertialFilter(1, RATE, cfg)
         f.reset(r.truth["p"][0], r.truth["v"][0], r.truth["q"][0])
@@ -222,20 +226,32 @@ def test_reset_mask_resets_one_user_only():
     rest = run.frame_sample[half:] - cut
     m = len(rest)
     pb, _, _ = both.process(
-        gyr[:, cut:], acc[:, cut:], rest, np.stack([pos[half:]] * 2), np.stack([quat[half:]] * 2),
+        gyr[:, cut:],
+        acc[:, cut:],
+        rest,
+        np.stack([pos[half:]] * 2),
+        np.stack([quat[half:]] * 2),
         np.ones((2, m), dtype=bool),
-    )  # fmt: skip
+    )
     p0, _, _ = fresh.process(
-        run.gyr[None, cut:], run.acc[None, cut:], rest, pos[None, half:], quat[None, half:],
+        run.gyr[None, cut:],
+        run.acc[None, cut:],
+        rest,
+        pos[None, half:],
+        quat[None, half:],
         np.ones((1, m), dtype=bool),
-    )  # fmt: skip
+    )
     np.testing.assert_array_equal(pb[0], p0[0])
     whole = VisualInertialFilter(1, RATE, TUNED)
     whole.reset(run.truth["p"][0], run.truth["v"][0], run.truth["q"][0])
     pw, _, _ = whole.process(
-        run.gyr[None], run.acc[None], run.frame_sample, pos[None], quat[None],
+        run.gyr[None],
+        run.acc[None],
+        run.frame_sample,
+        pos[None],
+        quat[None],
         np.ones((1, len(pos)), dtype=bool),
-    )  # fmt: skip
+    )
     np.testing.assert_array_equal(pb[1], pw[0, cut:])
 
 

@@ -199,17 +199,24 @@ def _trial_inputs() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     motion.reset()
     amp, freq = GESTURES["nod"]
     nod = {"gesture_amplitude": tuple(np.deg2rad(amp)), "gesture_frequency": freq}
-    plan = ([Intent(gesture_frequency=freq)] * 10 + [Intent(cadence=1.7, gesture_frequency=freq)]
-            * 40 + [Intent(cadence=1.7, **nod)] * 20 + [Intent(**nod)] * 20)  # fmt: skip
-    trial = sense_record(MotionRecord.concatenate([motion.advance(i) for i in plan]), rng,
-                      "consumer_mems", FS)  # fmt: skip
+    plan = (
+        [Intent(gesture_frequency=freq)] * 10
+        + [Intent(cadence=1.7, gesture_frequency=freq)] * 40
+        + [Intent(cadence=1.7, **nod)] * 20
+        + [Intent(**nod)] * 20
+    )
+    trial = sense_record(
+        MotionRecord.concatenate([motion.advance(i) for i in plan]), rng, "consumer_mems", FS
+    )
     return trial.imu.acc, trial.imu.gyr, trial.q_est
 
 
 def _concat(parts: list[GaitChunk]) -> tuple[np.ndarray, ...]:
     """state, steps, peak_time and sample_time of consecutive chunks, joined along time."""
-    fields = [np.concatenate([getattr(p, f) for p in parts], axis=1)
-              for f in ("state", "steps", "peak_time")]  # fmt: skip
+    fields = [
+        np.concatenate([getattr(p, f) for p in parts], axis=1)
+        for f in ("state", "steps", "peak_time")
+    ]
     return (*fields, np.concatenate([p.sample_time for p in parts]))
 
 
@@ -220,15 +227,18 @@ def test_chunking_does_not_change_results(name):
     assert whole[1].sum() > 0
     for size in (1, 7, 10):
         stage = STEPS.build(name, USERS, FS)
-        parts = [stage.update(acc[:, k : k + size], gyr[:, k : k + size], quat[:, k : k + size])
-                 for k in range(0, acc.shape[1], size)]  # fmt: skip
+        parts = [
+            stage.update(acc[:, k : k + size], gyr[:, k : k + size], quat[:, k : k + size])
+            for k in range(0, acc.shape[1], size)
+        ]
         assert stage.samples_seen == acc.shape[1]
         for x, y in zip(_concat(parts), whole, strict=True):
             np.testing.assert_array_equal(x, y)
 
 
-@pytest.mark.parametrize("rows", [[1], np.array([False, True, False, False])],
-                         ids=["index", "mask"])  # fmt: skip
+@pytest.mark.parametrize(
+    "rows", [[1], np.array([False, True, False, False])], ids=["index", "mask"]
+)
 @pytest.mark.parametrize("name", NAMES)
 def test_reset_rows_are_independent(name, rows):
     """Resetting stream 1 leaves the others bit-identical; stream 1 then is a fresh detector
@@ -277,9 +287,12 @@ def test_registry_builds_the_protocol(name):
 
 @pytest.mark.parametrize(
     "params, cls",
-    [(GaitParams(gamma=1.0), Zhang2021Steps), (ThresholdParams(threshold=1.0), ThresholdSteps),
-     (NodRobustParams(lever_arm=0.1), NodRobustSteps)],
-)  # fmt: skip
+    [
+        (GaitParams(gamma=1.0), Zhang2021Steps),
+        (ThresholdParams(threshold=1.0), ThresholdSteps),
+        (NodRobustParams(lever_arm=0.1), NodRobustSteps),
+    ],
+)
 def test_params_build(params, cls):
     stage = STEPS.build(params, 3, 100.0)
     assert isinstance(stage, cls) and stage.params == params
@@ -347,9 +360,11 @@ def test_bad_inputs_name_the_argument(cls):
         cls(2, FS, GaitParams())
     stage = cls(2, FS)
     good3, good4 = np.zeros((2, 5, 3)), np.zeros((2, 5, 4))
-    for args, bad in (((np.zeros((2, 5, 2)), good3, good4), "acc"),
-                      ((good3, np.zeros((2, 4, 3)), good4), "gyr"),
-                      ((good3, good3, good3), "quat")):  # fmt: skip
+    for args, bad in (
+        ((np.zeros((2, 5, 2)), good3, good4), "acc"),
+        ((good3, np.zeros((2, 4, 3)), good4), "gyr"),
+        ((good3, good3, good3), "quat"),
+    ):
         with pytest.raises(ValueError, match=bad):
             stage.update(*args)
     with pytest.raises(ValueError, match="rows"):

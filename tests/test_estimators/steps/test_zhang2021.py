@@ -376,8 +376,9 @@ def test_repeated_timestamps_are_merged_not_refused():
     rng = np.random.default_rng(4)
     t = np.arange(2000) / 100.0
     phase = 2 * np.pi * 1.8 * t
-    acc = np.stack([np.zeros_like(t), np.zeros_like(t),
-                    GRAVITY + 2.5 * np.maximum(np.sin(phase), 0) ** 8], -1)  # fmt: skip
+    acc = np.stack(
+        [np.zeros_like(t), np.zeros_like(t), GRAVITY + 2.5 * np.maximum(np.sin(phase), 0) ** 8], -1
+    )
     acc += rng.normal(0, 0.05, acc.shape)
     plain = detect_steps(t, acc)
     dup = np.sort(np.concatenate([np.arange(2000), [300, 301, 900, 1500]]))

@@ -475,9 +475,11 @@ def test_blur_length_follows_rotational_flow():
     lm = np.array([c + np.array([4.0, 0.0, 0.0]), c + np.array([4.0, 1.0, 0.0])])
     r = spec.fx * 1.0 / 4.0  # the second point's distance from the principal point, px
     w = 2.0
-    for axis, expect in ((1, [w * spec.fx, w * spec.fx]),  # pitch: (1 + y^2) with y = 0
-                         (2, [w * spec.fx, w * (spec.fx + r * r / spec.fx)]),
-                         (0, [0.0, w * r])):  # fmt: skip
+    for axis, expect in (
+        (1, [w * spec.fx, w * spec.fx]),  # pitch: (1 + y^2) with y = 0
+        (2, [w * spec.fx, w * (spec.fx + r * r / spec.fx)]),
+        (0, [0.0, w * r]),
+    ):
         t, pos, q, om = still(1, 1)
         om[..., axis] = w
         f = make(spec).capture(t, pos, q, om, lm)

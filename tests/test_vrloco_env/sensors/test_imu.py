@@ -127,16 +127,21 @@ def test_a_moving_dipole_reads_as_a_still_one_where_it_is_at_each_sample():
     rate, n = 100.0, 200
     spec = get_imu_spec("ig500n").noiseless()
     v, start, stop = np.array([1.0, 0.0, 0.0]), 0.5, 1.5
-    moving = MagneticDisturbance.with_field_at((-1.0, 0.8, 1.0), field_ut=20.0, distance_m=0.8,
-                                               velocity=v, moving=(start, stop))  # fmt: skip
+    moving = MagneticDisturbance.with_field_at(
+        (-1.0, 0.8, 1.0), field_ut=20.0, distance_m=0.8, velocity=v, moving=(start, stop)
+    )
     imu = HeadImu(spec, BatchRng.from_seeds([1]), rate_hz=rate, disturbances=[moving])
     q = np.tile([1.0, 0.0, 0.0, 0.0], (1, n, 1))
     zero = np.zeros((1, n, 3))
     head = np.tile([0.0, 0.0, 1.6], (1, n, 1))
     truth = imu.true_field_world(head, (1, n))  # the next n samples' field, before taking them
-    mag = np.concatenate([imu.sample(q[:, :90], zero[:, :90], zero[:, :90], head[:, :90]).mag,
-                          imu.sample(q[:, 90:], zero[:, 90:], zero[:, 90:], head[:, 90:]).mag],
-                         axis=1)  # two calls: the clock carries over  # fmt: skip
+    mag = np.concatenate(
+        [
+            imu.sample(q[:, :90], zero[:, :90], zero[:, :90], head[:, :90]).mag,
+            imu.sample(q[:, 90:], zero[:, 90:], zero[:, 90:], head[:, 90:]).mag,
+        ],
+        axis=1,
+    )  # two calls: the clock carries over
     t = np.arange(1, n + 1) / rate
     for k in (0, 40, 49, 50, 99, 100, 149, 150, 199):
         at = np.asarray(moving.position) + v * min(max(t[k] - start, 0.0), stop - start)
@@ -147,8 +152,9 @@ def test_a_moving_dipole_reads_as_a_still_one_where_it_is_at_each_sample():
     np.testing.assert_allclose(truth, mag, rtol=0, atol=1e-12)  # identity attitude: world = body
     np.testing.assert_array_equal(moving.position_at(0.2), moving.position)
     np.testing.assert_allclose(moving.position_at(9.0), np.add(moving.position, v * 1.0))
-    np.testing.assert_allclose(moving.field_at(head[0, :3], t[:3]), mag[0, :3]
-                               - EarthField().vector_enu(), atol=1e-12)  # fmt: skip
+    np.testing.assert_allclose(
+        moving.field_at(head[0, :3], t[:3]), mag[0, :3] - EarthField().vector_enu(), atol=1e-12
+    )
     imu.reset()
     again = imu.sample(q[:, :90], zero[:, :90], zero[:, :90], head[:, :90]).mag
     np.testing.assert_array_equal(again, mag[:, :90])
@@ -156,8 +162,11 @@ def test_a_moving_dipole_reads_as_a_still_one_where_it_is_at_each_sample():
 
 def test_a_moving_dipole_is_checked_field_by_field():
     d = ((0.0, 0.0, 0.0), (0.0, 0.0, 1.0))
-    with pytest.raises(ValueError, match=r"^MagneticDisturbance\.moving=\(2\.0, 1\.0\): must "
-                                         r"be a tuple of 2 numbers in \[0, inf\) s, low <= high$"):
+    with pytest.raises(
+        ValueError,
+        match=r"^MagneticDisturbance\.moving=\(2\.0, 1\.0\): must "
+        r"be a tuple of 2 numbers in \[0, inf\) s, low <= high$",
+    ):
         MagneticDisturbance(*d, velocity=(1.0, 0.0, 0.0), moving=(2.0, 1.0))
     with pytest.raises(ValueError, match=r"^MagneticDisturbance\.velocity=\(1\.0, 0\.0\)"):
         MagneticDisturbance(*d, velocity=(1.0, 0.0))
@@ -444,8 +453,13 @@ def test_reset_users_as_a_mask_equals_indices_and_bad_users_raise():
     assert np.array_equal(unchanged.gyr[1], by_index.gyr[1])
     assert not np.array_equal(unchanged.gyr[0], by_index.gyr[0])
     imu = HeadImu("ig500n", BatchRng.from_seeds([0, 1]))
-    for bad, match in (([2], r"\[0, 1\]"), ([-1], r"\[0, 1\]"), ([1, 1], "repeat"),
-                       (np.array([True]), r"shape \(2,\)"), ([0.5], "integer")):  # fmt: skip
+    for bad, match in (
+        ([2], r"\[0, 1\]"),
+        ([-1], r"\[0, 1\]"),
+        ([1, 1], "repeat"),
+        (np.array([True]), r"shape \(2,\)"),
+        ([0.5], "integer"),
+    ):
         with pytest.raises(ValueError, match=match):
             imu.reset(users=bad)
 
@@ -526,28 +540,48 @@ def test_bad_spec_fields_raise_clear_value_error():
     ig = get_imu_spec("ig500n")
     rep = dataclasses.replace
     cases = [
-        (lambda: rep(ig.gyro, noise_density=-1.0),
-         r"SensorSpec\(gyro\)\.noise_density=-1\.0: must be in \[0, inf\) rad/s/sqrt\(Hz\)$"),
-        (lambda: rep(ig.accel, bias_tau=0.0),
-         r"SensorSpec\(accel\)\.bias_tau=0\.0: must be in \(0, inf\] s$"),
-        (lambda: rep(ig.mag, resolution=500.0),
-         r"SensorSpec\(mag\)\.resolution=500\.0: must be in \[0, range=.*\) uT$"),
-        (lambda: SensorSpec("accel", "m/s^2", range=float("nan"), noise_density=0,
-                            bias_stability=0, bias_tau=1),
-         r"SensorSpec\(accel\)\.range=nan: must be in \(0, inf\) m/s\^2$"),
+        (
+            lambda: rep(ig.gyro, noise_density=-1.0),
+            r"SensorSpec\(gyro\)\.noise_density=-1\.0: must be in \[0, inf\) rad/s/sqrt\(Hz\)$",
+        ),
+        (
+            lambda: rep(ig.accel, bias_tau=0.0),
+            r"SensorSpec\(accel\)\.bias_tau=0\.0: must be in \(0, inf\] s$",
+        ),
+        (
+            lambda: rep(ig.mag, resolution=500.0),
+            r"SensorSpec\(mag\)\.resolution=500\.0: must be in \[0, range=.*\) uT$",
+        ),
+        (
+            lambda: SensorSpec(
+                "accel", "m/s^2", range=float("nan"), noise_density=0, bias_stability=0, bias_tau=1
+            ),
+            r"SensorSpec\(accel\)\.range=nan: must be in \(0, inf\) m/s\^2$",
+        ),
         (lambda: rep(ig, hard_iron=-1.0), r"ImuSpec\.hard_iron=-1\.0: must be in \[0, inf\) uT$"),
-        (lambda: rep(ig, soft_iron_cross=0.2),
-         r"ImuSpec\.soft_iron_cross=0\.2: must be in \[0, 0\.2\)"),
+        (
+            lambda: rep(ig, soft_iron_cross=0.2),
+            r"ImuSpec\.soft_iron_cross=0\.2: must be in \[0, 0\.2\)",
+        ),
         (lambda: rep(ig, gyro=ig.accel), r"ImuSpec\.gyro\.label='accel': must be 'gyro'$"),
-        (lambda: EarthField(inclination=100.0),
-         r"EarthField\.inclination=100\.0: must be in \[-90, 90\] deg$"),
-        (lambda: EarthField(intensity=0.0),
-         r"EarthField\.intensity=0\.0: must be in \(0, inf\) uT$"),
-        (lambda: MagneticDisturbance((0, 0, 0), (0, np.nan, 0)),
-         r"MagneticDisturbance\.moment=\(0, nan, 0\): must be a tuple of 3 finite numbers A m\^2$"),
-        (lambda: MagneticDisturbance.with_field_at((0, 0, 0), field_ut=10.0, distance_m=0.0),
-         r"^distance_m=0\.0: must be in \(0, inf\) m$"),
-    ]  # fmt: skip
+        (
+            lambda: EarthField(inclination=100.0),
+            r"EarthField\.inclination=100\.0: must be in \[-90, 90\] deg$",
+        ),
+        (
+            lambda: EarthField(intensity=0.0),
+            r"EarthField\.intensity=0\.0: must be in \(0, inf\) uT$",
+        ),
+        (
+            lambda: MagneticDisturbance((0, 0, 0), (0, np.nan, 0)),
+            r"MagneticDisturbance\.moment=\(0, nan, 0\): "
+            r"must be a tuple of 3 finite numbers A m\^2$",
+        ),
+        (
+            lambda: MagneticDisturbance.with_field_at((0, 0, 0), field_ut=10.0, distance_m=0.0),
+            r"^distance_m=0\.0: must be in \(0, inf\) m$",
+        ),
+    ]
     for make, message in cases:
         with pytest.raises(ValueError, match=message):
             make()

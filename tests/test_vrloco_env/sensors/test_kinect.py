@@ -477,11 +477,26 @@ def test_a_lost_target_comes_back_with_a_new_id_after_acquisition():
 
 # ------------------------------------------------------------------------------------- facing
 
-LEFT_LIMBS = [Joint.ELBOW_LEFT, Joint.WRIST_LEFT, Joint.HAND_LEFT, Joint.HAND_TIP_LEFT,
-              Joint.THUMB_LEFT, Joint.KNEE_LEFT, Joint.ANKLE_LEFT, Joint.FOOT_LEFT]  # fmt: skip
-RIGHT_LIMBS = [Joint.ELBOW_RIGHT, Joint.WRIST_RIGHT, Joint.HAND_RIGHT, Joint.HAND_TIP_RIGHT,
-               Joint.THUMB_RIGHT, Joint.KNEE_RIGHT, Joint.ANKLE_RIGHT,
-               Joint.FOOT_RIGHT]  # fmt: skip
+LEFT_LIMBS = [
+    Joint.ELBOW_LEFT,
+    Joint.WRIST_LEFT,
+    Joint.HAND_LEFT,
+    Joint.HAND_TIP_LEFT,
+    Joint.THUMB_LEFT,
+    Joint.KNEE_LEFT,
+    Joint.ANKLE_LEFT,
+    Joint.FOOT_LEFT,
+]
+RIGHT_LIMBS = [
+    Joint.ELBOW_RIGHT,
+    Joint.WRIST_RIGHT,
+    Joint.HAND_RIGHT,
+    Joint.HAND_TIP_RIGHT,
+    Joint.THUMB_RIGHT,
+    Joint.KNEE_RIGHT,
+    Joint.ANKLE_RIGHT,
+    Joint.FOOT_RIGHT,
+]
 NO_FACING = {"facing_inferred_deg": 179.0, "facing_lost_deg": 180.0}  # the rule off
 
 
@@ -565,8 +580,9 @@ def test_bystanders_follow_the_facing_rule():
     """A bystander walking across the room turns side-on or away: the same rule infers its far
     limbs and loses it, so with the rule there are fewer tracked bystander frames and more
     inferred limb joints than without."""
-    spec = KinectSpec(n_bystanders=5, bystander_dwell_s=0.5, burst_prob=0.0,
-                      random_inferred_prob=0.0)  # fmt: skip
+    spec = KinectSpec(
+        n_bystanders=5, bystander_dwell_s=0.5, burst_prob=0.0, random_inferred_prob=0.0
+    )
     joints, q = user_at(2.5, b=4)
     args = static(joints, q, 300)
     on = make(spec, range(4)).capture(*args)
@@ -685,9 +701,12 @@ def _user(frames: KinectFrames, i: int, start: int = 0) -> KinectFrames:
 
 def test_resetting_one_user_equals_a_fresh_single_session_and_leaves_the_others_alone():
     spec = KinectSpec(
-        n_bystanders=3, latency_frames=2, burst_prob=0.05, random_inferred_prob=0.01,
+        n_bystanders=3,
+        latency_frames=2,
+        burst_prob=0.05,
+        random_inferred_prob=0.01,
         bystander_dwell_s=0.5,
-    )  # fmt: skip
+    )
     seeds, m1, m2 = (31, 32, 33), 40, 50
     t, jw, qw = varied_users(3, m1 + m2)
     rng = BatchRng.from_seeds(seeds)

@@ -78,8 +78,9 @@ def test_a_registered_toy_task_runs_through_make_check_env_and_make_vec(pillar_t
             break
     assert info["is_success"] and info["collisions"] == 0
     for mode in ("sync", "vector_entry_point"):
-        envs = gym.make_vec("VRLoco-Pillar-v0", num_envs=2, vectorization_mode=mode,
-                            max_episode_steps=5)  # fmt: skip
+        envs = gym.make_vec(
+            "VRLoco-Pillar-v0", num_envs=2, vectorization_mode=mode, max_episode_steps=5
+        )
         envs.reset(seed=1)
         for _ in range(12):
             obs, *_ = envs.step(np.tile(walk, (2, 1)))
@@ -91,8 +92,9 @@ def test_a_registered_toy_task_runs_through_make_check_env_and_make_vec(pillar_t
 
 def test_registry_generates_the_ids_and_names_errors():
     assert {env_id(n) for n in TASKS} <= set(gym.registry)
-    with pytest.raises(ValueError, match="task='dance': unknown; valid names: approach, avoid, "
-                                         "interact"):  # fmt: skip
+    with pytest.raises(
+        ValueError, match="task='dance': unknown; valid names: approach, avoid, interact"
+    ):
         get_task("dance")
     with pytest.raises(TypeError, match="Task subclass"):
         register_task("bad", object)
@@ -123,8 +125,9 @@ def test_the_spec_decodes_what_the_env_encodes():
         assert d["goal_distance"][0] == pytest.approx(truth, abs=2e-5 * 20)
         assert view.distance[0] == pytest.approx(truth, abs=2e-5 * 20)
         np.testing.assert_allclose(d["rays"], core.last_rays[0], atol=5.0 * 1e-6)
-        assert view.heading[0] == pytest.approx(np.angle(np.exp(1j * core.ep.virtual_yaw[0])),
-                                                abs=1e-5)  # fmt: skip
+        assert view.heading[0] == pytest.approx(
+            np.angle(np.exp(1j * core.ep.virtual_yaw[0])), abs=1e-5
+        )
         assert view.steps[0] == info["detected_steps"]
     assert spec.describe().splitlines()[0].startswith("heading")
 
@@ -146,8 +149,9 @@ def test_the_avoid_corridor_is_the_avoid_tasks_own_config():
 
     from vrloco_env.tasks.avoid import AvoidConfig
 
-    env = gym.make("VRLoco-Avoid-v0", task_config=AvoidConfig(corridor_width=2.4,
-                                                              corridor_width_jitter=0.0))
+    env = gym.make(
+        "VRLoco-Avoid-v0", task_config=AvoidConfig(corridor_width=2.4, corridor_width_jitter=0.0)
+    )
     env.reset(seed=3)
     xmin, xmax, ymin, ymax = env.unwrapped.layout.bounds
     assert ymax - ymin == pytest.approx(2.4) and xmax - xmin == pytest.approx(14.0)

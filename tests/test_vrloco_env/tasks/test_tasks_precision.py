@@ -132,8 +132,11 @@ def test_the_env_bears_on_the_first_doorway_and_reports_it():
 
 
 def test_impossible_doorways_are_refused_naming_the_field():
-    with pytest.raises(ValueError, match=r"DoorwayConfig.width_range=\(0.6, 1.2\): width_range\[0\]"
-                       r" must be >= .* = 0.8 m"):  # fmt: skip
+    with pytest.raises(
+        ValueError,
+        match=r"DoorwayConfig.width_range=\(0.6, 1.2\): width_range\[0\]"
+        r" must be >= .* = 0.8 m",
+    ):
         doorway_layout(ROOM, np.random.default_rng(0), DoorwayConfig(width_range=(0.6, 1.2)))
     wide = RoomConfig(avatar_radius=0.4, keepout_radius=1.0)
     with pytest.raises(ValueError, match=r"DoorwayConfig.width_range=.* = 1.1 m"):
@@ -220,8 +223,7 @@ def test_reach_finishes_on_the_hand_held_in_the_band_only():
     def frames(position, hand, n):
         task.reset(np.array([0]))
         Step.hand_est = hand
-        return [bool(task.finished(task.goal_distance(position) <= 0.0, Step)[0])
-                for _ in range(n)]  # fmt: skip
+        return [bool(task.finished(task.goal_distance(position) <= 0.0, Step)[0]) for _ in range(n)]
 
     done = frames(hold, task.hand_target.copy(), 12)
     assert done.index(True) == 9  # dwell_s = 1.0 s at dt = 0.1 s: the tenth frame

@@ -69,9 +69,14 @@ def _behaviour(pop: Population, seeds, rays_range=5.0):
 
 
 def _still(b: int, cadence: float = 0.0) -> Intent:
-    return Intent(cadence=np.full(b, cadence), turn_rate=np.zeros(b), hand_rates=np.zeros((b, 3)),
-                  gesture_amplitude=np.zeros((b, 3)), gesture_frequency=np.full((b, 3), 0.5),
-                  lean=np.zeros(b))  # fmt: skip
+    return Intent(
+        cadence=np.full(b, cadence),
+        turn_rate=np.zeros(b),
+        hand_rates=np.zeros((b, 3)),
+        gesture_amplitude=np.zeros((b, 3)),
+        gesture_frequency=np.full((b, 3), 0.5),
+        lean=np.zeros(b),
+    )
 
 
 def _stepping(b: int) -> Intent:
@@ -79,8 +84,9 @@ def _stepping(b: int) -> Intent:
 
 
 def test_the_head_takes_what_the_eyes_cannot_of_the_goal_bearing():
-    pop = Population("goal_only", "", gaze=True, eye_range_deg=(10.0, 20.0),
-                     gaze_onset_s=(0.0, 0.0))  # fmt: skip
+    pop = Population(
+        "goal_only", "", gaze=True, eye_range_deg=(10.0, 20.0), gaze_onset_s=(0.0, 0.0)
+    )
     g, _ = _behaviour(pop, range(6))
     eye = np.deg2rad(g.values["eye_range_deg"])
     assert np.all((eye >= np.deg2rad(10.0)) & (eye <= np.deg2rad(20.0))) and np.ptp(eye) > 0
@@ -102,13 +108,13 @@ def test_the_head_takes_what_the_eyes_cannot_of_the_goal_bearing():
 
 
 def test_the_head_stays_straight_until_the_user_has_seen_the_scene():
-    pop = Population("goal_only", "", gaze=True, eye_range_deg=(0.0, 0.0),
-                     gaze_onset_s=(0.2, 0.4))  # fmt: skip
+    pop = Population("goal_only", "", gaze=True, eye_range_deg=(0.0, 0.0), gaze_onset_s=(0.2, 0.4))
     g, _ = _behaviour(pop, range(20))
     onset = g.values["gaze_onset_s"]
     for k in range(6):
-        out = g.intent(_still(20), np.zeros(20), np.full(20, 0.5), np.full((20, 15), 5.0),
-                       np.zeros(20, bool))  # fmt: skip
+        out = g.intent(
+            _still(20), np.zeros(20), np.full(20, 0.5), np.full((20, 15), 5.0), np.zeros(20, bool)
+        )
         seen = k * DT >= onset - 1e-9
         np.testing.assert_array_equal(g.head_target, np.where(seen, 0.5, 0.0))
         assert np.all(out.head_yaw[~seen] == 0.0) and np.all(out.head_yaw[seen] > 0.0)
@@ -116,9 +122,17 @@ def test_the_head_stays_straight_until_the_user_has_seen_the_scene():
 
 
 def test_glances_look_at_the_nearest_thing_and_end_when_it_is_gone():
-    pop = Population("glancers", "", gaze=True, eye_range_deg=(0.0, 0.0),
-                     glance_rate_hz=(2.0, 2.0), glance_s=(5.0, 5.0), walking_head_deg=80.0,
-                     gaze_onset_s=(0.0, 0.0), glance_cone_deg=90.0)  # fmt: skip
+    pop = Population(
+        "glancers",
+        "",
+        gaze=True,
+        eye_range_deg=(0.0, 0.0),
+        glance_rate_hz=(2.0, 2.0),
+        glance_s=(5.0, 5.0),
+        walking_head_deg=80.0,
+        gaze_onset_s=(0.0, 0.0),
+        glance_cone_deg=90.0,
+    )
     g, offsets = _behaviour(pop, [1])
     rays = np.full((1, 15), 5.0)
     rays[0, 3] = 0.8  # something close, to the right
@@ -141,9 +155,16 @@ def test_glances_look_at_the_nearest_thing_and_end_when_it_is_gone():
 def test_only_what_lies_on_the_travel_path_draws_glances():
     """Things within glance_cone_deg of the torso's direction draw glances; a wall beside the
     path does not, and the cone turns with the torso, not with the head."""
-    pop = Population("glancers", "", gaze=True, eye_range_deg=(0.0, 0.0),
-                     glance_rate_hz=(2.0, 2.0), glance_s=(5.0, 5.0),
-                     gaze_onset_s=(0.0, 0.0), glance_cone_deg=30.0)  # fmt: skip
+    pop = Population(
+        "glancers",
+        "",
+        gaze=True,
+        eye_range_deg=(0.0, 0.0),
+        glance_rate_hz=(2.0, 2.0),
+        glance_s=(5.0, 5.0),
+        gaze_onset_s=(0.0, 0.0),
+        glance_cone_deg=30.0,
+    )
     g, offsets = _behaviour(pop, [1])
     side = int(np.argmin(np.abs(offsets - np.deg2rad(-70.0))))  # 70 deg to the right
     ahead = int(np.argmin(np.abs(offsets - np.deg2rad(20.0))))  # 20 deg to the left
@@ -178,10 +199,18 @@ def test_looks_around_come_in_bouts_of_exponential_looks_and_walking_bounds_them
     each held an exponential time of mean scan_s and shifting the gaze by an exponential size
     of mean scan_amplitude_deg; stepping, a bout is one look, at most walking_head_deg from
     the goal."""
-    pop = Population("scanners", "", gaze=True, eye_range_deg=(0.0, 0.0),
-                     scan_rate_hz=(0.2, 0.2), scan_s=(1.0, 1.0), scan_looks=(3.0, 3.0),
-                     scan_amplitude_deg=(20.0, 20.0), gaze_onset_s=(0.0, 0.0),
-                     walking_head_deg=25.0)  # fmt: skip
+    pop = Population(
+        "scanners",
+        "",
+        gaze=True,
+        eye_range_deg=(0.0, 0.0),
+        scan_rate_hz=(0.2, 0.2),
+        scan_s=(1.0, 1.0),
+        scan_looks=(3.0, 3.0),
+        scan_amplitude_deg=(20.0, 20.0),
+        gaze_onset_s=(0.0, 0.0),
+        walking_head_deg=25.0,
+    )
     b, steps = 300, 600
     g, _ = _behaviour(pop, range(b))
     modes, targets = [], []
@@ -206,8 +235,7 @@ def test_looks_around_come_in_bouts_of_exponential_looks_and_walking_bounds_them
     g, _ = _behaviour(pop, range(b))
     walk_modes, walk_targets = [], []
     for _ in range(steps):
-        g.intent(_stepping(b), np.zeros(b), np.zeros(b), np.full((b, 15), 5.0),
-                 np.zeros(b, bool))  # fmt: skip
+        g.intent(_stepping(b), np.zeros(b), np.zeros(b), np.full((b, 15), 5.0), np.zeros(b, bool))
         walk_modes.append(g.mode.copy())
         walk_targets.append(g.head_target.copy())
     walk_scan, walk_targets = np.array(walk_modes) == SCAN, np.array(walk_targets)
@@ -229,14 +257,21 @@ def test_interacting_users_look_down_at_the_hand():
 
 
 def test_nod_bouts_have_their_cycles_and_share_of_time():
-    pop = Population("nod", "", nod_rate_hz=(0.2, 0.2), nod_cycles=(3.0, 3.0),
-                     nod_frequency_hz=(2.0, 2.0), nod_amplitude_deg=(10.0, 10.0))  # fmt: skip
+    pop = Population(
+        "nod",
+        "",
+        nod_rate_hz=(0.2, 0.2),
+        nod_cycles=(3.0, 3.0),
+        nod_frequency_hz=(2.0, 2.0),
+        nod_amplitude_deg=(10.0, 10.0),
+    )
     b, steps = 100, 600
     g, _ = _behaviour(pop, range(b))
     nodding, amp, freq = [], [], []
     for _ in range(steps):
-        out = g.intent(_still(b), np.zeros(b), np.zeros(b), np.full((b, 15), 5.0),
-                       np.zeros(b, bool))  # fmt: skip
+        out = g.intent(
+            _still(b), np.zeros(b), np.zeros(b), np.full((b, 15), 5.0), np.zeros(b, bool)
+        )
         nodding.append(g.nodding)
         amp.append(out.gesture_amplitude[:, 1])
         freq.append(out.gesture_frequency[:, 1])
@@ -262,8 +297,9 @@ def test_a_batch_of_behaviours_reproduces_single_users_bit_for_bit():
         g, _ = _behaviour(pop, [seeds[i] for i in rows])
         out = []
         for k in range(steps):
-            it = g.intent(_still(len(rows)), h[k, rows], bearing[k, rows], rays[k, rows],
-                          inter[k, rows])  # fmt: skip
+            it = g.intent(
+                _still(len(rows)), h[k, rows], bearing[k, rows], rays[k, rows], inter[k, rows]
+            )
             out.append(np.concatenate([it.head_yaw, it.gesture_amplitude[:, 1], it.lean]))
         return np.array(out).reshape(steps, 3, len(rows))
 
@@ -276,8 +312,9 @@ def test_a_batch_of_behaviours_reproduces_single_users_bit_for_bit():
 
 
 def _episode(population, technique="zhang2021", steps=120, seed=3, action=(0.5, 0, 0, 0, 0)):
-    env = gym.make("VRLoco-Approach-v0", population=population, technique=technique,
-                   max_episode_steps=steps)  # fmt: skip
+    env = gym.make(
+        "VRLoco-Approach-v0", population=population, technique=technique, max_episode_steps=steps
+    )
     obs, _ = env.reset(seed=seed)
     rows = [obs]
     infos = []
@@ -296,8 +333,10 @@ def test_the_default_observation_is_unchanged_and_gaze_adds_head_on_torso():
     assert "head_on_torso" not in plain.unwrapped.observation_spec
     env, obs, _ = _episode("typical", steps=30, action=(-1, 0, 0, 0, 0))
     spec = env.unwrapped.observation_spec
-    assert spec.names[: plain.unwrapped.observation_spec.size] == \
-        plain.unwrapped.observation_spec.names  # fmt: skip
+    assert (
+        spec.names[: plain.unwrapped.observation_spec.size]
+        == plain.unwrapped.observation_spec.names
+    )
     assert spec.size == plain.unwrapped.observation_spec.size + 1
     # the field is the true head yaw on the torso at the step's end
     got = spec.decode(obs[-1])["head_on_torso"][0]
@@ -317,8 +356,9 @@ def test_a_vector_env_with_a_population_matches_single_envs_across_autoresets():
 
     n, steps, horizon = 2, 30, 12
     act = np.array([[0.5, 0.1, 0.2, 0, 0], [0.8, -0.3, 0, 0, 0]], np.float32)
-    envs = VRLocoVectorEnv(n, task="approach", population="gaze_scanners",
-                           max_episode_steps=horizon)  # fmt: skip
+    envs = VRLocoVectorEnv(
+        n, task="approach", population="gaze_scanners", max_episode_steps=horizon
+    )
     obs, _ = envs.reset(seed=7)
     vec = [obs]
     for _ in range(steps):
@@ -326,8 +366,7 @@ def test_a_vector_env_with_a_population_matches_single_envs_across_autoresets():
         vec.append(obs)
     vec = np.array(vec)
     for i in range(n):
-        env = gym.make("VRLoco-Approach-v0", population="gaze_scanners",
-                       max_episode_steps=horizon)  # fmt: skip
+        env = gym.make("VRLoco-Approach-v0", population="gaze_scanners", max_episode_steps=horizon)
         obs, _ = env.reset(seed=7 + i)
         single = [obs]
         for _ in range(steps):
@@ -342,9 +381,14 @@ def test_a_vector_env_with_a_population_matches_single_envs_across_autoresets():
 def test_nodding_while_standing_makes_zhang2021_count_phantom_steps():
     """Nods reach the step detector: a standing user who nods gets steps from Zhang 2021's
     |f| detector (the failure mode of head-IMU step detection the population exposes)."""
-    nodder = replace(POPULATIONS["nodders"], name="always_nods", gaze=False,
-                     nod_rate_hz=(1.0, 1.0), nod_amplitude_deg=(15.0, 15.0),
-                     nod_frequency_hz=(2.0, 2.0))  # fmt: skip
+    nodder = replace(
+        POPULATIONS["nodders"],
+        name="always_nods",
+        gaze=False,
+        nod_rate_hz=(1.0, 1.0),
+        nod_amplitude_deg=(15.0, 15.0),
+        nod_frequency_hz=(2.0, 2.0),
+    )
     counts = {}
     for tech in ("zhang2021", "nod_robust"):
         _, _, infos = _episode(nodder, technique=tech, steps=300, action=(-1, 0, 0, 0, 0))
@@ -361,13 +405,21 @@ def test_head_directed_steering_walks_where_the_head_looks():
     """A user stepping straight ahead with the body while the head scans: Zhang 2021 moves the
     body along the head's estimated yaw, torso steering (the Kinect's shoulders) along the body.
     Measured on the locomotion's own displacements (before any blocking by the room)."""
-    scanner = replace(POPULATIONS["gaze_scanners"], name="scan_only", eye_range_deg=(0.0, 0.0),
-                      scan_rate_hz=(1.0, 1.0), scan_s=(2.0, 2.0), glance_rate_hz=(0.0, 0.0),
-                      scan_amplitude_deg=(60.0, 60.0), nod_rate_hz=(0.0, 0.0))  # fmt: skip
+    scanner = replace(
+        POPULATIONS["gaze_scanners"],
+        name="scan_only",
+        eye_range_deg=(0.0, 0.0),
+        scan_rate_hz=(1.0, 1.0),
+        scan_s=(2.0, 2.0),
+        glance_rate_hz=(0.0, 0.0),
+        scan_amplitude_deg=(60.0, 60.0),
+        nod_rate_hz=(0.0, 0.0),
+    )
     off = {}
     for tech in ("zhang2021", "torso_steering"):
-        env = gym.make("VRLoco-Approach-v0", population=scanner, technique=tech,
-                       max_episode_steps=150)  # fmt: skip
+        env = gym.make(
+            "VRLoco-Approach-v0", population=scanner, technique=tech, max_episode_steps=150
+        )
         env.reset(seed=3)
         core = env.unwrapped.core
         start_yaw = core.layouts[0].start[2]

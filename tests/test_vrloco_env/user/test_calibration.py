@@ -36,16 +36,28 @@ MAIN_SEQUENCE_BINS = (10.0, 20.0, 30.0, 45.0, 60.0, 90.0)
 #: >= 10 deg per minute, nod-like events per minute, and the main sequence (deg/s, median peak
 #: speed of the turns in each class of :data:`MAIN_SEQUENCE_BINS`).
 TUNING = {
-    "corbillon2017": {"amplitude": (15.46, 25.20, 46.41), "intervals": (0.5, 0.9, 1.6),
-                      "turns_per_min": 19.66, "nods_per_min": 4.35,
-                      "main_sequence": (51.6, 69.5, 87.1, 102.0, 116.7)},
-    "lo2017": {"amplitude": (17.72, 29.96, 58.98), "intervals": (0.6, 1.0, 1.8),
-               "turns_per_min": 19.50, "nods_per_min": 3.99,
-               "main_sequence": (55.0, 77.5, 97.6, 111.3, 138.1)},
-    "wu2017": {"amplitude": (17.30, 30.04, 64.37), "intervals": (0.7, 1.1, 1.9),
-               "turns_per_min": 15.61, "nods_per_min": 3.71,
-               "main_sequence": (44.0, 61.3, 75.0, 87.5, 107.0)},
-}  # fmt: skip
+    "corbillon2017": {
+        "amplitude": (15.46, 25.20, 46.41),
+        "intervals": (0.5, 0.9, 1.6),
+        "turns_per_min": 19.66,
+        "nods_per_min": 4.35,
+        "main_sequence": (51.6, 69.5, 87.1, 102.0, 116.7),
+    },
+    "lo2017": {
+        "amplitude": (17.72, 29.96, 58.98),
+        "intervals": (0.6, 1.0, 1.8),
+        "turns_per_min": 19.50,
+        "nods_per_min": 3.99,
+        "main_sequence": (55.0, 77.5, 97.6, 111.3, 138.1),
+    },
+    "wu2017": {
+        "amplitude": (17.30, 30.04, 64.37),
+        "intervals": (0.7, 1.1, 1.9),
+        "turns_per_min": 15.61,
+        "nods_per_min": 3.71,
+        "main_sequence": (44.0, 61.3, 75.0, 87.5, 107.0),
+    },
+}
 
 
 def _span(key: str) -> tuple[np.ndarray, np.ndarray]:
@@ -76,13 +88,19 @@ def _main_sequence(yaw_deg: list[np.ndarray], fs: float = 10.0) -> np.ndarray:
 
 
 def _intent(b: int, cadence: np.ndarray | float = 0.0) -> Intent:
-    return Intent(cadence=np.broadcast_to(cadence, (b,)).copy(), turn_rate=np.zeros(b),
-                  hand_rates=np.zeros((b, 3)), gesture_amplitude=np.zeros((b, 3)),
-                  gesture_frequency=np.full((b, 3), 0.5), lean=np.zeros(b))  # fmt: skip
+    return Intent(
+        cadence=np.broadcast_to(cadence, (b,)).copy(),
+        turn_rate=np.zeros(b),
+        hand_rates=np.zeros((b, 3)),
+        gesture_amplitude=np.zeros((b, 3)),
+        gesture_frequency=np.full((b, 3), 0.5),
+        lean=np.zeros(b),
+    )
 
 
-def _simulate(population, users: int, seconds: float, seed: int, cadence=0.0,
-              obstacles: bool = False):  # fmt: skip
+def _simulate(
+    population, users: int, seconds: float, seed: int, cadence=0.0, obstacles: bool = False
+):
     """Users of ``population`` looking at a goal straight ahead (the action asks for no turn),
     standing (``cadence`` 0) or stepping in place; with ``obstacles``, something lies on the
     travel path 1 m ahead, 13 deg right, 3 s in every 8 s.
@@ -152,8 +170,10 @@ def test_idle_looking_has_the_shape_of_the_tuning_traces_turns(typical_standing)
     samples, ypr = typical_standing
     s = samples.stats()
     lo, hi = _span("amplitude")
-    assert np.all((np.array(s.turn_amplitude_p25_p50_p75) >= lo - 3.0)
-                  & (np.array(s.turn_amplitude_p25_p50_p75) <= hi + 3.0)), s  # fmt: skip
+    assert np.all(
+        (np.array(s.turn_amplitude_p25_p50_p75) >= lo - 3.0)
+        & (np.array(s.turn_amplitude_p25_p50_p75) <= hi + 3.0)
+    ), s
     lo, hi = _span("intervals")
     got = np.array(s.interval_p10_p25_p50_p75_p90[:3])
     assert np.all((got >= lo - 0.15) & (got <= hi + 0.15)), got

@@ -111,24 +111,38 @@ def test_skeleton_bones_are_rigid_and_hand_follows_its_orientation():
     p = MotionParams()
     m = UserMotion(p, BatchRng.from_seeds([0]))
     m.reset()
-    chunks = [m.advance(Intent(cadence=1.6, turn_rate=0.3, hand_rates=(0.2, -0.1, 0.3)))
-              for _ in range(30)]  # fmt: skip
+    chunks = [
+        m.advance(Intent(cadence=1.6, turn_rate=0.3, hand_rates=(0.2, -0.1, 0.3)))
+        for _ in range(30)
+    ]
     kin = MotionRecord.concatenate(chunks).kinect
     assert kin.joints.shape == (1, 90, 25, 3) and kin.t.size == 90
     np.testing.assert_allclose(np.diff(kin.t), 1 / 30.0, atol=1e-12)
     # Bones above the knees keep their length (legs bend while stepping).
-    rigid = [(a, b) for a, b in BONES if b not in (Joint.KNEE_LEFT, Joint.KNEE_RIGHT,
-                                                   Joint.ANKLE_LEFT, Joint.ANKLE_RIGHT,
-                                                   Joint.FOOT_LEFT, Joint.FOOT_RIGHT)]  # fmt: skip
+    rigid = [
+        (a, b)
+        for a, b in BONES
+        if b
+        not in (
+            Joint.KNEE_LEFT,
+            Joint.KNEE_RIGHT,
+            Joint.ANKLE_LEFT,
+            Joint.ANKLE_RIGHT,
+            Joint.FOOT_LEFT,
+            Joint.FOOT_RIGHT,
+        )
+    ]
     for a, b in rigid:
         length = np.linalg.norm(kin.joints[0, :, a] - kin.joints[0, :, b], axis=-1)
         assert np.ptp(length) < 1e-9, (a, b)
     tip = kin.joints[0, :, Joint.HAND_TIP_RIGHT] - kin.joints[0, :, Joint.WRIST_RIGHT]
     x_axis = rot.quat_rotate(kin.hand_quat[0], [1.0, 0.0, 0.0])
-    np.testing.assert_allclose(tip / np.linalg.norm(tip, axis=-1, keepdims=True), x_axis,
-                               atol=1e-12)  # fmt: skip
-    np.testing.assert_allclose(np.rad2deg(kin.hand_ypr[0, -1]), np.rad2deg([0.2, -0.1, 0.3]) * 3,
-                               atol=1e-9)  # fmt: skip
+    np.testing.assert_allclose(
+        tip / np.linalg.norm(tip, axis=-1, keepdims=True), x_axis, atol=1e-12
+    )
+    np.testing.assert_allclose(
+        np.rad2deg(kin.hand_ypr[0, -1]), np.rad2deg([0.2, -0.1, 0.3]) * 3, atol=1e-9
+    )
     # Knees lift alternately while stepping.
     kl = kin.joints[0, :, Joint.KNEE_LEFT, 2] - kin.joints[0, :, Joint.HIP_LEFT, 2]
     kr = kin.joints[0, :, Joint.KNEE_RIGHT, 2] - kin.joints[0, :, Joint.HIP_RIGHT, 2]
@@ -139,8 +153,9 @@ def test_skeleton_bones_are_rigid_and_hand_follows_its_orientation():
 def test_hand_is_held_within_its_limits():
     m = UserMotion(MotionParams(), BatchRng.from_seeds([0]))
     m.reset()
-    rec = MotionRecord.concatenate([m.advance(Intent(hand_rates=(3.0, 3.0, -3.0)))
-                                    for _ in range(20)])  # fmt: skip
+    rec = MotionRecord.concatenate(
+        [m.advance(Intent(hand_rates=(3.0, 3.0, -3.0))) for _ in range(20)]
+    )
     np.testing.assert_allclose(np.rad2deg(rec.kinect.hand_ypr[0, -1]), [90, 80, -90], atol=1e-9)
 
 
@@ -201,16 +216,20 @@ def test_resetting_one_user_matches_a_fresh_single_run():
 
     fresh = UserMotion(MotionParams(), BatchRng([np.random.default_rng(99)]))
     fresh.reset(yaw=0.5, base=(1.0, 2.0))
-    single = [fresh.advance(Intent(cadence=1.8, turn_rate=0.3, hand_rates=(0.2, 0.0, -0.1)))
-              for _ in range(20)]  # fmt: skip
+    single = [
+        fresh.advance(Intent(cadence=1.8, turn_rate=0.3, hand_rates=(0.2, 0.0, -0.1)))
+        for _ in range(20)
+    ]
     for a, s in zip(after, single, strict=True):
         for name in ("quat", "omega", "pos", "acc", "step", "walking"):
             np.testing.assert_array_equal(getattr(a, name)[1], getattr(s, name)[0])
         np.testing.assert_array_equal(a.kinect.joints[1], s.kinect.joints[0])
     uninterrupted = UserMotion(MotionParams(), BatchRng.from_seeds([1]))
     uninterrupted.reset()
-    chunks = [uninterrupted.advance(Intent(cadence=1.5, turn_rate=0.3, hand_rates=(0.2, 0, -0.1)))
-              for _ in range(33)]  # fmt: skip
+    chunks = [
+        uninterrupted.advance(Intent(cadence=1.5, turn_rate=0.3, hand_rates=(0.2, 0, -0.1)))
+        for _ in range(33)
+    ]
     np.testing.assert_array_equal(after[-1].acc[0], chunks[-1].acc[0])
 
 
@@ -261,11 +280,16 @@ def test_head_yaw_is_body_yaw_plus_the_head_on_torso_gesture():
     motion.reset(yaw=np.array([0.3, -1.0]))
     amp = np.deg2rad(30.0)
     chunks = [
-        motion.advance(Intent(cadence=np.array([1.6, 0.0]), turn_rate=np.array([0.0, 0.5]),
-                              gesture_amplitude=np.array([[amp, 0, 0], [0, 0, 0]]),
-                              gesture_frequency=np.array([[0.4, 0.4, 0.4]] * 2)))
+        motion.advance(
+            Intent(
+                cadence=np.array([1.6, 0.0]),
+                turn_rate=np.array([0.0, 0.5]),
+                gesture_amplitude=np.array([[amp, 0, 0], [0, 0, 0]]),
+                gesture_frequency=np.array([[0.4, 0.4, 0.4]] * 2),
+            )
+        )
         for _ in range(60)
-    ]  # fmt: skip
+    ]
     body = np.concatenate([c.body_yaw for c in chunks], axis=1)
     rel = np.concatenate([c.head_on_torso_yaw for c in chunks], axis=1)
     np.testing.assert_allclose(body[0], 0.3, atol=1e-12)  # user 0 never turns its body ...

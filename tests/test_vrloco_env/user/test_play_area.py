@@ -26,9 +26,13 @@ def _action(env, walk: float, turn: float = 0.0) -> np.ndarray:
 
 @pytest.mark.parametrize(
     ("kwargs", "field"),
-    [({"size_m": (0.5, 2.0)}, "size_m"), ({"size_m": (2.0, 11.0)}, "size_m"),
-     ({"size_m": (2.0,)}, "size_m"), ({"lateral_ratio": -0.1}, "lateral_ratio")],
-)  # fmt: skip
+    [
+        ({"size_m": (0.5, 2.0)}, "size_m"),
+        ({"size_m": (2.0, 11.0)}, "size_m"),
+        ({"size_m": (2.0,)}, "size_m"),
+        ({"lateral_ratio": -0.1}, "lateral_ratio"),
+    ],
+)
 def test_bad_play_area_names_the_field(kwargs, field):
     with pytest.raises(ValueError, match=rf"^PlayArea\.{field}="):
         PlayArea(**kwargs)
@@ -69,9 +73,14 @@ def test_the_turning_drift_adds_to_the_asked_turn_while_stepping_in_place():
     def turn(**kw):
         g = GazeBehaviour("typical", BatchRng.from_seeds(range(b)), 0.1, np.zeros(3), **kw)
         g.reset()
-        intent = Intent(cadence=cadence, turn_rate=asked, hand_rates=np.zeros((b, 3)),
-                        gesture_amplitude=np.zeros((b, 3)),
-                        gesture_frequency=np.full((b, 3), 0.5), lean=np.zeros(b))  # fmt: skip
+        intent = Intent(
+            cadence=cadence,
+            turn_rate=asked,
+            hand_rates=np.zeros((b, 3)),
+            gesture_amplitude=np.zeros((b, 3)),
+            gesture_frequency=np.full((b, 3), 0.5),
+            lean=np.zeros(b),
+        )
         out = g.intent(intent, np.zeros(b), np.zeros(b), np.full((b, 3), 5.0), np.zeros(b, bool))
         return np.asarray(out.turn_rate), g.values["wip_turn_deg_per_step"]
 
@@ -117,8 +126,9 @@ def test_stepping_in_place_turns_the_body_and_drifts_forward_in_the_env():
 def test_boundary_distance_inside_on_the_edge_and_outside():
     area = PlayArea(size_m=(2.0, 4.0))
     xy = np.array([[0.0, 0.0], [0.5, 0.0], [1.0, 0.0], [1.5, 0.0], [2.0, 3.0], [0.0, -1.5]])
-    np.testing.assert_allclose(area.boundary_distance(xy), [1.0, 0.5, 0.0, -0.5, -np.hypot(1, 1),
-                                                            0.5])  # fmt: skip
+    np.testing.assert_allclose(
+        area.boundary_distance(xy), [1.0, 0.5, 0.0, -0.5, -np.hypot(1, 1), 0.5]
+    )
 
 
 def test_drift_moves_the_spot_along_the_facing_while_stepping_only():
@@ -144,8 +154,9 @@ def test_drift_moves_the_spot_along_the_facing_while_stepping_only():
         yaw = chunk.body_yaw[0, -1]
         facing = np.array([np.cos(yaw), np.sin(yaw)])
         left = np.array([-np.sin(yaw), np.cos(yaw)])
-        np.testing.assert_allclose(moved[0], (forward * facing + lateral * left) * stepping_s,
-                                   atol=1e-12)  # fmt: skip
+        np.testing.assert_allclose(
+            moved[0], (forward * facing + lateral * left) * stepping_s, atol=1e-12
+        )
         total_stepping += stepping_s
         if not chunk.walking[0].any():
             assert np.all(moved == 0.0)
@@ -154,8 +165,9 @@ def test_drift_moves_the_spot_along_the_facing_while_stepping_only():
     assert not chunk.walking.any()  # and stood still at the end
     dist = np.hypot(*users.motion.base[0])
     assert dist == pytest.approx(total_stepping * np.hypot(forward, lateral), rel=0.5)
-    assert info["play_area_boundary_m"] == pytest.approx(core.config.play_area.boundary_distance(
-        users.motion.base[0]))  # fmt: skip
+    assert info["play_area_boundary_m"] == pytest.approx(
+        core.config.play_area.boundary_distance(users.motion.base[0])
+    )
 
 
 def test_the_head_and_the_skeleton_move_with_the_spot():
@@ -204,8 +216,9 @@ def test_same_seed_same_play_area_track():
     for _ in range(2):
         env = VRLocoEnv(population="nodders")
         env.reset(seed=11)
-        tracks.append([env.step(_action(env, 1.0, 0.2))[4]["play_area_position_m"]
-                       for _ in range(30)])  # fmt: skip
+        tracks.append(
+            [env.step(_action(env, 1.0, 0.2))[4]["play_area_position_m"] for _ in range(30)]
+        )
     np.testing.assert_array_equal(np.array(tracks[0]), np.array(tracks[1]))
     assert np.hypot(*tracks[0][-1]) > 0.0
 
@@ -234,11 +247,15 @@ def test_boundary_metrics_of_a_hand_built_episode():
     steps = {"play_area_boundary_m": margin, "play_area_outside": margin < 0.0}
     m = play_area_measures(steps)
     assert m == {"boundary_violations": 2.0, "min_boundary_m": -0.2}
-    inside = {"play_area_boundary_m": np.array([1.0, 0.9]),
-              "play_area_outside": np.array([False, False])}  # fmt: skip
+    inside = {
+        "play_area_boundary_m": np.array([1.0, 0.9]),
+        "play_area_outside": np.array([False, False]),
+    }
     assert play_area_measures(inside) == {"boundary_violations": 0.0, "min_boundary_m": 0.9}
-    starts_out = {"play_area_boundary_m": np.array([-0.1, -0.2]),
-                  "play_area_outside": np.array([True, True])}  # fmt: skip
+    starts_out = {
+        "play_area_boundary_m": np.array([-0.1, -0.2]),
+        "play_area_outside": np.array([True, True]),
+    }
     assert play_area_measures(starts_out)["boundary_violations"] == 1.0
 
 
@@ -248,12 +265,17 @@ def test_a_row_averages_the_episodes_play_area_measures():
     def episode(margin):
         margin = np.asarray(margin, dtype=np.float64)
         t = margin.size
-        steps = {"true_steps": np.zeros(t), "detected_steps": np.zeros(t),
-                 "true_step_times": np.full((t, 2), np.inf),
-                 "detected_step_times": np.full((t, 2), np.inf),
-                 "attitude_error_deg": np.zeros(t), "hand_error_deg": np.full(t, np.nan),
-                 "heading_error_deg": np.zeros(t), "play_area_boundary_m": margin,
-                 "play_area_outside": margin < 0.0}  # fmt: skip
+        steps = {
+            "true_steps": np.zeros(t),
+            "detected_steps": np.zeros(t),
+            "true_step_times": np.full((t, 2), np.inf),
+            "detected_step_times": np.full((t, 2), np.inf),
+            "attitude_error_deg": np.zeros(t),
+            "hand_error_deg": np.full(t, np.nan),
+            "heading_error_deg": np.zeros(t),
+            "play_area_boundary_m": margin,
+            "play_area_outside": margin < 0.0,
+        }
         last = {"is_success": True, "collisions": 0, "elapsed_time": 0.1 * t, "walked": 1.0}
         return episode_stats(0, 1.0, steps, last)
 

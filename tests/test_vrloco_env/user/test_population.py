@@ -16,8 +16,11 @@ from vrloco_env.user.population import POPULATIONS, RANGE_FIELDS, Population, ge
 
 
 def test_unknown_population_names_the_field_and_the_choices():
-    with pytest.raises(ValueError, match=r"EnvConfig.population='walkers': unknown; valid names: "
-                                         r"idealised, human, typical, gaze_scanners, nodders"):
+    with pytest.raises(
+        ValueError,
+        match=r"EnvConfig.population='walkers': unknown; valid names: "
+        r"idealised, human, typical, gaze_scanners, nodders",
+    ):
         EnvConfig(population="walkers")
     with pytest.raises(ValueError, match="population='walkers'"):
         gym.make("VRLoco-Approach-v0", population="walkers")
@@ -92,8 +95,11 @@ def test_plus_human_is_todays_variability_and_other_suffixes_are_populations():
     assert typical.params.cadence_bias_sd == pop.cadence_bias_sd
     assert not isinstance(build_policy("goal_seeker+idealised", env), HumanVariability)
     assert check_policy("goal_seeker+nodders") == "goal_seeker+nodders"
-    with pytest.raises(ValueError, match=r"unknown population 'robots' after '\+'; valid names: "
-                                         r"idealised, human, typical"):
+    with pytest.raises(
+        ValueError,
+        match=r"unknown population 'robots' after '\+'; valid names: "
+        r"idealised, human, typical",
+    ):
         check_policy("goal_seeker+robots")
 
 

@@ -51,8 +51,17 @@ def _empty_room() -> Layout:
 
 def _planned(obstacles, start, goal) -> Layout:
     """The empty room's walls plus ``obstacles``, its path planned by :func:`finish_layout`."""
-    lay = finish_layout(CFG, "approach", _empty_room().bounds, list(obstacles), np.array(start),
-                        0.0, np.array(goal), None, None)  # fmt: skip
+    lay = finish_layout(
+        CFG,
+        "approach",
+        _empty_room().bounds,
+        list(obstacles),
+        np.array(start),
+        0.0,
+        np.array(goal),
+        None,
+        None,
+    )
     assert lay is not None
     return lay
 

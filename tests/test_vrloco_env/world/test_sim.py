@@ -116,9 +116,7 @@ def test_contacts_of_many_avatars_in_tiled_rooms_match_signed_distance(sim):
         make_layout(TASK_NAMES[s % 3], CFG, np.random.default_rng(s)).with_origin(origins[s])
         for s in range(n)
     ]
-    avatars = np.array(
-        [build(sim, lay, prefix=f"r{s}/")["avatar"] for s, lay in enumerate(lays)]
-    )
+    avatars = np.array([build(sim, lay, prefix=f"r{s}/")["avatar"] for s, lay in enumerate(lays)])
     assert not sim.contacts(avatars).any()  # everyone at a free start
     lo = np.array([[x.bounds[0], x.bounds[2]] for x in lays])
     hi = np.array([[x.bounds[1], x.bounds[3]] for x in lays])

@@ -109,11 +109,22 @@ class CameraSpec:
         check_in_range(self, "cx", 0.0, self.width, allowed=f"in [0, width={self.width}] px")
         check_in_range(self, "cy", 0.0, self.height, allowed=f"in [0, height={self.height}] px")
         check_in_range(self, "rate_hz", 0.0, MAX_RATE_HZ, "Hz", lo_open=True)
-        check_in_range(self, "exposure_s", 0.0, 1.0 / self.rate_hz,
-                       allowed=f"in [0, 1/rate_hz={1.0 / self.rate_hz:.6g}] s")  # fmt: skip
+        check_in_range(
+            self,
+            "exposure_s",
+            0.0,
+            1.0 / self.rate_hz,
+            allowed=f"in [0, 1/rate_hz={1.0 / self.rate_hz:.6g}] s",
+        )
         check_in_range(self, "min_range_m", 0.0, inf, "m", lo_open=True)
-        check_in_range(self, "max_range_m", self.min_range_m, inf, lo_open=True,
-                       allowed=f"in (min_range_m={float(self.min_range_m):g}, inf) m")  # fmt: skip
+        check_in_range(
+            self,
+            "max_range_m",
+            self.min_range_m,
+            inf,
+            lo_open=True,
+            allowed=f"in (min_range_m={float(self.min_range_m):g}, inf) m",
+        )
         check_in_range(self, "max_view_angle_deg", 0.0, 90.0, "deg", lo_open=True)
         check_numbers(self, "mount_offset_m", -inf, inf, "m", length=3)
         check_in_range(self, "mount_tilt_deg", -90.0, 90.0, "deg", lo_open=True, hi_open=True)

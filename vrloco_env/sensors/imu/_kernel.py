@@ -47,8 +47,15 @@ from estimators.rotations import GRAVITY
 #: (A m^2), the moment's unit direction (the offset used at the dipole itself), the radius below
 #: which the field no longer grows (m), and its motion: ``velocity`` (m/s) from ``t_start`` to
 #: ``t_stop`` (s since the user's reset), where it stays.
-DIPOLE = {"position": (3,), "moment": (3,), "direction": (3,), "min_distance": (),
-          "velocity": (3,), "t_start": (), "t_stop": ()}  # fmt: skip
+DIPOLE = {
+    "position": (3,),
+    "moment": (3,),
+    "direction": (3,),
+    "min_distance": (),
+    "velocity": (3,),
+    "t_start": (),
+    "t_stop": (),
+}
 
 #: Fields of one user's state record; rows of the (3, 3) fields are the sensors accel, gyro, mag,
 #: columns the axes: turn-on biases, Gauss-Markov and random-walk states (unit of each sensor),
@@ -208,9 +215,11 @@ def _dipole_field(dip, rx, ry, rz) -> tuple[float, float, float]:
     m_dot_r = rx * m[0] + ry * m[1] + rz * m[2]
     d3 = dist * dist * dist
     d5 = d3 * dist * dist
-    return (MU0_OVER_4PI * (3.0 * rx * m_dot_r / d5 - m[0] / d3) * 1e6,
-            MU0_OVER_4PI * (3.0 * ry * m_dot_r / d5 - m[1] / d3) * 1e6,
-            MU0_OVER_4PI * (3.0 * rz * m_dot_r / d5 - m[2] / d3) * 1e6)  # fmt: skip
+    return (
+        MU0_OVER_4PI * (3.0 * rx * m_dot_r / d5 - m[0] / d3) * 1e6,
+        MU0_OVER_4PI * (3.0 * ry * m_dot_r / d5 - m[1] / d3) * 1e6,
+        MU0_OVER_4PI * (3.0 * rz * m_dot_r / d5 - m[2] / d3) * 1e6,
+    )
 
 
 @numba.njit(cache=True, inline="always")
@@ -222,8 +231,7 @@ def _dipole_offset(dip, px, py, pz, t) -> tuple[float, float, float]:
     if v[0] == 0.0 and v[1] == 0.0 and v[2] == 0.0:
         return px - at[0], py - at[1], pz - at[2]
     moved = min(max(t - dip["t_start"], 0.0), dip["t_stop"] - dip["t_start"])
-    return (px - (at[0] + v[0] * moved), py - (at[1] + v[1] * moved),
-            pz - (at[2] + v[2] * moved))  # fmt: skip
+    return (px - (at[0] + v[0] * moved), py - (at[1] + v[1] * moved), pz - (at[2] + v[2] * moved))
 
 
 @numba.njit(cache=True, inline="always")
@@ -233,8 +241,9 @@ def _world_field(earth, dipoles, pos, times, i, k) -> tuple[float, float, float]
     (B, N) s are read only when there are dipoles."""
     mx, my, mz = earth["east"], earth["north"], earth["up"]
     for d in range(dipoles.shape[0]):
-        rx, ry, rz = _dipole_offset(dipoles[d], pos[i, k, 0], pos[i, k, 1], pos[i, k, 2],
-                                    times[i, k])  # fmt: skip
+        rx, ry, rz = _dipole_offset(
+            dipoles[d], pos[i, k, 0], pos[i, k, 1], pos[i, k, 2], times[i, k]
+        )
         bx, by, bz = _dipole_field(dipoles[d], rx, ry, rz)
         mx = mx + bx
         my = my + by
@@ -247,11 +256,8 @@ def _dipole_points(dipole, points, times, out) -> None:
     ``k`` at time ``times[k]`` (s), into ``out`` (P, 3):
     :meth:`~vrloco_env.sensors.imu.MagneticDisturbance.field_at`."""
     for k in numba.prange(points.shape[0]):
-        rx, ry, rz = _dipole_offset(dipole[0], points[k, 0], points[k, 1], points[k, 2],
-                                    times[k])  # fmt: skip
-        out[k, 0], out[k, 1], out[k, 2] = _dipole_field(
-            dipole[0], rx, ry, rz
-        )
+        rx, ry, rz = _dipole_offset(dipole[0], points[k, 0], points[k, 1], points[k, 2], times[k])
+        out[k, 0], out[k, 1], out[k, 2] = _dipole_field(dipole[0], rx, ry, rz)
 
 
 @numba.njit(cache=True, inline="always")
@@ -297,8 +303,11 @@ def _sample(q, omega, acc, pos, times, z, sensors, earth, dipoles, state, out) -
     """
     n = q.shape[1]
     e = earth[0]
-    std_acc, std_gyr, std_mag = (sensors[0]["noise_std"], sensors[1]["noise_std"],
-                                 sensors[2]["noise_std"])  # fmt: skip
+    std_acc, std_gyr, std_mag = (
+        sensors[0]["noise_std"],
+        sensors[1]["noise_std"],
+        sensors[2]["noise_std"],
+    )
     for i in numba.prange(q.shape[0]):  # users are independent (estimators.kernels.batch)
         s = state[i]
         _biases(z[i], sensors, s, out[O_BIAS_ACC:, i])
@@ -313,15 +322,17 @@ def _sample(q, omega, acc, pos, times, z, sensors, earth, dipoles, state, out) -
             sy = soft[1, 0] * bx + soft[1, 1] * by + soft[1, 2] * bz
             sz = soft[2, 0] * bx + soft[2, 1] * by + soft[2, 2] * bz
             zk, w = z[i, k], omega[i, k]
-            _add_bias_noise(out[O_ACC, i, k], fx, fy, fz, out[O_BIAS_ACC, i, k], std_acc, zk,
-                            Z_WHITE)  # fmt: skip
-            _add_bias_noise(out[O_GYR, i, k], w[0], w[1], w[2], out[O_BIAS_GYR, i, k], std_gyr,
-                            zk, Z_WHITE + 3)  # fmt: skip
-            _add_bias_noise(out[O_MAG, i, k], sx, sy, sz, out[O_BIAS_MAG, i, k], std_mag, zk,
-                            Z_WHITE + 6)  # fmt: skip
+            _add_bias_noise(
+                out[O_ACC, i, k], fx, fy, fz, out[O_BIAS_ACC, i, k], std_acc, zk, Z_WHITE
+            )
+            _add_bias_noise(
+                out[O_GYR, i, k], w[0], w[1], w[2], out[O_BIAS_GYR, i, k], std_gyr, zk, Z_WHITE + 3
+            )
+            _add_bias_noise(
+                out[O_MAG, i, k], sx, sy, sz, out[O_BIAS_MAG, i, k], std_mag, zk, Z_WHITE + 6
+            )
         for c in range(3):  # the converter, one flat loop per sensor
-            _quantise_clip(out[O_ACC + c, i].ravel(), sensors[c]["resolution"],
-                           sensors[c]["range"])  # fmt: skip
+            _quantise_clip(out[O_ACC + c, i].ravel(), sensors[c]["resolution"], sensors[c]["range"])
 
 
 sample_kernel = BatchKernel(_sample, parallel=False)

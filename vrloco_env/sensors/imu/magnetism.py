@@ -174,8 +174,13 @@ class MagneticDisturbance:
             raise ValueError(f"axis must be a finite, non-zero 3-vector, got {axis!r}")
         moment_mag = field_ut * 1e-6 * distance_m**3 / (2.0 * MU0_OVER_4PI)  # A m^2
         moment = moment_mag * axis / np.linalg.norm(axis)
-        return cls(position=tuple(position), moment=tuple(moment), min_distance=min_distance,
-                   velocity=tuple(velocity), moving=tuple(moving))  # fmt: skip
+        return cls(
+            position=tuple(position),
+            moment=tuple(moment),
+            min_distance=min_distance,
+            velocity=tuple(velocity),
+            moving=tuple(moving),
+        )
 
     def field_at(self, points: ArrayLike, t: ArrayLike = 0.0) -> NDArray[np.float64]:
         """Dipole field (uT) at world points (m), shape ``(..., 3)`` -> ``(..., 3)``, with the
@@ -189,8 +194,9 @@ class MagneticDisturbance:
         try:
             times = np.ascontiguousarray(np.broadcast_to(t, p.shape[:-1])).reshape(-1)
         except ValueError:
-            raise ValueError(f"t of shape {t.shape} does not broadcast to the points' "
-                             f"{p.shape[:-1]}") from None  # fmt: skip
+            raise ValueError(
+                f"t of shape {t.shape} does not broadcast to the points' {p.shape[:-1]}"
+            ) from None
         if not (np.isfinite(times).all() and (times >= 0.0).all()):
             raise ValueError("t must be finite times >= 0 s (after the reset)")
         flat = np.ascontiguousarray(p.reshape(-1, 3))

@@ -163,10 +163,12 @@ class HeadImu(TakesUsers):
         self.disturbances = disturbances
         self._field_world = field.vector_enu()
         # The kernel's parameter records (vrloco_env.sensors.imu._kernel), built once here.
-        self._sensors = np.concatenate([
-            _sensor_record(sens, self.dt, rate)
-            for sens in (self.spec.accel, self.spec.gyro, self.spec.mag)
-        ])  # fmt: skip
+        self._sensors = np.concatenate(
+            [
+                _sensor_record(sens, self.dt, rate)
+                for sens in (self.spec.accel, self.spec.gyro, self.spec.mag)
+            ]
+        )
         east, north, up = self._field_world
         self._earth = param_record(east=east, north=north, up=up)
         self._dipoles = _dipole_records(disturbances)

@@ -63,8 +63,14 @@ class SensorSpec:
         check_value(p + "bias_tau", self.bias_tau, 0.0, inf, "s", lo_open=True, allow_inf=True)
         check_value(p + "bias_walk", self.bias_walk, 0.0, inf, u + "/sqrt(s)")
         check_value(p + "turn_on_bias", self.turn_on_bias, 0.0, inf, u)
-        check_value(p + "resolution", self.resolution, 0.0, self.range, hi_open=True,
-                    allowed=f"in [0, range={float(self.range):g}) {u}")  # fmt: skip
+        check_value(
+            p + "resolution",
+            self.resolution,
+            0.0,
+            self.range,
+            hi_open=True,
+            allowed=f"in [0, range={float(self.range):g}) {u}",
+        )
 
     def noise_std(self, rate_hz: float) -> float:
         """Per-sample white-noise standard deviation (unit) at ``rate_hz`` (Hz)."""
@@ -115,9 +121,15 @@ class ImuSpec:
                 raise ValueError(f"ImuSpec.{attr}.label={s.label!r}: must be {attr!r}")
         check_in_range(self, "hard_iron", 0.0, math.inf, "uT")
         for name in ("soft_iron_scale", "soft_iron_cross"):
-            check_in_range(self, name, 0.0, 0.2, hi_open=True,
-                           allowed="in [0, 0.2) (dimensionless; a 1-sigma of 20 % or more can make "
-                           "the soft-iron matrix singular)")  # fmt: skip
+            check_in_range(
+                self,
+                name,
+                0.0,
+                0.2,
+                hi_open=True,
+                allowed="in [0, 0.2) (dimensionless; a 1-sigma of 20 % or more can make "
+                "the soft-iron matrix singular)",
+            )
 
     def noiseless(self, keep_resolution: bool = False) -> ImuSpec:
         """The same IMU with every noise, bias and iron term zero (ranges kept).
@@ -249,8 +261,11 @@ _CONSUMER_MEMS = ImuSpec(
 #: Sensor presets by name.
 PRESETS: Registry[ImuSpec] = Registry("imu", kind=ImuSpec, also="an ImuSpec")
 PRESETS.register("ig500n", _IG500N, "Zhang 2021's SBG IG-500N")
-PRESETS.register("consumer_mems", _CONSUMER_MEMS, "a consumer MEMS IMU: Bosch BMI160 "
-                 "accelerometer and gyroscope, AKM AK09916 magnetometer")  # fmt: skip
+PRESETS.register(
+    "consumer_mems",
+    _CONSUMER_MEMS,
+    "a consumer MEMS IMU: Bosch BMI160 accelerometer and gyroscope, AKM AK09916 magnetometer",
+)
 
 
 def get_imu_spec(name_or_spec: str | ImuSpec) -> ImuSpec:

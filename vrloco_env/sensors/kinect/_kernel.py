@@ -87,12 +87,21 @@ N_LIMB_GROUPS, N_TORSO_JOINTS = 4, 8
 #: ``torso_joints`` (indices): the torso silhouette; ``limb_side``: +1 for the joints of the
 #: left arm and leg, -1 for the right ones, 0 for the others.
 GEOMETRY_FIELDS = {
-    "cam_rot": (3, 3), "cam_pos": (3,), "cam_quat": (4,), "sdk_from_hand": (4,),
-    "by_template": (NUM_JOINTS, 3), "by_hand_quat": (4,), "joint_scale": (NUM_JOINTS,),
-    "hand_white_sd": (3,), "hand_ar_sd": (3,), "inferred_z": (NUM_JOINTS + 1,),
-    "limb_index": (N_LIMB_GROUPS, NUM_JOINTS), "is_torso": (NUM_JOINTS,),
-    "torso_joints": (N_TORSO_JOINTS,), "limb_side": (NUM_JOINTS,),
-}  # fmt: skip
+    "cam_rot": (3, 3),
+    "cam_pos": (3,),
+    "cam_quat": (4,),
+    "sdk_from_hand": (4,),
+    "by_template": (NUM_JOINTS, 3),
+    "by_hand_quat": (4,),
+    "joint_scale": (NUM_JOINTS,),
+    "hand_white_sd": (3,),
+    "hand_ar_sd": (3,),
+    "inferred_z": (NUM_JOINTS + 1,),
+    "limb_index": (N_LIMB_GROUPS, NUM_JOINTS),
+    "is_torso": (NUM_JOINTS,),
+    "torso_joints": (N_TORSO_JOINTS,),
+    "limb_side": (NUM_JOINTS,),
+}
 
 #: A user's session (``KinectV2``), per body (the target first, then the bystanders; rows past
 #: the spec's bodies are unused). Integers and flags are exact in float64. ``slot``: each body's
@@ -106,16 +115,29 @@ GEOMETRY_FIELDS = {
 #: height (m), sway amplitude (m), frequency (Hz) and phase (rad), walk target (m), speed (m/s)
 #: and whether they walk (0 / 1).
 STATE_FIELDS = {
-    "slot": (MAX_BODIES,), "body_id": (MAX_BODIES,), "acquired": (MAX_BODIES,),
-    "prev_tracked": (MAX_BODIES,), "bias": (MAX_BODIES, NUM_JOINTS, 3),
-    "joint_noise": (NUM_JOINTS, 3), "joint_innov": (NUM_JOINTS, 3), "ar_hand": (MAX_BODIES, 3),
-    "ar_by": (MAX_BODIES - 1, 3), "burst_left": (MAX_BODIES,), "burst_group": (MAX_BODIES,),
-    "inferred_left": (MAX_BODIES, NUM_JOINTS), "frame": (),
-    "by_pos": (MAX_BODIES - 1, 2), "by_yaw": (MAX_BODIES - 1,), "by_height": (MAX_BODIES - 1,),
-    "by_sway_amp": (MAX_BODIES - 1,), "by_sway_freq": (MAX_BODIES - 1,),
-    "by_sway_phase": (MAX_BODIES - 1,), "by_target": (MAX_BODIES - 1, 2),
-    "by_speed": (MAX_BODIES - 1,), "by_moving": (MAX_BODIES - 1,),
-}  # fmt: skip
+    "slot": (MAX_BODIES,),
+    "body_id": (MAX_BODIES,),
+    "acquired": (MAX_BODIES,),
+    "prev_tracked": (MAX_BODIES,),
+    "bias": (MAX_BODIES, NUM_JOINTS, 3),
+    "joint_noise": (NUM_JOINTS, 3),
+    "joint_innov": (NUM_JOINTS, 3),
+    "ar_hand": (MAX_BODIES, 3),
+    "ar_by": (MAX_BODIES - 1, 3),
+    "burst_left": (MAX_BODIES,),
+    "burst_group": (MAX_BODIES,),
+    "inferred_left": (MAX_BODIES, NUM_JOINTS),
+    "frame": (),
+    "by_pos": (MAX_BODIES - 1, 2),
+    "by_yaw": (MAX_BODIES - 1,),
+    "by_height": (MAX_BODIES - 1,),
+    "by_sway_amp": (MAX_BODIES - 1,),
+    "by_sway_freq": (MAX_BODIES - 1,),
+    "by_sway_phase": (MAX_BODIES - 1,),
+    "by_target": (MAX_BODIES - 1, 2),
+    "by_speed": (MAX_BODIES - 1,),
+    "by_moving": (MAX_BODIES - 1,),
+}
 
 # Draw layout of one frame (see the module docstring).
 Z_JOINT = 0
@@ -251,12 +273,18 @@ def _bystanders(zf, z_by, nb, t_frame, p, g, by, aff, hand_cam, cq) -> None:
             aff[i + 1, a, 3] = cam_rot[0, a] * ex + cam_rot[1, a] * ey
             aff[i + 1, a, 3] -= cam_rot[2, a] * cam_pos[2]
         bw, bx, by_, bz = quat_mul(
-            ch, 0.0, 0.0, sh,
-            by_hand_quat[0], by_hand_quat[1], by_hand_quat[2], by_hand_quat[3],
-        )  # fmt: skip
-        (
-            hand_cam[i + 1, 0], hand_cam[i + 1, 1], hand_cam[i + 1, 2], hand_cam[i + 1, 3]
-        ) = quat_mul(cq[0], cq[1], cq[2], cq[3], bw, bx, by_, bz)  # fmt: skip
+            ch,
+            0.0,
+            0.0,
+            sh,
+            by_hand_quat[0],
+            by_hand_quat[1],
+            by_hand_quat[2],
+            by_hand_quat[3],
+        )
+        (hand_cam[i + 1, 0], hand_cam[i + 1, 1], hand_cam[i + 1, 2], hand_cam[i + 1, 3]) = quat_mul(
+            cq[0], cq[1], cq[2], cq[3], bw, bx, by_, bz
+        )
 
 
 @numba.njit(cache=True)
@@ -509,7 +537,8 @@ def _body_out(n, zf, z_by, p, g, frame, noise, row) -> None:
     qw_, qx_, qy_, qz_ = hand_cam[n, 0], hand_cam[n, 1], hand_cam[n, 2], hand_cam[n, 3]
     if n == 0:
         truth_hand[0], truth_hand[1], truth_hand[2], truth_hand[3] = quat_mul(
-            qw_, qx_, qy_, qz_, sdk[0], sdk[1], sdk[2], sdk[3])  # fmt: skip
+            qw_, qx_, qy_, qz_, sdk[0], sdk[1], sdk[2], sdk[3]
+        )
     if out_state[WRIST_RIGHT] == NOT_TRACKED:
         out_hand[:] = np.nan
         return
@@ -527,7 +556,8 @@ def _body_out(n, zf, z_by, p, g, frame, noise, row) -> None:
     ew, ex_, ey_, ez_ = quat_from_rotvec(r0, r1, r2)
     nw, nx, ny, nz = quat_mul(qw_, qx_, qy_, qz_, ew, ex_, ey_, ez_)
     out_hand[0], out_hand[1], out_hand[2], out_hand[3] = quat_mul(
-        nw, nx, ny, nz, sdk[0], sdk[1], sdk[2], sdk[3])  # fmt: skip
+        nw, nx, ny, nz, sdk[0], sdk[1], sdk[2], sdk[3]
+    )
 
 
 def _capture_frames(joints_world, hand_world, z, new_ids, prm, geo, state, out) -> None:
@@ -570,8 +600,17 @@ def _capture_frames(joints_world, hand_world, z, new_ids, prm, geo, state, out) 
         bias = s["bias"]
         noise = (s["joint_noise"], s["joint_innov"], s["ar_hand"], s["ar_by"])
         episodes = (s["burst_left"], s["burst_group"], s["inferred_left"])
-        by = (s["by_pos"], s["by_yaw"], s["by_height"], s["by_sway_amp"], s["by_sway_freq"],
-              s["by_sway_phase"], s["by_target"], s["by_speed"], s["by_moving"])  # fmt: skip
+        by = (
+            s["by_pos"],
+            s["by_yaw"],
+            s["by_height"],
+            s["by_sway_amp"],
+            s["by_sway_freq"],
+            s["by_sway_phase"],
+            s["by_target"],
+            s["by_speed"],
+            s["by_moving"],
+        )
         N = int(p["n_bystanders"]) + 1
         nb = N - 1
         z_by = Z_BODIES + BODY_DRAWS * N  # bystander_offset(N)
@@ -584,8 +623,12 @@ def _capture_frames(joints_world, hand_world, z, new_ids, prm, geo, state, out) 
         for n in range(1, N):
             src[n] = g["by_template"]
         aff = np.empty((N, 3, 4))  # camera point = aff[:, :3] @ source point + aff[:, 3]
-        view = (np.empty((N, J, 3)), np.empty((N, J)), np.empty((N, J)),
-                np.empty((N, J), dtype=np.bool_))  # cam, image x / z, y / z, in view  # fmt: skip
+        view = (
+            np.empty((N, J, 3)),
+            np.empty((N, J)),
+            np.empty((N, J)),
+            np.empty((N, J), dtype=np.bool_),
+        )  # cam, image x / z, y / z, in view
         hand_cam = np.empty((N, 4))
         occluded = np.empty((N, J), dtype=np.bool_)  # by a torso or a random inferred episode
         torso = (np.empty(N), np.empty(N), np.empty(N), np.empty(N), np.empty(N))
@@ -610,16 +653,29 @@ def _capture_frames(joints_world, hand_world, z, new_ids, prm, geo, state, out) 
             zf = z[b, m]
             src[0] = joints_world[b, m]
             hand_cam[0, 0], hand_cam[0, 1], hand_cam[0, 2], hand_cam[0, 3] = quat_mul(
-                cq_inv[0], cq_inv[1], cq_inv[2], cq_inv[3],
-                hand_world[b, m, 0], hand_world[b, m, 1], hand_world[b, m, 2], hand_world[b, m, 3],
-            )  # fmt: skip
-            _bystanders(zf, z_by, nb, (s["frame"] + m) * p["dt"], p, g, by, aff, hand_cam,
-                        cq_inv)  # fmt: skip
+                cq_inv[0],
+                cq_inv[1],
+                cq_inv[2],
+                cq_inv[3],
+                hand_world[b, m, 0],
+                hand_world[b, m, 1],
+                hand_world[b, m, 2],
+                hand_world[b, m, 3],
+            )
+            _bystanders(zf, z_by, nb, (s["frame"] + m) * p["dt"], p, g, by, aff, hand_cam, cq_inv)
             _camera_space(N, p, src, aff, view)
             _facing(N, g, view[0], pose)
             _occlusion(N, p, g, view, pose, occluded, n_visible, torso)
-            _track(N, p, n_visible, pose[0], (acquired, prev_tracked, body_id), new_ids[b, m],
-                   tracked, fresh)  # fmt: skip
+            _track(
+                N,
+                p,
+                n_visible,
+                pose[0],
+                (acquired, prev_tracked, body_id),
+                new_ids[b, m],
+                tracked,
+                fresh,
+            )
             _episodes(N, zf, p, g, episodes, b_active, occluded)
             _noise_states(zf, z_by, nb, p, noise)
             for k in range(K):
@@ -633,8 +689,16 @@ def _capture_frames(joints_world, hand_world, z, new_ids, prm, geo, state, out) 
                 k = int(slot[n])
                 out_id[b, m, k] = int(body_id[n]) if tracked[n] else 0
                 out_tracked[b, m, k] = tracked[n]
-                _body_out(n, zf, z_by, p, g, frame, noise, (out_joints[b, m, k],
-                          out_state[b, m, k], out_hand[b, m, k], truth_hand[b, m]))  # fmt: skip
+                _body_out(
+                    n,
+                    zf,
+                    z_by,
+                    p,
+                    g,
+                    frame,
+                    noise,
+                    (out_joints[b, m, k], out_state[b, m, k], out_hand[b, m, k], truth_hand[b, m]),
+                )
             truth_joints[b, m] = view[0][0]
         s["frame"] += M
 

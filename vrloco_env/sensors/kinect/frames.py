@@ -139,5 +139,3 @@ class KinectFrames:
             },
             truth=truth,
         )
-
-

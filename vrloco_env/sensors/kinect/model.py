@@ -105,7 +105,8 @@ class KinectV2(TakesUsers):
             s,
             tan_h=math.tan(math.radians(s.fov_deg[0]) / 2),
             tan_v=math.tan(math.radians(s.fov_deg[1]) / 2),
-            near=near, far=far,
+            near=near,
+            far=far,
             noise_a=s.joint_noise_a_mm * 1e-3,  # m: joint noise std at depth z is a + b z^2
             noise_b=s.joint_noise_b_mm_per_m2 * 1e-3,  # m / m^2
             rho_joint=self._rho_joint,  # AR(1) coefficients per frame, joints and wrists
@@ -119,10 +120,15 @@ class KinectV2(TakesUsers):
             # a standing bystander starts walking when its normal lies below walk_z
             walk_z=_z_threshold(1.0 - math.exp(-self._dt / s.bystander_dwell_s)),
             dt=self._dt,
-            by_d0=by_d0, by_d1=by_d1, by_v0=by_v0, by_v1=by_v1,
-            cam_cos=math.cos(s.camera_yaw_rad), cam_sin=math.sin(s.camera_yaw_rad),
-            burst_min=burst_min, burst_max=burst_max,
-        )  # fmt: skip
+            by_d0=by_d0,
+            by_d1=by_d1,
+            by_v0=by_v0,
+            by_v1=by_v1,
+            cam_cos=math.cos(s.camera_yaw_rad),
+            cam_sin=math.sin(s.camera_yaw_rad),
+            burst_min=burst_min,
+            burst_max=burst_max,
+        )
 
     @property
     def geometry(self) -> NDArray:
@@ -342,10 +348,23 @@ class KinectV2(TakesUsers):
         truth_joints = np.empty((B, M, NUM_JOINTS, 3))
         truth_hand = np.empty((B, M, 4))
         _k.capture_frames(B)(
-            jw, qw, z, new_ids, self._prm, self._geo, self._state,
-            (out["body_id"], out["body_tracked"], out["joints"], out["joint_state"],
-             out["hand_quat"], truth_joints, truth_hand),
-        )  # fmt: skip
+            jw,
+            qw,
+            z,
+            new_ids,
+            self._prm,
+            self._geo,
+            self._state,
+            (
+                out["body_id"],
+                out["body_tracked"],
+                out["joints"],
+                out["joint_state"],
+                out["hand_quat"],
+                truth_joints,
+                truth_hand,
+            ),
+        )
         L = int(self.spec.latency_frames)
         if L:
             joined = {k: np.concatenate([self._delay[k], v], axis=1) for k, v in out.items()}
@@ -357,4 +376,3 @@ class KinectV2(TakesUsers):
             hand_quat=truth_hand,
         )
         return KinectFrames(t=t, truth=truth, **out)
-

@@ -139,5 +139,3 @@ def standing_skeleton(
         quat_rotate(q_yaw[..., None, :], body) + np.broadcast_to(pos, (*shape, 3))[..., None, :]
     )
     return joints, quat_multiply(q_yaw, q_hand_body)
-
-

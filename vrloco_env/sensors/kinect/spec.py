@@ -23,9 +23,15 @@ J = Joint
 #: Joints that make up the torso silhouette used for occlusion (they never hide behind their own
 #: torso).
 TORSO_JOINTS = (
-    J.SPINE_BASE, J.SPINE_MID, J.NECK, J.SPINE_SHOULDER,
-    J.SHOULDER_LEFT, J.SHOULDER_RIGHT, J.HIP_LEFT, J.HIP_RIGHT,
-)  # fmt: skip
+    J.SPINE_BASE,
+    J.SPINE_MID,
+    J.NECK,
+    J.SPINE_SHOULDER,
+    J.SHOULDER_LEFT,
+    J.SHOULDER_RIGHT,
+    J.HIP_LEFT,
+    J.HIP_RIGHT,
+)
 
 #: Limbs a jitter burst can hit (one at a time); index 0 is the right arm, which also carries the
 #: reported wrist orientation.
@@ -43,14 +49,32 @@ LIMB_GROUPS = (
 # reliable joints. Engineering values: trunk/head 1, elbows/knees 1.5, wrists/ankles 2,
 # hands/feet 2.5, hand tips/thumbs 4.
 _DEFAULT_JOINT_SCALE = (
-    1.0, 1.0, 1.0, 1.0,  # spine base, spine mid, neck, head
-    1.0, 1.5, 2.0, 2.5,  # shoulder, elbow, wrist, hand (left)
-    1.0, 1.5, 2.0, 2.5,  # shoulder, elbow, wrist, hand (right)
-    1.0, 1.5, 2.0, 2.5,  # hip, knee, ankle, foot (left)
-    1.0, 1.5, 2.0, 2.5,  # hip, knee, ankle, foot (right)
+    1.0,
+    1.0,
+    1.0,
+    1.0,  # spine base, spine mid, neck, head
+    1.0,
+    1.5,
+    2.0,
+    2.5,  # shoulder, elbow, wrist, hand (left)
+    1.0,
+    1.5,
+    2.0,
+    2.5,  # shoulder, elbow, wrist, hand (right)
+    1.0,
+    1.5,
+    2.0,
+    2.5,  # hip, knee, ankle, foot (left)
+    1.0,
+    1.5,
+    2.0,
+    2.5,  # hip, knee, ankle, foot (right)
     1.0,  # spine shoulder
-    4.0, 4.0, 4.0, 4.0,  # hand tip left, thumb left, hand tip right, thumb right
-)  # fmt: skip
+    4.0,
+    4.0,
+    4.0,
+    4.0,  # hand tip left, thumb left, hand tip right, thumb right
+)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -224,38 +248,56 @@ class KinectSpec:
         inf = math.inf
         check_in_range(self, "frame_rate_hz", 0.0, inf, "Hz", lo_open=True)
         check_numbers(self, "fov_deg", 0.0, 180.0, "deg", length=2, lo_open=True, hi_open=True)
-        check_numbers(self, "depth_range_m", 0.0, inf, "m", length=2, ordered=True, strict=True,
-                      lo_open=True)  # fmt: skip
+        check_numbers(
+            self, "depth_range_m", 0.0, inf, "m", length=2, ordered=True, strict=True, lo_open=True
+        )
         check_numbers(self, "camera_position_m", -inf, inf, "m", length=3)
         check_in_range(self, "camera_yaw_rad", -inf, inf, "rad")
         check_in_range(self, "camera_tilt_deg", -45.0, 45.0, "deg", lo_open=True, hi_open=True)
-        for name in ("joint_noise_a_mm", "joint_noise_b_mm_per_m2", "joint_bias_std_m",
-                     "burst_position_std_m", "burst_rotation_std_deg", "torso_margin_m",
-                     "occlusion_depth_m", "bystander_lateral_m"):  # fmt: skip
+        for name in (
+            "joint_noise_a_mm",
+            "joint_noise_b_mm_per_m2",
+            "joint_bias_std_m",
+            "burst_position_std_m",
+            "burst_rotation_std_deg",
+            "torso_margin_m",
+            "occlusion_depth_m",
+            "bystander_lateral_m",
+        ):
             check_in_range(self, name, 0.0, inf)
         for name in ("joint_noise_white_fraction", "burst_prob", "random_inferred_prob"):
             check_in_range(self, name, 0.0, 1.0)
-        for name in ("joint_noise_tau_s", "hand_rot_tau_s", "noise_ref_depth_m",
-                     "bystander_dwell_s"):  # fmt: skip
+        for name in (
+            "joint_noise_tau_s",
+            "hand_rot_tau_s",
+            "noise_ref_depth_m",
+            "bystander_dwell_s",
+        ):
             check_in_range(self, name, 0.0, inf, lo_open=True)
         check_numbers(self, "joint_noise_scale", 0.0, inf, length=NUM_JOINTS, lo_open=True)
         for name in ("hand_rot_white_std_deg", "hand_rot_ar_std_deg"):
             check_numbers(self, name, 0.0, inf, "deg", length=3)
         check_in_range(self, "inferred_noise_factor", 1.0, inf)
-        check_numbers(self, "burst_frames", 1.0, inf, "frames", length=2, ordered=True,
-                      whole=True)  # fmt: skip
+        check_numbers(self, "burst_frames", 1.0, inf, "frames", length=2, ordered=True, whole=True)
         check_in_range(self, "latency_frames", 0, inf, "frames", integer=True)
         check_in_range(self, "random_inferred_frames", 1.0, inf, "frames")
         check_in_range(self, "min_visible_fraction", 0.0, 1.0, lo_open=True)
         check_in_range(self, "acquire_frames", 1, inf, "frames", integer=True)
         check_in_range(self, "facing_inferred_deg", 0.0, 180.0, "deg")
         check_in_range(
-            self, "facing_lost_deg", self.facing_inferred_deg, 180.0, lo_open=True,
+            self,
+            "facing_lost_deg",
+            self.facing_inferred_deg,
+            180.0,
+            lo_open=True,
             allowed=f"in (facing_inferred_deg = {self.facing_inferred_deg:g}, 180] deg",
-        )  # fmt: skip
+        )
         check_in_range(self, "n_bystanders", 0, MAX_BODIES - 1, integer=True)
-        for name, unit in (("bystander_distance_m", "m"), ("bystander_speed_mps", "m/s"),
-                           ("bystander_height_m", "m")):  # fmt: skip
+        for name, unit in (
+            ("bystander_distance_m", "m"),
+            ("bystander_speed_mps", "m/s"),
+            ("bystander_height_m", "m"),
+        ):
             check_numbers(self, name, 0.0, inf, unit, length=2, ordered=True, lo_open=True)
 
     @classmethod
@@ -300,5 +342,3 @@ class KinectSpec:
     def with_(self, **changes: object) -> KinectSpec:
         """A copy with some fields changed (validated)."""
         return replace(self, **changes)  # type: ignore[arg-type]
-
-
