@@ -148,13 +148,12 @@ class LocoCore(TakesUsers):
         self.room, self.reward = room, reward
         self.generators = [np.random.default_rng() for _ in range(b)]
         self.rng = BatchRng([np.random.default_rng(0) for _ in range(b)])
-        self.stages = build_stages(estimators, b, sensors.imu_rate_hz, sensors.kinect.frame_rate_hz)
+        self.stages = build_stages(estimators, sensors, b, config.pose_source, self.rng)
         self.users = SimulatedUsers(
             b,
             self.rng,
             config.motion,
             sensors,
-            estimators,
             self.stages,
             pose_source=config.pose_source,
             play_area=config.play_area,

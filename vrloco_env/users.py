@@ -15,11 +15,13 @@ tracked space and a head camera + PnP + visual-inertial filter (:mod:`vrloco_env
 replace the attitude EKF and the locomotion model: the virtual head follows the estimated pose one
 to one.
 
-Every stage is batched over the B users and given to :class:`SimulatedUsers` ready-built
-(:func:`vrloco_env.pipeline.build_stages`); this module only composes them (no estimator logic
-lives here). The virtual heading is the estimated yaw plus a per-user offset fixed when the episode
-starts ("recentring", as a headset aligns the virtual world to where the user faces), so estimation
-errors — drift, magnetic disturbances — turn into heading errors in the virtual world.
+Every estimator (the five stages, the hand front end, the cadence estimate and the head tracker)
+is batched over the B users and given to :class:`SimulatedUsers` ready-built, plug-ins already
+behind their checked proxy (:func:`vrloco_env.pipeline.build_stages`); this module only composes
+them (no estimator logic lives here). The virtual heading is the estimated yaw plus a per-user
+offset fixed when the episode starts ("recentring", as a headset aligns the virtual world to where
+the user faces), so estimation errors — drift, magnetic disturbances — turn into heading errors in
+the virtual world.
 """
 
 from __future__ import annotations
@@ -31,15 +33,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from estimators import rotations as rot
 from estimators.batching import TakesUsers, stream_rows
-from estimators.hand import HandFrame, HandPipeline
+from estimators.hand import HandFrame
 from estimators.kernels import param_record
 from estimators.locomotion.steering import torso_yaw
-from estimators.steps import CadenceEstimator
 from vrloco_env._core_numba import quat_to_ypr_rows, step_summary_kernel
 from vrloco_env._hand_frame_numba import hand_relative_to_torso
 from vrloco_env.batch_rng import BatchRng
-from vrloco_env.config import POSE_SOURCES, EstimatorConfig, SensorConfig
-from vrloco_env.head_tracking import VisualInertialTracker
+from vrloco_env.config import POSE_SOURCES, SensorConfig
 from vrloco_env.pipeline import Stages
 from vrloco_env.sensors.camera import layout_landmarks
 from vrloco_env.sensors.imu import HeadImu, ImuSamples
@@ -145,8 +145,8 @@ class SimulatedUsers(TakesUsers):
         motion: the body model's parameters. Its sensor rates and ``overground`` follow from
             ``sensors`` and ``pose_source``; set to anything but their defaults, they must agree.
         sensors: IMU and Kinect configuration.
-        estimators: estimator configuration (step length, hand pipeline, visual-inertial filter).
-        stages: the built estimation stages (:func:`vrloco_env.pipeline.build_stages`).
+        stages: every estimator, built for these users and ``pose_source``
+            (:func:`vrloco_env.pipeline.build_stages`).
         pose_source: ``"walk_in_place"`` or ``"visual_inertial"``
             (:attr:`vrloco_env.config.EnvConfig.pose_source`).
         play_area: the physical tracked space and drift model
@@ -192,7 +192,6 @@ class SimulatedUsers(TakesUsers):
         rng: BatchRng,
         motion: MotionParams,
         sensors: SensorConfig,
-        estimators: EstimatorConfig,
         stages: Stages,
         pose_source: str = "walk_in_place",
         play_area: PlayArea | None = None,
@@ -203,16 +202,21 @@ class SimulatedUsers(TakesUsers):
         self.overground = pose_source == "visual_inertial"
         if rng.batch_size != batch_size:
             raise ValueError(f"rng has {rng.batch_size} streams, expected {batch_size}")
-        self.batch_size = batch_size
+        if (stages.tracker is not None) != self.overground:
+            raise ValueError(
+                f"stages were built for another pose source than pose_source={pose_source!r} "
+                f"(build them with build_stages(..., pose_source={pose_source!r}))"
+            )
+        self.batch_size = b = batch_size
         self.rng = rng
         self.sensors = sensors
-        self.estimator_config = estimators
-        self._summary_prm = param_record(
-            step_length=estimators.step_length, in_place=float(not self.overground)
-        )
-        fs = sensors.imu_rate_hz
+        self.imu_rate_hz = fs = sensors.imu_rate_hz
+        # motion
         self.motion_params = _derived_motion(motion, sensors, self.overground)
+        self.dt = 1.0 / self.motion_params.control_rate_hz
         self.motion = UserMotion(self.motion_params, rng)
+        self.play_area = PlayArea() if play_area is None else play_area
+        # -> sensors
         self.imu = HeadImu(
             sensors.imu_spec,
             rng,
@@ -221,37 +225,36 @@ class SimulatedUsers(TakesUsers):
             disturbances=sensors.magnetic_disturbances,
         )
         self.kinect = KinectV2(sensors.kinect, rng)
-        self.stages = stages
-        self.attitude = stages.attitude
-        self.gait = stages.steps
-        self.hand_filter = stages.hand
-        self.steering = stages.steering
-        self.locomotion = stages.locomotion
-        self.imu_rate_hz = fs
-        self.hand_pipeline = HandPipeline(batch_size, estimators.hand_pipeline)
-        self._steer_with_torso = getattr(stages.steering, "uses_torso", True)
-        self.dt = 1.0 / self.motion_params.control_rate_hz
-        b = batch_size
-        self.yaw_offset = np.zeros(b)
-        self.true_yaw_offset = np.zeros(b)
-        self.cadence = CadenceEstimator(b)
-        self._last_loco = np.zeros((b, 2))
         self._camera_q = camera_quat(sensors.kinect)
         self._sdk_to_hand = rot.quat_conjugate(HAND_FROM_SDK_WRIST)
+        # -> estimators (the tracker, with the visual-inertial pose source, in place of the
+        # attitude stage and the locomotion)
+        self.stages = stages
+        self.attitude = stages.attitude
+        self.tracker = stages.tracker
+        self.gait = stages.steps
+        self.cadence = stages.cadence
+        self.hand_pipeline = stages.hand_pipeline
+        self.hand_filter = stages.hand
+        self.steering = stages.steering
+        self._steer_with_torso = getattr(stages.steering, "uses_torso", True)
+        # -> locomotion
+        self.locomotion = stages.locomotion
+        self._summary_prm = param_record(
+            step_length=stages.step_length, in_place=float(not self.overground)
+        )
+        # each user's episode state
+        self.yaw_offset = np.zeros(b)
+        self.true_yaw_offset = np.zeros(b)
+        self._last_loco = np.zeros((b, 2))
         self._start_yaw = np.zeros(b)
         self._recentre = np.ones(b, bool)
-        self.tracker = (
-            VisualInertialTracker(b, fs, sensors.head_camera, estimators.visual_inertial, rng)
-            if self.overground
-            else None
-        )
         self._track_start = np.zeros(b, bool)  # users whose tracker starts at the next sample
         self._track_origin = np.zeros((b, 2))  # tracked head xy minus virtual body xy at start
         self._tracked_xy = np.zeros((b, 2))  # estimated virtual position at the step's end
         self._last_true = np.zeros((b, 2))  # true head xy at the last step's end
         self.last_tracked = None  # the last step's TrackedChunk (visual-inertial source only)
         self._start_xy3 = np.zeros((b, 3))  # start marker in the room (m), z = 0
-        self.play_area = PlayArea() if play_area is None else play_area
         self._drift = np.zeros((b, 2))  # drift rates (m/s): [forward, left] of the torso
         if self.overground:
             steps_per_frame = sensors.head_camera.rate_hz / motion.control_rate_hz

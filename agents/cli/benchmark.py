@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 
-def _cmd_benchmark(args: argparse.Namespace) -> int:
+def cmd_benchmark(args: argparse.Namespace) -> int:
     from agents.benchmark import run_benchmark
     from agents.benchmark.backends import BackendError
     from agents.benchmark.outputs import WriteError

@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 
-def _cmd_hand_variance(args: argparse.Namespace) -> int:
+def cmd_hand_variance(args: argparse.Namespace) -> int:
     from agents.experiments.hand_variance import run_hand_variance
 
     run_hand_variance(
@@ -17,7 +17,7 @@ def _cmd_hand_variance(args: argparse.Namespace) -> int:
     return 0
 
 
-def _cmd_vio(args: argparse.Namespace) -> int:
+def cmd_vio(args: argparse.Namespace) -> int:
     from agents.experiments.vio import run_vio
 
     try:
@@ -34,14 +34,14 @@ def _cmd_vio(args: argparse.Namespace) -> int:
     return 0
 
 
-def _cmd_locomotion(args: argparse.Namespace) -> int:
+def cmd_locomotion(args: argparse.Namespace) -> int:
     from agents.experiments.locomotion_table import run_locomotion_table
 
     run_locomotion_table(json_path=Path(args.json) if args.json else None)
     return 0
 
 
-def _cmd_head_motions(args: argparse.Namespace) -> int:
+def cmd_head_motions(args: argparse.Namespace) -> int:
     from agents.experiments.head_motions import run_head_motions
 
     run_head_motions(
@@ -53,7 +53,7 @@ def _cmd_head_motions(args: argparse.Namespace) -> int:
     return 0
 
 
-def _cmd_step_envelope(args: argparse.Namespace) -> int:
+def cmd_step_envelope(args: argparse.Namespace) -> int:
     from agents.experiments.step_envelope import run_step_envelope
 
     run_step_envelope(
@@ -65,7 +65,7 @@ def _cmd_step_envelope(args: argparse.Namespace) -> int:
     return 0
 
 
-def _cmd_head_behaviour(args: argparse.Namespace) -> int:
+def cmd_head_behaviour(args: argparse.Namespace) -> int:
     from agents.experiments.head_behaviour import run_head_behaviour
 
     try:
@@ -81,7 +81,7 @@ def _cmd_head_behaviour(args: argparse.Namespace) -> int:
     return 0
 
 
-def _cmd_population_sensitivity(args: argparse.Namespace) -> int:
+def cmd_population_sensitivity(args: argparse.Namespace) -> int:
     from agents.experiments.population_sensitivity import run_population_sensitivity
 
     try:

@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 
-def _cmd_train(args: argparse.Namespace) -> int:
+def cmd_train(args: argparse.Namespace) -> int:
     from agents.benchmark.backends import BackendError
 
     seeds = args.seeds if args.seeds is not None else [args.seed]
@@ -75,7 +75,7 @@ def _cmd_train(args: argparse.Namespace) -> int:
     return 0
 
 
-def _cmd_evaluate(args: argparse.Namespace) -> int:
+def cmd_evaluate(args: argparse.Namespace) -> int:
     from agents.benchmark.outputs import WriteError, show_table, write_json
     from agents.learned.evaluate import evaluate_model
 

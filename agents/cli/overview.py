@@ -7,7 +7,7 @@ import argparse
 from pathlib import Path
 
 
-def _cmd_demo(args: argparse.Namespace) -> int:
+def cmd_demo(args: argparse.Namespace) -> int:
     from agents.experiments.imu_trace import run_imu_trace
 
     path = run_imu_trace(out_dir=Path(args.out), seed=args.seed, preset=args.sensors)
@@ -15,7 +15,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     return 0
 
 
-def _cmd_techniques(args: argparse.Namespace) -> int:
+def cmd_techniques(args: argparse.Namespace) -> int:
     from estimators import stages
     from vrloco_env.config import STAGE_FIELDS, EstimatorConfig
     from vrloco_env.techniques import TECHNIQUES

@@ -6,19 +6,19 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from agents.cli.benchmark import _cmd_benchmark
+from agents.cli.benchmark import cmd_benchmark
 from agents.cli.experiments import (
-    _cmd_hand_variance,
-    _cmd_head_behaviour,
-    _cmd_head_motions,
-    _cmd_locomotion,
-    _cmd_population_sensitivity,
-    _cmd_step_envelope,
-    _cmd_vio,
+    cmd_hand_variance,
+    cmd_head_behaviour,
+    cmd_head_motions,
+    cmd_locomotion,
+    cmd_population_sensitivity,
+    cmd_step_envelope,
+    cmd_vio,
 )
-from agents.cli.learned import _cmd_evaluate, _cmd_train
-from agents.cli.overview import _cmd_demo, _cmd_techniques
-from agents.cli.recordings import _cmd_data, _cmd_estimate, _cmd_record
+from agents.cli.learned import cmd_evaluate, cmd_train
+from agents.cli.overview import cmd_demo, cmd_techniques
+from agents.cli.recordings import cmd_data, cmd_estimate, cmd_record
 from vrloco_env import __version__
 
 
@@ -145,7 +145,7 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument(
         "--sensors", default="ig500n", type=_preset, help="IMU preset: ig500n or consumer_mems"
     )
-    demo.set_defaults(func=_cmd_demo)
+    demo.set_defaults(func=cmd_demo)
 
     exp = sub.add_parser("experiment", help="reproduce a source paper's experiment")
     exp_sub = exp.add_subparsers(dest="experiment", metavar="EXPERIMENT", required=True)
@@ -161,7 +161,7 @@ def build_parser() -> argparse.ArgumentParser:
     hm.add_argument("--json", type=_out_file, help="write the results to this JSON file")
     hm.add_argument("--users", type=_int_at_least(1), default=8, help="simulated users per case")
     hm.add_argument("--seed", type=int, default=0, help="random seed")
-    hm.set_defaults(func=_cmd_head_motions)
+    hm.set_defaults(func=cmd_head_motions)
     se = exp_sub.add_parser(
         "step-envelope",
         help="every step detector on light steps, heavy nods, squats, looking down, scanning; "
@@ -176,7 +176,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     se.add_argument("--dev", action="store_true", help="development seeds 0-2 instead")
     se.add_argument("--users", type=_int_at_least(1), default=8, help="simulated users per case")
-    se.set_defaults(func=_cmd_step_envelope)
+    se.set_defaults(func=cmd_step_envelope)
     hb = exp_sub.add_parser(
         "head-behaviour",
         help="head-motion statistics of every user population, standing and walking, beside "
@@ -195,7 +195,7 @@ def build_parser() -> argparse.ArgumentParser:
         type=_out_dir,
         help="folder for the figure (default: beside --json; neither: no figure)",
     )
-    hb.set_defaults(func=_cmd_head_behaviour)
+    hb.set_defaults(func=cmd_head_behaviour)
     ps = exp_sub.add_parser(
         "population-sensitivity",
         help="the default benchmark's pair verdicts with each chosen population range (a choice "
@@ -214,7 +214,7 @@ def build_parser() -> argparse.ArgumentParser:
         type=_out_dir,
         help="folder for each run's rows, reused by a rerun (default: a temp folder)",
     )
-    ps.set_defaults(func=_cmd_population_sensitivity)
+    ps.set_defaults(func=cmd_population_sensitivity)
     hv = exp_sub.add_parser(
         "hand-variance",
         help="Yao 2023 Tables 1-4 on the synthetic Kinect, with lag and RMSE while moving",
@@ -222,7 +222,7 @@ def build_parser() -> argparse.ArgumentParser:
     hv.add_argument("--json", type=_out_file, help="write the results to this JSON file")
     hv.add_argument("--repeats", type=_int_at_least(1), default=10, help="repeats per angle")
     hv.add_argument("--seed", type=int, default=0, help="random seed")
-    hv.set_defaults(func=_cmd_hand_variance)
+    hv.set_defaults(func=cmd_hand_variance)
     vio = exp_sub.add_parser(
         "vio",
         help="the helmet-tracking paper: IMU-only drift, visual-only and fused helmet pose, "
@@ -233,13 +233,13 @@ def build_parser() -> argparse.ArgumentParser:
     vio.add_argument("--seed", type=int, default=0, help="random seed")
     vio.add_argument("--out", type=_out_dir, help="folder for the error-vs-time figure")
     vio.add_argument("--workers", type=int, default=2, help="threads for the PnP solves")
-    vio.set_defaults(func=_cmd_vio)
+    vio.set_defaults(func=cmd_vio)
     loco = exp_sub.add_parser(
         "locomotion",
         help="eq (17) vs the smooth-locomotion paper's filter: distance and jerk",
     )
     loco.add_argument("--json", type=_out_file, help="write the results to this JSON file")
-    loco.set_defaults(func=_cmd_locomotion)
+    loco.set_defaults(func=cmd_locomotion)
     bench = sub.add_parser(
         "benchmark",
         help="simulated users x tasks x techniques: outcomes, walking-in-place measures, "
@@ -321,12 +321,12 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="remove another run's results from --out first, then write this run's",
     )
-    bench.set_defaults(func=_cmd_benchmark)
+    bench.set_defaults(func=cmd_benchmark)
 
     techniques = sub.add_parser(
         "techniques", help="list the techniques and every stage's implementations"
     )
-    techniques.set_defaults(func=_cmd_techniques)
+    techniques.set_defaults(func=cmd_techniques)
 
     train = sub.add_parser("train", help="train a PPO user (stable-baselines3 or RLlib) on a task")
     train.add_argument("--task", default="approach", type=_task, help=f"one of {', '.join(TASKS)}")
@@ -408,7 +408,7 @@ def build_parser() -> argparse.ArgumentParser:
     train.add_argument(
         "--out", default="runs/ppo", type=_out_dir, help="folder for logs and models"
     )
-    train.set_defaults(func=_cmd_train)
+    train.set_defaults(func=cmd_train)
 
     evaluate = sub.add_parser(
         "evaluate",
@@ -435,7 +435,7 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument(
         "--json", type=_out_file, help="also write the row (every metric) to this JSON file"
     )
-    evaluate.set_defaults(func=_cmd_evaluate)
+    evaluate.set_defaults(func=cmd_evaluate)
     rec = sub.add_parser(
         "record",
         help="an offline-RL dataset: a policy's seeded episodes as a Minari dataset",
@@ -477,7 +477,7 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="replace an existing dataset of that id (once the episodes are played)",
     )
-    rec.set_defaults(func=_cmd_record)
+    rec.set_defaults(func=cmd_record)
     est = sub.add_parser(
         "estimate",
         help="attitude, steps and the eq (17) path of a recording (CSV, BROAD or Oxford)",
@@ -521,7 +521,7 @@ def build_parser() -> argparse.ArgumentParser:
         "where the gyro read as rad/s turns the sensor under 10 deg in every 4 s window, else "
         "an error asking for this option. Evidence against the unit read is a one-line warning",
     )
-    est.set_defaults(func=_cmd_estimate)
+    est.set_defaults(func=cmd_estimate)
     dat = sub.add_parser(
         "data",
         help="the real recordings: list them, fetch them into the cache, say where they are",
@@ -547,5 +547,5 @@ def build_parser() -> argparse.ArgumentParser:
         help="download BASE/RELPATH from this base URL instead of the "
         "canonical sources (default: $VRLOCO_DATA_URL)",
     )
-    dat.set_defaults(func=_cmd_data)
+    dat.set_defaults(func=cmd_data)
     return parser

@@ -9,7 +9,7 @@ import sys
 from pathlib import Path
 
 
-def _cmd_record(args: argparse.Namespace) -> int:
+def cmd_record(args: argparse.Namespace) -> int:
     from agents.learned.offline_datasets import MinariMissing, dataset_path, record_dataset
 
     try:
@@ -39,7 +39,7 @@ def _cmd_record(args: argparse.Namespace) -> int:
     return 0
 
 
-def _cmd_estimate(args: argparse.Namespace) -> int:
+def cmd_estimate(args: argparse.Namespace) -> int:
     from agents.recordings.estimate import estimate_recording
     from agents.recordings.units import Units
 
@@ -55,7 +55,7 @@ def _cmd_estimate(args: argparse.Namespace) -> int:
     return 0
 
 
-def _cmd_data(args: argparse.Namespace) -> int:
+def cmd_data(args: argparse.Namespace) -> int:
     from agents.recordings import data
 
     prog = f"vrloco data {args.data_command}"

@@ -27,7 +27,7 @@ def _module_doc(obj: Any) -> str:
     return _doc(sys.modules[obj.__module__])
 
 
-def _paragraphs(text: str) -> list[str]:
+def doc_paragraphs(text: str) -> list[str]:
     """The blank-line separated blocks of ``text``, without Google-style sections."""
     kept = []
     for line in text.splitlines():
@@ -40,7 +40,7 @@ def _paragraphs(text: str) -> list[str]:
 
 def _first(text: str) -> str:
     """The first paragraph of ``text``, on one line."""
-    paragraphs = _paragraphs(text)
+    paragraphs = doc_paragraphs(text)
     return " ".join(paragraphs[0].split()) if paragraphs else ""
 
 
@@ -99,7 +99,7 @@ def _section(text: str, name: str) -> dict[str, str]:
     return found
 
 
-def _field_docs(cls: type) -> dict[str, str]:
+def field_docs(cls: type) -> dict[str, str]:
     """What each field of a dataclass is: its ``Attributes:`` entry, or the string literal after
     its definition in the class body."""
     docs = _section(_doc(cls), "Attributes")

@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from agents.reference_pages.common import HEADER
-from agents.reference_pages.docstrings import _field_docs, _paragraphs
+from agents.reference_pages.docstrings import doc_paragraphs, field_docs
 
 
 def _roles(text: str, config: Any = None) -> str:
@@ -44,17 +44,17 @@ def _escape_html(text: str) -> str:
     return "`".join(parts)
 
 
-def _md(text: str, config: Any = None) -> str:
+def to_md(text: str, config: Any = None) -> str:
     """One paragraph of docstring text as one line of Markdown."""
     return _escape_html(_roles(" ".join(text.split()), config))
 
 
-def _md_blocks(text: str, config: Any = None) -> list[str]:
+def md_blocks(text: str, config: Any = None) -> list[str]:
     """The paragraphs of a docstring as Markdown blocks: bullet and numbered lists kept as lists,
     ``::`` literal blocks as fenced code, other paragraphs on one line each."""
     out: list[str] = []
     literal = False
-    for block in _paragraphs(text):
+    for block in doc_paragraphs(text):
         if literal:
             out.append("```python\n" + textwrap.dedent(block) + "\n```")
             literal = False
@@ -68,9 +68,9 @@ def _md_blocks(text: str, config: Any = None) -> list[str]:
                     items.append(("-" if m.group(1) in "*-" else m.group(1)) + " " + m.group(2))
                 else:
                     items[-1] += " " + line.strip()
-            out.append("\n".join(_md(i, config) for i in items))
+            out.append("\n".join(to_md(i, config) for i in items))
         else:
-            text_line = _md(block, config)
+            text_line = to_md(block, config)
             if text_line.endswith("::"):
                 text_line = text_line[:-1]
                 literal = True
@@ -125,7 +125,7 @@ def _cell(text: Any) -> str:
     return "`".join(parts)
 
 
-def _table(headers: Sequence[str], rows: Iterable[Sequence[Any]]) -> str:
+def md_table(headers: Sequence[str], rows: Iterable[Sequence[Any]]) -> str:
     """A GitHub-style pipe table."""
     lines = ["| " + " | ".join(_cell(h) for h in headers) + " |", "|" + "---|" * len(headers)]
     for row in rows:
@@ -133,20 +133,20 @@ def _table(headers: Sequence[str], rows: Iterable[Sequence[Any]]) -> str:
     return "\n".join(lines)
 
 
-def _page(blocks: Iterable[str]) -> str:
+def make_page(blocks: Iterable[str]) -> str:
     """A page: the header line, then the blocks separated by blank lines."""
     return "\n\n".join([HEADER, *(b.rstrip() for b in blocks if b)]) + "\n"
 
 
 def _config_table(cls: type, config: Any = None) -> str:
     """Field, type, default and meaning of every field of a dataclass."""
-    docs = _field_docs(cls)
+    docs = field_docs(cls)
     rows = [
-        (f"`{f.name}`", _type_name(f), _default(f), _md(docs.get(f.name, ""), config))
+        (f"`{f.name}`", _type_name(f), _default(f), to_md(docs.get(f.name, ""), config))
         for f in dataclasses.fields(cls)
     ]
-    return _table(("field", "type", "default", "meaning"), rows)
+    return md_table(("field", "type", "default", "meaning"), rows)
 
 
-def _qualname(obj: Any) -> str:
+def qualname(obj: Any) -> str:
     return f"{obj.__module__}.{obj.__qualname__}"

@@ -12,7 +12,7 @@ import numpy as np
 from agents.reference_pages.common import PICTURE_DPI, PICTURE_SEED
 
 
-def _picture_layout(name: str) -> tuple[Any, str]:
+def picture_layout(name: str) -> tuple[Any, str]:
     """The room of ``env.reset(seed=PICTURE_SEED)`` for task ``name`` with the default
     configuration (the env draws its room from its ``np_random``, as here) and its caption."""
     from vrloco_env.tasks import get_task, make_layout
@@ -56,7 +56,7 @@ def picture_paths() -> list[str]:
 
 
 def write_pictures(out: Path) -> list[Path]:
-    """Draw each task's room (:func:`_picture_layout`) into ``out/img/tasks/<task>.png``."""
+    """Draw each task's room (:func:`picture_layout`) into ``out/img/tasks/<task>.png``."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -67,7 +67,7 @@ def write_pictures(out: Path) -> list[Path]:
 
     written = []
     for name, rel in zip(task_names(), picture_paths(), strict=True):
-        layout, _ = _picture_layout(name)
+        layout, _ = picture_layout(name)
         xmin, xmax, ymin, ymax = layout.bounds
         height = min(max(4.2 * (ymax - ymin) / (xmax - xmin), 1.4), 4.2) + 0.8
         fig, ax = plt.subplots(figsize=(5.6, height))

@@ -14,19 +14,19 @@ import numpy as np
 from agents.reference_pages.docstrings import (
     _bullets,
     _doc,
-    _field_docs,
     _first,
     _module_doc,
-    _paragraphs,
+    doc_paragraphs,
+    field_docs,
 )
 from agents.reference_pages.markdown import (
-    _md,
-    _md_blocks,
-    _page,
     _plain,
-    _qualname,
-    _table,
     _value,
+    make_page,
+    md_blocks,
+    md_table,
+    qualname,
+    to_md,
 )
 
 
@@ -51,12 +51,12 @@ def _populations() -> list[str]:
     from vrloco_env.user.population import POPULATIONS, Population
 
     names = list(POPULATIONS)
-    docs = _field_docs(Population)
-    agent = _field_docs(VariabilityParams)
+    docs = field_docs(Population)
+    agent = field_docs(VariabilityParams)
     overview = [
         (
             f"`{n}`",
-            _md(p.description),
+            to_md(p.description),
             "yes" if p.moves_head else "no",
             "yes" if p.gaze else "no",
             "yes" if p.variability else "no",
@@ -71,16 +71,16 @@ def _populations() -> list[str]:
         doc = docs.get(f.name, "")
         if f.name in agent and "VariabilityParams" in doc:  # the agent side's own field docs
             doc = f"{agent[f.name].rstrip('.')}; {doc}"
-        rows.append((f"`{f.name}`", *values, _kind(doc), _md(doc)))
+        rows.append((f"`{f.name}`", *values, _kind(doc), to_md(doc)))
     bullets = _bullets(_doc(population))
     return [
         "## Populations",
-        _md(_first(_doc(population))) + " `gym.make(id, population=NAME)` sets the env side; "
+        to_md(_first(_doc(population))) + " `gym.make(id, population=NAME)` sets the env side; "
         'a policy spec `"<policy>+NAME"` (`vrloco benchmark --policies goal_seeker+NAME`) sets '
         "the agent-side variability, and the env side too where the population moves the head.",
         "How the values were chosen, and what they were calibrated against: "
         "[population evidence](populations-evidence.md).",
-        _table(
+        md_table(
             (
                 "population",
                 "description",
@@ -90,13 +90,13 @@ def _populations() -> list[str]:
             ),
             overview,
         ),
-        "\n".join(f"- `{k}`: {_md(v)}" for k, v in bullets.items() if k in POPULATIONS),
+        "\n".join(f"- `{k}`: {to_md(v)}" for k, v in bullets.items() if k in POPULATIONS),
         "### Fields",
         "A `lo – hi` value is a uniform range drawn per user and episode; a single number is the "
         "same for every user. *Kind* is what the field's note calls its value (a source, a fit, "
         "a bound or a choice), where it says; the note is the field's docstring in "
         "`vrloco_env/user/population.py`.",
-        _table(("field", *(f"`{n}`" for n in names), "kind", "evidence or choice"), rows),
+        md_table(("field", *(f"`{n}`" for n in names), "kind", "evidence or choice"), rows),
     ]
 
 
@@ -124,13 +124,13 @@ def _conditions() -> list[str]:
         rows.append(
             (
                 f"`{name}`{default}",
-                _md(c.description),
+                to_md(c.description),
                 "; ".join(dipoles) or "none",
-                _md(notes.get(name, "")),
+                to_md(notes.get(name, "")),
             )
         )
     ideal = CameraSpec(name="ideal")
-    camera_docs = _field_docs(CameraSpec)
+    camera_docs = field_docs(CameraSpec)
     changed: list[str] = []
     camera_rows = []
     for name in sorted(CAMERA):
@@ -154,16 +154,16 @@ def _conditions() -> list[str]:
     return [
         "## Conditions",
         "### Physical room (`vrloco benchmark --conditions`)",
-        _md(_first(_doc(conditions))) + " " + _md(_paragraphs(_doc(conditions))[1]),
-        _table(("condition", "description", "magnetic disturbances", "evidence or choice"), rows),
+        to_md(_first(_doc(conditions))) + " " + to_md(doc_paragraphs(_doc(conditions))[1]),
+        md_table(("condition", "description", "magnetic disturbances", "evidence or choice"), rows),
         "### Head camera imaging conditions (lighting)",
         "`SensorConfig(head_camera=camera_spec(NAME))` (`vrloco_env.sensors.camera.spec`), "
         'used with `pose_source="visual_inertial"` and by `vrloco experiment vio`. '
-        + _md(_first(_doc(CameraSpec)))
+        + to_md(_first(_doc(CameraSpec)))
         + " "
-        + _md(_first(_module_doc(CameraSpec))),
-        _table(("condition", "fields that differ from the default `CameraSpec`"), camera_rows),
-        "\n".join(f"- `{k}`: {_md(camera_docs.get(k, ''))}" for k in sorted(changed)),
+        + to_md(_first(_module_doc(CameraSpec))),
+        md_table(("condition", "fields that differ from the default `CameraSpec`"), camera_rows),
+        "\n".join(f"- `{k}`: {to_md(camera_docs.get(k, ''))}" for k in sorted(changed)),
     ]
 
 
@@ -172,22 +172,22 @@ def _policies() -> list[str]:
     from agents.scripted import POLICIES
 
     rows = [
-        (f"`{name}`", f"`{_qualname(cls)}`", _md(_first(_doc(cls))))
+        (f"`{name}`", f"`{qualname(cls)}`", to_md(_first(_doc(cls))))
         for name, cls in POLICIES.items()
     ]
     return [
         "## Scripted policies",
-        _md(_first(_doc(sys.modules["agents.scripted"]))),
-        _table(("policy", "class", "what it does"), rows),
+        to_md(_first(_doc(sys.modules["agents.scripted"]))),
+        md_table(("policy", "class", "what it does"), rows),
         "`vrloco benchmark --policies` (`agents.benchmark.policies`) takes these and more. "
-        + _md_blocks("\n\n".join(_paragraphs(_doc(policies))[1:]))[0],
-        *_md_blocks("\n\n".join(_paragraphs(_doc(policies))[1:]))[1:],
+        + md_blocks("\n\n".join(doc_paragraphs(_doc(policies))[1:]))[0],
+        *md_blocks("\n\n".join(doc_paragraphs(_doc(policies))[1:]))[1:],
     ]
 
 
 def populations_page() -> str:
     """The Markdown page of the populations, the conditions and the scripted policies."""
-    return _page(
+    return make_page(
         [
             "# Populations, conditions and scripted users",
             "Who walks (the simulated human's head and body, and the agent-side variability), "

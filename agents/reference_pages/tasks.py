@@ -15,21 +15,21 @@ from agents.reference_pages.common import PICTURE_SEED
 from agents.reference_pages.docstrings import (
     _bullets,
     _doc,
-    _field_docs,
     _first,
     _module_doc,
-    _paragraphs,
+    doc_paragraphs,
+    field_docs,
 )
 from agents.reference_pages.markdown import (
     _config_table,
-    _md,
-    _md_blocks,
-    _page,
-    _qualname,
-    _table,
     _value,
+    make_page,
+    md_blocks,
+    md_table,
+    qualname,
+    to_md,
 )
-from agents.reference_pages.pictures import _picture_layout
+from agents.reference_pages.pictures import picture_layout
 
 
 def _env_defaults() -> tuple[Any, Any, Any, Any]:
@@ -71,7 +71,7 @@ def _task_info(cls: type) -> dict[str, str]:
     found = {}
     for key in keys:
         m = re.search(rf"``{key}``(?: \(([^()]*(?:\([^()]*\)[^()]*)*)\)| (= [^.]*))?", docs)
-        found[key] = _md(m.group(1) or m.group(2)) if m and (m.group(1) or m.group(2)) else ""
+        found[key] = to_md(m.group(1) or m.group(2)) if m and (m.group(1) or m.group(2)) else ""
         found[key] = found[key] or _INFO_NOTES.get(key, "")
     return found
 
@@ -107,7 +107,7 @@ def _observation_rows(spec: Any, source: dict[str, str]) -> list[tuple[str, ...]
                 "float32",
                 "[-1, 1]",
                 reads,
-                _md(f.doc),
+                to_md(f.doc),
                 source[f.name],
             )
         )
@@ -148,10 +148,10 @@ def _observation(task_cls: type) -> list[str]:
         "field (`vrloco_env.observation`). The head attitude, gait and hand are the *estimates* "
         "of the technique's stages; the goal bearing, goal distance and rays are seen from the "
         "*virtual* pose.",
-        _table(headers, _observation_rows(spec, source)),
+        md_table(headers, _observation_rows(spec, source)),
         f"With a user population whose head turns on the torso ({', '.join(gaze)}; "
         "`population=...`, `vrloco_env.user.population`), one field is appended:",
-        _table(headers, _observation_rows(with_head, source)[-1:]),
+        md_table(headers, _observation_rows(with_head, source)[-1:]),
     ]
 
 
@@ -182,23 +182,23 @@ def _action_rows() -> list[tuple[str, ...]]:
             )
         else:
             text, limit = bullets[name], limits[name]
-        rows.append((str(k), f"`{name}`", "[-1, 1]", _md(text), limit))
+        rows.append((str(k), f"`{name}`", "[-1, 1]", to_md(text), limit))
     return rows
 
 
 def _action() -> list[str]:
     import vrloco_env.actions as actions
 
-    clipping = next(p for p in _paragraphs(_doc(actions)) if p.startswith("Out-of-range"))
+    clipping = next(p for p in doc_paragraphs(_doc(actions)) if p.startswith("Out-of-range"))
     return [
         "## Action",
         f"`Box(-1.0, 1.0, ({actions.ACTION_SIZE},), float32)`, the same for every task "
         "(`vrloco_env.actions`):",
-        _table(
+        md_table(
             ("index", "name", "bounds", "meaning", "at 1.0 (default `MotionParams`)"),
             _action_rows(),
         ),
-        _md(clipping),
+        to_md(clipping),
     ]
 
 
@@ -206,14 +206,15 @@ def _reward() -> list[str]:
     from vrloco_env.config import RewardConfig
 
     _, room, reward, _ = _env_defaults()
-    docs = _field_docs(RewardConfig)
+    docs = field_docs(RewardConfig)
     rows = [
-        (f"`{f.name}`", _value(getattr(reward, f.name)), _md(docs.get(f.name, "")))
+        (f"`{f.name}`", _value(getattr(reward, f.name)), to_md(docs.get(f.name, "")))
         for f in dataclasses.fields(RewardConfig)
     ]
     return [
         "## Reward",
-        _md(_first(_doc(RewardConfig))) + " As `LocoCore.step` (`vrloco_env/core.py`) computes it:",
+        to_md(_first(_doc(RewardConfig)))
+        + " As `LocoCore.step` (`vrloco_env/core.py`) computes it:",
         "```text\nreward = progress * (goal distance before - goal distance after)\n"
         "       + success * [the episode succeeded this step]\n"
         "       - collision * [the step was blocked]\n"
@@ -225,7 +226,7 @@ def _reward() -> list[str]:
         'an obstacle: the body stays, `info["collision"]` is True, `info["collisions"]` '
         'counts it and `info["cost"]` is 1 (Safety-Gymnasium style). The terms '
         "(`reward=RewardConfig(...)`), with their defaults:",
-        _table(("term", "default", "meaning"), rows),
+        md_table(("term", "default", "meaning"), rows),
     ]
 
 
@@ -249,15 +250,15 @@ def _ending(cls: type, rule: str) -> list[str]:
             "restarts the dwell"
         )
     else:
-        done = f"`{owner.__name__}.finished`: {_md(_first(_doc(owner.finished)))}"
+        done = f"`{owner.__name__}.finished`: {to_md(_first(_doc(owner.finished)))}"
     return [
         "## Success, termination and truncation",
         "The rules, as `LocoCore.step` (`vrloco_env/core.py`) applies them with the task's "
         "`finished` and `collision_free_success`:",
         "\n".join(
             [
-                f'- **Success** (`info["is_success"]`): {_md(rule, cls.Config)}. In code: the task '
-                f"is finished ({done}), {free}.",
+                f'- **Success** (`info["is_success"]`): {to_md(rule, cls.Config)}. In code: the '
+                f"task is finished ({done}), {free}.",
                 "- **Terminated**: the task is finished (success or not), or a step is blocked "
                 "while `EnvConfig.terminate_on_collision` is True (default "
                 f"{env.terminate_on_collision}).",
@@ -280,9 +281,9 @@ def _task_config(cls: type) -> list[str]:
             "[task index](index.md#room-configuration))."
         )
         return lines
-    lead = _md(_first(_doc(cls.Config)), cls.Config)
+    lead = to_md(_first(_doc(cls.Config)), cls.Config)
     lines += [
-        f"`{_qualname(cls.Config)}`, passed as "
+        f"`{qualname(cls.Config)}`, passed as "
         f'`gym.make("{_env_id(cls)}", task_config={cls.Config.__name__}(...))`. {lead}',
         _config_table(cls.Config, cls.Config),
         "The room's shared parameters are `RoomConfig`'s "
@@ -309,32 +310,32 @@ def task_page(name: str) -> str:
     cls = get_task(name)
     gym_id = _env_id(cls)
     what, rule = _task_text(cls)
-    _, caption = _picture_layout(name)
+    _, caption = picture_layout(name)
     blocks = [
         f"# {cls.__name__} — `{gym_id}`",
-        f"> {_md(cls.description)}",
+        f"> {to_md(cls.description)}",
         f"![The {name} room of env.reset(seed={PICTURE_SEED})](../img/tasks/{name}.png)",
         f"*{caption}*",
-        _table(
+        md_table(
             ("", ""),
             [
                 ("Gymnasium id", f'`gym.make("{gym_id}")`'),
                 ("task name", f"`{name}` (`vrloco benchmark --tasks {name}`)"),
-                ("class", f"`{_qualname(cls)}`"),
-                ("goal", _md(cls.description)),
-                ("success", _md(rule, cls.Config)),
+                ("class", f"`{qualname(cls)}`"),
+                ("goal", to_md(cls.description)),
+                ("success", to_md(rule, cls.Config)),
                 ("collision-free success", "yes" if cls.collision_free_success else "no"),
                 ("horizon", f"{_horizon()}, `EnvConfig.max_episode_steps`"),
                 ("task configuration", f"`{cls.Config.__name__}`"),
             ],
         ),
         "## What the user must do",
-        _md(what[0].upper() + what[1:] + ".", cls.Config),
-        *_md_blocks(_doc(cls), cls.Config),
+        to_md(what[0].upper() + what[1:] + ".", cls.Config),
+        *md_blocks(_doc(cls), cls.Config),
     ]
     func = _layout_function(cls)
     if func is not None:
-        blocks += ["### The room", f"`{_qualname(func)}`:", *_md_blocks(_doc(func), cls.Config)]
+        blocks += ["### The room", f"`{qualname(func)}`:", *md_blocks(_doc(func), cls.Config)]
     blocks += [*_observation(cls), *_action(), *_reward(), *_ending(cls, rule), *_task_config(cls)]
     info = _task_info(cls)
     blocks.append("## Task `info` keys")
@@ -342,7 +343,7 @@ def task_page(name: str) -> str:
         blocks += [
             "Besides the keys every task reports (see the [task index](index.md#shared-by-every"
             "-task)), per user:",
-            _table(
+            md_table(
                 ("key", "meaning"),
                 [(f"`{k}`", v or "named in the class docstring above") for k, v in info.items()],
             ),
@@ -351,7 +352,7 @@ def task_page(name: str) -> str:
         blocks.append(
             "None beyond the keys every task reports ([task index](index.md#shared-by-every-task))."
         )
-    return _page(blocks)
+    return make_page(blocks)
 
 
 def tasks_index() -> str:
@@ -369,36 +370,36 @@ def tasks_index() -> str:
             (
                 f"`{name}`",
                 f"`{_env_id(cls)}`",
-                _md(cls.description),
-                _md(rule, cls.Config),
+                to_md(cls.description),
+                to_md(rule, cls.Config),
                 "yes" if cls.collision_free_success else "no",
                 _horizon(),
                 f"[{cls.__name__}]({name}.md)",
             )
         )
-    new_task = next(p for p in _paragraphs(_doc(tasks)) if p.startswith("A new task"))
-    info = next(p for p in _paragraphs(_doc(env_module)) if p.startswith("``info``"))
-    return _page(
+    new_task = next(p for p in doc_paragraphs(_doc(tasks)) if p.startswith("A new task"))
+    info = next(p for p in doc_paragraphs(_doc(env_module)) if p.startswith("``info``"))
+    return make_page(
         [
             "# Tasks",
-            _md(_first(_doc(tasks))) + " " + _md(new_task),
-            _table(
+            to_md(_first(_doc(tasks))) + " " + to_md(new_task),
+            md_table(
                 ("task", "Gymnasium id", "goal", "success", "collision-free", "horizon", "page"),
                 rows,
             ),
             "## Shared by every task",
             "Every task has the same action (`Box(-1, 1, (5,), float32)`: walk, turn and three "
             "hand rates), the same reward terms, and observes the same common fields before its "
-            "own; each task page lists them in full. " + _md(info),
+            "own; each task page lists them in full. " + to_md(info),
             "## Room configuration",
-            f"`room=RoomConfig(...)` (`{_qualname(RoomConfig)}`). {_md(_first(_doc(RoomConfig)))}",
+            f"`room=RoomConfig(...)` (`{qualname(RoomConfig)}`). {to_md(_first(_doc(RoomConfig)))}",
             _config_table(RoomConfig),
             "## Reward configuration",
-            f"`reward=RewardConfig(...)` (`{_qualname(RewardConfig)}`). "
-            f"{_md(_first(_doc(RewardConfig)))}",
+            f"`reward=RewardConfig(...)` (`{qualname(RewardConfig)}`). "
+            f"{to_md(_first(_doc(RewardConfig)))}",
             _config_table(RewardConfig),
             "## Environment configuration",
-            f"`config=EnvConfig(...)` (`{_qualname(EnvConfig)}`). {_md(_first(_doc(EnvConfig)))}",
+            f"`config=EnvConfig(...)` (`{qualname(EnvConfig)}`). {to_md(_first(_doc(EnvConfig)))}",
             _config_table(EnvConfig),
         ]
     )

@@ -10,13 +10,13 @@ from typing import Any
 from agents.reference_pages.common import SEED_PAPERS
 from agents.reference_pages.docstrings import (
     _doc,
-    _field_docs,
     _first,
     _module_doc,
-    _paragraphs,
     _sentence,
+    doc_paragraphs,
+    field_docs,
 )
-from agents.reference_pages.markdown import _md, _md_blocks, _page, _qualname, _table
+from agents.reference_pages.markdown import make_page, md_blocks, md_table, qualname, to_md
 
 
 def _papers(description: str, factory: Any) -> str:
@@ -29,7 +29,7 @@ def _papers(description: str, factory: Any) -> str:
         f"seed {n} ({SEED_PAPERS.get(n, 'a source paper')})"
         for n in sorted(set(re.findall(r"\b[Ss]eed (\d{3})", text)))
     ]
-    paragraphs = [" ".join(p.split()) for p in _paragraphs(module)]
+    paragraphs = [" ".join(p.split()) for p in doc_paragraphs(module)]
     source = next((p for p in paragraphs if re.match(r"Sources?: ", p)), None)
     cite = None
     if source is not None:
@@ -44,7 +44,7 @@ def _papers(description: str, factory: Any) -> str:
         year = re.search(r"\b(?:19|20)\d\d\b", cite)
         cite = cite[: year.end()] if year else cite
         found.append(cite + ")" * (cite.count("(") - cite.count(")")))
-    return "; ".join(_md(f) for f in found) or "—"
+    return "; ".join(to_md(f) for f in found) or "—"
 
 
 def _stage_table(field: str) -> list[str]:
@@ -57,17 +57,17 @@ def _stage_table(field: str) -> list[str]:
     for name, description in registry.describe().items():
         factory = registry.factory(name)
         kind = "class" if isinstance(factory, type) else "factory"
-        sentence = _md(_sentence(_first(_doc(factory))))
+        sentence = to_md(_sentence(_first(_doc(factory))))
         what = (
             sentence
             if sentence.lower().startswith(description.lower())
-            else (_md(description) + ". " + sentence)
+            else (to_md(description) + ". " + sentence)
         )
         mark = " (default)" if name == default else ""
         rows.append(
             (
                 f"`{name}`{mark}",
-                f"`{_qualname(factory)}` ({kind})",
+                f"`{qualname(factory)}` ({kind})",
                 what,
                 _papers(description, factory),
             )
@@ -76,8 +76,8 @@ def _stage_table(field: str) -> list[str]:
     return [
         f"### `{field}`",
         f"`EstimatorConfig({field}=NAME)`; built as `factory{registry.signature}`; protocol "
-        f"`{_qualname(protocol)}`: {_md(_first(_doc(protocol)))}",
-        _table(("name", "class", "what it is", "paper"), rows),
+        f"`{qualname(protocol)}`: {to_md(_first(_doc(protocol)))}",
+        md_table(("name", "class", "what it is", "paper"), rows),
     ]
 
 
@@ -108,8 +108,8 @@ def _imu_tables() -> tuple[str, str]:
             rows.append((f"`{name}`", sensor, s.unit, *(f"{getattr(s, k):.4g}" for k in numeric)))
         iron_rows.append((f"`{name}`", *(f"{getattr(spec, k):.4g}" for k in iron)))
     return (
-        _table(("preset", "sensor", "unit", *numeric), rows),
-        _table(("preset", *iron), iron_rows),
+        md_table(("preset", "sensor", "unit", *numeric), rows),
+        md_table(("preset", *iron), iron_rows),
     )
 
 
@@ -144,25 +144,25 @@ def techniques_page() -> str:
                 preset,
                 *cells,
                 f"{e.step_length:g} m",
-                _md(tech.description) + extra,
+                to_md(tech.description) + extra,
             )
         )
-    pose_doc = _field_docs(EnvConfig)["pose_source"]
-    papers = _table(("seed", "paper"), [(f"seed {k}", v) for k, v in SEED_PAPERS.items()])
+    pose_doc = field_docs(EnvConfig)["pose_source"]
+    papers = md_table(("seed", "paper"), [(f"seed {k}", v) for k, v in SEED_PAPERS.items()])
     blocks = [
         "# Techniques",
-        *_md_blocks(_doc(techniques)),
+        *md_blocks(_doc(techniques)),
         "`vrloco techniques` prints the same list (`agents/cli/overview.py`). A technique is a "
         "sensor preset plus one choice per estimation stage; the stages in **bold** differ from "
         f"the default technique, `{techniques.DEFAULT_TECHNIQUE}`. To write a stage of your own, "
         "see [the stage protocols](protocols.md).",
         "## Registered techniques",
-        _table(("technique", "sensor preset", *STAGE_FIELDS, "step length", "description"), rows),
+        md_table(("technique", "sensor preset", *STAGE_FIELDS, "step length", "description"), rows),
         "The pose source is not part of a technique: it is `EnvConfig.pose_source` "
         f"({', '.join(f'`{p}`' for p in POSE_SOURCES)}; `gym.make(id, pose_source=NAME)`), "
-        + _md(pose_doc),
+        + to_md(pose_doc),
         "## Stage registries",
-        _md(_first(_doc(stages))) + " Each stage field of `EstimatorConfig` takes a name below, "
+        to_md(_first(_doc(stages))) + " Each stage field of `EstimatorConfig` takes a name below, "
         '`"package.module:attr"` naming your own class or factory, or an object with a '
         "`build(...)` method ([stage protocols](protocols.md)). The papers are the ones the "
         "stage's registry entry and docstrings cite; the project's source papers (\"seed NNN\"):",
@@ -170,19 +170,19 @@ def techniques_page() -> str:
     ]
     for field in STAGE_FIELDS:
         blocks += _stage_table(field)
-    sensor_docs, imu_docs = _field_docs(SensorSpec), _field_docs(ImuSpec)
+    sensor_docs, imu_docs = field_docs(SensorSpec), field_docs(ImuSpec)
     sensor_table, iron_table = _imu_tables()
     blocks += [
         "## IMU presets",
         "`sensor_preset=NAME` or `SensorConfig(imu=NAME)` (`vrloco_env.sensors.imu.spec.PRESETS`"
-        f"). {_md(_first(_doc(ImuSpec)))} Per sensor, in the sensor's unit "
+        f"). {to_md(_first(_doc(ImuSpec)))} Per sensor, in the sensor's unit "
         "(`vrloco_env/sensors/imu/spec.py` gives the datasheet or estimate behind each value):",
         sensor_table,
         "\n".join(
-            f"- `{k}`: {_md(v)}" for k, v in sensor_docs.items() if k not in ("label", "unit")
+            f"- `{k}`: {to_md(v)}" for k, v in sensor_docs.items() if k not in ("label", "unit")
         ),
         "The magnetometer's calibration residuals, drawn per user at reset:",
         iron_table,
-        "\n".join(f"- `{k}`: {_md(imu_docs.get(k, ''))}" for k in _iron_fields()),
+        "\n".join(f"- `{k}`: {to_md(imu_docs.get(k, ''))}" for k in _iron_fields()),
     ]
-    return _page(blocks)
+    return make_page(blocks)

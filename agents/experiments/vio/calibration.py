@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from agents.experiments.vio.metrics import _rms, error_series
+from agents.experiments.vio.metrics import error_series, rms
 from agents.experiments.vio.mismatch import Mismatch, make_setup
 from agents.experiments.vio.settings import (
     CALIBRATION_DURATION_S,
@@ -22,7 +22,7 @@ from agents.experiments.vio.settings import (
     pnp_params,
 )
 from agents.experiments.vio.trajectories import simulate
-from agents.experiments.vio.visual import _camera_rng, capture_visual
+from agents.experiments.vio.visual import camera_rng, capture_visual
 from vrloco_env.sensors.camera import camera_spec
 
 __all__ = ["calibrate_camera"]
@@ -34,7 +34,7 @@ def _calibration_error(scale: float, runs: list) -> tuple[float, float, float]:
     ep, ea = [], []
     for traj, setup, seed in runs:
         spec = condition_spec("ideal", scale)
-        run = capture_visual(traj, spec, _camera_rng(seed, 0), setup, pnp_params(spec), workers=2)
+        run = capture_visual(traj, spec, camera_rng(seed, 0), setup, pnp_params(spec), workers=2)
         e_p, e_a = error_series(
             run.position[run.ok],
             run.quat[run.ok],
@@ -44,7 +44,7 @@ def _calibration_error(scale: float, runs: list) -> tuple[float, float, float]:
         good = (e_p <= GROSS_POS_M) & (e_a <= GROSS_ATT_DEG)
         ep.append(e_p[good])
         ea.append(e_a[good])
-    pos, att = _rms(np.concatenate(ep)), _rms(np.concatenate(ea))
+    pos, att = rms(np.concatenate(ep)), rms(np.concatenate(ea))
     paper = PAPER["visual_only"]["ideal"]
     return pos, att, 0.5 * (math.log(pos / paper["pos_m"]) + math.log(att / paper["att_deg"]))
 

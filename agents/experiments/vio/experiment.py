@@ -10,9 +10,9 @@ import math
 import os
 from pathlib import Path
 
-from agents.experiments.vio.fusion import _fused_stats, fuse
+from agents.experiments.vio.fusion import fuse, fused_stats
 from agents.experiments.vio.mismatch import Mismatch, make_setup
-from agents.experiments.vio.report import _figure, format_table
+from agents.experiments.vio.report import format_table, vio_figure
 from agents.experiments.vio.settings import (
     CALIBRATION_SEEDS,
     CAMERA_RATE_HZ,
@@ -31,13 +31,13 @@ from agents.experiments.vio.settings import (
     filter_config,
     pnp_params,
 )
-from agents.experiments.vio.trajectories import _STRIDE_M, imu_only, simulate
+from agents.experiments.vio.trajectories import STRIDE_M, imu_only, simulate
 from agents.experiments.vio.visual import (
     VisualRun,
     _assemble,
-    _camera_rng,
     _capture,
     _solve_all,
+    camera_rng,
     visual_stats,
 )
 from vrloco_env.sensors.camera import camera_spec
@@ -95,7 +95,7 @@ def run_vio(
             "walk": {
                 "radius_m": WALK_RADIUS_M,
                 "cadence_hz": WALK_CADENCE,
-                "speed_m_s": _STRIDE_M * WALK_CADENCE,
+                "speed_m_s": STRIDE_M * WALK_CADENCE,
             },
             "room": "approach, 8 m x 8 m, 96 wall landmarks",
             "window_s": WINDOW_S,
@@ -139,10 +139,10 @@ def run_vio(
     traj = simulate("walk", duration, seed, setup)
     half = traj.t.size // 2
     caps = {
-        c: _capture(traj, specs[c], _camera_rng(seed, i), setup, pnp_params(specs[c]), 0)
+        c: _capture(traj, specs[c], camera_rng(seed, i), setup, pnp_params(specs[c]), 0)
         for i, c in enumerate(VISUAL_CONDITIONS)
     }
-    caps["noisy"] = _capture(traj, noisy_spec, _camera_rng(seed, 99), setup, noisy_pnp, half)
+    caps["noisy"] = _capture(traj, noisy_spec, camera_rng(seed, 99), setup, noisy_pnp, half)
     solved = _solve_all(caps, workers)
     runs = {c: _assemble(caps[c], solved[c]) for c in VISUAL_CONDITIONS}
     noisy = _assemble(caps["noisy"], solved["noisy"])
@@ -151,7 +151,7 @@ def run_vio(
     for c, r in runs.items():
         for name, adaptive in (("fused", "sage_husa"), ("fused_fixed", "fixed")):
             p, q, counters = fuse(traj, r, filter_config(adaptive))
-            stats, ser = _fused_stats(traj, p, q, counters["start"])
+            stats, ser = fused_stats(traj, p, q, counters["start"])
             result[name][c] = {**stats, **counters, "start_s": counters["start"] / IMU_RATE_HZ}
             if c in ("ideal", "complex"):
                 series[f"{name}_{c}"] = ser
@@ -169,9 +169,9 @@ def run_vio(
     }
     for adaptive in ("fixed", "sage_husa"):
         p, q, counters = fuse(traj, mixed, filter_config(adaptive, sig_p, sig_a))
-        after, ser = _fused_stats(traj, p, q, counters["start"], lo=half, samples=False)
-        overall, _ = _fused_stats(traj, p, q, counters["start"], samples=False)
-        before, _ = _fused_stats(traj, p, q, counters["start"], hi=half, samples=False)
+        after, ser = fused_stats(traj, p, q, counters["start"], lo=half, samples=False)
+        overall, _ = fused_stats(traj, p, q, counters["start"], samples=False)
+        before, _ = fused_stats(traj, p, q, counters["start"], hi=half, samples=False)
         result["adaptive"][adaptive] = {
             "pos_m": after["pos_m"],
             "att_deg": after["att_deg"],
@@ -214,7 +214,7 @@ def run_vio(
         if verbose:
             print(f"wrote {json_path}")
     if out_dir is not None:
-        path = _figure(series, traj.t, Path(out_dir), result["adaptive"]["switch_s"])
+        path = vio_figure(series, traj.t, Path(out_dir), result["adaptive"]["switch_s"])
         result["figure"] = str(path)
         if verbose:
             print(f"wrote {path}")

@@ -1,6 +1,6 @@
 """The visual-inertial fusion of the helmet-tracking paper's experiment: the filter over a
 trajectory, started at the first visual pose (:func:`fuse`), and the errors of its estimate
-(:func:`_fused_stats`).
+(:func:`fused_stats`).
 """
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from agents.experiments.vio.metrics import _error_stats, error_series
+from agents.experiments.vio.metrics import error_series, error_stats
 from agents.experiments.vio.settings import IMU_RATE_HZ
 from agents.experiments.vio.trajectories import Trajectory
 from agents.experiments.vio.visual import VisualRun
@@ -61,7 +61,7 @@ def fuse(traj: Trajectory, run: VisualRun, config: VioConfig) -> tuple[NDArray, 
     return pos, quat, counters
 
 
-def _fused_stats(
+def fused_stats(
     traj: Trajectory,
     pos: NDArray,
     quat: NDArray,
@@ -80,4 +80,4 @@ def _fused_stats(
             pos[start:], quat[start:], traj.pos[start:], traj.quat[start:]
         )
     k = max(lo, start)
-    return _error_stats(ep[k:hi], ea[k:hi], samples=samples), (ep, ea)
+    return error_stats(ep[k:hi], ea[k:hi], samples=samples), (ep, ea)

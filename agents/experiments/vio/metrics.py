@@ -1,6 +1,6 @@
 """Error measures of the helmet-tracking paper's experiment: the position and attitude error series
 of an estimate against the truth (:func:`error_series`), and their RMSE, percentiles, largest
-values, windowed and first/last RMS (:func:`_error_stats`).
+values, windowed and first/last RMS (:func:`error_stats`).
 """
 
 from __future__ import annotations
@@ -23,11 +23,11 @@ def error_series(
     return ep, ea
 
 
-def _rms(x: NDArray) -> float:
+def rms(x: NDArray) -> float:
     return float(np.sqrt(np.mean(x**2))) if x.size else float("nan")
 
 
-def _error_stats(ep: NDArray, ea: NDArray, samples: bool = True) -> dict:
+def error_stats(ep: NDArray, ea: NDArray, samples: bool = True) -> dict:
     """RMSE, 95th percentile and max of position (m) and attitude (deg) errors; with
     ``samples`` (1 kHz series over the whole run) also windowed and first/last RMS."""
     if ep.size == 0:
@@ -41,8 +41,8 @@ def _error_stats(ep: NDArray, ea: NDArray, samples: bool = True) -> dict:
             "att_max_deg": nan,
         }
     out = {
-        "pos_m": _rms(ep),
-        "att_deg": _rms(ea),
+        "pos_m": rms(ep),
+        "att_deg": rms(ea),
         "pos_p95_m": float(np.percentile(ep, 95)),
         "att_p95_deg": float(np.percentile(ea, 95)),
         "pos_max_m": float(ep.max()),
@@ -52,18 +52,18 @@ def _error_stats(ep: NDArray, ea: NDArray, samples: bool = True) -> dict:
         n = ep.size
         w = round(WINDOW_S * IMU_RATE_HZ)
         nw = max(n // w, 1)
-        wp = [_rms(ep[i * w : (i + 1) * w]) for i in range(nw)]
-        wa = [_rms(ea[i * w : (i + 1) * w]) for i in range(nw)]
+        wp = [rms(ep[i * w : (i + 1) * w]) for i in range(nw)]
+        wa = [rms(ea[i * w : (i + 1) * w]) for i in range(nw)]
         edge = min(round(30.0 * IMU_RATE_HZ), n // 4)
         out.update(
             {
                 "pos_window_max_m": float(max(wp)),
                 "att_window_max_deg": float(max(wa)),
                 "edge_s": edge / IMU_RATE_HZ,
-                "pos_first_m": _rms(ep[:edge]),
-                "pos_last_m": _rms(ep[-edge:]),
-                "att_first_deg": _rms(ea[:edge]),
-                "att_last_deg": _rms(ea[-edge:]),
+                "pos_first_m": rms(ep[:edge]),
+                "pos_last_m": rms(ep[-edge:]),
+                "att_first_deg": rms(ea[:edge]),
+                "att_last_deg": rms(ea[-edge:]),
             }
         )
     return out

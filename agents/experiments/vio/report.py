@@ -1,5 +1,5 @@
 """The report of the helmet-tracking paper's experiment: the results beside the paper's numbers as a
-table (:func:`format_table`) and the figure of the errors over time (:func:`_figure`).
+table (:func:`format_table`) and the figure of the errors over time (:func:`vio_figure`).
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from agents.experiments.vio.settings import GROSS_ATT_DEG, GROSS_POS_M
 __all__ = ["format_table"]
 
 
-def _figure(series: dict, t: NDArray, out_dir: Path, switch_s: float) -> Path:
+def vio_figure(series: dict, t: NDArray, out_dir: Path, switch_s: float) -> Path:
     import matplotlib
 
     matplotlib.use("Agg")

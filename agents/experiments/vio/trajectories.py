@@ -27,7 +27,7 @@ from vrloco_env.user import Intent, MotionParams, MotionRecord, UserMotion
 __all__ = ["Trajectory", "imu_only", "simulate"]
 
 _STILL_START_S = {"rotation": 2.0, "walk": 1.0}
-_STRIDE_M = MotionParams().stride_m  # 0.65 m per step overground
+STRIDE_M = MotionParams().stride_m  # 0.65 m per step overground
 
 
 @dataclass(frozen=True)
@@ -60,7 +60,7 @@ def _intent(kind: str, t0: float) -> Intent:
         return Intent()
     if kind == "rotation":
         return Intent(turn_rate=np.array([math.radians(ROTATION_RATE_DEG_S)]))
-    speed = _STRIDE_M * WALK_CADENCE
+    speed = STRIDE_M * WALK_CADENCE
     return Intent(
         cadence=np.array([WALK_CADENCE]),
         turn_rate=np.array([speed / WALK_RADIUS_M]),

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from agents.experiments.vio.metrics import _error_stats, _rms, error_series
+from agents.experiments.vio.metrics import error_series, error_stats, rms
 from agents.experiments.vio.mismatch import Setup
 from agents.experiments.vio.settings import GROSS_ATT_DEG, GROSS_POS_M, IMU_RATE_HZ
 from agents.experiments.vio.trajectories import Trajectory
@@ -195,21 +195,21 @@ def visual_stats(run: VisualRun, traj: Trajectory) -> dict:
         "extracted_per_frame": float(run.n_extracted.mean()) if run.ok.size else 0.0,
         "outcomes": {n: int(np.count_nonzero(run.reason == code)) for code, n in names.items()},
     }
-    out.update(_error_stats(ep, ea, samples=False))
+    out.update(error_stats(ep, ea, samples=False))
     gross = (ep > GROSS_POS_M) | (ea > GROSS_ATT_DEG)
     out.update(
         {
             "pos_median_m": float(np.median(ep)) if ep.size else float("nan"),
             "att_median_deg": float(np.median(ea)) if ea.size else float("nan"),
             "gross_fraction": float(gross.mean()) if ep.size else 0.0,
-            "pos_clean_m": _rms(ep[~gross]),
-            "att_clean_deg": _rms(ea[~gross]),
+            "pos_clean_m": rms(ep[~gross]),
+            "att_clean_deg": rms(ea[~gross]),
         }
     )
     return out
 
 
-def _camera_rng(seed: int, key: int) -> BatchRng:
+def camera_rng(seed: int, key: int) -> BatchRng:
     return BatchRng([np.random.default_rng([seed, 10 + key])])
 
 
