@@ -20,6 +20,11 @@ figures as base64 PNG, the rooms as inline SVG):
 Size: the figures are re-encoded as PNGs of :data:`PNG_COLOURS` colours, and a replay keeps at
 most :data:`MAX_FRAMES` frames (positions in centimetres, times in centiseconds), so that the
 default run's 20 cells give a page of a few megabytes.
+
+The page's style sheet, script and collision colours are in
+:mod:`agents.benchmark.report_assets`, the replays' data and blocks in
+:mod:`agents.benchmark.report_replays`; this module assembles the page (its tables, sections and
+figures) and re-exports their public names.
 """
 
 from __future__ import annotations
@@ -33,12 +38,18 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
-from agents.benchmark.collision_causes import COLLISION_CAUSES, collision_causes
+from agents.benchmark.collision_causes import COLLISION_CAUSES
 from agents.benchmark.figures import cell_name
 from agents.benchmark.outputs import BASELINE_TECHNIQUE, atomic_path, json_safe
 from agents.benchmark.paired import ALPHA
+from agents.benchmark.report_assets import _CSS, _JS, CAUSE_COLOURS
+from agents.benchmark.report_replays import (
+    MAX_FRAMES,
+    REPLAY_EPISODES,
+    _replay_block,
+    collision_events,
+    replay_data,
+)
 
 if TYPE_CHECKING:
     from agents.benchmark.grid import Cell
@@ -55,12 +66,6 @@ __all__ = [
     "write_report",
 ]
 
-#: The first episodes of each cell that keep their trace when the run has an output folder,
-#: each replayed in the report (the figures draw the first).
-REPLAY_EPISODES = 3
-#: The most frames a replay keeps (a longer episode is sampled at every k-th control step, its
-#: last step always kept; collisions keep their own times and places).
-MAX_FRAMES = 300
 #: Colours of the re-encoded figures (a palette PNG: about a quarter of matplotlib's size).
 PNG_COLOURS = 64
 
@@ -131,24 +136,6 @@ WIP_COLUMNS = (
         "times per episode the user left the 2 x 2 m play area",
     ),
     ("min_boundary_m", "min boundary (m)", 3, "closest approach to the play area's edge (m)"),
-)
-#: Each collision cause's colour (as in ``collision_causes.png``).
-CAUSE_COLOURS = {
-    "phantom_step": "#d62728",
-    "stop_latency": "#ff7f0e",
-    "heading_error": "#9467bd",
-    "steering": "#2ca02c",
-    "policy": "#999999",
-}
-#: The trace keys :func:`collision_events` reads.
-_CAUSE_KEYS = (
-    "elapsed_time",
-    "intent_walk",
-    "heading_error_deg",
-    "true_step_times",
-    "detected_step_times",
-    "walk_yaw_deg",
-    "true_body_yaw_deg",
 )
 
 
@@ -257,130 +244,7 @@ def report_html(
     )
 
 
-# --------------------------------------------------------------------------- replays
-
-
-def collision_events(trace: dict[str, Any]) -> list[tuple[int, str]]:
-    """Each collision of a traced episode: ``(control step index, cause)``, the cause by the rule
-    of :func:`agents.benchmark.collision_causes.collision_causes` (the episode's causes counted are
-    these causes counted)."""
-    hit = np.asarray(trace["collision"], dtype=bool).ravel()
-    steps = {k: trace[k] for k in _CAUSE_KEYS}
-    events = []
-    for k in np.flatnonzero(hit):
-        one = np.zeros(hit.size, dtype=bool)
-        one[k] = True
-        counts = collision_causes({**steps, "collision": one})
-        events.append((int(k), next(c for c in COLLISION_CAUSES if counts[c])))
-    return events
-
-
-def replay_data(stats: EpisodeStats) -> dict[str, Any]:
-    """What a replay of a traced episode needs, as JSON-ready numbers: frame times ``t``
-    (centiseconds), the virtual body's and the true positions ``v`` and ``r`` (flat x, y pairs,
-    centimetres) and headings ``vy`` and ``ry`` (degrees, counter-clockwise from +x; the true
-    one is the virtual minus the heading error), at most :data:`MAX_FRAMES` frames from the
-    start; ``c``, each collision as ``[time, x, y, cause index]`` (the cause's index in
-    :data:`~agents.benchmark.collision_causes.COLLISION_CAUSES`)."""
-    tr = stats.trace
-    if tr is None:
-        raise ValueError("stats has no trace: run the episode with trace=True")
-    pos = np.asarray(tr["position"], dtype=np.float64)
-    true = np.asarray(tr["true_position"], dtype=np.float64)
-    t = np.asarray(tr["elapsed_time"], dtype=np.float64)
-    yaw = np.rad2deg(np.asarray(tr["virtual_yaw"], dtype=np.float64))
-    true_yaw = yaw - np.asarray(tr["heading_error_deg"], dtype=np.float64)
-    lead = len(pos) - len(t)  # 1 where the start is prepended to the paths
-    if lead not in (0, 1) or len(true) != len(pos):
-        raise ValueError(f"trace of {len(t)} steps with {len(pos)} and {len(true)} positions")
-    if lead:
-        t = np.concatenate([[0.0], t])
-        yaw, true_yaw = (np.concatenate([a[:1], a]) for a in (yaw, true_yaw))
-    n = len(pos)
-    stride = max(1, math.ceil(n / (MAX_FRAMES - 1)))
-    idx = np.unique(np.concatenate([np.arange(0, n, stride), [n - 1]]))
-
-    def cm(a: np.ndarray) -> list[int]:
-        return np.rint(a * 100.0).astype(np.int64).ravel().tolist()
-
-    hits = [
-        [round(float(t[k + lead]) * 100), *cm(pos[k + lead]), COLLISION_CAUSES.index(cause)]
-        for k, cause in collision_events(tr)
-    ]
-    return {
-        "t": cm(t[idx]),
-        "v": cm(pos[idx]),
-        "r": cm(true[idx]),
-        "vy": np.rint(yaw[idx]).astype(np.int64).tolist(),
-        "ry": np.rint(true_yaw[idx]).astype(np.int64).tolist(),
-        "c": hits,
-    }
-
-
-def _room_svg(layout: Any, paths: Sequence[np.ndarray] = ()) -> tuple[str, str]:
-    """A layout's ``viewBox`` (y up: the SVG's y is minus the room's), widened to hold ``paths``
-    ((N, 2) points, m), and its walls, obstacles, target and goal as SVG elements (metres)."""
-    from vrloco_env.world import Box
-
-    parts = []
-    solids = [("wall", s) for s in layout.walls] + [("obstacle", s) for s in layout.obstacles]
-    if layout.target is not None:
-        solids.append(("target", layout.target))
-    for kind, s in solids:
-        if isinstance(s, Box):
-            c, sn = math.cos(s.yaw), math.sin(s.yaw)
-            hx, hy = s.half_extents
-            corners = np.array([[hx, hy], [-hx, hy], [-hx, -hy], [hx, -hy]])
-            pts = corners @ np.array([[c, sn], [-sn, c]]) + np.asarray(s.center)
-            points = " ".join(f"{x:.3f},{-y:.3f}" for x, y in pts)
-            parts.append(f'<polygon class="{kind}" points="{points}"/>')
-        else:
-            parts.append(
-                f'<circle class="{kind}" cx="{s.center[0]:.3f}" '
-                f'cy="{-s.center[1]:.3f}" r="{s.radius:.3f}"/>'
-            )
-    if layout.goal_line is not None:
-        (x0, y0), (x1, y1) = layout.goal_line
-        parts.append(
-            f'<line class="goal" x1="{x0:.3f}" y1="{-y0:.3f}" x2="{x1:.3f}" '
-            f'y2="{-y1:.3f}"><title>end line</title></line>'
-        )
-    else:
-        parts.append(
-            f'<circle class="goal" cx="{layout.goal[0]:.3f}" cy="{-layout.goal[1]:.3f}" '
-            f'r="{layout.goal_radius:.3f}"><title>goal</title></circle>'
-        )
-    wall = 2.0 * min(min(w.half_extents) for w in layout.walls) if layout.walls else 0.2
-    m = 1.5 * wall
-    xmin, xmax, ymin, ymax = layout.bounds
-    xmin, ymin, xmax, ymax = xmin - m, ymin - m, xmax + m, ymax + m
-    for a in paths:  # a true path is never blocked: it may leave the room
-        a = np.asarray(a, dtype=np.float64)
-        a = a[np.isfinite(a).all(axis=1)]
-        if a.size:
-            xmin, ymin = np.minimum([xmin, ymin], a.min(axis=0) - 0.2)
-            xmax, ymax = np.maximum([xmax, ymax], a.max(axis=0) + 0.2)
-    box = f"{xmin:.3f} {-ymax:.3f} {xmax - xmin:.3f} {ymax - ymin:.3f}"
-    return box, "".join(parts)
-
-
-def _replay_block(key: str, st: EpisodeStats) -> str:
-    """One episode's replay: its summary, the room (the script draws the paths) and controls."""
-    box, room = _room_svg(st.trace["layout"], (st.trace["position"], st.trace["true_position"]))
-    outcome = "success" if st.success else "failure"
-    n = st.collisions
-    return (
-        f'<figure class="replay" data-key="{key}"><figcaption>seed {st.seed} · {outcome} · '
-        f"{n} collision{'s' if n != 1 else ''} · {st.elapsed_s:.1f} s</figcaption>"
-        f'<svg class="room" viewBox="{box}" preserveAspectRatio="xMidYMid meet" role="img">'
-        f'<g class="static">{room}</g><g class="dyn"></g></svg>'
-        '<div class="ctl"><button type="button" class="play">play</button>'
-        '<input type="range" class="slider" min="0" max="0" value="0" step="1" '
-        'aria-label="time">'
-        '<select class="speed" aria-label="speed"><option value="1">1x</option>'
-        '<option value="2" selected>2x</option><option value="4">4x</option></select>'
-        '<span class="time"></span></div></figure>'
-    )
+# --------------------------------------------------------------------------- cells
 
 
 def _replay_legend() -> str:
@@ -612,179 +476,3 @@ def _img(path: Path) -> str:
         f'<figure class="fig"><img alt="{_e(path.name)}" src="data:image/png;base64,{data}">'
         f"<figcaption>{_e(path.name)}</figcaption></figure>"
     )
-
-
-# --------------------------------------------------------------------------- style, script
-
-_CSS = """
-body{font:14px/1.4 system-ui,-apple-system,"Segoe UI",Roboto,sans-serif;margin:0 1.5em 3em;
-color:#222;background:#fff}
-header{border-bottom:1px solid #ccc;margin-bottom:1em}
-h1{font-size:1.6em;margin:.6em 0 .2em}h2{font-size:1.3em;margin:1.4em 0 .4em;
-border-bottom:1px solid #eee}h3{font-size:1.05em;margin:1.2em 0 .2em}
-nav a{color:#1f5fa8}code{font-size:.95em}
-dl{display:grid;grid-template-columns:max-content auto;gap:.1em 1em;margin:.4em 0}
-dt{color:#555}dd{margin:0}
-.scroll{overflow-x:auto;max-width:100%}
-table{border-collapse:collapse;font-size:12.5px;margin:.3em 0}
-th,td{padding:2px 6px;border-bottom:1px solid #e4e4e4;white-space:nowrap}
-th.num{white-space:normal;min-width:3.5em;max-width:6.5em}
-thead th{background:#f2f4f7;position:sticky;top:0;text-align:left;vertical-align:bottom}
-table.sortable thead th{cursor:pointer;user-select:none}
-th.sorted-asc::after{content:" \\25B2";font-size:.8em}
-th.sorted-desc::after{content:" \\25BC";font-size:.8em}
-td.num,th.num{text-align:right;font-variant-numeric:tabular-nums}
-td.star{font-weight:600;color:#a3140e}
-tbody tr:nth-child(even){background:#fafbfc}tbody tr:hover{background:#eef4ff}
-table.grids td{white-space:normal}
-.note{color:#555;font-size:12px;margin:.2em 0}
-.fig{display:inline-block;margin:.3em .6em .3em 0;vertical-align:top}
-.fig img{max-width:100%;border:1px solid #eee}
-.fig figcaption{font-size:11px;color:#666}
-.replays{display:flex;flex-wrap:wrap;gap:14px}
-.replay{margin:0;width:400px;border:1px solid #ddd;border-radius:4px;padding:6px;background:#fcfcfc}
-.replay figcaption{font-size:12px;color:#333;margin-bottom:3px}
-.replay svg{width:100%;height:auto;max-height:380px;background:#fff;display:block}
-.ctl{display:flex;align-items:center;gap:6px;margin-top:4px;font-size:12px}
-.ctl .slider{flex:1}.ctl .time{min-width:7.5em;text-align:right;font-variant-numeric:tabular-nums}
-.wall{fill:#8c8c8c}.obstacle{fill:#9a9a9a}.target{fill:#a0785a}
-circle.goal{fill:none;stroke:#2ca02c;stroke-width:2;stroke-dasharray:5 3;
-vector-effect:non-scaling-stroke}
-line.goal{stroke:#2ca02c;stroke-width:2;stroke-dasharray:6 4;vector-effect:non-scaling-stroke}
-.full{fill:none;stroke-width:1;vector-effect:non-scaling-stroke;opacity:.35}
-.trail{fill:none;vector-effect:non-scaling-stroke;stroke-linejoin:round}
-.true-path{stroke:#333}.virt-path{stroke:#d62728}
-.trail.true-path{stroke-width:3.5;opacity:.45}.trail.virt-path{stroke-width:1.6}
-.face{stroke-width:2;vector-effect:non-scaling-stroke}
-.hit{stroke:#000;stroke-width:.8;vector-effect:non-scaling-stroke}
-.hit.later{opacity:.22}
-.legend .sw{display:inline-block;width:.8em;height:.8em;border-radius:50%;margin:0 .2em 0 .5em;
-border:1px solid #000;vertical-align:-1px}
-.legend .ln{display:inline-block;width:1.6em;height:0;margin:0 .3em 0 .6em;vertical-align:middle}
-.ln.true{border-top:3px solid rgba(51,51,51,.55)}.ln.virt{border-top:2px solid #d62728}
-details summary{cursor:pointer;color:#1f5fa8;margin:.4em 0}
-"""
-
-_JS = r"""
-(function () {
-  "use strict";
-  var CAUSES = %CAUSES%;
-  var COLOURS = %COLOURS%;
-
-  function sortValue(td) {
-    var v = td.getAttribute("data-v");
-    if (v === null) return td.textContent.trim().toLowerCase();
-    return v === "" ? null : parseFloat(v);
-  }
-  function sortBy(table, col, th) {
-    var asc = !th.classList.contains("sorted-asc");
-    Array.prototype.forEach.call(table.tHead.rows[0].cells, function (h) {
-      h.classList.remove("sorted-asc", "sorted-desc");
-    });
-    th.classList.add(asc ? "sorted-asc" : "sorted-desc");
-    var body = table.tBodies[0];
-    var rows = Array.prototype.slice.call(body.rows);
-    rows.sort(function (a, b) {
-      var x = sortValue(a.cells[col]), y = sortValue(b.cells[col]);
-      if (x === null && y === null) return 0;
-      if (x === null) return 1;  /* no value: last either way */
-      if (y === null) return -1;
-      var d = typeof x === "number" && typeof y === "number" ? x - y
-        : String(x).localeCompare(String(y));
-      return asc ? d : -d;
-    });
-    rows.forEach(function (r) { body.appendChild(r); });
-  }
-  Array.prototype.forEach.call(document.querySelectorAll("table.sortable"), function (table) {
-    Array.prototype.forEach.call(table.tHead.rows[0].cells, function (th, col) {
-      th.addEventListener("click", function () { sortBy(table, col, th); });
-    });
-  });
-
-  function el(name, attrs, parent) {  /* an SVG element, in the namespace of the page's own */
-    var e = document.createElementNS(parent.namespaceURI, name);
-    for (var k in attrs) e.setAttribute(k, attrs[k]);
-    parent.appendChild(e);
-    return e;
-  }
-  function pts(flat, n) {  /* the first n points, "x,-y ..." in metres */
-    var out = [];
-    for (var i = 0; i < n; i++) out.push(flat[2 * i] / 100 + "," + (-flat[2 * i + 1] / 100));
-    return out.join(" ");
-  }
-
-  function Replay(fig, d) {
-    var svg = fig.querySelector("svg"), dyn = fig.querySelector(".dyn");
-    var slider = fig.querySelector(".slider"), button = fig.querySelector(".play");
-    var speed = fig.querySelector(".speed"), label = fig.querySelector(".time");
-    var n = d.t.length, end = d.t[n - 1] / 100;
-    var vb = svg.viewBox.baseVal, arrow = 0.04 * Math.max(vb.width, vb.height);
-    el("polyline", {"class": "full true-path", points: pts(d.r, n)}, dyn);
-    el("polyline", {"class": "full virt-path", points: pts(d.v, n)}, dyn);
-    var trailTrue = el("polyline", {"class": "trail true-path"}, dyn);
-    var trailVirt = el("polyline", {"class": "trail virt-path"}, dyn);
-    var hits = d.c.map(function (c) {
-      var m = el("circle", {"class": "hit", cx: c[1] / 100, cy: -c[2] / 100,
-                            r: 0.012 * Math.max(vb.width, vb.height),
-                            fill: COLOURS[c[3]]}, dyn);
-      el("title", {}, m).textContent = "collision at " + (c[0] / 100).toFixed(1) + " s: "
-        + CAUSES[c[3]].replace(/_/g, " ");
-      return {t: c[0] / 100, node: m};
-    });
-    function marker(size, colour) {
-      var g = el("g", {}, dyn);
-      return {line: el("line", {"class": "face", stroke: colour}, g),
-              dot: el("circle", {r: size * Math.max(vb.width, vb.height), fill: colour}, g)};
-    }
-    var mv = marker(0.016, "#d62728"), mt = marker(0.011, "#333");  /* the true one on top */
-    function place(m, flat, yaw, i) {
-      var x = flat[2 * i] / 100, y = -flat[2 * i + 1] / 100, a = yaw[i] * Math.PI / 180;
-      m.dot.setAttribute("cx", x); m.dot.setAttribute("cy", y);
-      m.line.setAttribute("x1", x); m.line.setAttribute("y1", y);
-      m.line.setAttribute("x2", x + arrow * Math.cos(a));
-      m.line.setAttribute("y2", y - arrow * Math.sin(a));
-    }
-    var frame = 0, playing = false, clock = 0, last = 0, timer = null;
-    slider.max = String(n - 1);
-    function show(i) {
-      frame = i;
-      slider.value = String(i);
-      var now = d.t[i] / 100;
-      trailTrue.setAttribute("points", pts(d.r, i + 1));
-      trailVirt.setAttribute("points", pts(d.v, i + 1));
-      place(mt, d.r, d.ry, i); place(mv, d.v, d.vy, i);
-      hits.forEach(function (h) { h.node.classList.toggle("later", h.t > now + 1e-9); });
-      label.textContent = "t = " + now.toFixed(1) + " / " + end.toFixed(1) + " s";
-    }
-    function tick() {  /* 25 times a second: the episode's clock advances by speed x real time */
-      if (!playing) return;
-      var now = performance.now();
-      clock += (now - last) / 1000 * parseFloat(speed.value);
-      last = now;
-      var i = frame;
-      while (i < n - 1 && d.t[i + 1] / 100 <= clock) i++;
-      if (i !== frame) show(i);
-      if (i >= n - 1) { stop(); return; }
-      timer = setTimeout(tick, 40);
-    }
-    function stop() { playing = false; clearTimeout(timer); button.textContent = "play"; }
-    button.addEventListener("click", function () {
-      if (playing) { stop(); return; }
-      if (frame >= n - 1) show(0);
-      playing = true; last = performance.now(); clock = d.t[frame] / 100;
-      button.textContent = "pause";
-      timer = setTimeout(tick, 40);
-    });
-    slider.addEventListener("input", function () { stop(); show(parseInt(slider.value, 10)); });
-    show(n - 1);  /* the whole episode first; play starts it over */
-  }
-
-  var data = JSON.parse(document.getElementById("replay-data").textContent);
-  Array.prototype.forEach.call(document.querySelectorAll("figure.replay"), function (fig) {
-    Replay(fig, data[fig.getAttribute("data-key")]);
-  });
-  document.body.setAttribute("data-ready", "1");
-})();
-""".replace("%CAUSES%", json.dumps(list(COLLISION_CAUSES))).replace(
-    "%COLOURS%", json.dumps([CAUSE_COLOURS[c] for c in COLLISION_CAUSES])
-)

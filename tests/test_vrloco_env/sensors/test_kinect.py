@@ -29,6 +29,7 @@ from vrloco_env.sensors.kinect import (
     world_to_camera,
 )
 from vrloco_env.sensors.kinect import _kernel as _kinect_numba
+from vrloco_env.sensors.kinect._kernel import scene as _kinect_scene
 from vrloco_env.user import INFERRED, NOT_TRACKED, TRACKED, Joint
 
 FPS = 30.0
@@ -519,7 +520,7 @@ def test_facing_is_the_torso_angle_to_the_line_of_sight(tilt_deg):
     cam = world_to_camera(spec, joints)
     geo = KinectV2(spec, BatchRng.from_seeds([0])).geometry[0]
     facing, near = np.empty(n), np.empty(n)
-    _kinect_numba._facing(n, geo, cam, (facing, near))
+    _kinect_scene._facing(n, geo, cam, (facing, near))
     cx, cy, _ = spec.camera_position_m
     to_sensor = np.arctan2(cy - pos[:, 1], cx - pos[:, 0])
     rel = wrap_deg(np.degrees(to_sensor - yaw))  # the sensor's bearing from the body's front
