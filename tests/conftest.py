@@ -1,5 +1,5 @@
 """Shared fixtures: a seeded generator, and the real recordings as :mod:`agents.recordings.data`
-finds them (``$VRLOCO_DATA``, which this session points at ../shared/data beside the repository
+finds them (``$VRLOCO_DATA``, which the test session points at ../shared/data beside the repository
 unless it is set, else the download cache)."""
 
 import os
