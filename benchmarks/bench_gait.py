@@ -35,6 +35,7 @@ from agents.recordings.data import DataMissing, data_path
 from estimators.kernels import python_reference
 from estimators.rotations import GRAVITY
 from estimators.steps import GaitParams, StepDetector, detect_steps
+from vrloco_env.user.scripts import SCRIPTS
 
 
 def bench_speed(b: int = 256, chunk: int = 10, seconds: float = 60.0) -> None:
@@ -99,20 +100,7 @@ def bench_simulator(users: int = 32) -> None:
         return
     print(f"simulator (vrloco_env.user.motion scripts, {users} users, 100 Hz):")
     print(f"  {'script':<16} {'imu':<14} {'true':>6} {'found':>6} {'min F1':>7} {'phantom':>8}")
-    cases = [
-        (s, {})
-        for s in (
-            "stand",
-            "serpentine",
-            "pitch",
-            "shake",
-            "spin",
-            "backward",
-            "straight",
-            "avoid",
-            "stand_step_turn",
-        )
-    ]
+    cases = [(s, {}) for s in SCRIPTS]
     cases += [("straight", {"cadence": c}) for c in (1.2, 2.2)]
     for name, kw in cases:
         for spec in ("consumer_mems", "ig500n"):
