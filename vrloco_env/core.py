@@ -155,7 +155,6 @@ class LocoCore(TakesUsers):
             config.motion,
             sensors,
             self.stages,
-            pose_source=config.pose_source,
             play_area=config.play_area,
         )
         self.dt = self.users.dt

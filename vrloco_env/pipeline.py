@@ -47,6 +47,8 @@ class Stages:
             source (it replaces the attitude stage and the locomotion); None walking in place.
         step_length: the locomotion's step length (m): also how far a true step carries the
             virtual body under perfect sensing.
+        pose_source: what moves the virtual head (``"walk_in_place"``, or
+            ``"visual_inertial"`` with a tracker; :attr:`vrloco_env.config.EnvConfig.pose_source`).
         labels: stage -> the short name of its choice.
         trusted: stage -> whether it is one of the package's own (used as built); the others
             are :class:`~estimators.checked.CheckedStage` proxies of the plug-in.
@@ -61,6 +63,7 @@ class Stages:
     cadence: CadenceEstimator
     tracker: VisualInertialTracker | None
     step_length: float
+    pose_source: str
     labels: dict[str, str]
     trusted: dict[str, bool]
 
@@ -129,6 +132,7 @@ def build_stages(
         cadence=CadenceEstimator(batch_size),
         tracker=tracker,
         step_length=estimators.step_length,
+        pose_source=pose_source,
         labels=labels,
         trusted=trusted,
     )

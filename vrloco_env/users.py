@@ -39,7 +39,7 @@ from estimators.locomotion.steering import torso_yaw
 from vrloco_env._core_numba import quat_to_ypr_rows, step_summary_kernel
 from vrloco_env._hand_frame_numba import hand_relative_to_torso
 from vrloco_env.batch_rng import BatchRng
-from vrloco_env.config import POSE_SOURCES, SensorConfig
+from vrloco_env.config import SensorConfig
 from vrloco_env.pipeline import Stages
 from vrloco_env.sensors.camera import layout_landmarks
 from vrloco_env.sensors.imu import HeadImu, ImuSamples
@@ -143,12 +143,11 @@ class SimulatedUsers(TakesUsers):
         batch_size: B.
         rng: one random stream per user (:class:`~vrloco_env.batch_rng.BatchRng`).
         motion: the body model's parameters. Its sensor rates and ``overground`` follow from
-            ``sensors`` and ``pose_source``; set to anything but their defaults, they must agree.
+            ``sensors`` and the stages' pose source; set to anything but their defaults, they
+            must agree.
         sensors: IMU and Kinect configuration.
-        stages: every estimator, built for these users and ``pose_source``
-            (:func:`vrloco_env.pipeline.build_stages`).
-        pose_source: ``"walk_in_place"`` or ``"visual_inertial"``
-            (:attr:`vrloco_env.config.EnvConfig.pose_source`).
+        stages: every estimator, built for these users and a pose source
+            (:func:`vrloco_env.pipeline.build_stages`), whose pose source the users follow.
         play_area: the physical tracked space and drift model
             (:mod:`vrloco_env.user.play_area`; default: a 2 x 2 m area). Walking in place, a
             user whose drift rate is set (:meth:`set_drift`) drifts while stepping; each
@@ -193,20 +192,12 @@ class SimulatedUsers(TakesUsers):
         motion: MotionParams,
         sensors: SensorConfig,
         stages: Stages,
-        pose_source: str = "walk_in_place",
         play_area: PlayArea | None = None,
     ) -> None:
-        if pose_source not in POSE_SOURCES:
-            raise ValueError(f"pose_source={pose_source!r}: must be one of {POSE_SOURCES}")
-        self.pose_source = pose_source
-        self.overground = pose_source == "visual_inertial"
+        self.pose_source = stages.pose_source
+        self.overground = stages.pose_source == "visual_inertial"
         if rng.batch_size != batch_size:
             raise ValueError(f"rng has {rng.batch_size} streams, expected {batch_size}")
-        if (stages.tracker is not None) != self.overground:
-            raise ValueError(
-                f"stages were built for another pose source than pose_source={pose_source!r} "
-                f"(build them with build_stages(..., pose_source={pose_source!r}))"
-            )
         self.batch_size = b = batch_size
         self.rng = rng
         self.sensors = sensors
