@@ -113,6 +113,7 @@ def _out_file(text: str) -> str:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from agents.benchmark.conditions import CONDITIONS
     from agents.benchmark.grid import (
         DEFAULT_BATCH_SIZE,
         DEFAULT_EPISODES,
@@ -120,6 +121,8 @@ def build_parser() -> argparse.ArgumentParser:
         DEFAULT_TASKS,
         DEFAULT_TECHNIQUES,
     )
+    from agents.scripted import POLICIES
+    from vrloco_env.sensors.imu.spec import PRESETS
     from vrloco_env.tasks import TASKS
     from vrloco_env.user.population import POPULATIONS
 
@@ -256,7 +259,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     bench.add_argument(
         "--policies",
-        help="comma-separated users: goal_seeker, avoid_manoeuvre, reactive_avoider; append "
+        help=f"comma-separated users: {', '.join(POLICIES)}, a stable-baselines3 .zip or "
+        "'module:attr'; append "
         f"+<population> ({', '.join(POPULATIONS)}) for a human population "
         f"(main grid: {','.join(DEFAULT_POLICIES)})",
     )
@@ -267,14 +271,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     bench.add_argument(
         "--sensors",
-        help="comma-separated IMU presets: shorthand for Zhang 2021's chain on each "
-        "(ig500n = zhang2021, consumer_mems = zhang2021_consumer), added to --techniques",
+        help=f"comma-separated IMU presets ({', '.join(PRESETS)}): shorthand for Zhang 2021's "
+        "chain on each, added to --techniques",
     )
     bench.add_argument(
         "--conditions",
-        help="comma-separated physical-room conditions (agents.benchmark.conditions): "
-        "lab (nothing near the play area), beside_metal (a steel cabinet at its edge); each a grid "
-        "axis (main grid: lab)",
+        help=f"comma-separated physical-room conditions ({', '.join(CONDITIONS)}; "
+        "agents.benchmark.conditions); each a grid axis (main grid: lab)",
     )
     bench.add_argument(
         "--episodes", type=_int_at_least(1), default=DEFAULT_EPISODES, help="episodes per cell"
@@ -353,10 +356,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     train.add_argument(
         "--population",
-        help="the users' head behaviour in the env: a user population (default: "
-        "none, the head straight on the torso)",
+        help=f"the users' head behaviour in the env: a user population ({', '.join(POPULATIONS)}; "
+        "default: none, the head straight on the torso)",
     )
-    train.add_argument("--condition", help="the physical room's condition (default: lab)")
+    train.add_argument(
+        "--condition",
+        help=f"the physical room's condition ({', '.join(CONDITIONS)}; default: lab)",
+    )
     train.add_argument(
         "--frame-stack",
         type=_int_at_least(1),
