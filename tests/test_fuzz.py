@@ -202,6 +202,9 @@ OPEN_FIELDS = {
     "EstimatorConfig": {"attitude", "steps", "hand", "steering", "locomotion"},  # plug-ins
 }
 
+#: Fields that take None besides their default's kind, by design.
+OPTIONAL_FIELDS = {"EnvConfig": {"max_episode_steps"}}  # None: a wrapper ends the episode
+
 
 def _build(cls, data, values):
     """Draw a few fields (values from ``values(default)``) and build the class with them."""
@@ -218,6 +221,8 @@ def _build(cls, data, values):
     for f in chosen:
         if f.name not in OPEN_FIELDS.get(cls.__name__, ()):
             value = getattr(obj, f.name)
+            if value is None and f.name in OPTIONAL_FIELDS.get(cls.__name__, ()):
+                continue
             assert _sane(value, _default(f)), f"{cls.__name__}.{f.name}={value!r} was accepted"
     return obj
 
@@ -294,7 +299,11 @@ def env_kwargs(draw):
         (config.RewardConfig, "reward"),
         (RoomConfig, "room"),
     ):
-        flds = [f for f in dataclasses.fields(cls) if f.init and f.name != "motion"]
+        flds = [
+            f
+            for f in dataclasses.fields(cls)
+            if f.init and f.name not in ("motion", "max_episode_steps")  # gym.make's argument
+        ]
         chosen = draw(st.lists(st.sampled_from(flds), max_size=2, unique=True))
         values = {f.name: draw(_near(_default(f))) for f in chosen}
         try:
@@ -302,6 +311,7 @@ def env_kwargs(draw):
         except ValueError:
             pass
     kw["estimators"] = config.EstimatorConfig(step_length=draw(st.floats(0.2, 1.5)))
+    kw["max_episode_steps"] = draw(st.integers(1, 100_000))
     return kw
 
 

@@ -206,7 +206,9 @@ class EnvConfig:
 
     Attributes:
         motion: the simulated body (rates, cadence range, turn and hand limits).
-        max_episode_steps: control steps before truncation (600 = 60 s at 10 Hz).
+        max_episode_steps: control steps before truncation (600 = 60 s at 10 Hz); None: the
+            env sets no horizon of its own and a wrapper ends the episode (what the ids'
+            entry point builds under ``gym.make``, whose ``TimeLimit`` holds the horizon).
         terminate_on_collision: end the episode at the first blocked step.
         ray_count: rays cast from the virtual head, spread over ``ray_fov_deg``.
         ray_fov_deg: angular spread of the rays, centred on the virtual heading (deg).
@@ -236,7 +238,7 @@ class EnvConfig:
     """
 
     motion: MotionParams = field(default_factory=MotionParams)
-    max_episode_steps: int = 600
+    max_episode_steps: int | None = 600
     terminate_on_collision: bool = False
     ray_count: int = 15
     ray_fov_deg: float = 180.0
@@ -250,7 +252,8 @@ class EnvConfig:
         check_instance(self, "play_area", PlayArea)
         if self.population is not None:
             get_population(self.population, "EnvConfig.population")
-        check_in_range(self, "max_episode_steps", 1, 100_000, integer=True)
+        if self.max_episode_steps is not None:
+            check_in_range(self, "max_episode_steps", 1, 100_000, integer=True)
         check_bool(self, "terminate_on_collision")
         check_in_range(self, "ray_count", 1, 360, integer=True)
         check_in_range(self, "ray_fov_deg", 0.0, 360.0, "deg", lo_open=True)

@@ -329,7 +329,10 @@ class LocoCore(TakesUsers):
         finished = self.task.finished(ep.distance <= 0.0, us)
         success = finished & ((ep.collisions == 0) | (not self.task.collision_free_success))
         terminated = finished | (blocked & cfg.terminate_on_collision)
-        truncated = (ep.elapsed >= cfg.max_episode_steps) & ~terminated
+        if cfg.max_episode_steps is None:  # a wrapper (gymnasium's TimeLimit) ends it
+            truncated = np.zeros_like(terminated)
+        else:
+            truncated = (ep.elapsed >= cfg.max_episode_steps) & ~terminated
         ep.done = terminated | truncated
         reward = (
             rw.progress * (prev - ep.distance)

@@ -34,7 +34,6 @@ from typing import Any, ClassVar
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
-from gymnasium.envs.registration import EnvSpec
 from numpy.typing import NDArray
 
 from vrloco_env.actions import ACTION_SIZE, check_action
@@ -112,7 +111,15 @@ def make_configs(
     if locomotion is not None:
         estimators = replace(estimators, locomotion=locomotion)
     if max_episode_steps is not None:
-        config = replace(config, max_episode_steps=max_episode_steps)
+        horizon = replace(config, max_episode_steps=max_episode_steps)  # checks the value
+        if config.max_episode_steps not in (EnvConfig.max_episode_steps, max_episode_steps):
+            raise ValueError(
+                f"max_episode_steps={max_episode_steps!r} contradicts config=EnvConfig("
+                f"max_episode_steps={config.max_episode_steps}); give one (gym.make_vec gives "
+                f"the id's registered max_episode_steps={EnvConfig.max_episode_steps} when you "
+                "give none: give the horizon as gym.make_vec(..., max_episode_steps=N))"
+            )
+        config = horizon
     if pose_source is not None:
         config = replace(config, pose_source=pose_source)
     if population is not None:
@@ -164,19 +171,6 @@ class VRLocoEnv(gym.Env):
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array", "human"], "render_fps": 10}
-    _spec: EnvSpec | None = None
-
-    @property
-    def spec(self) -> EnvSpec | None:  # type: ignore[override]
-        """The spec ``gym.make`` set, with the env's own horizon as ``max_episode_steps`` (so
-        that ``gym.make(env.spec)`` rebuilds the same episodes)."""
-        if self._spec is None:
-            return None
-        return replace(self._spec, max_episode_steps=self.config.max_episode_steps)
-
-    @spec.setter
-    def spec(self, value: EnvSpec | None) -> None:
-        self._spec = value
 
     def __init__(
         self,

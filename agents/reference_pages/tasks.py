@@ -262,9 +262,10 @@ def _ending(cls: type, rule: str) -> list[str]:
                 "- **Terminated**: the task is finished (success or not), or a step is blocked "
                 "while `EnvConfig.terminate_on_collision` is True (default "
                 f"{env.terminate_on_collision}).",
-                "- **Truncated**: `EnvConfig.max_episode_steps` control steps have passed "
-                f"without termination (default: {_horizon()}); `gym.make(id, "
-                "max_episode_steps=N)` sets the same value (`vrloco_env/registration.py`).",
+                "- **Truncated**: the horizon has passed without termination (default: "
+                f"{_horizon()}): `gym.make(id, max_episode_steps=N)` through gymnasium, "
+                "`EnvConfig.max_episode_steps` through the classes "
+                "(`vrloco_env/registration.py`).",
             ]
         ),
     ]

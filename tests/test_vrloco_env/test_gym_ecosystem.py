@@ -7,6 +7,7 @@ import pytest
 import vrloco_env  # noqa: F401
 from vrloco_env import ENV_IDS
 from vrloco_env.config import EnvConfig
+from vrloco_env.env import VRLocoEnv
 
 _ACTIONS = np.random.default_rng(3).uniform(-1, 1, (40, 2, 5)).astype(np.float32)
 _ACTIONS[:, :, 0] = np.abs(_ACTIONS[:, :, 0])  # walking: steps are taken and detected
@@ -88,45 +89,51 @@ def _episode_length(env) -> int:
     raise AssertionError("no truncation")
 
 
-@pytest.mark.parametrize(
-    "kwargs",
-    [
-        {"max_episode_steps": 37},
-        {"config": EnvConfig(max_episode_steps=37)},
-        {"max_episode_steps": 37, "config": EnvConfig(max_episode_steps=37)},
-        {"max_episode_steps": 37, "config": EnvConfig(ray_count=7)},
-    ],
-    ids=["make-argument", "config", "both", "argument-and-other-config"],
-)
-def test_both_spellings_of_the_horizon_are_honoured(kwargs):
-    env = gym.make("VRLoco-Avoid-v0", **kwargs)
-    assert _episode_length(env) == 37
-    assert env.spec.max_episode_steps == 37
-    again = gym.make(env.spec)  # the spec rebuilds the same horizon
-    assert _episode_length(again) == 37
-    envs = gym.make_vec("VRLoco-Avoid-v0", num_envs=1, **kwargs)
+def _vector_episode_length(envs) -> int:
     envs.reset(seed=0)
-    length = 0
-    while True:
-        length += 1
+    for length in range(1, 5000):
         *_, tr, _ = envs.step(np.array([[-1.0, 0, 0, 0, 0]], np.float32))
-        if tr[0] or length > 100:
-            break
-    assert length == 37
-    env.close()
-    again.close()
-    envs.close()
+        if tr[0]:
+            return length
+    raise AssertionError("no truncation")
+
+
+def test_gym_makes_horizon_is_its_argument_and_the_spec_rebuilds_it():
+    env = gym.make("VRLoco-Avoid-v0", max_episode_steps=37)
+    assert env.spec.max_episode_steps == 37
+    assert env.unwrapped.config.max_episode_steps is None  # the TimeLimit alone ends it
+    assert _episode_length(env) == 37
+    again = gym.make(env.spec)
+    assert _episode_length(again) == 37
+    longer = gym.make("VRLoco-Avoid-v0", max_episode_steps=700)  # past the default
+    assert _episode_length(longer) == 700
+    for mode in ("vector_entry_point", "sync", "async"):
+        envs = gym.make_vec("VRLoco-Avoid-v0", 1, vectorization_mode=mode, max_episode_steps=37)
+        assert _vector_episode_length(envs) == 37
+        envs.close()
+    for e in (env, again, longer):
+        e.close()
+
+
+def test_the_classes_horizon_is_the_configs():
+    for kwargs in ({"max_episode_steps": 37}, {"config": EnvConfig(max_episode_steps=37)}):
+        assert _episode_length(VRLocoEnv("avoid", **kwargs)) == 37
 
 
 def test_default_horizon_is_600_steps():
     env = gym.make("VRLoco-Approach-v0")
     assert env.spec.max_episode_steps == 600
     assert _episode_length(env) == 600
+    assert _episode_length(VRLocoEnv()) == 600
 
 
-def test_contradicting_horizons_are_an_error():
-    with pytest.raises(ValueError, match="contradicts"):
-        gym.make("VRLoco-Approach-v0", max_episode_steps=10, config=EnvConfig(max_episode_steps=20))
+def test_a_horizon_gym_make_would_not_see_or_a_contradiction_is_an_error():
+    with pytest.raises(ValueError, match=r"give it as gym.make\(id, max_episode_steps=20\)"):
+        gym.make("VRLoco-Approach-v0", config=EnvConfig(max_episode_steps=20))
+    with pytest.raises(ValueError, match=r"max_episode_steps=10 contradicts config=EnvConfig"):
+        VRLocoEnv(max_episode_steps=10, config=EnvConfig(max_episode_steps=20))
+    with pytest.raises(ValueError, match=r"registered max_episode_steps=600"):
+        gym.make_vec("VRLoco-Approach-v0", 1, config=EnvConfig(max_episode_steps=20))
 
 
 def test_importing_and_building_the_simulation_prints_nothing():
