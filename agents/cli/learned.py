@@ -20,6 +20,8 @@ def cmd_train(args: argparse.Namespace) -> int:
         population=args.population,
         condition=args.condition,
     )
+    if args.reward is not None:
+        common["reward"] = args.reward
     if args.address is not None and args.backend == "local":
         print("vrloco train: --address needs --backend ray or rllib", file=sys.stderr)
         return 2

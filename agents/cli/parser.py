@@ -4,6 +4,7 @@ and :func:`build_parser`, the tree of subcommands, each bound to its command fun
 from __future__ import annotations
 
 import argparse
+import dataclasses
 from pathlib import Path
 
 from agents.cli.benchmark import cmd_benchmark
@@ -20,6 +21,7 @@ from agents.cli.learned import cmd_evaluate, cmd_train
 from agents.cli.overview import cmd_demo, cmd_techniques
 from agents.cli.recordings import cmd_data, cmd_estimate, cmd_record
 from vrloco_env import __version__
+from vrloco_env.config import RewardConfig
 
 
 class _Help(argparse.ArgumentDefaultsHelpFormatter):
@@ -62,6 +64,27 @@ def _seed_list(text: str) -> list[int]:
             raise argparse.ArgumentTypeError(f"seed {seed} is given twice")
         seeds.append(seed)
     return seeds
+
+
+def _reward_terms(text: str) -> RewardConfig:
+    """An argparse type: ``TERM=W,...`` over the default :class:`RewardConfig`."""
+    terms = {}
+    names = [f.name for f in dataclasses.fields(RewardConfig)]
+    for part in text.split(","):
+        name, sep, value = part.partition("=")
+        name = name.strip()
+        if not sep or name not in names:
+            raise argparse.ArgumentTypeError(
+                f"{part.strip()!r}: give TERM=WEIGHT with TERM one of {', '.join(names)}"
+            )
+        try:
+            terms[name] = float(value)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name}={value.strip()!r}: not a number") from None
+    try:
+        return RewardConfig(**terms)
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
 
 
 def _preset(text: str) -> str:
@@ -374,6 +397,14 @@ def build_parser() -> argparse.ArgumentParser:
         "--recurrent",
         action="store_true",
         help="an LSTM policy (sb3-contrib's RecurrentPPO) instead of PPO's feed-forward one",
+    )
+    train.add_argument(
+        "--reward",
+        type=_reward_terms,
+        metavar="TERM=W,...",
+        help="the training objective's weights over the env's RewardConfig (terms: "
+        + ", ".join(f.name for f in dataclasses.fields(RewardConfig))
+        + "), e.g. collision=10; the task and its measures stay the same",
     )
     train.add_argument(
         "--eval-every", type=_int_at_least(1), default=100_000, help="steps between evals"

@@ -138,6 +138,7 @@ def train_ppo(
     condition: str | None = None,
     frame_stack: int = 1,
     recurrent: bool = False,
+    reward: Any = None,
     **ppo_kwargs: Any,
 ) -> Path:
     """Train PPO on ``task``; returns the path of the final model (``.zip``).
@@ -156,6 +157,9 @@ def train_ppo(
             (:class:`~vrloco_env.wrappers.FrameStack`; 1: the observation alone).
         recurrent: train sb3-contrib's ``RecurrentPPO`` with its LSTM policy
             (``MlpLstmPolicy``) instead of PPO's feed-forward one.
+        reward: the training objective, a :class:`~vrloco_env.config.RewardConfig` (None: the
+            env's default terms). It shapes what the user learns, not the task: success,
+            collisions and time are measured the same under any reward.
         ppo_kwargs: PPO's settings over :func:`defaults_ppo`.
 
     Both ``frame_stack`` and ``recurrent`` are saved as ``model.vrloco_policy``.
@@ -180,7 +184,9 @@ def train_ppo(
             stacklevel=2,
         )
     settings = {**defaults_ppo(), **ppo_kwargs}
-    env_kwargs = env_settings(task, sensor_preset, technique, population, condition)
+    env_kwargs = env_settings(
+        task, sensor_preset, technique, population, condition, **_reward_kwargs(reward)
+    )
     policy_kwargs = _policy_settings(frame_stack, recurrent)
     steps = rollout_steps(steps, settings["n_steps"], num_envs)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -426,11 +432,23 @@ def train_seeds(
     return paths
 
 
+def _reward_kwargs(reward: Any) -> dict[str, Any]:
+    """``reward`` as :func:`env_settings`' keyword (none for None), checked."""
+    from vrloco_env.config import RewardConfig
+
+    if reward is None:
+        return {}
+    if not isinstance(reward, RewardConfig):
+        raise ValueError(f"reward={reward!r}: must be a RewardConfig or None")
+    return {"reward": reward}
+
+
 def _check_run(task: str, train_kwargs: dict[str, Any]) -> None:
     """The cell and the policy settings of :func:`train_ppo`'s keywords, checked (its errors)."""
     env_settings(
         task,
         *(train_kwargs.get(k) for k in ("sensor_preset", "technique", "population", "condition")),
+        **_reward_kwargs(train_kwargs.get("reward")),
     )
     _policy_settings(train_kwargs.get("frame_stack", 1), train_kwargs.get("recurrent", False))
 

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from agents.learned import SB3VecEnv, evaluate_model, train_ppo  # before torch: see its docs
+from vrloco_env.config import RewardConfig
 from vrloco_env.vector import VRLocoVectorEnv
 
 
@@ -603,6 +604,8 @@ def test_train_passes_the_cell_and_the_policy_options_on(tmp_path, monkeypatch, 
                 "--frame-stack",
                 "4",
                 "--recurrent",
+                "--reward",
+                "collision=10,time=0.02",
                 "--out",
                 str(tmp_path),
             ]
@@ -610,6 +613,7 @@ def test_train_passes_the_cell_and_the_policy_options_on(tmp_path, monkeypatch, 
         == 0
     )
     assert seen["task"] == "reach" and seen["seeds"] == [0]
+    assert seen["reward"] == RewardConfig(collision=10.0, time=0.02)  # the rest: defaults
     assert {
         k: seen[k]
         for k in (
