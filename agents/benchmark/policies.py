@@ -8,6 +8,7 @@ A policy spec is one of
   ``factory(env)`` that returns an object with the :class:`~agents.scripted.Policy` protocol
   (``reset(rng=None, rows=None)``, ``act(obs) -> action``);
 * the path of a stable-baselines3 PPO model (``.zip``), played with its deterministic policy;
+* ``ppo``: the learned user shipped for the env's task (:mod:`agents.learned.users`);
 
 each optionally followed by ``+<population>`` for the agent-side variability of a user population
 (:mod:`vrloco_env.user.population`) through :class:`agents.benchmark.variability.HumanVariability`
@@ -33,6 +34,7 @@ from vrloco_env.wrappers import StackedFrames
 
 __all__ = [
     "HUMAN_SUFFIX",
+    "SHIPPED",
     "LearnedPolicy",
     "build_policy",
     "check_policy",
@@ -41,6 +43,8 @@ __all__ = [
 ]
 
 HUMAN_SUFFIX = "+human"
+#: The policy spec of the shipped learned user of each task.
+SHIPPED = "ppo"
 
 
 def _split(spec: str) -> tuple[str, str | None]:
@@ -73,7 +77,7 @@ def check_policy(spec: str) -> str:
     is allowed. Checks what can be checked without an env: a scripted name, an existing model
     file, an importable ``module:attr``."""
     base, _ = _split(spec)
-    if base in POLICIES:
+    if base in POLICIES or base == SHIPPED:
         return spec
     if base.endswith(".zip"):
         if not Path(base).is_file():
@@ -93,7 +97,8 @@ def check_policy(spec: str) -> str:
         return spec
     raise POLICIES.unknown(
         spec,
-        also="a stable-baselines3 model (.zip) or 'package.module:attr', optionally with "
+        also=f"{SHIPPED!r} (the task's shipped learned user), a stable-baselines3 model "
+        "(.zip) or 'package.module:attr', optionally with "
         f"'+<population>' ({', '.join(POPULATIONS)}; e.g. goal_seeker{HUMAN_SUFFIX})",
     )
 
@@ -121,7 +126,7 @@ class LearnedPolicy(TakesUsers):
     per_user_parts = ("_frames",)
 
     def __init__(self, path: str | Path, env: Any, allow_mismatch: bool = False) -> None:
-        from agents.learned.models import model_policy
+        from agents.learned.models import model_policy, observation_change
 
         self.path = Path(path)
         self.name = f"ppo:{self.path.name}"
@@ -137,6 +142,14 @@ class LearnedPolicy(TakesUsers):
             raise ValueError(
                 f"policy {str(self.path)!r} was trained on task {settings.get('task')!r}, not "
                 f"{task!r}"
+            )
+        spec = getattr(env.unwrapped, "observation_spec", None)
+        saved = getattr(self.model, "vrloco_observation", None)
+        changed = None if spec is None else observation_change(saved, spec)
+        if changed is not None:
+            raise ValueError(
+                f"policy {str(self.path)!r} is stale: {changed}; train it again on this "
+                f"version (vrloco train){_trained_on(self.model)}"
             )
         seen = model_policy(self.model)
         self.frame_stack, self.recurrent = seen["frame_stack"], seen["recurrent"]
@@ -287,14 +300,19 @@ def _recurrent_policy(data: bytes) -> bool:
     return isinstance(module, str) and module.startswith("sb3_contrib.common.recurrent")
 
 
-#: PPO models loaded in this process, by resolved path (:func:`_load_ppo`), at most 8.
-_MODELS: dict[str, Any] = {}
+#: PPO models loaded in this process, by resolved path and file version (:func:`_load_ppo`), at
+#: most 8.
+_MODELS: dict[Any, Any] = {}
 
 
 def _load_ppo(path: Path) -> Any:
     """A PPO model (:func:`load_ppo`, its errors naming ``path`` as given), loaded once per
-    process (the policy is stateless)."""
-    key = str(path.resolve())
+    process and file version (the policy is stateless; a file saved again is loaded again)."""
+    try:
+        stat = path.stat()
+        key: Any = (str(path.resolve()), stat.st_mtime_ns, stat.st_size)
+    except OSError:
+        key = str(path)  # load_ppo names what is wrong with it
     if key not in _MODELS:
         model = load_ppo(path)
         if len(_MODELS) >= 8:
@@ -312,6 +330,12 @@ def build_policy(spec: str, env: Any) -> Any:
         policy = make_policy(base, ObservationLayout.from_env(env), params_from_env(env))
     elif base.endswith(".zip"):
         policy = LearnedPolicy(base, env)
+    elif base == SHIPPED:
+        from agents.learned.users import shipped_user
+
+        user = shipped_user(env.unwrapped.task_name)
+        policy = LearnedPolicy(user.path, env)
+        policy.name = SHIPPED
     else:
         from estimators.registry import load_attr
 

@@ -130,6 +130,8 @@ def cell_inputs(cells: Iterable[Any]) -> dict[Any, str]:
 def _cell_parts(cell: Any) -> tuple[list[str], set[Path], set[Path]]:
     """A cell's configuration texts, its plug-ins' root folders and its model files."""
     from agents.benchmark.conditions import get_condition
+    from agents.benchmark.policies import SHIPPED
+    from agents.learned.users import LEARNED_USERS
     from estimators import stages
     from estimators.registry import load_attr
     from vrloco_env.config import STAGE_FIELDS
@@ -147,6 +149,8 @@ def _cell_parts(cell: Any) -> tuple[list[str], set[Path], set[Path]]:
         base = cell.policy
     if base.endswith(".zip"):
         blobs.add(Path(base).resolve())
+    elif base == SHIPPED and cell.task in LEARNED_USERS:
+        blobs.add(LEARNED_USERS[cell.task].path)
     elif ":" in base:
         origins += [base, load_attr(base, "policy")]
     tech = get_technique(cell.technique)

@@ -282,8 +282,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     bench.add_argument(
         "--policies",
-        help=f"comma-separated users: {', '.join(POLICIES)}, a stable-baselines3 .zip or "
-        "'module:attr'; append "
+        help=f"comma-separated users: {', '.join(POLICIES)}, ppo (the task's shipped learned "
+        "user), a stable-baselines3 .zip or 'module:attr'; append "
         f"+<population> ({', '.join(POPULATIONS)}) for a human population "
         f"(main grid: {','.join(DEFAULT_POLICIES)})",
     )

@@ -42,15 +42,32 @@ episode's last observation goes to ``infos[i]["terminal_observation"]`` and a ti
 from agents.learned import threads  # noqa: F401  (first: before any module imports torch)
 
 # isort: split
-from agents.learned.evaluate import evaluate_model
-from agents.learned.models import (
-    CELL_KEYS,
-    env_settings,
-    model_cell,
-    model_env_settings,
-    model_policy,
-)
-from agents.learned.train import RolloutThreads, SB3VecEnv, make_model, train_ppo, train_seeds
+from typing import Any
+
+#: name -> module of this package's public API, imported on first use (so that importing a
+#: light sub-package, :mod:`agents.learned.users`, does not import torch).
+_PUBLIC = {
+    "evaluate_model": "agents.learned.evaluate",
+    "CELL_KEYS": "agents.learned.models",
+    "env_settings": "agents.learned.models",
+    "model_cell": "agents.learned.models",
+    "model_env_settings": "agents.learned.models",
+    "model_policy": "agents.learned.models",
+    "RolloutThreads": "agents.learned.train",
+    "SB3VecEnv": "agents.learned.train",
+    "make_model": "agents.learned.train",
+    "train_ppo": "agents.learned.train",
+    "train_seeds": "agents.learned.train",
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _PUBLIC:
+        raise AttributeError(f"module 'agents.learned' has no attribute {name!r}")
+    import importlib
+
+    return getattr(importlib.import_module(_PUBLIC[name]), name)
+
 
 __all__ = [
     "CELL_KEYS",

@@ -9,7 +9,15 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-__all__ = ["CELL_KEYS", "env_settings", "model_cell", "model_env_settings", "model_policy"]
+__all__ = [
+    "CELL_KEYS",
+    "env_settings",
+    "model_cell",
+    "model_env_settings",
+    "model_policy",
+    "observation_change",
+    "observation_layout",
+]
 
 
 #: The names of a training cell, as :attr:`model.vrloco_cell <train_ppo>` stores them.
@@ -138,3 +146,46 @@ def model_policy(model: Any) -> dict[str, Any]:
     saved = getattr(model, "vrloco_policy", None)
     frames = saved.get("frame_stack", 1) if isinstance(saved, dict) else 1
     return {"frame_stack": int(frames), "recurrent": is_recurrent(model)}
+
+
+def observation_layout(spec: Any) -> list[dict[str, Any]]:
+    """The observation's fields as a model stores them (``model.vrloco_observation``): for each
+    field of the env's :class:`~vrloco_env.observation.ObservationSpec`, in order, its ``name``,
+    ``entries``, ``scale`` and ``unit``."""
+    return [
+        {"name": f.name, "entries": list(f.entries), "scale": float(f.scale), "unit": f.unit}
+        for f in spec.fields
+    ]
+
+
+def observation_change(saved: Any, spec: Any) -> str | None:
+    """What differs between the observation a model was trained on (``saved``, from
+    :func:`observation_layout`) and the env's ``spec``: one phrase naming the first field that
+    changed (added, removed, moved, resized, rescaled or in another unit), or None where they
+    are the same (or the model stored no layout)."""
+    if not isinstance(saved, list):
+        return None
+    now = observation_layout(spec)
+    old_names = [f.get("name") for f in saved]
+    new_names = [f["name"] for f in now]
+    for name in new_names:
+        if name not in old_names:
+            return f"the env's observation has a field {name!r} the model was not trained on"
+    for name in old_names:
+        if name not in new_names:
+            return f"the model was trained on an observation field {name!r} the env no longer has"
+    for i, (old, new) in enumerate(zip(saved, now, strict=True)):
+        name = new["name"]
+        if old.get("name") != name:
+            return f"observation field {name!r} moved (position {old_names.index(name)} -> {i})"
+        if list(old.get("entries", ())) != new["entries"]:
+            return (
+                f"observation field {name!r} has {len(new['entries'])} entries, the model was "
+                f"trained on {len(old.get('entries', ()))} ({', '.join(old.get('entries', ()))})"
+            )
+        if old.get("scale") != new["scale"] or old.get("unit") != new["unit"]:
+            return (
+                f"observation field {name!r} reads {new['scale']:g} {new['unit']} as 1, the "
+                f"model was trained on {old.get('scale')!r} {old.get('unit')}"
+            )
+    return None

@@ -17,7 +17,7 @@ from stable_baselines3.common.vec_env.base_vec_env import VecEnv
 
 from agents.learned.curves import _read_curves, plot_learning_curve, write_seed_curves
 from agents.learned.evaluate import run_policy_episodes
-from agents.learned.models import cell_of, env_settings
+from agents.learned.models import cell_of, env_settings, observation_layout
 from agents.learned.threads import _TORCH_SPINS
 from vrloco_env.vector import VRLocoVectorEnv
 
@@ -194,7 +194,8 @@ def train_ppo(
         SB3VecEnv(_wrap(VRLocoVectorEnv(num_envs, **env_kwargs), frame_stack), seed=seed),
         info_keywords=("is_success",),
     )
-    eval_env = _wrap(VRLocoVectorEnv(eval_episodes, **env_kwargs), frame_stack)
+    eval_users = VRLocoVectorEnv(eval_episodes, **env_kwargs)
+    eval_env = _wrap(eval_users, frame_stack)
     curve: list[dict[str, float]] = []
     t_start = time.perf_counter()
 
@@ -227,6 +228,7 @@ def train_ppo(
     model.vrloco_env = env_kwargs
     model.vrloco_cell = cell_of(env_kwargs, technique)
     model.vrloco_policy = policy_kwargs
+    model.vrloco_observation = observation_layout(eval_users.observation_spec)
     checkpoints = CheckpointCallback(
         max(eval_every // num_envs, 1), str(out_dir / "checkpoints"), name_prefix=f"ppo_{task}"
     )

@@ -521,7 +521,8 @@ def test_importing_the_trainer_starts_torch_after_the_passive_thread_policy():
     import subprocess
 
     code = (
-        "import os, sys, agents.learned; m = list(sys.modules); "
+        "import os, sys, agents.learned; assert 'torch' not in sys.modules; "
+        "from agents.learned import train_ppo; m = list(sys.modules); "
         "print(m.index('estimators.kernels.batch') < m.index('torch'), "
         "os.environ['OMP_WAIT_POLICY'], agents.learned.threads._TORCH_SPINS)"
     )

@@ -1,0 +1,90 @@
+"""Shipped learned users: the ``ppo`` policy spec, and stale models named by the field that
+changed."""
+
+import gymnasium as gym
+import pytest
+
+from agents.learned import SB3VecEnv, env_settings, make_model  # before torch: see its docs
+from agents.learned.models import observation_change, observation_layout
+from vrloco_env.observation import Field, ObservationSpec
+from vrloco_env.vector import VRLocoVectorEnv
+
+
+def _untrained_model(tmp_path, task="approach", **saved):
+    """A PPO model saved as vrloco train saves one (untrained: only its attributes matter)."""
+    settings = env_settings(task)
+    users = VRLocoVectorEnv(2, **settings)
+    model = make_model(SB3VecEnv(users, seed=0), n_steps=8, batch_size=16)
+    model.vrloco_env = settings
+    model.vrloco_policy = {"frame_stack": 1, "recurrent": False}
+    model.vrloco_observation = observation_layout(users.observation_spec)
+    for key, value in saved.items():
+        setattr(model, key, value)
+    path = tmp_path / f"{task}.zip"
+    model.save(path)
+    return path
+
+
+def test_each_kind_of_observation_change_is_named():
+    spec = ObservationSpec(
+        [Field("goal_distance", scale=20.0, unit="m"), Field("rays", ("r0", "r1"))]
+    )
+    saved = observation_layout(spec)
+    assert observation_change(saved, spec) is None
+    assert observation_change(None, spec) is None  # a model saved without its layout
+    cases = {
+        "has a field 'extra'": [*spec.fields, Field("extra")],
+        "field 'rays' the env no longer has": spec.fields[:1],
+        "'rays' has 3 entries, the model was trained on 2 (r0, r1)": [
+            spec.fields[0],
+            Field("rays", ("r0", "r1", "r2")),
+        ],
+        "'goal_distance' reads 10 m as 1, the model was trained on 20.0 m": [
+            Field("goal_distance", scale=10.0, unit="m"),
+            spec.fields[1],
+        ],
+        "'rays' moved (position 1 -> 0)": spec.fields[::-1],
+    }
+    for phrase, fields in cases.items():
+        assert phrase in observation_change(saved, ObservationSpec(fields)), phrase
+
+
+def test_a_stale_model_is_refused_naming_the_field(tmp_path):
+    from agents.benchmark.policies import LearnedPolicy
+
+    env = gym.make("VRLoco-Approach-v0")
+    layout = observation_layout(env.unwrapped.observation_spec)
+    LearnedPolicy(_untrained_model(tmp_path), env)  # fits: no error
+    layout[0] = {**layout[0], "scale": layout[0]["scale"] * 2}
+    stale = _untrained_model(tmp_path, vrloco_observation=layout)
+    name = layout[0]["name"]
+    with pytest.raises(ValueError, match=rf"is stale: observation field '{name}' reads"):
+        LearnedPolicy(stale, env)
+    env.close()
+
+
+def test_ppo_plays_the_tasks_shipped_user_and_names_the_tasks_that_have_one(tmp_path, monkeypatch):
+    from agents.benchmark.policies import build_policy
+    from agents.benchmark.resume import cell_inputs
+    from agents.learned import users
+
+    model = _untrained_model(tmp_path)
+    monkeypatch.setattr(users, "HERE", tmp_path)
+    monkeypatch.setitem(users.LEARNED_USERS, "approach", users.LearnedUser("approach", model.name))
+    env = gym.make("VRLoco-Approach-v0")
+    policy = build_policy("ppo+typical", env)
+    assert policy.policy.path == model and policy.name.startswith("ppo")
+    env.close()
+    env = gym.make("VRLoco-Avoid-v0")
+    with pytest.raises(
+        ValueError, match=r"no learned user is shipped for task 'avoid' \(shipped: approach\)"
+    ):
+        build_policy("ppo", env)
+    env.close()
+
+    class Cell:  # a benchmark cell: its key changes with the shipped model's bytes
+        task, policy, technique, condition = "approach", "ppo", "zhang2021", "lab"
+
+    before = cell_inputs([Cell])[Cell]
+    model.write_bytes(model.read_bytes() + b"\0")
+    assert cell_inputs([Cell])[Cell] != before
