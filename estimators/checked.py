@@ -103,11 +103,12 @@ class CheckedStage:
         self._stage.take_users(rows)
         self._clock = self._clock[np.asarray(rows, dtype=np.intp)]
 
-    def update(self, *args: Any) -> Any:
-        """The plug-in's ``update``, its result checked against the contract."""
+    def update(self, *args: Any, **kwargs: Any) -> Any:
+        """The plug-in's ``update``, its result checked against the contract (keywords, such
+        as the ``pitch=`` of a stage that declares ``uses_pitch``, passed on)."""
         contract = self._contract
         dims = contract.dims(args)
-        out = self._call("update", args, {})
+        out = self._call("update", args, kwargs)
         try:
             raw = contract.unpack(out, self._stage)
         except MalformedOutput as err:

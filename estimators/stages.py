@@ -166,6 +166,14 @@ _TAKE_USERS = (
 )
 
 
+_GESTURE = (
+    "gesture",
+    "what the technique asks its users to do with their body to move "
+    "(`estimators.locomotion.gestures`: tilt the head, look down, point the hand); the "
+    "environment's simulated users perform it (default: step in place)",
+)
+
+
 def _bad_rows(ok: NDArray[np.bool_], axes: int) -> NDArray[np.bool_]:
     """True where ``ok`` is False anywhere beyond its first ``axes`` axes."""
     return ~(ok if ok.ndim == axes else ok.all(axis=tuple(range(axes, ok.ndim))))
@@ -481,6 +489,12 @@ STEERING_CONTRACT = StageContract(
             "False says `torso_yaw` is never read, so the environment skips computing it "
             "(default True)",
         ),
+        (
+            "uses_hand: bool",
+            "True: `update` is also given `hand_yaw=`, the (B,) estimated hand yaw on the torso "
+            "(rad, NaN without an estimate; default False)",
+        ),
+        _GESTURE,
         _TAKE_USERS,
     ),
     dims=lambda args: {"B": int(np.shape(args[0])[0])},
@@ -558,7 +572,15 @@ LOCOMOTION_CONTRACT = StageContract(
         ),
         _finite("heading", 1),
     ),
-    optional=(_TAKE_USERS,),
+    optional=(
+        (
+            "uses_pitch: bool",
+            "True: `update` is also given `pitch=`, the (B,) estimated head pitch (rad, "
+            "positive nose down; default False)",
+        ),
+        _GESTURE,
+        _TAKE_USERS,
+    ),
     dims=lambda args: {"B": int(np.shape(args[0])[0])},
     unpack=lambda out, stage: {"position": out, "heading": stage.heading},
     pack=lambda a, out: a["position"],
@@ -643,6 +665,9 @@ STEERING.register(
 STEERING.register(
     "torso", "estimators.locomotion.steering:TorsoSteering", "walk where the torso points"
 )
+STEERING.register(
+    "hand", "estimators.locomotion.steering:HandSteering", "walk where the hand points"
+)
 
 #: Locomotion: ``factory(batch_size, step_length)`` with step_length in m.
 LOCOMOTION = StageRegistry(
@@ -664,4 +689,14 @@ LOCOMOTION.register(
     "cadence_speed",
     "estimators.locomotion.cadence_speed:CadenceSpeed",
     "speed proportional to the estimated cadence",
+)
+LOCOMOTION.register(
+    "head_tilt",
+    "estimators.locomotion.head_tilt:HeadTilt",
+    "speed from the head's forward tilt (Tregillus 2017)",
+)
+LOCOMOTION.register(
+    "look_down_to_move",
+    "estimators.locomotion.look_down:LookDownToMove",
+    "a look down toggles an auto-walk",
 )

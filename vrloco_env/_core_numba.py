@@ -33,20 +33,24 @@ def observation_offsets(spec: ObservationSpec) -> NDArray:
     return param_record(**{name: spec.offset(name) for name in COMMON_FIELDS})
 
 
-def _observe(est, virtual_yaw, goal_points, position, distance, rays, fresh, at, scales, out):
+def _observe(
+    est, virtual_yaw, goal_points, position, moved, distance, rays, fresh, at, scales, out
+):
     """Fill the common fields of ``out`` (B, obs) float32: entry ``j`` is
     ``clip(value / scales[j], -1, 1)`` of its physical value, the fields starting at the
     offsets ``at`` (:func:`observation_offsets` of the env's
     :class:`~vrloco_env.observation.ObservationSpec`).
 
     ``est`` holds the users' estimates ``(ypr_est, walking, steps, cadence, hand_est)``;
+    ``moved`` (B, 2) is each user's displacement in the last control step (room frame, m);
     ``fresh[i]``: user i has just been reset (or never stepped): standing, no estimates yet, so
-    its attitude, gait and hand entries are zero.
+    its attitude, gait, self-motion and hand entries are zero.
     """
     ypr_est, walking, steps, cadence, hand_est = est
     o = at[0]
     j_heading, j_pitch, j_roll = int(o["heading"]), int(o["pitch"]), int(o["roll"])
     j_walking, j_steps, j_cadence = int(o["walking"]), int(o["steps"]), int(o["cadence"])
+    j_moved = int(o["self_motion"])
     j_hand, j_hand_valid, j_bearing = int(o["hand"]), int(o["hand_valid"]), int(o["goal_bearing"])
     j_distance, j_rays = int(o["goal_distance"]), int(o["rays"])
     b = out.shape[0]
@@ -72,6 +76,14 @@ def _observe(est, virtual_yaw, goal_points, position, distance, rays, fresh, at,
         v[j_walking] = _unit(walk / scales[j_walking])
         v[j_steps] = _unit(n_steps / scales[j_steps])
         v[j_cadence] = _unit(cad / scales[j_cadence])
+        if fresh[i]:
+            forward = left = 0.0
+        else:
+            c, s = math.cos(yaw), math.sin(yaw)
+            forward = c * moved[i, 0] + s * moved[i, 1]
+            left = -s * moved[i, 0] + c * moved[i, 1]
+        v[j_moved] = _unit(forward / scales[j_moved])
+        v[j_moved + 1] = _unit(left / scales[j_moved + 1])
         for k in range(3):
             v[j_hand + k] = _unit(hand_est[i, k] / scales[j_hand + k]) if ok else 0.0
         v[j_hand_valid] = 1.0 if ok else 0.0

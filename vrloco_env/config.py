@@ -213,6 +213,13 @@ class EnvConfig:
         ray_count: rays cast from the virtual head, spread over ``ray_fov_deg``.
         ray_fov_deg: angular spread of the rays, centred on the virtual heading (deg).
         ray_range_m: rays report at most this range (m).
+        view_vertical_fov_deg: the headset's vertical field of view (deg): what the rays see
+            follows the head's estimated pitch, and pitched down past half of it the user sees
+            the floor only up to where the view's upper edge meets it, not the obstacles beyond
+            (:meth:`vrloco_env.core.LocoCore._rays`). A choice near the vertical field of
+            consumer headsets, about 90-100 deg (their makers state the diagonal or the
+            horizontal field: 101 deg for the Samsung Gear VR of Tregillus 2017, 110 deg for the
+            HTC Vive).
         pose_source: where the virtual head pose comes from.
             ``"walk_in_place"`` (default, Zhang 2021): the user steps in place; the virtual body
             moves a step length along the IMU's estimated yaw per detected step (eq 17 or the
@@ -243,6 +250,7 @@ class EnvConfig:
     ray_count: int = 15
     ray_fov_deg: float = 180.0
     ray_range_m: float = 5.0
+    view_vertical_fov_deg: float = 90.0
     pose_source: str = "walk_in_place"
     population: str | Population | None = None
     play_area: PlayArea = field(default_factory=PlayArea)
@@ -258,4 +266,5 @@ class EnvConfig:
         check_in_range(self, "ray_count", 1, 360, integer=True)
         check_in_range(self, "ray_fov_deg", 0.0, 360.0, "deg", lo_open=True)
         check_in_range(self, "ray_range_m", 0.5, 50.0, "m")
+        check_in_range(self, "view_vertical_fov_deg", 10.0, 180.0, "deg")
         check_choice(self, "pose_source", POSE_SOURCES)

@@ -61,6 +61,7 @@ from vrloco_env.pipeline import build_stages
 from vrloco_env.tasks import get_task
 from vrloco_env.tasks.base import Task
 from vrloco_env.user import GazeBehaviour, Intent, get_population
+from vrloco_env.user.gestures import gesture_performer
 from vrloco_env.users import SimulatedUsers, UserStep
 from vrloco_env.world import Layout, RoomBatch, RoomConfig
 
@@ -72,6 +73,11 @@ _SWEEP_FRACTIONS = (np.arange(1, _SWEEP_SAMPLES + 1) / _SWEEP_SAMPLES)[None, :, 
 
 #: A turn action above this (a fraction of the largest turn rate) counts as meaning to turn.
 TURNING = 0.02
+
+
+#: Height of the eyes above the neck joint (m): about 0.1 m in adult anthropometry. A choice
+#: within that range; it places the view the rays stand for.
+EYE_ABOVE_NECK_M = 0.1
 
 
 @dataclass
@@ -86,6 +92,7 @@ class _Episode:
     distance: NDArray[np.float64]  # to the goal region (m)
     shortest: NDArray[np.float64]  # shortest path length (m), for SPL
     virtual_yaw: NDArray[np.float64]
+    moved: NDArray[np.float64]  # (B, 2) displacement of the last control step (m), room frame
     done: NDArray[np.bool_] = field(default=None)  # type: ignore[assignment]
 
     @classmethod
@@ -100,6 +107,7 @@ class _Episode:
             distance=z.copy(),
             shortest=z.copy(),
             virtual_yaw=z.copy(),
+            moved=np.zeros((b, 2)),
             done=np.zeros(b, bool),
         )
 
@@ -121,12 +129,14 @@ class LocoCore(TakesUsers):
         "last",
         "last_rays",
         "_head_on_torso",
+        "_moving",
+        "_head_pitch",
         "_zeros",
         "_standing",
     )
-    # the random streams, the users (motion, sensors, stages), the task, the head behaviour and
-    # the rooms
-    per_user_parts = ("rng", "users", "task", "behaviour", "rooms")
+    # the random streams, the users (motion, sensors, stages), the task, the head behaviour, the
+    # technique's gesture and the rooms
+    per_user_parts = ("rng", "users", "task", "behaviour", "gestures", "rooms")
     batch_size_field = "batch_size"
 
     def __init__(
@@ -182,6 +192,13 @@ class LocoCore(TakesUsers):
                 walk_in_place=config.pose_source == "walk_in_place",
             )
         self._head_on_torso = np.zeros(b)  # the head's true yaw on the torso (rad)
+        #: the technique's gesture, performed by the users (None: they step in place)
+        self.gestures = gesture_performer(self.stages, b, self.dt, self.users.motion_params)
+        self._moving = np.zeros(b, bool)  # the user saw the body move in the last step
+        self._head_pitch = np.zeros(b)  # the head's true pitch at the last step's end (rad)
+        # what the user sees follows the head: the view's vertical half-angle and eye height
+        self._half_fov = np.deg2rad(config.view_vertical_fov_deg) / 2.0
+        self._eye_height = config.motion.neck_height_m + EYE_ABOVE_NECK_M
         self._hand_task = any(f.name == "hand_error" for f in self.task.fields())
         extra = population_fields(self.population)
         #: the observation's fields, scales and units (:mod:`vrloco_env.observation`)
@@ -249,10 +266,15 @@ class LocoCore(TakesUsers):
                 rows, forward, side * self.config.play_area.lateral_ratio * forward
             )
         self._head_on_torso[rows] = 0.0
+        self._moving[rows] = False
+        self._head_pitch[rows] = 0.0
+        if self.gestures is not None:
+            self.gestures.reset(rows)
         ep = self.ep
         ep.position[rows] = start[:, :2]
         ep.true_position[rows] = start[:, :2]
         ep.virtual_yaw[rows] = start[:, 2]
+        ep.moved[rows] = 0.0
         ep.collisions[rows] = 0
         ep.elapsed[rows] = 0
         ep.walked[rows] = 0.0
@@ -305,9 +327,12 @@ class LocoCore(TakesUsers):
         intent = action_to_intent(a, self.users.motion_params)
         if self.behaviour is not None:
             intent = self._human(intent)
+        if self.gestures is not None:
+            intent = self.gestures.intent(intent, self._moving, self._head_pitch)
         us = self.users.step(intent, validated=True)
         self.last = us
         self._head_on_torso = us.motion.ypr[:, -1, 0] - us.motion.body_yaw[:, -1]
+        self._head_pitch = us.ypr_true[:, 1]
         ep, cfg, rw = self.ep, self.config, self.reward
 
         # Move the virtual body unless the swept avatar would touch the room.
@@ -315,8 +340,10 @@ class LocoCore(TakesUsers):
         path = ep.position[:, None, :] + _SWEEP_FRACTIONS * move[:, None, :]
         clearance = self.rooms.signed_distance(path).min(axis=1)
         moving = np.hypot(move[:, 0], move[:, 1]) > 1e-12
+        self._moving = moving
         blocked = moving & (clearance <= self.room.avatar_radius)
-        ep.position = np.where(blocked[:, None], ep.position, ep.position + move)
+        ep.moved = np.where(blocked[:, None], 0.0, move)
+        ep.position = ep.position + ep.moved
         ep.walked += np.where(blocked, 0.0, np.hypot(move[:, 0], move[:, 1]))
         ep.collisions += blocked
         ep.virtual_yaw = us.virtual_yaw
@@ -361,11 +388,22 @@ class LocoCore(TakesUsers):
 
     # ------------------------------------------------------------------------------ views
     def _rays(self, rows: NDArray[np.intp] | None = None) -> NDArray[np.float64]:
-        """Ranges (m) along the rays from the virtual head of users ``rows`` (None: all)."""
+        """Ranges (m) along the rays from the virtual head of users ``rows`` (None: all).
+
+        The view follows the head the headset renders from (the estimated pitch): pitched down
+        past the view's vertical half-angle, the user sees the floor only up to where the view's
+        upper edge meets it, ``eye_height / tan(pitch - half_fov)``; an obstacle farther away is
+        out of view and its ray reads the full range (nothing seen)."""
         assert self.rooms is not None
         rng = self.config.ray_range_m
         r = self.rooms.ray_fan(self.ep.position, self.ep.virtual_yaw, self.ray_offsets, rng)
-        return np.minimum(r if rows is None else r[rows], rng)
+        r = np.minimum(r, rng)
+        if self.last is not None:
+            below = self.last.ypr_est[:, 1] - self._half_fov  # the upper edge's angle down
+            if (below > 0.0).any():
+                seen = self._eye_height / np.tan(np.clip(below, 1e-6, np.pi / 2 - 1e-6))
+                r = np.where((below > 0.0)[:, None] & (r > seen[:, None]), rng, r)
+        return r if rows is None else r[rows]
 
     def observe(self, reset_rows: NDArray[np.intp] | None = None) -> NDArray[np.float32]:
         """The observations of all users (fields: :attr:`spec`).
@@ -386,6 +424,7 @@ class LocoCore(TakesUsers):
             ep.virtual_yaw,
             self.task.goal_point(ep.position),
             ep.position,
+            ep.moved,
             ep.distance,
             self.last_rays,
             fresh,

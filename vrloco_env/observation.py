@@ -155,6 +155,7 @@ COMMON_FIELDS = (
     "walking",
     "steps",
     "cadence",
+    "self_motion",
     "hand",
     "hand_valid",
     "goal_bearing",
@@ -181,6 +182,14 @@ def env_spec(
         Field("walking", doc="the step detector's still (0) / walk (1) state"),
         Field("steps", scale=3.0, unit="steps", doc="steps detected in the last control step"),
         Field("cadence", scale=3.0, unit="steps/s", doc="estimated cadence"),
+        Field(
+            "self_motion",
+            ("moved_forward", "moved_left"),
+            2.0,
+            "m",
+            "the virtual body's displacement in the last control step along and across the "
+            "virtual heading: the self-motion the user sees (0 for a blocked step)",
+        ),
         Field(
             "hand",
             ("hand_yaw", "hand_pitch", "hand_roll"),

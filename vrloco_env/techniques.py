@@ -104,6 +104,22 @@ _chain(
     hand="adaptive_kalman",
 )
 
+_chain(
+    "head_tilt",
+    "tilt the head forward to walk, no stepping (Tregillus, Al Zayer & Folmer 2017)",
+    locomotion="head_tilt",
+)
+_chain(
+    "look_down_to_move",
+    "look down to start or stop an auto-walk, no stepping (mobile VR; Tregillus & Folmer 2016)",
+    locomotion="look_down_to_move",
+)
+_chain(
+    "hand_steering",
+    "Zhang 2021's steps, walking where the hand points (Yao 2023's hand estimate steers)",
+    steering="hand",
+)
+
 #: The technique of an env built without one.
 DEFAULT_TECHNIQUE = "zhang2021"
 

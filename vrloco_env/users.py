@@ -229,6 +229,8 @@ class SimulatedUsers(TakesUsers):
         self.hand_filter = stages.hand
         self.steering = stages.steering
         self._steer_with_torso = getattr(stages.steering, "uses_torso", True)
+        self._steer_with_hand = bool(getattr(stages.steering, "uses_hand", False))
+        self._loco_pitch = bool(getattr(stages.locomotion, "uses_pitch", False))
         # -> locomotion
         self.locomotion = stages.locomotion
         self._summary_prm = param_record(
@@ -388,11 +390,15 @@ class SimulatedUsers(TakesUsers):
             frames.hand_quat,
         )
         hand = self._filtered_hand(hand_frames)
+        hand_est = self._hand_relative_to_torso(hand)
         walk_yaw = virtual_yaw
         if self.tracker is None:
             if self._steer_with_torso:
-                walk_yaw = self._steering_yaw(hand, virtual_yaw)
-            pos = self.locomotion.update(steps, walk_yaw, self.dt)
+                walk_yaw = self._steering_yaw(hand, virtual_yaw, hand_est[:, 0])
+            if self._loco_pitch:  # a technique moved by the head's pitch (head tilt, look down)
+                pos = self.locomotion.update(steps, walk_yaw, self.dt, pitch=ypr_est[:, 1])
+            else:
+                pos = self.locomotion.update(steps, walk_yaw, self.dt)
         else:  # the virtual head follows the estimated one; the truth is the real head
             pos = self._tracked_xy
             true_xy = chunk.pos[:, -1, :2]
@@ -418,7 +424,7 @@ class SimulatedUsers(TakesUsers):
             displacement=displacement,
             true_displacement=true_displacement,
             hand=hand,
-            hand_est=self._hand_relative_to_torso(hand),
+            hand_est=hand_est,
             hand_true=kin.hand_ypr[:, -1],
         )
 
@@ -430,14 +436,21 @@ class SimulatedUsers(TakesUsers):
         last.valid = np.asarray(valid[:, -1], dtype=bool)
         return last
 
-    def _steering_yaw(self, hand: HandFrame, head_virtual_yaw: NDArray) -> NDArray[np.float64]:
+    def _steering_yaw(
+        self, hand: HandFrame, head_virtual_yaw: NDArray, hand_yaw: NDArray
+    ) -> NDArray[np.float64]:
         """The walking yaw in the virtual room from the steering stage: the estimated head yaw
         and the Kinect's torso yaw, each mapped into the room (the head's through the headset's
-        recentring offset, the torso's through the play area's fixed calibration)."""
+        recentring offset, the torso's through the play area's fixed calibration), and for a
+        stage that steers by the hand (``uses_hand``) the estimated hand yaw on the torso."""
         spec = self.sensors.kinect
         sh = camera_to_world(spec, hand.joints[:, [Joint.SHOULDER_LEFT, Joint.SHOULDER_RIGHT]])
         yaw, valid = torso_yaw(sh[:, 0], sh[:, 1])
         torso_virtual = rot.wrap_angle(yaw + self.true_yaw_offset)
+        if self._steer_with_hand:
+            return self.steering.update(
+                head_virtual_yaw, torso_virtual, valid & hand.has_target, hand_yaw=hand_yaw
+            )
         return self.steering.update(head_virtual_yaw, torso_virtual, valid & hand.has_target)
 
     def _track(self, chunk: MotionChunk, imu: ImuSamples) -> NDArray[np.float64]:

@@ -132,8 +132,18 @@ class PolicyParams:
         hand_gain: hand rate action per radian of hand error (1/rad).
         hand_deadband_deg: no hand motion below this error per axis (deg).
         walks_with_torso: the steps carry the body where the torso faces, not where the head
-            points (``EstimatorConfig.steering == "torso"``): how the locomotion works, which a
-            user learns by walking, as the step length.
+            points (``EstimatorConfig.steering`` ``"torso"``, or ``"hand"`` for a user who
+            points straight ahead): how the locomotion works, which a user learns by walking, as
+            the step length.
+        reckons_by_sight: the user places what it has seen by the self-motion it sees (the
+            observation's ``self_motion``) instead of by counting its detected steps: how a
+            user of a technique that moves the body without steps (head tilt, look down to
+            move) or where the hand points (hand steering) knows where it is
+            (:func:`reckons_by_sight`). Under walking in place the step count is the cue (exact
+            under eq 17).
+        moves_by_steps: the body moves by detected steps, so a start lands two step lengths at
+            once (:func:`moves_by_steps`); False for a technique that moves it continuously
+            from the head's pitch.
     """
 
     step_length_m: float = 0.7
@@ -160,6 +170,8 @@ class PolicyParams:
     hand_gain: float = 1.5
     hand_deadband_deg: float = 2.0
     walks_with_torso: bool = False
+    reckons_by_sight: bool = False
+    moves_by_steps: bool = True
 
     def __post_init__(self) -> None:
         check_in_range(self, "step_length_m", 0.05, 2.0, "m")
@@ -186,6 +198,8 @@ class PolicyParams:
         check_in_range(self, "hand_gain", 0.0, 100.0, "1/rad")
         check_in_range(self, "hand_deadband_deg", 0.0, 45.0, "deg")
         check_bool(self, "walks_with_torso")
+        check_bool(self, "reckons_by_sight")
+        check_bool(self, "moves_by_steps")
         cells = self.map_size_m / self.map_cell_m
         check_condition(
             self,
@@ -196,9 +210,80 @@ class PolicyParams:
         )
 
 
+def moves_by_steps(locomotion: Any) -> bool:
+    """Whether a locomotion stage (a registered name, or what an ``EstimatorConfig`` holds)
+    moves the body by detected steps; False for one that reads the head's pitch instead
+    (``uses_pitch``: head tilt, look down to move)."""
+    from estimators.stages import LOCOMOTION
+
+    try:
+        return not getattr(LOCOMOTION.factory(locomotion), "uses_pitch", False)
+    except ValueError:
+        return True
+
+
+def reckons_by_sight(locomotion: Any, steering: Any = "head") -> bool:
+    """Whether a user of these stages knows where it is by what it sees rather than by its
+    steps: the locomotion moves the body without steps (:func:`moves_by_steps`), or the
+    steering walks where the estimated hand points (``uses_hand``), a direction the user does
+    not feel."""
+    from estimators.stages import STEERING
+
+    try:
+        by_hand = bool(getattr(STEERING.factory(steering), "uses_hand", False))
+    except ValueError:
+        by_hand = False
+    return by_hand or not moves_by_steps(locomotion)
+
+
+#: For a stepless technique, the way ahead must be free for this many step lengths more than the
+#: stop distance to start walking (a hysteresis, so that a user who just stopped does not start
+#: again at once). A choice.
+GO_SPARE_STEPS = 0.2
+
+
+def stop_distance_m(locomotion: Any, motion: Any, walk: float, dt: float) -> float:
+    """How far (m) a user of a stepless technique still moves after deciding to stop, while
+    walking at the action ``walk``: what it learns by using the technique. Computed from the
+    models, not measured on episodes: the head follows the lean with the motion model's
+    critically damped lag ``tau = MotionParams.gesture_lag_s`` (:mod:`vrloco_env.user.gestures`).
+
+    * Head tilt: the lean returns from the walk's tilt to 0 as ``x0 (1 + t / tau) e^(-t / tau)``;
+      the speed follows it through the technique's dead zone.
+    * Look down to move: the look down reaches the threshold at ``t`` with
+      ``x_down (1 - (1 + t / tau) e^(-t / tau)) = threshold``; the user walks on at full speed
+      until then, plus one control step ``dt`` to decide.
+    * Anything else (walking in place): 0; the step gate's ``stop_steps`` covers it.
+    """
+    from estimators.locomotion.gestures import LookDownToToggle, TiltToMove
+    from vrloco_env.user.gestures import LOOK_MARGIN_DEG
+
+    gesture = getattr(locomotion, "gesture", None)
+    params = getattr(locomotion, "params", None)
+    tau = float(motion.gesture_lag_s)
+    t = np.arange(0.0, 20.0 * tau, 0.005)
+    if isinstance(gesture, TiltToMove) and params is not None:
+        lo, hi = motion.cadence_range_hz
+        fraction = min((lo + walk * (hi - lo)) / hi, 1.0)
+        x0 = gesture.dead_zone_rad + fraction * (gesture.full_speed_rad - gesture.dead_zone_rad)
+        x = x0 * (1.0 + t / tau) * np.exp(-t / tau)
+        span = gesture.full_speed_rad - gesture.dead_zone_rad
+        speed = params.max_speed_mps * np.clip((x - gesture.dead_zone_rad) / span, 0.0, 1.0)
+        return float(np.sum(speed) * 0.005 + speed[0] * dt)
+    if isinstance(gesture, LookDownToToggle) and params is not None:
+        down = gesture.threshold_rad + np.deg2rad(LOOK_MARGIN_DEG)
+        x = down * (1.0 - (1.0 + t / tau) * np.exp(-t / tau))
+        reached = t[np.argmax(x >= gesture.threshold_rad)]
+        return float(params.speed_mps * (reached + dt))
+    return 0.0
+
+
 def params_from_env(env: Any, **overrides: Any) -> PolicyParams:
     """Policy parameters matching an env's step length and avatar radius (what a user learns
-    about their own body by walking), with ``overrides`` (PolicyParams fields)."""
+    about their own body by walking) and, for a technique that moves the body without steps, its
+    stop distance (:func:`stop_distance_m`, added to ``stop_steps``; ``go_steps`` at least
+    :data:`GO_SPARE_STEPS` more), with
+    ``overrides`` (PolicyParams fields)."""
     u = env.unwrapped
     names = {f.name for f in fields(PolicyParams)}
     bad = set(overrides) - names
@@ -207,8 +292,21 @@ def params_from_env(env: Any, **overrides: Any) -> PolicyParams:
     base = PolicyParams(
         step_length_m=float(u.estimators.step_length),
         avatar_radius_m=float(u.room.avatar_radius),
-        walks_with_torso=u.estimators.steering == "torso",
+        walks_with_torso=u.estimators.steering in ("torso", "hand"),
+        reckons_by_sight=reckons_by_sight(u.estimators.locomotion, u.estimators.steering),
+        moves_by_steps=moves_by_steps(u.estimators.locomotion),
     )
+    core = getattr(u, "core", None)
+    if core is not None:  # a stepless technique: the way ahead must also hold its stop distance
+        extra = (
+            stop_distance_m(core.stages.locomotion, core.users.motion_params, base.walk, core.dt)
+            / base.step_length_m
+        )
+        if extra > 0.0:  # no step to commit to at a start: go once the stop distance is free
+            stop = base.stop_steps + extra
+            base = replace(
+                base, go_steps=max(base.go_steps, stop + GO_SPARE_STEPS), stop_steps=stop
+            )
     return replace(base, **overrides)
 
 

@@ -59,7 +59,9 @@ class GoalSeeker(ScriptedPolicy):
     was reused.
 
     Under the smooth locomotion filter (the smooth-locomotion paper) the body moves between detected
-    steps, so the dead-reckoned map is approximate (the filter's lag, well under a metre).
+    steps, so the dead-reckoned map is approximate (the filter's lag, well under a metre). Under a
+    technique that moves the body without steps (head tilt, look down to move) it places the map
+    by the self-motion it sees instead (``PolicyParams.reckons_by_sight``).
 
     Args:
         layout: observation layout.
@@ -155,8 +157,16 @@ class GoalSeeker(ScriptedPolicy):
         still = np.linalg.norm(goal_vec - state["goal_vec"], axis=1) < 1e-3
         blocked = still & radial & (v.distance > 0.0)
         state["goal_vec"] = goal_vec
-        moved = np.where(state["started"] & ~blocked, v.steps * p.step_length_m, 0.0)
-        state["pos"] += moved[:, None] * u
+        if p.reckons_by_sight:  # the self-motion it sees, turned into the room by the heading
+            c, s = np.cos(v.heading)[:, None], np.sin(v.heading)[:, None]
+            seen = np.concatenate(
+                [c * v.moved[:, :1] - s * v.moved[:, 1:], s * v.moved[:, :1] + c * v.moved[:, 1:]],
+                axis=1,
+            )
+            state["pos"] += np.where(state["started"][:, None], seen, 0.0)
+        else:
+            moved = np.where(state["started"] & ~blocked, v.steps * p.step_length_m, 0.0)
+            state["pos"] += moved[:, None] * u
         state["started"][:] = True
         pts, ok = ray_points(v.rays, self.offsets, self.layout.ray_range_m)
         c, s = np.cos(v.heading)[:, None], np.sin(v.heading)[:, None]
@@ -190,10 +200,12 @@ class GoalSeeker(ScriptedPolicy):
         ang = v.heading + v.bearing
         depth = v.waypoint + p.goal_depth_m  # the next waypoint (Doorway), else the goal
         target = state["pos"] + depth[:, None] * np.stack([np.cos(ang), np.sin(ang)], -1)
-        # a bout's first two steps land together: until they have, the next move is 2 SL
-        state["landed"] = state["walking"] & (state["landed"] | (v.steps > 0))
+        # a bout's first two steps land together: until they have, the next move is 2 SL (a
+        # technique that moves the body continuously has no landing)
+        stepless = not p.moves_by_steps
+        state["landed"] = state["walking"] & (state["landed"] | (v.steps > 0) | stepless)
         single = state["walking"] & state["landed"]
-        land = np.where(single, 0.0, 2.0 * p.step_length_m)
+        land = np.where(single | stepless, 0.0, 2.0 * p.step_length_m)
         keep_len = np.where(single, p.stop_steps * p.step_length_m, self._plan_prm[0]["look"])
         aim, valid = np.zeros(b), np.zeros(b, bool)
         can_go, can_keep = np.zeros(b, bool), np.zeros(b, bool)

@@ -94,6 +94,8 @@ class ObsView:
         dwell: fraction of the Interact dwell time held so far.
         head_on_torso: the head's yaw relative to the torso (rad), from the observation's
             ``head_on_torso`` field where a user population turns the head (0 without it).
+        moved: the virtual body's displacement in the last control step (m), (B, 2), along and
+            across the heading (the observation's ``self_motion``).
     """
 
     heading: NDArray[np.float64]
@@ -107,6 +109,7 @@ class ObsView:
     hand_valid: NDArray[np.bool_]
     dwell: NDArray[np.float64]
     head_on_torso: NDArray[np.float64]
+    moved: NDArray[np.float64]
 
     @classmethod
     def decode(cls, obs: NDArray[np.float64], layout: ObservationLayout) -> ObsView:
@@ -126,6 +129,7 @@ class ObsView:
             hand_valid=d["hand_valid"][:, 0] > 0.5,
             dwell=d["dwell"][:, 0] if "dwell" in d else np.zeros(b),
             head_on_torso=d["head_on_torso"][:, 0] if "head_on_torso" in d else np.zeros(b),
+            moved=d["self_motion"],
         )
 
 

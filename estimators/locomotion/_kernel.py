@@ -1,5 +1,6 @@
-"""Compiled kernel of the locomotion models: the cadence-proportional speed
-(:class:`estimators.locomotion.cadence_speed.CadenceSpeed`, whose module docstring derives it).
+"""Compiled kernels of the locomotion models: the cadence-proportional speed
+(:class:`estimators.locomotion.cadence_speed.CadenceSpeed`, whose module docstring derives it),
+head-tilt speed (:data:`head_tilt_kernel`) and the look-down toggle (:data:`look_down_kernel`).
 
 :data:`cadence_kernel` runs one update of B users (loop over users inside), each along a cubic
 ramp of its speed (:func:`_hermite`, integrated exactly by :func:`_hermite_area`); its uncompiled
@@ -15,7 +16,14 @@ import numba
 
 from estimators.kernels import BatchKernel
 
-__all__ = ["CADENCE_SPEED_STATE", "MAX_RING", "cadence_kernel"]
+__all__ = [
+    "CADENCE_SPEED_STATE",
+    "MAX_RING",
+    "PITCH_DRIVEN_STATE",
+    "cadence_kernel",
+    "head_tilt_kernel",
+    "look_down_kernel",
+]
 
 
 #: Longest ring of the bout's last events (``cadence_window`` + 1 for the largest window).
@@ -155,3 +163,74 @@ def _cadence_speed_run(steps, yaw, bearing, step_length, dt, prm, state):
 
 #: The compiled update: ``cadence_kernel(batch_size)(...)`` (see ``_cadence_speed_run``).
 cadence_kernel = BatchKernel(_cadence_speed_run, parallel=False)
+
+
+#: Per-user state of :data:`head_tilt_kernel` and :data:`look_down_kernel`: position ``pos`` (m),
+#: distance ``dist`` (m), ``speed`` of the last update (m/s), last ``yaw`` (rad; ``yaw_known``
+#: 0 / 1); the look-down toggle's auto-walk state ``moving`` (0 / 1) and whether the next look
+#: down toggles it, ``armed`` (0 / 1).
+PITCH_DRIVEN_STATE = {
+    "pos": (2,),
+    "dist": (),
+    "speed": (),
+    "yaw": (),
+    "yaw_known": (),
+    "moving": (),
+    "armed": (),
+}
+
+
+@numba.njit(cache=True)
+def _advance(state, i: int, yaw: float, distance: float) -> None:
+    """Move user ``i`` of ``state`` by ``distance`` (m) along the yaw halfway between its last
+    yaw and ``yaw`` (rad), and keep ``yaw`` as the last."""
+    s = state[i]
+    y0 = s["yaw"] if s["yaw_known"] != 0.0 else yaw
+    turn = yaw - y0
+    ang = y0 + 0.5 * math.atan2(math.sin(turn), math.cos(turn))
+    s["pos"][0] += distance * math.cos(ang)
+    s["pos"][1] += distance * math.sin(ang)
+    s["dist"] += distance
+    s["yaw"] = yaw
+    s["yaw_known"] = 1.0
+
+
+def _head_tilt_run(pitch, yaw, dt, prm, state):
+    """One update of ``dt`` s for B users: the speed follows the (B,) estimated head ``pitch``
+    (rad, positive nose down) past the dead zone, linearly up to full speed (the (1,) record of
+    :class:`HeadTiltParams` in radians and m/s), along the (B,) ``yaw`` (rad); ``state`` the (B,)
+    records of :data:`PITCH_DRIVEN_STATE`, updated in place."""
+    p = prm[0]
+    span = p["full_speed_pitch"] - p["dead_zone"]
+    for i in numba.prange(pitch.shape[0]):
+        s = state[i]
+        tilt = min(max((pitch[i] - p["dead_zone"]) / span, 0.0), 1.0)
+        s["speed"] = p["max_speed"] * tilt
+        _advance(state, i, yaw[i], s["speed"] * dt)
+
+
+#: The compiled update of :class:`~estimators.locomotion.head_tilt.HeadTilt`.
+head_tilt_kernel = BatchKernel(_head_tilt_run, parallel=False)
+
+
+def _look_down_run(pitch, yaw, dt, prm, state):
+    """One update of ``dt`` s for B users: a look down to the (B,) estimated head ``pitch``
+    (rad, positive nose down) at or past ``threshold`` toggles the auto-walk when ``armed``;
+    the head has to come back above ``rearm`` to arm the next toggle (the (1,) record of
+    :class:`LookDownParams` in radians and m/s). A walking user moves at ``speed`` along the
+    (B,) ``yaw`` (rad); ``state`` the (B,) records of :data:`PITCH_DRIVEN_STATE`, updated in
+    place."""
+    p = prm[0]
+    for i in numba.prange(pitch.shape[0]):
+        s = state[i]
+        if s["armed"] != 0.0 and pitch[i] >= p["threshold"]:
+            s["moving"] = 1.0 - s["moving"]
+            s["armed"] = 0.0
+        elif s["armed"] == 0.0 and pitch[i] < p["rearm"]:
+            s["armed"] = 1.0
+        s["speed"] = p["speed"] * s["moving"]
+        _advance(state, i, yaw[i], s["speed"] * dt)
+
+
+#: The compiled update of :class:`~estimators.locomotion.look_down.LookDownToMove`.
+look_down_kernel = BatchKernel(_look_down_run, parallel=False)

@@ -2,10 +2,11 @@
 
 Zhang 2021 walks where the head points (:class:`HeadSteering`): the estimated head yaw is both the
 view and the walking direction, so a user who looks at an obstacle while walking past it walks
-into it ("gaze-directed steering"). :class:`TorsoSteering` walks where the torso points instead:
-the shoulder line of the Kinect v2 skeleton (the body's left-right axis; the torso faces 90 deg
-to its right), which leaves the head free to look around. While the Kinect has lost the torso
-(the user turned away from it, or left its view) it falls back on the head yaw.
+into it ("gaze-directed steering"). :class:`HandSteering` walks where the hand points (the torso
+yaw plus the estimated hand yaw on the torso). :class:`TorsoSteering` walks where the torso points
+instead: the shoulder line of the Kinect v2 skeleton (the body's left-right axis; the torso faces
+90 deg to its right), which leaves the head free to look around. While the Kinect has lost the
+torso (the user turned away from it, or left its view) it falls back on the head yaw.
 
 Both take the two yaws in one frame — the virtual room's, as the environment passes them (rad,
 counter-clockwise) — and return the walking yaw in that frame. ``uses_torso`` tells a caller
@@ -20,9 +21,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from estimators.batching import TakesUsers
+from estimators.locomotion.gestures import PointToSteer
 from estimators.rotations import wrap_angle
 
-__all__ = ["HeadSteering", "TorsoSteering", "torso_yaw"]
+__all__ = ["HandSteering", "HeadSteering", "TorsoSteering", "torso_yaw"]
 
 
 def torso_yaw(
@@ -96,3 +98,37 @@ class TorsoSteering(_StatelessSteering):
         torso_valid: NDArray[np.bool_],
     ) -> NDArray[np.float64]:
         return np.where(torso_valid, torso_yaw, head_yaw)
+
+
+class HandSteering(_StatelessSteering):
+    """Walk where the hand points: the torso yaw plus the estimated hand yaw on the torso
+    (hand-directed steering, as Lai et al. 2020 compare with gaze-directed steering; the hand's
+    orientation from the Kinect through the hand stage, Yao 2023's pipeline by default, so hand
+    estimation errors reach the walking direction). Without a hand estimate it walks where the
+    torso points, and without a torso where the head points (as :class:`TorsoSteering`).
+
+    ``uses_torso = True`` and ``uses_hand = True``: the environment computes the torso yaw and
+    passes ``hand_yaw=`` (the (B,) estimated hand yaw relative to the torso, rad, NaN without an
+    estimate) to :meth:`update`. ``gesture``: the users point the hand where they want to walk.
+    """
+
+    name = "hand"
+    uses_torso = True
+    uses_hand = True
+    gesture = PointToSteer()
+    per_user_fields = ()
+
+    def update(
+        self,
+        head_yaw: NDArray[np.float64],
+        torso_yaw: NDArray[np.float64],
+        torso_valid: NDArray[np.bool_],
+        hand_yaw: ArrayLike | None = None,
+    ) -> NDArray[np.float64]:
+        if hand_yaw is None:
+            raise ValueError("HandSteering.update needs hand_yaw= (the hand's yaw on the torso)")
+        hand = np.asarray(hand_yaw, dtype=np.float64)
+        if hand.shape != np.shape(head_yaw):
+            raise ValueError(f"hand_yaw must have shape {np.shape(head_yaw)}, got {hand.shape}")
+        pointed = wrap_angle(torso_yaw + np.where(np.isfinite(hand), hand, 0.0))
+        return np.where(torso_valid, pointed, head_yaw)

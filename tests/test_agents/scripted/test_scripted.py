@@ -81,10 +81,10 @@ def test_free_lengths_against_hand_made_geometry():
 
 def test_bad_observations_and_parameters_are_rejected():
     policy = GoalSeeker()
-    with pytest.raises(ValueError, match=r"obs must have shape \(29,\)"):
+    with pytest.raises(ValueError, match=r"obs must have shape \(31,\)"):
         policy.act(np.zeros(10, np.float32))
     with pytest.raises(ValueError, match="finite"):
-        policy.act(np.full(29, np.nan))
+        policy.act(np.full(31, np.nan))
     with pytest.raises(ValueError, match=r"PolicyParams.walk=2.0: must be in \[0, 1\]"):
         PolicyParams(walk=2.0)
     with pytest.raises(ValueError, match="stop_deg"):
