@@ -377,6 +377,11 @@ STEPS_CONTRACT = StageContract(
             "the longest delay (s) from a heel strike to its report, read once at build (the "
             "benchmark's step-matching window); `latency` is read if it is absent, else 0",
         ),
+        (
+            "uses_position: bool",
+            "True: `update` is also given `position=`, the (B, N, 3) tracked headset position "
+            "(m, z up; default False)",
+        ),
         _TAKE_USERS,
     ),
     dims=_dims_bn,
@@ -631,6 +636,11 @@ STEPS.register(
     "nod_robust",
     "estimators.steps.nod_robust:NodRobustSteps",
     "world-vertical specific force, gated by head rotation",
+)
+STEPS.register(
+    "lee2018",
+    "estimators.steps.lee2018:Lee2018Steps",
+    "Lee 2018 style: dips of the headset's tracked, pitch-compensated height",
 )
 
 #: Hand filters: ``factory(batch_size, fs)`` with fs the Kinect frame rate (Hz).

@@ -64,6 +64,12 @@ class SensorConfig:
             etc.). The env's default runs it at 30 Hz, triggered by the IMU clock (the
             helmet-tracking paper's 120 Hz beside a 1 kHz IMU is the experiment's setting, ``vrloco
             experiment vio``).
+        headset_position_noise_m: the tracked headset position's noise (m, 1-sigma per axis and
+            sample), read by a step stage that uses the position (``uses_position``, the
+            ``lee2018`` steps). Default 0.0005 m: lighthouse tracking is precise to well under a
+            millimetre when still (Niehorster, Li & Lappe, "The accuracy and precision of
+            position and orientation tracking in the HTC Vive virtual reality system for
+            scientific research", i-Perception 8(3), 2017).
     """
 
     imu: str | ImuSpec | None = None
@@ -72,8 +78,10 @@ class SensorConfig:
     magnetic_disturbances: tuple[MagneticDisturbance, ...] = ()
     kinect: KinectSpec = field(default_factory=KinectSpec)
     head_camera: CameraSpec = field(default_factory=lambda: camera_spec("ideal", rate_hz=30.0))
+    headset_position_noise_m: float = 0.0005
 
     def __post_init__(self) -> None:
+        check_in_range(self, "headset_position_noise_m", 0.0, 0.1, "m")
         if self.imu is not None:
             check_instance(self, "imu", (str, ImuSpec))
             get_imu_spec(self.imu)  # raises with the valid names
@@ -187,6 +195,9 @@ class RewardConfig:
         collision: penalty per blocked step (a step into an obstacle or wall).
         effort: penalty weight of the mean squared action.
         time: penalty per control step (encourages finishing).
+        success_without_collision: pay the success bonus only for an episode without a
+            collision (the objective of a user who must reach goals without colliding; the
+            task's own success is unchanged).
     """
 
     progress: float = 1.0
@@ -194,10 +205,12 @@ class RewardConfig:
     collision: float = 1.0
     effort: float = 0.01
     time: float = 0.01
+    success_without_collision: bool = False
 
     def __post_init__(self) -> None:
         for name in ("progress", "success", "collision", "effort", "time"):
             check_in_range(self, name, 0.0, 1e3)
+        check_bool(self, "success_without_collision")
 
 
 @dataclass(frozen=True)

@@ -361,9 +361,10 @@ class LocoCore(TakesUsers):
         else:
             truncated = (ep.elapsed >= cfg.max_episode_steps) & ~terminated
         ep.done = terminated | truncated
+        paid = success & ((ep.collisions == 0) | (not rw.success_without_collision))
         reward = (
             rw.progress * (prev - ep.distance)
-            + rw.success * success
+            + rw.success * paid
             - rw.collision * blocked
             - rw.effort * (a * a).sum(axis=1) / a.shape[1]
             - rw.time

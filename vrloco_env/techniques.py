@@ -115,6 +115,11 @@ _chain(
     locomotion="look_down_to_move",
 )
 _chain(
+    "lee2018_steps",
+    "steps from the headset's tracked height (Lee, Ahn & Hwang 2018 style) in Zhang 2021's chain",
+    steps="lee2018",
+)
+_chain(
     "hand_steering",
     "Zhang 2021's steps, walking where the hand points (Yao 2023's hand estimate steers)",
     steering="hand",

@@ -231,6 +231,7 @@ class SimulatedUsers(TakesUsers):
         self._steer_with_torso = getattr(stages.steering, "uses_torso", True)
         self._steer_with_hand = bool(getattr(stages.steering, "uses_hand", False))
         self._loco_pitch = bool(getattr(stages.locomotion, "uses_pitch", False))
+        self._steps_position = bool(getattr(stages.steps, "uses_position", False))
         # -> locomotion
         self.locomotion = stages.locomotion
         self._summary_prm = param_record(
@@ -367,7 +368,12 @@ class SimulatedUsers(TakesUsers):
             q = self.attitude.update(imu.gyr, imu.acc, imu.mag)
         else:
             q = self._track(chunk, imu)
-        gait = self.gait.update(imu.acc, imu.gyr, q)
+        if self._steps_position:  # a detector on the tracked headset's position (Lee 2018)
+            noise = self.rng.normal(chunk.pos.shape[1:], rows=None)
+            tracked = chunk.pos + self.sensors.headset_position_noise_m * noise
+            gait = self.gait.update(imu.acc, imu.gyr, q, position=tracked)
+        else:
+            gait = self.gait.update(imu.acc, imu.gyr, q)
         ypr_est = np.empty((self.batch_size, 3))
         quat_to_ypr_rows(self.batch_size)(q[:, -1], ypr_est)  # rot.quat_to_ypr, compiled
         if self._recentre.any():  # first samples of an episode: align virtual and estimated yaw

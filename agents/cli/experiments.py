@@ -34,6 +34,22 @@ def cmd_vio(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_published(args: argparse.Namespace) -> int:
+    from agents.experiments.published.run import run_published
+
+    try:
+        run_published(
+            json_path=Path(args.json) if args.json else None,
+            episodes=args.episodes,
+            findings=args.findings.split(",") if args.findings else None,
+            dev=args.dev,
+        )
+    except ValueError as err:
+        print(f"vrloco experiment published: {err}", file=sys.stderr)
+        return 2
+    return 0
+
+
 def cmd_locomotion(args: argparse.Namespace) -> int:
     from agents.experiments.locomotion_table import run_locomotion_table
 

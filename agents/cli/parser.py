@@ -14,6 +14,7 @@ from agents.cli.experiments import (
     cmd_head_motions,
     cmd_locomotion,
     cmd_population_sensitivity,
+    cmd_published,
     cmd_step_envelope,
     cmd_vio,
 )
@@ -68,7 +69,7 @@ def _seed_list(text: str) -> list[int]:
 
 def _reward_terms(text: str) -> RewardConfig:
     """An argparse type: ``TERM=W,...`` over the default :class:`RewardConfig`."""
-    terms = {}
+    terms: dict[str, float | bool] = {}
     names = [f.name for f in dataclasses.fields(RewardConfig)]
     for part in text.split(","):
         name, sep, value = part.partition("=")
@@ -77,6 +78,11 @@ def _reward_terms(text: str) -> RewardConfig:
             raise argparse.ArgumentTypeError(
                 f"{part.strip()!r}: give TERM=WEIGHT with TERM one of {', '.join(names)}"
             )
+        if name == "success_without_collision":
+            if value.strip() not in ("true", "false"):
+                raise argparse.ArgumentTypeError(f"{name}={value.strip()!r}: true or false")
+            terms[name] = value.strip() == "true"
+            continue
         try:
             terms[name] = float(value)
         except ValueError:
@@ -203,6 +209,24 @@ def build_parser() -> argparse.ArgumentParser:
     se.add_argument("--dev", action="store_true", help="development seeds 0-2 instead")
     se.add_argument("--users", type=_int_at_least(1), default=8, help="simulated users per case")
     se.set_defaults(func=cmd_step_envelope)
+    pub = exp_sub.add_parser(
+        "published",
+        help="published user-study findings (head tilt, VR-STEP, Lee 2018, gaze vs hand "
+        "steering, hip steering, stop latency) reproduced on held-out seeds, with their tests",
+    )
+    pub.add_argument("--json", type=_out_file, help="write the results to this JSON file")
+    pub.add_argument(
+        "--episodes",
+        type=_int_at_least(2),
+        help="reporting episodes per cell (default: all 60 reporting seeds)",
+    )
+    pub.add_argument("--findings", help="comma-separated finding ids (default: all)")
+    pub.add_argument(
+        "--dev",
+        action="store_true",
+        help="the development seeds instead (in-sample: what the scenarios were chosen on)",
+    )
+    pub.set_defaults(func=cmd_published)
     hb = exp_sub.add_parser(
         "head-behaviour",
         help="head-motion statistics of every user population, standing and walking, beside "
@@ -404,7 +428,8 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="TERM=W,...",
         help="the training objective's weights over the env's RewardConfig (terms: "
         + ", ".join(f.name for f in dataclasses.fields(RewardConfig))
-        + "), e.g. collision=10; the task and its measures stay the same",
+        + "), e.g. collision=10 or success_without_collision=true; the task and its "
+        "measures stay the same",
     )
     train.add_argument(
         "--eval-every", type=_int_at_least(1), default=100_000, help="steps between evals"

@@ -8,6 +8,7 @@
 * :mod:`~estimators.steps.threshold` — a naive peak picker on ``|f|``, the floor.
 * :mod:`~estimators.steps.nod_robust` — the world-vertical specific force with a rotation veto
   against nods.
+* :mod:`~estimators.steps.lee2018` — Lee 2018 style: dips of the headset's tracked height.
 * :mod:`~estimators.steps.cadence` — the cadence (steps/s) from step events.
 * :mod:`~estimators.steps._kernel` — the package's compiled kernels and the stages Zhang 2021's
   family of detectors shares; each ``py_func`` is the readable reference.
@@ -17,6 +18,7 @@ Every step stage returns an :class:`estimators.stages.GaitChunk`.
 
 from estimators.registry import renamed_attributes
 from estimators.steps.cadence import CadenceEstimator
+from estimators.steps.lee2018 import Lee2018Params, Lee2018Steps
 from estimators.steps.nod_robust import NodRobustParams, NodRobustSteps
 from estimators.steps.offline import GaitResult, bin_average, detect_steps
 from estimators.steps.threshold import ThresholdParams, ThresholdSteps
@@ -26,6 +28,8 @@ __all__ = [
     "CadenceEstimator",
     "GaitParams",
     "GaitResult",
+    "Lee2018Params",
+    "Lee2018Steps",
     "NodRobustParams",
     "NodRobustSteps",
     "StepDetector",

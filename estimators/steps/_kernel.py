@@ -31,6 +31,7 @@ from estimators.kernels.rotations import quat_rotate
 __all__ = [
     "CADENCE_STATE",
     "GAIT_STATE",
+    "LEE2018_STATE",
     "MAX_CADENCE",
     "NOD_ROBUST_STATE",
     "THRESHOLD_STATE",
@@ -39,6 +40,7 @@ __all__ = [
     "empty_chunk",
     "forget_streams",
     "gait_kernel",
+    "lee2018_kernel",
     "mean_filter",
     "nod_robust_kernel",
     "running_baseline",
@@ -392,3 +394,81 @@ def _cadence_run(steps, dt, prm, state):
 
 #: The compiled update: ``cadence_kernel(batch_size)(...)`` (see ``_cadence_run``).
 cadence_kernel = BatchKernel(_cadence_run, parallel=False)
+
+
+# ------------------------------------------------------------------------------------------------
+# The Lee-2018-style detector: dips of the headset's pitch-compensated height.
+# ------------------------------------------------------------------------------------------------
+
+#: Per-stream scalars of :data:`lee2018_kernel`: the standing ``baseline`` height (m), whether a
+#: dip is under way (``down``), its deepest point ``deepest`` (m below the baseline) and that
+#: point's time ``deepest_t`` (s), the last step's time ``last_step`` (s; -inf: none) and the
+#: samples seen ``n_seen``.
+LEE2018_STATE = {
+    "baseline": (),
+    "down": (),
+    "deepest": (),
+    "deepest_t": (),
+    "last_step": (),
+    "n_seen": (),
+}
+
+
+def _lee2018_run(pos, quat, k0, prm, state, out):
+    """Run the detector over a chunk: ``pos`` (B, n, 3) headset positions (m, z up) and ``quat``
+    (B, n, 4) attitudes.
+
+    The neck pivot's height is the headset's less the headset's offset from the pivot turned by
+    the attitude (``prm``'s ``off_x``, ``off_y``, ``off_z`` in the head frame), so that tilting
+    the head does not move it; its ``baseline`` follows it with the time constant ``baseline_s``.
+    A dip starts when the pivot is ``dip_m`` below the baseline and ends when it is back within
+    ``dip_m / 2``; its deepest point is a step, unless it comes less than ``min_interval_s``
+    after the last step. Walk while the last step is at most ``hold_s`` old. ``k0`` (B,) is each
+    stream's index of the chunk's first sample; ``state`` the (B,) records of
+    :data:`LEE2018_STATE`; ``out`` the chunk's ``(state, steps, peak_time)`` arrays.
+    """
+    out_state, out_steps, out_peak_t = out
+    p = prm[0]
+    fs = p["fs"]
+    alpha = 1.0 - math.exp(-1.0 / (fs * p["baseline_s"]))
+    nb, n = pos.shape[0], pos.shape[1]
+    for b in numba.prange(nb):
+        s = state[b]
+        base, down, deepest, deepest_t = s["baseline"], s["down"], s["deepest"], s["deepest_t"]
+        last, seen = s["last_step"], s["n_seen"]
+        for i in range(n):
+            t = (k0[b] + i) / fs
+            w, x, y, z = quat[b, i, 0], quat[b, i, 1], quat[b, i, 2], quat[b, i, 3]
+            lift = (
+                2.0 * (x * z - w * y) * p["off_x"]
+                + 2.0 * (y * z + w * x) * p["off_y"]
+                + (1.0 - 2.0 * (x * x + y * y)) * p["off_z"]
+            )
+            h = pos[b, i, 2] - lift
+            if not math.isfinite(h):
+                out_state[b, i] = 1 if t - last <= p["hold_s"] else 0
+                continue
+            if seen == 0:
+                base = h
+            seen += 1
+            dip = base - h
+            if down == 0.0:
+                if dip > p["dip_m"]:
+                    down, deepest, deepest_t = 1.0, dip, t
+            else:
+                if dip > deepest:
+                    deepest, deepest_t = dip, t
+                if dip < 0.5 * p["dip_m"]:
+                    down = 0.0
+                    if deepest_t - last >= p["min_interval_s"]:
+                        out_steps[b, i] = 1
+                        out_peak_t[b, i, 0] = deepest_t
+                        last = deepest_t
+            base += alpha * (h - base)
+            out_state[b, i] = 1 if t - last <= p["hold_s"] else 0
+        s["baseline"], s["down"], s["deepest"], s["deepest_t"] = base, down, deepest, deepest_t
+        s["last_step"], s["n_seen"] = last, seen
+
+
+#: The compiled detector: ``lee2018_kernel(batch_size)(...)`` (see ``_lee2018_run``).
+lee2018_kernel = BatchKernel(_lee2018_run, parallel=False)

@@ -112,7 +112,37 @@ def _cadence_speed():
     return {k: np.stack(v) for k, v in out.items()}
 
 
+def _lee2018():
+    from estimators import rotations as rot
+    from estimators.steps import Lee2018Params, Lee2018Steps
+
+    n, b = 400, 3
+    t = np.arange(n)[:, None] / 100.0
+    cad = np.array([1.5, 2.0, 0.0])[None, :]
+    z = 1.55 - 0.0125 * (1.0 - np.cos(2 * np.pi * cad * t))
+    pitch = np.deg2rad(20.0) * np.sin(2 * np.pi * 0.6 * t + np.arange(b))
+    q = rot.quat_from_ypr(np.stack([np.zeros((n, b)), pitch, np.zeros((n, b))], -1))
+    pos = np.stack([np.zeros((n, b)), np.zeros((n, b)), z], -1) + rot.quat_rotate(
+        q, np.array([0.09, 0.0, 0.12])
+    )
+    pos = pos + np.random.default_rng(4).normal(0.0, 5e-4, pos.shape)
+    det = Lee2018Steps(b, 100.0, Lee2018Params(dip_m=0.004))
+    acc = np.zeros((b, 20, 3))
+    rows = {"state": [], "steps": [], "peak_time": []}
+    for k in range(0, n, 20):
+        if k == 200:
+            det.reset([1])
+        out = det.update(
+            acc, acc, q[k : k + 20].transpose(1, 0, 2), position=pos[k : k + 20].transpose(1, 0, 2)
+        )
+        rows["state"].append(out.state)
+        rows["steps"].append(out.steps)
+        rows["peak_time"].append(np.nan_to_num(out.peak_time, nan=-1.0))
+    return {key: np.concatenate(v, axis=1) for key, v in rows.items()}
+
+
 CASES = {
+    "steps_lee2018": _lee2018,
     "steps_threshold": _stage(ThresholdSteps),
     "steps_nod_robust": _stage(NodRobustSteps),
     "steps_zhang2021": _zhang2021,

@@ -222,3 +222,29 @@ def test_an_action_that_is_not_five_real_numbers_is_refused_by_name(bad):
     env.reset(seed=0)
     with pytest.raises(ValueError, match=r"action must (be an array of|have) shape \(5,\)"):
         env.step(bad)
+
+
+def test_a_collision_forfeits_the_success_bonus_only_when_asked():
+    """The same episode (hand steering bumps into the room, then reaches the goal) under both
+    objectives: the bonus is withheld at the success step, and nothing else changes."""
+    from agents.benchmark.policies import build_policy
+    from vrloco_env.config import RewardConfig
+
+    def play(reward):
+        env = gym.make("VRLoco-Approach-v0", technique="hand_steering", reward=reward)
+        user = build_policy("goal_seeker", env)
+        obs, _ = env.reset(seed=3)
+        user.reset(np.random.default_rng([3, 1]))
+        rewards, info = [], {}
+        for _ in range(600):
+            obs, r, terminated, truncated, info = env.step(user.act(obs))
+            rewards.append(r)
+            if terminated or truncated:
+                break
+        return np.array(rewards), info
+
+    plain, info = play(RewardConfig())
+    strict, strict_info = play(RewardConfig(success_without_collision=True))
+    assert info["is_success"] and info["collisions"] > 0 and strict_info["is_success"]
+    np.testing.assert_array_equal(plain[:-1], strict[:-1])
+    assert plain[-1] - strict[-1] == pytest.approx(RewardConfig().success)
