@@ -826,3 +826,37 @@ def test_frame_stacked_and_recurrent_models_play_as_they_were_trained(tmp_path):
         r"\(90,\) \(3 frames of 30\)",
     ):
         LearnedPolicy(stacked, env)
+
+
+def test_every_technique_gives_the_same_observation_and_action_spaces():
+    """A user trained under one technique can play (or be fine-tuned on) any other: the
+    technique changes what the sensors and estimators do, never the spaces."""
+    from agents.learned.models import env_settings
+    from vrloco_env.techniques import TECHNIQUES
+
+    first = None
+    for name in TECHNIQUES:
+        env = VRLocoVectorEnv(2, **env_settings("approach", technique=name))
+        spaces = (env.single_observation_space, env.single_action_space)
+        env.close()
+        first = first or spaces
+        assert spaces == first, name
+
+
+@pytest.mark.slow  # about 10 s: real PPO runs
+@pytest.mark.parametrize("technique", ["head_tilt", "look_down_to_move", "hand_steering"])
+def test_a_learned_user_trains_on_each_hands_free_technique(tmp_path, technique):
+    path = train_ppo(
+        "approach",
+        steps=256,
+        num_envs=4,
+        out_dir=tmp_path,
+        eval_every=256,
+        eval_episodes=2,
+        progress=False,
+        n_steps=64,
+        batch_size=128,
+        technique=technique,
+    )
+    row = evaluate_model(path, episodes=1, progress=False)
+    assert row["technique"] == technique and row["trained_on"] is None
