@@ -16,6 +16,8 @@ motion from the same
   the hand's (:class:`HeadSteering`, :class:`TorsoSteering`, :class:`HandSteering`,
   :func:`torso_yaw`).
 * :mod:`~estimators.locomotion.gestures` — what a technique asks its users to do with their body.
+* :mod:`~estimators.locomotion.record_state` — the kinematics the compiled models share
+  (:class:`~estimators.locomotion.record_state.RecordLocomotion`).
 * :mod:`~estimators.locomotion._kernel` — the package's compiled kernels (cadence speed, head
   tilt, look-down toggle).
 

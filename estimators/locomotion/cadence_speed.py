@@ -53,16 +53,12 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from estimators.batching import TakesUsers
-from estimators.kernels import param_record, state_records
+from estimators.kernels import param_record
 from estimators.locomotion._kernel import CADENCE_SPEED_STATE, cadence_kernel
-from estimators.rotations import wrap_angle
+from estimators.locomotion.record_state import RecordLocomotion
 from estimators.validation import (
     check_in_range,
     check_locomotion_update,
-    check_mask,
-    check_per_user,
-    check_positions,
     check_step_intervals,
     check_step_length,
 )
@@ -116,7 +112,7 @@ class CadenceSpeedParams:
         return CadenceSpeed(batch_size, step_length, self)
 
 
-class CadenceSpeed(TakesUsers):
+class CadenceSpeed(RecordLocomotion):
     """Continuous virtual motion at SL x the estimated cadence, for B users (module docstring).
 
     Args:
@@ -129,7 +125,6 @@ class CadenceSpeed(TakesUsers):
 
     name = "cadence_speed"
     per_user_fields = ("step_length", "_state")
-    batch_size_field = "batch_size"
 
     def __init__(
         self,
@@ -139,40 +134,15 @@ class CadenceSpeed(TakesUsers):
         position: ArrayLike | None = None,
         heading: ArrayLike | None = None,
     ) -> None:
-        if isinstance(batch_size, bool) or not isinstance(batch_size, int | np.integer):
-            raise ValueError(f"batch_size must be an integer >= 1, got {batch_size!r}")
-        if batch_size < 1:
-            raise ValueError(f"batch_size must be an integer >= 1, got {batch_size!r}")
         self.params = CadenceSpeedParams() if params is None else params
         if not isinstance(self.params, CadenceSpeedParams):
             raise ValueError(
                 f"params must be a CadenceSpeedParams, got {type(self.params).__name__}"
             )
-        b = self.batch_size = int(batch_size)
-        self.step_length = check_step_length(step_length, (b,))
+        super().__init__(batch_size, CADENCE_SPEED_STATE)
+        self.step_length = check_step_length(step_length, (self.batch_size,))
         self._prm = param_record(self.params)
-        self._state = state_records(CADENCE_SPEED_STATE, b)
         self.reset(position=position, heading=heading)
-
-    @property
-    def position(self) -> NDArray[np.float64]:
-        """Virtual positions (m), (B, 2)."""
-        return self._state["pos"].copy()
-
-    @property
-    def heading(self) -> NDArray[np.float64]:
-        """Yaw of the last update (or the reset heading), rad in (-pi, pi], (B,)."""
-        return wrap_angle(self._state["yaw"])
-
-    @property
-    def distance(self) -> NDArray[np.float64]:
-        """Path length travelled since reset (m), (B,)."""
-        return self._state["dist"].copy()
-
-    @property
-    def speed(self) -> NDArray[np.float64]:
-        """Speed at the end of the last update (m/s), (B,)."""
-        return self._state["speed"].copy()
 
     @property
     def cadence(self) -> NDArray[np.float64]:
@@ -194,15 +164,8 @@ class CadenceSpeed(TakesUsers):
         """Stop the users selected by ``mask`` (B,) bool (all if None) at ``position`` (m), with
         zero speed and distance and no bout; their heading is ``heading`` (rad) if given, else
         the next yaw."""
-        b = self.batch_size
-        sel = check_mask(mask, b)
-        st = self._state
-        st[sel] = 0.0
-        st["pos"][sel] = check_positions(position, b)[sel]
-        st["interval"][sel] = self.params.default_step_interval
-        if heading is not None:
-            st["yaw"][sel] = wrap_angle(check_per_user(heading, b, "heading", 0.0, "rad"))[sel]
-            st["yaw_known"][sel] = 1.0
+        sel = self._restart(mask, position, heading)
+        self._state["interval"][sel] = self.params.default_step_interval
 
     def update(
         self,

@@ -24,17 +24,14 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from estimators.batching import TakesUsers
-from estimators.kernels import param_record, state_records
+from estimators.kernels import param_record
 from estimators.locomotion._kernel import PITCH_DRIVEN_STATE, head_tilt_kernel
 from estimators.locomotion.gestures import TiltToMove
-from estimators.rotations import wrap_angle
+from estimators.locomotion.record_state import RecordLocomotion
 from estimators.validation import (
     check_in_range,
     check_locomotion_update,
-    check_mask,
     check_per_user,
-    check_positions,
 )
 
 __all__ = ["HeadTilt", "HeadTiltParams", "PitchDriven"]
@@ -75,7 +72,7 @@ class HeadTiltParams:
         return HeadTilt(batch_size, step_length, self)
 
 
-class PitchDriven(TakesUsers):
+class PitchDriven(RecordLocomotion):
     """A locomotion model driven by the estimated head pitch (shared by head tilt and the
     look-down toggle): B users' positions, distances and speeds in the kernel state
     :data:`~estimators.locomotion._kernel.PITCH_DRIVEN_STATE`.
@@ -86,38 +83,12 @@ class PitchDriven(TakesUsers):
 
     uses_pitch = True
     per_user_fields = ("_state",)
-    batch_size_field = "batch_size"
 
     def __init__(
         self, batch_size: int, position: ArrayLike | None = None, heading: ArrayLike | None = None
     ) -> None:
-        if isinstance(batch_size, bool) or not isinstance(batch_size, int | np.integer):
-            raise ValueError(f"batch_size must be an integer >= 1, got {batch_size!r}")
-        if batch_size < 1:
-            raise ValueError(f"batch_size must be an integer >= 1, got {batch_size!r}")
-        self.batch_size = int(batch_size)
-        self._state = state_records(PITCH_DRIVEN_STATE, self.batch_size)
+        super().__init__(batch_size, PITCH_DRIVEN_STATE)
         self.reset(position=position, heading=heading)
-
-    @property
-    def position(self) -> NDArray[np.float64]:
-        """Virtual positions (m), (B, 2)."""
-        return self._state["pos"].copy()
-
-    @property
-    def heading(self) -> NDArray[np.float64]:
-        """Yaw of the last update (or the reset heading), rad in (-pi, pi], (B,)."""
-        return wrap_angle(self._state["yaw"])
-
-    @property
-    def distance(self) -> NDArray[np.float64]:
-        """Path length travelled since reset (m), (B,)."""
-        return self._state["dist"].copy()
-
-    @property
-    def speed(self) -> NDArray[np.float64]:
-        """Speed of the last update (m/s), (B,)."""
-        return self._state["speed"].copy()
 
     def reset(
         self,
@@ -125,17 +96,11 @@ class PitchDriven(TakesUsers):
         position: ArrayLike | None = None,
         heading: ArrayLike | None = None,
     ) -> None:
-        """Stop the users selected by ``mask`` (B,) bool (all if None) at ``position`` (m); their
-        heading is ``heading`` (rad) if given, else the next yaw."""
-        b = self.batch_size
-        sel = check_mask(mask, b)
-        st = self._state
-        st[sel] = 0.0
-        st["armed"][sel] = 1.0
-        st["pos"][sel] = check_positions(position, b)[sel]
-        if heading is not None:
-            st["yaw"][sel] = wrap_angle(check_per_user(heading, b, "heading", 0.0, "rad"))[sel]
-            st["yaw_known"][sel] = 1.0
+        """Stop the users selected by ``mask`` (B,) bool (all if None) at ``position`` (m),
+        with the look-down toggle armed; their heading is ``heading`` (rad) if given, else the
+        next yaw."""
+        sel = self._restart(mask, position, heading)
+        self._state["armed"][sel] = 1.0
 
     def update(
         self,
