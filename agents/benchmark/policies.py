@@ -106,7 +106,10 @@ def check_policy(spec: str) -> str:
 class LearnedPolicy(TakesUsers):
     """A saved stable-baselines3 PPO model as a policy (deterministic actions).
 
-    The model sees the env as it was trained to (``model.vrloco_policy``,
+    The model reads the observation fields it was trained on, by name
+    (:func:`agents.learned.models.observation_columns`: a field it does not know, such as a
+    population's ``head_on_torso``, is left unread; one it knows that changed is an error). The
+    model sees the env as it was trained to (``model.vrloco_policy``,
     :func:`agents.learned.models.model_policy`): with a frame stack, each user's last k observations
     side by side (:class:`~vrloco_env.wrappers.StackedFrames`, started from the episode's first
     observation at every ``reset``); a recurrent model (sb3-contrib's ``RecurrentPPO``) carries
@@ -126,7 +129,7 @@ class LearnedPolicy(TakesUsers):
     per_user_parts = ("_frames",)
 
     def __init__(self, path: str | Path, env: Any, allow_mismatch: bool = False) -> None:
-        from agents.learned.models import model_policy, observation_change
+        from agents.learned.models import model_policy, observation_columns
 
         self.path = Path(path)
         self.name = f"ppo:{self.path.name}"
@@ -145,15 +148,18 @@ class LearnedPolicy(TakesUsers):
             )
         spec = getattr(env.unwrapped, "observation_spec", None)
         saved = getattr(self.model, "vrloco_observation", None)
-        changed = None if spec is None else observation_change(saved, spec)
-        if changed is not None:
+        try:
+            self._columns = None if spec is None else observation_columns(saved, spec)
+        except ValueError as err:
             raise ValueError(
-                f"policy {str(self.path)!r} is stale: {changed}; train it again on this "
+                f"policy {str(self.path)!r} is stale: {err}; train it again on this "
                 f"version (vrloco train){_trained_on(self.model)}"
-            )
+            ) from None
         seen = model_policy(self.model)
         self.frame_stack, self.recurrent = seen["frame_stack"], seen["recurrent"]
         size = env.unwrapped.observation_space.shape[-1]
+        if self._columns is not None:
+            size = self._columns.size  # the fields it knows, by name (others left unread)
         want = (size * self.frame_stack,)
         have = self.model.observation_space.shape
         if have != want:
@@ -191,6 +197,8 @@ class LearnedPolicy(TakesUsers):
         episode must not depend on how many users it was batched with."""
         x = np.asarray(obs, dtype=np.float32)
         rows = x.reshape(1, -1) if x.ndim == 1 else x
+        if self._columns is not None:
+            rows = rows[:, self._columns]
         n = rows.shape[0]
         if self._fresh is None or self._fresh.shape[0] != n:
             self._fresh, self._frames, self._state = np.ones(n, bool), None, None

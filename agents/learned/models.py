@@ -9,13 +9,16 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+from numpy.typing import NDArray
+
 __all__ = [
     "CELL_KEYS",
     "env_settings",
     "model_cell",
     "model_env_settings",
     "model_policy",
-    "observation_change",
+    "observation_columns",
     "observation_layout",
 ]
 
@@ -158,34 +161,38 @@ def observation_layout(spec: Any) -> list[dict[str, Any]]:
     ]
 
 
-def observation_change(saved: Any, spec: Any) -> str | None:
-    """What differs between the observation a model was trained on (``saved``, from
-    :func:`observation_layout`) and the env's ``spec``: one phrase naming the first field that
-    changed (added, removed, moved, resized, rescaled or in another unit), or None where they
-    are the same (or the model stored no layout)."""
+def observation_columns(saved: Any, spec: Any) -> NDArray[np.intp] | None:
+    """The entries of the env's observation (``spec``) a model trained on the layout ``saved``
+    (:func:`observation_layout`) reads, in the model's order: each of its fields, found by name
+    wherever the env puts it. A field the env has and the model does not know (a population's
+    ``head_on_torso`` for a model trained without one) is left unread. None where the model
+    stored no layout (it reads the whole observation).
+
+    Raises:
+        ValueError: one phrase naming the first field of the model that the env lacks or has
+            changed (its entries, scale or unit): a stale model.
+    """
     if not isinstance(saved, list):
         return None
-    now = observation_layout(spec)
-    old_names = [f.get("name") for f in saved]
-    new_names = [f["name"] for f in now]
-    for name in new_names:
-        if name not in old_names:
-            return f"the env's observation has a field {name!r} the model was not trained on"
-    for name in old_names:
-        if name not in new_names:
-            return f"the model was trained on an observation field {name!r} the env no longer has"
-    for i, (old, new) in enumerate(zip(saved, now, strict=True)):
-        name = new["name"]
-        if old.get("name") != name:
-            return f"observation field {name!r} moved (position {old_names.index(name)} -> {i})"
+    now = {f["name"]: f for f in observation_layout(spec)}
+    columns: list[int] = []
+    for old in saved:
+        name = old.get("name")
+        new = now.get(name)
+        if new is None:
+            raise ValueError(
+                f"the model was trained on an observation field {name!r} the env does not have"
+            )
         if list(old.get("entries", ())) != new["entries"]:
-            return (
+            raise ValueError(
                 f"observation field {name!r} has {len(new['entries'])} entries, the model was "
                 f"trained on {len(old.get('entries', ()))} ({', '.join(old.get('entries', ()))})"
             )
         if old.get("scale") != new["scale"] or old.get("unit") != new["unit"]:
-            return (
+            raise ValueError(
                 f"observation field {name!r} reads {new['scale']:g} {new['unit']} as 1, the "
                 f"model was trained on {old.get('scale')!r} {old.get('unit')}"
             )
-    return None
+        start = spec.offset(name)
+        columns += range(start, start + len(new["entries"]))
+    return np.asarray(columns, dtype=np.intp)

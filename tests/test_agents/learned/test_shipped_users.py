@@ -1,11 +1,14 @@
 """Shipped learned users: the ``ppo`` policy spec, and stale models named by the field that
 changed."""
 
+import re
+
 import gymnasium as gym
+import numpy as np
 import pytest
 
 from agents.learned import SB3VecEnv, env_settings, make_model  # before torch: see its docs
-from agents.learned.models import observation_change, observation_layout
+from agents.learned.models import observation_columns, observation_layout
 from vrloco_env.observation import Field, ObservationSpec
 from vrloco_env.vector import VRLocoVectorEnv
 
@@ -25,16 +28,18 @@ def _untrained_model(tmp_path, task="approach", **saved):
     return path
 
 
-def test_each_kind_of_observation_change_is_named():
+def test_a_model_reads_its_fields_by_name_and_a_changed_one_is_named():
     spec = ObservationSpec(
         [Field("goal_distance", scale=20.0, unit="m"), Field("rays", ("r0", "r1"))]
     )
     saved = observation_layout(spec)
-    assert observation_change(saved, spec) is None
-    assert observation_change(None, spec) is None  # a model saved without its layout
+    np.testing.assert_array_equal(observation_columns(saved, spec), [0, 1, 2])
+    assert observation_columns(None, spec) is None  # a model saved without its layout
+    # a field it does not know is left unread, and the fields it knows are found where they are
+    wider = ObservationSpec([Field("extra"), *spec.fields[::-1]])
+    np.testing.assert_array_equal(observation_columns(saved, wider), [3, 1, 2])
     cases = {
-        "has a field 'extra'": [*spec.fields, Field("extra")],
-        "field 'rays' the env no longer has": spec.fields[:1],
+        "field 'rays' the env does not have": spec.fields[:1],
         "'rays' has 3 entries, the model was trained on 2 (r0, r1)": [
             spec.fields[0],
             Field("rays", ("r0", "r1", "r2")),
@@ -43,10 +48,26 @@ def test_each_kind_of_observation_change_is_named():
             Field("goal_distance", scale=10.0, unit="m"),
             spec.fields[1],
         ],
-        "'rays' moved (position 1 -> 0)": spec.fields[::-1],
     }
     for phrase, fields in cases.items():
-        assert phrase in observation_change(saved, ObservationSpec(fields)), phrase
+        with pytest.raises(ValueError, match=re.escape(phrase)):
+            observation_columns(saved, ObservationSpec(fields))
+
+
+def test_a_user_trained_without_a_populations_field_plays_that_population_unchanged(tmp_path):
+    from agents.benchmark.policies import LearnedPolicy
+
+    plain = gym.make("VRLoco-Approach-v0")
+    typical = gym.make("VRLoco-Approach-v0", population="typical")
+    path = _untrained_model(tmp_path)
+    obs, _ = typical.reset(seed=1)
+    spec = typical.unwrapped.observation_spec
+    known = np.delete(obs, spec.slice("head_on_torso"))
+    a = LearnedPolicy(path, typical).act(obs)
+    b = LearnedPolicy(path, plain).act(known)
+    np.testing.assert_array_equal(a, b)  # it reads exactly the fields it knows
+    plain.close()
+    typical.close()
 
 
 def test_a_stale_model_is_refused_naming_the_field(tmp_path):
