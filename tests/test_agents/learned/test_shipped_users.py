@@ -96,9 +96,10 @@ def test_ppo_plays_the_tasks_shipped_user_and_names_the_tasks_that_have_one(tmp_
     policy = build_policy("ppo+typical", env)
     assert policy.policy.path == model and policy.name.startswith("ppo")
     env.close()
-    env = gym.make("VRLoco-Avoid-v0")
+    env = gym.make("VRLoco-Interact-v0")
     with pytest.raises(
-        ValueError, match=r"no learned user is shipped for task 'avoid' \(shipped: approach\)"
+        ValueError,
+        match=r"no learned user is shipped for task 'interact' \(shipped: [a-z, ]*approach",
     ):
         build_policy("ppo", env)
     env.close()
@@ -109,3 +110,28 @@ def test_ppo_plays_the_tasks_shipped_user_and_names_the_tasks_that_have_one(tmp_
     before = cell_inputs([Cell])[Cell]
     model.write_bytes(model.read_bytes() + b"\0")
     assert cell_inputs([Cell])[Cell] != before
+
+
+def test_every_shipped_user_fits_its_task_and_its_card_shows_how_it_does():
+    """A shipped model still reads the current observation and action spaces (a stale one is an
+    error naming the field), and its held-out card says it met the idealised bar and records the
+    comparison with the goal seeker under every population."""
+    import json
+
+    from agents.benchmark.policies import LearnedPolicy
+    from agents.learned.users import LEARNED_USERS
+    from vrloco_env.tasks import env_id
+
+    assert len(LEARNED_USERS) >= 1
+    for task, user in LEARNED_USERS.items():
+        env = gym.make(env_id(task))
+        LearnedPolicy(user.path, env)  # raises if stale
+        env.close()
+        card = json.loads(user.path.with_suffix(".json").read_text())
+        assert card["task"] == task and card["train_command"].startswith("vrloco train")
+        assert card["bar"]["holds_idealised"]
+        assert isinstance(card["bar"]["holds_against_goal_seeker"], bool)
+        shown = {(r["user"], r["population"]) for r in card["held_out"]["rows"]}
+        for pop in ("idealised", "typical", "nodders", "gaze_scanners"):
+            assert {("ppo", pop), ("goal_seeker", pop)} <= shown
+        assert user.path.with_name(f"{task}_curve.png").is_file()

@@ -1,0 +1,161 @@
+"""Ship a trained model as the learned user of its task: the model, its card and its curve in
+:mod:`agents.learned.users`, with the held-out evaluation beside the goal seeker's.
+
+Run from the repository root::
+
+    python -m agents.learned.users.ship MODEL.zip --command "vrloco train ..." [--episodes 100]
+
+The model's task comes from the model. The held-out evaluation is the benchmark on seeds
+:data:`HELD_OUT_SEED` onwards (never a training or development seed: training evaluates on seeds
+10000 + its seed), the default technique, the learned user (the shipped file, what ``ppo`` plays
+once registered) and the goal seeker, idealised and with every population of :data:`POPULATIONS`;
+the card records that command and, per user and population, the success rate and the collision-free
+success rate with their 95 % Wilson intervals, and whether the bar holds: collision-free success >=
+:data:`BAR` for the idealised user, and at least the goal seeker's (its point estimate) under every
+population. A model that misses a bar is still written (the card says which); register it in
+``agents/learned/users/__init__.py`` only where the idealised bar holds, and say in its registry
+line how it does."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+from typing import Any
+
+from agents.benchmark.cell_statistics import wilson_interval
+from agents.learned.users import HERE
+
+__all__ = ["BAR", "HELD_OUT_SEED", "POPULATIONS", "held_out_rows", "ship"]
+
+#: First held-out seed of the evaluation.
+HELD_OUT_SEED = 100_000
+#: The populations the learned user is compared under (beside the idealised user).
+POPULATIONS = ("typical", "nodders", "gaze_scanners")
+#: Collision-free success the idealised learned user must reach.
+BAR = 0.95
+
+
+def held_out_rows(
+    task: str, model: Path, episodes: int, out: Path
+) -> tuple[str, list[dict[str, Any]]]:
+    """The benchmark command and its rows: the learned user ``model`` (``user`` "ppo") and the
+    goal seeker on ``task``, idealised and under every population, on ``episodes`` held-out
+    seeds."""
+    policies = [str(model), "goal_seeker"]
+    for pop in POPULATIONS:
+        policies += [f"{model}+{pop}", f"goal_seeker+{pop}"]
+    args = [
+        "benchmark",
+        "--tasks",
+        task,
+        "--techniques",
+        "zhang2021",
+        "--policies",
+        ",".join(policies),
+        "--episodes",
+        str(episodes),
+        "--seed",
+        str(HELD_OUT_SEED),
+        "--out",
+        str(out),
+        "--force",
+    ]
+    subprocess.run(
+        [sys.executable, "-m", "agents.cli", *args], check=True, stdout=subprocess.DEVNULL
+    )
+    data = json.loads((out / "benchmark.json").read_text())
+    rows = data["rows"] if isinstance(data, dict) else data
+    out_rows = []
+    for r in rows:
+        n = int(r.get("episodes", episodes))
+        base, sep, pop = r["policy"].rpartition("+")
+        if not sep or not pop.isidentifier():
+            base, pop = r["policy"], ""
+        user = "goal_seeker" if base == "goal_seeker" else "ppo"
+        out_rows.append(
+            {
+                "user": user,
+                "population": pop or "idealised",
+                "episodes": n,
+                "success_rate": r["success_rate"],
+                "success_ci": list(wilson_interval(round(r["success_rate"] * n), n)),
+                "collision_free_success_rate": r["collision_free_success_rate"],
+                "collision_free_ci": list(
+                    wilson_interval(round(r["collision_free_success_rate"] * n), n)
+                ),
+            }
+        )
+    shown = [a.replace(str(model), "ppo") for a in args[:-3]]
+    return "vrloco " + " ".join([*shown, "--out", "OUT"]), out_rows
+
+
+def ship(model: Path, command: str, episodes: int = 100, choices: str = "") -> Path:
+    """Copy ``model`` (and its folder's learning curve) into :mod:`agents.learned.users` as its
+    task's user, evaluate it on held-out seeds and write its card; returns the card's path."""
+    from agents.benchmark.policies import load_ppo
+
+    trained = load_ppo(model)
+    task = trained.vrloco_env["task"]
+    target = HERE / f"{task}.zip"
+    shutil.copyfile(model, target)
+    folder = Path(model).parent
+    curve = []
+    if (folder / "learning_curve.json").is_file():
+        curve = [
+            {k: round(float(p[k]), 4) for k in ("steps", "success_rate", "collision_rate")}
+            for p in json.loads((folder / "learning_curve.json").read_text())
+        ]
+    if (folder / "learning_curve.png").is_file():
+        shutil.copyfile(folder / "learning_curve.png", HERE / f"{task}_curve.png")
+    with tempfile.TemporaryDirectory() as tmp:
+        bench, rows = held_out_rows(task, target, episodes, Path(tmp) / "bench")
+    ppo = {r["population"]: r for r in rows if r["user"] == "ppo"}
+    seeker = {r["population"]: r for r in rows if r["user"] == "goal_seeker"}
+    bar = {
+        "idealised_collision_free_success_at_least": BAR,
+        "holds_idealised": ppo["idealised"]["collision_free_success_rate"] >= BAR,
+        "holds_against_goal_seeker": all(
+            ppo[p]["collision_free_success_rate"] >= seeker[p]["collision_free_success_rate"]
+            for p in ppo
+        ),
+    }
+    card = {
+        "task": task,
+        "file": target.name,
+        "cell": trained.vrloco_cell,
+        "policy": trained.vrloco_policy,
+        "reward": {k: v for k, v in vars(trained.vrloco_env["reward"]).items()},
+        "train_command": command,
+        "choices": choices,
+        "development_curve": {
+            "seeds": "10000 + the training seed onwards, 32 episodes per point (development)",
+            "points": curve,
+        },
+        "held_out": {"command": bench, "seeds_from": HELD_OUT_SEED, "rows": rows},
+        "bar": bar,
+    }
+    path = target.with_suffix(".json")
+    path.write_text(json.dumps(card, indent=2) + "\n")
+    return path
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("model", type=Path, help="the trained model (.zip)")
+    parser.add_argument("--command", required=True, help="the vrloco train command that made it")
+    parser.add_argument("--episodes", type=int, default=100, help="held-out episodes per cell")
+    parser.add_argument("--choices", default="", help="the development choices, in a line")
+    args = parser.parse_args(argv)
+    card = ship(args.model, args.command, args.episodes, args.choices)
+    print(f"wrote {card}")
+    print(json.dumps(json.loads(card.read_text())["bar"], indent=2))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
