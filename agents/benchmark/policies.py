@@ -197,7 +197,8 @@ class LearnedPolicy(TakesUsers):
         episode must not depend on how many users it was batched with."""
         x = np.asarray(obs, dtype=np.float32)
         rows = x.reshape(1, -1) if x.ndim == 1 else x
-        if self._columns is not None:
+        if self._columns is not None:  # the fields it knows, a zero for one absent by definition
+            rows = np.concatenate([rows, np.zeros((rows.shape[0], 1), rows.dtype)], axis=1)
             rows = rows[:, self._columns]
         n = rows.shape[0]
         if self._fresh is None or self._fresh.shape[0] != n:

@@ -14,6 +14,7 @@ from numpy.typing import NDArray
 
 __all__ = [
     "CELL_KEYS",
+    "ZERO_WHEN_ABSENT",
     "env_settings",
     "model_cell",
     "model_env_settings",
@@ -161,12 +162,19 @@ def observation_layout(spec: Any) -> list[dict[str, Any]]:
     ]
 
 
+#: Observation fields whose absence means 0: ``head_on_torso`` (no population turns the head,
+#: so it is straight on the torso).
+ZERO_WHEN_ABSENT = frozenset({"head_on_torso"})
+
+
 def observation_columns(saved: Any, spec: Any) -> NDArray[np.intp] | None:
     """The entries of the env's observation (``spec``) a model trained on the layout ``saved``
     (:func:`observation_layout`) reads, in the model's order: each of its fields, found by name
     wherever the env puts it. A field the env has and the model does not know (a population's
-    ``head_on_torso`` for a model trained without one) is left unread. None where the model
-    stored no layout (it reads the whole observation).
+    ``head_on_torso`` for a model trained without one) is left unread; a field the model knows
+    that the env lacks by definition (:data:`ZERO_WHEN_ABSENT`: ``head_on_torso`` without a
+    population that turns the head, whose head is straight on the torso) reads 0, marked -1.
+    None where the model stored no layout (it reads the whole observation).
 
     Raises:
         ValueError: one phrase naming the first field of the model that the env lacks or has
@@ -179,6 +187,9 @@ def observation_columns(saved: Any, spec: Any) -> NDArray[np.intp] | None:
     for old in saved:
         name = old.get("name")
         new = now.get(name)
+        if new is None and name in ZERO_WHEN_ABSENT:
+            columns += [-1] * len(old.get("entries", ()))
+            continue
         if new is None:
             raise ValueError(
                 f"the model was trained on an observation field {name!r} the env does not have"

@@ -135,3 +135,24 @@ def test_every_shipped_user_fits_its_task_and_its_card_shows_how_it_does():
         for pop in ("idealised", "typical", "nodders", "gaze_scanners"):
             assert {("ppo", pop), ("goal_seeker", pop)} <= shown
         assert user.path.with_name(f"{task}_curve.png").is_file()
+
+
+def test_a_user_trained_with_a_turning_head_reads_a_straight_head_without_a_population(tmp_path):
+    from agents.benchmark.policies import LearnedPolicy
+
+    typical = VRLocoVectorEnv(1, **env_settings("approach", population="typical"))
+    plain = gym.make("VRLoco-Approach-v0")
+    saved = observation_layout(typical.observation_spec)
+    columns = observation_columns(saved, plain.unwrapped.observation_spec)
+    size = plain.unwrapped.observation_space.shape[0]
+    assert columns[-1] == -1  # head_on_torso: 0, the head straight on the torso
+    np.testing.assert_array_equal(columns[:-1], np.arange(size))
+    model = make_model(SB3VecEnv(typical, seed=0), n_steps=8, batch_size=8)
+    model.vrloco_env = env_settings("approach", population="typical")
+    model.vrloco_policy = {"frame_stack": 1, "recurrent": False}
+    model.vrloco_observation = saved
+    model.save(tmp_path / "m.zip")
+    obs, _ = plain.reset(seed=2)
+    expected = model.predict(np.append(obs, 0.0).astype(np.float32), deterministic=True)[0]
+    np.testing.assert_array_equal(LearnedPolicy(tmp_path / "m.zip", plain).act(obs), expected)
+    plain.close()
