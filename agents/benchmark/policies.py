@@ -9,6 +9,8 @@ A policy spec is one of
   (``reset(rng=None, rows=None)``, ``act(obs) -> action``);
 * the path of a stable-baselines3 PPO model (``.zip``), played with its deterministic policy;
 * ``ppo``: the learned user shipped for the env's task (:mod:`agents.learned.users`);
+  ``ppo@STEPS``: that user adapted to the env's cell by ``STEPS`` more training steps
+  (:func:`agents.learned.adapt.adapted_user`, cached; ``ppo@0`` is ``ppo``);
 
 each optionally followed by ``+<population>`` for the agent-side variability of a user population
 (:mod:`vrloco_env.user.population`) through :class:`agents.benchmark.variability.HumanVariability`
@@ -36,6 +38,8 @@ __all__ = [
     "HUMAN_SUFFIX",
     "SHIPPED",
     "LearnedPolicy",
+    "adapt_steps",
+    "adapted_path",
     "build_policy",
     "check_policy",
     "env_population",
@@ -78,6 +82,9 @@ def check_policy(spec: str) -> str:
     file, an importable ``module:attr``."""
     base, _ = _split(spec)
     if base in POLICIES or base == SHIPPED:
+        return spec
+    if base.startswith(SHIPPED + "@"):
+        adapt_steps(spec)
         return spec
     if base.endswith(".zip"):
         if not Path(base).is_file():
@@ -330,6 +337,31 @@ def _load_ppo(path: Path) -> Any:
     return _MODELS[key]
 
 
+def adapt_steps(spec: str) -> int:
+    """The adaptation budget of a ``ppo@STEPS`` spec (0 for ``ppo``), or a ValueError."""
+    base, _ = _split(spec)
+    if base == SHIPPED:
+        return 0
+    text = base[len(SHIPPED) + 1 :]
+    if not base.startswith(SHIPPED + "@") or not text.isdigit():
+        raise ValueError(f"policy={spec!r}: write ppo@STEPS with STEPS an integer >= 0")
+    return int(text)
+
+
+def adapted_path(env: Any, steps: int) -> Path:
+    """The shipped user of ``env``'s task adapted to ``env``'s cell by ``steps`` steps
+    (:func:`agents.learned.adapt.adapted_user`)."""
+    from agents.learned.adapt import adapted_user
+    from agents.learned.models import cell_of
+
+    u = env.unwrapped
+    settings = {"task": u.task_name, "config": u.config, "sensors": u.sensors}
+    settings["estimators"] = u.estimators
+    cell = cell_of(settings, getattr(u, "technique", None))
+    condition = None if cell["condition"] == "custom" else cell["condition"]
+    return adapted_user(cell["task"], u.technique, cell["population"], condition, steps)
+
+
 def build_policy(spec: str, env: Any) -> Any:
     """The policy ``spec`` names, built for ``env`` (see the module docstring)."""
     check_policy(spec)
@@ -345,6 +377,9 @@ def build_policy(spec: str, env: Any) -> Any:
         user = shipped_user(env.unwrapped.task_name)
         policy = LearnedPolicy(user.path, env)
         policy.name = SHIPPED
+    elif base.startswith(SHIPPED + "@"):
+        policy = LearnedPolicy(adapted_path(env, adapt_steps(spec)), env)
+        policy.name = base
     else:
         from estimators.registry import load_attr
 

@@ -149,7 +149,7 @@ def _cell_parts(cell: Any) -> tuple[list[str], set[Path], set[Path]]:
         base = cell.policy
     if base.endswith(".zip"):
         blobs.add(Path(base).resolve())
-    elif base == SHIPPED and cell.task in LEARNED_USERS:
+    elif base.split("@")[0] == SHIPPED and cell.task in LEARNED_USERS:
         blobs.add(LEARNED_USERS[cell.task].path)
     elif ":" in base:
         origins += [base, load_attr(base, "policy")]

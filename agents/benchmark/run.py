@@ -240,6 +240,7 @@ def run_benchmark(
         import_ray()  # not installed: the install hint, before any work
 
     cells = list(dict.fromkeys(c for g in grids for c in g.cells()))
+    _adapt_users(cells)
     keys = {} if out_dir is None else _episode_keys(cells, episodes, seed, True)
     meta = {
         "seed": seed,
@@ -270,6 +271,21 @@ def run_benchmark(
         return _play(cells, keys, meta, None, **how)
     with RunFolder(out_dir, *_run_identity(cells, episodes, seed), force=force) as folder:
         return _play(cells, keys, meta, folder, **how)
+
+
+def _adapt_users(cells: list[Cell]) -> None:
+    """Adapt the shipped user to every cell that plays it adapted (``ppo@STEPS``), here and
+    before any episode, one cell after the other (cached: a rerun reuses them), so that the
+    workers only load them."""
+    from agents.benchmark.episodes import _env
+    from agents.benchmark.policies import SHIPPED, _split, adapt_steps, adapted_path
+
+    for c in cells:
+        base, _ = _split(c.policy)
+        if base.startswith(SHIPPED + "@") and adapt_steps(c.policy) > 0:
+            adapted_path(
+                _env(c.task, c.technique, c.population, c.condition), adapt_steps(c.policy)
+            )
 
 
 def _play(

@@ -17,10 +17,22 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     def names(text: str) -> list[str]:
         return [s.strip() for s in text.split(",") if s.strip()]
 
+    policies = names(args.policies) if args.policies else None
+    if args.adapt is not None:
+        if not policies or not any(p.split("+")[0] == "ppo" for p in policies):
+            print(
+                "vrloco benchmark: --adapt needs --policies ppo (or ppo+<population>)",
+                file=sys.stderr,
+            )
+            return 2
+        if args.adapt > 0:  # ppo -> ppo@STEPS, its population suffix kept
+            policies = [
+                f"ppo@{args.adapt}{p[3:]}" if p.split("+")[0] == "ppo" else p for p in policies
+            ]
     try:
         run_benchmark(
             tasks=names(args.tasks) if args.tasks else None,
-            policies=names(args.policies) if args.policies else None,
+            policies=policies,
             sensors=names(args.sensors) if args.sensors else None,
             techniques=names(args.techniques) if args.techniques else None,
             episodes=args.episodes,

@@ -312,6 +312,14 @@ def build_parser() -> argparse.ArgumentParser:
         f"(main grid: {','.join(DEFAULT_POLICIES)})",
     )
     bench.add_argument(
+        "--adapt",
+        type=_int_at_least(0),
+        metavar="STEPS",
+        help="fine-tune a copy of the shipped learned user (ppo) on each cell for STEPS "
+        "environment steps before playing it (seeded, the same budget for every technique, "
+        "cached: a rerun reuses it; 0: no adaptation)",
+    )
+    bench.add_argument(
         "--techniques",
         help="comma-separated techniques (vrloco techniques lists them; 'module:attr' names "
         f"your own); main grid: {','.join(DEFAULT_TECHNIQUES)} unless --sensors is given",

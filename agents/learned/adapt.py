@@ -1,0 +1,114 @@
+"""Technique-adapted users: the shipped learned user of a task, fine-tuned on one cell.
+
+A person who learns that a technique stops late stops earlier; a shipped learned user
+(:mod:`agents.learned.users`) does the same after :func:`adapted_user` trains a copy of it on the
+cell (task, technique, population, condition) for ``steps`` more environment steps, with the PPO
+settings and the training objective it was trained with, seeded. Every technique gets the same
+budget. The result is cached in ``cache_dir`` under a key of the cell, the shipped model's bytes,
+the package's source fingerprint (:func:`agents.benchmark.resume.source_fingerprint`), the budget
+and the seed, so a rerun reuses it; a cached file that does not load is reported and trained
+again, never reused. ``steps = 0`` is the shipped user itself.
+
+In the benchmark: ``vrloco benchmark --policies ppo --adapt STEPS`` (the policy spec
+``ppo@STEPS``, :mod:`agents.benchmark.policies`) adapts the user to every cell before the run.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from pathlib import Path
+from typing import Any
+
+__all__ = ["DEFAULT_CACHE", "adapted_user", "cache_key"]
+
+#: Where adapted users are kept unless told otherwise (``VRLOCO_ADAPT_CACHE`` overrides it).
+DEFAULT_CACHE = Path(
+    os.environ.get("VRLOCO_ADAPT_CACHE", Path.home() / ".cache" / "vrloco" / "adapted")
+)
+
+
+def cache_key(cell: dict[str, Any], shipped: Path, steps: int, seed: int) -> str:
+    """The cache key (hex) of an adapted user: its cell, the shipped model's bytes, the source
+    fingerprint, the budget and the seed."""
+    from agents.benchmark.resume import source_fingerprint
+
+    text = json.dumps(
+        {
+            "cell": cell,
+            "shipped": hashlib.sha256(Path(shipped).read_bytes()).hexdigest(),
+            "source": source_fingerprint(),
+            "steps": int(steps),
+            "seed": int(seed),
+        },
+        sort_keys=True,
+    )
+    return hashlib.sha256(text.encode()).hexdigest()[:24]
+
+
+def adapted_user(
+    task: str,
+    technique: Any = None,
+    population: Any = None,
+    condition: str | None = None,
+    steps: int = 0,
+    seed: int = 0,
+    cache_dir: Path | None = None,
+    num_envs: int = 32,
+) -> Path:
+    """The model file of the shipped ``task`` user adapted to the cell for ``steps`` steps.
+
+    Raises:
+        ValueError: no shipped user for ``task``, ``steps`` not an integer >= 0, or a cell the
+            registries do not know (their errors).
+    """
+    from agents.benchmark.policies import load_ppo
+    from agents.learned.models import cell_of, env_settings, model_policy, observation_layout
+    from agents.learned.train import SB3VecEnv, _wrap, rollout_steps
+    from agents.learned.users import shipped_user
+    from vrloco_env.vector import VRLocoVectorEnv
+
+    if isinstance(steps, bool) or not isinstance(steps, int) or steps < 0:
+        raise ValueError(f"steps={steps!r}: must be an integer >= 0 (0: no adaptation)")
+    shipped = shipped_user(task).path
+    if steps == 0:
+        return shipped
+    base = load_ppo(shipped)
+    reward = base.vrloco_env.get("reward")
+    settings = env_settings(task, None, technique, population, condition, reward=reward)
+    cell = cell_of(settings, technique)
+    folder = DEFAULT_CACHE if cache_dir is None else Path(cache_dir)
+    target = folder / f"{task}_{cache_key(cell, shipped, steps, seed)}.zip"
+    if target.is_file():
+        try:
+            load_ppo(target)
+            return target
+        except ValueError as err:
+            print(f"adapted user {target} is damaged ({err}); training it again")
+            target.unlink()
+    seen = model_policy(base)
+    users = VRLocoVectorEnv(num_envs, **settings)
+    layout = observation_layout(users.observation_spec)
+    if getattr(base, "vrloco_observation", layout) != layout:
+        users.close()
+        raise ValueError(
+            f"the shipped {task} user was trained on other observation fields than the cell's "
+            f"({', '.join(f['name'] for f in layout)}): a population that adds a field needs a "
+            "shipped user trained with it"
+        )
+    venv = SB3VecEnv(_wrap(users, seen["frame_stack"]), seed=seed)
+    model = type(base).load(shipped, env=venv)
+    model.set_random_seed(seed)
+    budget = rollout_steps(steps, model.n_steps, num_envs)
+    model.learn(budget, reset_num_timesteps=False, progress_bar=False)
+    model.vrloco_env = settings
+    model.vrloco_cell = cell
+    model.vrloco_policy = {"frame_stack": seen["frame_stack"]}
+    model.vrloco_observation = layout
+    folder.mkdir(parents=True, exist_ok=True)
+    partial = target.with_suffix(".part.zip")
+    model.save(partial)
+    partial.replace(target)  # whole or not at all
+    venv.close()
+    return target

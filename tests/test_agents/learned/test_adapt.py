@@ -1,0 +1,49 @@
+"""Technique-adapted users: a seeded fine-tune of the shipped user per cell, cached, and the
+``ppo@STEPS`` spec and ``--adapt`` that play them."""
+
+import pytest
+
+from agents.learned import train_ppo  # noqa: F401  (before torch: see agents.learned)
+from agents.learned.adapt import adapted_user
+
+
+def test_an_adapted_user_is_trained_once_per_cell_and_budget_and_a_damaged_one_again(
+    tmp_path, capsys
+):
+    from agents.benchmark.policies import load_ppo
+    from agents.learned.users import shipped_user
+
+    assert (
+        adapted_user("avoid", "smooth", steps=0, cache_dir=tmp_path) == shipped_user("avoid").path
+    )
+    path = adapted_user("avoid", "smooth", steps=1024, cache_dir=tmp_path, num_envs=4)
+    model = load_ppo(path)
+    assert model.vrloco_cell["technique"] == "smooth" and model.num_timesteps > 0
+    stamp = path.stat().st_mtime_ns
+    assert adapted_user("avoid", "smooth", steps=1024, cache_dir=tmp_path, num_envs=4) == path
+    assert path.stat().st_mtime_ns == stamp  # reused, not trained again
+    other = adapted_user("avoid", "zhang2021", steps=1024, cache_dir=tmp_path, num_envs=4)
+    assert other != path  # another cell, another user
+    path.write_bytes(b"not a zip")
+    again = adapted_user("avoid", "smooth", steps=1024, cache_dir=tmp_path, num_envs=4)
+    assert again == path and load_ppo(again).vrloco_cell["technique"] == "smooth"
+    assert "is damaged" in capsys.readouterr().out
+
+
+def test_bad_budgets_and_cells_are_named():
+    from agents.benchmark.policies import adapt_steps, check_policy
+
+    with pytest.raises(ValueError, match=r"steps=-1: must be an integer >= 0"):
+        adapted_user("avoid", steps=-1)
+    with pytest.raises(ValueError, match=r"no learned user is shipped for task 'reach'"):
+        adapted_user("reach", steps=10)
+    with pytest.raises(ValueError, match=r"write ppo@STEPS"):
+        check_policy("ppo@many")
+    assert adapt_steps("ppo@300+typical") == 300 and adapt_steps("ppo") == 0
+
+
+def test_adapt_needs_the_shipped_user_among_the_policies(capsys):
+    from agents.cli import main
+
+    assert main(["benchmark", "--policies", "goal_seeker", "--adapt", "100"]) == 2
+    assert "--adapt needs --policies ppo" in capsys.readouterr().err
