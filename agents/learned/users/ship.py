@@ -41,11 +41,11 @@ BAR = 0.95
 
 
 def held_out_rows(
-    task: str, model: Path, episodes: int, out: Path
+    task: str, model: Path, episodes: int, out: Path, seed: int = HELD_OUT_SEED
 ) -> tuple[str, list[dict[str, Any]]]:
     """The benchmark command and its rows: the learned user ``model`` (``user`` "ppo") and the
-    goal seeker on ``task``, idealised and under every population, on ``episodes`` held-out
-    seeds."""
+    goal seeker on ``task``, idealised and under every population, on ``episodes`` seeds from
+    ``seed`` (held-out by default; a development seed to choose between candidates)."""
     policies = [str(model), "goal_seeker"]
     for pop in POPULATIONS:
         policies += [f"{model}+{pop}", f"goal_seeker+{pop}"]
@@ -60,7 +60,7 @@ def held_out_rows(
         "--episodes",
         str(episodes),
         "--seed",
-        str(HELD_OUT_SEED),
+        str(seed),
         "--out",
         str(out),
         "--force",
