@@ -30,10 +30,12 @@ from typing import Any
 from agents.benchmark.cell_statistics import wilson_interval
 from agents.learned.users import HERE
 
-__all__ = ["BAR", "HELD_OUT_SEED", "POPULATIONS", "held_out_rows", "ship"]
+__all__ = ["BAR", "DEV_SEED", "HELD_OUT_SEED", "POPULATIONS", "held_out_rows", "ship"]
 
 #: First held-out seed of the evaluation.
 HELD_OUT_SEED = 100_000
+#: First development seed (``--dev``: comparing candidates before one is shipped).
+DEV_SEED = 1_000
 #: The populations the learned user is compared under (beside the idealised user).
 POPULATIONS = ("typical", "nodders", "gaze_scanners")
 #: Collision-free success the idealised learned user must reach.
@@ -147,10 +149,31 @@ def ship(model: Path, command: str, episodes: int = 100, choices: str = "") -> P
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("model", type=Path, help="the trained model (.zip)")
-    parser.add_argument("--command", required=True, help="the vrloco train command that made it")
+    parser.add_argument("--command", help="the vrloco train command that made it (to ship)")
     parser.add_argument("--episodes", type=int, default=100, help="held-out episodes per cell")
     parser.add_argument("--choices", default="", help="the development choices, in a line")
+    parser.add_argument(
+        "--dev",
+        action="store_true",
+        help=f"only print the evaluation on the development seeds {DEV_SEED} onwards (to choose "
+        "between candidates); ship nothing",
+    )
     args = parser.parse_args(argv)
+    if args.dev:
+        from agents.benchmark.policies import load_ppo
+
+        task = load_ppo(args.model).vrloco_env["task"]
+        with tempfile.TemporaryDirectory() as tmp:
+            _, rows = held_out_rows(task, args.model, args.episodes, Path(tmp), seed=DEV_SEED)
+        print(f"development seeds {DEV_SEED}-{DEV_SEED + args.episodes - 1} (in-sample)")
+        for r in rows:
+            print(
+                f"{r['user']:<12} {r['population']:<14} success {r['success_rate']:.2f} "
+                f"collision-free {r['collision_free_success_rate']:.2f}"
+            )
+        return 0
+    if not args.command:
+        parser.error("--command: give the vrloco train command that made the model (or --dev)")
     card = ship(args.model, args.command, args.episodes, args.choices)
     print(f"wrote {card}")
     print(json.dumps(json.loads(card.read_text())["bar"], indent=2))
