@@ -270,7 +270,23 @@ class HumanVariability(TakesUsers):
 
     # ---------------------------------------------------------------- acting
     def act(self, obs: ArrayLike) -> NDArray[np.float32]:
-        """Actions ``(5,)`` for one observation ``(n,)`` or ``(B, 5)`` for ``(B, n)``.
+        """Actions ``(5,)`` for one observation ``(n,)`` or ``(B, 5)`` for ``(B, n)``: the
+        wrapped policy acts on what the user perceives (:meth:`perceive`) and the body carries
+        its action out (:meth:`respond`).
+
+        Raises:
+            RuntimeError: ``reset`` has not been called.
+            ValueError: the batch size differs from the number of generators given to reset.
+        """
+        seen = self.perceive(obs)
+        single = np.ndim(obs) == 1
+        inner = self.policy.act(seen[0] if single else seen)
+        out = self.respond(inner)
+        return out[0] if single else out
+
+    def perceive(self, obs: ArrayLike) -> NDArray[np.float64]:
+        """What each user perceives of ``obs`` ((n,) or (B, n)) this control step: the
+        observation of its reaction delay ago, (B, n). Call once per step, then :meth:`respond`.
 
         Raises:
             RuntimeError: ``reset`` has not been called.
@@ -279,14 +295,12 @@ class HumanVariability(TakesUsers):
         if self._rng is None:
             raise RuntimeError("reset(rng) must be called before act()")
         o = np.asarray(obs, dtype=np.float64)
-        single = o.ndim == 1
-        o2 = o[None] if single else o
+        o2 = o[None] if o.ndim == 1 else o
         if o2.ndim != 2 or o2.shape[0] != self._b:
             raise ValueError(
                 f"obs must hold {self._b} row(s) (one per generator given to "
                 f"reset), got shape {np.shape(obs)}"
             )
-        p = self.params
         b = self._b
         # reaction delay: a history of observations, newest first
         if self._hist is None or self._hist.shape[2] != o2.shape[1]:
@@ -297,9 +311,15 @@ class HumanVariability(TakesUsers):
         if np.any(self._fresh):  # a new episode: the past is its first observation
             self._hist[self._fresh] = o2[self._fresh][:, None]
             self._fresh[:] = False
-        seen = self._hist[np.arange(b), self._delay]
-        inner = np.asarray(self.policy.act(seen[0] if single else seen), dtype=np.float64)
-        a = inner.reshape(b, -1).copy()
+        return self._hist[np.arange(b), self._delay]
+
+    def respond(self, action: ArrayLike) -> NDArray[np.float32]:
+        """The actions (B, 5) the users' bodies carry out for the policy's ``action`` ((5,) or
+        (B, 5)): turn overshoot after a bout and the cadence's bias and jitter."""
+        if self._rng is None:
+            raise RuntimeError("reset(rng) must be called before act()")
+        p = self.params
+        a = np.asarray(action, dtype=np.float64).reshape(self._b, -1).copy()
         z = self._rng.normal((2,))  # the same two draws per user and step, used or not
 
         # turn overshoot after a bout
@@ -322,5 +342,4 @@ class HumanVariability(TakesUsers):
         walk = a[:, 0]
         scaled = np.clip(walk * (1.0 + self._bias + p.cadence_jitter_sd * z[:, 1]), 0.01, 1.0)
         a[:, 0] = np.where(walk > 0.0, scaled, walk)
-        out = np.clip(a, -1.0, 1.0).astype(np.float32)
-        return out[0] if single else out
+        return np.clip(a, -1.0, 1.0).astype(np.float32)

@@ -22,6 +22,8 @@ def cmd_train(args: argparse.Namespace) -> int:
     )
     if args.reward is not None:
         common["reward"] = args.reward
+    if args.variability is not None:
+        common["variability"] = args.variability
     if args.address is not None and args.backend == "local":
         print("vrloco train: --address needs --backend ray or rllib", file=sys.stderr)
         return 2

@@ -440,6 +440,13 @@ def build_parser() -> argparse.ArgumentParser:
         "measures stay the same",
     )
     train.add_argument(
+        "--variability",
+        metavar="POPULATION",
+        help="train (and evaluate) with a population's human variability around the learner: "
+        "reaction delay, turn overshoot, cadence bias and jitter, as the benchmark's "
+        "'+POPULATION' users act (default: none)",
+    )
+    train.add_argument(
         "--eval-every", type=_int_at_least(1), default=100_000, help="steps between evals"
     )
     seeding = train.add_mutually_exclusive_group()

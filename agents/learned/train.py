@@ -139,6 +139,7 @@ def train_ppo(
     frame_stack: int = 1,
     recurrent: bool = False,
     reward: Any = None,
+    variability: str | None = None,
     **ppo_kwargs: Any,
 ) -> Path:
     """Train PPO on ``task``; returns the path of the final model (``.zip``).
@@ -160,6 +161,10 @@ def train_ppo(
         reward: the training objective, a :class:`~vrloco_env.config.RewardConfig` (None: the
             env's default terms). It shapes what the user learns, not the task: success,
             collisions and time are measured the same under any reward.
+        variability: a user population whose human variability (reaction delay, turn
+            overshoot, cadence; :class:`~agents.learned.variability_env.HumanVariabilityEnv`) the
+            learner trains and is evaluated with (None: none); saved as
+            ``model.vrloco_variability``.
         ppo_kwargs: PPO's settings over :func:`defaults_ppo`.
 
     Both ``frame_stack`` and ``recurrent`` are saved as ``model.vrloco_policy``.
@@ -190,12 +195,19 @@ def train_ppo(
     policy_kwargs = _policy_settings(frame_stack, recurrent)
     steps = rollout_steps(steps, settings["n_steps"], num_envs)
     out_dir.mkdir(parents=True, exist_ok=True)
+    if variability is not None:
+        from vrloco_env.user.population import get_population
+
+        get_population(variability)  # raises with the registered names
     venv = VecMonitor(
-        SB3VecEnv(_wrap(VRLocoVectorEnv(num_envs, **env_kwargs), frame_stack), seed=seed),
+        SB3VecEnv(
+            _wrap(_human(VRLocoVectorEnv(num_envs, **env_kwargs), variability, seed), frame_stack),
+            seed=seed,
+        ),
         info_keywords=("is_success",),
     )
     eval_users = VRLocoVectorEnv(eval_episodes, **env_kwargs)
-    eval_env = _wrap(eval_users, frame_stack)
+    eval_env = _wrap(_human(eval_users, variability, 10_000 + seed), frame_stack)
     curve: list[dict[str, float]] = []
     t_start = time.perf_counter()
 
@@ -229,6 +241,7 @@ def train_ppo(
     model.vrloco_cell = cell_of(env_kwargs, technique)
     model.vrloco_policy = policy_kwargs
     model.vrloco_observation = observation_layout(eval_users.observation_spec)
+    model.vrloco_variability = variability
     checkpoints = CheckpointCallback(
         max(eval_every // num_envs, 1), str(out_dir / "checkpoints"), name_prefix=f"ppo_{task}"
     )
@@ -332,6 +345,16 @@ def _policy_settings(frame_stack: Any, recurrent: Any) -> dict[str, Any]:
     if not isinstance(recurrent, bool | np.bool_):
         raise ValueError(f"recurrent={recurrent!r}: must be True or False")
     return {"frame_stack": check_frame_stack(frame_stack), "recurrent": bool(recurrent)}
+
+
+def _human(env: Any, population: str | None, seed: int) -> Any:
+    """``env`` with the human variability of ``population`` around the learner (None: as it
+    is)."""
+    if population is None:
+        return env
+    from agents.learned.variability_env import HumanVariabilityEnv
+
+    return HumanVariabilityEnv(env, population, seed)
 
 
 def _wrap(env: VRLocoVectorEnv, frame_stack: int) -> Any:
