@@ -281,7 +281,7 @@ class LocoCore(TakesUsers):
         ep.done[rows] = False
         self.task.reset(rows)
         ep.distance[rows] = self.task.goal_distance(ep.position)[rows]
-        self.last_rays[rows] = self._rays(rows)
+        self.last_rays[rows] = self._rays(rows, level=True)
         return self.observe(reset_rows=rows)
 
     # ------------------------------------------------------------------------------ users
@@ -388,8 +388,11 @@ class LocoCore(TakesUsers):
         )
 
     # ------------------------------------------------------------------------------ views
-    def _rays(self, rows: NDArray[np.intp] | None = None) -> NDArray[np.float64]:
-        """Ranges (m) along the rays from the virtual head of users ``rows`` (None: all).
+    def _rays(
+        self, rows: NDArray[np.intp] | None = None, level: bool = False
+    ) -> NDArray[np.float64]:
+        """Ranges (m) along the rays from the virtual head of users ``rows`` (None: all);
+        ``level``: the users ``rows`` have just been reset, their heads level.
 
         The view follows the head the headset renders from (the estimated pitch): pitched down
         past the view's vertical half-angle, the user sees the floor only up to where the view's
@@ -399,7 +402,7 @@ class LocoCore(TakesUsers):
         rng = self.config.ray_range_m
         r = self.rooms.ray_fan(self.ep.position, self.ep.virtual_yaw, self.ray_offsets, rng)
         r = np.minimum(r, rng)
-        if self.last is not None:
+        if self.last is not None and not level:
             below = self.last.ypr_est[:, 1] - self._half_fov  # the upper edge's angle down
             if (below > 0.0).any():
                 seen = self._eye_height / np.tan(np.clip(below, 1e-6, np.pi / 2 - 1e-6))

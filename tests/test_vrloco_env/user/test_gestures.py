@@ -89,3 +89,16 @@ def test_the_view_sees_only_the_floor_near_the_feet_when_the_head_pitches_past_h
     assert near.any() and (~near).any()
     np.testing.assert_array_equal(down[near], level[near])  # what is near stays in view
     assert (down[~near] == core.config.ray_range_m).all()  # the rest reads: nothing seen
+
+
+def test_a_reset_user_sees_ahead_whatever_its_last_episode_ended_looking_at():
+    env = gym.make("VRLoco-Avoid-v0")
+    env.reset(seed=6)
+    core = env.unwrapped.core
+    first = core.last_rays.copy()
+    env.step(STAND)
+    level = core._rays()
+    core.last.ypr_est[:, 1] = math.radians(80.0)  # the episode ended looking at the floor
+    assert (core._rays() != level).any()
+    env.reset(seed=6)
+    np.testing.assert_array_equal(core.last_rays, first)  # the new episode's first view
