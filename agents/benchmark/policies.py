@@ -348,9 +348,10 @@ def adapt_steps(spec: str) -> int:
     return int(text)
 
 
-def adapted_path(env: Any, steps: int) -> Path:
-    """The shipped user of ``env``'s task adapted to ``env``'s cell by ``steps`` steps
-    (:func:`agents.learned.adapt.adapted_user`)."""
+def adapted_path(env: Any, steps: int, population: str | None = None) -> Path:
+    """The shipped user of ``env``'s task adapted to ``env``'s cell by ``steps`` steps, with
+    the human variability of ``population`` (the spec's ``+<population>``) around it where that
+    population has one (:func:`agents.learned.adapt.adapted_user`)."""
     from agents.learned.adapt import adapted_user
     from agents.learned.models import cell_of
 
@@ -359,7 +360,15 @@ def adapted_path(env: Any, steps: int) -> Path:
     settings["estimators"] = u.estimators
     cell = cell_of(settings, getattr(u, "technique", None))
     condition = None if cell["condition"] == "custom" else cell["condition"]
-    return adapted_user(cell["task"], u.technique, cell["population"], condition, steps)
+    varies = population is not None and POPULATIONS[population].variability
+    return adapted_user(
+        cell["task"],
+        u.technique,
+        cell["population"],
+        condition,
+        steps,
+        variability=population if varies else None,
+    )
 
 
 def build_policy(spec: str, env: Any) -> Any:
@@ -378,7 +387,7 @@ def build_policy(spec: str, env: Any) -> Any:
         policy = LearnedPolicy(user.path, env)
         policy.name = SHIPPED
     elif base.startswith(SHIPPED + "@"):
-        policy = LearnedPolicy(adapted_path(env, adapt_steps(spec)), env)
+        policy = LearnedPolicy(adapted_path(env, adapt_steps(spec), population), env)
         policy.name = base
     else:
         from estimators.registry import load_attr

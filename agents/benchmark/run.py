@@ -281,11 +281,10 @@ def _adapt_users(cells: list[Cell]) -> None:
     from agents.benchmark.policies import SHIPPED, _split, adapt_steps, adapted_path
 
     for c in cells:
-        base, _ = _split(c.policy)
+        base, suffix = _split(c.policy)
         if base.startswith(SHIPPED + "@") and adapt_steps(c.policy) > 0:
-            adapted_path(
-                _env(c.task, c.technique, c.population, c.condition), adapt_steps(c.policy)
-            )
+            env = _env(c.task, c.technique, c.population, c.condition)
+            adapted_path(env, adapt_steps(c.policy), suffix)
 
 
 def _play(

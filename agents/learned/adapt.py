@@ -3,7 +3,9 @@
 A person who learns that a technique stops late stops earlier; a shipped learned user
 (:mod:`agents.learned.users`) does the same after :func:`adapted_user` trains a copy of it on the
 cell (task, technique, population, condition) for ``steps`` more environment steps, with the PPO
-settings and the training objective it was trained with, seeded. Every technique gets the same
+settings and the training objective it was trained with, seeded, reading the cell's observation
+as it was trained to (its fields by name), and with the human variability of the population the
+benchmark plays it with (``ppo@STEPS+typical``). Every technique gets the same
 budget. The result is cached in ``cache_dir`` under a key of the cell, the shipped model's bytes,
 the package's source fingerprint (:func:`agents.benchmark.resume.source_fingerprint`), the budget
 and the seed, so a rerun reuses it; a cached file that does not load is reported and trained
@@ -21,7 +23,39 @@ import os
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
+import numpy as np
+
 __all__ = ["DEFAULT_CACHE", "adapted_user", "cache_key"]
+
+
+class _ModelFields(gym.vector.VectorWrapper):
+    """A vector env's observations as a model reads them: its fields by name, a field absent by
+    definition as 0 (:func:`agents.learned.models.observation_columns`)."""
+
+    def __init__(self, env: Any, columns: Any) -> None:
+        super().__init__(env)
+        self._columns = np.asarray(columns, dtype=np.intp)
+        size = self._columns.size
+        self.single_observation_space = gym.spaces.Box(-1.0, 1.0, (size,), np.float32)
+        self.observation_space = gym.vector.utils.batch_space(
+            self.single_observation_space, self.num_envs
+        )
+
+    def _read(self, obs: Any) -> Any:
+        o = np.asarray(obs, dtype=np.float32)
+        return np.concatenate([o, np.zeros((o.shape[0], 1), np.float32)], axis=1)[:, self._columns]
+
+    def reset(self, *, seed: Any = None, options: Any = None) -> tuple[Any, dict]:
+        obs, info = self.env.reset(seed=seed, options=options)
+        return self._read(obs), info
+
+    def step(self, actions: Any) -> tuple[Any, Any, Any, Any, dict]:
+        obs, reward, terminated, truncated, info = self.env.step(actions)
+        if "final_obs" in info:
+            info = {**info, "final_obs": self._read(info["final_obs"])}
+        return self._read(obs), reward, terminated, truncated, info
+
 
 #: Where adapted users are kept unless told otherwise (``VRLOCO_ADAPT_CACHE`` overrides it).
 DEFAULT_CACHE = Path(
@@ -56,15 +90,18 @@ def adapted_user(
     seed: int = 0,
     cache_dir: Path | None = None,
     num_envs: int = 32,
+    variability: str | None = None,
 ) -> Path:
-    """The model file of the shipped ``task`` user adapted to the cell for ``steps`` steps.
+    """The model file of the shipped ``task`` user adapted to the cell for ``steps`` steps,
+    with the human variability of the population ``variability`` around it while it trains (as
+    the benchmark plays ``ppo@STEPS+<population>``; None: none).
 
     Raises:
         ValueError: no shipped user for ``task``, ``steps`` not an integer >= 0, or a cell the
             registries do not know (their errors).
     """
     from agents.benchmark.policies import load_ppo
-    from agents.learned.models import cell_of, env_settings, model_policy, observation_layout
+    from agents.learned.models import cell_of, env_settings, model_policy, observation_columns
     from agents.learned.train import SB3VecEnv, _wrap, rollout_steps
     from agents.learned.users import shipped_user
     from vrloco_env.vector import VRLocoVectorEnv
@@ -77,7 +114,7 @@ def adapted_user(
     base = load_ppo(shipped)
     reward = base.vrloco_env.get("reward")
     settings = env_settings(task, None, technique, population, condition, reward=reward)
-    cell = cell_of(settings, technique)
+    cell = {**cell_of(settings, technique), "variability": variability}
     folder = DEFAULT_CACHE if cache_dir is None else Path(cache_dir)
     target = folder / f"{task}_{cache_key(cell, shipped, steps, seed)}.zip"
     if target.is_file():
@@ -89,23 +126,29 @@ def adapted_user(
             target.unlink()
     seen = model_policy(base)
     users = VRLocoVectorEnv(num_envs, **settings)
-    layout = observation_layout(users.observation_spec)
-    if getattr(base, "vrloco_observation", layout) != layout:
+    saved = getattr(base, "vrloco_observation", None)
+    try:  # the cell's observation as the model reads it (its fields by name)
+        columns = observation_columns(saved, users.observation_spec)
+    except ValueError as err:
         users.close()
         raise ValueError(
-            f"the shipped {task} user was trained on other observation fields than the cell's "
-            f"({', '.join(f['name'] for f in layout)}): a population that adds a field needs a "
-            "shipped user trained with it"
-        )
-    venv = SB3VecEnv(_wrap(users, seen["frame_stack"]), seed=seed)
+            f"the shipped {task} user cannot read the cell's observation: {err}"
+        ) from None
+    learner = users if columns is None else _ModelFields(users, columns)
+    if variability is not None:
+        from agents.learned.variability_env import HumanVariabilityEnv
+
+        learner = HumanVariabilityEnv(learner, variability, seed)
+    venv = SB3VecEnv(_wrap(learner, seen["frame_stack"]), seed=seed)
     model = type(base).load(shipped, env=venv)
     model.set_random_seed(seed)
     budget = rollout_steps(steps, model.n_steps, num_envs)
     model.learn(budget, reset_num_timesteps=False, progress_bar=False)
     model.vrloco_env = settings
-    model.vrloco_cell = cell
+    model.vrloco_cell = {k: v for k, v in cell.items() if k != "variability"}
+    model.vrloco_variability = variability
     model.vrloco_policy = {"frame_stack": seen["frame_stack"]}
-    model.vrloco_observation = layout
+    model.vrloco_observation = saved
     folder.mkdir(parents=True, exist_ok=True)
     partial = target.with_suffix(".part.zip")
     model.save(partial)

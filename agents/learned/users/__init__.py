@@ -53,7 +53,9 @@ LEARNED_USERS: Registry[LearnedUser] = Registry("learned user", kind=LearnedUser
 LEARNED_USERS.register(
     "avoid",
     LearnedUser("avoid", "avoid.zip"),
-    "PPO, idealised users, 3M steps: held-out collision-free success 0.97 (avoid.json)",
+    "PPO trained with the typical population and its human variability, 3M steps: held-out "
+    "collision-free success 1.00 idealised, 0.98 typical, 0.98 nodders, 0.85 gaze scanners "
+    "(avoid.json)",
 )
 
 

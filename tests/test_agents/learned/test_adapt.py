@@ -24,6 +24,10 @@ def test_an_adapted_user_is_trained_once_per_cell_and_budget_and_a_damaged_one_a
     assert path.stat().st_mtime_ns == stamp  # reused, not trained again
     other = adapted_user("avoid", "zhang2021", steps=1024, cache_dir=tmp_path, num_envs=4)
     assert other != path  # another cell, another user
+    human = adapted_user(
+        "avoid", "smooth", steps=1024, cache_dir=tmp_path, num_envs=4, variability="typical"
+    )
+    assert human != path and load_ppo(human).vrloco_variability == "typical"
     path.write_bytes(b"not a zip")
     again = adapted_user("avoid", "smooth", steps=1024, cache_dir=tmp_path, num_envs=4)
     assert again == path and load_ppo(again).vrloco_cell["technique"] == "smooth"
