@@ -9,11 +9,12 @@ fast the user wants to go, ``turn`` turns the body, the hand rates move the hand
 
 * Step in place (walking-in-place techniques) and point to steer (hand-directed steering): the
   intent as it is. Pointing is the hand's yaw on the torso, which the hand rates already move.
-* :class:`TiltPerformer` — no stepping; the head pitches forward (the intent's ``lean``) to the
-  tilt that gives the pace a walking-in-place user would step at:
-  ``dead_zone + f (full_speed - dead_zone)`` with ``f = cadence / cadence_max``, the walk's
-  cadence as a fraction of the top cadence (:data:`~vrloco_env.actions.action_to_intent`), so
-  ``walk = 1`` is full speed under both.
+* :class:`TiltPerformer` — no stepping; the head pitches forward (the intent's ``lean``) to
+  ``dead_zone + f (full_speed - dead_zone)`` with ``f = cadence / cadence_max``: the technique's
+  speed is the same fraction of its full speed as the walk's cadence is of the top cadence
+  (:func:`~vrloco_env.actions.action_to_intent`), so ``walk = 1`` is full speed under both. (The
+  speeds themselves differ where the full speeds do: head tilt's 1.4 m/s against eq 17's step
+  length times the top cadence.)
 * :class:`LookDownPerformer` — no stepping; when what the user wants (walk > 0) differs from what
   they see (moving in the last step), they look down towards ``LOOK_MARGIN_DEG`` past the
   threshold until their head is past the threshold by half that margin (they feel and see how
