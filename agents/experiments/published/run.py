@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -232,19 +233,28 @@ def _num(x: Any) -> str:
     return "-" if x is None or (isinstance(x, float) and not math.isfinite(x)) else f"{x:.3g}"
 
 
+def _short_source(source: str) -> str:
+    """``Tregillus CHI 2017`` for ``Tregillus, Al Zayer & Folmer, CHI 2017``."""
+    plain = re.sub(r"\s*\([^)]*\)", "", source)  # without its parentheses
+    first = plain.split(",")[0].split(" & ")[0]
+    venue = plain.rsplit(",", 1)[1].strip() if "," in plain else ""
+    return f"{first} {venue}".strip()
+
+
 def format_table(rows: Sequence[dict[str, Any]]) -> str:
-    """The findings as a text table: id, N, expected, effect [interval], p, verdict; the reason
-    of each verdict below."""
-    lines = [f"{'finding':<26} {'N':>3} {'expected':<18} {'effect [95% CI]':<26} {'p':>8}  verdict"]
+    """The findings as a text table: finding, source, N of the study, our effect and its
+    interval, p, verdict; each finding's scenario, expected direction and reason below."""
+    lines = [f"{'finding':<24} {'source':<28} {'N':>3} {'effect [95% CI]':<26} {'p':>7}  verdict"]
     for r in rows:
         ci = r["ci"]
         eff = "-" if r["effect"] is None else f"{_num(r['effect'])} [{_num(ci[0])}, {_num(ci[1])}]"
         n = "-" if r["study_n"] is None else str(r["study_n"])
-        expected = r["expected"] or "-"
         lines.append(
-            f"{r['id']:<26} {n:>3} {expected:<18} {eff:<26} {_num(r['p']):>8}  {r['verdict']}"
+            f"{r['id']:<24} {_short_source(r['source'])[:28]:<28} {n:>3} {eff:<26} "
+            f"{_num(r['p']):>7}  {r['verdict']}"
         )
     lines.append("")
     for r in rows:
-        lines.append(f"{r['id']}: {r['source']}; {r['scenario']}; {r['why']}")
+        expected = f"expected {r['expected']}; " if r["expected"] else ""
+        lines.append(f"{r['id']}: {r['source']}; {r['scenario']}; {expected}{r['why']}")
     return "\n".join(lines)

@@ -85,3 +85,12 @@ def test_the_json_has_every_finding_with_the_promised_fields(tmp_path):
     assert data["findings"][0]["verdict"] == "not testable" and data["findings"][0]["why"]
     with pytest.raises(ValueError, match="findings: nope unknown; valid ids: tregillus2017"):
         run_published(findings=["nope"])
+
+
+def test_the_table_names_finding_source_study_size_effect_and_verdict():
+    from agents.experiments.published.run import format_table
+
+    row = decide(BY_ID["tregillus2017_head_tilt"], None, np.array([[20.0, 21.0], [19.0, 20.5]]))
+    line = format_table([row]).splitlines()[1]
+    assert line.split()[:4] == ["tregillus2017_head_tilt", "Tregillus", "CHI", "2017"]
+    assert " 24 " in line and "[" in line and line.endswith(row["verdict"])
