@@ -194,7 +194,9 @@ class LocoCore(TakesUsers):
         self._head_on_torso = np.zeros(b)  # the head's true yaw on the torso (rad)
         #: the technique's gesture, performed by the users (None: they step in place)
         self.gestures = gesture_performer(self.stages, b, self.dt, self.users.motion_params)
-        self._moving = np.zeros(b, bool)  # the user saw the body move in the last step
+        # the locomotion moved, or pushed against what blocked it, the body in the last step:
+        # what a look-down user judges its auto-walk by
+        self._moving = np.zeros(b, bool)
         self._head_pitch = np.zeros(b)  # the head's true pitch at the last step's end (rad)
         # what the user sees follows the head: the view's vertical half-angle and eye height
         self._half_fov = np.deg2rad(config.view_vertical_fov_deg) / 2.0

@@ -16,7 +16,8 @@ fast the user wants to go, ``turn`` turns the body, the hand rates move the hand
   speeds themselves differ where the full speeds do: head tilt's 1.4 m/s against eq 17's step
   length times the top cadence.)
 * :class:`LookDownPerformer` — no stepping; when what the user wants (walk > 0) differs from what
-  they see (moving in the last step), they look down towards ``LOOK_MARGIN_DEG`` past the
+  they see (the auto-walk moving them in the last step, or pushing them against what blocks
+  them), they look down towards ``LOOK_MARGIN_DEG`` past the
   threshold until their head is past the threshold by half that margin (they feel and see how
   far they look; at most ``MAX_LOOK_S``), look back up, and wait ``SETTLE_S`` to see the effect
   before looking down again.
