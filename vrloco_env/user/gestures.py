@@ -16,11 +16,10 @@ fast the user wants to go, ``turn`` turns the body, the hand rates move the hand
   speeds themselves differ where the full speeds do: head tilt's 1.4 m/s against eq 17's step
   length times the top cadence.)
 * :class:`LookDownPerformer` — no stepping; when what the user wants (walk > 0) differs from what
-  they see (the auto-walk moving them in the last step, or pushing them against what blocks
-  them), they look down towards ``LOOK_MARGIN_DEG`` past the
-  threshold until their head is past the threshold by half that margin (they feel and see how
-  far they look; at most ``MAX_LOOK_S``), look back up, and wait ``SETTLE_S`` to see the effect
-  before looking down again.
+  they see (the auto-walk moving them in the last step, or pushing them against what blocks them),
+  they look down towards ``LOOK_MARGIN_DEG`` past the threshold until their head is past the
+  threshold by half that margin (they feel and see how far they look; at most ``MAX_LOOK_S``), look
+  back up, and wait ``SETTLE_S`` to see the effect before looking down again.
 
 The head follows the lean with the motion model's critically damped lag
 (:attr:`~vrloco_env.user.motion_params.MotionParams.gesture_lag_s`), so a tilt or a look down
