@@ -413,10 +413,18 @@ def check_step_length(step_length: ArrayLike, shape: tuple[int, ...]) -> NDArray
 
 
 def check_per_user(
-    value: ArrayLike | None, b: int, name: str, default: float, unit: str
+    value: ArrayLike | None,
+    b: int,
+    name: str,
+    default: float,
+    unit: str,
+    bounds: tuple[float, float] | None = None,
+    allowed: str | None = None,
 ) -> NDArray[np.float64]:
     """A (B,) float array from a scalar or (B,) input (``default`` where None); NaN and inf are
-    rejected, the ValueError naming ``name`` and ``unit``."""
+    rejected, and with ``bounds`` (lo, hi) a value outside them, the ValueError naming ``name``
+    and ``unit`` (and the first value outside, against ``allowed``, the range in words, or the
+    bounds)."""
     if value is None:
         return np.full(b, default)
     try:
@@ -427,7 +435,15 @@ def check_per_user(
         raise ValueError(f"{name} must have shape ({b},) or be a scalar, got {a.shape}")
     if not np.all(np.isfinite(a)):
         raise ValueError(f"{name} contains NaN or infinite values ({unit})")
-    return np.broadcast_to(a, (b,)).astype(np.float64)
+    out = np.broadcast_to(a, (b,)).astype(np.float64)
+    if bounds is not None:
+        outside = (out < bounds[0]) | (out > bounds[1])
+        if outside.any():
+            where = allowed or f"[{bounds[0]:g}, {bounds[1]:g}]"
+            raise ValueError(
+                f"{name}={float(out[np.argmax(outside)])!r}: must be in {where} {unit}"
+            )
+    return out
 
 
 def check_mask(mask: ArrayLike | None, b: int) -> NDArray[np.bool_]:

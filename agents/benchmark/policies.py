@@ -29,6 +29,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agents.benchmark.variability import HumanVariability, VariabilityParams
+from agents.learned.models import read_fields
 from agents.scripted import POLICIES, ObservationLayout, make_policy, params_from_env
 from estimators.batching import TakesUsers
 from vrloco_env.user.population import POPULATIONS
@@ -204,9 +205,7 @@ class LearnedPolicy(TakesUsers):
         episode must not depend on how many users it was batched with."""
         x = np.asarray(obs, dtype=np.float32)
         rows = x.reshape(1, -1) if x.ndim == 1 else x
-        if self._columns is not None:  # the fields it knows, a zero for one absent by definition
-            rows = np.concatenate([rows, np.zeros((rows.shape[0], 1), rows.dtype)], axis=1)
-            rows = rows[:, self._columns]
+        rows = read_fields(rows, self._columns)  # the fields it knows, by name
         n = rows.shape[0]
         if self._fresh is None or self._fresh.shape[0] != n:
             self._fresh, self._frames, self._state = np.ones(n, bool), None, None

@@ -43,8 +43,9 @@ class _ModelFields(gym.vector.VectorWrapper):
         )
 
     def _read(self, obs: Any) -> Any:
-        o = np.asarray(obs, dtype=np.float32)
-        return np.concatenate([o, np.zeros((o.shape[0], 1), np.float32)], axis=1)[:, self._columns]
+        from agents.learned.models import read_fields
+
+        return read_fields(obs, self._columns)
 
     def reset(self, *, seed: Any = None, options: Any = None) -> tuple[Any, dict]:
         obs, info = self.env.reset(seed=seed, options=options)

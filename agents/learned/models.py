@@ -21,6 +21,7 @@ __all__ = [
     "model_policy",
     "observation_columns",
     "observation_layout",
+    "read_fields",
 ]
 
 
@@ -207,3 +208,13 @@ def observation_columns(saved: Any, spec: Any) -> NDArray[np.intp] | None:
         start = spec.offset(name)
         columns += range(start, start + len(new["entries"]))
     return np.asarray(columns, dtype=np.intp)
+
+
+def read_fields(obs: Any, columns: NDArray[np.intp] | None) -> NDArray[np.float32]:
+    """The (B, n) observations ``obs`` as a model reads them: the entries ``columns``
+    (:func:`observation_columns`; -1 reads 0), or all of them where ``columns`` is None."""
+    rows = np.asarray(obs, dtype=np.float32)
+    if columns is None:
+        return rows
+    padded = np.concatenate([rows, np.zeros((rows.shape[0], 1), np.float32)], axis=1)
+    return padded[:, columns]

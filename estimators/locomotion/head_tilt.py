@@ -130,10 +130,10 @@ class PitchDriven(RecordLocomotion):
             raise ValueError(
                 f"{type(self).__name__}.update needs pitch= (the estimated head pitch, rad)"
             )
-        p = check_per_user(pitch, self.batch_size, "pitch", 0.0, "rad")
-        if np.any(np.abs(p) > math.pi / 2 + 1e-9):
-            worst = float(p[np.argmax(np.abs(p))])
-            raise ValueError(f"pitch={worst!r}: must be in [-pi/2, pi/2] rad")
+        half_turn = math.pi / 2 + 1e-9
+        p = check_per_user(
+            pitch, self.batch_size, "pitch", 0.0, "rad", (-half_turn, half_turn), "[-pi/2, pi/2]"
+        )
         self._kernel(self.batch_size)(
             np.ascontiguousarray(p), np.ascontiguousarray(y), dtf, self._prm, self._state
         )

@@ -438,12 +438,15 @@ def _lee2018_run(pos, quat, k0, prm, state, out):
         last, seen = s["last_step"], s["n_seen"]
         for i in range(n):
             t = (k0[b] + i) / fs
-            w, x, y, z = quat[b, i, 0], quat[b, i, 1], quat[b, i, 2], quat[b, i, 3]
-            lift = (
-                2.0 * (x * z - w * y) * p["off_x"]
-                + 2.0 * (y * z + w * x) * p["off_y"]
-                + (1.0 - 2.0 * (x * x + y * y)) * p["off_z"]
-            )
+            lift = quat_rotate(
+                quat[b, i, 0],
+                quat[b, i, 1],
+                quat[b, i, 2],
+                quat[b, i, 3],
+                p["off_x"],
+                p["off_y"],
+                p["off_z"],
+            )[2]
             h = pos[b, i, 2] - lift
             if not math.isfinite(h):
                 out_state[b, i] = 1 if t - last <= p["hold_s"] else 0

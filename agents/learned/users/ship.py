@@ -21,9 +21,6 @@ from __future__ import annotations
 import argparse
 import json
 import shutil
-import subprocess
-import sys
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -43,35 +40,25 @@ BAR = 0.95
 
 
 def held_out_rows(
-    task: str, model: Path, episodes: int, out: Path, seed: int = HELD_OUT_SEED
+    task: str, model: Path, episodes: int, seed: int = HELD_OUT_SEED
 ) -> tuple[str, list[dict[str, Any]]]:
     """The benchmark command and its rows: the learned user ``model`` (``user`` "ppo") and the
     goal seeker on ``task``, idealised and under every population, on ``episodes`` seeds from
     ``seed`` (held-out by default; a development seed to choose between candidates)."""
+    from agents.benchmark import run_benchmark
+
     policies = [str(model), "goal_seeker"]
     for pop in POPULATIONS:
         policies += [f"{model}+{pop}", f"goal_seeker+{pop}"]
-    args = [
-        "benchmark",
-        "--tasks",
-        task,
-        "--techniques",
-        "zhang2021",
-        "--policies",
-        ",".join(policies),
-        "--episodes",
-        str(episodes),
-        "--seed",
-        str(seed),
-        "--out",
-        str(out),
-        "--force",
-    ]
-    subprocess.run(
-        [sys.executable, "-m", "agents.cli", *args], check=True, stdout=subprocess.DEVNULL
+    rows = run_benchmark(
+        tasks=[task],
+        techniques=["zhang2021"],
+        policies=policies,
+        episodes=episodes,
+        seed=seed,
+        progress=False,
+        print_table=False,
     )
-    data = json.loads((out / "benchmark.json").read_text())
-    rows = data["rows"] if isinstance(data, dict) else data
     out_rows = []
     for r in rows:
         n = int(r.get("episodes", episodes))
@@ -92,8 +79,12 @@ def held_out_rows(
                 ),
             }
         )
-    shown = [a.replace(str(model), "ppo") for a in args[:-3]]
-    return "vrloco " + " ".join([*shown, "--out", "OUT"]), out_rows
+    shown = ",".join(p.replace(str(model), "ppo") for p in policies)
+    command = (
+        f"vrloco benchmark --tasks {task} --techniques zhang2021 --policies {shown} "
+        f"--episodes {episodes} --seed {seed}"
+    )
+    return command, out_rows
 
 
 def ship(model: Path, command: str, episodes: int = 100, choices: str = "") -> Path:
@@ -114,8 +105,7 @@ def ship(model: Path, command: str, episodes: int = 100, choices: str = "") -> P
         ]
     if (folder / "learning_curve.png").is_file():
         shutil.copyfile(folder / "learning_curve.png", HERE / f"{task}_curve.png")
-    with tempfile.TemporaryDirectory() as tmp:
-        bench, rows = held_out_rows(task, target, episodes, Path(tmp) / "bench")
+    bench, rows = held_out_rows(task, target, episodes)
     ppo = {r["population"]: r for r in rows if r["user"] == "ppo"}
     seeker = {r["population"]: r for r in rows if r["user"] == "goal_seeker"}
     bar = {
@@ -163,8 +153,7 @@ def main(argv: list[str] | None = None) -> int:
         from agents.benchmark.policies import load_ppo
 
         task = load_ppo(args.model).vrloco_env["task"]
-        with tempfile.TemporaryDirectory() as tmp:
-            _, rows = held_out_rows(task, args.model, args.episodes, Path(tmp), seed=DEV_SEED)
+        _, rows = held_out_rows(task, args.model, args.episodes, seed=DEV_SEED)
         print(f"development seeds {DEV_SEED}-{DEV_SEED + args.episodes - 1} (in-sample)")
         for r in rows:
             print(
