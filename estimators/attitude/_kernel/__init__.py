@@ -6,7 +6,8 @@ them are in :mod:`estimators.attitude`:
   (:data:`STATE_FIELDS`, :data:`SCRATCH_FIELDS`);
 * :mod:`~estimators.attitude._kernel.start` — how the reference stages start a stream: the
   attitude of one accelerometer (+ magnetometer) sample (:func:`quat_from_acc`,
-  :func:`quat_from_acc_mag`) and the sample-validity test (:func:`usable3`);
+  :func:`quat_from_acc_mag`, chosen by :func:`start_quat`) and the sample-validity test
+  (:func:`usable3`);
 * :mod:`~estimators.attitude._kernel.gyro` — gyro only (:data:`gyro_kernel`, for
   :mod:`estimators.attitude.gyro`);
 * :mod:`~estimators.attitude._kernel.madgwick` — Madgwick's filter (:data:`madgwick_kernel`, for
@@ -22,7 +23,7 @@ from estimators.attitude._kernel.ekf import SCRATCH_FIELDS, STATE_FIELDS, ekf_ke
 from estimators.attitude._kernel.gyro import gyro_kernel
 from estimators.attitude._kernel.madgwick import madgwick_kernel
 from estimators.attitude._kernel.mahony import mahony_kernel
-from estimators.attitude._kernel.start import quat_from_acc, quat_from_acc_mag, usable3
+from estimators.attitude._kernel.start import quat_from_acc, quat_from_acc_mag, start_quat, usable3
 
 __all__ = [
     "SCRATCH_FIELDS",
@@ -33,5 +34,6 @@ __all__ = [
     "mahony_kernel",
     "quat_from_acc",
     "quat_from_acc_mag",
+    "start_quat",
     "usable3",
 ]

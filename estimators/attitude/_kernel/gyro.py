@@ -10,7 +10,7 @@ import math
 
 import numba
 
-from estimators.attitude._kernel.start import quat_from_acc, quat_from_acc_mag, usable3
+from estimators.attitude._kernel.start import start_quat, usable3
 from estimators.kernels.batch import BatchKernel
 from estimators.kernels.rotations import quat_from_rotvec, quat_mul
 
@@ -27,10 +27,7 @@ def _gyro_run(q, ready, gyr, acc, mag, dt, init_from_acc, out):
             ax, ay, az = acc[i, k, 0], acc[i, k, 1], acc[i, k, 2]
             if not rdy and init_from_acc and usable3(ax, ay, az):
                 mx, my, mz = mag[i, k, 0], mag[i, k, 1], mag[i, k, 2]
-                if usable3(mx, my, mz):
-                    qw, qx, qy, qz = quat_from_acc_mag(ax, ay, az, mx, my, mz)
-                else:
-                    qw, qx, qy, qz = quat_from_acc(ax, ay, az)
+                qw, qx, qy, qz = start_quat(ax, ay, az, mx, my, mz, usable3(mx, my, mz))
                 rdy = True
             else:
                 gx, gy, gz = gyr[i, k, 0], gyr[i, k, 1], gyr[i, k, 2]

@@ -10,7 +10,7 @@ import math
 
 import numba
 
-from estimators.attitude._kernel.start import quat_from_acc, quat_from_acc_mag, usable3
+from estimators.attitude._kernel.start import start_quat, usable3
 from estimators.kernels.batch import BatchKernel
 from estimators.kernels.rotations import quat_mul, quat_rotate
 
@@ -77,10 +77,7 @@ def _madgwick_run(q, ready, gyr, acc, mag, dt, beta_imu, beta_marg, out):
             acc_ok = usable3(ax, ay, az)
             mag_ok = usable3(mx, my, mz)
             if not rdy and acc_ok:  # start: the attitude of this sample, no filter step
-                if mag_ok:
-                    ew, ex, ey, ez = quat_from_acc_mag(ax, ay, az, mx, my, mz)
-                else:
-                    ew, ex, ey, ez = quat_from_acc(ax, ay, az)
+                ew, ex, ey, ez = start_quat(ax, ay, az, mx, my, mz, mag_ok)
                 qw, qx, qy, qz = quat_mul(rw, 0.0, 0.0, -rz, ew, ex, ey, ez)  # ENU -> NWU
                 rdy = True
                 out[i, k, 0], out[i, k, 1], out[i, k, 2], out[i, k, 3] = ew, ex, ey, ez

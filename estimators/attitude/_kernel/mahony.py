@@ -10,7 +10,7 @@ import math
 
 import numba
 
-from estimators.attitude._kernel.start import quat_from_acc, quat_from_acc_mag, usable3
+from estimators.attitude._kernel.start import start_quat, usable3
 from estimators.kernels.batch import BatchKernel
 from estimators.kernels.rotations import quat_mul, quat_rotate
 
@@ -30,10 +30,7 @@ def _mahony_run(q, bias, ready, gyr, acc, mag, dt, kp, ki, out):
             acc_ok = usable3(ax, ay, az)
             mag_ok = usable3(mx, my, mz)
             if not rdy and acc_ok:  # start: the attitude of this sample, no filter step
-                if mag_ok:
-                    qw, qx, qy, qz = quat_from_acc_mag(ax, ay, az, mx, my, mz)
-                else:
-                    qw, qx, qy, qz = quat_from_acc(ax, ay, az)
+                qw, qx, qy, qz = start_quat(ax, ay, az, mx, my, mz, mag_ok)
                 rdy = True
                 out[i, k, 0], out[i, k, 1], out[i, k, 2], out[i, k, 3] = qw, qx, qy, qz
                 continue

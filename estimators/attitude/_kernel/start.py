@@ -62,3 +62,12 @@ def quat_from_acc_mag(ax, ay, az, mx, my, mz):
     rw, rx, ry, rz = quat_mul(c, 0.0, 0.0, s, qw, qx, qy, qz)
     n = math.sqrt(rw * rw + rx * rx + ry * ry + rz * rz)
     return rw / n, rx / n, ry / n, rz / n
+
+
+@numba.njit(cache=True)
+def start_quat(ax, ay, az, mx, my, mz, mag_ok):
+    """The attitude a filter starts from at its first usable sample: :func:`quat_from_acc_mag`
+    where the field sample is usable (``mag_ok``), else :func:`quat_from_acc`."""
+    if mag_ok:
+        return quat_from_acc_mag(ax, ay, az, mx, my, mz)
+    return quat_from_acc(ax, ay, az)
