@@ -4,8 +4,9 @@ The benchmark runs every technique of a (task, policy) pair on the same seeds, s
 of two cells is the same room, the same user and the same intentions, sensed and estimated two
 ways. Each metric is compared episode by episode:
 
-* rates (success, collision): the exact McNemar test — a two-sided binomial test of the
-  discordant pairs (episodes where one technique succeeded and the other did not) against 1/2
+* rates (success, collision, success without a collision): the exact McNemar test — a
+  two-sided binomial test of the discordant pairs (episodes where one technique succeeded and
+  the other did not) against 1/2
   (``scipy.stats.binomtest``; McNemar, Psychometrika 12, 1947; the exact form for small counts,
   Fagerland, Lydersen & Laake, BMC Med. Res. Methodol. 13:91, 2013);
 * per-episode means (SPL, time to goal and path-length ratio where both succeeded, the
@@ -51,7 +52,7 @@ __all__ = [
 #: Significance level of the marks in the table.
 ALPHA = 0.01
 #: Per-episode 0/1 metrics (compared with the exact McNemar test).
-BINARY_METRICS = ("success_rate", "collision_rate")
+BINARY_METRICS = ("success_rate", "collision_rate", "collision_free_success_rate")
 #: Per-episode continuous metrics (compared with the Wilcoxon signed-rank test).
 MEAN_METRICS = (
     "spl",
@@ -78,6 +79,7 @@ def episode_values(e: EpisodeStats, late: int = 2, early: int = 2) -> dict[str, 
     out = {
         "success_rate": float(e.success),
         "collision_rate": float(e.collisions > 0),
+        "collision_free_success_rate": float(e.success and e.collisions == 0),
         "spl": float(e.success) * e.shortest_m / max(e.shortest_m, e.walked_m),
         "time_to_goal_s": e.elapsed_s if e.success else math.nan,
         "path_length_ratio": e.walked_m / e.shortest_m if e.success else math.nan,

@@ -50,6 +50,22 @@ def cmd_published(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_learned_ranking(args: argparse.Namespace) -> int:
+    from agents.experiments.learned_ranking import run_learned_ranking
+
+    try:
+        run_learned_ranking(
+            episodes=args.episodes,
+            adapt_steps=args.adapt,
+            dev=args.dev,
+            json_path=Path(args.json) if args.json else None,
+        )
+    except ValueError as err:
+        print(f"vrloco experiment learned-ranking: {err}", file=sys.stderr)
+        return 2
+    return 0
+
+
 def cmd_locomotion(args: argparse.Namespace) -> int:
     from agents.experiments.locomotion_table import run_locomotion_table
 

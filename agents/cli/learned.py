@@ -36,6 +36,13 @@ def cmd_train(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
         return 2
+    mixed = any("," in (v or "") or v == "all" for v in (args.technique, args.population))
+    if args.backend == "rllib" and mixed:
+        print(
+            "vrloco train: a mix of techniques or populations needs --backend local or ray",
+            file=sys.stderr,
+        )
+        return 2
     try:
         if args.backend == "rllib":
             from agents.learned.rllib import train_rllib_seeds

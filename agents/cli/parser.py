@@ -12,6 +12,7 @@ from agents.cli.experiments import (
     cmd_hand_variance,
     cmd_head_behaviour,
     cmd_head_motions,
+    cmd_learned_ranking,
     cmd_locomotion,
     cmd_population_sensitivity,
     cmd_published,
@@ -227,6 +228,28 @@ def build_parser() -> argparse.ArgumentParser:
         help="the development seeds instead (in-sample: what the scenarios were chosen on)",
     )
     pub.set_defaults(func=cmd_published)
+    lr = exp_sub.add_parser(
+        "learned-ranking",
+        help="the default grid's techniques ranked by the goal seeker, the shipped learned user "
+        "and the user adapted to each technique, side by side, with paired tests",
+    )
+    lr.add_argument("--json", type=_out_file, help="write the results to this JSON file")
+    lr.add_argument(
+        "--episodes", type=_int_at_least(2), default=60, help="episodes per cell (seeds)"
+    )
+    lr.add_argument(
+        "--adapt",
+        type=_int_at_least(1),
+        default=200_000,
+        metavar="STEPS",
+        help="the adapted user's fine-tuning steps on each technique",
+    )
+    lr.add_argument(
+        "--dev",
+        action="store_true",
+        help="the development seeds (from 1000) instead of the reporting seeds (from 200000)",
+    )
+    lr.set_defaults(func=cmd_learned_ranking)
     hb = exp_sub.add_parser(
         "head-behaviour",
         help="head-motion statistics of every user population, standing and walking, beside "
@@ -406,13 +429,15 @@ def build_parser() -> argparse.ArgumentParser:
     )
     train.add_argument(
         "--technique",
-        help="a registered technique (vrloco techniques) or 'module:attr' "
-        "(default: Zhang 2021's chain)",
+        help="a registered technique (vrloco techniques) or 'module:attr'; several joined "
+        "by commas, or 'all' (every registered one), train one user on a mix whose users "
+        "share the batch (default: Zhang 2021's chain)",
     )
     train.add_argument(
         "--population",
         help=f"the users' head behaviour in the env: a user population ({', '.join(POPULATIONS)}; "
-        "default: none, the head straight on the torso)",
+        "several joined by commas, 'none' among them: a mix; default: none, the head "
+        "straight on the torso)",
     )
     train.add_argument(
         "--condition",
@@ -444,7 +469,9 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="POPULATION",
         help="train (and evaluate) with a population's human variability around the learner: "
         "reaction delay, turn overshoot, cadence bias and jitter, as the benchmark's "
-        "'+POPULATION' users act (default: none)",
+        "'+POPULATION' users act; with several populations, one per population joined by "
+        "commas ('none': none), e.g. --population idealised,typical --variability "
+        "none,typical (default: none)",
     )
     train.add_argument(
         "--eval-every", type=_int_at_least(1), default=100_000, help="steps between evals"

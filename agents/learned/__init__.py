@@ -20,6 +20,10 @@ through :class:`~vrloco_env.wrappers.FrameStack`, and ``recurrent``, sb3-contrib
 ``RecurrentPPO`` with an LSTM policy; :mod:`agents.learned.models`), so that
 :func:`~agents.learned.evaluate.evaluate_model` and the benchmark
 (:class:`agents.benchmark.policies.LearnedPolicy`) play it on its own cell, the way it was trained.
+A run may train on a mix instead (``--technique zhang2021,smooth`` or ``all``, ``--population
+idealised,typical --variability none,typical``): every technique with every population, the
+users shared between the cells in one batch (:class:`~agents.learned.mixed_env.MixedUsersEnv`);
+the model's cell then lists them, and it plays any of them as its own.
 
 Speed. The env's compiled kernels and torch both run OpenMP thread pools on the same cores.
 This package imports :mod:`estimators.kernels` before torch (:mod:`agents.learned.threads`, the

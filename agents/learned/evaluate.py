@@ -102,7 +102,12 @@ def _asked_cell(
         asked["sensors"] = sensor_preset
     trained = {**cell, "sensors": sensors}
     none_is = {"population": "idealised"}  # no population: the idealised user's head
-    return {k: (trained[k], v) for k, v in asked.items() if (trained[k] or none_is.get(k)) != v}
+
+    def knows(k: str, v: Any) -> bool:  # a mix's model knows each of its cells
+        was = trained[k] if isinstance(trained[k], list) else [trained[k]]
+        return v in [w or none_is.get(k) for w in was]
+
+    return {k: (trained[k], v) for k, v in asked.items() if not knows(k, v)}
 
 
 def _settings_for(
@@ -221,13 +226,16 @@ def evaluate_model(
                 f"({path}); leave {them} out to evaluate on the model's own cell, or allow the "
                 "mismatch (--allow-mismatch) to evaluate it on the one asked for"
             )
-        if differs:
-            trained_on = {**here, "sensors": preset}
+        # a mix's model plays the cell of the mix asked for (without one: its first cell)
+        mix = {k for k in ("technique", "population") if isinstance(here[k], list)}
+        if differs or mix:
+            if differs:
+                trained_on = {**here, "sensors": preset}
             settings = _settings_for(
                 settings, task, technique, population, condition, sensor_preset
             )
             played = cell_of(settings, technique)
-            replaced = set(differs) | ({"technique"} if "sensors" in differs else set())
+            replaced = set(differs) | mix | ({"technique"} if "sensors" in differs else set())
             here = {k: played[k] if k in replaced else here[k] for k in CELL_KEYS}
     played_preset = settings["sensors"].preset_name
     task = settings.pop("task")

@@ -189,25 +189,26 @@ def train_ppo(
             stacklevel=2,
         )
     settings = {**defaults_ppo(), **ppo_kwargs}
+    cells = training_cells(technique, population, variability)
+    technique, population, variability = cells[0]  # a mix's settings: its first cell's
     env_kwargs = env_settings(
         task, sensor_preset, technique, population, condition, **_reward_kwargs(reward)
     )
     policy_kwargs = _policy_settings(frame_stack, recurrent)
     steps = rollout_steps(steps, settings["n_steps"], num_envs)
     out_dir.mkdir(parents=True, exist_ok=True)
-    if variability is not None:
-        from vrloco_env.user.population import get_population
-
-        get_population(variability)  # raises with the registered names
+    if len(cells) == 1:
+        users = _human(VRLocoVectorEnv(num_envs, **env_kwargs), variability, seed)
+        eval_users = VRLocoVectorEnv(eval_episodes, **env_kwargs)
+        eval_env = _wrap(_human(eval_users, variability, 10_000 + seed), frame_stack)
+    else:
+        mix = (task, sensor_preset, cells, condition, reward)
+        users = mixed_users(num_envs, *mix, seed=seed)
+        eval_users = mixed_users(eval_episodes, *mix, seed=10_000 + seed, field="eval_episodes")
+        eval_env = _wrap(eval_users, frame_stack)
     venv = VecMonitor(
-        SB3VecEnv(
-            _wrap(_human(VRLocoVectorEnv(num_envs, **env_kwargs), variability, seed), frame_stack),
-            seed=seed,
-        ),
-        info_keywords=("is_success",),
+        SB3VecEnv(_wrap(users, frame_stack), seed=seed), info_keywords=("is_success",)
     )
-    eval_users = VRLocoVectorEnv(eval_episodes, **env_kwargs)
-    eval_env = _wrap(_human(eval_users, variability, 10_000 + seed), frame_stack)
     curve: list[dict[str, float]] = []
     t_start = time.perf_counter()
 
@@ -242,6 +243,9 @@ def train_ppo(
     model.vrloco_policy = policy_kwargs
     model.vrloco_observation = observation_layout(eval_users.observation_spec)
     model.vrloco_variability = variability
+    if len(cells) > 1:  # the cell's technique and population: every one of the mix
+        model.vrloco_cell.update(mix_cell(cells))
+        model.vrloco_variability = [c[2] for c in cells]
     checkpoints = CheckpointCallback(
         max(eval_every // num_envs, 1), str(out_dir / "checkpoints"), name_prefix=f"ppo_{task}"
     )
@@ -345,6 +349,103 @@ def _policy_settings(frame_stack: Any, recurrent: Any) -> dict[str, Any]:
     if not isinstance(recurrent, bool | np.bool_):
         raise ValueError(f"recurrent={recurrent!r}: must be True or False")
     return {"frame_stack": check_frame_stack(frame_stack), "recurrent": bool(recurrent)}
+
+
+def training_cells(
+    technique: Any = None, population: Any = None, variability: Any = None
+) -> list[tuple[Any, Any, str | None]]:
+    """The cells a run trains on, ``(technique, population, variability)`` each: one, or a mix
+    whose users share the batch (:class:`~agents.learned.mixed_env.MixedUsersEnv`).
+
+    ``technique``: one (a name, ``"module:attr"``, a Technique or None), several (a list, or
+    names joined by commas) or ``"all"`` (every registered technique). ``population``: one or
+    several the same way (None or ``"none"``: no population). ``variability``: one population
+    whose human variability every user has, or one per population (None or ``"none"``: none).
+    The cells are every technique with every population (and its variability).
+
+    Raises:
+        ValueError: an unknown name (the registry's error, listing the registered names), a
+            name given twice, or a variability list whose length is not the populations'.
+    """
+    from vrloco_env.techniques import TECHNIQUES, get_technique
+    from vrloco_env.user.population import get_population
+
+    techniques = _names(technique, "technique")
+    if techniques == ["all"]:
+        techniques = list(TECHNIQUES)
+    for t in techniques:
+        if t is not None:
+            get_technique(t)
+    populations = _names(population, "population")
+    for p in populations:
+        if p is not None:
+            get_population(p)
+    variabilities = _names(variability, "variability")
+    if len(variabilities) == 1:
+        variabilities = variabilities * len(populations)
+    if len(variabilities) != len(populations):
+        raise ValueError(
+            f"variability: give one population, or one per population ({len(populations)}: "
+            f"{', '.join(str(p) for p in populations)}), got {len(variabilities)}"
+        )
+    for v in variabilities:
+        if v is not None:
+            get_population(v, "variability")
+    return [(t, p, v) for t in techniques for p, v in zip(populations, variabilities, strict=True)]
+
+
+def _names(value: Any, field: str) -> list[Any]:
+    """``value`` as a list: a list as it is, a string split at commas (``"none"`` read as None),
+    anything else alone; a name given twice is an error naming ``field``."""
+    if isinstance(value, str):
+        value = [v.strip() for v in value.split(",")]
+    elif not isinstance(value, list | tuple):
+        value = [value]
+    out = [None if v in ("none", "") else v for v in value]
+    keys = [getattr(v, "name", v) for v in out]
+    twice = sorted({str(k) for k in keys if keys.count(k) > 1})
+    if twice:
+        raise ValueError(f"{field}: {', '.join(twice)} given more than once")
+    return out
+
+
+def mix_cell(cells: list[tuple[Any, Any, str | None]]) -> dict[str, Any]:
+    """The ``technique`` and ``population`` of a mix's cell: the one name every cell shares, or
+    the list of its names (techniques by their registered name; no population as None)."""
+    from vrloco_env.techniques import get_technique
+
+    def once(values: list[Any]) -> Any:
+        unique = list(dict.fromkeys(values))
+        return unique[0] if len(unique) == 1 else unique
+
+    return {
+        "technique": once([None if t is None else get_technique(t).name for t, _, _ in cells]),
+        "population": once([getattr(p, "name", p) for _, p, _ in cells]),
+    }
+
+
+def mixed_users(
+    num_envs: int,
+    task: str,
+    sensor_preset: str | None,
+    cells: list[tuple[Any, Any, str | None]],
+    condition: str | None,
+    reward: Any,
+    seed: int,
+    field: str = "num_envs",
+) -> Any:
+    """``num_envs`` users shared between ``cells`` (:func:`training_cells`) as one vector env
+    (:class:`~agents.learned.mixed_env.MixedUsersEnv`); each cell's users with its
+    variability, seeded from ``seed`` and the cell's first user."""
+    from agents.learned.mixed_env import MixedUsersEnv, split_users
+
+    parts, names, first = [], [], 0
+    for n, (tech, pop, var) in zip(split_users(num_envs, len(cells), field), cells, strict=True):
+        kwargs = env_settings(task, sensor_preset, tech, pop, condition, **_reward_kwargs(reward))
+        parts.append(_human(VRLocoVectorEnv(n, **kwargs), var, seed + first))
+        names.append(f"{tech or 'default'}/{getattr(pop, 'name', pop)}/{var}")
+        first += n
+    return MixedUsersEnv(parts, names)
 
 
 def _human(env: Any, population: str | None, seed: int) -> Any:
@@ -470,11 +571,18 @@ def _reward_kwargs(reward: Any) -> dict[str, Any]:
 
 def _check_run(task: str, train_kwargs: dict[str, Any]) -> None:
     """The cell and the policy settings of :func:`train_ppo`'s keywords, checked (its errors)."""
-    env_settings(
-        task,
-        *(train_kwargs.get(k) for k in ("sensor_preset", "technique", "population", "condition")),
-        **_reward_kwargs(train_kwargs.get("reward")),
+    cells = training_cells(
+        *(train_kwargs.get(k) for k in ("technique", "population", "variability"))
     )
+    for technique, population, _ in cells:
+        env_settings(
+            task,
+            train_kwargs.get("sensor_preset"),
+            technique,
+            population,
+            train_kwargs.get("condition"),
+            **_reward_kwargs(train_kwargs.get("reward")),
+        )
     _policy_settings(train_kwargs.get("frame_stack", 1), train_kwargs.get("recurrent", False))
 
 

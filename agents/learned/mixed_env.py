@@ -1,0 +1,178 @@
+"""Users of several cells side by side in one vector env: a learned user trained on a mix of
+techniques (domain randomisation over the registry) or of populations (idealised users beside
+typical ones) sees every part of the mix in each rollout.
+
+:class:`MixedUsersEnv` stacks vector envs (:class:`~vrloco_env.vector.VRLocoVectorEnv`, each
+optionally inside :class:`~agents.learned.variability_env.HumanVariabilityEnv`) along the batch:
+its users are the first part's, then the second's, and so on. Each part steps its own batch (a
+loop over the parts, never over the users). The parts' observation fields are read by name into
+one layout, the richest part's: a field a part lacks by definition (``head_on_torso`` of users
+whose head stays straight on the torso, :data:`agents.learned.models.ZERO_WHEN_ABSENT`) reads 0,
+any other difference is an error naming the field. Per-user info entries are stacked the same
+way; an entry whose per-user width differs between parts (the step-time lists) is padded with
+NaN (floats) or 0.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any, ClassVar
+
+import gymnasium as gym
+import numpy as np
+from gymnasium.vector import AutoresetMode
+from gymnasium.vector.utils import batch_space
+
+from agents.learned.models import observation_columns, observation_layout, read_fields
+
+__all__ = ["MixedUsersEnv", "split_users"]
+
+
+def split_users(num_envs: int, parts: int, field: str = "num_envs") -> list[int]:
+    """``num_envs`` users shared as evenly as ``parts`` parts allow (the first parts take one
+    more where it does not divide).
+
+    Raises:
+        ValueError: fewer users than parts (naming ``field``).
+    """
+    if num_envs < parts:
+        raise ValueError(
+            f"{field}={num_envs}: a mix of {parts} cells needs at least one user per cell "
+            f"({field} >= {parts})"
+        )
+    base, extra = divmod(num_envs, parts)
+    return [base + (i < extra) for i in range(parts)]
+
+
+class MixedUsersEnv(gym.vector.VectorEnv):
+    """The users of ``parts`` (vector envs with same-step autoreset and the same task and action
+    space) as one vector env (module docstring).
+
+    Args:
+        parts: the vector envs, in batch order.
+        names: one label per part (its cell in words), for messages and ``cells``.
+
+    Raises:
+        ValueError: no parts, a part without same-step autoreset, parts of different tasks or
+            action spaces, or observation fields that cannot be read into one layout (naming
+            the part and the field).
+    """
+
+    metadata: ClassVar[dict[str, Any]] = {
+        "autoreset_mode": AutoresetMode.SAME_STEP,
+        "render_modes": [],
+    }
+
+    def __init__(self, parts: Sequence[Any], names: Sequence[str]) -> None:
+        parts = list(parts)
+        if not parts or len(names) != len(parts):
+            raise ValueError("MixedUsersEnv needs one or more parts and one name per part")
+        self.parts = parts
+        self.cells = list(names)
+        cores = [p.unwrapped for p in parts]
+        for name, part in zip(names, parts, strict=True):
+            if part.metadata.get("autoreset_mode") != AutoresetMode.SAME_STEP:
+                raise ValueError(f"part {name!r}: MixedUsersEnv needs same-step autoreset")
+        tasks = {c.task_name for c in cores}
+        if len(tasks) != 1:
+            raise ValueError(f"a mix of cells trains one task, got {sorted(tasks)}")
+        self.task_name = tasks.pop()
+        richest = max(range(len(cores)), key=lambda i: len(cores[i].observation_spec.fields))
+        self.observation_spec = cores[richest].observation_spec
+        layout = observation_layout(self.observation_spec)
+        self._columns = []
+        for name, core in zip(names, cores, strict=True):
+            try:
+                self._columns.append(observation_columns(layout, core.observation_spec))
+            except ValueError as err:
+                raise ValueError(f"part {name!r} cannot join the mix: {err}") from None
+        self.single_action_space = parts[0].single_action_space
+        for name, part in zip(names, parts, strict=True):
+            if part.single_action_space != self.single_action_space:
+                raise ValueError(f"part {name!r} takes other actions than {names[0]!r}")
+        size = int(self._columns[0].size)
+        self.single_observation_space = gym.spaces.Box(-1.0, 1.0, (size,), np.float32)
+        self.sizes = [p.num_envs for p in parts]
+        self.num_envs = int(sum(self.sizes))
+        self._bounds = np.cumsum([0, *self.sizes])
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.autoreset_mode = AutoresetMode.SAME_STEP
+
+    def _obs(self, i: int, obs: Any) -> np.ndarray:
+        return read_fields(obs, self._columns[i])
+
+    def _info(self, infos: list[dict[str, Any]]) -> dict[str, Any]:
+        """The parts' per-user info entries stacked along the batch; ``final_obs`` read into
+        the mix's layout. A part without an entry (no finished episode, no ``final_obs``)
+        fills its users' rows with NaN (floats), False or 0."""
+        out: dict[str, Any] = {}
+        keys = dict.fromkeys(k for info in infos for k in info)
+        for key in keys:
+            rows: list[np.ndarray | None] = []
+            for i, info in enumerate(infos):
+                row = None if key not in info else np.asarray(info[key])
+                if row is not None and key in ("final_obs", "final_observation"):
+                    row = self._obs(i, row)
+                if row is not None and (row.ndim == 0 or row.shape[0] != self.sizes[i]):
+                    break  # not one entry per user
+                rows.append(row)
+            else:
+                present = [r for r in rows if r is not None]
+                if len({r.ndim for r in present}) != 1:
+                    continue
+                width = tuple(int(w) for w in np.max([r.shape[1:] for r in present], axis=0))
+                dtype = np.result_type(*present)
+                out[key] = np.concatenate(
+                    [
+                        _pad(r.astype(dtype, copy=False), width)
+                        if r is not None
+                        else _pad(np.empty((n, *(0 for _ in width)), dtype), width)
+                        for r, n in zip(rows, self.sizes, strict=True)
+                    ]
+                )
+        return out
+
+    def reset(self, *, seed: Any = None, options: Any = None) -> tuple[np.ndarray, dict]:
+        """Reset every part; an int ``seed`` seeds the users ``seed, seed + 1, ...`` in batch
+        order (as one vector env of all of them would)."""
+        mask = None if options is None else options.get("reset_mask")
+        obs, infos = [], []
+        for i, part in enumerate(self.parts):
+            lo, hi = self._bounds[i], self._bounds[i + 1]
+            part_seed = seed
+            if isinstance(seed, int | np.integer):
+                part_seed = int(seed) + int(lo)
+            elif seed is not None:
+                part_seed = list(seed)[lo:hi]
+            part_options = None if mask is None else {"reset_mask": np.asarray(mask)[lo:hi]}
+            o, info = part.reset(seed=part_seed, options=part_options)
+            obs.append(self._obs(i, o))
+            infos.append(info)
+        return np.concatenate(obs), self._info(infos)
+
+    def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict]:
+        actions = np.asarray(actions)
+        results = [
+            part.step(actions[self._bounds[i] : self._bounds[i + 1]])
+            for i, part in enumerate(self.parts)
+        ]
+        obs = np.concatenate([self._obs(i, r[0]) for i, r in enumerate(results)])
+        reward, terminated, truncated = (
+            np.concatenate([np.asarray(r[k]) for r in results]) for k in (1, 2, 3)
+        )
+        return obs, reward, terminated, truncated, self._info([r[4] for r in results])
+
+    def close(self, **kwargs: Any) -> None:
+        for part in self.parts:
+            part.close()
+
+
+def _pad(rows: np.ndarray, width: tuple[int, ...]) -> np.ndarray:
+    """``rows`` padded at the end of each trailing axis to ``width`` (NaN for floats, False or
+    0 otherwise)."""
+    if rows.shape[1:] == width:
+        return rows
+    fill = np.nan if np.issubdtype(rows.dtype, np.floating) else 0
+    pad = [(0, 0)] + [(0, w - s) for s, w in zip(rows.shape[1:], width, strict=True)]
+    return np.pad(rows, pad, constant_values=fill)

@@ -1,0 +1,123 @@
+"""A learned user trained on a mix of cells: the mixed vector env against its parts stepped alone,
+the mix's parsing and errors, and a mixed model played on each of its cells."""
+
+import numpy as np
+import pytest
+
+from agents.learned import train_ppo  # before torch: see its docs
+from agents.learned.mixed_env import MixedUsersEnv, split_users
+from agents.learned.train import mix_cell, mixed_users, training_cells
+from agents.learned.variability_env import HumanVariabilityEnv
+from vrloco_env.vector import VRLocoVectorEnv
+
+
+def _parts(seed):
+    """An idealised part (no head_on_torso field) and a typical part with its variability."""
+    return [
+        VRLocoVectorEnv(2, task="avoid", population="idealised", max_episode_steps=30),
+        HumanVariabilityEnv(
+            VRLocoVectorEnv(3, task="avoid", population="typical", max_episode_steps=30),
+            "typical",
+            seed,
+        ),
+    ]
+
+
+def test_a_mix_steps_each_part_as_it_steps_alone():
+    mixed = MixedUsersEnv(_parts(5), ["idealised", "typical"])
+    alone = _parts(5)
+    assert mixed.num_envs == 5
+    spec = mixed.observation_spec
+    assert spec.fields[-1].name == "head_on_torso"  # the richest part's layout
+    head = spec.offset("head_on_torso")
+    obs, _ = mixed.reset(seed=11)
+    first, _ = alone[0].reset(seed=11)
+    second, _ = alone[1].reset(seed=13)
+    np.testing.assert_array_equal(obs[:2, :head], first)
+    assert (obs[:2, head] == 0).all()  # the idealised head is straight on the torso
+    np.testing.assert_array_equal(obs[2:], second)
+    rng = np.random.default_rng(0)
+    ended = 0
+    for _ in range(40):  # past the 30-step horizon: the autoreset's final observations too
+        act = rng.uniform(-1, 1, (5, 5)).astype(np.float32)
+        obs, reward, term, trunc, info = mixed.step(act)
+        o1, r1, t1, u1, i1 = alone[0].step(act[:2])
+        o2, r2, t2, u2, i2 = alone[1].step(act[2:])
+        np.testing.assert_array_equal(obs[:2, :head], o1)
+        np.testing.assert_array_equal(obs[2:], o2)
+        np.testing.assert_array_equal(reward, np.concatenate([r1, r2]))
+        np.testing.assert_array_equal(term | trunc, np.concatenate([t1 | u1, t2 | u2]))
+        np.testing.assert_array_equal(
+            info["collisions"], np.concatenate([i1["collisions"], i2["collisions"]])
+        )
+        done = np.flatnonzero(term | trunc)
+        for row in done:
+            if row < 2:
+                np.testing.assert_array_equal(info["final_obs"][row, :head], i1["final_obs"][row])
+            else:
+                np.testing.assert_array_equal(info["final_obs"][row], i2["final_obs"][row - 2])
+        ended += done.size
+    assert ended >= 5
+
+
+def test_the_cells_of_a_mix_and_its_errors():
+    cells = training_cells("zhang2021,smooth", "idealised,typical", "none,typical")
+    assert cells == [
+        ("zhang2021", "idealised", None),
+        ("zhang2021", "typical", "typical"),
+        ("smooth", "idealised", None),
+        ("smooth", "typical", "typical"),
+    ]
+    assert mix_cell(cells) == {
+        "technique": ["zhang2021", "smooth"],
+        "population": ["idealised", "typical"],
+    }
+    from vrloco_env.techniques import TECHNIQUES
+
+    assert [c[0] for c in training_cells("all")] == list(TECHNIQUES)
+    assert training_cells(None, "typical", "typical") == [(None, "typical", "typical")]
+    with pytest.raises(ValueError, match=r"'nope'.*valid names: zhang2021"):
+        training_cells("zhang2021,nope")
+    with pytest.raises(ValueError, match="variability: give one population, or one per"):
+        training_cells(None, "idealised,typical", "none,typical,nodders")
+    with pytest.raises(ValueError, match="technique: smooth given more than once"):
+        training_cells("smooth,smooth")
+    with pytest.raises(ValueError, match="num_envs=3: a mix of 4 cells needs at least one"):
+        mixed_users(3, "avoid", None, cells, None, None, seed=0)
+    assert split_users(10, 4) == [3, 3, 2, 2]
+
+
+def test_a_mix_refuses_parts_it_cannot_read_as_one():
+    with pytest.raises(ValueError, match="a mix of cells trains one task"):
+        MixedUsersEnv([VRLocoVectorEnv(1, task="avoid"), VRLocoVectorEnv(1)], ["a", "b"])
+
+
+@pytest.mark.slow  # a tiny PPO run on a mix, then played on each of its cells
+def test_a_model_trained_on_a_mix_knows_and_plays_each_of_its_cells(tmp_path):
+    from agents.learned import evaluate_model
+
+    path = train_ppo(
+        "avoid",
+        steps=256,
+        num_envs=4,
+        out_dir=tmp_path,
+        eval_every=256,
+        eval_episodes=4,
+        progress=False,
+        technique="zhang2021,smooth",
+        population="idealised,typical",
+        variability="none,typical",
+        n_steps=64,
+        batch_size=128,
+    )
+    from stable_baselines3 import PPO
+
+    model = PPO.load(path)
+    assert model.vrloco_cell["technique"] == ["zhang2021", "smooth"]
+    assert model.vrloco_variability == [None, "typical", None, "typical"]
+    assert model.vrloco_observation[-1]["name"] == "head_on_torso"
+    for technique in ("zhang2021", "smooth"):
+        row = evaluate_model(path, episodes=1, progress=False, technique=technique)
+        assert row["technique"] == technique and row["trained_on"] is None
+    with pytest.raises(ValueError, match=r"technique='vqf' \(trained: \['zhang2021', 'smooth'\]"):
+        evaluate_model(path, episodes=1, progress=False, technique="vqf")
