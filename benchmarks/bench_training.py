@@ -16,6 +16,8 @@ iterations in a fresh Python process, in one of two configurations:
 * ``vrloco``: the loop of :func:`agents.learned.train.train_ppo`: ``agents.learned`` imported first
   (torch's OpenMP threads wait passively), rollouts on one torch thread
   (:class:`agents.learned.train.RolloutThreads`), the same PPO settings.
+* ``workers``: ``vrloco`` with the users stepped in ``--env-workers`` processes, a share of the
+  batch each (``vrloco train --env-workers N``, :func:`agents.learned.parallel_env.parallel_users`).
 
 The runs alternate (default, vrloco, default, vrloco, ...) so that other load on the machine
 hits both alike; the table gives each configuration's median environment steps per second of
@@ -44,10 +46,10 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-CONFIGS = ("default", "vrloco")
+CONFIGS = ("default", "vrloco", "workers")
 
 
-def child(config: str, task: str, num_envs: int, iterations: int) -> dict:
+def child(config: str, task: str, num_envs: int, iterations: int, workers: int) -> dict:
     """One training run in this process (a fresh one): its timings and weights' hash."""
     if config == "default":
         import torch  # first, as stable-baselines3 pulled it in before vrloco's kernels
@@ -67,7 +69,12 @@ def child(config: str, task: str, num_envs: int, iterations: int) -> dict:
 
     settings = learned.defaults_ppo()
     steps = iterations * settings["n_steps"] * num_envs
-    env = VRLocoVectorEnv(num_envs, **env_settings(task))
+    if config == "workers":
+        from agents.learned.parallel_env import parallel_users
+
+        env = parallel_users(num_envs, workers, env_settings(task))
+    else:
+        env = VRLocoVectorEnv(num_envs, **env_settings(task))
     env.reset(seed=0)  # load the compiled kernels before the clock starts; learn() reseeds
     env.step(np.zeros((num_envs, 5), np.float32))
     inner = learned.SB3VecEnv(env, seed=0)
@@ -99,6 +106,7 @@ def child(config: str, task: str, num_envs: int, iterations: int) -> dict:
     t0 = time.perf_counter()
     model.learn(steps, callback=callback)
     wall = time.perf_counter() - t0
+    env.close()
     digest = hashlib.sha256()
     for p in model.policy.state_dict().values():
         digest.update(p.detach().cpu().numpy().tobytes())
@@ -130,6 +138,8 @@ def run(config: str, args: argparse.Namespace) -> dict:
         str(args.num_envs),
         "--iterations",
         str(args.iterations),
+        "--env-workers",
+        str(args.env_workers),
     ]
     out = subprocess.run(cmd, env=env, cwd=ROOT, capture_output=True, text=True, check=False)
     if out.returncode != 0:
@@ -150,10 +160,17 @@ def main() -> None:
         metavar="N",
         help="keep N other processes busy during the runs",
     )
+    parser.add_argument(
+        "--env-workers", type=int, default=2, help="processes of the workers configuration"
+    )
     parser.add_argument("--child", choices=CONFIGS, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child:
-        print(json.dumps(child(args.child, args.task, args.num_envs, args.iterations)))
+        print(
+            json.dumps(
+                child(args.child, args.task, args.num_envs, args.iterations, args.env_workers)
+            )
+        )
         return
     busy = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(args.busy)]
     try:
@@ -201,6 +218,10 @@ def measure(args: argparse.Namespace) -> None:
             f"{share['update']:7.0%} {share['other']:6.0%}"
         )
     print(f"\nvrloco / default: {rate['vrloco'] / rate['default']:.2f}x the steps per second")
+    print(
+        f"workers ({args.env_workers} env processes) / default: "
+        f"{rate['workers'] / rate['default']:.2f}x the steps per second"
+    )
     digests = {r["weights"] for rs in runs.values() for r in rs}
     same = (
         "the same weights in every run"

@@ -24,6 +24,11 @@ def cmd_train(args: argparse.Namespace) -> int:
         common["reward"] = args.reward
     if args.variability is not None:
         common["variability"] = args.variability
+    if args.env_workers != 1:
+        if args.backend == "rllib":
+            print("vrloco train: --env-workers needs --backend local or ray", file=sys.stderr)
+            return 2
+        common["env_workers"] = args.env_workers
     if args.address is not None and args.backend == "local":
         print("vrloco train: --address needs --backend ray or rllib", file=sys.stderr)
         return 2

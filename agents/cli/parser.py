@@ -474,6 +474,14 @@ def build_parser() -> argparse.ArgumentParser:
         "none,typical (default: none)",
     )
     train.add_argument(
+        "--env-workers",
+        type=_int_at_least(1),
+        default=1,
+        metavar="N",
+        help="step the training users in N processes, a share each (the same episodes and "
+        "weights for any N; local backend)",
+    )
+    train.add_argument(
         "--eval-every", type=_int_at_least(1), default=100_000, help="steps between evals"
     )
     seeding = train.add_mutually_exclusive_group()

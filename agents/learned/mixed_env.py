@@ -5,7 +5,9 @@ typical ones) sees every part of the mix in each rollout.
 :class:`MixedUsersEnv` stacks vector envs (:class:`~vrloco_env.vector.VRLocoVectorEnv`, each
 optionally inside :class:`~agents.learned.variability_env.HumanVariabilityEnv`) along the batch:
 its users are the first part's, then the second's, and so on. Each part steps its own batch (a
-loop over the parts, never over the users). The parts' observation fields are read by name into
+loop over the parts, never over the users; parts in worker processes,
+:class:`~agents.learned.parallel_env.RemoteUsers`, all take their actions before any is waited
+for). The parts' observation fields are read by name into
 one layout, the richest part's: a field a part lacks by definition (``head_on_torso`` of users
 whose head stays straight on the torso, :data:`agents.learned.models.ZERO_WHEN_ABSENT`) reads 0,
 any other difference is an error naming the field. Per-user info entries are stacked the same
@@ -103,41 +105,56 @@ class MixedUsersEnv(gym.vector.VectorEnv):
         return read_fields(obs, self._columns[i])
 
     def _info(self, infos: list[dict[str, Any]]) -> dict[str, Any]:
-        """The parts' per-user info entries stacked along the batch; ``final_obs`` read into
-        the mix's layout. A part without an entry (no finished episode, no ``final_obs``)
-        fills its users' rows with NaN (floats), False or 0."""
-        out: dict[str, Any] = {}
-        keys = dict.fromkeys(k for info in infos for k in info)
-        for key in keys:
-            rows: list[np.ndarray | None] = []
-            for i, info in enumerate(infos):
-                row = None if key not in info else np.asarray(info[key])
-                if row is not None and key in ("final_obs", "final_observation"):
-                    row = self._obs(i, row)
-                if row is not None and (row.ndim == 0 or row.shape[0] != self.sizes[i]):
-                    break  # not one entry per user
-                rows.append(row)
-            else:
-                present = [r for r in rows if r is not None]
-                if len({r.ndim for r in present}) != 1:
-                    continue
-                width = tuple(int(w) for w in np.max([r.shape[1:] for r in present], axis=0))
-                dtype = np.result_type(*present)
-                out[key] = np.concatenate(
-                    [
-                        _pad(r.astype(dtype, copy=False), width)
-                        if r is not None
-                        else _pad(np.empty((n, *(0 for _ in width)), dtype), width)
-                        for r, n in zip(rows, self.sizes, strict=True)
-                    ]
-                )
-        return out
+        """The parts' per-user info entries stacked along the batch (nested dicts, such as
+        ``final_info``, entry by entry); ``final_obs`` read into the mix's layout. A part
+        without an entry (no finished episode, no ``final_obs``) fills its users' rows with NaN
+        (floats), False or 0; an entry that is not one row per user is left out."""
+        rows = list(infos)
+        if "final_obs" in {k for info in infos for k in info}:
+            rows = [
+                {**info, "final_obs": self._obs(i, info["final_obs"])}
+                if "final_obs" in info
+                else info
+                for i, info in enumerate(infos)
+            ]
+        return self._stack(rows)
+
+    def _stack(self, values: list[Any]) -> Any:
+        """``values`` (one per part, None where a part has none) stacked along the batch; None
+        where they are not one row per user."""
+        present = [v for v in values if v is not None]
+        if all(isinstance(v, dict) for v in present):
+            out = {}
+            for key in dict.fromkeys(k for v in present for k in v):
+                stacked = self._stack([None if v is None else v.get(key) for v in values])
+                if stacked is not None:
+                    out[key] = stacked
+            return out
+        arrays = [None if v is None else np.asarray(v) for v in values]
+        have = [a for a in arrays if a is not None]
+        if any(isinstance(v, dict) for v in present) or len({a.ndim for a in have}) != 1:
+            return None
+        if any(
+            a is not None and (a.ndim == 0 or a.shape[0] != n)
+            for a, n in zip(arrays, self.sizes, strict=True)
+        ):
+            return None
+        width = tuple(int(w) for w in np.max([a.shape[1:] for a in have], axis=0))
+        dtype = np.result_type(*have)
+        return np.concatenate(
+            [
+                _pad(a.astype(dtype, copy=False), width)
+                if a is not None
+                else np.full((n, *width), _fill(dtype), dtype)
+                for a, n in zip(arrays, self.sizes, strict=True)
+            ]
+        )
 
     def reset(self, *, seed: Any = None, options: Any = None) -> tuple[np.ndarray, dict]:
         """Reset every part; an int ``seed`` seeds the users ``seed, seed + 1, ...`` in batch
         order (as one vector env of all of them would)."""
         mask = None if options is None else options.get("reset_mask")
-        obs, infos = [], []
+        results = []
         for i, part in enumerate(self.parts):
             lo, hi = self._bounds[i], self._bounds[i + 1]
             part_seed = seed
@@ -146,17 +163,32 @@ class MixedUsersEnv(gym.vector.VectorEnv):
             elif seed is not None:
                 part_seed = list(seed)[lo:hi]
             part_options = None if mask is None else {"reset_mask": np.asarray(mask)[lo:hi]}
-            o, info = part.reset(seed=part_seed, options=part_options)
-            obs.append(self._obs(i, o))
-            infos.append(info)
-        return np.concatenate(obs), self._info(infos)
+            results.append(self._call(part, "reset", seed=part_seed, options=part_options))
+        results = [self._wait(part, r) for part, r in zip(self.parts, results, strict=True)]
+        obs = np.concatenate([self._obs(i, r[0]) for i, r in enumerate(results)])
+        return obs, self._info([r[1] for r in results])
+
+    @staticmethod
+    def _call(part: Any, command: str, *args: Any, **kwargs: Any) -> Any:
+        """Start ``command`` on ``part``: sent to a worker's part
+        (:class:`~agents.learned.parallel_env.RemoteUsers`), answered later by :meth:`_wait`;
+        run at once on any other."""
+        if hasattr(part, f"{command}_async") and hasattr(part, "wait"):
+            getattr(part, f"{command}_async")(*args, **kwargs)
+            return None
+        return getattr(part, command)(*args, **kwargs)
+
+    @staticmethod
+    def _wait(part: Any, result: Any) -> Any:
+        return part.wait() if result is None else result
 
     def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict]:
         actions = np.asarray(actions)
-        results = [
-            part.step(actions[self._bounds[i] : self._bounds[i + 1]])
+        started = [
+            self._call(part, "step", actions[self._bounds[i] : self._bounds[i + 1]])
             for i, part in enumerate(self.parts)
         ]
+        results = [self._wait(p, r) for p, r in zip(self.parts, started, strict=True)]
         obs = np.concatenate([self._obs(i, r[0]) for i, r in enumerate(results)])
         reward, terminated, truncated = (
             np.concatenate([np.asarray(r[k]) for r in results]) for k in (1, 2, 3)
@@ -173,6 +205,10 @@ def _pad(rows: np.ndarray, width: tuple[int, ...]) -> np.ndarray:
     0 otherwise)."""
     if rows.shape[1:] == width:
         return rows
-    fill = np.nan if np.issubdtype(rows.dtype, np.floating) else 0
     pad = [(0, 0)] + [(0, w - s) for s, w in zip(rows.shape[1:], width, strict=True)]
-    return np.pad(rows, pad, constant_values=fill)
+    return np.pad(rows, pad, constant_values=_fill(rows.dtype))
+
+
+def _fill(dtype: Any) -> Any:
+    """What an absent entry reads: NaN for floats, else 0 (False)."""
+    return np.nan if np.issubdtype(dtype, np.floating) else 0

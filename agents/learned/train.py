@@ -140,6 +140,7 @@ def train_ppo(
     recurrent: bool = False,
     reward: Any = None,
     variability: str | None = None,
+    env_workers: int = 1,
     **ppo_kwargs: Any,
 ) -> Path:
     """Train PPO on ``task``; returns the path of the final model (``.zip``).
@@ -165,6 +166,9 @@ def train_ppo(
             overshoot, cadence; :class:`~agents.learned.variability_env.HumanVariabilityEnv`) the
             learner trains and is evaluated with (None: none); saved as
             ``model.vrloco_variability``.
+        env_workers: processes the training users are stepped in, a share of the batch each
+            (:func:`~agents.learned.parallel_env.parallel_users`; 1: in this process). The
+            users' episodes, and so the trained weights, are the same for any number.
         ppo_kwargs: PPO's settings over :func:`defaults_ppo`.
 
     Both ``frame_stack`` and ``recurrent`` are saved as ``model.vrloco_policy``.
@@ -197,8 +201,17 @@ def train_ppo(
     policy_kwargs = _policy_settings(frame_stack, recurrent)
     steps = rollout_steps(steps, settings["n_steps"], num_envs)
     out_dir.mkdir(parents=True, exist_ok=True)
+    if isinstance(env_workers, bool) or not isinstance(env_workers, int) or env_workers < 1:
+        raise ValueError(f"env_workers={env_workers!r}: must be an integer >= 1")
+    if env_workers > 1 and len(cells) > 1:
+        raise ValueError("env_workers > 1 (--env-workers) steps one cell's users; not a mix")
     if len(cells) == 1:
-        users = _human(VRLocoVectorEnv(num_envs, **env_kwargs), variability, seed)
+        if env_workers > 1:
+            from agents.learned.parallel_env import parallel_users
+
+            users = _human(parallel_users(num_envs, env_workers, env_kwargs), variability, seed)
+        else:
+            users = _human(VRLocoVectorEnv(num_envs, **env_kwargs), variability, seed)
         eval_users = VRLocoVectorEnv(eval_episodes, **env_kwargs)
         eval_env = _wrap(_human(eval_users, variability, 10_000 + seed), frame_stack)
     else:

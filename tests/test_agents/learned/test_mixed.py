@@ -121,3 +121,52 @@ def test_a_model_trained_on_a_mix_knows_and_plays_each_of_its_cells(tmp_path):
         assert row["technique"] == technique and row["trained_on"] is None
     with pytest.raises(ValueError, match=r"technique='vqf' \(trained: \['zhang2021', 'smooth'\]"):
         evaluate_model(path, episodes=1, progress=False, technique="vqf")
+
+
+def _same(a, b, where="info"):
+    """``a`` and ``b`` hold the same values (nested dicts of arrays)."""
+    if isinstance(a, dict):
+        assert set(a) == set(b), where
+        for k in a:
+            _same(a[k], b[k], k)
+        return
+    a, b = np.asarray(a), np.asarray(b)
+    assert a.dtype == b.dtype and a.shape == b.shape, where
+    assert np.array_equal(a, b, equal_nan=a.dtype.kind == "f"), where
+
+
+def test_users_stepped_in_worker_processes_are_the_users_of_one_env():
+    from dataclasses import replace
+
+    from agents.learned.models import env_settings
+    from agents.learned.parallel_env import parallel_users
+
+    kwargs = env_settings("approach")  # episodes end at a user's first collision: apart
+    kwargs["config"] = replace(kwargs["config"], terminate_on_collision=True, max_episode_steps=60)
+    one = VRLocoVectorEnv(6, **kwargs)
+    workers = parallel_users(6, 2, kwargs)
+    try:
+        first, _ = one.reset(seed=21)
+        np.testing.assert_array_equal(workers.reset(seed=21)[0], first)
+        rng = np.random.default_rng(2)
+        apart = 0
+        for _ in range(80):
+            act = rng.uniform(-1, 1, (6, 5)).astype(np.float32)
+            a, b = one.step(act), workers.step(act)
+            for x, y in zip(a[:4], b[:4], strict=True):
+                np.testing.assert_array_equal(x, y)
+            done = a[2] | a[3]
+            apart += done[:3].any() != done[3:].any()
+            for key in ("final_obs", "collisions", "is_success", "distance_to_goal"):
+                if key in a[4]:
+                    _same(a[4][key][done], b[4][key][done], key)
+            if "final_info" in a[4]:
+                _same(
+                    {k: v[done] for k, v in a[4]["final_info"].items()},
+                    {k: v[done] for k, v in b[4]["final_info"].items()},
+                )
+        assert apart > 0  # one worker's users ended while the other's did not
+    finally:
+        workers.close()
+    with pytest.raises(ValueError, match="env_workers=0: must be an integer >= 1"):
+        parallel_users(6, 0, kwargs)
