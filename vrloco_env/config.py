@@ -198,6 +198,12 @@ class RewardConfig:
         success_without_collision: pay the success bonus only for an episode without a
             collision (the objective of a user who must reach goals without colliding; the
             task's own success is unchanged).
+        hand_progress: reward per radian by which the estimated hand comes closer to the
+            target orientation of a task with one (Interact, Reach; the rotation angle of
+            :func:`~vrloco_env.tasks.interact.hand_error`), as ``progress`` pays for metres:
+            a difference of potentials, shaping that leaves the best policy unchanged (Ng,
+            Harada & Russell, ICML 1999). Steps without a hand estimate pay nothing. 0 for
+            every task without a hand target.
     """
 
     progress: float = 1.0
@@ -206,9 +212,10 @@ class RewardConfig:
     effort: float = 0.01
     time: float = 0.01
     success_without_collision: bool = False
+    hand_progress: float = 0.0
 
     def __post_init__(self) -> None:
-        for name in ("progress", "success", "collision", "effort", "time"):
+        for name in ("progress", "success", "collision", "effort", "time", "hand_progress"):
             check_in_range(self, name, 0.0, 1e3)
         check_bool(self, "success_without_collision")
 

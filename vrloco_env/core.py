@@ -371,6 +371,10 @@ class LocoCore(TakesUsers):
             - rw.effort * (a * a).sum(axis=1) / a.shape[1]
             - rw.time
         )
+        if rw.hand_progress > 0.0:
+            closer = self.task.hand_progress()
+            if closer is not None:
+                reward = reward + rw.hand_progress * closer
         self.last_rays = self._rays()
         infos = self.infos(us, blocked, success, finished)
         infos["intent_walk"] = a[:, 0] > 0.0  # the user means to step (the action's walk > 0)

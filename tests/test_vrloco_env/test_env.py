@@ -248,3 +248,40 @@ def test_a_collision_forfeits_the_success_bonus_only_when_asked():
     assert info["is_success"] and info["collisions"] > 0 and strict_info["is_success"]
     np.testing.assert_array_equal(plain[:-1], strict[:-1])
     assert plain[-1] - strict[-1] == pytest.approx(RewardConfig().success)
+
+
+def test_hand_progress_pays_the_hand_errors_fall_and_nothing_else():
+    """The goal seeker's Interact episode under both objectives: the difference of rewards sums
+    to the weight times the fall of the hand's error to its target from the first estimate to
+    the last (a difference of potentials), and the error falls as the seeker aligns the hand.
+    A task without a hand target pays nothing for it."""
+    from agents.benchmark.policies import build_policy
+    from vrloco_env.config import RewardConfig
+    from vrloco_env.tasks.interact import hand_error
+
+    def play(task, reward):
+        env = gym.make(f"VRLoco-{task}-v0", reward=reward)
+        user = build_policy("goal_seeker", env)
+        obs, _ = env.reset(seed=4)
+        user.reset(np.random.default_rng([4, 1]))
+        rewards, errors = [], []
+        for _ in range(600):
+            obs, r, terminated, truncated, info = env.step(user.act(obs))
+            rewards.append(r)
+            if task == "Interact":
+                t = env.unwrapped.core.task
+                est = np.asarray(info["est_hand_ypr"], dtype=np.float64)[None]
+                errors.append(float(hand_error(np.deg2rad(est), t.hand_target[:1])[0]))
+            if terminated or truncated:
+                break
+        return np.array(rewards), np.array(errors), info
+
+    plain, errors, info = play("Interact", RewardConfig())
+    shaped, _, shaped_info = play("Interact", RewardConfig(hand_progress=2.0))
+    assert info["is_success"] and shaped_info["is_success"]
+    known = errors[np.isfinite(errors)]
+    assert known[0] - known[-1] > np.deg2rad(10)  # the seeker brought the hand to its target
+    np.testing.assert_allclose((shaped - plain).sum(), 2.0 * (known[0] - known[-1]), atol=1e-9)
+    plain, _, _ = play("Approach", RewardConfig())
+    shaped, _, _ = play("Approach", RewardConfig(hand_progress=2.0))
+    np.testing.assert_array_equal(plain, shaped)

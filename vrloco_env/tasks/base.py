@@ -102,6 +102,12 @@ class Task(TakesUsers):
         a :class:`~vrloco_env.users.UserStep`)."""
         return in_goal
 
+    def hand_progress(self) -> NDArray[np.float64] | None:
+        """How much closer (rad) each user's estimated hand came to the task's target
+        orientation in the last :meth:`finished` (0 without an estimate before or after);
+        None for a task without a hand target."""
+        return None
+
     def fields(self) -> tuple[Field, ...]:
         """The task's own observation fields, after the common ones."""
         return ()

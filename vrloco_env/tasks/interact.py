@@ -76,12 +76,14 @@ class Interact(Task):
     name = "interact"
     description = "reach the pedestal and hold the hand at a target orientation"
     Config = InteractConfig
-    per_user_fields = (*Task.per_user_fields, "hand_target", "dwell")
+    per_user_fields = (*Task.per_user_fields, "hand_target", "dwell", "hand_err", "_closer")
 
     def __init__(self, batch_size: int, dt: float, config: Any = None) -> None:
         super().__init__(batch_size, dt, config)
         self.hand_target = np.zeros((self.batch_size, 3))
         self.dwell = np.zeros(self.batch_size)
+        self.hand_err = np.full(self.batch_size, np.nan)  # the last known error (rad)
+        self._closer = np.zeros(self.batch_size)  # how much closer in the last step (rad)
 
     def draw_layout(self, room: RoomConfig, rng: np.random.Generator) -> Layout:
         return interact_layout(room, rng, self.config)
@@ -94,12 +96,20 @@ class Interact(Task):
 
     def reset(self, rows: NDArray[np.intp]) -> None:
         self.dwell[rows] = 0.0
+        self.hand_err[rows] = np.nan
+        self._closer[rows] = 0.0
 
     def finished(self, in_goal: NDArray[np.bool_], user_step: Any) -> NDArray[np.bool_]:
         err = hand_error(user_step.hand_est, self.hand_target)
+        known = np.isfinite(err) & np.isfinite(self.hand_err)
+        self._closer = np.where(known, self.hand_err - np.where(known, err, 0.0), 0.0)
+        self.hand_err = np.where(np.isfinite(err), err, self.hand_err)
         holding = in_goal & (err <= np.deg2rad(self.config.hand_tolerance_deg))
         self.dwell = np.where(holding, self.dwell + self.dt, 0.0)
         return self.dwell >= self.config.dwell_s - 1e-9
+
+    def hand_progress(self) -> NDArray[np.float64]:
+        return self._closer
 
     def fields(self) -> tuple[Field, ...]:
         return (
