@@ -63,12 +63,17 @@ def _worker_threads(n_workers: int) -> int:
 def _pool_context() -> Any:
     """How to start the local workers: the platform's default (``fork`` on Linux: the workers
     start at once, with this process's compiled kernels), unless this process has started
-    numba's threads (a vector env of many users did): forking a process that runs OpenMP threads
-    is unsafe (GNU OpenMP kills the child), so the workers are spawned instead."""
+    numba's threads (a vector env of many users did) or imported torch (loading a learned user
+    does; its OpenMP pool may have threads): forking a process that runs OpenMP threads is
+    unsafe (GNU OpenMP kills the child, or the child's first parallel region waits forever), so
+    the workers are spawned instead."""
     import multiprocessing
+    import sys
 
     import numba
 
+    if "torch" in sys.modules:
+        return multiprocessing.get_context("spawn")
     try:
         numba.threading_layer()
     except ValueError:  # no thread started yet
