@@ -24,6 +24,11 @@ def cmd_train(args: argparse.Namespace) -> int:
         common["reward"] = args.reward
     if args.variability is not None:
         common["variability"] = args.variability
+    if args.init is not None:
+        if args.backend == "rllib":
+            print("vrloco train: --init needs --backend local or ray", file=sys.stderr)
+            return 2
+        common["init"] = args.init
     if args.env_workers != 1:
         if args.backend == "rllib":
             print("vrloco train: --env-workers needs --backend local or ray", file=sys.stderr)

@@ -474,6 +474,13 @@ def build_parser() -> argparse.ArgumentParser:
         "none,typical (default: none)",
     )
     train.add_argument(
+        "--init",
+        metavar="MODEL",
+        help="go on training this model (.zip from vrloco train) on this run's cell and "
+        "objective, its weights and PPO settings kept (it must see the same frame stack and "
+        "observation fields)",
+    )
+    train.add_argument(
         "--env-workers",
         type=_int_at_least(1),
         default=1,

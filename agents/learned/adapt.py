@@ -23,39 +23,7 @@ import os
 from pathlib import Path
 from typing import Any
 
-import gymnasium as gym
-import numpy as np
-
 __all__ = ["DEFAULT_CACHE", "adapted_user", "cache_key"]
-
-
-class _ModelFields(gym.vector.VectorWrapper):
-    """A vector env's observations as a model reads them: its fields by name, a field absent by
-    definition as 0 (:func:`agents.learned.models.observation_columns`)."""
-
-    def __init__(self, env: Any, columns: Any) -> None:
-        super().__init__(env)
-        self._columns = np.asarray(columns, dtype=np.intp)
-        size = self._columns.size
-        self.single_observation_space = gym.spaces.Box(-1.0, 1.0, (size,), np.float32)
-        self.observation_space = gym.vector.utils.batch_space(
-            self.single_observation_space, self.num_envs
-        )
-
-    def _read(self, obs: Any) -> Any:
-        from agents.learned.models import read_fields
-
-        return read_fields(obs, self._columns)
-
-    def reset(self, *, seed: Any = None, options: Any = None) -> tuple[Any, dict]:
-        obs, info = self.env.reset(seed=seed, options=options)
-        return self._read(obs), info
-
-    def step(self, actions: Any) -> tuple[Any, Any, Any, Any, dict]:
-        obs, reward, terminated, truncated, info = self.env.step(actions)
-        if "final_obs" in info:
-            info = {**info, "final_obs": self._read(info["final_obs"])}
-        return self._read(obs), reward, terminated, truncated, info
 
 
 #: Where adapted users are kept unless told otherwise (``VRLOCO_ADAPT_CACHE`` overrides it).
@@ -102,7 +70,13 @@ def adapted_user(
             registries do not know (their errors).
     """
     from agents.benchmark.policies import load_ppo
-    from agents.learned.models import cell_of, env_settings, model_policy, observation_columns
+    from agents.learned.models import (
+        ModelFields,
+        cell_of,
+        env_settings,
+        model_policy,
+        observation_columns,
+    )
     from agents.learned.train import SB3VecEnv, _wrap, rollout_steps
     from agents.learned.users import shipped_user
     from vrloco_env.vector import VRLocoVectorEnv
@@ -135,7 +109,7 @@ def adapted_user(
         raise ValueError(
             f"the shipped {task} user cannot read the cell's observation: {err}"
         ) from None
-    learner = users if columns is None else _ModelFields(users, columns)
+    learner = users if columns is None else ModelFields(users, columns)
     if variability is not None:
         from agents.learned.variability_env import HumanVariabilityEnv
 

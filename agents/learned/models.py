@@ -9,12 +9,14 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 from numpy.typing import NDArray
 
 __all__ = [
     "CELL_KEYS",
     "ZERO_WHEN_ABSENT",
+    "ModelFields",
     "env_settings",
     "model_cell",
     "model_env_settings",
@@ -218,3 +220,30 @@ def read_fields(obs: Any, columns: NDArray[np.intp] | None) -> NDArray[np.float3
         return rows
     padded = np.concatenate([rows, np.zeros((rows.shape[0], 1), np.float32)], axis=1)
     return padded[:, columns]
+
+
+class ModelFields(gym.vector.VectorWrapper):
+    """A vector env's observations as a model reads them: its fields by name, a field absent by
+    definition as 0 (:func:`agents.learned.models.observation_columns`)."""
+
+    def __init__(self, env: Any, columns: Any) -> None:
+        super().__init__(env)
+        self._columns = np.asarray(columns, dtype=np.intp)
+        size = self._columns.size
+        self.single_observation_space = gym.spaces.Box(-1.0, 1.0, (size,), np.float32)
+        self.observation_space = gym.vector.utils.batch_space(
+            self.single_observation_space, self.num_envs
+        )
+
+    def _read(self, obs: Any) -> Any:
+        return read_fields(obs, self._columns)
+
+    def reset(self, *, seed: Any = None, options: Any = None) -> tuple[Any, dict]:
+        obs, info = self.env.reset(seed=seed, options=options)
+        return self._read(obs), info
+
+    def step(self, actions: Any) -> tuple[Any, Any, Any, Any, dict]:
+        obs, reward, terminated, truncated, info = self.env.step(actions)
+        if "final_obs" in info:
+            info = {**info, "final_obs": self._read(info["final_obs"])}
+        return self._read(obs), reward, terminated, truncated, info

@@ -17,7 +17,7 @@ from stable_baselines3.common.vec_env.base_vec_env import VecEnv
 
 from agents.learned.curves import _read_curves, plot_learning_curve, write_seed_curves
 from agents.learned.evaluate import run_policy_episodes
-from agents.learned.models import cell_of, env_settings, observation_layout
+from agents.learned.models import ModelFields, cell_of, env_settings, observation_layout
 from agents.learned.threads import _TORCH_SPINS
 from vrloco_env.vector import VRLocoVectorEnv
 
@@ -141,6 +141,7 @@ def train_ppo(
     reward: Any = None,
     variability: str | None = None,
     env_workers: int = 1,
+    init: Path | str | None = None,
     **ppo_kwargs: Any,
 ) -> Path:
     """Train PPO on ``task``; returns the path of the final model (``.zip``).
@@ -169,6 +170,10 @@ def train_ppo(
         env_workers: processes the training users are stepped in, a share of the batch each
             (:func:`~agents.learned.parallel_env.parallel_users`; 1: in this process). The
             users' episodes, and so the trained weights, are the same for any number.
+        init: a model (``.zip``) trained by ``vrloco train`` to start from instead of a new
+            policy: its weights and PPO settings go on learning on this run's cell and
+            objective (``ppo_kwargs`` are not taken). It must see the env as this run does:
+            the same frame stack and observation layout.
         ppo_kwargs: PPO's settings over :func:`defaults_ppo`.
 
     Both ``frame_stack`` and ``recurrent`` are saved as ``model.vrloco_policy``.
@@ -193,6 +198,15 @@ def train_ppo(
             stacklevel=2,
         )
     settings = {**defaults_ppo(), **ppo_kwargs}
+    if init is not None:  # its own PPO settings: its rollouts
+        from agents.benchmark.policies import load_ppo
+
+        if ppo_kwargs:
+            raise ValueError(
+                f"init={str(init)!r} keeps its own PPO settings; drop "
+                + ", ".join(sorted(ppo_kwargs))
+            )
+        settings["n_steps"] = load_ppo(Path(init)).n_steps
     cells = training_cells(technique, population, variability)
     technique, population, variability = cells[0]  # a mix's settings: its first cell's
     env_kwargs = env_settings(
@@ -219,6 +233,13 @@ def train_ppo(
         users = mixed_users(num_envs, *mix, seed=seed)
         eval_users = mixed_users(eval_episodes, *mix, seed=10_000 + seed, field="eval_episodes")
         eval_env = _wrap(eval_users, frame_stack)
+    layout = observation_layout(eval_users.observation_spec)
+    base = None
+    if init is not None:  # the model reads the users' fields it was trained on, by name
+        base, columns = _start_from(Path(init), policy_kwargs, eval_users)
+        layout = base.vrloco_observation
+        users = ModelFields(users, columns)
+        eval_env = _wrap(ModelFields(_unwrap_stack(eval_env, frame_stack), columns), frame_stack)
     venv = VecMonitor(
         SB3VecEnv(_wrap(users, frame_stack), seed=seed), info_keywords=("is_success",)
     )
@@ -247,17 +268,22 @@ def train_ppo(
             (out_dir / "learning_curve.json").write_text(json.dumps(curve, indent=2))
             return True
 
-    model = make_model(
-        venv, seed=seed, recurrent=recurrent, tensorboard_log=str(out_dir / "tb"), **settings
-    )
+    if init is None:
+        model = make_model(
+            venv, seed=seed, recurrent=recurrent, tensorboard_log=str(out_dir / "tb"), **settings
+        )
+    else:
+        model = type(base).load(init, env=venv)
+        model.tensorboard_log = str(out_dir / "tb")
+        model.set_random_seed(seed)
     # Saved with every checkpoint, the best and the final model: what the policy was trained on.
     model.vrloco_env = env_kwargs
     model.vrloco_cell = cell_of(env_kwargs, technique)
     model.vrloco_policy = policy_kwargs
-    model.vrloco_observation = observation_layout(eval_users.observation_spec)
+    model.vrloco_observation = layout
     model.vrloco_variability = variability
     if len(cells) > 1:  # the cell's technique and population: every one of the mix
-        model.vrloco_cell.update(mix_cell(cells))
+        model.vrloco_cell.update({k: v for k, v in mix_cell(cells).items() if isinstance(v, list)})
         model.vrloco_variability = [c[2] for c in cells]
     checkpoints = CheckpointCallback(
         max(eval_every // num_envs, 1), str(out_dir / "checkpoints"), name_prefix=f"ppo_{task}"
@@ -362,6 +388,43 @@ def _policy_settings(frame_stack: Any, recurrent: Any) -> dict[str, Any]:
     if not isinstance(recurrent, bool | np.bool_):
         raise ValueError(f"recurrent={recurrent!r}: must be True or False")
     return {"frame_stack": check_frame_stack(frame_stack), "recurrent": bool(recurrent)}
+
+
+def _start_from(path: Path, policy_kwargs: dict[str, Any], users: Any) -> tuple[Any, Any]:
+    """The model at ``path`` (:func:`train_ppo`'s ``init``) and the columns of ``users``'
+    observation it reads (:func:`~agents.learned.models.observation_columns`: its fields by
+    name; a field the users have and it does not know is left unread).
+
+    Raises:
+        ValueError: a model that sees the env otherwise than this run (its frame stack or
+            recurrence, or a field the users lack), naming what differs.
+    """
+    from agents.benchmark.policies import load_ppo
+    from agents.learned.models import model_policy, observation_columns
+
+    base = load_ppo(path)
+    seen = model_policy(base)
+    for key in ("frame_stack", "recurrent"):
+        if seen[key] != policy_kwargs[key]:
+            raise ValueError(
+                f"init={str(path)!r} was trained with {key}={seen[key]!r}, this run has "
+                f"{policy_kwargs[key]!r}"
+            )
+    saved = getattr(base, "vrloco_observation", None)
+    if not isinstance(saved, list):
+        raise ValueError(
+            f"init={str(path)!r} carries no observation layout (not from vrloco train)"
+        )
+    try:
+        columns = observation_columns(saved, users.observation_spec)
+    except ValueError as err:
+        raise ValueError(f"init={str(path)!r} cannot read this run's users: {err}") from None
+    return base, columns
+
+
+def _unwrap_stack(env: Any, frame_stack: int) -> Any:
+    """``env`` without the frame stack :func:`_wrap` put around it."""
+    return env if frame_stack == 1 else env.env
 
 
 def training_cells(

@@ -170,3 +170,33 @@ def test_users_stepped_in_worker_processes_are_the_users_of_one_env():
         workers.close()
     with pytest.raises(ValueError, match="env_workers=0: must be an integer >= 1"):
         parallel_users(6, 0, kwargs)
+
+
+@pytest.mark.slow  # two tiny PPO runs: the second goes on from the first
+def test_a_run_goes_on_from_a_model_reading_the_fields_it_knows(tmp_path):
+    from stable_baselines3 import PPO
+
+    tiny = dict(steps=256, num_envs=4, eval_every=256, eval_episodes=2, progress=False)
+    first = train_ppo("avoid", out_dir=tmp_path / "a", n_steps=64, batch_size=128, **tiny)
+    then = train_ppo(
+        "avoid",
+        out_dir=tmp_path / "b",
+        population="idealised,typical",
+        variability="none,typical",
+        init=first,
+        **tiny,
+    )
+    a, b = PPO.load(first), PPO.load(then)
+    assert b.n_steps == 64 and b.batch_size == 128  # its PPO settings, kept
+    assert b.vrloco_observation == a.vrloco_observation  # no head_on_torso: left unread
+    assert b.vrloco_cell["population"] == ["idealised", "typical"]
+    assert b.vrloco_cell["technique"] == a.vrloco_cell["technique"] == "zhang2021"
+    moved = [
+        not np.array_equal(x.numpy(), y.numpy())
+        for x, y in zip(a.policy.state_dict().values(), b.policy.state_dict().values(), strict=True)
+    ]
+    assert any(moved)
+    with pytest.raises(ValueError, match="was trained with frame_stack=1, this run has 2"):
+        train_ppo("avoid", out_dir=tmp_path / "c", init=first, frame_stack=2, **tiny)
+    with pytest.raises(ValueError, match="keeps its own PPO settings; drop n_steps"):
+        train_ppo("avoid", out_dir=tmp_path / "c", init=first, n_steps=64, **tiny)
