@@ -93,6 +93,7 @@ def run_learned_ranking(
 
     from agents.benchmark import run_benchmark
     from agents.benchmark.grid import DEFAULT_TASKS, DEFAULT_TECHNIQUES
+    from agents.benchmark.outputs import json_safe
     from agents.learned.users import LEARNED_USERS
 
     if isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 2:
@@ -182,6 +183,7 @@ def run_learned_ranking(
             "command": _command(episodes, adapt_steps, dev),
         },
     }
+    result = json_safe(result)  # NaN (no stop to measure, no ranking to compare): null
     print(format_table(result))
     if json_path is not None:
         Path(json_path).write_text(json.dumps(result, indent=2, allow_nan=False) + "\n")

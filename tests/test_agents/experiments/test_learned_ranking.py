@@ -24,7 +24,7 @@ def _row(task, policy, technique, value, p=None, diff=0.0):
         "collision_free_success_rate": value,
         "success_rate": value,
         "collision_rate": 1 - value,
-        "stop_overshoot_m": 0.1,
+        "stop_overshoot_m": float("nan") if technique == "smooth" else 0.1,
         "vs_baseline": vs,
     }
 
@@ -62,6 +62,7 @@ def test_the_rankings_their_tests_and_where_they_disagree(monkeypatch, tmp_path,
         progress=False,
     )
     assert json.loads(out.read_text()) == result
+    assert result["tasks"]["avoid"]["techniques"]["smooth"]["scripted"]["stop_overshoot_m"] is None
     assert result["skipped"] == {"approach": "no shipped learned user"}
     avoid = result["tasks"]["avoid"]["techniques"]
     assert [avoid[t]["scripted"]["rank"] for t in values] == [1, 3, 2]
