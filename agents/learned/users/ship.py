@@ -87,14 +87,20 @@ def held_out_rows(
     return command, out_rows
 
 
-def ship(model: Path, command: str, episodes: int = 100, choices: str = "") -> Path:
+def ship(
+    model: Path, command: str, episodes: int = 100, choices: str = "", name: str | None = None
+) -> Path:
     """Copy ``model`` (and its folder's learning curve) into :mod:`agents.learned.users` as its
-    task's user, evaluate it on held-out seeds and write its card; returns the card's path."""
+    task's user (``name``: under that name instead, e.g. a second user of the task), evaluate it
+    on held-out seeds and write its card; returns the card's path."""
     from agents.benchmark.policies import load_ppo
 
     trained = load_ppo(model)
     task = trained.vrloco_env["task"]
-    target = HERE / f"{task}.zip"
+    name = task if name is None else name
+    if not name.isidentifier():
+        raise ValueError(f"name={name!r}: a file name of letters, digits and underscores")
+    target = HERE / f"{name}.zip"
     shutil.copyfile(model, target)
     folder = Path(model).parent
     curve = []
@@ -104,7 +110,7 @@ def ship(model: Path, command: str, episodes: int = 100, choices: str = "") -> P
             for p in json.loads((folder / "learning_curve.json").read_text())
         ]
     if (folder / "learning_curve.png").is_file():
-        shutil.copyfile(folder / "learning_curve.png", HERE / f"{task}_curve.png")
+        shutil.copyfile(folder / "learning_curve.png", HERE / f"{name}_curve.png")
     bench, rows = held_out_rows(task, target, episodes)
     ppo = {r["population"]: r for r in rows if r["user"] == "ppo"}
     seeker = {r["population"]: r for r in rows if r["user"] == "goal_seeker"}
@@ -143,6 +149,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--episodes", type=int, default=100, help="held-out episodes per cell")
     parser.add_argument("--choices", default="", help="the development choices, in a line")
     parser.add_argument(
+        "--name", help="ship under this name (default: the task's), e.g. a second user of a task"
+    )
+    parser.add_argument(
         "--dev",
         action="store_true",
         help=f"only print the evaluation on the development seeds {DEV_SEED} onwards (to choose "
@@ -163,7 +172,7 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     if not args.command:
         parser.error("--command: give the vrloco train command that made the model (or --dev)")
-    card = ship(args.model, args.command, args.episodes, args.choices)
+    card = ship(args.model, args.command, args.episodes, args.choices, args.name)
     print(f"wrote {card}")
     print(json.dumps(json.loads(card.read_text())["bar"], indent=2))
     return 0

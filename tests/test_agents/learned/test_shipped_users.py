@@ -123,7 +123,8 @@ def test_every_shipped_user_fits_its_task_and_its_card_shows_how_it_does():
     from vrloco_env.tasks import env_id
 
     assert len(LEARNED_USERS) >= 1
-    for task, user in LEARNED_USERS.items():
+    for name, user in LEARNED_USERS.items():
+        task = user.task
         env = gym.make(env_id(task))
         LearnedPolicy(user.path, env)  # raises if stale
         env.close()
@@ -134,7 +135,8 @@ def test_every_shipped_user_fits_its_task_and_its_card_shows_how_it_does():
         shown = {(r["user"], r["population"]) for r in card["held_out"]["rows"]}
         for pop in ("idealised", "typical", "nodders", "gaze_scanners"):
             assert {("ppo", pop), ("goal_seeker", pop)} <= shown
-        assert user.path.with_name(f"{task}_curve.png").is_file()
+        assert user.path.with_name(f"{name}_curve.png").is_file()
+        assert user.path.stem == name
 
 
 def test_a_user_trained_with_a_turning_head_reads_a_straight_head_without_a_population(tmp_path):
