@@ -1,11 +1,12 @@
 """``vrloco experiment learned-ranking``: the default grid's techniques ranked by three kinds of
 user side by side — the scripted goal seeker, the task's shipped learned user, and that user
-adapted to each technique by the same fine-tuning budget — each with the typical population's
-head behaviour and variability, as the default grid plays its users.
+adapted to each technique by the same fine-tuning budget, and where the task has one, its user
+trained on every technique at once (``<task>_any_technique``) — each with the typical
+population's head behaviour and variability, as the default grid plays its users.
 
-One benchmark run (:func:`agents.benchmark.run_benchmark`) plays every (task, user, technique)
-cell on the same seeds, so episode ``i`` of every technique is the same room and the same user,
-and each technique's collision-free success is compared with the baseline technique's
+One benchmark run per task (:func:`agents.benchmark.run_benchmark`) plays every (user,
+technique) cell on the same seeds, so episode ``i`` of every technique is the same room and the
+same user, and each technique's collision-free success is compared with the baseline technique's
 (``zhang2021``) episode by episode: the exact McNemar test of the benchmark's paired tests
 (:mod:`agents.benchmark.paired`). Within each (task, user) the techniques are ranked by
 collision-free success (ties share the better rank). Two rankings *disagree* on a technique where
@@ -46,6 +47,9 @@ USERS = (
     ("learned", "ppo+typical"),
     ("adapted", "ppo@{steps}+typical"),
 )
+#: A task's user for any technique is registered as ``<task>`` + this
+#: (:mod:`agents.learned.users`); where there is one it is ranked too.
+ANY_TECHNIQUE = "_any_technique"
 #: The ranked metric.
 METRIC = "collision_free_success_rate"
 
@@ -106,32 +110,38 @@ def run_learned_ranking(
     played = [t for t in tasks if t not in skipped]
     if not played:
         raise ValueError(f"tasks {', '.join(tasks)}: none has a shipped learned user")
-    users = [(kind, spec.format(steps=adapt_steps)) for kind, spec in USERS]
     seed = DEV_SEED if dev else REPORT_SEED
-    rows = run_benchmark(
-        tasks=played,
-        techniques=techniques,
-        policies=[spec for _, spec in users],
-        episodes=episodes,
-        seed=seed,
-        workers=workers,
-        progress=progress,
-        print_table=False,
-    )
-    by = {(r["task"], r["policy"], r["technique"]): r for r in rows}
     out: dict[str, Any] = {}
     for task in played:
+        users = [(kind, spec.format(steps=adapt_steps)) for kind, spec in USERS]
+        shown = {spec: spec for _, spec in users}
+        second = f"{task}{ANY_TECHNIQUE}"
+        if second in LEARNED_USERS:  # the task's user for any technique, played as it is
+            spec = f"{LEARNED_USERS[second].path}+typical"
+            users.append(("any technique", spec))
+            shown[spec] = f"{second}+typical"
+        rows = run_benchmark(
+            tasks=[task],
+            techniques=techniques,
+            policies=[spec for _, spec in users],
+            episodes=episodes,
+            seed=seed,
+            workers=workers,
+            progress=progress,
+            print_table=False,
+        )
+        by = {(r["policy"], r["technique"]): r for r in rows}
         table: dict[str, dict[str, Any]] = {t: {} for t in techniques}
         ranks: dict[str, dict[str, int]] = {}
         for kind, spec in users:
-            values = {t: by[(task, spec, t)][METRIC] for t in techniques}
+            values = {t: by[(spec, t)][METRIC] for t in techniques}
             ranks[kind] = rank(values)
             for t in techniques:
-                r = by[(task, spec, t)]
+                r = by[(spec, t)]
                 n = int(r.get("episodes", episodes))
                 test = (r.get("vs_baseline") or {}).get(METRIC)
                 table[t][kind] = {
-                    "policy": spec,
+                    "policy": shown[spec],
                     "value": values[t],
                     "ci": list(wilson_interval(round(values[t] * n), n)),
                     "rank": ranks[kind][t],
@@ -168,7 +178,12 @@ def run_learned_ranking(
                                 ],
                             }
                         )
-        out[task] = {"techniques": table, "tau": tau, "disagreements": disagreements}
+        out[task] = {
+            "users": dict((k, shown[spec]) for k, spec in users),
+            "techniques": table,
+            "tau": tau,
+            "disagreements": disagreements,
+        }
     result = {
         "tasks": out,
         "skipped": skipped,
@@ -177,7 +192,7 @@ def run_learned_ranking(
             "seed": seed,
             "seeds": "development" if dev else "reporting (held-out)",
             "adapt_steps": adapt_steps,
-            "users": dict(users),
+            "users": dict(USERS),
             "metric": METRIC,
             "alpha": ALPHA,
             "command": _command(episodes, adapt_steps, dev),
@@ -200,8 +215,8 @@ def format_table(result: dict[str, Any]) -> str:
     """The ranking as a Markdown table: per task and technique, each user's collision-free
     success, its rank in brackets and a mark where it differs from the baseline (``+`` better,
     ``-`` worse at p < ALPHA); then Kendall's tau and the disagreements."""
-    users = list(result["settings"]["users"])
     mark = {"better": " +", "worse": " -"}
+    users = list(dict.fromkeys(u for res in result["tasks"].values() for u in res["users"]))
     lines = [
         "| task | technique | " + " | ".join(users) + " |",
         "|---|---|" + "---|" * len(users),
@@ -210,8 +225,10 @@ def format_table(result: dict[str, Any]) -> str:
     for task, res in result["tasks"].items():
         for t, cells in res["techniques"].items():
             parts = [
-                f"{c['value']:.2f} ({c['rank']}){mark.get(c['verdict'], '')}"
-                for c in (cells[u] for u in users)
+                f"{cells[u]['value']:.2f} ({cells[u]['rank']}){mark.get(cells[u]['verdict'], '')}"
+                if u in cells
+                else "-"
+                for u in users
             ]
             lines.append(f"| {task} | {t} | " + " | ".join(parts) + " |")
         taus = ", ".join(

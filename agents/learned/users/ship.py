@@ -40,7 +40,7 @@ BAR = 0.95
 
 
 def held_out_rows(
-    task: str, model: Path, episodes: int, seed: int = HELD_OUT_SEED
+    task: str, model: Path, episodes: int, seed: int = HELD_OUT_SEED, shown_as: str = "ppo"
 ) -> tuple[str, list[dict[str, Any]]]:
     """The benchmark command and its rows: the learned user ``model`` (``user`` "ppo") and the
     goal seeker on ``task``, idealised and under every population, on ``episodes`` seeds from
@@ -79,7 +79,7 @@ def held_out_rows(
                 ),
             }
         )
-    shown = ",".join(p.replace(str(model), "ppo") for p in policies)
+    shown = ",".join(p.replace(str(model), shown_as) for p in policies)
     command = (
         f"vrloco benchmark --tasks {task} --techniques zhang2021 --policies {shown} "
         f"--episodes {episodes} --seed {seed}"
@@ -103,6 +103,8 @@ def ship(
     target = HERE / f"{name}.zip"
     shutil.copyfile(model, target)
     folder = Path(model).parent
+    if folder.name == "checkpoints":  # a checkpoint: its run's curve
+        folder = folder.parent
     curve = []
     if (folder / "learning_curve.json").is_file():
         curve = [
@@ -111,7 +113,9 @@ def ship(
         ]
     if (folder / "learning_curve.png").is_file():
         shutil.copyfile(folder / "learning_curve.png", HERE / f"{name}_curve.png")
-    bench, rows = held_out_rows(task, target, episodes)
+    # the command as a user types it: ppo plays the task's user, a second user is its file
+    shown_as = "ppo" if name == task else f"agents/learned/users/{target.name}"
+    bench, rows = held_out_rows(task, target, episodes, shown_as=shown_as)
     ppo = {r["population"]: r for r in rows if r["user"] == "ppo"}
     seeker = {r["population"]: r for r in rows if r["user"] == "goal_seeker"}
     bar = {

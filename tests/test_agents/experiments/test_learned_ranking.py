@@ -30,16 +30,19 @@ def _row(task, policy, technique, value, p=None, diff=0.0):
 
 
 def test_the_rankings_their_tests_and_where_they_disagree(monkeypatch, tmp_path, capsys):
-    values = {  # scripted, learned, adapted
-        "zhang2021": (0.80, 0.90, 0.90),
-        "smooth": (0.40, 0.88, 0.96),
-        "nod_robust": (0.78, 0.70, 0.92),
+    from agents.learned.users import LEARNED_USERS
+
+    values = {  # scripted, learned, adapted, any technique
+        "zhang2021": (0.80, 0.90, 0.90, 0.95),
+        "smooth": (0.40, 0.88, 0.96, 0.95),
+        "nod_robust": (0.78, 0.70, 0.92, 0.90),
     }
     tests = {  # (p, diff) against the baseline, per user kind
-        "smooth": [(0.001, -0.4), (0.9, -0.02), (0.2, 0.06)],
-        "nod_robust": [(0.8, -0.02), (0.005, -0.2), (0.5, 0.02)],
+        "smooth": [(0.001, -0.4), (0.9, -0.02), (0.2, 0.06), (1.0, 0.0)],
+        "nod_robust": [(0.8, -0.02), (0.005, -0.2), (0.5, 0.02), (0.5, -0.05)],
     }
-    policies = ["goal_seeker+typical", "ppo+typical", "ppo@1000+typical"]
+    any_user = f"{LEARNED_USERS['avoid_any_technique'].path}+typical"
+    policies = ["goal_seeker+typical", "ppo+typical", "ppo@1000+typical", any_user]
 
     def fake_benchmark(**kw):
         assert kw["policies"] == policies and kw["tasks"] == ["avoid"]
@@ -76,10 +79,12 @@ def test_the_rankings_their_tests_and_where_they_disagree(monkeypatch, tmp_path,
     assert ("smooth", "scripted", "adapted") in found  # rank 3 -> 1 and worse -> same
     assert ("nod_robust", "scripted", "learned") in found  # same -> worse
     assert ("zhang2021", "scripted", "learned") not in found  # rank 1 both
+    assert avoid["smooth"]["any technique"]["rank"] == 1  # ties share the better rank
+    assert avoid["smooth"]["any technique"]["policy"] == "avoid_any_technique+typical"
     tau = result["tasks"]["avoid"]["tau"]
     assert tau["scripted/adapted"] == pytest.approx(-1.0)
     table = capsys.readouterr().out
-    assert "| avoid | smooth | 0.40 (3) - | 0.88 (2) | 0.96 (1) |" in table
+    assert "| avoid | smooth | 0.40 (3) - | 0.88 (2) | 0.96 (1) | 0.95 (1) |" in table
     assert "approach: not played (no shipped learned user)" in table
 
 
@@ -105,7 +110,7 @@ def test_a_tiny_ranking_through_the_benchmark(monkeypatch, tmp_path):
         progress=False,
     )
     cells = result["tasks"]["avoid"]["techniques"]["smooth"]
-    assert set(cells) == {"scripted", "learned", "adapted"}
+    assert set(cells) == {"scripted", "learned", "adapted", "any technique"}
     assert cells["adapted"]["policy"] == "ppo@8192+typical"
     for c in cells.values():
         assert 0.0 <= c["value"] <= 1.0 and c["p"] is not None
