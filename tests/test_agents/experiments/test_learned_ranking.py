@@ -114,3 +114,23 @@ def test_a_tiny_ranking_through_the_benchmark(monkeypatch, tmp_path):
     assert cells["adapted"]["policy"] == "ppo@8192+typical"
     for c in cells.values():
         assert 0.0 <= c["value"] <= 1.0 and c["p"] is not None
+
+
+def test_the_readmes_ranking_is_the_committed_runs():
+    """The README's table is docs/results/learned_ranking.json (the command's output) as
+    written: each user's collision-free success, its rank and the worse-than-baseline mark."""
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[3]
+    result = json.loads((root / "docs/results/learned_ranking.json").read_text())
+    assert result["settings"]["seed"] == learned_ranking.REPORT_SEED
+    readme = (root / "README.md").read_text()
+    section = readme[readme.index("## Learned users") : readme.index("## Plug in your own")]
+    mark = {"better": " +", "worse": " -"}
+    for technique, cells in result["tasks"]["avoid"]["techniques"].items():
+        users = ("scripted", "learned", "adapted", "any technique")
+        want = " | ".join(
+            f"{cells[u]['value']:.2f} ({cells[u]['rank']}){mark.get(cells[u]['verdict'], '')}"
+            for u in users
+        )
+        assert f"| {technique} | {want} |" in section
