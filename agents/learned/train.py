@@ -172,8 +172,10 @@ def train_ppo(
             users' episodes, and so the trained weights, are the same for any number.
         init: a model (``.zip``) trained by ``vrloco train`` to start from instead of a new
             policy: its weights and PPO settings go on learning on this run's cell and
-            objective (``ppo_kwargs`` are not taken). It must see the env as this run does:
-            the same frame stack and observation layout.
+            objective (``ppo_kwargs`` are not taken). It must see the env as this run does
+            (the same frame stack and recurrence) and reads the users' observation fields it
+            knows, by name (:class:`~agents.learned.models.ModelFields`: a population's
+            ``head_on_torso`` it was not trained on is left unread); it keeps its layout.
         ppo_kwargs: PPO's settings over :func:`defaults_ppo`.
 
     Both ``frame_stack`` and ``recurrent`` are saved as ``model.vrloco_policy``.
