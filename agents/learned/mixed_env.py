@@ -164,7 +164,7 @@ class MixedUsersEnv(gym.vector.VectorEnv):
                 part_seed = list(seed)[lo:hi]
             part_options = None if mask is None else {"reset_mask": np.asarray(mask)[lo:hi]}
             results.append(self._call(part, "reset", seed=part_seed, options=part_options))
-        results = [self._wait(part, r) for part, r in zip(self.parts, results, strict=True)]
+        results = self._wait_all(results)
         obs = np.concatenate([self._obs(i, r[0]) for i, r in enumerate(results)])
         return obs, self._info([r[1] for r in results])
 
@@ -178,9 +178,18 @@ class MixedUsersEnv(gym.vector.VectorEnv):
             return None
         return getattr(part, command)(*args, **kwargs)
 
-    @staticmethod
-    def _wait(part: Any, result: Any) -> Any:
-        return part.wait() if result is None else result
+    def _wait_all(self, started: list[Any]) -> list[Any]:
+        """Every part's answer (a worker's, waited for); an error in one is raised after all
+        have answered, so that no answer is left in a pipe."""
+        results, error = [], None
+        for part, result in zip(self.parts, started, strict=True):
+            try:
+                results.append(part.wait() if result is None else result)
+            except Exception as err:
+                error = error or err
+        if error is not None:
+            raise error
+        return results
 
     def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict]:
         actions = np.asarray(actions)
@@ -188,7 +197,7 @@ class MixedUsersEnv(gym.vector.VectorEnv):
             self._call(part, "step", actions[self._bounds[i] : self._bounds[i + 1]])
             for i, part in enumerate(self.parts)
         ]
-        results = [self._wait(p, r) for p, r in zip(self.parts, started, strict=True)]
+        results = self._wait_all(started)
         obs = np.concatenate([self._obs(i, r[0]) for i, r in enumerate(results)])
         reward, terminated, truncated = (
             np.concatenate([np.asarray(r[k]) for r in results]) for k in (1, 2, 3)

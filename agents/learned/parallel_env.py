@@ -35,12 +35,14 @@ def _serve(conn: Any, num_envs: int, env_kwargs: dict[str, Any]) -> None:
     try:
         while True:
             command, data = conn.recv()
-            if command == "step":
-                conn.send(env.step(data))
-            elif command == "reset":
-                conn.send(env.reset(**data))
-            else:
+            if command not in ("step", "reset"):
                 break
+            try:
+                answer = env.step(data) if command == "step" else env.reset(**data)
+            except Exception as err:  # the env's own error, raised again in the caller
+                conn.send(("error", err))
+            else:
+                conn.send(("ok", answer))
     except (EOFError, KeyboardInterrupt):
         pass
     finally:
@@ -80,8 +82,11 @@ class RemoteUsers(gym.vector.VectorEnv):
         self._conn.send(("step", np.asarray(actions)))
 
     def wait(self) -> Any:
-        """The worker's answer to the last command."""
-        return self._conn.recv()
+        """The worker's answer to the last command; the env's error there is raised here."""
+        status, answer = self._conn.recv()
+        if status == "error":
+            raise answer
+        return answer
 
     def reset(self, *, seed: Any = None, options: Any = None) -> tuple[Any, dict]:
         self.reset_async(seed=seed, options=options)

@@ -166,6 +166,10 @@ def test_users_stepped_in_worker_processes_are_the_users_of_one_env():
                     {k: v[done] for k, v in b[4]["final_info"].items()},
                 )
         assert apart > 0  # one worker's users ended while the other's did not
+        with pytest.raises(ValueError, match="action"):  # the env's error, from its worker
+            workers.step(np.full((6, 5), np.nan, np.float32))
+        act = rng.uniform(-1, 1, (6, 5)).astype(np.float32)  # both workers answer in turn again
+        np.testing.assert_array_equal(workers.step(act)[0], one.step(act)[0])
     finally:
         workers.close()
     with pytest.raises(ValueError, match="env_workers=0: must be an integer >= 1"):
