@@ -13,6 +13,10 @@ whose head stays straight on the torso, :data:`agents.learned.models.ZERO_WHEN_A
 any other difference is an error naming the field. Per-user info entries are stacked the same
 way; an entry whose per-user width differs between parts (the step-time lists) is padded with
 NaN (floats) or 0.
+
+:func:`training_cells` reads a run's mix from its arguments (``--technique a,b`` or ``all``,
+``--population idealised,typical --variability none,typical``), :func:`mixed_users` builds its
+users and :func:`mix_cell` names the cell a model trained on it carries.
 """
 
 from __future__ import annotations
@@ -27,7 +31,7 @@ from gymnasium.vector.utils import batch_space
 
 from agents.learned.models import observation_columns, observation_layout, read_fields
 
-__all__ = ["MixedUsersEnv", "split_users"]
+__all__ = ["MixedUsersEnv", "mix_cell", "mixed_users", "split_users", "training_cells"]
 
 
 def split_users(num_envs: int, parts: int, field: str = "num_envs") -> list[int]:
@@ -221,3 +225,105 @@ def _pad(rows: np.ndarray, width: tuple[int, ...]) -> np.ndarray:
 def _fill(dtype: Any) -> Any:
     """What an absent entry reads: NaN for floats, else 0 (False)."""
     return np.nan if np.issubdtype(dtype, np.floating) else 0
+
+
+def training_cells(
+    technique: Any = None, population: Any = None, variability: Any = None
+) -> list[tuple[Any, Any, str | None]]:
+    """The cells a run trains on, ``(technique, population, variability)`` each: one, or a mix
+    whose users share the batch (:class:`MixedUsersEnv`).
+
+    ``technique``: one (a name, ``"module:attr"``, a Technique or None), several (a list, or
+    names joined by commas) or ``"all"`` (every registered technique). ``population``: one or
+    several the same way (None or ``"none"``: no population). ``variability``: one population
+    whose human variability every user has, or one per population (None or ``"none"``: none).
+    The cells are every technique with every population (and its variability).
+
+    Raises:
+        ValueError: an unknown name (the registry's error, listing the registered names), a
+            name given twice, or a variability list whose length is not the populations'.
+    """
+    from vrloco_env.techniques import TECHNIQUES, get_technique
+    from vrloco_env.user.population import get_population
+
+    techniques = _names(technique, "technique")
+    if techniques == ["all"]:
+        techniques = list(TECHNIQUES)
+    for t in techniques:
+        if t is not None:
+            get_technique(t)
+    populations = _names(population, "population")
+    for p in populations:
+        if p is not None:
+            get_population(p)
+    variabilities = _names(variability, "variability")
+    if len(variabilities) == 1:
+        variabilities = variabilities * len(populations)
+    if len(variabilities) != len(populations):
+        raise ValueError(
+            f"variability: give one population, or one per population ({len(populations)}: "
+            f"{', '.join(str(p) for p in populations)}), got {len(variabilities)}"
+        )
+    for v in variabilities:
+        if v is not None:
+            get_population(v, "variability")
+    return [(t, p, v) for t in techniques for p, v in zip(populations, variabilities, strict=True)]
+
+
+def _names(value: Any, field: str) -> list[Any]:
+    """``value`` as a list: a list as it is, a string split at commas (``"none"`` read as None),
+    anything else alone; a name given twice is an error naming ``field``."""
+    if isinstance(value, str):
+        value = [v.strip() for v in value.split(",")]
+    elif not isinstance(value, list | tuple):
+        value = [value]
+    out = [None if v in ("none", "") else v for v in value]
+    keys = [getattr(v, "name", v) for v in out]
+    twice = sorted({str(k) for k in keys if keys.count(k) > 1})
+    if twice:
+        raise ValueError(f"{field}: {', '.join(twice)} given more than once")
+    return out
+
+
+def mix_cell(cells: list[tuple[Any, Any, str | None]]) -> dict[str, Any]:
+    """The ``technique`` and ``population`` of a mix's cell: the one name every cell shares, or
+    the list of its names (techniques by their registered name; no population as None)."""
+    from vrloco_env.techniques import get_technique
+
+    def once(values: list[Any]) -> Any:
+        unique = list(dict.fromkeys(values))
+        return unique[0] if len(unique) == 1 else unique
+
+    return {
+        "technique": once([None if t is None else get_technique(t).name for t, _, _ in cells]),
+        "population": once([getattr(p, "name", p) for _, p, _ in cells]),
+    }
+
+
+def mixed_users(
+    num_envs: int,
+    task: str,
+    sensor_preset: str | None,
+    cells: list[tuple[Any, Any, str | None]],
+    condition: str | None,
+    reward: Any,
+    seed: int,
+    field: str = "num_envs",
+) -> Any:
+    """``num_envs`` users shared between ``cells`` (:func:`training_cells`) as one vector env
+    (:class:`MixedUsersEnv`); each cell's users with its
+    variability, seeded from ``seed`` and the cell's first user."""
+    from agents.learned.models import env_settings
+    from agents.learned.variability_env import HumanVariabilityEnv
+    from vrloco_env.vector import VRLocoVectorEnv
+
+    configs = {} if reward is None else {"reward": reward}
+    parts, names, first = [], [], 0
+    for n, (tech, pop, var) in zip(split_users(num_envs, len(cells), field), cells, strict=True):
+        users = VRLocoVectorEnv(
+            n, **env_settings(task, sensor_preset, tech, pop, condition, **configs)
+        )
+        parts.append(users if var is None else HumanVariabilityEnv(users, var, seed + first))
+        names.append(f"{tech or 'default'}/{getattr(pop, 'name', pop)}/{var}")
+        first += n
+    return MixedUsersEnv(parts, names)

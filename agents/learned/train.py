@@ -17,6 +17,7 @@ from stable_baselines3.common.vec_env.base_vec_env import VecEnv
 
 from agents.learned.curves import _read_curves, plot_learning_curve, write_seed_curves
 from agents.learned.evaluate import run_policy_episodes
+from agents.learned.mixed_env import mix_cell, mixed_users, training_cells
 from agents.learned.models import ModelFields, cell_of, env_settings, observation_layout
 from agents.learned.threads import _TORCH_SPINS
 from vrloco_env.vector import VRLocoVectorEnv
@@ -229,19 +230,19 @@ def train_ppo(
         else:
             users = _human(VRLocoVectorEnv(num_envs, **env_kwargs), variability, seed)
         eval_users = VRLocoVectorEnv(eval_episodes, **env_kwargs)
-        eval_env = _wrap(_human(eval_users, variability, 10_000 + seed), frame_stack)
+        evaluated = _human(eval_users, variability, 10_000 + seed)
     else:
         mix = (task, sensor_preset, cells, condition, reward)
         users = mixed_users(num_envs, *mix, seed=seed)
         eval_users = mixed_users(eval_episodes, *mix, seed=10_000 + seed, field="eval_episodes")
-        eval_env = _wrap(eval_users, frame_stack)
+        evaluated = eval_users
     layout = observation_layout(eval_users.observation_spec)
     base = None
     if init is not None:  # the model reads the users' fields it was trained on, by name
         base, columns = _start_from(Path(init), policy_kwargs, eval_users)
         layout = base.vrloco_observation
-        users = ModelFields(users, columns)
-        eval_env = _wrap(ModelFields(_unwrap_stack(eval_env, frame_stack), columns), frame_stack)
+        users, evaluated = ModelFields(users, columns), ModelFields(evaluated, columns)
+    eval_env = _wrap(evaluated, frame_stack)
     venv = VecMonitor(
         SB3VecEnv(_wrap(users, frame_stack), seed=seed), info_keywords=("is_success",)
     )
@@ -422,108 +423,6 @@ def _start_from(path: Path, policy_kwargs: dict[str, Any], users: Any) -> tuple[
     except ValueError as err:
         raise ValueError(f"init={str(path)!r} cannot read this run's users: {err}") from None
     return base, columns
-
-
-def _unwrap_stack(env: Any, frame_stack: int) -> Any:
-    """``env`` without the frame stack :func:`_wrap` put around it."""
-    return env if frame_stack == 1 else env.env
-
-
-def training_cells(
-    technique: Any = None, population: Any = None, variability: Any = None
-) -> list[tuple[Any, Any, str | None]]:
-    """The cells a run trains on, ``(technique, population, variability)`` each: one, or a mix
-    whose users share the batch (:class:`~agents.learned.mixed_env.MixedUsersEnv`).
-
-    ``technique``: one (a name, ``"module:attr"``, a Technique or None), several (a list, or
-    names joined by commas) or ``"all"`` (every registered technique). ``population``: one or
-    several the same way (None or ``"none"``: no population). ``variability``: one population
-    whose human variability every user has, or one per population (None or ``"none"``: none).
-    The cells are every technique with every population (and its variability).
-
-    Raises:
-        ValueError: an unknown name (the registry's error, listing the registered names), a
-            name given twice, or a variability list whose length is not the populations'.
-    """
-    from vrloco_env.techniques import TECHNIQUES, get_technique
-    from vrloco_env.user.population import get_population
-
-    techniques = _names(technique, "technique")
-    if techniques == ["all"]:
-        techniques = list(TECHNIQUES)
-    for t in techniques:
-        if t is not None:
-            get_technique(t)
-    populations = _names(population, "population")
-    for p in populations:
-        if p is not None:
-            get_population(p)
-    variabilities = _names(variability, "variability")
-    if len(variabilities) == 1:
-        variabilities = variabilities * len(populations)
-    if len(variabilities) != len(populations):
-        raise ValueError(
-            f"variability: give one population, or one per population ({len(populations)}: "
-            f"{', '.join(str(p) for p in populations)}), got {len(variabilities)}"
-        )
-    for v in variabilities:
-        if v is not None:
-            get_population(v, "variability")
-    return [(t, p, v) for t in techniques for p, v in zip(populations, variabilities, strict=True)]
-
-
-def _names(value: Any, field: str) -> list[Any]:
-    """``value`` as a list: a list as it is, a string split at commas (``"none"`` read as None),
-    anything else alone; a name given twice is an error naming ``field``."""
-    if isinstance(value, str):
-        value = [v.strip() for v in value.split(",")]
-    elif not isinstance(value, list | tuple):
-        value = [value]
-    out = [None if v in ("none", "") else v for v in value]
-    keys = [getattr(v, "name", v) for v in out]
-    twice = sorted({str(k) for k in keys if keys.count(k) > 1})
-    if twice:
-        raise ValueError(f"{field}: {', '.join(twice)} given more than once")
-    return out
-
-
-def mix_cell(cells: list[tuple[Any, Any, str | None]]) -> dict[str, Any]:
-    """The ``technique`` and ``population`` of a mix's cell: the one name every cell shares, or
-    the list of its names (techniques by their registered name; no population as None)."""
-    from vrloco_env.techniques import get_technique
-
-    def once(values: list[Any]) -> Any:
-        unique = list(dict.fromkeys(values))
-        return unique[0] if len(unique) == 1 else unique
-
-    return {
-        "technique": once([None if t is None else get_technique(t).name for t, _, _ in cells]),
-        "population": once([getattr(p, "name", p) for _, p, _ in cells]),
-    }
-
-
-def mixed_users(
-    num_envs: int,
-    task: str,
-    sensor_preset: str | None,
-    cells: list[tuple[Any, Any, str | None]],
-    condition: str | None,
-    reward: Any,
-    seed: int,
-    field: str = "num_envs",
-) -> Any:
-    """``num_envs`` users shared between ``cells`` (:func:`training_cells`) as one vector env
-    (:class:`~agents.learned.mixed_env.MixedUsersEnv`); each cell's users with its
-    variability, seeded from ``seed`` and the cell's first user."""
-    from agents.learned.mixed_env import MixedUsersEnv, split_users
-
-    parts, names, first = [], [], 0
-    for n, (tech, pop, var) in zip(split_users(num_envs, len(cells), field), cells, strict=True):
-        kwargs = env_settings(task, sensor_preset, tech, pop, condition, **_reward_kwargs(reward))
-        parts.append(_human(VRLocoVectorEnv(n, **kwargs), var, seed + first))
-        names.append(f"{tech or 'default'}/{getattr(pop, 'name', pop)}/{var}")
-        first += n
-    return MixedUsersEnv(parts, names)
 
 
 def _human(env: Any, population: str | None, seed: int) -> Any:

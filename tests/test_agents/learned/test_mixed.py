@@ -5,8 +5,13 @@ import numpy as np
 import pytest
 
 from agents.learned import train_ppo  # before torch: see its docs
-from agents.learned.mixed_env import MixedUsersEnv, split_users
-from agents.learned.train import mix_cell, mixed_users, training_cells
+from agents.learned.mixed_env import (
+    MixedUsersEnv,
+    mix_cell,
+    mixed_users,
+    split_users,
+    training_cells,
+)
 from agents.learned.variability_env import HumanVariabilityEnv
 from vrloco_env.vector import VRLocoVectorEnv
 
