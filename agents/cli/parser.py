@@ -481,6 +481,19 @@ def build_parser() -> argparse.ArgumentParser:
         "observation fields)",
     )
     train.add_argument(
+        "--imitate",
+        metavar="SCRIPTED_USER",
+        help="start from a policy that imitates this scripted user (e.g. goal_seeker; DAgger "
+        "on the training users) instead of a random one; one cell, no --init or --recurrent",
+    )
+    train.add_argument(
+        "--imitate-steps",
+        type=_int_at_least(1),
+        default=200_000,
+        metavar="N",
+        help="environment steps of the imitation, before PPO's --steps (default 200,000)",
+    )
+    train.add_argument(
         "--env-workers",
         type=_int_at_least(1),
         default=1,

@@ -143,6 +143,8 @@ def train_ppo(
     variability: str | None = None,
     env_workers: int = 1,
     init: Path | str | None = None,
+    imitate: str | None = None,
+    imitate_steps: int = 200_000,
     **ppo_kwargs: Any,
 ) -> Path:
     """Train PPO on ``task``; returns the path of the final model (``.zip``).
@@ -177,6 +179,11 @@ def train_ppo(
             (the same frame stack and recurrence) and reads the users' observation fields it
             knows, by name (:class:`~agents.learned.models.ModelFields`: a population's
             ``head_on_torso`` it was not trained on is left unread); it keeps its layout.
+        imitate: a scripted user (``goal_seeker``, ...) the new policy imitates before PPO
+            starts (:func:`~agents.learned.imitation.imitate`, DAgger on the training users
+            with the run's seed; None: PPO from a random policy). One cell, a feed-forward
+            policy, no ``init``.
+        imitate_steps: the imitation's environment steps (not counted in ``steps``).
         ppo_kwargs: PPO's settings over :func:`defaults_ppo`.
 
     Both ``frame_stack`` and ``recurrent`` are saved as ``model.vrloco_policy``.
@@ -211,6 +218,8 @@ def train_ppo(
             )
         settings["n_steps"] = load_ppo(Path(init)).n_steps
     cells = training_cells(technique, population, variability)
+    if imitate is not None:
+        _check_imitation(imitate, init, recurrent, len(cells), env_workers)
     technique, population, variability = cells[0]  # a mix's settings: its first cell's
     env_kwargs = env_settings(
         task, sensor_preset, technique, population, condition, **_reward_kwargs(reward)
@@ -275,6 +284,8 @@ def train_ppo(
         model = make_model(
             venv, seed=seed, recurrent=recurrent, tensorboard_log=str(out_dir / "tb"), **settings
         )
+        if imitate is not None:
+            _imitate(model, users, frame_stack, imitate, imitate_steps, seed, out_dir)
     else:
         model = type(base).load(init, env=venv)
         model.tensorboard_log = str(out_dir / "tb")
@@ -316,6 +327,41 @@ def train_ppo(
     plot_learning_curve(curve, out_dir / "learning_curve.png", title=f"PPO on {task}")
     venv.close()
     return final.with_suffix(".zip")
+
+
+def _check_imitation(
+    imitate: str, init: Any, recurrent: bool, n_cells: int, env_workers: int
+) -> None:
+    from agents.scripted import POLICIES
+
+    if imitate not in POLICIES:
+        raise ValueError(
+            f"imitate={imitate!r}: not a scripted user; choose from {', '.join(sorted(POLICIES))}"
+        )
+    for bad, why in (
+        (init is not None, "a new policy, not init's"),
+        (recurrent, "a feed-forward policy, not a recurrent one"),
+        (n_cells > 1, "one cell's users, not a mix"),
+        (env_workers > 1, "users stepped in this process (env_workers=1)"),
+    ):
+        if bad:
+            raise ValueError(f"imitate={imitate!r} trains {why}")
+
+
+def _imitate(
+    model: Any, users: Any, frame_stack: int, imitate: str, steps: int, seed: int, out_dir: Path
+) -> None:
+    """The new policy imitates the scripted user ``imitate`` on the training users
+    (:func:`~agents.learned.imitation.imitate`); its rounds go to ``out_dir/imitation.json``."""
+    from agents.learned.imitation import imitate as dagger
+    from agents.scripted import ObservationLayout, make_policy, params_from_env
+
+    base = users.unwrapped
+    teacher = make_policy(imitate, ObservationLayout.from_env(base), params_from_env(base))
+    rounds = dagger(model, _wrap(users, frame_stack), teacher, steps, seed=seed + 50_000)
+    (out_dir / "imitation.json").write_text(
+        json.dumps({"teacher": imitate, "steps": steps, "rounds": rounds}, indent=2)
+    )
 
 
 class RolloutThreads(BaseCallback):
@@ -561,6 +607,14 @@ def _check_run(task: str, train_kwargs: dict[str, Any]) -> None:
             **_reward_kwargs(train_kwargs.get("reward")),
         )
     _policy_settings(train_kwargs.get("frame_stack", 1), train_kwargs.get("recurrent", False))
+    if train_kwargs.get("imitate") is not None:
+        _check_imitation(
+            train_kwargs["imitate"],
+            train_kwargs.get("init"),
+            train_kwargs.get("recurrent", False),
+            len(cells),
+            train_kwargs.get("env_workers", 1),
+        )
 
 
 def _worker_kwargs(train_kwargs: dict[str, Any]) -> dict[str, Any]:
