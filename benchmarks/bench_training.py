@@ -18,6 +18,10 @@ iterations in a fresh Python process, in one of two configurations:
   (:class:`agents.learned.train.RolloutThreads`), the same PPO settings.
 * ``workers``: ``vrloco`` with the users stepped in ``--env-workers`` processes, a share of the
   batch each (``vrloco train --env-workers N``, :func:`agents.learned.parallel_env.parallel_users`).
+* ``baseline`` (with ``--baseline REV``): the ``default`` loop run from a checkout of the git
+  revision ``REV`` (a temporary worktree), its env and trainer as they were then: how much faster
+  the whole loop per environment step is now than at ``REV``, on the same machine in one run.
+  Its weights differ from the others' wherever the env's episodes changed since ``REV``.
 
 The runs alternate (default, vrloco, default, vrloco, ...) so that other load on the machine
 hits both alike; the table gives each configuration's median environment steps per second of
@@ -42,6 +46,7 @@ import os
 import statistics
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -49,13 +54,18 @@ ROOT = Path(__file__).resolve().parents[1]
 CONFIGS = ("default", "vrloco", "workers")
 
 
-def child(config: str, task: str, num_envs: int, iterations: int, workers: int) -> dict:
-    """One training run in this process (a fresh one): its timings and weights' hash."""
-    if config == "default":
+def child(
+    config: str, task: str, num_envs: int, iterations: int, workers: int, root: Path = ROOT
+) -> dict:
+    """One training run in this process (a fresh one) from the tree ``root``: its timings
+    and weights' hash."""
+    if config in ("default", "baseline"):
         import torch  # first, as stable-baselines3 pulled it in before vrloco's kernels
-    sys.path.insert(0, str(ROOT))
-    import agents.learned.train as learned  # in the vrloco configuration, before torch
-    from agents.learned.models import env_settings
+    sys.path.insert(0, str(root))
+    try:
+        import agents.learned.train as learned  # in the vrloco configuration, before torch
+    except ImportError:  # a baseline revision from before agents.learned was a package
+        import agents.learned as learned
 
     # isort: split
     import hashlib
@@ -70,16 +80,17 @@ def child(config: str, task: str, num_envs: int, iterations: int, workers: int) 
     settings = learned.defaults_ppo()
     steps = iterations * settings["n_steps"] * num_envs
     if config == "workers":
+        from agents.learned.models import env_settings
         from agents.learned.parallel_env import parallel_users
 
         env = parallel_users(num_envs, workers, env_settings(task))
-    else:
-        env = VRLocoVectorEnv(num_envs, **env_settings(task))
+    else:  # the task's default cell, as vrloco train builds it (env_settings(task))
+        env = VRLocoVectorEnv(num_envs, task=task)
     env.reset(seed=0)  # load the compiled kernels before the clock starts; learn() reseeds
     env.step(np.zeros((num_envs, 5), np.float32))
     inner = learned.SB3VecEnv(env, seed=0)
     venv = VecMonitor(inner, info_keywords=("is_success",))
-    if config == "default":
+    if config in ("default", "baseline"):
         model = PPO("MlpPolicy", venv, seed=0, verbose=0, **settings)
         callback = None
     else:
@@ -125,8 +136,9 @@ def child(config: str, task: str, num_envs: int, iterations: int, workers: int) 
 
 def run(config: str, args: argparse.Namespace) -> dict:
     """:func:`child` in a fresh process, started without ``OMP_WAIT_POLICY`` (each
-    configuration sets what it sets itself)."""
+    configuration sets what it sets itself); the baseline's from its worktree."""
     env = {k: v for k, v in os.environ.items() if k != "OMP_WAIT_POLICY"}
+    root = args.baseline_tree if config == "baseline" else ROOT
     cmd = [
         sys.executable,
         __file__,
@@ -140,8 +152,10 @@ def run(config: str, args: argparse.Namespace) -> dict:
         str(args.iterations),
         "--env-workers",
         str(args.env_workers),
+        "--root",
+        str(root),
     ]
-    out = subprocess.run(cmd, env=env, cwd=ROOT, capture_output=True, text=True, check=False)
+    out = subprocess.run(cmd, env=env, cwd=root, capture_output=True, text=True, check=False)
     if out.returncode != 0:
         raise SystemExit(f"the {config} run failed:\n{out.stderr[-3000:]}")
     return json.loads(out.stdout.strip().splitlines()[-1])
@@ -163,22 +177,53 @@ def main() -> None:
     parser.add_argument(
         "--env-workers", type=int, default=2, help="processes of the workers configuration"
     )
-    parser.add_argument("--child", choices=CONFIGS, help=argparse.SUPPRESS)
+    parser.add_argument(
+        "--baseline",
+        metavar="REV",
+        help="also time the default loop at this git revision (e.g. the commit a speed-up is "
+        "measured against)",
+    )
+    parser.add_argument("--child", choices=(*CONFIGS, "baseline"), help=argparse.SUPPRESS)
+    parser.add_argument("--root", type=Path, default=ROOT, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child:
         print(
             json.dumps(
-                child(args.child, args.task, args.num_envs, args.iterations, args.env_workers)
+                child(
+                    args.child,
+                    args.task,
+                    args.num_envs,
+                    args.iterations,
+                    args.env_workers,
+                    args.root,
+                )
             )
         )
         return
     busy = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(args.busy)]
-    try:
-        measure(args)
-    finally:
-        for process in busy:
-            process.kill()
-            process.wait()
+    with tempfile.TemporaryDirectory() as tmp:
+        args.baseline_tree = None
+        if args.baseline:
+            args.baseline_tree = Path(tmp) / "baseline"
+            subprocess.run(
+                ["git", "worktree", "add", "--detach", str(args.baseline_tree), args.baseline],
+                cwd=ROOT,
+                check=True,
+                capture_output=True,
+            )
+        try:
+            measure(args)
+        finally:
+            for process in busy:
+                process.kill()
+                process.wait()
+            if args.baseline_tree is not None:
+                subprocess.run(
+                    ["git", "worktree", "remove", "--force", str(args.baseline_tree)],
+                    cwd=ROOT,
+                    check=False,
+                    capture_output=True,
+                )
 
 
 def measure(args: argparse.Namespace) -> None:
@@ -190,9 +235,10 @@ def measure(args: argparse.Namespace) -> None:
         f"load average {load:.2f} at the start"
         f"{f'; {args.busy} other processes kept busy' if args.busy else ''}"
     )
-    runs: dict[str, list[dict]] = {c: [] for c in CONFIGS}
+    configs = (*CONFIGS, "baseline") if args.baseline else CONFIGS
+    runs: dict[str, list[dict]] = {c: [] for c in configs}
     for i in range(args.repeats):
-        for config in CONFIGS:
+        for config in configs:
             r = run(config, args)
             runs[config].append(r)
             print(
@@ -206,7 +252,7 @@ def measure(args: argparse.Namespace) -> None:
         "(medians; shares of the loop's time)"
     )
     rate = {}
-    for config in CONFIGS:
+    for config in configs:
         rs = runs[config]
         rate[config] = statistics.median(r["steps"] / r["wall_s"] for r in rs)
         share = {
@@ -222,7 +268,17 @@ def measure(args: argparse.Namespace) -> None:
         f"workers ({args.env_workers} env processes) / default: "
         f"{rate['workers'] / rate['default']:.2f}x the steps per second"
     )
-    digests = {r["weights"] for rs in runs.values() for r in rs}
+    if args.baseline:
+        print(
+            f"vrloco / baseline ({args.baseline}): {rate['vrloco'] / rate['baseline']:.2f}x the "
+            "steps per second"
+        )
+        same = {r["weights"] for r in runs["baseline"]} == {r["weights"] for r in runs["vrloco"]}
+        print(
+            "the baseline trained "
+            + ("the same weights" if same else "other weights (its episodes differ)")
+        )
+    digests = {r["weights"] for c in CONFIGS for r in runs[c]}
     same = (
         "the same weights in every run"
         if len(digests) == 1
