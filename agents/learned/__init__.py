@@ -23,7 +23,10 @@ through :class:`~vrloco_env.wrappers.FrameStack`, and ``recurrent``, sb3-contrib
 A run may train on a mix instead (``--technique zhang2021,smooth`` or ``all``, ``--population
 idealised,typical --variability none,typical``): every technique with every population, the
 users shared between the cells in one batch (:class:`~agents.learned.mixed_env.MixedUsersEnv`);
-the model's cell then lists them, and it plays any of them as its own.
+the model's cell then lists them, and it plays any of them as its own. A new policy may first
+imitate a scripted user (``--imitate goal_seeker``, :func:`~agents.learned.imitation.imitate`:
+DAgger, the policy's Gaussian and critic fitted to the scripted user's actions and returns)
+before PPO goes on from it.
 
 Speed. The env's compiled kernels and torch both run OpenMP thread pools on the same cores.
 This package imports :mod:`estimators.kernels` before torch (:mod:`agents.learned.threads`, the

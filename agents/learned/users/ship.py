@@ -13,8 +13,9 @@ the card records that command and, per user and population, the success rate and
 success rate with their 95 % Wilson intervals, and whether the bar holds: collision-free success >=
 :data:`BAR` for the idealised user, and at least the goal seeker's (its point estimate) under every
 population. A model that misses a bar is still written (the card says which); register it in
-``agents/learned/users/__init__.py`` only where the idealised bar holds, and say in its registry
-line how it does."""
+``agents/learned/users/__init__.py`` where the idealised bar holds, or where the task cannot reach
+it (then with the limit and the command that shows it, :attr:`LearnedUser.limit
+<agents.learned.users.LearnedUser.limit>`), and say in its registry line how it does."""
 
 from __future__ import annotations
 

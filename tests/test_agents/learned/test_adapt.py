@@ -39,8 +39,8 @@ def test_bad_budgets_and_cells_are_named():
 
     with pytest.raises(ValueError, match=r"steps=-1: must be an integer >= 0"):
         adapted_user("avoid", steps=-1)
-    with pytest.raises(ValueError, match=r"no learned user is shipped for task 'reach'"):
-        adapted_user("reach", steps=10)
+    with pytest.raises(ValueError, match=r"no learned user is shipped for task 'interact'"):
+        adapted_user("interact", steps=10)
     with pytest.raises(ValueError, match=r"write ppo@STEPS"):
         check_policy("ppo@many")
     assert adapt_steps("ppo@300+typical") == 300 and adapt_steps("ppo") == 0

@@ -114,8 +114,9 @@ def test_ppo_plays_the_tasks_shipped_user_and_names_the_tasks_that_have_one(tmp_
 
 def test_every_shipped_user_fits_its_task_and_its_card_shows_how_it_does():
     """A shipped model still reads the current observation and action spaces (a stale one is an
-    error naming the field), and its held-out card says it met the idealised bar and records the
-    comparison with the goal seeker under every population."""
+    error naming the field), and its held-out card says it met the idealised bar (or the registry
+    says what limits its task, with the command that shows it) and records the comparison with
+    the goal seeker under every population."""
     import json
 
     from agents.benchmark.policies import LearnedPolicy
@@ -130,7 +131,11 @@ def test_every_shipped_user_fits_its_task_and_its_card_shows_how_it_does():
         env.close()
         card = json.loads(user.path.with_suffix(".json").read_text())
         assert card["task"] == task and card["train_command"].startswith("vrloco train")
-        assert card["bar"]["holds_idealised"]
+        if user.limit:  # below the bar: the limit and the command that shows it
+            assert not card["bar"]["holds_idealised"]
+            assert "python -m " in user.limit or "vrloco " in user.limit
+        else:
+            assert card["bar"]["holds_idealised"]
         assert isinstance(card["bar"]["holds_against_goal_seeker"], bool)
         shown = {(r["user"], r["population"]) for r in card["held_out"]["rows"]}
         for pop in ("idealised", "typical", "nodders", "gaze_scanners"):
