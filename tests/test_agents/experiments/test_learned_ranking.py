@@ -59,14 +59,14 @@ def test_the_rankings_their_tests_and_where_they_disagree(monkeypatch, tmp_path,
     result = run_learned_ranking(
         episodes=50,
         adapt_steps=1000,
-        tasks=["approach", "avoid"],
+        tasks=["interact", "avoid"],
         techniques=list(values),
         json_path=out,
         progress=False,
     )
     assert json.loads(out.read_text()) == result
     assert result["tasks"]["avoid"]["techniques"]["smooth"]["scripted"]["stop_overshoot_m"] is None
-    assert result["skipped"] == {"approach": "no shipped learned user"}
+    assert result["skipped"] == {"interact": "no shipped learned user"}
     avoid = result["tasks"]["avoid"]["techniques"]
     assert [avoid[t]["scripted"]["rank"] for t in values] == [1, 3, 2]
     assert [avoid[t]["adapted"]["rank"] for t in values] == [3, 1, 2]
@@ -85,7 +85,7 @@ def test_the_rankings_their_tests_and_where_they_disagree(monkeypatch, tmp_path,
     assert tau["scripted/adapted"] == pytest.approx(-1.0)
     table = capsys.readouterr().out
     assert "| avoid | smooth | 0.40 (3) - | 0.88 (2) | 0.96 (1) | 0.95 (1) |" in table
-    assert "approach: not played (no shipped learned user)" in table
+    assert "interact: not played (no shipped learned user)" in table
 
 
 def test_bad_settings_are_named():
@@ -94,7 +94,7 @@ def test_bad_settings_are_named():
     with pytest.raises(ValueError, match="adapt_steps=0"):
         run_learned_ranking(adapt_steps=0)
     with pytest.raises(ValueError, match="none has a shipped learned user"):
-        run_learned_ranking(tasks=["reach"], episodes=2)
+        run_learned_ranking(tasks=["interact"], episodes=2)
 
 
 @pytest.mark.slow  # adapts the shipped Avoid user to two techniques, then plays 2 episodes each
@@ -118,7 +118,8 @@ def test_a_tiny_ranking_through_the_benchmark(monkeypatch, tmp_path):
 
 def test_the_readmes_ranking_is_the_committed_runs():
     """The README's table is docs/results/learned_ranking.json (the command's output) as
-    written: each user's collision-free success, its rank and the worse-than-baseline mark."""
+    written: per technique, Avoid's users then Approach's, each user's collision-free success,
+    its rank and the worse-than-baseline mark."""
     from pathlib import Path
 
     root = Path(__file__).resolve().parents[3]
@@ -127,10 +128,16 @@ def test_the_readmes_ranking_is_the_committed_runs():
     readme = (root / "README.md").read_text()
     section = readme[readme.index("## Learned users") : readme.index("## Plug in your own")]
     mark = {"better": " +", "worse": " -"}
-    for technique, cells in result["tasks"]["avoid"]["techniques"].items():
-        users = ("scripted", "learned", "adapted", "any technique")
-        want = " | ".join(
-            f"{cells[u]['value']:.2f} ({cells[u]['rank']}){mark.get(cells[u]['verdict'], '')}"
-            for u in users
-        )
-        assert f"| {technique} | {want} |" in section
+    columns = [
+        ("avoid", ("scripted", "learned", "adapted", "any technique")),
+        ("approach", ("scripted", "learned", "adapted")),
+    ]
+    for technique in result["tasks"]["avoid"]["techniques"]:
+        shown = []
+        for task, users in columns:
+            cells = result["tasks"][task]["techniques"][technique]
+            shown += [
+                f"{cells[u]['value']:.2f} ({cells[u]['rank']}){mark.get(cells[u]['verdict'], '')}"
+                for u in users
+            ]
+        assert f"| {technique} | {' | '.join(shown)} |" in section
