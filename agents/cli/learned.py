@@ -34,12 +34,16 @@ def cmd_train(args: argparse.Namespace) -> int:
             print("vrloco train: --env-workers needs --backend local or ray", file=sys.stderr)
             return 2
         common["env_workers"] = args.env_workers
+    if args.imitate_steps is not None and args.imitate is None:
+        print("vrloco train: --imitate-steps needs --imitate SCRIPTED_USER", file=sys.stderr)
+        return 2
     if args.imitate is not None:
         if args.backend == "rllib":
             print("vrloco train: --imitate needs --backend local or ray", file=sys.stderr)
             return 2
         common["imitate"] = args.imitate
-        common["imitate_steps"] = args.imitate_steps
+        if args.imitate_steps is not None:
+            common["imitate_steps"] = args.imitate_steps
     if args.address is not None and args.backend == "local":
         print("vrloco train: --address needs --backend ray or rllib", file=sys.stderr)
         return 2

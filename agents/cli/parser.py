@@ -489,9 +489,9 @@ def build_parser() -> argparse.ArgumentParser:
     train.add_argument(
         "--imitate-steps",
         type=_int_at_least(1),
-        default=200_000,
         metavar="N",
-        help="environment steps of the imitation, before PPO's --steps (default 200,000)",
+        help="environment steps of the imitation, before PPO's --steps (with --imitate; "
+        "default 200,000)",
     )
     train.add_argument(
         "--env-workers",

@@ -63,3 +63,19 @@ def test_training_steps_are_whole_rollouts(capsys):
     assert "rounded up" in capsys.readouterr().out
     with pytest.raises(ValueError, match="rollouts of n_steps x num_envs = 256 x 32 = 8,192"):
         rollout_steps(1000, 256, 32)
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["--imitate-steps", "1000"], "--imitate-steps needs --imitate SCRIPTED_USER"),
+        (["--imitate", "nobody"], "not a scripted user; choose from"),
+        (["--imitate", "goal_seeker", "--recurrent"], "a feed-forward policy"),
+    ],
+)
+def test_an_imitation_train_cannot_run_is_refused_before_the_work(argv, message, tmp_path, capsys):
+    code = main(["train", "--task", "approach", "--out", str(tmp_path / "run"), *argv])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+    assert not (tmp_path / "run" / "imitation.json").exists()
