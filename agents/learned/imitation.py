@@ -5,15 +5,14 @@ sees through the estimators; a scripted user such as the goal seeker already doe
 learner can start from it instead: :func:`imitate` collects the users' observations as the PPO
 policy will see them (frame stack and population included), labels each with the action the
 scripted user takes there, and fits the policy's Gaussian to those actions by maximum likelihood
-(its mean to the actions by least squares, its spread to what the mean leaves
-unexplained). Rounds follow DAgger
-(Ross, Gordon & Bagnell 2011, "A reduction of imitation learning and structured prediction to
-no-regret online learning"): the first round the scripted user acts; in round ``i`` each step's
-action is the scripted user's with probability ``0.5 ** i`` and the learner's otherwise, so the
-data come more and more from the states the learner itself reaches, still labelled by the
-scripted user. The last round's returns (discounted by PPO's ``gamma``, episodes that ended
-within the round only) fit the value function, so that PPO's first advantages are not those of an
-untrained critic.
+(its mean to the actions by least squares, its spread to what the mean leaves unexplained).
+Rounds follow DAgger (Ross, Gordon & Bagnell 2011, "A reduction of imitation learning and
+structured prediction to no-regret online learning"): the first round the scripted user acts; in
+round ``i`` each step's action is the scripted user's with probability ``0.5 ** i`` and otherwise
+one drawn from the learner's Gaussian, so the data come more and more from the states the learner
+itself reaches, still labelled by the scripted user. The last round's returns (discounted by
+PPO's ``gamma``, episodes that ended within the round only) fit the value function, so that PPO's
+first advantages are not those of an untrained critic.
 
 The scripted user acts on the same observation the learner sees (its latest frame); it keeps its
 own memory (the goal seeker's map), which the learner has to replace with what its frames show.
@@ -29,7 +28,8 @@ __all__ = ["episode_returns", "imitate"]
 
 #: The smallest log standard deviation the fitted Gaussian may take: an action the scripted user
 #: never varies (the hand on a task without a hand target) would otherwise drive its spread to
-#: zero and PPO could never explore it again. A choice (e ** -3 ~ 0.05 of the action's range).
+#: zero and PPO could never explore it again. A choice: a standard deviation of e ** -3 ~ 0.05 on
+#: actions in [-1, 1].
 MIN_LOG_STD = -3.0
 
 
