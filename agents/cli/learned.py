@@ -78,7 +78,7 @@ def cmd_train(args: argparse.Namespace) -> int:
                 **common,
             )
         else:
-            from agents.learned.train import train_seeds
+            from agents.learned.seeds import train_seeds
 
             paths = train_seeds(
                 args.task,

@@ -5,7 +5,7 @@
 bar, TensorBoard logs, periodic checkpoints and an evaluation callback on separately seeded
 episodes (:mod:`agents.learned.train`); ``vrloco evaluate MODEL`` runs a trained policy through
 the benchmark's metrics (:mod:`agents.learned.evaluate`). ``vrloco train --seeds 0,1,2``
-(:func:`~agents.learned.train.train_seeds`) trains one run per seed in parallel worker processes
+(:func:`~agents.learned.seeds.train_seeds`) trains one run per seed in parallel worker processes
 (``--backend ray``: as Ray tasks on a Ray cluster) and draws their curves together, with the mean
 and the spread over the seeds (:mod:`agents.learned.curves`). RLlib's PPO is in
 :mod:`agents.learned.rllib`; a policy's episodes as a Minari dataset in
@@ -64,7 +64,7 @@ _PUBLIC = {
     "SB3VecEnv": "agents.learned.train",
     "make_model": "agents.learned.train",
     "train_ppo": "agents.learned.train",
-    "train_seeds": "agents.learned.train",
+    "train_seeds": "agents.learned.seeds",
 }
 
 

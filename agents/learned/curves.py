@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-#: The evaluation metrics averaged over the seeds by :func:`~agents.learned.train.train_seeds`.
+#: The evaluation metrics averaged over the seeds by :func:`~agents.learned.seeds.train_seeds`.
 _CURVE_KEYS = ("success_rate", "collision_rate", "mean_return")
 
 
@@ -47,7 +47,7 @@ def seed_curves_summary(curves: dict[int, list[dict[str, float]]]) -> list[dict[
 def write_seed_curves(
     task: str, curves: dict[int, list[dict[str, float]]], out_dir: Path
 ) -> dict[str, Any]:
-    """``out_dir/learning_curve.json`` and ``.png`` of a :func:`~agents.learned.train.train_seeds`
+    """``out_dir/learning_curve.json`` and ``.png`` of a :func:`~agents.learned.seeds.train_seeds`
     run; returns the JSON's content (the png only where the seeds share an evaluation step)."""
     mean = seed_curves_summary(curves)
     data = {

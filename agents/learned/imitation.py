@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["episode_returns", "imitate"]
+__all__ = ["check_imitation", "episode_returns", "imitate", "imitate_scripted"]
 
 #: The smallest log standard deviation the fitted Gaussian may take: an action the scripted user
 #: never varies (the hand on a task without a hand target) would otherwise drive its spread to
@@ -142,6 +142,45 @@ def imitate(
         )
     _fit_values(policy, optimiser, o_round, rewards, ends, gamma, epochs, batch_size, rng)
     return report
+
+
+def check_imitation(
+    imitate: str, init: Any = None, recurrent: bool = False, n_cells: int = 1, env_workers: int = 1
+) -> None:
+    """Whether a training run can start from an imitation of the scripted user ``imitate``: a
+    registered scripted user, a new feed-forward policy (no ``init``, not ``recurrent``), one
+    cell's users stepped in this process.
+
+    Raises:
+        ValueError: naming what stands in the way (an unknown name lists the scripted users).
+    """
+    from agents.scripted import POLICIES
+
+    if imitate not in POLICIES:
+        raise ValueError(
+            f"imitate={imitate!r}: not a scripted user; choose from {', '.join(sorted(POLICIES))}"
+        )
+    for bad, why in (
+        (init is not None, "a new policy, not init's"),
+        (recurrent, "a feed-forward policy, not a recurrent one"),
+        (n_cells > 1, "one cell's users, not a mix"),
+        (env_workers > 1, "users stepped in this process (env_workers=1)"),
+    ):
+        if bad:
+            raise ValueError(f"imitate={imitate!r} trains {why}")
+
+
+def imitate_scripted(
+    model: Any, env: Any, users: Any, name: str, steps: int, seed: int
+) -> list[dict[str, float]]:
+    """:func:`imitate` the scripted user ``name``, built for the vector env ``users`` (its
+    layout and its body: :func:`agents.scripted.params_from_env`), in ``env`` (``users`` as the
+    policy sees them); the imitation's env streams are seeded from ``seed + 50_000``, apart
+    from the training's. Returns :func:`imitate`'s rounds."""
+    from agents.scripted import ObservationLayout, make_policy, params_from_env
+
+    teacher = make_policy(name, ObservationLayout.from_env(users), params_from_env(users))
+    return imitate(model, env, teacher, steps, seed=seed + 50_000)
 
 
 def _batches(n: int, batch_size: int, rng: np.random.Generator):

@@ -463,7 +463,7 @@ def train_rllib_seeds(
     """:func:`train_rllib` once per seed, one after the other (each run spreads over its own
     env runners), each in ``out_dir/seed_<s>/`` (one seed: in ``out_dir``); returns the final
     checkpoints. Several seeds' curves go together into ``out_dir/learning_curve.json`` and
-    ``.png`` with the mean and std over the seeds, as :func:`agents.learned.train.train_seeds`
+    ``.png`` with the mean and std over the seeds, as :func:`agents.learned.seeds.train_seeds`
     writes them (after a failure or Ctrl-C too, from the seeds done so far)."""
     from agents.learned.curves import _read_curves, write_seed_curves
 

@@ -142,7 +142,7 @@ def test_tiny_ppo_run_writes_a_model_and_a_learning_curve(tmp_path, capsys):
 def test_tiny_runs_over_two_seeds_write_each_seed_and_their_mean(tmp_path):
     import zipfile
 
-    from agents.learned.train import train_seeds
+    from agents.learned.seeds import train_seeds
 
     kw = dict(steps=512, num_envs=4, eval_every=256, eval_episodes=2, n_steps=64, batch_size=128)
     paths = train_seeds("avoid", [0, 1], tmp_path / "two", **kw)
@@ -203,7 +203,7 @@ def test_seeds_on_ray_train_as_the_local_backend_and_a_failed_seed_is_named(tmp_
 
     ray = pytest.importorskip("ray", reason=NEEDS_RAY)
     from agents.benchmark.backends import BackendError
-    from agents.learned.train import train_seeds
+    from agents.learned.seeds import train_seeds
 
     out = tmp_path / "ray"
     bad = 2**32  # numpy's seeding refuses it inside the worker, after the run has started
@@ -241,7 +241,7 @@ def test_seeds_on_an_unreachable_ray_address_are_named_at_once(tmp_path, capsys)
     pytest.importorskip("ray", reason=NEEDS_RAY)
     from agents.benchmark.backends import BackendError
     from agents.cli import main
-    from agents.learned.train import train_seeds
+    from agents.learned.seeds import train_seeds
 
     t0 = time.perf_counter()
     with pytest.raises(BackendError, match=r"cannot reach a Ray cluster at 127\.0\.0\.1:1"):
@@ -304,7 +304,7 @@ def test_a_seed_whose_ray_worker_is_lost_is_trained_again(tmp_path):
     import threading
 
     ray = pytest.importorskip("ray", reason=NEEDS_RAY)
-    from agents.learned.train import train_seeds
+    from agents.learned.seeds import train_seeds
 
     stop, killed = threading.Event(), []
     killer = threading.Thread(target=_kill_one_seed_task, args=(stop, killed))
@@ -580,7 +580,7 @@ def test_an_unknown_technique_population_or_condition_is_one_error_naming_the_va
 
 
 def test_train_passes_the_cell_and_the_policy_options_on(tmp_path, monkeypatch, capsys):
-    import agents.learned.train
+    import agents.learned.seeds
     from agents.cli import main
 
     seen = {}
@@ -589,7 +589,7 @@ def test_train_passes_the_cell_and_the_policy_options_on(tmp_path, monkeypatch, 
         seen.update(kwargs, task=task, seeds=seeds)
         return [out_dir / "ppo_final.zip"]
 
-    monkeypatch.setattr(agents.learned.train, "train_seeds", fake)
+    monkeypatch.setattr(agents.learned.seeds, "train_seeds", fake)
     assert (
         main(
             [
