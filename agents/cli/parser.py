@@ -484,7 +484,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--imitate",
         metavar="SCRIPTED_USER",
         help="start from a policy that imitates this scripted user (e.g. goal_seeker; DAgger "
-        "on the training users) instead of a random one; one cell, no --init or --recurrent",
+        "on the training users) instead of a random one; one technique (a mix of populations is "
+        "fine), no --init or --recurrent",
     )
     train.add_argument(
         "--imitate-steps",

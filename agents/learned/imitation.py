@@ -24,7 +24,13 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["check_imitation", "episode_returns", "imitate", "imitate_scripted"]
+__all__ = [
+    "check_imitation",
+    "episode_returns",
+    "imitate",
+    "imitate_scripted",
+    "scripted_teacher",
+]
 
 #: The smallest log standard deviation the fitted Gaussian may take: an action the scripted user
 #: never varies (the hand on a task without a hand target) would otherwise drive its spread to
@@ -145,11 +151,16 @@ def imitate(
 
 
 def check_imitation(
-    imitate: str, init: Any = None, recurrent: bool = False, n_cells: int = 1, env_workers: int = 1
+    imitate: str,
+    init: Any = None,
+    recurrent: bool = False,
+    n_techniques: int = 1,
+    env_workers: int = 1,
 ) -> None:
     """Whether a training run can start from an imitation of the scripted user ``imitate``: a
-    registered scripted user, a new feed-forward policy (no ``init``, not ``recurrent``), one
-    cell's users stepped in this process.
+    registered scripted user, a new feed-forward policy (no ``init``, not ``recurrent``), the
+    users of one technique (one population or a mix of them: the scripted user is built for one
+    technique's body) stepped in this process.
 
     Raises:
         ValueError: naming what stands in the way (an unknown name lists the scripted users).
@@ -163,7 +174,7 @@ def check_imitation(
     for bad, why in (
         (init is not None, "a new policy, not init's"),
         (recurrent, "a feed-forward policy, not a recurrent one"),
-        (n_cells > 1, "one cell's users, not a mix"),
+        (n_techniques > 1, "one technique's users, not a mix of techniques"),
         (env_workers > 1, "users stepped in this process (env_workers=1)"),
     ):
         if bad:
@@ -173,14 +184,38 @@ def check_imitation(
 def imitate_scripted(
     model: Any, env: Any, users: Any, name: str, steps: int, seed: int
 ) -> list[dict[str, float]]:
-    """:func:`imitate` the scripted user ``name``, built for the vector env ``users`` (its
-    layout and its body: :func:`agents.scripted.params_from_env`), in ``env`` (``users`` as the
-    policy sees them); the imitation's env streams are seeded from ``seed + 50_000``, apart
-    from the training's. Returns :func:`imitate`'s rounds."""
+    """:func:`imitate` the scripted user ``name``, built for the users ``users``
+    (:func:`scripted_teacher`), in ``env`` (``users`` as the policy sees them); the imitation's
+    env streams are seeded from ``seed + 50_000``, apart from the training's. Returns
+    :func:`imitate`'s rounds."""
+    return imitate(model, env, scripted_teacher(name, users), steps, seed=seed + 50_000)
+
+
+def scripted_teacher(name: str, users: Any) -> Any:
+    """The batched scripted user ``name`` for the vector env ``users``: its observation layout
+    and its body (:func:`agents.scripted.params_from_env`).
+
+    ``users`` may be a mix of populations (:class:`~agents.learned.mixed_env.MixedUsersEnv`):
+    the scripted user reads the mix's layout, the richest part's, into which every part's
+    observation is read (a part without ``head_on_torso`` reads 0 there, its head straight on
+    the torso), with the body the parts share.
+
+    Raises:
+        ValueError: a mix whose parts' bodies differ (a scripted user acts for one).
+    """
     from agents.scripted import ObservationLayout, make_policy, params_from_env
 
-    teacher = make_policy(name, ObservationLayout.from_env(users), params_from_env(users))
-    return imitate(model, env, teacher, steps, seed=seed + 50_000)
+    parts = getattr(users, "parts", None)
+    if parts is None:
+        return make_policy(name, ObservationLayout.from_env(users), params_from_env(users))
+    richest = max(parts, key=lambda p: len(p.unwrapped.core.spec.fields))
+    bodies = [params_from_env(p) for p in parts]
+    if any(b != bodies[0] for b in bodies[1:]):
+        raise ValueError(
+            f"imitate={name!r}: the mix's parts ({', '.join(users.cells)}) have different "
+            "bodies; a scripted user acts for one"
+        )
+    return make_policy(name, ObservationLayout.from_env(richest), bodies[0])
 
 
 def _batches(n: int, batch_size: int, rng: np.random.Generator):

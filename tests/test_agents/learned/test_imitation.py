@@ -89,7 +89,7 @@ def test_imitate_refuses_a_teacher_whose_frames_do_not_fit():
     [
         ({"imitate": "nobody"}, "not a scripted user; choose from .*goal_seeker"),
         ({"imitate": "goal_seeker", "recurrent": True}, "feed-forward"),
-        ({"imitate": "goal_seeker", "population": "idealised,typical"}, "not a mix"),
+        ({"imitate": "goal_seeker", "technique": "zhang2021,smooth"}, "not a mix of techniques"),
         ({"imitate": "goal_seeker", "env_workers": 2}, "env_workers=1"),
     ],
 )
@@ -115,3 +115,42 @@ def test_a_run_that_imitates_writes_its_rounds(tmp_path):
     record = json.loads((tmp_path / "imitation.json").read_text())
     assert record["teacher"] == "goal_seeker" and record["steps"] == 256
     assert len(record["rounds"]) == 4
+
+
+def test_a_mix_of_populations_is_taught_as_each_population_alone():
+    """Over a mix (idealised users beside typical ones) the scripted teacher reads the mix's
+    layout; on the typical users' rows it acts as the goal seeker built for them alone, and on
+    the idealised users' rows (no head field, read as 0) as the one built for those."""
+    from agents.learned.imitation import scripted_teacher
+    from agents.learned.mixed_env import mixed_users, training_cells
+
+    cells = training_cells(None, "idealised,typical", None)
+    mix = mixed_users(6, "approach", None, cells, None, None, seed=5)
+    teacher = scripted_teacher("goal_seeker", mix)
+    assert "head_on_torso" in teacher.layout.names
+    # the same users again, each part stepped on its own with its own layout
+    parts = mixed_users(6, "approach", None, cells, None, None, seed=5).parts
+    alone = [
+        make_policy("goal_seeker", ObservationLayout.from_env(p), params_from_env(p)) for p in parts
+    ]
+    split = mix.sizes[0]
+    obs, _ = mix.reset(seed=5)
+    raw = [p.reset(seed=5 + first)[0] for p, first in zip(parts, (0, split), strict=True)]
+    assert raw[0].shape[1] < obs.shape[1] == raw[1].shape[1]  # idealised users: no head field
+    for _ in range(40):
+        action = teacher.act(obs)
+        expect = np.concatenate([a.act(o) for a, o in zip(alone, raw, strict=True)])
+        np.testing.assert_array_equal(action, expect)
+        obs, _, term, trunc, _ = mix.step(action)
+        raw = [p.step(a)[0] for p, a in zip(parts, np.split(action, [split]), strict=True)]
+        assert not (term | trunc).any()
+
+
+def test_a_mix_of_techniques_has_no_one_teacher():
+    from agents.learned.imitation import scripted_teacher
+    from agents.learned.mixed_env import mixed_users, training_cells
+
+    cells = training_cells("zhang2021,torso_steering", None, None)
+    mix = mixed_users(2, "approach", None, cells, None, None, seed=0)
+    with pytest.raises(ValueError, match="different bodies"):
+        scripted_teacher("goal_seeker", mix)
