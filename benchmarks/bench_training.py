@@ -5,6 +5,7 @@ Run from the repository root::
     python benchmarks/bench_training.py             # about a minute on 2 idle cores
     python benchmarks/bench_training.py --busy 1    # beside a process that keeps a core busy
     python benchmarks/bench_training.py --busy 2    # beside two (about three minutes)
+    python benchmarks/bench_training.py --env-alone 32,256,512   # and the env alone
 
 Each run trains PPO from scratch (seed 0, :func:`agents.learned.train.defaults_ppo`: 256 steps x 32
 users per rollout, minibatches of 2048, 5 epochs) on Approach for ``--iterations`` PPO
@@ -13,11 +14,16 @@ iterations in a fresh Python process, in one of two configurations:
 * ``default``: the loop as stable-baselines3 runs it when torch is imported before vrloco's
   kernels (what ``agents.learned`` did before it imported :mod:`estimators.kernels` first):
   torch's OpenMP threads wait actively, and the rollouts' forward passes use torch's threads.
+* ``one_thread``: ``default`` with torch on one thread once the model is built (its spinning
+  OpenMP threads idle): the computation ``vrloco`` does, in the order ``vrloco`` does it.
 * ``vrloco``: the loop of :func:`agents.learned.train.train_ppo`: ``agents.learned`` imported first
-  (torch's OpenMP threads wait passively), rollouts on one torch thread
-  (:class:`agents.learned.train.RolloutThreads`), the same PPO settings.
+  (torch's OpenMP threads wait passively), rollouts and updates on one torch thread
+  (:class:`agents.learned.train.OneTorchThread`), the same PPO settings.
 * ``workers``: ``vrloco`` with the users stepped in ``--env-workers`` processes, a share of the
   batch each (``vrloco train --env-workers N``, :func:`agents.learned.parallel_env.parallel_users`).
+* ``env_alone`` (with ``--env-alone N,N,...``): the task's vector env alone, random actions, no
+  policy and no update, at each number of users: the most steps per second any trainer could
+  reach with this env on this machine (a loop cannot step faster than its env).
 * ``baseline`` (with ``--baseline REV``): the ``default`` loop run from a checkout of the git
   revision ``REV`` (a temporary worktree), its env and trainer as they were then: how much faster
   the whole loop per environment step is now than at ``REV``, on the same machine in one run.
@@ -27,9 +33,11 @@ The runs alternate (default, vrloco, default, vrloco, ...) so that other load on
 hits both alike; the table gives each configuration's median environment steps per second of
 ``model.learn`` and the median share of its time spent in the env (the vector env's ``reset``
 and ``step`` behind the SB3 adapter), in the policy's forward pass (``collect_rollouts`` minus
-the env), in the update (``train()``) and elsewhere. Both configurations must train the same
-weights: the script checks their SHA-256 and says whether they agree. No evaluation, no
-checkpoints, no TensorBoard: the loop alone.
+the env), in the update (``train()``) and elsewhere. ``one_thread``, ``vrloco`` and ``workers``
+must train the same weights: the script checks their SHA-256 and says whether they agree.
+``default``'s update sums on torch's own thread count, in another order, so its weights differ
+in the last bits where that count is not one. No evaluation, no checkpoints, no TensorBoard: the
+loop alone.
 
 How much the vrloco configuration gains depends on the other load on the cores: actively
 waiting OpenMP threads cost little while every core is free and a great deal while another
@@ -51,7 +59,7 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-CONFIGS = ("default", "vrloco", "workers")
+CONFIGS = ("default", "one_thread", "vrloco", "workers")
 
 
 def child(
@@ -59,7 +67,7 @@ def child(
 ) -> dict:
     """One training run in this process (a fresh one) from the tree ``root``: its timings
     and weights' hash."""
-    if config in ("default", "baseline"):
+    if config in ("default", "one_thread", "baseline"):
         import torch  # first, as stable-baselines3 pulled it in before vrloco's kernels
     sys.path.insert(0, str(root))
     try:
@@ -90,12 +98,14 @@ def child(
     env.step(np.zeros((num_envs, 5), np.float32))
     inner = learned.SB3VecEnv(env, seed=0)
     venv = VecMonitor(inner, info_keywords=("is_success",))
-    if config in ("default", "baseline"):
+    if config in ("default", "one_thread", "baseline"):
         model = PPO("MlpPolicy", venv, seed=0, verbose=0, **settings)
         callback = None
+        if config == "one_thread":
+            torch.set_num_threads(1)
     else:
         model = learned.make_model(venv, seed=0, **settings)
-        callback = learned.RolloutThreads()
+        callback = learned.OneTorchThread()
     spent = {"env": 0.0, "collect": 0.0, "update": 0.0}
 
     def timed(obj: object, name: str, key: str) -> None:
@@ -132,6 +142,30 @@ def child(
         "torch_threads": torch.get_num_threads(),
         "weights": digest.hexdigest(),
     }
+
+
+def env_alone(task: str, num_envs: int, user_steps: int) -> dict:
+    """The vector env alone for ``user_steps`` steps of all users (random actions, seeded)."""
+    sys.path.insert(0, str(ROOT))
+    import agents.learned.train  # noqa: F401  (the trainer's thread settings)
+
+    # isort: split
+    import numpy as np
+
+    from vrloco_env.vector import VRLocoVectorEnv
+
+    env = VRLocoVectorEnv(num_envs, task=task)
+    rng = np.random.default_rng(0)
+    env.reset(seed=0)
+    env.step(np.zeros((num_envs, 5), np.float32))  # the compiled kernels load
+    steps = max(user_steps // num_envs, 1)
+    actions = rng.uniform(-1.0, 1.0, (steps, num_envs, 5)).astype(np.float32)
+    t0 = time.perf_counter()
+    for a in actions:
+        env.step(a)
+    wall = time.perf_counter() - t0
+    env.close()
+    return {"config": f"env_alone:{num_envs}", "steps": steps * num_envs, "wall_s": wall}
 
 
 def run(config: str, args: argparse.Namespace) -> dict:
@@ -183,9 +217,19 @@ def main() -> None:
         help="also time the default loop at this git revision (e.g. the commit a speed-up is "
         "measured against)",
     )
-    parser.add_argument("--child", choices=(*CONFIGS, "baseline"), help=argparse.SUPPRESS)
+    parser.add_argument(
+        "--env-alone",
+        metavar="N,N,...",
+        help="also time the env alone (random actions, no trainer) at these numbers of users",
+    )
+    parser.add_argument("--child", help=argparse.SUPPRESS)
     parser.add_argument("--root", type=Path, default=ROOT, help=argparse.SUPPRESS)
     args = parser.parse_args()
+    if args.child and args.child.startswith("env_alone:"):
+        n = int(args.child.split(":")[1])
+        steps = args.iterations * 256 * args.num_envs
+        print(json.dumps(env_alone(args.task, n, steps)))
+        return
     if args.child:
         print(
             json.dumps(
@@ -236,31 +280,36 @@ def measure(args: argparse.Namespace) -> None:
         f"{f'; {args.busy} other processes kept busy' if args.busy else ''}"
     )
     configs = (*CONFIGS, "baseline") if args.baseline else CONFIGS
+    if args.env_alone:
+        configs = (*configs, *(f"env_alone:{int(n)}" for n in args.env_alone.split(",")))
     runs: dict[str, list[dict]] = {c: [] for c in configs}
     for i in range(args.repeats):
         for config in configs:
             r = run(config, args)
             runs[config].append(r)
             print(
-                f"  run {i + 1} {config:<8} {r['steps'] / r['wall_s']:7.0f} steps/s  "
+                f"  run {i + 1} {config:<14} {r['steps'] / r['wall_s']:7.0f} steps/s  "
                 f"({r['steps']:,} steps in {r['wall_s']:.1f} s)",
                 flush=True,
             )
     print()
     print(
-        f"{'':8} {'steps/s':>8}  {'env':>6} {'forward':>8} {'update':>7} {'other':>6}   "
+        f"{'':14} {'steps/s':>8}  {'env':>6} {'forward':>8} {'update':>7} {'other':>6}   "
         "(medians; shares of the loop's time)"
     )
     rate = {}
     for config in configs:
         rs = runs[config]
         rate[config] = statistics.median(r["steps"] / r["wall_s"] for r in rs)
+        if config.startswith("env_alone"):
+            print(f"{config:<14} {rate[config]:8.0f}  (the env alone: no forward pass, no update)")
+            continue
         share = {
             k: statistics.median(r[f"{k}_s"] / r["wall_s"] for r in rs)
             for k in ("env", "forward", "update", "other")
         }
         print(
-            f"{config:<8} {rate[config]:8.0f}  {share['env']:6.0%} {share['forward']:8.0%} "
+            f"{config:<14} {rate[config]:8.0f}  {share['env']:6.0%} {share['forward']:8.0%} "
             f"{share['update']:7.0%} {share['other']:6.0%}"
         )
     print(f"\nvrloco / default: {rate['vrloco'] / rate['default']:.2f}x the steps per second")
@@ -278,13 +327,37 @@ def measure(args: argparse.Namespace) -> None:
             "the baseline trained "
             + ("the same weights" if same else "other weights (its episodes differ)")
         )
-    digests = {r["weights"] for c in CONFIGS for r in runs[c]}
+    alone = [c for c in configs if c.startswith("env_alone")]
+    if alone:
+        best = max(alone, key=rate.get)
+        against = "baseline" if args.baseline else "default"
+        print(
+            f"the env alone at its fastest ({best.split(':')[1]} users): "
+            f"{rate[best] / rate[against]:.2f}x the {against} loop's steps per second (no loop "
+            "with this env can exceed it)"
+        )
+    digests = {r["weights"] for c in ("one_thread", "vrloco", "workers") for r in runs[c]}
     same = (
         "the same weights in every run"
         if len(digests) == 1
         else (f"DIFFERENT weights ({len(digests)} distinct)")
     )
-    print(f"trained policy: {same} (SHA-256 {sorted(digests)[0][:16]}...)")
+    print(f"one_thread, vrloco and workers: {same} (SHA-256 {sorted(digests)[0][:16]}...)")
+    default = {r["weights"] for r in runs["default"]}
+    print(
+        "default: "
+        + (
+            "the same weights"
+            if default == digests
+            else f"other weights ({torch_threads(runs['default'])} torch threads in its update "
+            "against one: the same sums in another order)"
+        )
+    )
+
+
+def torch_threads(runs: list[dict]) -> int:
+    """The torch thread count of the runs (the most any of them had)."""
+    return max(r["torch_threads"] for r in runs)
 
 
 if __name__ == "__main__":

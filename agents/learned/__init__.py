@@ -32,13 +32,13 @@ Speed. The env's compiled kernels and torch both run OpenMP thread pools on the 
 This package imports :mod:`estimators.kernels` before torch (:mod:`agents.learned.threads`, the
 first module it imports), so that torch's OpenMP runtime starts with the passive wait policy that
 module sets (``OMP_WAIT_POLICY=PASSIVE``: idle threads sleep instead of spinning on the cores the
-other pool needs), and PPO collects its rollouts with one torch thread
-(:class:`~agents.learned.train.RolloutThreads`: the forward pass of one step's users is too small
-to share out), its update with torch's own count. Neither changes a number PPO computes:
-``benchmarks/bench_training.py`` times the loop against the default settings and checks that both
-train the same weights. A process that imported torch before this package (without
-``OMP_WAIT_POLICY`` set) keeps torch's spinning threads; :func:`~agents.learned.train.train_ppo`
-warns.
+other pool needs), and PPO runs its rollouts and updates on one torch thread
+(:class:`~agents.learned.train.OneTorchThread`: the forward pass of one step's users is too small
+to share out, and the update's small minibatches run faster on one thread than on two that sleep
+between parallel regions). ``benchmarks/bench_training.py`` times the loop against the default
+settings and checks that it trains the weights the default loop trains on one thread. A process
+that imported torch before this package (without ``OMP_WAIT_POLICY`` set) keeps torch's spinning
+threads; :func:`~agents.learned.train.train_ppo` warns.
 
 :class:`~agents.learned.train.SB3VecEnv` adapts the Gymnasium vector env to stable-baselines3's
 ``VecEnv`` interface. Both autoreset in the same step, so the adapter only reshapes: the finished
@@ -60,7 +60,7 @@ _PUBLIC = {
     "model_cell": "agents.learned.models",
     "model_env_settings": "agents.learned.models",
     "model_policy": "agents.learned.models",
-    "RolloutThreads": "agents.learned.train",
+    "OneTorchThread": "agents.learned.train",
     "SB3VecEnv": "agents.learned.train",
     "make_model": "agents.learned.train",
     "train_ppo": "agents.learned.train",
@@ -78,7 +78,7 @@ def __getattr__(name: str) -> Any:
 
 __all__ = [
     "CELL_KEYS",
-    "RolloutThreads",
+    "OneTorchThread",
     "SB3VecEnv",
     "env_settings",
     "evaluate_model",

@@ -1,6 +1,6 @@
 """PPO training of a learned simulated user: stable-baselines3's PPO on the native vector env
-(:class:`SB3VecEnv`), one run (:func:`train_ppo`), with rollouts on one torch thread
-(:class:`RolloutThreads`). One run per seed, in worker processes or Ray tasks:
+(:class:`SB3VecEnv`), one run (:func:`train_ppo`), on one torch thread
+(:class:`OneTorchThread`). One run per seed, in worker processes or Ray tasks:
 :mod:`agents.learned.seeds`.
 """
 
@@ -23,7 +23,7 @@ from agents.learned.models import ModelFields, cell_of, env_settings, observatio
 from agents.learned.threads import _TORCH_SPINS
 from vrloco_env.vector import VRLocoVectorEnv
 
-__all__ = ["RolloutThreads", "SB3VecEnv", "make_model", "train_ppo"]
+__all__ = ["OneTorchThread", "SB3VecEnv", "make_model", "train_ppo"]
 
 
 #: Reported per-step keys kept in the SB3 infos (episode metrics for the callbacks).
@@ -309,7 +309,7 @@ def train_ppo(
         max(eval_every // num_envs, 1), str(out_dir / "checkpoints"), name_prefix=f"ppo_{task}"
     )
     final = out_dir / f"ppo_{task}_final"
-    callbacks = [RolloutThreads(), checkpoints, Evaluate()]
+    callbacks = [OneTorchThread(), checkpoints, Evaluate()]
     try:
         model.learn(steps, callback=callbacks, progress_bar=progress)
     except KeyboardInterrupt:  # Ctrl-C: keep the model and the curve so far
@@ -335,14 +335,18 @@ def train_ppo(
     return final.with_suffix(".zip")
 
 
-class RolloutThreads(BaseCallback):
-    """A callback that runs PPO's rollouts with one torch thread and its updates with the
-    thread count torch had when the callback was made.
+class OneTorchThread(BaseCallback):
+    """A callback that runs PPO's rollouts and updates on one torch thread, and gives torch its
+    thread count back when training ends (or is interrupted: :meth:`restore`).
 
-    A rollout step's forward pass (one row per user) is too small to share between threads:
-    splitting it costs more than it saves, and the second thread takes a core from the env's
-    kernels. The update's minibatches keep the threads. Neither changes the numbers:
-    ``benchmarks/bench_training.py`` checks that the trained weights are the same.
+    A rollout step's forward pass (one row per user) is too small to share between threads, and
+    the second thread takes a core from the env's kernels. The update's minibatches (2048 rows
+    through two small MLPs) run faster on one thread than on two whose idle waits sleep
+    (``OMP_WAIT_POLICY=PASSIVE``, which the env's kernels need beside other work): each of the
+    update's many small parallel regions would wake a sleeping thread.
+    ``benchmarks/bench_training.py`` times the loop against the default settings and checks that
+    it trains the weights the default loop trains on one thread (on more, the update sums in
+    another order and the last bits differ).
     """
 
     def __init__(self) -> None:
@@ -351,19 +355,19 @@ class RolloutThreads(BaseCallback):
         super().__init__()
         self.threads = torch.get_num_threads()
 
-    def _on_rollout_start(self) -> None:
+    def _on_training_start(self) -> None:
         import torch
 
         torch.set_num_threads(1)
 
-    def _on_rollout_end(self) -> None:
+    def _on_training_end(self) -> None:
         self.restore()
 
     def _on_step(self) -> bool:
         return True
 
     def restore(self) -> None:
-        """Give torch its thread count back (after an interrupted rollout too)."""
+        """Give torch its thread count back (after an interrupted run too)."""
         import torch
 
         torch.set_num_threads(self.threads)
