@@ -539,6 +539,40 @@ def test_importing_the_trainer_starts_torch_after_the_passive_thread_policy():
     assert out.stdout.split() == ["True"]
 
 
+def test_training_runs_on_one_torch_thread_and_gives_the_count_back():
+    """Rollouts and updates run on one torch thread; torch has its own count again after
+    training, and after an interrupted run."""
+    import torch
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    from agents.learned.train import OneTorchThread, make_model
+
+    seen = []
+
+    class Count(BaseCallback):
+        def _on_step(self) -> bool:
+            seen.append(torch.get_num_threads())
+            return True
+
+        def _on_rollout_end(self) -> None:
+            seen.append(torch.get_num_threads())
+
+    before = torch.get_num_threads()
+    torch.set_num_threads(2)
+    try:
+        venv = SB3VecEnv(VRLocoVectorEnv(2, task="approach"), seed=0)
+        model = make_model(venv, seed=0, n_steps=8, batch_size=16, n_epochs=1)
+        threads = OneTorchThread()
+        model.learn(32, callback=[threads, Count()])
+        assert seen and set(seen) == {1}
+        assert torch.get_num_threads() == 2
+        torch.set_num_threads(1)  # as an interrupted run leaves it
+        threads.restore()
+        assert torch.get_num_threads() == 2
+    finally:
+        torch.set_num_threads(before)
+
+
 def test_an_unknown_technique_population_or_condition_is_one_error_naming_the_valid_ones(
     tmp_path, capsys
 ):
