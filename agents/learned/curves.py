@@ -1,6 +1,11 @@
 """Learning curves: one run's (:func:`plot_learning_curve`) and several seeds' together, with the
 mean and the spread over the seeds (:func:`write_seed_curves`); the SB3 and RLlib trainers
-both write them.
+both write them. Runs compared side by side (:func:`compare_runs`)::
+
+    python -m agents.learned.curves docs/results/memory_curves.json [--at 1000000]
+
+reads a file of runs (each its training command and its ``learning_curve.json``) and prints, per
+run, the evaluation at a given step and the mean of its last five evaluations.
 """
 
 from __future__ import annotations
@@ -124,3 +129,63 @@ def plot_learning_curve(curve: list[dict[str, float]], path: Path, title: str = 
     )
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def compare_runs(runs: dict[str, dict[str, Any]], at: int, last: int = 5) -> list[dict[str, Any]]:
+    """Per run (``name -> {"command": ..., "curve": [...]}``, a curve as ``learning_curve.json``
+    holds it): its last evaluation's steps, the evaluation nearest ``at`` steps (the earlier of
+    two as near; None where none lies within 5 % of ``at``), and the mean success and collision
+    rates of its last ``last`` evaluations and of its last ``last`` evaluations up to that one.
+
+    Raises:
+        ValueError: a run without a curve, naming it.
+    """
+    rows = []
+    for name, run in runs.items():
+        curve = run.get("curve") or []
+        if not curve:
+            raise ValueError(f"run {name!r} has no learning curve")
+        near = min(range(len(curve)), key=lambda i: (abs(curve[i]["steps"] - at), i))
+        upto = curve[: near + 1] if abs(curve[near]["steps"] - at) <= 0.05 * at else []
+
+        def mean(points: list[dict[str, float]], key: str) -> float | None:
+            points = points[-last:]
+            return float(np.mean([p[key] for p in points])) if points else None
+
+        rows.append(
+            {
+                "run": name,
+                "steps": int(curve[-1]["steps"]),
+                "at": upto[-1] if upto else None,
+                "success_up_to_at": mean(upto, "success_rate"),
+                "success_last": mean(curve, "success_rate"),
+                "collision_last": mean(curve, "collision_rate"),
+            }
+        )
+    return rows
+
+
+def main(argv: list[str] | None = None) -> None:
+    import argparse
+
+    parser = argparse.ArgumentParser(description="compare training runs' learning curves")
+    parser.add_argument("runs", type=Path, help="a JSON file: run name -> command and curve")
+    parser.add_argument("--at", type=int, default=1_000_000, help="steps to compare at")
+    args = parser.parse_args(argv)
+    runs = json.loads(args.runs.read_text())["runs"]
+    print(
+        f"{'run':<22} {'steps':>10} {'at ' + format(args.at, ','):>16} "
+        f"{'last 5 to there':>16} {'last 5':>8} {'coll. last 5':>13}"
+    )
+    for r in compare_runs(runs, args.at):
+        at = "-" if r["at"] is None else f"{r['at']['success_rate']:.2f}"
+        upto = "-" if r["success_up_to_at"] is None else f"{r['success_up_to_at']:.2f}"
+        print(
+            f"{r['run']:<22} {r['steps']:>10,} {at:>16} {upto:>16} {r['success_last']:>8.2f} "
+            f"{r['collision_last']:>13.2f}"
+        )
+    print("evaluation success rate (training evaluation seeds 10000 + seed onwards, development)")
+
+
+if __name__ == "__main__":
+    main()

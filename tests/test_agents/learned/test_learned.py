@@ -897,3 +897,33 @@ def test_a_learned_user_trains_on_each_hands_free_technique(tmp_path, technique)
     )
     row = evaluate_model(path, episodes=1, progress=False)
     assert row["technique"] == technique and row["trained_on"] is None
+
+
+def test_runs_compare_at_a_step_and_over_their_last_evaluations(capsys, tmp_path):
+    from agents.learned.curves import compare_runs, main
+
+    def curve(successes):
+        return [
+            {"steps": 100 * i + 32, "success_rate": s, "collision_rate": 1 - s}
+            for i, s in enumerate(successes)
+        ]
+
+    runs = {
+        "fast": {"command": "vrloco train ...", "curve": curve([0, 0.5, 1, 1, 1, 1, 1, 1])},
+        "slow": {"command": "vrloco train ...", "curve": curve([0, 0, 0, 0.5, 1])},
+    }
+    fast, slow = compare_runs(runs, at=230, last=2)
+    # the evaluation nearest 230 steps is the one at 232; the two up to it: 132 and 232
+    assert fast["at"]["steps"] == 232 and fast["success_up_to_at"] == pytest.approx(0.75)
+    assert slow["at"]["steps"] == 232 and slow["success_up_to_at"] == 0.0
+    assert fast["success_last"] == 1.0 and slow["success_last"] == pytest.approx(0.75)
+    assert slow["collision_last"] == pytest.approx(0.25) and slow["steps"] == 432
+    assert compare_runs(runs, at=640)[1]["at"] is None  # "slow" ended at 432 steps
+    assert compare_runs(runs, at=640)[0]["at"]["steps"] == 632
+    with pytest.raises(ValueError, match="'empty' has no learning curve"):
+        compare_runs({"empty": {"command": "", "curve": []}}, at=100)
+    path = tmp_path / "runs.json"
+    path.write_text(json.dumps({"runs": runs}))
+    main([str(path), "--at", "230"])
+    out = capsys.readouterr().out
+    assert "fast" in out and "slow" in out and "development" in out
