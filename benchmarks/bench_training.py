@@ -144,10 +144,13 @@ def child(
     }
 
 
-def env_alone(task: str, num_envs: int, user_steps: int) -> dict:
-    """The vector env alone for ``user_steps`` steps of all users (random actions, seeded)."""
+def env_alone(task: str, num_envs: int, iterations: int, loop_users: int) -> dict:
+    """The vector env of ``num_envs`` users alone (random actions, seeded) for as many user-steps
+    as ``iterations`` PPO iterations of ``loop_users`` users take."""
     sys.path.insert(0, str(ROOT))
-    import agents.learned.train  # noqa: F401  (the trainer's thread settings)
+    import agents.learned.train as learned  # the trainer's thread settings
+
+    user_steps = iterations * learned.defaults_ppo()["n_steps"] * loop_users
 
     # isort: split
     import numpy as np
@@ -195,6 +198,19 @@ def run(config: str, args: argparse.Namespace) -> dict:
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
+def _user_counts(text: str) -> list[int]:
+    """``--env-alone``'s numbers of users: integers >= 1 joined by commas."""
+    try:
+        counts = [int(n) for n in text.split(",")]
+    except ValueError:
+        counts = []
+    if not counts or min(counts) < 1:
+        raise argparse.ArgumentTypeError(
+            f"{text!r}: give numbers of users >= 1 joined by commas, e.g. 32,256"
+        )
+    return counts
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--task", default="approach")
@@ -219,6 +235,7 @@ def main() -> None:
     )
     parser.add_argument(
         "--env-alone",
+        type=_user_counts,
         metavar="N,N,...",
         help="also time the env alone (random actions, no trainer) at these numbers of users",
     )
@@ -227,8 +244,7 @@ def main() -> None:
     args = parser.parse_args()
     if args.child and args.child.startswith("env_alone:"):
         n = int(args.child.split(":")[1])
-        steps = args.iterations * 256 * args.num_envs
-        print(json.dumps(env_alone(args.task, n, steps)))
+        print(json.dumps(env_alone(args.task, n, args.iterations, args.num_envs)))
         return
     if args.child:
         print(
@@ -281,7 +297,7 @@ def measure(args: argparse.Namespace) -> None:
     )
     configs = (*CONFIGS, "baseline") if args.baseline else CONFIGS
     if args.env_alone:
-        configs = (*configs, *(f"env_alone:{int(n)}" for n in args.env_alone.split(",")))
+        configs = (*configs, *(f"env_alone:{n}" for n in args.env_alone))
     runs: dict[str, list[dict]] = {c: [] for c in configs}
     for i in range(args.repeats):
         for config in configs:
