@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import logging
 import socket
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from typing import Any
 
 __all__ = [
@@ -33,8 +33,10 @@ __all__ = [
     "MAX_RETRIES",
     "RAY_HINT",
     "BackendError",
+    "cancel_pending",
     "describe_job",
     "import_ray",
+    "ray_results",
     "run_jobs_ray",
 ]
 
@@ -109,24 +111,12 @@ def run_jobs_ray(jobs: list, address: str | None, progress: bool) -> Iterator[li
             remote = ray.remote(num_cpus=1, max_retries=MAX_RETRIES)(_job)
             pending = {remote.remote(job): job for job in jobs}
             failed: list[tuple[tuple, BaseException]] = []
-            while pending:
-                try:
-                    ready, _ = ray.wait(list(pending), num_returns=1)
-                except ray.exceptions.RaySystemError as err:
-                    raise BackendError(
-                        f"lost the Ray cluster mid-run ({_first_line(err)}); "
-                        f"{_lost(pending.values())}",
-                        partial=True,
-                    ) from err
-                for ref in ready:
-                    job = pending.pop(ref)
-                    try:
-                        done = ray.get(ref)
-                    except ray.exceptions.RayError as err:  # retries spent, or the code raised
-                        failed.append((job, err))
-                        continue
-                    yield done
-                    bar.advance(task, len(done))
+            for job, done, err in ray_results(ray, pending, _lost):
+                if err is not None:
+                    failed.append((job, err))
+                    continue
+                yield done
+                bar.advance(task, len(done))
         if failed:
             lines = [f"  {describe_job(job)}: {_cause(err)}" for job, err in failed]
             raise BackendError(
@@ -135,13 +125,48 @@ def run_jobs_ray(jobs: list, address: str | None, progress: bool) -> Iterator[li
                 partial=True,
             )
     finally:  # Ctrl-C or an error: stop what still runs
-        for ref in pending:
-            try:
-                ray.cancel(ref, force=True)
-            except Exception:  # the cluster may be gone already
-                pass
+        cancel_pending(ray, pending)
         if started:
             ray.shutdown()
+
+
+def ray_results(
+    ray: Any, pending: dict[Any, Any], unfinished: Callable[[Iterable[Any]], str]
+) -> Iterator[tuple[Any, Any, BaseException | None]]:
+    """The Ray tasks of ``pending`` (a task's reference: what it stands for) as each finishes:
+    ``(what, result, None)``, or ``(what, None, error)`` where its retries were spent or its
+    code raised. A finished task leaves ``pending``, so that what is left there is what to
+    cancel (:func:`cancel_pending`) when the caller stops early.
+
+    Raises:
+        BackendError: the cluster lost mid-run, naming ``unfinished(pending.values())``.
+    """
+    while pending:
+        try:
+            ready, _ = ray.wait(list(pending), num_returns=1)
+        except ray.exceptions.RaySystemError as err:
+            raise BackendError(
+                f"lost the Ray cluster mid-run ({_first_line(err)}); "
+                f"{unfinished(pending.values())}",
+                partial=True,
+            ) from err
+        for ref in ready:
+            what = pending.pop(ref)
+            try:
+                result = ray.get(ref)
+            except ray.exceptions.RayError as err:  # retries spent, or the code raised
+                yield what, None, err
+                continue
+            yield what, result, None
+
+
+def cancel_pending(ray: Any, pending: dict[Any, Any]) -> None:
+    """Cancel the Ray tasks still in ``pending`` (the cluster may be gone already)."""
+    for ref in pending:
+        try:
+            ray.cancel(ref, force=True)
+        except Exception:  # the cluster may be gone already
+            pass
 
 
 def describe_job(job: tuple) -> str:

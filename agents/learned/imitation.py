@@ -154,13 +154,14 @@ def check_imitation(
     imitate: str,
     init: Any = None,
     recurrent: bool = False,
-    n_techniques: int = 1,
+    cells: Any = (),
     env_workers: int = 1,
 ) -> None:
     """Whether a training run can start from an imitation of the scripted user ``imitate``: a
     registered scripted user, a new feed-forward policy (no ``init``, not ``recurrent``), the
-    users of one technique (one population or a mix of them: the scripted user is built for one
-    technique's body) stepped in this process.
+    users of one technique (``cells``, :func:`~agents.learned.mixed_env.training_cells`: one
+    population or a mix of them, since the scripted user is built for one technique's body)
+    stepped in this process.
 
     Raises:
         ValueError: naming what stands in the way (an unknown name lists the scripted users).
@@ -174,7 +175,7 @@ def check_imitation(
     for bad, why in (
         (init is not None, "a new policy, not init's"),
         (recurrent, "a feed-forward policy, not a recurrent one"),
-        (n_techniques > 1, "one technique's users, not a mix of techniques"),
+        (len({str(c[0]) for c in cells}) > 1, "one technique's users, not a mix of techniques"),
         (env_workers > 1, "users stepped in this process (env_workers=1)"),
     ):
         if bad:
@@ -208,7 +209,7 @@ def scripted_teacher(name: str, users: Any) -> Any:
     parts = getattr(users, "parts", None)
     if parts is None:
         return make_policy(name, ObservationLayout.from_env(users), params_from_env(users))
-    richest = max(parts, key=lambda p: len(p.unwrapped.core.spec.fields))
+    richest = parts[users.richest]
     bodies = [params_from_env(p) for p in parts]
     if any(b != bodies[0] for b in bodies[1:]):
         raise ValueError(

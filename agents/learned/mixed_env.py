@@ -83,8 +83,9 @@ class MixedUsersEnv(gym.vector.VectorEnv):
         if len(tasks) != 1:
             raise ValueError(f"a mix of cells trains one task, got {sorted(tasks)}")
         self.task_name = tasks.pop()
-        richest = max(range(len(cores)), key=lambda i: len(cores[i].observation_spec.fields))
-        self.observation_spec = cores[richest].observation_spec
+        #: the part whose observation fields every part's are read into
+        self.richest = max(range(len(cores)), key=lambda i: len(cores[i].observation_spec.fields))
+        self.observation_spec = cores[self.richest].observation_spec
         layout = observation_layout(self.observation_spec)
         self._columns = []
         for name, core in zip(names, cores, strict=True):

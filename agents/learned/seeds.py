@@ -135,7 +135,7 @@ def _check_run(task: str, train_kwargs: dict[str, Any]) -> None:
             train_kwargs["imitate"],
             train_kwargs.get("init"),
             train_kwargs.get("recurrent", False),
-            len({str(c[0]) for c in cells}),
+            cells,
             train_kwargs.get("env_workers", 1),
         )
 
@@ -175,8 +175,9 @@ def _train_seeds_ray(
         BackendError,
         _cause,
         _connect,
-        _first_line,
+        cancel_pending,
         import_ray,
+        ray_results,
     )
 
     ray = import_ray()
@@ -189,35 +190,23 @@ def _train_seeds_ray(
     pending = {remote.remote(task, s, kwargs, threads): s for s in seeds}
     paths: dict[int, Path] = {}
     failed: list[tuple[int, BaseException]] = []
+
+    def unfinished(left: Any) -> str:
+        return f"seeds {', '.join(map(str, sorted(left)))} unfinished"
+
     try:
-        while pending:
-            try:
-                ready, _ = ray.wait(list(pending), num_returns=1)
-            except ray.exceptions.RaySystemError as err:
-                raise BackendError(
-                    f"lost the Ray cluster mid-run ({_first_line(err)}); seeds "
-                    f"{', '.join(map(str, sorted(pending.values())))} "
-                    "unfinished",
-                    partial=True,
-                ) from err
-            for ref in ready:
-                s = pending.pop(ref)
-                try:
-                    name, files = ray.get(ref)
-                except ray.exceptions.RayError as err:  # retries spent, or the code raised
-                    failed.append((s, err))
-                    continue
-                for rel, data in files.items():
-                    (folders[s] / rel).parent.mkdir(parents=True, exist_ok=True)
-                    (folders[s] / rel).write_bytes(data)
-                paths[s] = folders[s] / name
-                print(f"seed {s}: trained ({len(paths)} of {len(seeds)}), in {folders[s]}")
+        for s, result, err in ray_results(ray, pending, unfinished):
+            if err is not None:
+                failed.append((s, err))
+                continue
+            name, files = result
+            for rel, data in files.items():
+                (folders[s] / rel).parent.mkdir(parents=True, exist_ok=True)
+                (folders[s] / rel).write_bytes(data)
+            paths[s] = folders[s] / name
+            print(f"seed {s}: trained ({len(paths)} of {len(seeds)}), in {folders[s]}")
     except BaseException as err:
-        for ref in pending:
-            try:
-                ray.cancel(ref, force=True)
-            except Exception:  # the cluster may be gone already
-                pass
+        cancel_pending(ray, pending)
         if isinstance(err, KeyboardInterrupt):
             print(
                 f"interrupted: cancelled {len(pending)} seed runs on Ray; kept the "

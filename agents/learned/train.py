@@ -220,7 +220,7 @@ def train_ppo(
         settings["n_steps"] = load_ppo(Path(init)).n_steps
     cells = training_cells(technique, population, variability)
     if imitate is not None:
-        check_imitation(imitate, init, recurrent, len({str(c[0]) for c in cells}), env_workers)
+        check_imitation(imitate, init, recurrent, cells, env_workers)
     technique, population, variability = cells[0]  # a mix's settings: its first cell's
     env_kwargs = env_settings(
         task, sensor_preset, technique, population, condition, **_reward_kwargs(reward)
