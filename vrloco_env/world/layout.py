@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
-from dataclasses import astuple, dataclass, field, fields, replace
+from dataclasses import dataclass, field, fields, replace
 from functools import cached_property
 
 import numpy as np
@@ -374,7 +374,7 @@ def finish_layout(
     key = (
         task,
         layout.bounds,
-        tuple((type(s).__name__, astuple(s)) for s in layout.solids),
+        layout.solids,  # frozen dataclasses: equal by type and fields
         layout.start[:2],
         layout.goal,
         layout.goal_radius,
@@ -391,7 +391,7 @@ def finish_layout(
             bounds,
             start,
             layout.in_goal,
-            layout.nearest_goal_point,
+            (*layout.goal, layout.goal_radius, math.nan if goal_line is None else goal_line[0][0]),
             cfg.avatar_radius,
             cfg.grid_resolution,
         )

@@ -18,6 +18,7 @@ from numpy.typing import NDArray
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
+from vrloco_env.world._planning_numba import relax_pass
 from vrloco_env.world.geometry import _sdf, _segments_clear, _Solids
 
 __all__: list[str] = []
@@ -28,16 +29,17 @@ def _plan(
     bounds: tuple[float, float, float, float],
     start: NDArray[np.float64],
     goal_test: Callable[[NDArray[np.float64]], NDArray[np.bool_]],
-    goal_project: Callable[[NDArray[np.float64]], NDArray[np.float64]],
+    goal: tuple[float, float, float, float],
     radius: float,
     h: float,
 ) -> NDArray[np.float64] | None:
     """Shortest collision-free path (M, 2) for a disc of ``radius`` from ``start`` to the goal.
 
-    ``goal_test(points (P, 2)) -> bool (P,)`` defines the goal region and ``goal_project`` maps
-    points to their nearest goal point. Returns None if the goal region cannot be reached on the
-    grid inflated by ``radius + h``. The grid path is then shortened against the exact geometry
-    (:func:`_string_pull`, :func:`_relax`), keeping a clearance of at least ``radius``.
+    ``goal_test(points (P, 2)) -> bool (P,)`` tests points against the goal region, which
+    ``goal`` gives as numbers (:func:`_relax`). Returns None if the goal region cannot be
+    reached on the grid inflated by ``radius + h``. The grid path is then shortened against the
+    exact geometry (:func:`_string_pull`, :func:`_relax`), keeping a clearance of at least
+    ``radius``.
     """
     xmin, xmax, ymin, ymax = bounds
     xs = np.arange(xmin + h / 2.0, xmax, h)
@@ -79,7 +81,7 @@ def _plan(
     pts[0] = start
     pulled = _string_pull(solids, pts, radius, h)
     path = _trim(pulled if goal_test(pulled).any() else pts, goal_test)  # type: ignore[operator]
-    relaxed = _relax(solids, path, radius, h, goal_test, goal_project)
+    relaxed = _relax(solids, path, radius, h, goal)
     # Relaxing can, rarely, pull the end back out of the goal region (seed 322 of the Approach
     # room did): then the unrelaxed path, slightly longer but valid, is kept.
     return _trim(relaxed, goal_test) if goal_test(relaxed).any() else path  # type: ignore[operator]
@@ -125,77 +127,40 @@ def _relax(
     path: NDArray[np.float64],
     radius: float,
     h: float,
-    goal_test: Callable[[NDArray[np.float64]], NDArray[np.bool_]],
-    goal_project: Callable[[NDArray[np.float64]], NDArray[np.float64]],
+    goal: tuple[float, float, float, float],
     passes: int = 30,
     split: float = 0.4,
 ) -> NDArray[np.float64]:
     """Shorten a clear path by moving its vertices while it stays clear.
 
-    Each pass splits legs longer than ``split`` m (so the path can wrap round a cylinder or a
-    corner's clearance circle), then moves every vertex after the start, in turn, as far as
-    clearance allows toward the nearest point of the line through its neighbours (the last
-    vertex: toward the goal point nearest to its predecessor; the move is searched on 17 steps,
-    then 15 finer ones), and drops vertices whose neighbours see each other. No move lengthens the
-    path (the leg-length sum is convex along the move), and passes stop once they gain < 1 mm.
-    The result hugs the solids at a clearance of ``radius + h / 8`` with polygonal arcs: about
-    1 % longer than the true shortest path (``tests/test_vrloco_env/world/test_rooms.py``, the
-    taut-string case).
+    Each pass (:func:`~vrloco_env.world._planning_numba.relax_pass`) splits legs longer than
+    ``split`` m (so the path can wrap round a cylinder or a corner's clearance circle), then moves
+    every vertex after the start, in turn, as far as clearance allows toward the nearest point of
+    the line through its neighbours (the last vertex: toward the goal point nearest to its
+    predecessor; the move is searched on 17 steps, then 15 finer ones), and drops vertices whose
+    neighbours see each other. No move lengthens the path (the leg-length sum is convex along the
+    move), and passes stop once they gain < 1 mm. The result hugs the solids at a clearance of
+    ``radius + h / 8`` with polygonal arcs: about 1 % longer than the true shortest path
+    (``tests/test_vrloco_env/world/test_rooms.py``, the taut-string case). ``goal`` is the goal
+    region as ``(x, y, radius, line_x)``: the disc, or where ``line_x`` is not NaN the half-plane
+    ``x >= line_x``.
     """
-    coarse = np.linspace(1.0, 0.0, 17)
     length = _path_length(path)
     for _ in range(passes):
-        legs = np.hypot(*np.diff(path, axis=0).T)
-        n_split = np.ceil(legs / split).astype(int)
-        # Only legs that pass near a solid need extra vertices.
-        near = ~_clear(solids, path[:-1], path[1:], radius + 0.3, h)
-        parts = [path[:1]]
-        for a, b, n in zip(path[:-1], path[1:], np.where(near, n_split, 1), strict=True):
-            parts.append(a + (b - a) * (np.arange(1, max(n, 1) + 1) / max(n, 1))[:, None])
-        path = np.concatenate(parts)
-        for k in range(1, path.shape[0]):
-            v, prev = path[k], path[k - 1]
-            last = k == path.shape[0] - 1
-            if last:
-                target = goal_project(prev[None])[0]
-            else:
-                nxt = path[k + 1]
-                ab = nxt - prev
-                s = np.clip(np.dot(v - prev, ab) / max(float(np.dot(ab, ab)), 1e-18), 0.0, 1.0)
-                target = prev + s * ab
-
-            def feasible(t: NDArray[np.float64]) -> NDArray[np.bool_]:
-                cand = v + t[:, None] * (target - v)  # noqa: B023 (used at once)
-                before = np.repeat(prev[None], t.size, 0)  # noqa: B023
-                if last:  # noqa: B023
-                    return _clear(solids, before, cand, radius, h) & goal_test(cand)
-                after = np.repeat(nxt[None], t.size, 0)  # noqa: B023
-                both = _clear(
-                    solids, np.concatenate([before, cand]), np.concatenate([cand, after]), radius, h
-                )
-                return both[: t.size] & both[t.size :]
-
-            ok = feasible(coarse)
-            if not ok.any():
-                continue
-            i = int(np.argmax(ok))
-            best = coarse[i]
-            if i > 0:
-                fine = np.linspace(coarse[i - 1], coarse[i], 17)[1:-1]
-                ok_f = feasible(fine)
-                if ok_f.any():
-                    best = fine[int(np.argmax(ok_f))]
-            path[k] = v + best * (target - v)
-        keep = [0]
-        for k in range(1, path.shape[0] - 1):
-            if not _clear(solids, path[keep[-1]][None], path[k + 1][None], radius, h)[0]:
-                keep.append(k)
-        path = path[[*keep, path.shape[0] - 1]]
+        path = relax_pass(
+            *solids.kernel_args, np.ascontiguousarray(path), radius, h, *goal, _COARSE, _FINE, split
+        )
         new = _path_length(path)
         if length - new < 1e-3:
             break
         length = new
     return path
+
+
+#: The move's search: fractions of the way to the target, falling from 1 to 0, and between each
+#: two (row ``i - 1``: from ``_COARSE[i - 1]`` to ``_COARSE[i]``, both left out).
+_COARSE = np.linspace(1.0, 0.0, 17)
+_FINE = np.stack([np.linspace(_COARSE[i - 1], _COARSE[i], 17)[1:-1] for i in range(1, 17)])
 
 
 def _trim(path: NDArray[np.float64], goal_test: object) -> NDArray[np.float64]:

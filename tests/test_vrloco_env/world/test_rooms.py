@@ -363,3 +363,57 @@ def test_a_rooms_path_is_planned_once_and_equals_a_fresh_plan(monkeypatch):
     np.testing.assert_array_equal(fresh.path, first.path)
     other = avoid_layout(CFG, np.random.default_rng(6))
     assert other.obstacles != first.obstacles and not np.array_equal(other.path, first.path)
+
+
+def test_the_compiled_relaxation_equals_its_python_source_on_rooms_of_every_goal_kind():
+    """One relaxation pass, compiled and as Python (its ``py_func``), on the grid paths of a disc
+    goal (Approach, Interact) and an end line (Avoid): the same path, bit for bit; the pass
+    moves each path and lengthens none."""
+    from vrloco_env.world import _planning_numba, planning
+
+    for task, seed in (("approach", 3), ("avoid", 4), ("interact", 5)):
+        lay = make_layout(task, CFG, np.random.default_rng(seed))
+        line = np.nan if lay.goal_line is None else lay.goal_line[0][0]
+        goal = (*lay.goal, lay.goal_radius, line)
+        # a detour through the room's start, a point off the path and the path's end
+        rough = np.array([lay.start[:2], lay.path[len(lay.path) // 2] + 0.05, lay.path[-1]])
+        args = (
+            *lay._packed.kernel_args,
+            rough,
+            CFG.avatar_radius,
+            CFG.grid_resolution,
+            *goal,
+            planning._COARSE,
+            planning._FINE,
+            0.4,
+        )
+        compiled = _planning_numba.relax_pass(*args)
+        python = _planning_numba.relax_pass.py_func(*args)
+        np.testing.assert_array_equal(compiled, python, err_msg=task)
+        assert compiled.shape != rough.shape or not np.array_equal(compiled, rough), task
+        assert planning._path_length(compiled) <= planning._path_length(rough) + 1e-12, task
+
+
+def test_the_relaxations_goal_region_is_the_layouts():
+    """The compiled pass tests and projects onto the goal region as :meth:`Layout.in_goal` and
+    :meth:`Layout.nearest_goal_point` do, to the last bit, for a disc and an end line."""
+    from vrloco_env.world._planning_numba import _in_goal, _nearest_goal_point
+
+    rng = np.random.default_rng(0)
+    for task in ("approach", "avoid"):
+        lay = make_layout(task, CFG, np.random.default_rng(1))
+        line = np.nan if lay.goal_line is None else lay.goal_line[0][0]
+        goal = (*lay.goal, lay.goal_radius, line)
+        # points around the goal, some inside, some on the region's edge
+        pts = np.concatenate(
+            [
+                rng.uniform(-4.0, 4.0, (200, 2)),
+                np.asarray(lay.goal) + rng.normal(0.0, lay.goal_radius, (200, 2)),
+                lay.nearest_goal_point(rng.uniform(-4.0, 4.0, (50, 2))),
+            ]
+        )
+        inside = np.array([_in_goal(x, y, *goal) for x, y in pts])
+        nearest = np.array([_nearest_goal_point(x, y, *goal) for x, y in pts])
+        np.testing.assert_array_equal(inside, lay.in_goal(pts), err_msg=task)
+        np.testing.assert_array_equal(nearest, lay.nearest_goal_point(pts), err_msg=task)
+        assert inside.any() and not inside.all(), task
