@@ -29,6 +29,17 @@ def cmd_train(args: argparse.Namespace) -> int:
             print("vrloco train: --init needs --backend local or ray", file=sys.stderr)
             return 2
         common["init"] = args.init
+    if args.rollout_steps is not None:
+        if args.backend == "rllib":
+            print("vrloco train: --rollout-steps needs --backend local or ray", file=sys.stderr)
+            return 2
+        if args.init is not None:
+            print(
+                "vrloco train: --init keeps the model's own rollout steps; drop --rollout-steps",
+                file=sys.stderr,
+            )
+            return 2
+        common["n_steps"] = args.rollout_steps
     if args.env_workers != 1:
         if args.backend == "rllib":
             print("vrloco train: --env-workers needs --backend local or ray", file=sys.stderr)

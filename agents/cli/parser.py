@@ -425,6 +425,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="users stepped together (rllib: in each env runner)",
     )
     train.add_argument(
+        "--rollout-steps",
+        type=_int_at_least(1),
+        metavar="N",
+        help="each user's steps per PPO rollout (stable-baselines3's n_steps; a rollout is "
+        "N x --num-envs steps; default 256; --init keeps the model's own)",
+    )
+    train.add_argument(
         "--sensors", type=_preset, help="IMU preset (default: the technique's; ig500n)"
     )
     train.add_argument(

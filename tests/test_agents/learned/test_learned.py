@@ -641,13 +641,15 @@ def test_train_passes_the_cell_and_the_policy_options_on(tmp_path, monkeypatch, 
                 "--recurrent",
                 "--reward",
                 "collision=10,time=0.02",
+                "--rollout-steps",
+                "64",
                 "--out",
                 str(tmp_path),
             ]
         )
         == 0
     )
-    assert seen["task"] == "reach" and seen["seeds"] == [0]
+    assert seen["task"] == "reach" and seen["seeds"] == [0] and seen["n_steps"] == 64
     assert seen["reward"] == RewardConfig(collision=10.0, time=0.02)  # the rest: defaults
     assert {
         k: seen[k]

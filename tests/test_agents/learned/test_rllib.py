@@ -95,6 +95,10 @@ def test_train_options_that_need_a_backend(capsys):
     assert "--env-runners needs --backend rllib" in capsys.readouterr().err
     assert main(["train", "--address", "auto"]) == 2
     assert "--address needs --backend ray or rllib" in capsys.readouterr().err
+    assert main(["train", "--backend", "rllib", "--rollout-steps", "64"]) == 2
+    assert "--rollout-steps needs --backend local or ray" in capsys.readouterr().err
+    assert main(["train", "--init", "model.zip", "--rollout-steps", "64"]) == 2
+    assert "--init keeps the model's own rollout steps" in capsys.readouterr().err
 
 
 def test_without_rllib_the_error_says_how_to_install_it(monkeypatch, capsys):
