@@ -39,6 +39,10 @@ must train the same weights: the script checks their SHA-256 and says whether th
 in the last bits where that count is not one. No evaluation, no checkpoints, no TensorBoard: the
 loop alone.
 
+A random policy's episodes run their whole horizon, so these iterations hardly reset a user and
+hardly draw a room; a whole run, whose learner soon ends episodes early, also spends its time
+drawing rooms and playing its evaluations, which ``benchmarks/profile_training.py`` times.
+
 How much the vrloco configuration gains depends on the other load on the cores: actively
 waiting OpenMP threads cost little while every core is free and a great deal while another
 process holds one (each parallel region of the env's kernels then waits for a thread that has
