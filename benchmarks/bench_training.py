@@ -66,6 +66,20 @@ ROOT = Path(__file__).resolve().parents[1]
 CONFIGS = ("default", "one_thread", "vrloco", "workers")
 
 
+def timed(owner: object, name: str, spent: dict[str, float], key: str) -> None:
+    """Add the time of every call of ``owner.name`` to ``spent[key]``."""
+    call = getattr(owner, name)
+
+    def wrapper(*args, **kwargs):
+        t0 = time.perf_counter()
+        try:
+            return call(*args, **kwargs)
+        finally:
+            spent[key] += time.perf_counter() - t0
+
+    setattr(owner, name, wrapper)
+
+
 def child(
     config: str, task: str, num_envs: int, iterations: int, workers: int, root: Path = ROOT
 ) -> dict:
@@ -111,23 +125,10 @@ def child(
         model = learned.make_model(venv, seed=0, **settings)
         callback = learned.OneTorchThread()
     spent = {"env": 0.0, "collect": 0.0, "update": 0.0}
-
-    def timed(obj: object, name: str, key: str) -> None:
-        call = getattr(obj, name)
-
-        def wrapper(*args, **kwargs):
-            t0 = time.perf_counter()
-            try:
-                return call(*args, **kwargs)
-            finally:
-                spent[key] += time.perf_counter() - t0
-
-        setattr(obj, name, wrapper)
-
-    timed(inner, "reset", "env")
-    timed(inner, "step_wait", "env")
-    timed(model, "collect_rollouts", "collect")
-    timed(model, "train", "update")
+    timed(inner, "reset", spent, "env")
+    timed(inner, "step_wait", spent, "env")
+    timed(model, "collect_rollouts", spent, "collect")
+    timed(model, "train", spent, "update")
     t0 = time.perf_counter()
     model.learn(steps, callback=callback)
     wall = time.perf_counter() - t0

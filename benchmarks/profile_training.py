@@ -31,23 +31,10 @@ import agents.learned.evaluate as evaluate  # first: the trainer's thread settin
 import agents.learned.train as train
 
 # isort: split
+from bench_training import timed  # this script's folder
 from stable_baselines3 import PPO
 
 from vrloco_env.tasks.base import Task
-
-
-def timed(owner: object, name: str, spent: dict[str, float], key: str) -> None:
-    """Add the time of every call of ``owner.name`` to ``spent[key]``."""
-    call = getattr(owner, name)
-
-    def wrapper(*args, **kwargs):
-        t0 = time.perf_counter()
-        try:
-            return call(*args, **kwargs)
-        finally:
-            spent[key] += time.perf_counter() - t0
-
-    setattr(owner, name, wrapper)
 
 
 def main() -> None:
