@@ -28,7 +28,7 @@ from typing import Any
 
 from estimators.registry import Registry
 
-__all__ = ["LEARNED_USERS", "LearnedUser", "shipped_user"]
+__all__ = ["LEARNED_USERS", "NOT_SHIPPED", "LearnedUser", "shipped_user"]
 
 HERE = Path(__file__).resolve().parent
 
@@ -108,16 +108,25 @@ LEARNED_USERS.register(
 )
 
 
+#: task -> why no learned user is shipped for it (where one was tried), with where it is shown.
+NOT_SHIPPED: dict[str, str] = {
+    "interact": "its learners stayed below the goal seeker under the user populations "
+    "(docs/results/learned-users.md, 'Reach and Interact')",
+}
+
+
 def shipped_user(task: str) -> LearnedUser:
     """The shipped learned user of ``task``.
 
     Raises:
-        ValueError: no user is shipped for ``task`` (naming the tasks that have one).
+        ValueError: no user is shipped for ``task`` (naming the tasks that have one, and why
+            none is shipped for ``task`` where :data:`NOT_SHIPPED` says).
     """
     if task not in LEARNED_USERS:
         shipped = ", ".join(n for n, u in LEARNED_USERS.items() if n == u.task) or "none yet"
+        why = f": {NOT_SHIPPED[task]}" if task in NOT_SHIPPED else ""
         raise ValueError(
-            f"policy 'ppo': no learned user is shipped for task {task!r} (shipped: {shipped}); "
-            "train one with vrloco train --task " + str(task)
+            f"policy 'ppo': no learned user is shipped for task {task!r} (shipped: {shipped})"
+            f"{why}; train one with vrloco train --task {task}"
         )
     return LEARNED_USERS[task]
