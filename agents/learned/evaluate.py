@@ -5,6 +5,7 @@ separately seeded episodes (:func:`run_policy_episodes`, the training's evaluati
 
 from __future__ import annotations
 
+import copy
 from pathlib import Path
 from typing import Any
 
@@ -26,36 +27,56 @@ __all__ = ["evaluate_model"]
 def run_policy_episodes(model: Any, env: VRLocoVectorEnv, seed: int) -> dict[str, float]:
     """One episode per sub-env with the deterministic policy; success, collision rate, return.
     A recurrent model (sb3-contrib's ``RecurrentPPO``) carries its LSTM state from step to step,
-    each user's started afresh with its episode."""
+    each user's started afresh with its episode.
+
+    Where ``env`` can drop users (``can_take_users``: the native vector env, frame-stacked or
+    not) and the model is feed-forward, a user whose episode has ended leaves a copy of ``env``
+    (``env`` itself keeps its users), so that the rest are not slowed by finished users playing
+    on; the model still acts on the whole batch, each finished user's row holding its last
+    observation, so that it sees batches of the same size as without the drop and acts the same
+    to the last bit. Each user's episode goes on exactly as it would have (:meth:`take_users
+    <vrloco_env.vector.VRLocoVectorEnv.take_users>`): the result is the same either way."""
+    recurrent = is_recurrent(model)
+    drops = bool(getattr(env, "can_take_users", False)) and not recurrent
+    if drops:
+        env = copy.deepcopy(env)
     obs, _ = env.reset(seed=seed)
     n = env.num_envs
+    seen = np.array(obs, copy=True)  # every user's row of the batch the model acts on
+    rows = np.arange(n)  # the env's users, as rows of the batch
     done = np.zeros(n, bool)
     success = np.zeros(n, bool)
     collided = np.zeros(n, bool)
     returns = np.zeros(n)
     want = (n, *env.single_action_space.shape)
-    recurrent = is_recurrent(model)
     state, starts = None, np.ones(n, bool)
     while not done.all():
         if recurrent:
             action, state = model.predict(
-                obs, state=state, episode_start=starts, deterministic=True
+                seen, state=state, episode_start=starts, deterministic=True
             )
         else:
-            action, _ = model.predict(obs, deterministic=True)
+            action, _ = model.predict(seen, deterministic=True)
         if np.shape(action) != want:
             raise ValueError(
                 f"model {type(model).__name__} returned actions of shape {np.shape(action)} "
                 f"from predict(); expected {want} (one row of {want[1]} per user)"
             )
-        obs, reward, terminated, truncated, info = env.step(action)
-        starts = terminated | truncated
-        live = ~done
-        returns += np.where(live, reward, 0.0)
-        collided |= live & info["collision"]
-        ended = live & (terminated | truncated)
-        success |= ended & info["is_success"]
-        done |= ended
+        obs, reward, terminated, truncated, info = env.step(np.asarray(action)[rows])
+        ended_here = np.asarray(terminated | truncated)
+        starts = np.zeros(n, bool)
+        starts[rows] = ended_here
+        live = ~done[rows]
+        returns[rows] += np.where(live, reward, 0.0)
+        collided[rows] |= live & info["collision"]
+        ended = live & ended_here
+        success[rows] |= ended & info["is_success"]
+        done[rows] |= ended
+        seen[rows] = obs
+        if drops and ended.any() and not done.all():
+            keep = np.flatnonzero(~done[rows])
+            env.take_users(keep)
+            rows = rows[keep]
     return {
         "success_rate": float(success.mean()),
         "collision_rate": float(collided.mean()),

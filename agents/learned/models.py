@@ -247,3 +247,16 @@ class ModelFields(gym.vector.VectorWrapper):
         if "final_obs" in info:
             info = {**info, "final_obs": self._read(info["final_obs"])}
         return self._read(obs), reward, terminated, truncated, info
+
+    @property
+    def can_take_users(self) -> bool:
+        """Whether :meth:`take_users` works (the wrapped env can drop users)."""
+        return bool(getattr(self.env, "can_take_users", False))
+
+    def take_users(self, rows: Any) -> None:
+        """Keep the users ``rows`` of the wrapped env (:meth:`VRLocoVectorEnv.take_users
+        <vrloco_env.vector.VRLocoVectorEnv.take_users>`)."""
+        self.env.take_users(rows)
+        self.observation_space = gym.vector.utils.batch_space(
+            self.single_observation_space, self.env.num_envs
+        )

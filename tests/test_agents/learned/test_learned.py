@@ -443,6 +443,45 @@ def test_a_model_predicting_the_wrong_shape_is_named():
         run_policy_episodes(Wide(), VRLocoVectorEnv(2, task="avoid"), seed=0)
 
 
+def test_an_evaluation_that_drops_finished_users_scores_as_one_that_plays_them_on(monkeypatch):
+    """The training's evaluation drops a user whose episode has ended (from a copy of the env)
+    and still gives, to the last bit, what playing every user to the batch's end gives: a PPO
+    policy on frame-stacked, field-read users whose episodes end at their first collision, at
+    different steps."""
+    import torch
+    from stable_baselines3 import PPO
+
+    from agents.learned.evaluate import run_policy_episodes
+    from agents.learned.models import ModelFields
+    from vrloco_env.config import EnvConfig
+    from vrloco_env.wrappers import FrameStack
+
+    inner = VRLocoVectorEnv(12, task="avoid", config=EnvConfig(terminate_on_collision=True))
+    size = inner.single_observation_space.shape[0]
+    env = FrameStack(ModelFields(inner, np.arange(size)), 2)
+    model = PPO("MlpPolicy", SB3VecEnv(env), seed=0, n_steps=64)
+    with torch.no_grad():
+        model.policy.action_net.bias[0] = 1.0  # walk
+    dropped = []
+    take = VRLocoVectorEnv.take_users
+    monkeypatch.setattr(
+        VRLocoVectorEnv,
+        "take_users",
+        lambda self, rows: (dropped.append(len(rows)), take(self, rows)),
+    )
+
+    class PlaysOn:  # the same env, saying it cannot drop users
+        can_take_users = False
+
+        def __getattr__(self, name):
+            return getattr(env, name)
+
+    dropping = run_policy_episodes(model, env, seed=5)
+    assert dropped and min(dropped) < 12 and env.num_envs == 12  # dropped from a copy
+    assert run_policy_episodes(model, PlaysOn(), seed=5) == dropping
+    assert 0.0 < dropping["collision_rate"]
+
+
 def _stacked(history):
     """Each user's frames side by side, oldest first (the reference stacking)."""
     return np.stack([np.concatenate(frames) for frames in history])
