@@ -8,9 +8,10 @@ a disc (``goal_x, goal_y, goal_radius``) or, where ``goal_line_x`` is not NaN, t
 <vrloco_env.world.layout.Layout.in_goal>` and :meth:`Layout.nearest_goal_point
 <vrloco_env.world.layout.Layout.nearest_goal_point>` do.
 
-Every sum, product and ``numpy.hypot`` is the one the numpy version of the relaxation
-computed, in the same order, and the projections onto a neighbour line use ``numpy.dot`` as it
-did (which sums with BLAS, so its rounding is BLAS's), so a plan is the same to the last bit.
+The arithmetic is element by element in the order numpy's array expressions would evaluate it
+(``a + t * (b - a)``, ``numpy.hypot``), and the projections onto a neighbour line use
+``numpy.dot``, which sums with BLAS as numpy's does: the pass rounds as the same computation
+written with numpy arrays, and the paths of the golden episodes replay bit for bit.
 """
 
 from __future__ import annotations
