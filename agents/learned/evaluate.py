@@ -30,7 +30,8 @@ def run_policy_episodes(model: Any, env: VRLocoVectorEnv, seed: int) -> dict[str
     each user's started afresh with its episode.
 
     Where ``env`` can drop users (``can_take_users``: the native vector env, frame-stacked or
-    not) and the model is feed-forward, a user whose episode has ended leaves a copy of ``env``
+    field-read or not; not with a population's variability or a mix of cells) and the model is
+    feed-forward, a user whose episode has ended leaves a copy of ``env``
     (``env`` itself keeps its users), so that the rest are not slowed by finished users playing
     on; the model still acts on the whole batch, each finished user's row holding its last
     observation, so that it sees batches of the same size as without the drop and acts the same
