@@ -21,7 +21,7 @@ import math
 import numba
 import numpy as np
 
-from vrloco_env.world.geometry import _sdf_point
+from vrloco_env.world.geometry import _segment_clear
 
 __all__ = ["relax_pass"]
 
@@ -55,22 +55,6 @@ def _samples(length, h):
 
 
 @numba.njit(cache=True)
-def _segment_clear(box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, ax, ay, bx, by, k, thr):
-    """Whether the segment ``a -> b`` keeps a signed distance of at least ``thr`` at its ``k``
-    evenly spaced samples (the sampling of :func:`~vrloco_env.world.geometry._segments_clear`)."""
-    step = 1.0 / (k - 1)
-    sx, sy = bx - ax, by - ay
-    for m in range(k):
-        t = 1.0 if m == k - 1 else m * step
-        d = _sdf_point(
-            box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, 0, ax + sx * t, ay + sy * t
-        )
-        if not d >= thr:
-            return False
-    return True
-
-
-@numba.njit(cache=True)
 def _first_feasible(solids, v, prev, nxt, target, t, last, radius, h, goal):
     """Index of the first ``t[j]`` whose move ``v + t[j] * (target - v)`` keeps both legs (the
     last vertex: its one leg, and the goal region) clear; -1 if none."""
@@ -93,11 +77,11 @@ def _first_feasible(solids, v, prev, nxt, target, t, last, radius, h, goal):
         else:
             ok = _segment_clear(
                 box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok,
-                cx[j], cy[j], nxt[0], nxt[1], k, thr,
+                0, cx[j], cy[j], nxt[0], nxt[1], k, thr,
             )  # fmt: skip
         if ok and _segment_clear(
             box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok,
-            prev[0], prev[1], cx[j], cy[j], k, thr,
+            0, prev[0], prev[1], cx[j], cy[j], k, thr,
         ):  # fmt: skip
             return j
     return -1
@@ -128,7 +112,7 @@ def relax_pass(
     for i in range(m - 1):
         ax, ay, bx, by = path[i, 0], path[i, 1], path[i + 1, 0], path[i + 1, 1]
         if not _segment_clear(
-            box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, ax, ay, bx, by, k_near, thr_near
+            box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, 0, ax, ay, bx, by, k_near, thr_near
         ):
             pieces[i] = max(math.ceil(np.hypot(bx - ax, by - ay) / split), 1)
     out = np.empty((1 + pieces.sum(), 2))
@@ -177,7 +161,7 @@ def relax_pass(
         length = np.hypot(b[0] - a[0], b[1] - a[1])
         if not _segment_clear(
             box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok,
-            a[0], a[1], b[0], b[1], _samples(length, h), thr,
+            0, a[0], a[1], b[0], b[1], _samples(length, h), thr,
         ):  # fmt: skip
             keep[kept] = k
             kept += 1

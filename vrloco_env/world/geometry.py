@@ -157,27 +157,33 @@ def _sdf_run(box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, p, out):
             )
 
 
-def _segments_clear_run(box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, a, b, k, thr, out):
-    """Whether each segment ``a[n, i] -> b[n, i]`` ((N, S, 2) each) of room n keeps a signed
-    distance (:func:`_sdf_point`) of at least ``thr`` at its ``k`` (>= 2) evenly spaced samples,
-    ends included: ``out`` (N, S). Sample m is ``a + (b - a) * t`` at ``t = m * (1 / (k - 1))``
-    (1 for the last), as ``numpy.linspace(0, 1, k)`` gives it; a segment stops at its first
-    sample too close."""
+@numba.njit(cache=True)
+def _segment_clear(box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, n, ax, ay, bx, by, k, thr):
+    """Whether the segment ``(ax, ay) -> (bx, by)`` of room n keeps a signed distance
+    (:func:`_sdf_point`) of at least ``thr`` at its ``k`` (>= 2) evenly spaced samples, ends
+    included. Sample m is ``a + (b - a) * t`` at ``t = m * (1 / (k - 1))`` (1 for the last), as
+    ``numpy.linspace(0, 1, k)`` gives it; the test stops at the first sample too close."""
     step = 1.0 / (k - 1)
+    sx, sy = bx - ax, by - ay
+    for m in range(k):
+        t = 1.0 if m == k - 1 else m * step
+        d = _sdf_point(
+            box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, n, ax + sx * t, ay + sy * t
+        )
+        if not d >= thr:
+            return False
+    return True
+
+
+def _segments_clear_run(box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, a, b, k, thr, out):
+    """Whether each segment ``a[n, i] -> b[n, i]`` ((N, S, 2) each) of room n is clear
+    (:func:`_segment_clear` with ``k`` samples and margin ``thr``): ``out`` (N, S)."""
     for n in numba.prange(a.shape[0]):
         for i in range(a.shape[1]):
-            ax, ay = a[n, i, 0], a[n, i, 1]
-            sx, sy = b[n, i, 0] - ax, b[n, i, 1] - ay
-            ok = True
-            for m in range(k):
-                t = 1.0 if m == k - 1 else m * step
-                d = _sdf_point(
-                    box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok, n, ax + sx * t, ay + sy * t
-                )
-                if not d >= thr:
-                    ok = False
-                    break
-            out[n, i] = ok
+            out[n, i] = _segment_clear(
+                box_c, box_h, box_cs, box_ok, cyl_c, cyl_r, cyl_ok,
+                n, a[n, i, 0], a[n, i, 1], b[n, i, 0], b[n, i, 1], k, thr,
+            )  # fmt: skip
 
 
 @numba.njit(cache=True)

@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from vrloco_env.world._planning_numba import relax_pass
+from vrloco_env.world._planning_numba import _samples, relax_pass
 from vrloco_env.world.geometry import _sdf, _segments_clear, _Solids
 
 __all__: list[str] = []
@@ -96,7 +96,7 @@ def _clear(
     signed distance is 1-Lipschitz, so between samples it stays ``>= radius``.
     """
     seg = b - a
-    k = max(2, math.ceil(float(np.hypot(seg[:, 0], seg[:, 1]).max(initial=0.0)) / (h / 4)) + 1)
+    k = _samples(float(np.hypot(seg[:, 0], seg[:, 1]).max(initial=0.0)), h)
     return _segments_clear(solids, a, b, k, radius + h / 8.0)
 
 
