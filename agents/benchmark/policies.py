@@ -30,6 +30,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from agents.benchmark.variability import HumanVariability, VariabilityParams
 from agents.learned.models import read_fields
+from agents.learned.residual import combine, with_scripted_action
 from agents.scripted import POLICIES, ObservationLayout, make_policy, params_from_env
 from estimators.batching import TakesUsers
 from vrloco_env.user.population import POPULATIONS
@@ -134,7 +135,7 @@ class LearnedPolicy(TakesUsers):
 
     batched = True  # act() takes (B, n) rows, one at a time (see act)
     per_user_fields = ("_fresh", "_state")
-    per_user_parts = ("_frames",)
+    per_user_parts = ("_frames", "_teacher")
 
     def __init__(self, path: str | Path, env: Any, allow_mismatch: bool = False) -> None:
         from agents.learned.models import model_policy, observation_columns
@@ -155,6 +156,13 @@ class LearnedPolicy(TakesUsers):
                 f"{task!r}"
             )
         spec = getattr(env.unwrapped, "observation_spec", None)
+        seen = model_policy(self.model)
+        self.frame_stack, self.recurrent = seen["frame_stack"], seen["recurrent"]
+        self._teacher = None  # the scripted user whose actions the model corrects
+        if seen["residual_on"] is not None:
+            self._teacher = _scripted_user(self.path, seen["residual_on"], env)
+            if spec is not None:
+                spec = with_scripted_action(spec, seen["residual_on"])
         saved = getattr(self.model, "vrloco_observation", None)
         try:
             self._columns = None if spec is None else observation_columns(saved, spec)
@@ -163,8 +171,6 @@ class LearnedPolicy(TakesUsers):
                 f"policy {str(self.path)!r} is stale: {err}; train it again on this "
                 f"version (vrloco train){_trained_on(self.model)}"
             ) from None
-        seen = model_policy(self.model)
-        self.frame_stack, self.recurrent = seen["frame_stack"], seen["recurrent"]
         size = env.unwrapped.observation_space.shape[-1]
         if self._columns is not None:
             size = self._columns.size  # the fields it knows, by name (others left unread)
@@ -191,6 +197,8 @@ class LearnedPolicy(TakesUsers):
         """Start the episodes of ``rows`` (None: every user; the batch size is then that of
         ``rng`` where it is a list, else of the next ``act``): their frames restart from the
         next observation, their recurrent state from zero."""
+        if self._teacher is not None:
+            self._teacher.reset(rows=rows)
         if rows is None:
             n = len(rng) if isinstance(rng, list | tuple) else None
             self._frames = self._state = None
@@ -205,6 +213,10 @@ class LearnedPolicy(TakesUsers):
         episode must not depend on how many users it was batched with."""
         x = np.asarray(obs, dtype=np.float32)
         rows = x.reshape(1, -1) if x.ndim == 1 else x
+        scripted = None
+        if self._teacher is not None:  # what the scripted user does, which the model corrects
+            scripted = np.asarray(self._teacher.act(rows), np.float32).reshape(len(rows), -1)
+            rows = np.concatenate([rows, scripted], axis=1)
         rows = read_fields(rows, self._columns)  # the fields it knows, by name
         n = rows.shape[0]
         if self._fresh is None or self._fresh.shape[0] != n:
@@ -227,6 +239,8 @@ class LearnedPolicy(TakesUsers):
             actions = [self.model.predict(row, deterministic=True)[0] for row in seen]
         self._fresh = np.zeros(n, bool)
         out = np.asarray(actions, dtype=np.float32).reshape(n, -1)
+        if scripted is not None:
+            out = combine(scripted, out)
         return out[0] if x.ndim == 1 else out
 
     def _act_recurrent(self, seen: NDArray[np.float32], fresh: NDArray[np.bool_]) -> list:
@@ -242,6 +256,17 @@ class LearnedPolicy(TakesUsers):
             states.append(np.stack([h, c]))
         self._state = np.asarray(states, dtype=np.float32)
         return actions
+
+
+def _scripted_user(path: Path, name: str, env: Any) -> Any:
+    """The scripted user ``name`` a model at ``path`` corrects, built for ``env``, or a
+    ValueError naming the model and the scripted users there are."""
+    if name not in POLICIES:
+        raise ValueError(
+            f"policy {str(path)!r} corrects the scripted user {name!r}, which is not "
+            f"registered; scripted users: {', '.join(sorted(POLICIES))}"
+        )
+    return make_policy(name, ObservationLayout.from_env(env), params_from_env(env))
 
 
 def _trained_on(model: Any) -> str:

@@ -55,6 +55,11 @@ def cmd_train(args: argparse.Namespace) -> int:
         common["imitate"] = args.imitate
         if args.imitate_steps is not None:
             common["imitate_steps"] = args.imitate_steps
+    if args.residual_on is not None:
+        if args.backend == "rllib":
+            print("vrloco train: --residual-on needs --backend local or ray", file=sys.stderr)
+            return 2
+        common["residual_on"] = args.residual_on
     if args.address is not None and args.backend == "local":
         print("vrloco train: --address needs --backend ray or rllib", file=sys.stderr)
         return 2

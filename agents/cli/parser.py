@@ -495,6 +495,13 @@ def build_parser() -> argparse.ArgumentParser:
         "fine), no --init or --recurrent",
     )
     train.add_argument(
+        "--residual-on",
+        metavar="SCRIPTED_USER",
+        help="learn a correction of this scripted user's actions (e.g. goal_seeker): the policy "
+        "sees its action and adds its own, starting at none (as the scripted user); one "
+        "technique, no --imitate or --recurrent",
+    )
+    train.add_argument(
         "--imitate-steps",
         type=_int_at_least(1),
         metavar="N",

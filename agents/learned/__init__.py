@@ -16,8 +16,9 @@ population (:mod:`vrloco_env.user.population`, its head behaviour in the env) an
 condition (:mod:`agents.benchmark.conditions`); the cell is saved with the model
 (``model.vrloco_cell``) beside the env's settings (``model.vrloco_env``), and so is how the policy
 sees the env (``model.vrloco_policy``: ``frame_stack``, the last k observations side by side
-through :class:`~vrloco_env.wrappers.FrameStack`, and ``recurrent``, sb3-contrib's
-``RecurrentPPO`` with an LSTM policy; :mod:`agents.learned.models`), so that
+through :class:`~vrloco_env.wrappers.FrameStack`, ``recurrent``, sb3-contrib's
+``RecurrentPPO`` with an LSTM policy, and ``residual_on``, the scripted user whose actions the
+policy corrects; :mod:`agents.learned.models`), so that
 :func:`~agents.learned.evaluate.evaluate_model` and the benchmark
 (:class:`agents.benchmark.policies.LearnedPolicy`) play it on its own cell, the way it was trained.
 A run may train on a mix instead (``--technique zhang2021,smooth`` or ``all``, ``--population
@@ -26,7 +27,8 @@ users shared between the cells in one batch (:class:`~agents.learned.mixed_env.M
 the model's cell then lists them, and it plays any of them as its own. A new policy may first
 imitate a scripted user (``--imitate goal_seeker``, :func:`~agents.learned.imitation.imitate`:
 DAgger, the policy's Gaussian and critic fitted to the scripted user's actions and returns)
-before PPO goes on from it.
+before PPO goes on from it; or it may learn a correction of a scripted user's actions
+(``--residual-on goal_seeker``, :mod:`agents.learned.residual`), starting as that user.
 
 Speed. The env's compiled kernels and torch both run OpenMP thread pools on the same cores.
 This package imports :mod:`estimators.kernels` before torch (:mod:`agents.learned.threads`, the

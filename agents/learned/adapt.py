@@ -101,19 +101,28 @@ def adapted_user(
             target.unlink()
     seen = model_policy(base)
     users = VRLocoVectorEnv(num_envs, **settings)
+    learner: Any = users
+    if variability is not None:  # the person acts: what they see is late, what they do varies
+        from agents.learned.variability_env import HumanVariabilityEnv
+
+        learner = HumanVariabilityEnv(learner, variability, seed)
+    spec = users.observation_spec
+    if seen["residual_on"] is not None:  # the scripted user it corrects, built for this cell
+        from agents.learned.imitation import scripted_teacher
+        from agents.learned.residual import ScriptedPlusCorrection
+
+        name = seen["residual_on"]
+        learner = ScriptedPlusCorrection(learner, scripted_teacher(name, users), name, spec)
+        spec = learner.observation_spec
     saved = getattr(base, "vrloco_observation", None)
     try:  # the cell's observation as the model reads it (its fields by name)
-        columns = observation_columns(saved, users.observation_spec)
+        columns = observation_columns(saved, spec)
     except ValueError as err:
         users.close()
         raise ValueError(
             f"the shipped {task} user cannot read the cell's observation: {err}"
         ) from None
-    learner = users if columns is None else ModelFields(users, columns)
-    if variability is not None:
-        from agents.learned.variability_env import HumanVariabilityEnv
-
-        learner = HumanVariabilityEnv(learner, variability, seed)
+    learner = learner if columns is None else ModelFields(learner, columns)
     venv = SB3VecEnv(_wrap(learner, seen["frame_stack"]), seed=seed)
     model = type(base).load(shipped, env=venv)
     model.set_random_seed(seed)
@@ -122,7 +131,7 @@ def adapted_user(
     model.vrloco_env = settings
     model.vrloco_cell = {k: v for k, v in cell.items() if k != "variability"}
     model.vrloco_variability = variability
-    model.vrloco_policy = {"frame_stack": seen["frame_stack"]}
+    model.vrloco_policy = {"frame_stack": seen["frame_stack"], "residual_on": seen["residual_on"]}
     model.vrloco_observation = saved
     folder.mkdir(parents=True, exist_ok=True)
     partial = target.with_suffix(".part.zip")

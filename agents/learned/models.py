@@ -149,10 +149,16 @@ def model_cell(model: Any, settings: dict[str, Any]) -> dict[str, Any]:
 
 def model_policy(model: Any) -> dict[str, Any]:
     """How a model sees the env (``model.vrloco_policy``): ``frame_stack`` (frames side by side,
-    1 for a model saved without it) and ``recurrent`` (read from the model's policy)."""
+    1 for a model saved without it), ``recurrent`` (read from the model's policy) and
+    ``residual_on`` (the scripted user whose actions it corrects,
+    :mod:`agents.learned.residual`; None for a model that acts alone)."""
     saved = getattr(model, "vrloco_policy", None)
-    frames = saved.get("frame_stack", 1) if isinstance(saved, dict) else 1
-    return {"frame_stack": int(frames), "recurrent": is_recurrent(model)}
+    saved = saved if isinstance(saved, dict) else {}
+    return {
+        "frame_stack": int(saved.get("frame_stack", 1)),
+        "recurrent": is_recurrent(model),
+        "residual_on": saved.get("residual_on"),
+    }
 
 
 def observation_layout(spec: Any) -> list[dict[str, Any]]:

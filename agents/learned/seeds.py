@@ -130,6 +130,10 @@ def _check_run(task: str, train_kwargs: dict[str, Any]) -> None:
             **_reward_kwargs(train_kwargs.get("reward")),
         )
     _policy_settings(train_kwargs.get("frame_stack", 1), train_kwargs.get("recurrent", False))
+    if train_kwargs.get("residual_on") is not None:
+        from agents.learned.residual import check_residual
+
+        check_residual(train_kwargs["residual_on"], train_kwargs.get("recurrent", False), cells)
     if train_kwargs.get("imitate") is not None:
         check_imitation(
             train_kwargs["imitate"],

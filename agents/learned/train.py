@@ -17,9 +17,17 @@ from stable_baselines3.common.vec_env.base_vec_env import VecEnv
 
 from agents.learned.curves import plot_learning_curve
 from agents.learned.evaluate import run_policy_episodes
-from agents.learned.imitation import check_imitation, imitate_scripted
+from agents.learned.imitation import check_imitation, imitate_scripted, scripted_teacher
 from agents.learned.mixed_env import mix_cell, mixed_users, training_cells
 from agents.learned.models import ModelFields, cell_of, env_settings, observation_layout
+from agents.learned.residual import (
+    RESIDUAL_LOG_STD,
+    VALUE_STEPS,
+    ScriptedPlusCorrection,
+    check_residual,
+    fit_values,
+    zero_correction,
+)
 from agents.learned.threads import _TORCH_SPINS
 from vrloco_env.vector import VRLocoVectorEnv
 
@@ -146,6 +154,7 @@ def train_ppo(
     init: Path | str | None = None,
     imitate: str | None = None,
     imitate_steps: int = 200_000,
+    residual_on: str | None = None,
     **ppo_kwargs: Any,
 ) -> Path:
     """Train PPO on ``task``; returns the path of the final model (``.zip``).
@@ -185,9 +194,15 @@ def train_ppo(
             with the run's seed; None: PPO from a random policy). One cell, a feed-forward
             policy, no ``init``.
         imitate_steps: the imitation's environment steps (not counted in ``steps``).
+        residual_on: a scripted user (``goal_seeker``) whose actions the policy learns to
+            correct (:mod:`agents.learned.residual`: it sees the scripted action, its own is
+            added to it, and a new policy starts with no correction, as the scripted user; the
+            value function is first fitted to the scripted user's returns over
+            :data:`~agents.learned.residual.VALUE_STEPS` steps, not counted in ``steps``). One
+            technique, a feed-forward policy, no ``imitate``. None: the policy acts alone.
         ppo_kwargs: PPO's settings over :func:`defaults_ppo`.
 
-    Both ``frame_stack`` and ``recurrent`` are saved as ``model.vrloco_policy``.
+    ``frame_stack``, ``recurrent`` and ``residual_on`` are saved as ``model.vrloco_policy``.
 
     Raises:
         ValueError: an unknown task, technique, population or condition (listing the
@@ -221,11 +236,17 @@ def train_ppo(
     cells = training_cells(technique, population, variability)
     if imitate is not None:
         check_imitation(imitate, init, recurrent, cells, env_workers)
+    if residual_on is not None:
+        check_residual(residual_on, recurrent, cells)
+        if imitate is not None:
+            raise ValueError(
+                f"residual_on={residual_on!r} starts as that scripted user; drop imitate"
+            )
     technique, population, variability = cells[0]  # a mix's settings: its first cell's
     env_kwargs = env_settings(
         task, sensor_preset, technique, population, condition, **_reward_kwargs(reward)
     )
-    policy_kwargs = _policy_settings(frame_stack, recurrent)
+    policy_kwargs = _policy_settings(frame_stack, recurrent, residual_on)
     steps = rollout_steps(steps, settings["n_steps"], num_envs)
     out_dir.mkdir(parents=True, exist_ok=True)
     if isinstance(env_workers, bool) or not isinstance(env_workers, int) or env_workers < 1:
@@ -246,10 +267,19 @@ def train_ppo(
         users = mixed_users(num_envs, *mix, seed=seed)
         eval_users = mixed_users(eval_episodes, *mix, seed=10_000 + seed, field="eval_episodes")
         evaluated = eval_users
-    layout = observation_layout(eval_users.observation_spec)
+    spec = eval_users.observation_spec
+    if residual_on is not None:  # the policy sees, and corrects, the scripted user's action
+        users = ScriptedPlusCorrection(
+            users, scripted_teacher(residual_on, users.unwrapped), residual_on, spec
+        )
+        evaluated = ScriptedPlusCorrection(
+            evaluated, scripted_teacher(residual_on, eval_users), residual_on, spec
+        )
+        spec = users.observation_spec
+    layout = observation_layout(spec)
     base = None
     if init is not None:  # the model reads the users' fields it was trained on, by name
-        base, columns = _start_from(Path(init), policy_kwargs, eval_users)
+        base, columns = _start_from(Path(init), policy_kwargs, spec)
         layout = base.vrloco_observation
         users, evaluated = ModelFields(users, columns), ModelFields(evaluated, columns)
     eval_env = _wrap(evaluated, frame_stack)
@@ -282,9 +312,20 @@ def train_ppo(
             return True
 
     if init is None:
+        if residual_on is not None:  # explore near the scripted user
+            settings["policy_kwargs"] = {
+                "log_std_init": RESIDUAL_LOG_STD,
+                **settings.get("policy_kwargs", {}),
+            }
         model = make_model(
             venv, seed=seed, recurrent=recurrent, tensorboard_log=str(out_dir / "tb"), **settings
         )
+        if residual_on is not None:  # the scripted user's returns go to out_dir/values.json
+            zero_correction(model)
+            warmup = fit_values(model, _wrap(users, frame_stack), VALUE_STEPS, seed + 50_000)
+            (out_dir / "values.json").write_text(
+                json.dumps({"scripted_user": residual_on, **warmup}, indent=2)
+            )
         if imitate is not None:  # the scripted user's rounds go to out_dir/imitation.json
             rounds = imitate_scripted(
                 model, _wrap(users, frame_stack), users.unwrapped, imitate, imitate_steps, seed
@@ -405,30 +446,34 @@ def _recurrent_ppo() -> Any:
     return RecurrentPPO
 
 
-def _policy_settings(frame_stack: Any, recurrent: Any) -> dict[str, Any]:
+def _policy_settings(frame_stack: Any, recurrent: Any, residual_on: Any = None) -> dict[str, Any]:
     """``model.vrloco_policy``: how the policy sees the env, checked."""
     from vrloco_env.wrappers import check_frame_stack
 
     if not isinstance(recurrent, bool | np.bool_):
         raise ValueError(f"recurrent={recurrent!r}: must be True or False")
-    return {"frame_stack": check_frame_stack(frame_stack), "recurrent": bool(recurrent)}
+    return {
+        "frame_stack": check_frame_stack(frame_stack),
+        "recurrent": bool(recurrent),
+        "residual_on": residual_on,
+    }
 
 
-def _start_from(path: Path, policy_kwargs: dict[str, Any], users: Any) -> tuple[Any, Any]:
-    """The model at ``path`` (:func:`train_ppo`'s ``init``) and the columns of ``users``'
-    observation it reads (:func:`~agents.learned.models.observation_columns`: its fields by
-    name; a field the users have and it does not know is left unread).
+def _start_from(path: Path, policy_kwargs: dict[str, Any], spec: Any) -> tuple[Any, Any]:
+    """The model at ``path`` (:func:`train_ppo`'s ``init``) and the columns of the users'
+    observation (``spec``) it reads (:func:`~agents.learned.models.observation_columns`: its
+    fields by name; a field the users have and it does not know is left unread).
 
     Raises:
-        ValueError: a model that sees the env otherwise than this run (its frame stack or
-            recurrence, or a field the users lack), naming what differs.
+        ValueError: a model that sees the env otherwise than this run (its frame stack,
+            recurrence or scripted user, or a field the users lack), naming what differs.
     """
     from agents.benchmark.policies import load_ppo
     from agents.learned.models import model_policy, observation_columns
 
     base = load_ppo(path)
     seen = model_policy(base)
-    for key in ("frame_stack", "recurrent"):
+    for key in ("frame_stack", "recurrent", "residual_on"):
         if seen[key] != policy_kwargs[key]:
             raise ValueError(
                 f"init={str(path)!r} was trained with {key}={seen[key]!r}, this run has "
@@ -440,7 +485,7 @@ def _start_from(path: Path, policy_kwargs: dict[str, Any], users: Any) -> tuple[
             f"init={str(path)!r} carries no observation layout (not from vrloco train)"
         )
     try:
-        columns = observation_columns(saved, users.observation_spec)
+        columns = observation_columns(saved, spec)
     except ValueError as err:
         raise ValueError(f"init={str(path)!r} cannot read this run's users: {err}") from None
     return base, columns

@@ -742,7 +742,7 @@ def test_a_model_trained_on_a_cell_carries_it_and_is_evaluated_on_it(tmp_path, c
     )
     model = load_ppo(path)
     assert model.vrloco_cell == cell
-    assert model.vrloco_policy == {"frame_stack": 1, "recurrent": False}
+    assert model.vrloco_policy == {"frame_stack": 1, "recurrent": False, "residual_on": None}
     settings = model.vrloco_env
     assert settings["estimators"] == TECHNIQUES["madgwick"].estimators
     metal = CONDITIONS["beside_metal"].magnetic_disturbances
@@ -875,7 +875,8 @@ def test_frame_stacked_and_recurrent_models_play_as_they_were_trained(tmp_path):
     recurrent = train_ppo("avoid", out_dir=tmp_path / "lstm", recurrent=True, **tiny)
     for path, frames, lstm in ((stacked, 3, False), (recurrent, 1, True)):
         model = load_ppo(path)
-        assert model.vrloco_policy == {"frame_stack": frames, "recurrent": lstm}
+        policy = {"frame_stack": frames, "recurrent": lstm, "residual_on": None}
+        assert model.vrloco_policy == policy
         assert type(model).__name__ == ("RecurrentPPO" if lstm else "PPO")
         # The benchmark's policy acts as the model did in training: 20 steps, 3 episodes.
         want = _trained_actions(model, "avoid", 11, 20, frames)
