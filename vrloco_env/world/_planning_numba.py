@@ -4,9 +4,9 @@
 One scalar implementation; ``relax_pass.py_func`` is the readable reference and gives the same
 numbers. The room is one packed room (``_Solids.kernel_args``, room index 0). The goal region is
 a disc (``goal_x, goal_y, goal_radius``) or, where ``goal_line_x`` is not NaN, the half-plane
-``x >= goal_line_x``, tested and projected onto as :meth:`Layout.in_goal
-<vrloco_env.world.layout.Layout.in_goal>` and :meth:`Layout.nearest_goal_point
-<vrloco_env.world.layout.Layout.nearest_goal_point>` do.
+``x >= goal_line_x``; :func:`goal_contains` and :func:`goal_nearest` test and project points
+onto it for :meth:`Layout.in_goal <vrloco_env.world.layout.Layout.in_goal>` and
+:meth:`Layout.nearest_goal_point <vrloco_env.world.layout.Layout.nearest_goal_point>`.
 
 The arithmetic is element by element in the order numpy's array expressions would evaluate it
 (``a + t * (b - a)``, ``numpy.hypot``), and the projections onto a neighbour line use
@@ -23,7 +23,7 @@ import numpy as np
 
 from vrloco_env.world.geometry import _segment_clear
 
-__all__ = ["relax_pass"]
+__all__ = ["goal_contains", "goal_nearest", "relax_pass"]
 
 
 @numba.njit(cache=True)
@@ -45,6 +45,22 @@ def _nearest_goal_point(px, py, goal_x, goal_y, goal_radius, goal_line_x):
         f = goal_radius / n
         return goal_x + dx * f, goal_y + dy * f
     return px, py
+
+
+@numba.njit(cache=True)
+def goal_contains(points, goal_x, goal_y, goal_radius, goal_line_x, out):
+    """``out[i]``: whether ``points[i]`` (``(P, 2)``) lies in the goal region."""
+    for i in range(points.shape[0]):
+        out[i] = _in_goal(points[i, 0], points[i, 1], goal_x, goal_y, goal_radius, goal_line_x)
+
+
+@numba.njit(cache=True)
+def goal_nearest(points, goal_x, goal_y, goal_radius, goal_line_x, out):
+    """``out[i]``: the goal region's point nearest to ``points[i]`` (``(P, 2)``)."""
+    for i in range(points.shape[0]):
+        out[i, 0], out[i, 1] = _nearest_goal_point(
+            points[i, 0], points[i, 1], goal_x, goal_y, goal_radius, goal_line_x
+        )
 
 
 @numba.njit(cache=True)

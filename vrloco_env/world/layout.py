@@ -33,6 +33,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from estimators.validation import check_value
+from vrloco_env.world._planning_numba import goal_contains, goal_nearest
 from vrloco_env.world.config import RoomConfig
 from vrloco_env.world.geometry import (
     Box,
@@ -152,27 +153,28 @@ class Layout:
         p[..., 1] += self.origin[1]
         return p
 
+    @property
+    def goal_region(self) -> tuple[float, float, float, float]:
+        """The goal region as numbers ``(x, y, radius, line_x)``: the disc of
+        :attr:`goal_radius` around :attr:`goal`, or where ``line_x`` is not NaN (Avoid's end
+        line) the half-plane ``x >= line_x``."""
+        line = math.nan if self.goal_line is None else float(self.goal_line[0][0])
+        return (float(self.goal[0]), float(self.goal[1]), float(self.goal_radius), line)
+
     def in_goal(self, points: ArrayLike) -> NDArray[np.bool_]:
         """Whether local points ``(P, 2)`` are in the goal region (beyond the Avoid end line)."""
-        p = _points("points", points)
-        if self.goal_line is not None:
-            return p[:, 0] >= self.goal_line[0][0]
-        g = np.asarray(self.goal)
-        return np.hypot(p[:, 0] - g[0], p[:, 1] - g[1]) <= self.goal_radius
+        p = np.ascontiguousarray(_points("points", points))
+        out = np.empty(p.shape[0], np.bool_)
+        goal_contains(p, *self.goal_region, out)
+        return out
 
     def nearest_goal_point(self, points: ArrayLike) -> NDArray[np.float64]:
         """The point of the goal region nearest to each local point ``(P, 2)`` (itself if in it);
         obstacles are ignored."""
-        p = _points("points", points).copy()
-        if self.goal_line is not None:
-            p[:, 0] = np.maximum(p[:, 0], self.goal_line[0][0])
-            return p
-        g = np.asarray(self.goal)
-        d = p - g
-        n = np.hypot(d[:, 0], d[:, 1])
-        far = n > self.goal_radius
-        p[far] = g + d[far] * (self.goal_radius / n[far])[:, None]
-        return p
+        p = np.ascontiguousarray(_points("points", points))
+        out = np.empty_like(p)
+        goal_nearest(p, *self.goal_region, out)
+        return out
 
 
 def signed_distance(
@@ -390,8 +392,7 @@ def finish_layout(
             layout._packed,
             bounds,
             start,
-            layout.in_goal,
-            (*layout.goal, layout.goal_radius, math.nan if goal_line is None else goal_line[0][0]),
+            layout.goal_region,
             cfg.avatar_radius,
             cfg.grid_resolution,
         )

@@ -11,14 +11,13 @@ solids at a small extra clearance). Points are in the room's local frame (m).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import NDArray
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from vrloco_env.world._planning_numba import _samples, relax_pass
+from vrloco_env.world._planning_numba import _samples, goal_contains, relax_pass
 from vrloco_env.world.geometry import _sdf, _segments_clear, _Solids
 
 __all__: list[str] = []
@@ -28,15 +27,14 @@ def _plan(
     solids: _Solids,
     bounds: tuple[float, float, float, float],
     start: NDArray[np.float64],
-    goal_test: Callable[[NDArray[np.float64]], NDArray[np.bool_]],
     goal: tuple[float, float, float, float],
     radius: float,
     h: float,
 ) -> NDArray[np.float64] | None:
     """Shortest collision-free path (M, 2) for a disc of ``radius`` from ``start`` to the goal.
 
-    ``goal_test(points (P, 2)) -> bool (P,)`` tests points against the goal region, which
-    ``goal`` gives as numbers (:func:`_relax`). Returns None if the goal region cannot be
+    ``goal`` is the goal region as numbers (:attr:`Layout.goal_region
+    <vrloco_env.world.layout.Layout.goal_region>`). Returns None if the goal region cannot be
     reached on the grid inflated by ``radius + h``. The grid path is then shortened against the
     exact geometry (:func:`_string_pull`, :func:`_relax`), keeping a clearance of at least
     ``radius``.
@@ -48,7 +46,7 @@ def _plan(
     gx, gy = np.meshgrid(xs, ys)  # (ny, nx)
     cells = np.stack([gx.ravel(), gy.ravel()], axis=-1)
     free = (_sdf(solids, cells) >= radius + h).reshape(ny, nx)
-    goal_cells = goal_test(cells).reshape(ny, nx) & free  # type: ignore[operator]
+    goal_cells = _in_goal(cells, goal).reshape(ny, nx) & free
     ix = int(np.clip(np.floor((start[0] - xmin) / h), 0, nx - 1))
     iy = int(np.clip(np.floor((start[1] - ymin) / h), 0, ny - 1))
     if not free[iy, ix] or not goal_cells.any():
@@ -80,11 +78,11 @@ def _plan(
     pts = cells[chain[::-1]]
     pts[0] = start
     pulled = _string_pull(solids, pts, radius, h)
-    path = _trim(pulled if goal_test(pulled).any() else pts, goal_test)  # type: ignore[operator]
+    path = _trim(pulled if _in_goal(pulled, goal).any() else pts, goal)
     relaxed = _relax(solids, path, radius, h, goal)
     # Relaxing can, rarely, pull the end back out of the goal region (seed 322 of the Approach
     # room did): then the unrelaxed path, slightly longer but valid, is kept.
-    return _trim(relaxed, goal_test) if goal_test(relaxed).any() else path  # type: ignore[operator]
+    return _trim(relaxed, goal) if _in_goal(relaxed, goal).any() else path
 
 
 def _clear(
@@ -163,10 +161,18 @@ _COARSE = np.linspace(1.0, 0.0, 17)
 _FINE = np.stack([np.linspace(_COARSE[i - 1], _COARSE[i], 17)[1:-1] for i in range(1, 17)])
 
 
-def _trim(path: NDArray[np.float64], goal_test: object) -> NDArray[np.float64]:
+def _in_goal(points: NDArray[np.float64], goal: tuple[float, ...]) -> NDArray[np.bool_]:
+    """Whether the points ``(P, 2)`` lie in the goal region ``goal`` (:func:`_plan`)."""
+    p = np.ascontiguousarray(points, dtype=np.float64)
+    out = np.empty(p.shape[0], np.bool_)
+    goal_contains(p, *goal, out)
+    return out
+
+
+def _trim(path: NDArray[np.float64], goal: tuple[float, ...]) -> NDArray[np.float64]:
     """Cut the path where it first enters the goal region (on the first entering leg, refined
     three times on 33 points: to 1/32768 of the leg, under 0.5 mm for a 14 m leg)."""
-    inside = goal_test(path)  # type: ignore[operator]
+    inside = _in_goal(path, goal)
     if not inside.any():
         raise RuntimeError("internal error: the planned path does not reach the goal region")
     k = int(np.argmax(inside))
@@ -176,7 +182,7 @@ def _trim(path: NDArray[np.float64], goal_test: object) -> NDArray[np.float64]:
     lo, hi = 0.0, 1.0  # a + lo * (b - a) is outside, a + hi * (b - a) inside
     for _ in range(3):
         t = np.linspace(lo, hi, 33)
-        ins = goal_test(a + t[:, None] * (b - a))  # type: ignore[operator]
+        ins = _in_goal(a + t[:, None] * (b - a), goal)
         ins[-1] = True
         j = int(np.argmax(ins[1:])) + 1
         lo, hi = t[j - 1], t[j]
