@@ -40,6 +40,17 @@ def cmd_train(args: argparse.Namespace) -> int:
             )
             return 2
         common["n_steps"] = args.rollout_steps
+    if args.learning_rate is not None:
+        if args.backend == "rllib":
+            print("vrloco train: --learning-rate needs --backend local or ray", file=sys.stderr)
+            return 2
+        if args.init is not None:
+            print(
+                "vrloco train: --init keeps the model's own learning rate; drop --learning-rate",
+                file=sys.stderr,
+            )
+            return 2
+        common["learning_rate"] = args.learning_rate
     if args.env_workers != 1:
         if args.backend == "rllib":
             print("vrloco train: --env-workers needs --backend local or ray", file=sys.stderr)

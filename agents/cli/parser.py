@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import math
 from pathlib import Path
 
 from agents.cli.benchmark import cmd_benchmark
@@ -48,6 +49,17 @@ def _int_at_least(lo: int):
         return value
 
     return convert
+
+
+def _positive_float(text: str) -> float:
+    """An argparse type: a finite number > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not math.isfinite(value) or value <= 0.0:
+        raise argparse.ArgumentTypeError(f"{value} must be a finite number > 0")
+    return value
 
 
 def _seed_list(text: str) -> list[int]:
@@ -430,6 +442,12 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="N",
         help="each user's steps per PPO rollout (stable-baselines3's n_steps; a rollout is "
         "N x --num-envs steps; default 256; --init keeps the model's own)",
+    )
+    train.add_argument(
+        "--learning-rate",
+        type=_positive_float,
+        metavar="LR",
+        help="PPO's Adam step size (default 3e-4; --init keeps the model's own)",
     )
     train.add_argument(
         "--sensors", type=_preset, help="IMU preset (default: the technique's; ig500n)"
