@@ -682,6 +682,10 @@ def test_train_passes_the_cell_and_the_policy_options_on(tmp_path, monkeypatch, 
                 "collision=10,time=0.02",
                 "--rollout-steps",
                 "64",
+                "--learning-rate",
+                "1e-4",
+                "--residual-on",
+                "goal_seeker",
                 "--out",
                 str(tmp_path),
             ]
@@ -689,6 +693,7 @@ def test_train_passes_the_cell_and_the_policy_options_on(tmp_path, monkeypatch, 
         == 0
     )
     assert seen["task"] == "reach" and seen["seeds"] == [0] and seen["n_steps"] == 64
+    assert seen["learning_rate"] == 1e-4 and seen["residual_on"] == "goal_seeker"
     assert seen["reward"] == RewardConfig(collision=10.0, time=0.02)  # the rest: defaults
     assert {
         k: seen[k]

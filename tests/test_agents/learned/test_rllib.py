@@ -99,6 +99,15 @@ def test_train_options_that_need_a_backend(capsys):
     assert "--rollout-steps needs --backend local or ray" in capsys.readouterr().err
     assert main(["train", "--init", "model.zip", "--rollout-steps", "64"]) == 2
     assert "--init keeps the model's own rollout steps" in capsys.readouterr().err
+    assert main(["train", "--backend", "rllib", "--learning-rate", "1e-4"]) == 2
+    assert "--learning-rate needs --backend local or ray" in capsys.readouterr().err
+    assert main(["train", "--init", "model.zip", "--learning-rate", "1e-4"]) == 2
+    assert "--init keeps the model's own learning rate" in capsys.readouterr().err
+    assert main(["train", "--backend", "rllib", "--residual-on", "goal_seeker"]) == 2
+    assert "--residual-on needs --backend local or ray" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["train", "--learning-rate", "0"])
+    assert "0.0 must be a finite number > 0" in capsys.readouterr().err
 
 
 def test_without_rllib_the_error_says_how_to_install_it(monkeypatch, capsys):
