@@ -15,3 +15,4 @@ def test_reach_episodes_split_into_tracked_successes_and_mistracked_failures():
     assert (medians[~flipped] < 20.0).all() and (medians[flipped] > 150.0).all()  # no middle
     assert r["success_tracked"] == (~flipped).sum()  # every tracked hold succeeds here
     assert r["success"] == r["success_tracked"] + r["success_mistracked"]
+    assert 0 <= r["recovered"] <= r["mistracked"]
