@@ -32,6 +32,8 @@ def _row(task, policy, technique, value, p=None, diff=0.0):
 def test_the_rankings_their_tests_and_where_they_disagree(monkeypatch, tmp_path, capsys):
     from agents.learned.users import LEARNED_USERS
 
+    monkeypatch.delitem(LEARNED_USERS, "interact")  # a task without a shipped user
+
     values = {  # scripted, learned, adapted, any technique
         "zhang2021": (0.80, 0.90, 0.90, 0.95),
         "smooth": (0.40, 0.88, 0.96, 0.95),
@@ -88,7 +90,10 @@ def test_the_rankings_their_tests_and_where_they_disagree(monkeypatch, tmp_path,
     assert "interact: not played (no shipped learned user)" in table
 
 
-def test_bad_settings_are_named():
+def test_bad_settings_are_named(monkeypatch):
+    from agents.learned.users import LEARNED_USERS
+
+    monkeypatch.delitem(LEARNED_USERS, "interact")  # a task without a shipped user
     with pytest.raises(ValueError, match="episodes=1: must be an integer >= 2"):
         run_learned_ranking(episodes=1)
     with pytest.raises(ValueError, match="adapt_steps=0"):

@@ -34,8 +34,11 @@ def test_an_adapted_user_is_trained_once_per_cell_and_budget_and_a_damaged_one_a
     assert "is damaged" in capsys.readouterr().out
 
 
-def test_bad_budgets_and_cells_are_named():
+def test_bad_budgets_and_cells_are_named(monkeypatch):
     from agents.benchmark.policies import adapt_steps, check_policy
+    from agents.learned import users
+
+    monkeypatch.delitem(users.LEARNED_USERS, "interact")
 
     with pytest.raises(ValueError, match=r"steps=-1: must be an integer >= 0"):
         adapted_user("avoid", steps=-1)

@@ -96,11 +96,13 @@ def test_ppo_plays_the_tasks_shipped_user_and_names_the_tasks_that_have_one(tmp_
     policy = build_policy("ppo+typical", env)
     assert policy.policy.path == model and policy.name.startswith("ppo")
     env.close()
+    monkeypatch.delitem(users.LEARNED_USERS, "interact")
+    monkeypatch.setitem(users.NOT_SHIPPED, "interact", "none met the bar (see the docs)")
     env = gym.make("VRLoco-Interact-v0")
     with pytest.raises(
         ValueError,
         match=r"no learned user is shipped for task 'interact' \(shipped: [a-z, ]*approach[a-z, "
-        r"]*\): its learners stayed below the goal seeker under the user populations",
+        r"]*\): none met the bar \(see the docs\); train one with vrloco train --task interact",
     ):
         build_policy("ppo", env)
     env.close()
