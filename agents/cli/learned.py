@@ -29,28 +29,20 @@ def cmd_train(args: argparse.Namespace) -> int:
             print("vrloco train: --init needs --backend local or ray", file=sys.stderr)
             return 2
         common["init"] = args.init
-    if args.rollout_steps is not None:
+    for flag, value, key, kept in (  # PPO settings a model given to --init keeps
+        ("--rollout-steps", args.rollout_steps, "n_steps", "rollout steps"),
+        ("--learning-rate", args.learning_rate, "learning_rate", "learning rate"),
+    ):
+        if value is None:
+            continue
         if args.backend == "rllib":
-            print("vrloco train: --rollout-steps needs --backend local or ray", file=sys.stderr)
+            print(f"vrloco train: {flag} needs --backend local or ray", file=sys.stderr)
             return 2
         if args.init is not None:
-            print(
-                "vrloco train: --init keeps the model's own rollout steps; drop --rollout-steps",
-                file=sys.stderr,
-            )
+            why = f"--init keeps the model's own {kept}; drop {flag}"
+            print(f"vrloco train: {why}", file=sys.stderr)
             return 2
-        common["n_steps"] = args.rollout_steps
-    if args.learning_rate is not None:
-        if args.backend == "rllib":
-            print("vrloco train: --learning-rate needs --backend local or ray", file=sys.stderr)
-            return 2
-        if args.init is not None:
-            print(
-                "vrloco train: --init keeps the model's own learning rate; drop --learning-rate",
-                file=sys.stderr,
-            )
-            return 2
-        common["learning_rate"] = args.learning_rate
+        common[key] = value
     if args.env_workers != 1:
         if args.backend == "rllib":
             print("vrloco train: --env-workers needs --backend local or ray", file=sys.stderr)

@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 __all__ = [
+    "EpisodeTally",
     "check_imitation",
     "episode_returns",
     "imitate",
@@ -111,8 +112,7 @@ def imitate(
         a_round = np.empty((per_round, n_envs, env.single_action_space.shape[0]), np.float32)
         rewards = np.empty((per_round, n_envs))
         ends = np.empty((per_round, n_envs), bool)
-        success = collided = episodes = 0
-        hit = np.zeros(n_envs, bool)
+        tally = EpisodeTally(n_envs)
         for t in range(per_round):
             label = np.asarray(teacher.act(obs[:, -n_obs:]), np.float32)
             o_round[t], a_round[t] = obs, label
@@ -126,11 +126,7 @@ def imitate(
             obs, reward, terminated, truncated, info = env.step(action)
             done = terminated | truncated
             rewards[t], ends[t] = reward, done
-            hit |= info["collision"]
-            success += int(np.sum(done & info["is_success"]))
-            collided += int(np.sum(done & hit))
-            episodes += int(np.sum(done))
-            hit[done] = False
+            tally.add(done, info)
             if done.any():
                 teacher.reset(rows=np.flatnonzero(done))
         seen.append(o_round.reshape(-1, width))
@@ -140,14 +136,38 @@ def imitate(
             {
                 "round": r,
                 "teacher_share": share,
-                "episodes": episodes,
-                "success_rate": success / max(episodes, 1),
-                "collision_rate": collided / max(episodes, 1),
+                **tally.rates(),
                 "nll": nll,
             }
         )
     _fit_values(policy, optimiser, o_round, rewards, ends, gamma, epochs, batch_size, rng)
     return report
+
+
+class EpisodeTally:
+    """The episodes that end in a run of a vector env's steps (``n`` users): how many, how many
+    succeeded and how many had a collision."""
+
+    def __init__(self, n: int) -> None:
+        self.hit = np.zeros(n, bool)  # the user's episode so far had a collision
+        self.success = self.collided = self.episodes = 0
+
+    def add(self, done: np.ndarray, info: dict[str, Any]) -> None:
+        """Count one step: ``done`` (B,) the episodes it ended, ``info`` its per-user info."""
+        self.hit |= info["collision"]
+        self.success += int(np.sum(done & info["is_success"]))
+        self.collided += int(np.sum(done & self.hit))
+        self.episodes += int(np.sum(done))
+        self.hit[done] = False
+
+    def rates(self) -> dict[str, float]:
+        """``episodes`` ended, their ``success_rate`` and ``collision_rate``."""
+        n = max(self.episodes, 1)
+        return {
+            "episodes": self.episodes,
+            "success_rate": self.success / n,
+            "collision_rate": self.collided / n,
+        }
 
 
 def check_imitation(

@@ -191,7 +191,7 @@ def fit_values(model: Any, env: Any, steps: int, seed: int) -> dict[str, float]:
     collision rates."""
     import torch
 
-    from agents.learned.imitation import _fit_values
+    from agents.learned.imitation import EpisodeTally, _fit_values
 
     n = env.num_envs
     per_user = -(-steps // n)
@@ -199,8 +199,7 @@ def fit_values(model: Any, env: Any, steps: int, seed: int) -> dict[str, float]:
     seen = np.empty((per_user, n, width), np.float32)
     rewards = np.empty((per_user, n))
     ends = np.empty((per_user, n), bool)
-    hit = np.zeros(n, bool)
-    success = collided = episodes = 0
+    tally = EpisodeTally(n)
     obs, _ = env.reset(seed=seed)
     policy = model.policy
     for t in range(per_user):
@@ -210,17 +209,8 @@ def fit_values(model: Any, env: Any, steps: int, seed: int) -> dict[str, float]:
         obs, reward, terminated, truncated, info = env.step(action.cpu().numpy())
         done = terminated | truncated
         rewards[t], ends[t] = reward, done
-        hit |= info["collision"]
-        success += int(np.sum(done & info["is_success"]))
-        collided += int(np.sum(done & hit))
-        episodes += int(np.sum(done))
-        hit[done] = False
+        tally.add(done, info)
     optimiser = torch.optim.Adam(policy.parameters(), lr=1e-3)
     rng = np.random.default_rng(seed)
     _fit_values(policy, optimiser, seen, rewards, ends, float(model.gamma), 10, 2048, rng)
-    return {
-        "steps": per_user * n,
-        "episodes": episodes,
-        "success_rate": success / max(episodes, 1),
-        "collision_rate": collided / max(episodes, 1),
-    }
+    return {"steps": per_user * n, **tally.rates()}
