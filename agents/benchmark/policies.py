@@ -122,7 +122,10 @@ class LearnedPolicy(TakesUsers):
     :func:`agents.learned.models.model_policy`): with a frame stack, each user's last k observations
     side by side (:class:`~vrloco_env.wrappers.StackedFrames`, started from the episode's first
     observation at every ``reset``); a recurrent model (sb3-contrib's ``RecurrentPPO``) carries
-    each user's LSTM state from step to step, started afresh at ``reset``.
+    each user's LSTM state from step to step, started afresh at ``reset``. A model that corrects
+    a scripted user (``vrloco train --residual-on``, :mod:`agents.learned.residual`) plays beside
+    that scripted user, built for ``env``: the model sees its action as one more field and the
+    action played is the scripted one plus the model's correction.
 
     Args:
         path: the model's ``.zip``.
