@@ -22,6 +22,7 @@ from __future__ import annotations
 import argparse
 import json
 import shutil
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -163,9 +164,14 @@ def main(argv: list[str] | None = None) -> int:
         "between candidates); ship nothing",
     )
     args = parser.parse_args(argv)
-    if args.dev:
-        from agents.benchmark.policies import load_ppo
+    from agents.benchmark.policies import load_ppo
 
+    try:  # a missing or damaged model file: one line
+        load_ppo(args.model)
+    except ValueError as err:
+        print(f"ship: {err}", file=sys.stderr)
+        return 2
+    if args.dev:
         task = load_ppo(args.model).vrloco_env["task"]
         _, rows = held_out_rows(task, args.model, args.episodes, seed=DEV_SEED)
         print(f"development seeds {DEV_SEED}-{DEV_SEED + args.episodes - 1} (in-sample)")

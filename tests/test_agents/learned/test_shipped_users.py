@@ -166,3 +166,11 @@ def test_a_user_trained_with_a_turning_head_reads_a_straight_head_without_a_popu
     expected = model.predict(np.append(obs, 0.0).astype(np.float32), deterministic=True)[0]
     np.testing.assert_array_equal(LearnedPolicy(tmp_path / "m.zip", plain).act(obs), expected)
     plain.close()
+
+
+def test_ship_names_a_missing_model_in_one_line(tmp_path, capsys):
+    from agents.learned.users.ship import main
+
+    assert main([str(tmp_path / "nope.zip"), "--dev"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("ship: ") and "nope.zip" in err and "Traceback" not in err
