@@ -11,7 +11,9 @@ tracker expects people to face it, :mod:`vrloco_env.sensors.kinect`; a user turn
 and the pipeline follows whom it sees). The hand hold is measured on the estimate, so a
 mistracked episode succeeds only by chance, or where the user is found again: *recovered*
 counts the mistracked episodes whose last ``last_steps`` steps at the goal (the hold's end) have
-a median error within ``flip_deg``, the estimate the user's own hand again.
+a median error within ``flip_deg``, the estimate the user's own hand again, and
+*turned_mistracked_deg* is how far the body turned while at the goal in those episodes (the
+median over them of the summed absolute yaw changes).
 
 Run: ``python -m agents.experiments.hand_tracking_ceiling --task reach --episodes 100 --seed 1000
 [--policy SPEC]``.
@@ -36,9 +38,9 @@ def hand_tracking_split(
     last_steps: int = 10,
 ) -> dict[str, Any]:
     """The split (module docstring) for the user ``policy`` (a benchmark policy spec):
-    ``{"episodes", "at_goal", "mistracked", "recovered", "success", "success_tracked",
-    "success_mistracked", "median_error_deg"}`` (counts, and per episode the median tracking
-    error at the goal, NaN where it never stood there)."""
+    ``{"episodes", "at_goal", "mistracked", "recovered", "turned_mistracked_deg", "success",
+    "success_tracked", "success_mistracked", "median_error_deg"}`` (counts, and per episode
+    the median tracking error at the goal, NaN where it never stood there)."""
     import gymnasium as gym
 
     import vrloco_env  # noqa: F401  (registers the ids)
@@ -47,15 +49,17 @@ def hand_tracking_split(
 
     env = gym.make(env_id(task))
     user = build_policy(policy, env)
-    medians, ends, wins = [], [], []
+    medians, ends, wins, turned = [], [], [], []
     for i in range(episodes):
         obs, info = env.reset(seed=seed + i)
         user.reset(np.random.default_rng([seed + i, 1]))
         at_goal: list[float] = []
+        yaw: list[float] = []  # the body's true yaw at the goal (deg)
         while True:
             obs, _, terminated, truncated, info = env.step(user.act(obs))
             if info["distance_to_goal"] <= 0.0:
                 at_goal.append(float(info["hand_error_deg"]))
+                yaw.append(float(info["true_body_yaw_deg"]))
             if terminated or truncated:
                 break
         errors = np.asarray(at_goal)
@@ -65,6 +69,8 @@ def hand_tracking_split(
         last = last[np.isfinite(last)]
         ends.append(float(np.median(last)) if last.size else np.nan)
         wins.append(bool(info["is_success"]))
+        turns = np.diff(np.asarray(yaw))
+        turned.append(float(np.abs((turns + 180.0) % 360.0 - 180.0).sum()))
     env.close()
     med, won = np.asarray(medians), np.asarray(wins)
     flipped = np.isfinite(med) & (med > flip_deg)
@@ -77,6 +83,9 @@ def hand_tracking_split(
         "at_goal": int(np.isfinite(med).sum()),
         "mistracked": int(flipped.sum()),
         "recovered": int(found.sum()),
+        "turned_mistracked_deg": round(float(np.median(np.asarray(turned)[flipped])), 1)
+        if flipped.any()
+        else None,
         "success": int(won.sum()),
         "success_tracked": int((won & ~flipped).sum()),
         "success_mistracked": int((won & flipped).sum()),
@@ -96,7 +105,8 @@ def main(argv: list[str] | None = None) -> int:
     print(
         f"{r['task']}, {r['policy']}, seeds {r['seeds'][0]}-{r['seeds'][1]}: at the goal in "
         f"{r['at_goal']} of {r['episodes']} episodes; hand mistracked there (median error > 90 "
-        f"deg) in {r['mistracked']}, found again by the end in {r['recovered']}; success "
+        f"deg) in {r['mistracked']}, found again by the end in {r['recovered']}, the body "
+        f"turning {r['turned_mistracked_deg']} deg there (median); success "
         f"{r['success']}: {r['success_tracked']} of "
         f"{tracked} tracked, {r['success_mistracked']} of {r['mistracked']} mistracked"
     )

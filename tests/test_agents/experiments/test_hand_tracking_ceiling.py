@@ -16,3 +16,4 @@ def test_reach_episodes_split_into_tracked_successes_and_mistracked_failures():
     assert r["success_tracked"] == (~flipped).sum()  # every tracked hold succeeds here
     assert r["success"] == r["success_tracked"] + r["success_mistracked"]
     assert 0 <= r["recovered"] <= r["mistracked"]
+    assert r["turned_mistracked_deg"] >= 0.0
