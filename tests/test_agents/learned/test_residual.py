@@ -85,6 +85,12 @@ def test_the_correction_reaches_every_action_from_every_scripted_action():
 def uncorrected(tmp_path_factory):
     """A model trained with residual_on but a learning rate of 0: its correction stays zero."""
     out = tmp_path_factory.mktemp("residual")
+    with pytest.MonkeyPatch.context() as patch:  # a short value fit: the test is of the policy
+        patch.setattr("agents.learned.train.VALUE_STEPS", 256)
+        return _train(out)
+
+
+def _train(out):
     return train_ppo(
         "approach",
         steps=256,
@@ -112,7 +118,7 @@ def test_a_model_with_no_correction_plays_as_the_goal_seeker(uncorrected):
     assert model.vrloco_policy == policy
     assert model.vrloco_observation[-1]["name"] == "goal_seeker_action"
     warmup = json.loads((uncorrected.parent / "values.json").read_text())
-    assert warmup["scripted_user"] == "goal_seeker" and warmup["episodes"] > 0
+    assert warmup["scripted_user"] == "goal_seeker" and warmup["steps"] == 256
     env, alone = _users(3), _users(3)
     learned, seeker = LearnedPolicy(uncorrected, env), _goal_seeker(alone)
     obs, _ = env.reset(seed=9)
@@ -190,3 +196,27 @@ def test_an_adapted_copy_still_corrects_its_scripted_user(uncorrected, tmp_path,
 def test_train_refuses_a_correction_it_cannot_learn(tmp_path, kwargs, match):
     with pytest.raises(ValueError, match=match):
         train_ppo("approach", steps=64, num_envs=1, out_dir=tmp_path, progress=False, **kwargs)
+
+
+def test_the_value_fit_counts_the_scripted_users_episodes_and_leaves_the_policy_alone():
+    import torch
+
+    from agents.learned.residual import fit_values, zero_correction
+    from agents.learned.train import SB3VecEnv, make_model
+
+    users = VRLocoVectorEnv(4, task="approach", max_episode_steps=25)
+    env = ScriptedPlusCorrection(users, _goal_seeker(users), "goal_seeker")
+    model = make_model(SB3VecEnv(env), seed=0, n_steps=64, batch_size=64)
+    zero_correction(model)
+    actor = [p.detach().clone() for p in model.policy.mlp_extractor.policy_net.parameters()]
+    critic = [p.detach().clone() for p in model.policy.value_net.parameters()]
+    report = fit_values(model, env, 400, seed=3)
+    # 4 users x 100 steps, every episode cut at 25 steps (too short to reach the goal)
+    assert report["steps"] == 400 and report["episodes"] == 16
+    assert 0.0 <= report["success_rate"] <= 1.0
+    kept = zip(actor, model.policy.mlp_extractor.policy_net.parameters(), strict=True)
+    for before, after in kept:
+        torch.testing.assert_close(before, after, rtol=0, atol=0)
+    assert (model.policy.action_net.weight == 0).all() and (model.policy.action_net.bias == 0).all()
+    fitted = zip(critic, model.policy.value_net.parameters(), strict=True)
+    assert any(not torch.equal(b, a) for b, a in fitted)
