@@ -517,7 +517,7 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="SCRIPTED_USER",
         help="learn a correction of this scripted user's actions (e.g. goal_seeker): the policy "
         "sees its action and adds its own, starting at none (as the scripted user); one "
-        "technique, no --imitate or --recurrent",
+        "technique, no --imitate, --recurrent or --env-workers",
     )
     train.add_argument(
         "--imitate-steps",

@@ -27,10 +27,13 @@ from vrloco_env.actions import ACTION_NAMES, ACTION_SIZE
 from vrloco_env.observation import Field, ObservationSpec
 
 __all__ = [
+    "RESIDUAL_LOG_STD",
     "RESIDUAL_SCALE",
+    "VALUE_STEPS",
     "ScriptedPlusCorrection",
     "check_residual",
     "combine",
+    "fit_values",
     "scripted_field",
     "with_scripted_action",
     "zero_correction",
@@ -67,10 +70,13 @@ def combine(scripted: NDArray[np.floating], correction: Any) -> NDArray[np.float
     return np.minimum(np.maximum(a, -1.0), 1.0)
 
 
-def check_residual(residual_on: Any, recurrent: bool = False, cells: Any = ()) -> None:
+def check_residual(
+    residual_on: Any, recurrent: bool = False, cells: Any = (), env_workers: int = 1
+) -> None:
     """Whether a run can learn a correction of the scripted user ``residual_on``: a registered
     scripted user, a feed-forward policy, one technique's users (the scripted user acts for one
-    technique's body; a mix of populations is fine).
+    technique's body; a mix of populations is fine), stepped in this process (the scripted user
+    is built from the env it acts in).
 
     Raises:
         ValueError: naming what stands in the way (an unknown name lists the scripted users).
@@ -87,6 +93,10 @@ def check_residual(residual_on: Any, recurrent: bool = False, cells: Any = ()) -
     if len({str(c[0]) for c in cells}) > 1:
         raise ValueError(
             f"residual_on={residual_on!r} trains one technique's users, not a mix of techniques"
+        )
+    if env_workers > 1:
+        raise ValueError(
+            f"residual_on={residual_on!r} trains users stepped in this process (env_workers=1)"
         )
 
 

@@ -133,7 +133,12 @@ def _check_run(task: str, train_kwargs: dict[str, Any]) -> None:
     if train_kwargs.get("residual_on") is not None:
         from agents.learned.residual import check_residual
 
-        check_residual(train_kwargs["residual_on"], train_kwargs.get("recurrent", False), cells)
+        check_residual(
+            train_kwargs["residual_on"],
+            train_kwargs.get("recurrent", False),
+            cells,
+            train_kwargs.get("env_workers", 1),
+        )
     if train_kwargs.get("imitate") is not None:
         check_imitation(
             train_kwargs["imitate"],

@@ -237,7 +237,7 @@ def train_ppo(
     if imitate is not None:
         check_imitation(imitate, init, recurrent, cells, env_workers)
     if residual_on is not None:
-        check_residual(residual_on, recurrent, cells)
+        check_residual(residual_on, recurrent, cells, env_workers)
         if imitate is not None:
             raise ValueError(
                 f"residual_on={residual_on!r} starts as that scripted user; drop imitate"

@@ -191,6 +191,7 @@ def test_an_adapted_copy_still_corrects_its_scripted_user(uncorrected, tmp_path,
         ({"residual_on": "goal_seeker", "recurrent": True}, "feed-forward"),
         ({"residual_on": "goal_seeker", "technique": "zhang2021,smooth"}, "mix of techniques"),
         ({"residual_on": "goal_seeker", "imitate": "goal_seeker"}, "drop imitate"),
+        ({"residual_on": "goal_seeker", "env_workers": 2}, "env_workers=1"),
     ],
 )
 def test_train_refuses_a_correction_it_cannot_learn(tmp_path, kwargs, match):
