@@ -269,6 +269,12 @@ def _scripted_user(path: Path, name: str, env: Any) -> Any:
             f"policy {str(path)!r} corrects the scripted user {name!r}, which is not "
             f"registered; scripted users: {', '.join(sorted(POLICIES))}"
         )
+    return _scripted(name, env)
+
+
+def _scripted(name: str, env: Any) -> Any:
+    """The registered scripted user ``name`` built for ``env``: its observation layout and its
+    body (:func:`agents.scripted.params_from_env`)."""
     return make_policy(name, ObservationLayout.from_env(env), params_from_env(env))
 
 
@@ -404,7 +410,7 @@ def build_policy(spec: str, env: Any) -> Any:
     base, population = _split(spec)
     policy: Any
     if base in POLICIES:
-        policy = make_policy(base, ObservationLayout.from_env(env), params_from_env(env))
+        policy = _scripted(base, env)
     elif base.endswith(".zip"):
         policy = LearnedPolicy(base, env)
     elif base == SHIPPED:

@@ -45,6 +45,7 @@ def hand_tracking_split(
 
     import vrloco_env  # noqa: F401  (registers the ids)
     from agents.benchmark.policies import build_policy
+    from estimators.rotations import wrap_angle
     from vrloco_env.tasks import env_id
 
     env = gym.make(env_id(task))
@@ -69,8 +70,8 @@ def hand_tracking_split(
         last = last[np.isfinite(last)]
         ends.append(float(np.median(last)) if last.size else np.nan)
         wins.append(bool(info["is_success"]))
-        turns = np.diff(np.asarray(yaw))
-        turned.append(float(np.abs((turns + 180.0) % 360.0 - 180.0).sum()))
+        turns = wrap_angle(np.deg2rad(np.diff(np.asarray(yaw))))
+        turned.append(float(np.rad2deg(np.abs(turns).sum())))
     env.close()
     med, won = np.asarray(medians), np.asarray(wins)
     flipped = np.isfinite(med) & (med > flip_deg)

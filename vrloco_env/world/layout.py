@@ -33,7 +33,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from estimators.validation import check_value
-from vrloco_env.world._planning_numba import goal_contains, goal_nearest
+from vrloco_env.world._planning_numba import goal_nearest
 from vrloco_env.world.config import RoomConfig
 from vrloco_env.world.geometry import (
     Box,
@@ -46,7 +46,7 @@ from vrloco_env.world.geometry import (
     _sdf_fast,
     _Solids,
 )
-from vrloco_env.world.planning import _path_length, _plan
+from vrloco_env.world.planning import _in_goal, _path_length, _plan
 
 __all__ = [
     "Layout",
@@ -163,10 +163,7 @@ class Layout:
 
     def in_goal(self, points: ArrayLike) -> NDArray[np.bool_]:
         """Whether local points ``(P, 2)`` are in the goal region (beyond the Avoid end line)."""
-        p = np.ascontiguousarray(_points("points", points))
-        out = np.empty(p.shape[0], np.bool_)
-        goal_contains(p, *self.goal_region, out)
-        return out
+        return _in_goal(_points("points", points), self.goal_region)
 
     def nearest_goal_point(self, points: ArrayLike) -> NDArray[np.float64]:
         """The point of the goal region nearest to each local point ``(P, 2)`` (itself if in it);
