@@ -6,8 +6,9 @@ Run from the repository root::
     python -m agents.learned.users.ship MODEL.zip --command "vrloco train ..." [--episodes 100]
 
 The model's task comes from the model. The held-out evaluation is the benchmark on seeds
-:data:`HELD_OUT_SEED` onwards (never a training or development seed: training evaluates on seeds
-10000 + its seed), the default technique, the learned user (the shipped file, what ``ppo`` plays
+:data:`HELD_OUT_SEED` onwards, or on a later block never used before (``--seed S``, S >=
+:data:`HELD_OUT_SEED`; never a training or development seed: training evaluates on seeds 10000 +
+its seed, development on :data:`DEV_SEED` onwards), the default technique, the learned user (the shipped file, what ``ppo`` plays
 once registered) and the goal seeker, idealised and with every population of :data:`POPULATIONS`;
 the card records that command and, per user and population, the success rate and the collision-free
 success rate with their 95 % Wilson intervals, and whether the bar holds: collision-free success >=
@@ -90,12 +91,23 @@ def held_out_rows(
 
 
 def ship(
-    model: Path, command: str, episodes: int = 100, choices: str = "", name: str | None = None
+    model: Path,
+    command: str,
+    episodes: int = 100,
+    choices: str = "",
+    name: str | None = None,
+    seed: int = HELD_OUT_SEED,
 ) -> Path:
     """Copy ``model`` (and its folder's learning curve) into :mod:`agents.learned.users` as its
     task's user (``name``: under that name instead, e.g. a second user of the task), evaluate it
-    on held-out seeds and write its card; returns the card's path."""
+    on the held-out seeds from ``seed`` and write its card; returns the card's path."""
     from agents.benchmark.policies import load_ppo
+
+    if seed < HELD_OUT_SEED:
+        raise ValueError(
+            f"seed={seed}: held-out seeds start at {HELD_OUT_SEED} (lower ones are training "
+            "and development seeds)"
+        )
 
     trained = load_ppo(model)
     task = trained.vrloco_env["task"]
@@ -117,7 +129,7 @@ def ship(
         shutil.copyfile(folder / "learning_curve.png", HERE / f"{name}_curve.png")
     # the command as a user types it: ppo plays the task's user, a second user is its file
     shown_as = "ppo" if name == task else f"agents/learned/users/{target.name}"
-    bench, rows = held_out_rows(task, target, episodes, shown_as=shown_as)
+    bench, rows = held_out_rows(task, target, episodes, seed=seed, shown_as=shown_as)
     ppo = {r["population"]: r for r in rows if r["user"] == "ppo"}
     seeker = {r["population"]: r for r in rows if r["user"] == "goal_seeker"}
     bar = {
@@ -140,7 +152,7 @@ def ship(
             "seeds": "10000 + the training seed onwards, 32 episodes per point (development)",
             "points": curve,
         },
-        "held_out": {"command": bench, "seeds_from": HELD_OUT_SEED, "rows": rows},
+        "held_out": {"command": bench, "seeds_from": seed, "rows": rows},
         "bar": bar,
     }
     path = target.with_suffix(".json")
@@ -158,6 +170,12 @@ def main(argv: list[str] | None = None) -> int:
         "--name", help="ship under this name (default: the task's), e.g. a second user of a task"
     )
     parser.add_argument(
+        "--seed",
+        type=int,
+        help=f"first seed of the evaluation (default {HELD_OUT_SEED}, or {DEV_SEED} with --dev; "
+        f"to ship, at least {HELD_OUT_SEED}: a block of held-out seeds no choice has seen)",
+    )
+    parser.add_argument(
         "--dev",
         action="store_true",
         help=f"only print the evaluation on the development seeds {DEV_SEED} onwards (to choose "
@@ -172,9 +190,12 @@ def main(argv: list[str] | None = None) -> int:
         print(f"ship: {err}", file=sys.stderr)
         return 2
     if args.dev:
+        seed = DEV_SEED if args.seed is None else args.seed
+        if seed >= HELD_OUT_SEED:
+            parser.error(f"--seed {seed}: held-out seeds ({HELD_OUT_SEED} on) are not for --dev")
         task = load_ppo(args.model).vrloco_env["task"]
-        _, rows = held_out_rows(task, args.model, args.episodes, seed=DEV_SEED)
-        print(f"development seeds {DEV_SEED}-{DEV_SEED + args.episodes - 1} (in-sample)")
+        _, rows = held_out_rows(task, args.model, args.episodes, seed=seed)
+        print(f"development seeds {seed}-{seed + args.episodes - 1} (in-sample)")
         for r in rows:
             print(
                 f"{r['user']:<12} {r['population']:<14} success {r['success_rate']:.2f} "
@@ -183,7 +204,10 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     if not args.command:
         parser.error("--command: give the vrloco train command that made the model (or --dev)")
-    card = ship(args.model, args.command, args.episodes, args.choices, args.name)
+    seed = HELD_OUT_SEED if args.seed is None else args.seed
+    if seed < HELD_OUT_SEED:
+        parser.error(f"--seed {seed}: held-out seeds start at {HELD_OUT_SEED}")
+    card = ship(args.model, args.command, args.episodes, args.choices, args.name, seed)
     print(f"wrote {card}")
     print(json.dumps(json.loads(card.read_text())["bar"], indent=2))
     return 0

@@ -174,3 +174,19 @@ def test_ship_names_a_missing_model_in_one_line(tmp_path, capsys):
     assert main([str(tmp_path / "nope.zip"), "--dev"]) == 2
     err = capsys.readouterr().err
     assert err.startswith("ship: ") and "nope.zip" in err and "Traceback" not in err
+
+
+def test_ship_evaluates_on_held_out_seeds_only_and_develops_on_the_others(capsys):
+    """Shipping on a development seed, or developing on a held-out one, is refused by name."""
+    from agents.learned.users import LEARNED_USERS
+    from agents.learned.users.ship import HELD_OUT_SEED, main
+
+    model = str(next(iter(LEARNED_USERS.values())).path)
+    with pytest.raises(SystemExit) as shipped_low:
+        main([model, "--command", "vrloco train --task approach", "--seed", "1000"])
+    assert shipped_low.value.code == 2
+    assert f"--seed 1000: held-out seeds start at {HELD_OUT_SEED}" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as dev_high:
+        main([model, "--dev", "--seed", str(HELD_OUT_SEED + 5)])
+    assert dev_high.value.code == 2
+    assert "are not for --dev" in capsys.readouterr().err
