@@ -17,3 +17,4 @@ def test_reach_episodes_split_into_tracked_successes_and_mistracked_failures():
     assert r["success"] == r["success_tracked"] + r["success_mistracked"]
     assert 0 <= r["recovered"] <= r["mistracked"]
     assert r["turned_mistracked_deg"] >= 0.0
+    assert r["nearest_m"] == [0.0] * 6 and r["short"] == 0  # all stood in the goal region
