@@ -8,8 +8,9 @@ Run from the repository root::
 The model's task comes from the model. The held-out evaluation is the benchmark on seeds
 :data:`HELD_OUT_SEED` onwards, or on a later block never used before (``--seed S``, S >=
 :data:`HELD_OUT_SEED`; never a training or development seed: training evaluates on seeds 10000 +
-its seed, development on :data:`DEV_SEED` onwards), the default technique, the learned user (the shipped file, what ``ppo`` plays
-once registered) and the goal seeker, idealised and with every population of :data:`POPULATIONS`;
+its seed, development on :data:`DEV_SEED` onwards), the default technique, the learned user
+(the shipped file, what ``ppo`` plays once registered) and the goal seeker, idealised and with
+every population of :data:`POPULATIONS`;
 the card records that command and, per user and population, the success rate and the collision-free
 success rate with their 95 % Wilson intervals, and whether the bar holds: collision-free success >=
 :data:`BAR` for the idealised user, and at least the goal seeker's (its point estimate) under every
