@@ -15,7 +15,8 @@ row of the benchmark table. The definitions:
 * **time to goal** — mean episode time (s) of the successful episodes.
 * **path-length ratio** — mean ``walked / shortest`` of the successful episodes (failed ones
   would mix in how long the user wandered before the time limit).
-* **step precision / recall / F1** — detected vs true steps, see :func:`match_step_counts`.
+* **step precision / recall / F1** — detected vs true steps, see :func:`match_step_counts`;
+  NaN for a cell with neither (a user who never walked in place).
 * **attitude RMSE** — root mean square of ``info["attitude_error_deg"]`` (the rotation angle
   between true and estimated head attitude) over every control step of every episode.
 * **hand error** — mean of ``info["hand_error_deg"]`` over the control steps with a hand
@@ -111,10 +112,12 @@ def spl(success: ArrayLike, shortest: ArrayLike, walked: ArrayLike) -> float:
 
 
 def _prf(tp: int, fp: int, fn: int) -> tuple[float, float, float]:
-    """Precision, recall, F1 with the conventions of
-    :func:`agents.benchmark.step_matching.step_f1`."""
+    """Precision, recall, F1 of a cell's steps, with the conventions of
+    :func:`agents.benchmark.step_matching.step_f1`, except that a cell with neither a true nor
+    a detected step (a user who never walked in place, as with a technique that moves by head
+    tilt) has nothing to score: NaN, not a perfect 1."""
     if tp + fp + fn == 0:
-        return 1.0, 1.0, 1.0
+        return math.nan, math.nan, math.nan
     precision = tp / (tp + fp) if tp + fp else 1.0
     recall = tp / (tp + fn) if tp + fn else 1.0
     f1 = 2 * precision * recall / (precision + recall) if precision + recall else 0.0

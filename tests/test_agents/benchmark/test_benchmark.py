@@ -85,6 +85,18 @@ def test_summarize_rates_and_errors():
     assert row["mean_collisions"] == pytest.approx(0.75)
 
 
+def test_a_cell_without_steps_has_no_step_scores():
+    """A user who never walks in place (a head-tilt technique) and a detector that reports
+    nothing leave nothing to score: NaN, where one missed or phantom step scores 0."""
+    still = [episode(True, 0, 5.0, 5.0, true=[0, 0, 0], det=[0, 0, 0]) for _ in range(2)]
+    row = summarize(still)
+    assert all(np.isnan(row[k]) for k in ("step_precision", "step_recall", "step_f1"))
+    missed = summarize([*still, episode(True, 0, 5.0, 5.0, true=[1, 0, 0], det=[0, 0, 0])])
+    assert (missed["step_recall"], missed["step_f1"]) == (0.0, 0.0)
+    phantom = summarize([*still, episode(True, 0, 5.0, 5.0, true=[0, 0, 0], det=[0, 1, 0])])
+    assert (phantom["step_precision"], phantom["step_f1"]) == (0.0, 0.0)
+
+
 # --------------------------------------------------------------------------- the benchmark
 
 
