@@ -42,7 +42,8 @@ def hand_tracking_split(
 ) -> dict[str, Any]:
     """The split (module docstring) for the user ``policy`` (a benchmark policy spec):
     ``{"episodes", "at_goal", "mistracked", "recovered", "turned_mistracked_deg", "success",
-    "success_tracked", "success_mistracked", "short", "median_error_deg", "nearest_m"}``
+    "success_tracked", "success_mistracked", "short", "short_m", "median_error_deg",
+    "nearest_m"}``
     (counts, and per episode the median tracking error at the goal, NaN where it never stood
     there, and the nearest approach to the goal region, 0 where it stood in it)."""
     import gymnasium as gym
@@ -98,6 +99,7 @@ def hand_tracking_split(
         "success_tracked": int((won & ~flipped).sum()),
         "success_mistracked": int((won & flipped).sum()),
         "short": int((~np.isfinite(med) & (np.asarray(nearest) <= short_m)).sum()),
+        "short_m": short_m,
         "median_error_deg": [round(m, 1) for m in medians],
         "nearest_m": [round(d, 3) for d in nearest],
     }
@@ -115,7 +117,7 @@ def main(argv: list[str] | None = None) -> int:
     print(
         f"{r['task']}, {r['policy']}, seeds {r['seeds'][0]}-{r['seeds'][1]}: at the goal in "
         f"{r['at_goal']} of {r['episodes']} episodes ({r['short']} of the others stopped within "
-        f"0.15 m of it); hand mistracked there (median error > 90 "
+        f"{r['short_m']:g} m of it); hand mistracked there (median error > 90 "
         f"deg) in {r['mistracked']}, found again by the end in {r['recovered']}, the body "
         f"turning {r['turned_mistracked_deg']} deg there (median); success "
         f"{r['success']}: {r['success_tracked']} of "

@@ -206,9 +206,10 @@ def main(argv: list[str] | None = None) -> int:
     if not args.command:
         parser.error("--command: give the vrloco train command that made the model (or --dev)")
     seed = HELD_OUT_SEED if args.seed is None else args.seed
-    if seed < HELD_OUT_SEED:
-        parser.error(f"--seed {seed}: held-out seeds start at {HELD_OUT_SEED}")
-    card = ship(args.model, args.command, args.episodes, args.choices, args.name, seed)
+    try:
+        card = ship(args.model, args.command, args.episodes, args.choices, args.name, seed)
+    except ValueError as err:  # a development seed, or a name that is not a file name
+        parser.error(str(err))
     print(f"wrote {card}")
     print(json.dumps(json.loads(card.read_text())["bar"], indent=2))
     return 0

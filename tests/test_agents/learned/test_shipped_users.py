@@ -185,7 +185,7 @@ def test_ship_evaluates_on_held_out_seeds_only_and_develops_on_the_others(capsys
     with pytest.raises(SystemExit) as shipped_low:
         main([model, "--command", "vrloco train --task approach", "--seed", "1000"])
     assert shipped_low.value.code == 2
-    assert f"--seed 1000: held-out seeds start at {HELD_OUT_SEED}" in capsys.readouterr().err
+    assert f"seed=1000: held-out seeds start at {HELD_OUT_SEED}" in capsys.readouterr().err
     with pytest.raises(SystemExit) as dev_high:
         main([model, "--dev", "--seed", str(HELD_OUT_SEED + 5)])
     assert dev_high.value.code == 2
