@@ -81,7 +81,8 @@ def hand_tracking_split(
         turns = wrap_angle(np.deg2rad(np.diff(np.asarray(yaw))))
         turned.append(float(np.rad2deg(np.abs(turns).sum())))
     env.close()
-    med, won = np.asarray(medians), np.asarray(wins)
+    med, won, closest_m = np.asarray(medians), np.asarray(wins), np.asarray(nearest)
+    stood = closest_m == 0.0  # stood in the goal region at some step
     flipped = np.isfinite(med) & (med > flip_deg)
     found = flipped & (np.asarray(ends) <= flip_deg)  # NaN compares False
     return {
@@ -89,7 +90,7 @@ def hand_tracking_split(
         "policy": policy,
         "episodes": episodes,
         "seeds": [seed, seed + episodes - 1],
-        "at_goal": int(np.isfinite(med).sum()),
+        "at_goal": int(stood.sum()),
         "mistracked": int(flipped.sum()),
         "recovered": int(found.sum()),
         "turned_mistracked_deg": round(float(np.median(np.asarray(turned)[flipped])), 1)
@@ -98,7 +99,7 @@ def hand_tracking_split(
         "success": int(won.sum()),
         "success_tracked": int((won & ~flipped).sum()),
         "success_mistracked": int((won & flipped).sum()),
-        "short": int((~np.isfinite(med) & (np.asarray(nearest) <= short_m)).sum()),
+        "short": int((~stood & (closest_m <= short_m)).sum()),
         "short_m": short_m,
         "median_error_deg": [round(m, 1) for m in medians],
         "nearest_m": [round(d, 3) for d in nearest],
