@@ -35,3 +35,7 @@ pose from
   landmarks, and the (adaptive) error-state Kalman filter fusing them.
 * :mod:`estimators.io` — readers for the real recordings we validate against.
 """
+
+from estimators.numba_cache import use_fingerprinted_cache as _use_fingerprinted_cache
+
+_use_fingerprinted_cache()  # before any kernel is defined: numba's cache of these sources

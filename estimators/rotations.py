@@ -44,7 +44,9 @@ __all__ = [
     "wrap_angle",
 ]
 
-#: Standard gravity in m/s^2; the world gravity vector is ``[0, 0, -GRAVITY]``.
+#: Standard gravity in m/s^2; the world gravity vector is ``[0, 0, -GRAVITY]``. Compiled kernels
+#: read it (numba freezes it into the machine code; naming numba here puts this file in the
+#: cache's fingerprint, :mod:`estimators.numba_cache`).
 GRAVITY = 9.80665
 
 _SMALL_ANGLE = 1e-8

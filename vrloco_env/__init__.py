@@ -15,6 +15,7 @@ more)::
     env = gym.make("vrloco_env:VRLoco-Approach-v0")
 """
 
+import estimators  # noqa: F401  (first: numba's cache folder, estimators.numba_cache)
 from vrloco_env.registration import ENV_IDS, register_envs
 
 __version__ = "0.1.0"

@@ -39,6 +39,8 @@ class Joint(IntEnum):
     THUMB_RIGHT = 24
 
 
+# Compiled kernels read NUM_JOINTS and the tracking states below (numba freezes them into the
+# machine code): this comment names numba, so its cache's fingerprint covers this file.
 NUM_JOINTS = len(Joint)
 
 #: Parent of each joint in the kinematic tree (SpineBase is the root, its parent is -1).

@@ -42,21 +42,6 @@ def test_a_first_run_announces_compiling_before_it_plays_and_a_later_run_does_no
     assert "compiling kernels" not in played[0] + capsys.readouterr().out
 
 
-def test_a_changed_kernel_source_announces_again(tmp_path, monkeypatch):
-    src = tmp_path / "estimators" / "k.py"
-    src.parent.mkdir()
-    src.write_text("@numba.njit(cache=True)\ndef f(x):\n    return x\n")
-    monkeypatch.setattr(warm_start, "_ROOT", tmp_path)
-    monkeypatch.setattr(warm_start, "_PACKAGES", ("estimators",))
-    before = warm_start.kernel_fingerprint()
-    src.write_text("@numba.njit(cache=True)\ndef f(x):\n    return x + 1\n")
-    assert warm_start.kernel_fingerprint() != before
-    (tmp_path / "estimators" / "plain.py").write_text("x = 1\n")  # no kernel: same stamp
-    after = warm_start.kernel_fingerprint()
-    (tmp_path / "estimators" / "plain.py").write_text("x = 2\n")
-    assert warm_start.kernel_fingerprint() == after
-
-
 def test_a_cold_run_with_workers_compiles_the_shared_kernels_here_before_forking(
     stamp, monkeypatch
 ):
