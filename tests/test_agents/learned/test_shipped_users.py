@@ -190,3 +190,25 @@ def test_ship_evaluates_on_held_out_seeds_only_and_develops_on_the_others(capsys
         main([model, "--dev", "--seed", str(HELD_OUT_SEED + 5)])
     assert dev_high.value.code == 2
     assert "are not for --dev" in capsys.readouterr().err
+
+
+def test_a_learned_user_acts_as_stable_baselines3_predicts_to_the_last_bit():
+    """The benchmark's actions of every shipped user (each row on its own) are those of
+    ``model.predict(row, deterministic=True)``, the reference, on observations all over the
+    observation box."""
+    from agents.benchmark.policies import LearnedPolicy
+    from agents.learned.users import LEARNED_USERS
+    from vrloco_env.tasks import env_id
+
+    rng = np.random.default_rng(7)
+    for user in LEARNED_USERS.values():
+        env = gym.make(env_id(user.task))
+        policy = LearnedPolicy(user.path, env)
+        env.close()
+        rows = rng.uniform(-1.0, 1.0, (64, policy.model.observation_space.shape[0]))
+        rows = rows.astype(np.float32)
+        rows[:4] *= 3.0  # beyond the box too: predict clips the actions, not the observations
+        want = np.stack([policy.model.predict(r, deterministic=True)[0] for r in rows])
+        got = policy._act_rows(rows)
+        assert got.dtype == want.dtype and np.array_equal(got, want), user.path.name
+        assert len(np.unique(got[:, 0])) > 10  # the rows act differently: not a constant
