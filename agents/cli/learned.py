@@ -20,6 +20,8 @@ def cmd_train(args: argparse.Namespace) -> int:
         population=args.population,
         condition=args.condition,
     )
+    if args.eval_episodes is not None:
+        common["eval_episodes"] = args.eval_episodes
     if args.reward is not None:
         common["reward"] = args.reward
     if args.variability is not None:

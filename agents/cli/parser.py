@@ -537,6 +537,13 @@ def build_parser() -> argparse.ArgumentParser:
     train.add_argument(
         "--eval-every", type=_int_at_least(1), default=100_000, help="steps between evals"
     )
+    train.add_argument(
+        "--eval-episodes",
+        type=_int_at_least(1),
+        default=None,
+        metavar="N",
+        help="users each evaluation plays (default 32, or one per cell of a mix of more cells)",
+    )
     seeding = train.add_mutually_exclusive_group()
     seeding.add_argument("--seed", type=_int_at_least(0), default=0, help="random seed")
     seeding.add_argument(

@@ -31,7 +31,10 @@ from agents.learned.residual import (
 from agents.learned.threads import _TORCH_SPINS
 from vrloco_env.vector import VRLocoVectorEnv
 
-__all__ = ["OneTorchThread", "SB3VecEnv", "make_model", "train_ppo"]
+__all__ = ["EVAL_EPISODES", "OneTorchThread", "SB3VecEnv", "make_model", "train_ppo"]
+
+#: Users each training evaluation plays by default (a mix of more cells plays one per cell).
+EVAL_EPISODES = 32
 
 
 #: Reported per-step keys kept in the SB3 infos (episode metrics for the callbacks).
@@ -141,7 +144,7 @@ def train_ppo(
     out_dir: Path = Path("runs"),
     sensor_preset: str | None = None,
     eval_every: int = 100_000,
-    eval_episodes: int = 32,
+    eval_episodes: int | None = None,
     progress: bool = True,
     technique: Any = None,
     population: Any = None,
@@ -164,6 +167,9 @@ def train_ppo(
     (environment steps, wall time, evaluation success rate and mean return).
 
     Args:
+        eval_episodes: users each evaluation plays, seeded from ``10_000 + seed`` (None:
+            :data:`EVAL_EPISODES`, or one per cell of a mix of more cells; a mix needs at least
+            one per cell).
         technique, population, condition: the cell trained on
             (:func:`~agents.learned.models.env_settings`; None: the env's default technique, no
             population, the ``lab``); saved with every model as ``model.vrloco_cell`` (with
@@ -242,6 +248,8 @@ def train_ppo(
             raise ValueError(
                 f"residual_on={residual_on!r} starts as that scripted user; drop imitate"
             )
+    if eval_episodes is None:
+        eval_episodes = max(EVAL_EPISODES, len(cells))
     technique, population, variability = cells[0]  # a mix's settings: its first cell's
     env_kwargs = env_settings(
         task, sensor_preset, technique, population, condition, **_reward_kwargs(reward)

@@ -209,3 +209,37 @@ def test_a_run_goes_on_from_a_model_reading_the_fields_it_knows(tmp_path):
         train_ppo("avoid", out_dir=tmp_path / "c", init=first, frame_stack=2, **tiny)
     with pytest.raises(ValueError, match="keeps its own PPO settings; drop n_steps"):
         train_ppo("avoid", out_dir=tmp_path / "c", init=first, n_steps=64, **tiny)
+
+
+def test_a_mix_of_more_cells_than_the_default_evaluates_one_user_per_cell(tmp_path, monkeypatch):
+    """``eval_episodes`` left out: 32 users, or one per cell of a bigger mix (17 techniques x 2
+    populations: 34), rather than the error a mix with too few users is (which names the
+    field); ``vrloco train --eval-episodes N`` chooses it."""
+    import agents.learned.train as train
+    from agents.cli import main
+
+    asked = []
+
+    class Stop(Exception):
+        pass
+
+    def users(n, *args, field="num_envs", **kwargs):
+        asked.append((field, n))
+        if field == "eval_episodes":
+            raise Stop
+        return None
+
+    monkeypatch.setattr(train, "mixed_users", users)
+    mix = dict(technique="all", population="idealised,typical", num_envs=34, progress=False)
+    with pytest.raises(Stop):
+        train_ppo("avoid", out_dir=tmp_path / "a", **mix)
+    assert asked == [("num_envs", 34), ("eval_episodes", 34)]
+    asked.clear()
+    with pytest.raises(Stop):
+        train_ppo("avoid", out_dir=tmp_path / "b", technique="zhang2021,smooth", progress=False)
+    assert asked[-1] == ("eval_episodes", train.EVAL_EPISODES)
+    asked.clear()
+    cli = ["train", "--task", "avoid", "--technique", "zhang2021,smooth", "--steps", "8192"]
+    with pytest.raises(Stop):
+        main([*cli, "--eval-episodes", "40", "--out", str(tmp_path / "c")])
+    assert asked[-1] == ("eval_episodes", 40)
