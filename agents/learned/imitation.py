@@ -23,8 +23,12 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
+
+from vrloco_env.actions import ACTION_SIZE
 
 __all__ = [
+    "BodyTeachers",
     "EpisodeTally",
     "check_imitation",
     "episode_returns",
@@ -212,31 +216,88 @@ def imitate_scripted(
     return imitate(model, env, scripted_teacher(name, users), steps, seed=seed + 50_000)
 
 
-def scripted_teacher(name: str, users: Any) -> Any:
+def scripted_teacher(name: str, users: Any, mixed_bodies: bool = False) -> Any:
     """The batched scripted user ``name`` for the vector env ``users``: its observation layout
     and its body (:func:`agents.scripted.params_from_env`).
 
-    ``users`` may be a mix of populations (:class:`~agents.learned.mixed_env.MixedUsersEnv`):
-    the scripted user reads the mix's layout, the richest part's, into which every part's
-    observation is read (a part without ``head_on_torso`` reads 0 there, its head straight on
-    the torso), with the body the parts share.
+    ``users`` may be a mix (:class:`~agents.learned.mixed_env.MixedUsersEnv`): the scripted user
+    reads the mix's layout, the richest part's, into which every part's observation is read (a
+    part without ``head_on_torso`` reads 0 there, its head straight on the torso). Where the
+    parts share one body (a mix of populations) one scripted user acts for all; where they do
+    not (a mix of techniques: their step lengths, stop distances and ways of placing the map
+    differ), ``mixed_bodies`` gives :class:`BodyTeachers`, one scripted user per body acting for
+    its parts' users.
 
     Raises:
-        ValueError: a mix whose parts' bodies differ (a scripted user acts for one).
+        ValueError: a mix whose parts' bodies differ, without ``mixed_bodies``.
     """
     from agents.scripted import ObservationLayout, make_policy, params_from_env
 
     parts = getattr(users, "parts", None)
     if parts is None:
         return make_policy(name, ObservationLayout.from_env(users), params_from_env(users))
-    richest = parts[users.richest]
+    layout = ObservationLayout.from_env(parts[users.richest])
     bodies = [params_from_env(p) for p in parts]
-    if any(b != bodies[0] for b in bodies[1:]):
+    if all(b == bodies[0] for b in bodies[1:]):
+        return make_policy(name, layout, bodies[0])
+    if not mixed_bodies:
         raise ValueError(
             f"imitate={name!r}: the mix's parts ({', '.join(users.cells)}) have different "
             "bodies; a scripted user acts for one"
         )
-    return make_policy(name, ObservationLayout.from_env(richest), bodies[0])
+    distinct: list[Any] = []
+    for b in bodies:
+        if b not in distinct:
+            distinct.append(b)
+    bounds = np.cumsum([0, *(p.num_envs for p in parts)])
+    rows = [
+        np.concatenate(
+            [np.arange(bounds[i], bounds[i + 1]) for i, b in enumerate(bodies) if b == body]
+        )
+        for body in distinct
+    ]
+    return BodyTeachers([make_policy(name, layout, body) for body in distinct], rows)
+
+
+class BodyTeachers:
+    """Scripted users of one kind with different bodies, each acting for its own users of one
+    batch (:func:`scripted_teacher` of a mix of techniques): ``act`` hands each its rows and
+    puts its actions back in place; ``reset`` starts the episodes of the rows given.
+
+    Args:
+        policies: one batched scripted user per body.
+        rows: the batch rows each acts for (together, every row once).
+    """
+
+    def __init__(self, policies: list[Any], rows: list[NDArray[np.intp]]) -> None:
+        every = np.sort(np.concatenate(rows))
+        if not np.array_equal(every, np.arange(every.size)):
+            raise ValueError("BodyTeachers: the rows must cover the batch, each row once")
+        self.policies, self.rows = policies, [np.asarray(r, np.intp) for r in rows]
+        self._owner = np.empty(every.size, np.intp)  # row -> (policy, its place there)
+        self._place = np.empty(every.size, np.intp)
+        for k, r in enumerate(self.rows):
+            self._owner[r], self._place[r] = k, np.arange(r.size)
+
+    def act(self, obs: Any) -> NDArray[np.float32]:
+        """Each row's action from the scripted user of its body, (B, 5)."""
+        obs = np.asarray(obs)
+        out = np.empty((obs.shape[0], ACTION_SIZE), np.float32)
+        for policy, r in zip(self.policies, self.rows, strict=True):
+            out[r] = policy.act(obs[r])
+        return out
+
+    def reset(self, rng: Any = None, rows: Any = None) -> None:
+        """Start the episodes of ``rows`` (batch indices; None: every row)."""
+        if rows is None:
+            for policy in self.policies:
+                policy.reset()
+            return
+        rows = np.asarray(rows, np.intp)
+        for k, policy in enumerate(self.policies):
+            mine = self._place[rows[self._owner[rows] == k]]
+            if mine.size:
+                policy.reset(rows=mine)
 
 
 def _batches(n: int, batch_size: int, rng: np.random.Generator):

@@ -70,13 +70,11 @@ def combine(scripted: NDArray[np.floating], correction: Any) -> NDArray[np.float
     return np.minimum(np.maximum(a, -1.0), 1.0)
 
 
-def check_residual(
-    residual_on: Any, recurrent: bool = False, cells: Any = (), env_workers: int = 1
-) -> None:
+def check_residual(residual_on: Any, recurrent: bool = False, env_workers: int = 1) -> None:
     """Whether a run can learn a correction of the scripted user ``residual_on``: a registered
-    scripted user, a feed-forward policy, one technique's users (the scripted user acts for one
-    technique's body; a mix of populations is fine), stepped in this process (the scripted user
-    is built from the env it acts in).
+    scripted user, a feed-forward policy, stepped in this process (the scripted user is built
+    from the env it acts in; a mix of techniques has one per technique's body,
+    :class:`~agents.learned.imitation.BodyTeachers`).
 
     Raises:
         ValueError: naming what stands in the way (an unknown name lists the scripted users).
@@ -90,10 +88,6 @@ def check_residual(
         )
     if recurrent:
         raise ValueError(f"residual_on={residual_on!r} trains a feed-forward policy")
-    if len({str(c[0]) for c in cells}) > 1:
-        raise ValueError(
-            f"residual_on={residual_on!r} trains one technique's users, not a mix of techniques"
-        )
     if env_workers > 1:
         raise ValueError(
             f"residual_on={residual_on!r} trains users stepped in this process (env_workers=1)"

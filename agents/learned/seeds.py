@@ -136,7 +136,6 @@ def _check_run(task: str, train_kwargs: dict[str, Any]) -> None:
         check_residual(
             train_kwargs["residual_on"],
             train_kwargs.get("recurrent", False),
-            cells,
             train_kwargs.get("env_workers", 1),
         )
     if train_kwargs.get("imitate") is not None:
@@ -144,7 +143,6 @@ def _check_run(task: str, train_kwargs: dict[str, Any]) -> None:
             train_kwargs["imitate"],
             train_kwargs.get("init"),
             train_kwargs.get("recurrent", False),
-            cells,
             train_kwargs.get("env_workers", 1),
         )
 

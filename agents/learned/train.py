@@ -243,7 +243,7 @@ def train_ppo(
     if imitate is not None:
         check_imitation(imitate, init, recurrent, cells, env_workers)
     if residual_on is not None:
-        check_residual(residual_on, recurrent, cells, env_workers)
+        check_residual(residual_on, recurrent, env_workers)
         if imitate is not None:
             raise ValueError(
                 f"residual_on={residual_on!r} starts as that scripted user; drop imitate"
@@ -278,10 +278,10 @@ def train_ppo(
     spec = eval_users.observation_spec
     if residual_on is not None:  # the policy sees, and corrects, the scripted user's action
         users = ScriptedPlusCorrection(
-            users, scripted_teacher(residual_on, users.unwrapped), residual_on, spec
+            users, scripted_teacher(residual_on, users.unwrapped, True), residual_on, spec
         )
         evaluated = ScriptedPlusCorrection(
-            evaluated, scripted_teacher(residual_on, eval_users), residual_on, spec
+            evaluated, scripted_teacher(residual_on, eval_users, True), residual_on, spec
         )
         spec = users.observation_spec
     layout = observation_layout(spec)
