@@ -119,6 +119,15 @@ LEARNED_USERS.register(
     "scanners (goal seeker 0.81, 0.78, 0.70) (approach_any_technique.json)",
 )
 
+LEARNED_USERS.register(
+    "doorway_any_technique",
+    LearnedUser("doorway", "doorway_any_technique.zip"),
+    "the Doorway user for any technique: the Doorway user trained on every registered technique "
+    "at once with every population, 200k steps; held-out on the default technique over 300 "
+    "episodes 0.98 idealised, 0.24 typical, 0.19 nodders, 0.21 gaze scanners (goal seeker 0.74, "
+    "0.18, 0.19, 0.10) (doorway_any_technique.json)",
+)
+
 #: task -> why no learned user is shipped for it (where one was tried), with where it is shown.
 NOT_SHIPPED: dict[str, str] = {}
 
