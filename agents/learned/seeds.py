@@ -143,6 +143,7 @@ def _check_run(task: str, train_kwargs: dict[str, Any]) -> None:
             train_kwargs["imitate"],
             train_kwargs.get("init"),
             train_kwargs.get("recurrent", False),
+            cells,
             train_kwargs.get("env_workers", 1),
         )
 
