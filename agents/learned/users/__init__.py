@@ -108,8 +108,6 @@ LEARNED_USERS.register(
     "typical population and its variability, 5M steps; held-out on the default technique 1.00 "
     "idealised, 0.97 typical, 0.96 nodders, 0.87 gaze scanners (avoid_any_technique.json)",
 )
-
-
 LEARNED_USERS.register(
     "approach_any_technique",
     LearnedUser("approach", "approach_any_technique.zip"),
@@ -118,7 +116,6 @@ LEARNED_USERS.register(
     "300 episodes 0.95 idealised (goal seeker 0.99), 0.86 typical, 0.84 nodders, 0.81 gaze "
     "scanners (goal seeker 0.81, 0.78, 0.70) (approach_any_technique.json)",
 )
-
 LEARNED_USERS.register(
     "doorway_any_technique",
     LearnedUser("doorway", "doorway_any_technique.zip"),
@@ -127,6 +124,7 @@ LEARNED_USERS.register(
     "episodes 0.98 idealised, 0.24 typical, 0.19 nodders, 0.21 gaze scanners (goal seeker 0.74, "
     "0.18, 0.19, 0.10) (doorway_any_technique.json)",
 )
+
 
 #: task -> why no learned user is shipped for it (where one was tried), with where it is shown.
 NOT_SHIPPED: dict[str, str] = {}
