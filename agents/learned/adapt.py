@@ -6,7 +6,9 @@ cell (task, technique, population, condition) for ``steps`` more environment ste
 settings and the training objective it was trained with, seeded, reading the cell's observation
 as it was trained to (its fields by name), and with the human variability of the population the
 benchmark plays it with (``ppo@STEPS+typical``). Every technique gets the same
-budget. The result is cached in ``cache_dir`` under a key of the cell, the shipped model's bytes,
+budget, and the fine-tuning runs on one torch thread as :func:`~agents.learned.train.train_ppo`
+does, so that an adapted user's weights do not depend on the machine's core count. The result
+is cached in ``cache_dir`` under a key of the cell, the shipped model's bytes,
 the package's source fingerprint (:func:`agents.benchmark.resume.source_fingerprint`), the budget
 and the seed, so a rerun reuses it; a cached file that does not load is reported and trained
 again, never reused. ``steps = 0`` is the shipped user itself.
@@ -77,7 +79,7 @@ def adapted_user(
         model_policy,
         observation_columns,
     )
-    from agents.learned.train import SB3VecEnv, _wrap, rollout_steps
+    from agents.learned.train import OneTorchThread, SB3VecEnv, _wrap, rollout_steps
     from agents.learned.users import shipped_user
     from vrloco_env.vector import VRLocoVectorEnv
 
@@ -127,7 +129,11 @@ def adapted_user(
     model = type(base).load(shipped, env=venv)
     model.set_random_seed(seed)
     budget = rollout_steps(steps, model.n_steps, num_envs)
-    model.learn(budget, reset_num_timesteps=False, progress_bar=False)
+    one_thread = OneTorchThread()  # the same weights on any machine (the update's sums)
+    try:
+        model.learn(budget, callback=one_thread, reset_num_timesteps=False, progress_bar=False)
+    finally:
+        one_thread.restore()
     model.vrloco_env = settings
     model.vrloco_cell = {k: v for k, v in cell.items() if k != "variability"}
     model.vrloco_variability = variability

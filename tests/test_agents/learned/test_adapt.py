@@ -54,3 +54,29 @@ def test_adapt_needs_the_shipped_user_among_the_policies(capsys):
 
     assert main(["benchmark", "--policies", "goal_seeker", "--adapt", "100"]) == 2
     assert "--adapt needs --policies ppo" in capsys.readouterr().err
+
+
+def test_an_adapted_user_has_the_same_weights_whatever_torch_s_thread_count(tmp_path):
+    import os
+
+    import torch
+
+    from agents.benchmark.policies import load_ppo
+
+    if (os.cpu_count() or 1) < 2:
+        pytest.skip("one core: torch has no second thread to sum with")
+    before = torch.get_num_threads()
+    weights = []
+    try:
+        for threads in (2, 1):
+            torch.set_num_threads(threads)
+            path = adapted_user(
+                "avoid", "smooth", steps=1024, cache_dir=tmp_path / str(threads), num_envs=4
+            )
+            assert torch.get_num_threads() == threads  # given back after the fine-tuning
+            weights.append(load_ppo(path).policy.state_dict())
+    finally:
+        torch.set_num_threads(before)
+    assert weights[0].keys() == weights[1].keys()
+    for name, value in weights[0].items():
+        assert torch.equal(value, weights[1][name]), name
