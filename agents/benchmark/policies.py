@@ -10,7 +10,9 @@ A policy spec is one of
 * the path of a stable-baselines3 PPO model (``.zip``), played with its deterministic policy;
 * ``ppo``: the learned user shipped for the env's task (:mod:`agents.learned.users`);
   ``ppo@STEPS``: that user adapted to the env's cell by ``STEPS`` more training steps
-  (:func:`agents.learned.adapt.adapted_user`, cached; ``ppo@0`` is ``ppo``);
+  (:func:`agents.learned.adapt.adapted_user`, cached; ``ppo@0`` is ``ppo``), and
+  ``ppo@STEPS:SEED`` the same with the fine-tuning's random seed ``SEED`` (0 without one), to
+  see how much an adapted user owes to the seed it was tuned with;
 
 each optionally followed by ``+<population>`` for the agent-side variability of a user population
 (:mod:`vrloco_env.user.population`) through :class:`agents.benchmark.variability.HumanVariability`
@@ -40,6 +42,7 @@ __all__ = [
     "HUMAN_SUFFIX",
     "SHIPPED",
     "LearnedPolicy",
+    "adapt_seed",
     "adapt_steps",
     "adapted_path",
     "build_policy",
@@ -389,21 +392,36 @@ def _load_ppo(path: Path) -> Any:
     return _MODELS[key]
 
 
-def adapt_steps(spec: str) -> int:
-    """The adaptation budget of a ``ppo@STEPS`` spec (0 for ``ppo``), or a ValueError."""
+def _adaptation(spec: str) -> tuple[int, int]:
+    """The budget and seed of a ``ppo@STEPS[:SEED]`` spec ((0, 0) for ``ppo``), or a
+    ValueError."""
     base, _ = _split(spec)
     if base == SHIPPED:
-        return 0
-    text = base[len(SHIPPED) + 1 :]
-    if not base.startswith(SHIPPED + "@") or not text.isdigit():
-        raise ValueError(f"policy={spec!r}: write ppo@STEPS with STEPS an integer >= 0")
-    return int(text)
+        return 0, 0
+    steps, sep, seed = base[len(SHIPPED) + 1 :].partition(":")
+    if not base.startswith(SHIPPED + "@") or not steps.isdigit() or (sep and not seed.isdigit()):
+        raise ValueError(
+            f"policy={spec!r}: write ppo@STEPS or ppo@STEPS:SEED, STEPS and SEED integers >= 0"
+        )
+    return int(steps), int(seed) if sep else 0
 
 
-def adapted_path(env: Any, steps: int, population: str | None = None) -> Path:
-    """The shipped user of ``env``'s task adapted to ``env``'s cell by ``steps`` steps, with
-    the human variability of ``population`` (the spec's ``+<population>``) around it where that
-    population has one (:func:`agents.learned.adapt.adapted_user`)."""
+def adapt_steps(spec: str) -> int:
+    """The adaptation budget of a ``ppo@STEPS[:SEED]`` spec (0 for ``ppo``), or a ValueError."""
+    return _adaptation(spec)[0]
+
+
+def adapt_seed(spec: str) -> int:
+    """The adaptation's seed of a ``ppo@STEPS:SEED`` spec (0 without ``:SEED``), or a
+    ValueError."""
+    return _adaptation(spec)[1]
+
+
+def adapted_path(env: Any, steps: int, population: str | None = None, seed: int = 0) -> Path:
+    """The shipped user of ``env``'s task adapted to ``env``'s cell by ``steps`` steps with
+    random seed ``seed``, with the human variability of ``population`` (the spec's
+    ``+<population>``) around it where that population has one
+    (:func:`agents.learned.adapt.adapted_user`)."""
     from agents.learned.adapt import adapted_user
     from agents.learned.models import cell_of
 
@@ -419,6 +437,7 @@ def adapted_path(env: Any, steps: int, population: str | None = None) -> Path:
         cell["population"],
         condition,
         steps,
+        seed=seed,
         variability=population if varies else None,
     )
 
@@ -439,7 +458,8 @@ def build_policy(spec: str, env: Any) -> Any:
         policy = LearnedPolicy(user.path, env)
         policy.name = SHIPPED
     elif base.startswith(SHIPPED + "@"):
-        policy = LearnedPolicy(adapted_path(env, adapt_steps(spec), population), env)
+        path = adapted_path(env, adapt_steps(spec), population, adapt_seed(spec))
+        policy = LearnedPolicy(path, env)
         policy.name = base
     else:
         from estimators.registry import load_attr

@@ -59,6 +59,7 @@ def cmd_learned_ranking(args: argparse.Namespace) -> int:
             adapt_steps=args.adapt,
             dev=args.dev,
             json_path=Path(args.json) if args.json else None,
+            adapt_seed=args.adapt_seed,
         )
     except ValueError as err:
         print(f"vrloco experiment learned-ranking: {err}", file=sys.stderr)

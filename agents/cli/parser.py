@@ -257,6 +257,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="the adapted user's fine-tuning steps on each technique",
     )
     lr.add_argument(
+        "--adapt-seed",
+        type=_int_at_least(0),
+        default=0,
+        metavar="SEED",
+        help="the fine-tuning's random seed (another seed: another adapted user)",
+    )
+    lr.add_argument(
         "--dev",
         action="store_true",
         help="the development seeds (from 1000) instead of the reporting seeds (from 200000)",

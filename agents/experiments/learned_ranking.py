@@ -21,7 +21,11 @@ played; the others are listed with the reason. The reporting seeds start at
 played (their development seeds are 1000-1159 and the training evaluation's 10001+); ``--dev``
 plays the development seeds from :data:`DEV_SEED` instead.
 
-Run: ``vrloco experiment learned-ranking [--json F] [--episodes N] [--adapt STEPS] [--dev]``.
+An adapted user is one fine-tuning run, seeded (``--adapt-seed``, 0 by default); running the
+ranking again with other seeds shows how much of the adapted column is the seed's.
+
+Run: ``vrloco experiment learned-ranking [--json F] [--episodes N] [--adapt STEPS]
+[--adapt-seed S] [--dev]``.
 """
 
 from __future__ import annotations
@@ -41,7 +45,8 @@ __all__ = ["DEV_SEED", "REPORT_SEED", "USERS", "format_table", "rank", "run_lear
 REPORT_SEED = 200_000
 #: The first development seed (``--dev``).
 DEV_SEED = 1_000
-#: The three kinds of user, each a benchmark policy (``{steps}``: the adaptation budget).
+#: The three kinds of user, each a benchmark policy (``{steps}``: the adaptation budget, with
+#: ``:SEED`` after it for a seed other than 0).
 USERS = (
     ("scripted", "goal_seeker+typical"),
     ("learned", "ppo+typical"),
@@ -75,12 +80,14 @@ def run_learned_ranking(
     techniques: Sequence[str] | None = None,
     workers: int = 2,
     progress: bool = True,
+    adapt_seed: int = 0,
 ) -> dict[str, Any]:
     """Play the ranking (module docstring), print its table, write ``json_path``.
 
     Args:
         episodes: episodes per cell (>= 2).
         adapt_steps: the adapted user's fine-tuning budget per technique (>= 1).
+        adapt_seed: the fine-tuning's random seed (>= 0).
         dev: the development seeds instead of the reporting seeds.
         tasks: the tasks (default: the default grid's).
         techniques: the techniques (default: the default grid's; the first is the baseline).
@@ -91,7 +98,8 @@ def run_learned_ranking(
         tau}, "disagreements": [...]}}, "skipped": {task: why}, "settings": {...}}``.
 
     Raises:
-        ValueError: a bad ``episodes`` or ``adapt_steps``, or no task with a shipped user.
+        ValueError: a bad ``episodes``, ``adapt_steps`` or ``adapt_seed``, or no task with a
+            shipped user.
     """
     from scipy.stats import kendalltau
 
@@ -104,6 +112,9 @@ def run_learned_ranking(
         raise ValueError(f"episodes={episodes!r}: must be an integer >= 2")
     if isinstance(adapt_steps, bool) or not isinstance(adapt_steps, int) or adapt_steps < 1:
         raise ValueError(f"adapt_steps={adapt_steps!r}: must be an integer >= 1")
+    if isinstance(adapt_seed, bool) or not isinstance(adapt_seed, int) or adapt_seed < 0:
+        raise ValueError(f"adapt_seed={adapt_seed!r}: must be an integer >= 0")
+    budget = f"{adapt_steps}:{adapt_seed}" if adapt_seed else f"{adapt_steps}"
     tasks = list(DEFAULT_TASKS if tasks is None else tasks)
     techniques = list(DEFAULT_TECHNIQUES if techniques is None else techniques)
     skipped = {t: "no shipped learned user" for t in tasks if t not in LEARNED_USERS}
@@ -113,7 +124,7 @@ def run_learned_ranking(
     seed = DEV_SEED if dev else REPORT_SEED
     out: dict[str, Any] = {}
     for task in played:
-        users = [(kind, spec.format(steps=adapt_steps)) for kind, spec in USERS]
+        users = [(kind, spec.format(steps=budget)) for kind, spec in USERS]
         shown = {spec: spec for _, spec in users}
         second = f"{task}{ANY_TECHNIQUE}"
         if second in LEARNED_USERS:  # the task's user for any technique, played as it is
@@ -192,10 +203,11 @@ def run_learned_ranking(
             "seed": seed,
             "seeds": "development" if dev else "reporting (held-out)",
             "adapt_steps": adapt_steps,
+            "adapt_seed": adapt_seed,
             "users": dict(USERS),
             "metric": METRIC,
             "alpha": ALPHA,
-            "command": _command(episodes, adapt_steps, dev),
+            "command": _command(episodes, adapt_steps, dev, adapt_seed),
         },
     }
     result = json_safe(result)  # NaN (no stop to measure, no ranking to compare): null
@@ -205,9 +217,13 @@ def run_learned_ranking(
     return result
 
 
-def _command(episodes: int, adapt_steps: int, dev: bool) -> str:
-    return f"vrloco experiment learned-ranking --episodes {episodes} --adapt {adapt_steps}" + (
-        " --dev" if dev else ""
+def _command(episodes: int, adapt_steps: int, dev: bool, adapt_seed: int = 0) -> str:
+    seed = f" --adapt-seed {adapt_seed}" if adapt_seed else ""
+    dev_seeds = " --dev" if dev else ""
+    return (
+        f"vrloco experiment learned-ranking --episodes {episodes} --adapt {adapt_steps}"
+        + seed
+        + dev_seeds
     )
 
 

@@ -90,6 +90,30 @@ def test_the_rankings_their_tests_and_where_they_disagree(monkeypatch, tmp_path,
     assert "interact: not played (no shipped learned user)" in table
 
 
+def test_another_adaptation_seed_plays_another_adapted_user(monkeypatch):
+    played = []
+
+    def fake_benchmark(**kw):
+        played.extend(kw["policies"])
+        return [
+            _row("avoid", pol, t, v, None, 0.0)
+            for t, v in (("zhang2021", 0.5), ("threshold_steps", 0.6))
+            for pol in played
+        ]
+
+    monkeypatch.setattr("agents.benchmark.run_benchmark", fake_benchmark)
+    result = run_learned_ranking(
+        adapt_steps=1000,
+        adapt_seed=2,
+        tasks=["avoid"],
+        techniques=["zhang2021", "threshold_steps"],
+        progress=False,
+    )
+    assert "ppo@1000:2+typical" in played
+    assert result["settings"]["adapt_seed"] == 2
+    assert result["settings"]["command"].endswith("--adapt 1000 --adapt-seed 2")
+
+
 def test_bad_settings_are_named(monkeypatch):
     from agents.learned.users import LEARNED_USERS
 
@@ -98,6 +122,8 @@ def test_bad_settings_are_named(monkeypatch):
         run_learned_ranking(episodes=1)
     with pytest.raises(ValueError, match="adapt_steps=0"):
         run_learned_ranking(adapt_steps=0)
+    with pytest.raises(ValueError, match="adapt_seed=-1: must be an integer >= 0"):
+        run_learned_ranking(adapt_seed=-1)
     with pytest.raises(ValueError, match="none has a shipped learned user"):
         run_learned_ranking(tasks=["interact"], episodes=2)
 

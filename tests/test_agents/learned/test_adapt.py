@@ -35,7 +35,7 @@ def test_an_adapted_user_is_trained_once_per_cell_and_budget_and_a_damaged_one_a
 
 
 def test_bad_budgets_and_cells_are_named(monkeypatch):
-    from agents.benchmark.policies import adapt_steps, check_policy
+    from agents.benchmark.policies import adapt_seed, adapt_steps, check_policy
     from agents.learned import users
 
     monkeypatch.delitem(users.LEARNED_USERS, "interact")
@@ -47,6 +47,31 @@ def test_bad_budgets_and_cells_are_named(monkeypatch):
     with pytest.raises(ValueError, match=r"write ppo@STEPS"):
         check_policy("ppo@many")
     assert adapt_steps("ppo@300+typical") == 300 and adapt_steps("ppo") == 0
+    assert adapt_seed("ppo@300:7+typical") == 7 and adapt_seed("ppo@300") == 0
+    assert adapt_steps("ppo@300:7") == 300
+    for bad in ("ppo@300:", "ppo@300:x", "ppo@:7"):
+        with pytest.raises(ValueError, match=r"write ppo@STEPS or ppo@STEPS:SEED"):
+            check_policy(bad)
+
+
+def test_the_spec_s_seed_is_the_fine_tuning_s(monkeypatch):
+    import gymnasium as gym
+
+    from agents.benchmark.policies import build_policy
+    from agents.learned.users import shipped_user
+
+    asked = []
+
+    def fake_adapted_user(task, technique, population, condition, steps, seed=0, **kw):
+        asked.append((task, steps, seed))
+        return shipped_user(task).path
+
+    monkeypatch.setattr("agents.learned.adapt.adapted_user", fake_adapted_user)
+    env = gym.make("VRLoco-Avoid-v0")
+    for spec in ("ppo@500:3+typical", "ppo@500"):
+        build_policy(spec, env)
+    env.close()
+    assert asked == [("avoid", 500, 3), ("avoid", 500, 0)]
 
 
 def test_adapt_needs_the_shipped_user_among_the_policies(capsys):
