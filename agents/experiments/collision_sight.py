@@ -8,13 +8,14 @@ it has seen (the goal seeker keeps a map of every ray hit) can avoid what its ra
 show; a user who acts on the last few observations (a learned user with a frame stack) cannot.
 
 Each episode is played as the benchmark plays it (:func:`agents.benchmark.episodes.run_episode`'s
-seeding: episode ``i`` is a single env reset with ``seed + i``, the user idealised, the default
-technique). A *collision* is a run of consecutive blocked steps (``info["collision"]``), counted
-once, at its first step ``k``. The solid walked into is the one of the room's solids (walls,
-obstacles, the pedestal) nearest to the stretch of a step the body was about to walk (the
-estimators' ``step_length`` along ``info["walk_yaw_deg"]`` from its position). A ray *showed*
-that solid where its hit point, placed in the room from the true virtual pose the ray was cast
-from, lies within ``touch_m`` of it. The collision is then:
+seeding: episode ``i`` is a single env reset with ``seed + i``, the default technique, the env's
+head straight on the torso; a ``+population`` suffix of the policy spec adds that population's
+agent-side variability only). A *collision* is a run of consecutive blocked steps
+(``info["collision"]``), counted once, at its first step ``k``. The solid walked into is the one
+of the room's solids (walls, obstacles, the pedestal) nearest to the stretch of a step the body
+was about to walk (the estimators' ``step_length`` along ``info["walk_yaw_deg"]`` from its
+position). A ray *showed* that solid where its hit point, placed in the room from the true
+virtual pose the ray was cast from, lies within ``touch_m`` of it. The collision is then:
 
 * ``last_frame``: shown in the observation the user acted on (the one before step ``k``);
 * ``in_memory``: not there, but in another of the last ``frames`` observations (what a
