@@ -37,6 +37,7 @@ import time
 from pathlib import Path
 
 __all__ = [
+    "PACKAGES",
     "PRUNE_AFTER_DAYS",
     "ROOT",
     "cache_base",
@@ -47,7 +48,8 @@ __all__ = [
 
 #: The folder that holds the packages (a checkout's root, or ``site-packages``).
 ROOT = Path(__file__).resolve().parents[1]
-_PACKAGES = ("estimators", "vrloco_env", "agents")
+#: The project's packages (under :data:`ROOT`), whose compiled sources the fingerprint covers.
+PACKAGES = ("estimators", "vrloco_env", "agents")
 
 #: What marks a source as holding compiled code (a kernel, or a helper a kernel calls).
 _COMPILED = re.compile(rb"numba|njit|prange|BatchKernel")
@@ -59,7 +61,7 @@ PRUNE_AFTER_DAYS = 7.0
 _IN_USE: Path | None = None  # the folder this process uses, once chosen
 
 
-def kernel_sources(root: Path | str = ROOT, packages: tuple[str, ...] = _PACKAGES) -> list[Path]:
+def kernel_sources(root: Path | str = ROOT, packages: tuple[str, ...] = PACKAGES) -> list[Path]:
     """The package sources that hold compiled code (they mention numba, ``njit``, ``prange``
     or ``BatchKernel``), in path order."""
     root = Path(root)
@@ -71,7 +73,7 @@ def kernel_sources(root: Path | str = ROOT, packages: tuple[str, ...] = _PACKAGE
     ]
 
 
-def kernel_fingerprint(root: Path | str = ROOT, packages: tuple[str, ...] = _PACKAGES) -> str:
+def kernel_fingerprint(root: Path | str = ROOT, packages: tuple[str, ...] = PACKAGES) -> str:
     """SHA-256 (hex, 16 characters) of :func:`kernel_sources` (paths and contents), the Python
     and numba versions and the processor: what the compiled kernels depend on."""
     import numba
@@ -101,7 +103,7 @@ def cache_base(root: Path | str = ROOT) -> Path:
 
 
 def use_fingerprinted_cache(
-    root: Path | str = ROOT, packages: tuple[str, ...] = _PACKAGES, force: bool = False
+    root: Path | str = ROOT, packages: tuple[str, ...] = PACKAGES, force: bool = False
 ) -> Path | None:
     """Point numba's cache at ``cache_base(root) / kernel_fingerprint(root, packages)`` and
     return that folder. Kernels defined after this call cache there; the first call of a process

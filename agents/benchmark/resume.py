@@ -45,6 +45,8 @@ import numpy as np
 
 from agents.benchmark.conditions import DEFAULT_CONDITION
 from agents.benchmark.run_folder import FolderBusy, RunFolder
+from estimators.numba_cache import PACKAGES as _PACKAGES
+from estimators.numba_cache import ROOT as _ROOT
 
 __all__ = [
     "EpisodeStore",
@@ -56,9 +58,6 @@ __all__ = [
     "episode_key",
     "source_fingerprint",
 ]
-
-_PACKAGES = ("estimators", "vrloco_env", "agents")
-_ROOT = Path(__file__).resolve().parents[2]
 
 
 def source_fingerprint() -> str:

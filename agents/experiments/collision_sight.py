@@ -57,12 +57,15 @@ def ray_hits(env: Any, obs: np.ndarray) -> np.ndarray:
     was just observed from: each ray's range along the virtual heading plus its offset, from the
     virtual body's position (the pose the env casts its rays from). Rays that saw nothing (the
     full range) give no point."""
+    from agents.scripted.observation import ray_points
+
     u = env.unwrapped
     rays = u.observation_spec.decode(obs)["rays"].astype(np.float64)
-    seen = rays < float(u.config.ray_range_m) * (1.0 - 1e-4)
-    pos, yaw = u.core.ep.position[0], float(u.core.ep.virtual_yaw[0])
-    ang = yaw + np.asarray(u.core.ray_offsets, dtype=np.float64)[seen]
-    return pos + rays[seen, None] * np.stack([np.cos(ang), np.sin(ang)], -1)
+    yaw = float(u.core.ep.virtual_yaw[0])
+    # given each ray's direction in the room (heading plus offset), ray_points places its hit
+    # relative to the body in the room's axes
+    pts, hit = ray_points(rays[None], yaw + u.core.ray_offsets, float(u.config.ray_range_m))
+    return u.core.ep.position[0] + pts[0][hit[0]]
 
 
 def _shown(env: Any, obs: np.ndarray, solids: tuple, touch_m: float) -> np.ndarray:
