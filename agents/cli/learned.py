@@ -45,6 +45,15 @@ def cmd_train(args: argparse.Namespace) -> int:
             print(f"vrloco train: {why}", file=sys.stderr)
             return 2
         common[key] = value
+    if args.net_arch is not None:
+        if args.backend == "rllib":
+            print("vrloco train: --net-arch needs --backend local or ray", file=sys.stderr)
+            return 2
+        if args.init is not None:
+            why = "--init keeps the model's own network; drop --net-arch"
+            print(f"vrloco train: {why}", file=sys.stderr)
+            return 2
+        common["policy_kwargs"] = {"net_arch": list(args.net_arch)}
     if args.env_workers != 1:
         if args.backend == "rllib":
             print("vrloco train: --env-workers needs --backend local or ray", file=sys.stderr)

@@ -62,6 +62,23 @@ def _positive_float(text: str) -> float:
     return value
 
 
+def _layer_sizes(text: str) -> list[int]:
+    """An argparse type: comma-separated hidden layer sizes, each an integer in [1, 4096]
+    (``256,256``)."""
+    sizes = []
+    for part in text.split(","):
+        try:
+            size = int(part)
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f"{text!r}: give comma-separated layer sizes, such as 256,256"
+            ) from None
+        if not 1 <= size <= 4096:
+            raise argparse.ArgumentTypeError(f"{text!r}: each layer size must be in [1, 4096]")
+        sizes.append(size)
+    return sizes
+
+
 def _seed_list(text: str) -> list[int]:
     """An argparse type: comma-separated distinct integers >= 0 (``0,1,2``)."""
     seeds = []
@@ -455,6 +472,13 @@ def build_parser() -> argparse.ArgumentParser:
         type=_positive_float,
         metavar="LR",
         help="PPO's Adam step size (default 3e-4; --init keeps the model's own)",
+    )
+    train.add_argument(
+        "--net-arch",
+        type=_layer_sizes,
+        metavar="N,N",
+        help="hidden layer sizes of the policy's and the value function's networks "
+        "(default 64,64, stable-baselines3's; --init keeps the model's own)",
     )
     train.add_argument(
         "--sensors", type=_preset, help="IMU preset (default: the technique's; ig500n)"

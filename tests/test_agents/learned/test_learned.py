@@ -50,8 +50,13 @@ def test_tiny_ppo_run_writes_a_model_and_a_learning_curve(tmp_path, capsys):
         progress=False,
         n_steps=64,
         batch_size=128,
+        policy_kwargs={"net_arch": [32, 16]},  # not the default 64, 64: the benchmark reads it
     )
     assert path.is_file()
+    from agents.benchmark.policies import load_ppo
+
+    actor = load_ppo(path).policy.mlp_extractor.policy_net
+    assert [layer.out_features for layer in actor if hasattr(layer, "out_features")] == [32, 16]
     curve = json.loads((tmp_path / "learning_curve.json").read_text())
     assert curve[-1]["steps"] >= 512 and 0.0 <= curve[-1]["success_rate"] <= 1.0
     result = evaluate_model(path, episodes=2)
@@ -686,6 +691,8 @@ def test_train_passes_the_cell_and_the_policy_options_on(tmp_path, monkeypatch, 
                 "1e-4",
                 "--residual-on",
                 "goal_seeker",
+                "--net-arch",
+                "256,128",
                 "--out",
                 str(tmp_path),
             ]
@@ -693,6 +700,7 @@ def test_train_passes_the_cell_and_the_policy_options_on(tmp_path, monkeypatch, 
         == 0
     )
     assert seen["task"] == "reach" and seen["seeds"] == [0] and seen["n_steps"] == 64
+    assert seen["policy_kwargs"] == {"net_arch": [256, 128]}
     assert seen["learning_rate"] == 1e-4 and seen["residual_on"] == "goal_seeker"
     assert seen["reward"] == RewardConfig(collision=10.0, time=0.02)  # the rest: defaults
     assert {

@@ -103,6 +103,14 @@ def test_train_options_that_need_a_backend(capsys):
     assert "--learning-rate needs --backend local or ray" in capsys.readouterr().err
     assert main(["train", "--init", "model.zip", "--learning-rate", "1e-4"]) == 2
     assert "--init keeps the model's own learning rate" in capsys.readouterr().err
+    assert main(["train", "--backend", "rllib", "--net-arch", "256,256"]) == 2
+    assert "--net-arch needs --backend local or ray" in capsys.readouterr().err
+    assert main(["train", "--init", "model.zip", "--net-arch", "256,256"]) == 2
+    assert "--init keeps the model's own network" in capsys.readouterr().err
+    for bad, why in (("256,x", "comma-separated layer sizes"), ("0,64", "must be in [1, 4096]")):
+        with pytest.raises(SystemExit):
+            main(["train", "--net-arch", bad])
+        assert why in capsys.readouterr().err
     assert main(["train", "--backend", "rllib", "--residual-on", "goal_seeker"]) == 2
     assert "--residual-on needs --backend local or ray" in capsys.readouterr().err
     with pytest.raises(SystemExit):
