@@ -39,7 +39,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["SIGHT", "collision_sight", "ray_hits"]
+__all__ = ["SIGHT", "collision_sight", "ray_hits", "solid_kinds", "solid_walked_into"]
 
 #: The classes of a collision, from the most recently seen to the never seen.
 SIGHT = ("last_frame", "in_memory", "seen_before", "never_seen")
@@ -50,6 +50,22 @@ def _solid_distances(solids: tuple, points: np.ndarray) -> np.ndarray:
     from vrloco_env.world.geometry import solid_distance
 
     return np.stack([solid_distance((s,), points) for s in solids])
+
+
+def solid_kinds(layout: Any) -> list[str]:
+    """What each of ``layout.solids`` is, in their order: ``"wall"``, ``"obstacle"`` or
+    ``"target"`` (:attr:`~vrloco_env.world.layout.Layout.solids`)."""
+    kinds = ["wall"] * len(layout.walls) + ["obstacle"] * len(layout.obstacles)
+    return kinds + ["target"] * (len(layout.solids) - len(kinds))
+
+
+def solid_walked_into(solids: tuple, before: np.ndarray, walk_yaw_deg: float, step_m: float) -> int:
+    """The index of the solid nearest to the stretch of a step the body was about to walk: a
+    step length ``step_m`` along ``walk_yaw_deg`` (the room's yaw, deg) from ``before`` (2,),
+    where the body stood."""
+    yaw = np.deg2rad(walk_yaw_deg)
+    way = before + np.linspace(0.0, step_m, 8)[:, None] * [np.cos(yaw), np.sin(yaw)]
+    return int(_solid_distances(solids, way).min(axis=1).argmin())
 
 
 def ray_hits(env: Any, obs: np.ndarray) -> np.ndarray:
@@ -116,8 +132,7 @@ def collision_sight(
         obs, info = env.reset(seed=seed + i)
         user.reset(np.random.default_rng([seed + i, 1]))
         layout = core.layouts[0]
-        solids = layout.solids
-        kinds = ["wall"] * len(layout.walls) + ["obstacle"] * len(layout.obstacles) + ["target"]
+        solids, kinds = layout.solids, solid_kinds(layout)
         # per observation, oldest first: which solids its rays showed, (S,)
         shown = [_shown(env, obs, solids, touch_m)]
         was_blocked, any_hit = False, False
@@ -127,9 +142,7 @@ def collision_sight(
             hit = bool(info["collision"])
             blocked_steps += hit
             if hit and not was_blocked:  # a new collision: what did the user see of it?
-                yaw = np.deg2rad(float(info["walk_yaw_deg"]))
-                way = before + np.linspace(0.0, step_m, 8)[:, None] * [np.cos(yaw), np.sin(yaw)]
-                target = int(_solid_distances(solids, way).min(axis=1).argmin())
+                target = solid_walked_into(solids, before, float(info["walk_yaw_deg"]), step_m)
                 walked_into[kinds[target]] += 1
                 seen = np.asarray([s[target] for s in shown])  # oldest observation first
                 if seen[-1]:
