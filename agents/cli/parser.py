@@ -62,38 +62,38 @@ def _positive_float(text: str) -> float:
     return value
 
 
+def _integers(text: str, example: str) -> list[int]:
+    """The comma-separated integers of ``text``; an argparse error naming the part that is not
+    one, with ``example`` of the form."""
+    values = []
+    for part in text.split(","):
+        try:
+            values.append(int(part))
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f"{part.strip()!r} is not an integer (give them like {example})"
+            ) from None
+    return values
+
+
 def _layer_sizes(text: str) -> list[int]:
     """An argparse type: comma-separated hidden layer sizes, each an integer in [1, 4096]
     (``256,256``)."""
-    sizes = []
-    for part in text.split(","):
-        try:
-            size = int(part)
-        except ValueError:
-            raise argparse.ArgumentTypeError(
-                f"{text!r}: give comma-separated layer sizes, such as 256,256"
-            ) from None
+    sizes = _integers(text, "256,256")
+    for size in sizes:
         if not 1 <= size <= 4096:
-            raise argparse.ArgumentTypeError(f"{text!r}: each layer size must be in [1, 4096]")
-        sizes.append(size)
+            raise argparse.ArgumentTypeError(f"layer size {size} must be in [1, 4096]")
     return sizes
 
 
 def _seed_list(text: str) -> list[int]:
     """An argparse type: comma-separated distinct integers >= 0 (``0,1,2``)."""
-    seeds = []
-    for part in text.split(","):
-        try:
-            seed = int(part)
-        except ValueError:
-            raise argparse.ArgumentTypeError(
-                f"{part.strip()!r} is not an integer (give seeds like 0,1,2)"
-            ) from None
+    seeds = _integers(text, "0,1,2")
+    for i, seed in enumerate(seeds):
         if seed < 0:
             raise argparse.ArgumentTypeError(f"{seed} must be >= 0")
-        if seed in seeds:
+        if seed in seeds[:i]:
             raise argparse.ArgumentTypeError(f"seed {seed} is given twice")
-        seeds.append(seed)
     return seeds
 
 

@@ -107,7 +107,7 @@ def test_train_options_that_need_a_backend(capsys):
     assert "--net-arch needs --backend local or ray" in capsys.readouterr().err
     assert main(["train", "--init", "model.zip", "--net-arch", "256,256"]) == 2
     assert "--init keeps the model's own network" in capsys.readouterr().err
-    for bad, why in (("256,x", "comma-separated layer sizes"), ("0,64", "must be in [1, 4096]")):
+    for bad, why in (("256,x", "'x' is not an integer"), ("0,64", "must be in [1, 4096]")):
         with pytest.raises(SystemExit):
             main(["train", "--net-arch", bad])
         assert why in capsys.readouterr().err
