@@ -5,7 +5,7 @@ A ``+population`` user of the benchmark (``goal_seeker+nodders``, :mod:`agents.b
 differs from the idealised user in two ways: the env moves its head as the population does (gaze,
 nods, drift: :mod:`vrloco_env.user.behaviour`), and
 :class:`~agents.benchmark.variability.HumanVariability` wraps the policy with the population's
-reaction delay, turn overshoot and cadence variation. This experiment plays the same episodes with
+reaction delay, turn overshoot and cadence variation. This experiment plays the same rooms with
 each of those on its own, the rest as the idealised user has them:
 
 * ``idealised``: neither (the plain policy, the head straight on the torso);
@@ -15,11 +15,14 @@ each of those on its own, the rest as the idealised user has them:
 * ``variability``: the three parts together, the head straight;
 * ``population``: the head and the variability, the benchmark's ``POLICY+POPULATION`` user.
 
-Episode ``i`` of every condition is a single env reset with ``seed + i`` and the policy's
-randomness from ``default_rng([seed + i, 1])``, as :func:`agents.benchmark.episodes.run_episode`
-plays it; the default technique. A condition's variability draws what the population's does
-(:class:`~agents.benchmark.variability.HumanVariability` draws a fixed count of numbers per user
-and step whatever their spreads), so the conditions differ only in what they switch on.
+Episode ``i`` of every condition is a single env reset with ``seed + i`` (the same room, start
+and goal in every condition) and the policy's randomness from ``default_rng([seed + i, 1])``, as
+:func:`agents.benchmark.episodes.run_episode` plays it; the default technique. The variability's
+conditions draw the same numbers as the population's
+(:class:`~agents.benchmark.variability.HumanVariability` draws a fixed count per user and step
+whatever the spreads), so among them only what is switched on differs; a moving head draws from
+the env's own stream as well, so with it the sensors' noise is other numbers than the idealised
+user's.
 
 For each condition: collision-free success, success, the episodes with a collision, and what
 each colliding episode first walked into (a wall, an obstacle, the task's target:
