@@ -44,6 +44,7 @@ __all__ = [
     "LearnedPolicy",
     "adapt_seed",
     "adapt_steps",
+    "adaptation",
     "adapted_path",
     "build_policy",
     "check_policy",
@@ -89,7 +90,7 @@ def check_policy(spec: str) -> str:
     if base in POLICIES or base == SHIPPED:
         return spec
     if base.startswith(SHIPPED + "@"):
-        adapt_steps(spec)
+        adaptation(spec)
         return spec
     if base.endswith(".zip"):
         if not Path(base).is_file():
@@ -392,7 +393,7 @@ def _load_ppo(path: Path) -> Any:
     return _MODELS[key]
 
 
-def _adaptation(spec: str) -> tuple[int, int]:
+def adaptation(spec: str) -> tuple[int, int]:
     """The budget and seed of a ``ppo@STEPS[:SEED]`` spec ((0, 0) for ``ppo``), or a
     ValueError."""
     base, _ = _split(spec)
@@ -408,13 +409,13 @@ def _adaptation(spec: str) -> tuple[int, int]:
 
 def adapt_steps(spec: str) -> int:
     """The adaptation budget of a ``ppo@STEPS[:SEED]`` spec (0 for ``ppo``), or a ValueError."""
-    return _adaptation(spec)[0]
+    return adaptation(spec)[0]
 
 
 def adapt_seed(spec: str) -> int:
     """The adaptation's seed of a ``ppo@STEPS:SEED`` spec (0 without ``:SEED``), or a
     ValueError."""
-    return _adaptation(spec)[1]
+    return adaptation(spec)[1]
 
 
 def adapted_path(env: Any, steps: int, population: str | None = None, seed: int = 0) -> Path:
@@ -458,8 +459,8 @@ def build_policy(spec: str, env: Any) -> Any:
         policy = LearnedPolicy(user.path, env)
         policy.name = SHIPPED
     elif base.startswith(SHIPPED + "@"):
-        path = adapted_path(env, adapt_steps(spec), population, adapt_seed(spec))
-        policy = LearnedPolicy(path, env)
+        steps, seed = adaptation(spec)
+        policy = LearnedPolicy(adapted_path(env, steps, population, seed), env)
         policy.name = base
     else:
         from estimators.registry import load_attr

@@ -278,13 +278,16 @@ def _adapt_users(cells: list[Cell]) -> None:
     before any episode, one cell after the other (cached: a rerun reuses them), so that the
     workers only load them."""
     from agents.benchmark.episodes import _env
-    from agents.benchmark.policies import SHIPPED, _split, adapt_seed, adapt_steps, adapted_path
+    from agents.benchmark.policies import SHIPPED, _split, adaptation, adapted_path
 
     for c in cells:
         base, suffix = _split(c.policy)
-        if base.startswith(SHIPPED + "@") and adapt_steps(c.policy) > 0:
+        if not base.startswith(SHIPPED + "@"):
+            continue
+        steps, seed = adaptation(c.policy)
+        if steps > 0:
             env = _env(c.task, c.technique, c.population, c.condition)
-            adapted_path(env, adapt_steps(c.policy), suffix, adapt_seed(c.policy))
+            adapted_path(env, steps, suffix, seed)
 
 
 def _play(
